@@ -1,0 +1,32 @@
+# The two commands of the README: `make mission` and `make test`.
+# Both create .venv from requirements.txt on first use; nothing is sourced or installed by hand.
+PYTHON_BOOT ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+PACKAGES := $(wildcard flyby_ws/src/*/setup.py)
+OUT ?= runs/paper_flyby
+PYTEST_ARGS ?=
+
+.PHONY: mission test venv benchmark clean-runs
+
+$(STAMP): requirements.txt $(PACKAGES)
+	$(PYTHON_BOOT) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation \
+		$(foreach p,$(PACKAGES),-e $(dir $(p)))
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+mission: $(STAMP)
+	$(PY) scripts/run_mission.py --scenario scenarios/paper_flyby.yaml --out $(OUT)
+
+test: $(STAMP)
+	$(PY) -m pytest $(PYTEST_ARGS)
+
+benchmark: $(STAMP)
+	$(PY) scripts/benchmark_sim.py
+
+clean-runs:
+	rm -rf runs

@@ -1,0 +1,1 @@
+"""flyby_guidance: placeholder package of the workspace; its capability arrives with its own issue."""

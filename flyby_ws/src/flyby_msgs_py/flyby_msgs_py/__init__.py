@@ -1,0 +1,1 @@
+"""flyby_msgs_py: the interface contract in code."""

@@ -1,0 +1,1 @@
+"""flyby_planner: placeholder package of the workspace; its capability arrives with its own issue."""

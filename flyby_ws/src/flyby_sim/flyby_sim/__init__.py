@@ -1,0 +1,1 @@
+"""flyby_sim: the plant simulator (truth, thrusters, sensors, /clock)."""
