@@ -1,0 +1,611 @@
+"""numpy <-> ROS message conversions at the boundary of every node (DESIGN §4).
+
+Conventions, once for the module:
+- Stamps are simulation time ``t`` in seconds (float) <-> ``builtin_interfaces/Time(sec, nanosec)``,
+  rounded to the nearest nanosecond. Integer nanoseconds convert exactly both ways; a simulator that
+  keeps time as ``k * step_ns`` and passes ``ns / 1e9`` gets exactly ``k * step_ns`` back.
+- Quaternions are (x, y, z, w), scalar last, as in ROS and scipy.
+- Vectors are anything of length 3 (list, tuple, shape-(3,) array); covariances are 6x6 (or flat 36),
+  row-major, order (x, y, z, rot x, rot y, rot z) as in ROS.
+
+Every builder validates shape and finiteness on the way INTO a message and raises ``ValueError``
+naming the field, so a message with NaN never leaves a node. Every number is stored as a Python
+float: with field checks off (the rclpy default) an ``int`` in a float64 field serializes as garbage.
+
+The ``*_to_numpy`` readers return small NamedTuples of fresh arrays; ``t`` (float seconds) comes
+first and frame ids, where returned, come last (``t, dv_hill = vector3_stamped_to_numpy(msg)``).
+"""
+
+import json
+import math
+from typing import NamedTuple
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PointStamped, PoseStamped, QuaternionStamped, Vector3Stamped, WrenchStamped
+from nav_msgs.msg import Odometry, Path
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from flyby_msgs_py.contract import FRAME_HILL
+
+NS_PER_S = 1_000_000_000
+_INT32_MIN, _INT32_MAX = -2 ** 31, 2 ** 31 - 1
+_QUAT_NORM_TOL = 1e-3  # |q| farther from 1 than this is a bug, not round-off: rejected
+
+# --------------------------------------------------------------------------------------------------
+# Validation helpers (plain floats, no per-call array allocation on the hot path)
+
+_NUMBER_TYPES = (float, int, np.floating, np.integer)
+_BOOL_TYPES = (bool, np.bool_)
+
+
+def _describe(v):
+    if isinstance(v, np.ndarray):
+        return f'an array of shape {v.shape}'
+    if isinstance(v, (list, tuple)):
+        return f'a {type(v).__name__} of length {len(v)}'
+    return f'{type(v).__name__} {v!r}'
+
+
+def _scalar(x, field):
+    """x as a finite Python float, or ValueError naming the field."""
+    if type(x) is not float:
+        if not isinstance(x, _NUMBER_TYPES) or isinstance(x, _BOOL_TYPES):
+            raise ValueError(f'{field}: must be a number, got {_describe(x)}')
+        x = float(x)
+    if not math.isfinite(x):
+        raise ValueError(f'{field}: must be finite, got {x!r}')
+    return x
+
+
+def _seq(v, n, field):
+    """The n elements of a vector-like v (list, tuple or shape-(n,) numeric array)."""
+    if isinstance(v, np.ndarray):
+        if v.shape != (n,) or v.dtype.kind not in 'fiu':
+            raise ValueError(f'{field}: must be a numeric array of shape ({n},), got '
+                             f'{"shape " + str(v.shape) if v.shape != (n,) else "dtype " + str(v.dtype)}')
+        return v.tolist()
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise ValueError(f'{field}: must be a sequence of {n} numbers, got {_describe(v)}')
+    return v
+
+
+def _vec3(v, field):
+    x, y, z = _seq(v, 3, field)
+    if type(x) is not float or type(y) is not float or type(z) is not float:
+        x, y, z = _scalar(x, field + '[0]'), _scalar(y, field + '[1]'), _scalar(z, field + '[2]')
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        raise ValueError(f'{field}: must be finite, got [{x!r}, {y!r}, {z!r}]')
+    return x, y, z
+
+
+def _quat(q, field):
+    x, y, z, w = _seq(q, 4, field)
+    x, y, z, w = (_scalar(x, field + '[0]'), _scalar(y, field + '[1]'), _scalar(z, field + '[2]'),
+                  _scalar(w, field + '[3]'))
+    n2 = x * x + y * y + z * z + w * w
+    if abs(n2 - 1.0) > 1e-12:
+        n = math.sqrt(n2)
+        if abs(n - 1.0) > _QUAT_NORM_TOL:
+            raise ValueError(f'{field}: must be a unit quaternion (x, y, z, w), got norm {n!r}')
+        x, y, z, w = x / n, y / n, z / n, w / n
+    return x, y, z, w
+
+
+def _cov6(c, field):
+    try:
+        a = np.asarray(c, dtype=float) if not isinstance(c, np.ndarray) else c
+    except (TypeError, ValueError):
+        raise ValueError(f'{field}: must be a 6x6 (or flat 36) numeric covariance') from None
+    if a.shape not in ((6, 6), (36,)) or a.dtype.kind not in 'fiu':
+        raise ValueError(f'{field}: must be a 6x6 (or flat 36) numeric covariance, got shape {a.shape}')
+    if not np.isfinite(a).all():
+        raise ValueError(f'{field}: must be finite')
+    return a.reshape(36)
+
+
+def _frame(frame_id, field='frame_id'):
+    if type(frame_id) is not str or not frame_id:
+        raise ValueError(f'{field}: must be a non-empty string, got {frame_id!r}')
+    return frame_id
+
+
+def _array(v, cols, field):
+    """A finite (N, cols) float array (N >= 0) from v; a fresh copy."""
+    try:
+        a = np.array(v, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f'{field}: must be an (N, {cols}) numeric array') from None
+    if a.ndim != 2 or a.shape[1] != cols:
+        if not (a.size == 0 and cols):
+            raise ValueError(f'{field}: must have shape (N, {cols}), got {a.shape}')
+        a = a.reshape(0, cols)
+    if not np.isfinite(a).all():
+        raise ValueError(f'{field}: must be finite')
+    return a
+
+
+def _set_xyz(obj, xyz):
+    obj.x, obj.y, obj.z = xyz
+
+
+def _set_xyzw(obj, xyzw):
+    obj.x, obj.y, obj.z, obj.w = xyzw
+
+
+# --------------------------------------------------------------------------------------------------
+# Time
+
+def sec_to_ns(t):
+    """Simulation time [s] -> integer nanoseconds, rounded to nearest."""
+    return round(_scalar(t, 't') * 1e9)
+
+
+def ns_to_sec(ns):
+    """Integer nanoseconds -> seconds (correctly rounded float)."""
+    return _ns(ns) / 1e9
+
+
+def _ns(ns):
+    if not isinstance(ns, (int, np.integer)) or isinstance(ns, _BOOL_TYPES):
+        raise ValueError(f'ns: must be an integer, got {_describe(ns)}')
+    return int(ns)
+
+
+def _stamp_into(stamp, t):
+    """Write simulation time t [s] (or a Time) into an existing Time message."""
+    if type(t) is not float:
+        if isinstance(t, Time):
+            stamp.sec, stamp.nanosec = t.sec, t.nanosec
+            return
+        t = _scalar(t, 't')
+    try:
+        sec, nanosec = divmod(round(t * 1e9), NS_PER_S)
+    except (ValueError, OverflowError):
+        raise ValueError(f't: must be finite, got {t!r}') from None
+    if not _INT32_MIN <= sec <= _INT32_MAX:
+        raise ValueError(f't: {t!r} s does not fit builtin_interfaces/Time (int32 seconds)')
+    stamp.sec = sec
+    stamp.nanosec = nanosec
+
+
+def ns_to_stamp(ns):
+    """Integer nanoseconds -> Time, exactly (nanosec in [0, 1e9), also for negative times)."""
+    sec, nanosec = divmod(_ns(ns), NS_PER_S)
+    if not _INT32_MIN <= sec <= _INT32_MAX:
+        raise ValueError(f'ns: {ns} does not fit builtin_interfaces/Time (int32 seconds)')
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def stamp_to_ns(stamp):
+    """Time -> integer nanoseconds, exactly."""
+    return stamp.sec * NS_PER_S + stamp.nanosec
+
+
+def sec_to_stamp(t):
+    """Simulation time [s] -> Time, rounded to the nearest nanosecond."""
+    stamp = Time()
+    _stamp_into(stamp, t)
+    return stamp
+
+
+def stamp_to_sec(stamp):
+    """Time -> seconds (the float nearest the exact nanosecond count)."""
+    return (stamp.sec * NS_PER_S + stamp.nanosec) / 1e9
+
+
+def clock(t):
+    """rosgraph_msgs/Clock at simulation time t [s]."""
+    msg = Clock()
+    _stamp_into(msg.clock, t)
+    return msg
+
+
+def clock_to_sec(msg):
+    return stamp_to_sec(msg.clock)
+
+
+# --------------------------------------------------------------------------------------------------
+# Odometry
+
+class OdometryArrays(NamedTuple):
+    t: float
+    position: np.ndarray           # (3,) pose.pose.position, in frame_id
+    orientation_xyzw: np.ndarray   # (4,) pose.pose.orientation: child_frame_id in frame_id
+    linear: np.ndarray             # (3,) twist.twist.linear
+    angular: np.ndarray            # (3,) twist.twist.angular
+    pose_covariance: np.ndarray    # (6, 6)
+    twist_covariance: np.ndarray   # (6, 6)
+    frame_id: str
+    child_frame_id: str
+
+
+def odometry(t, frame_id, child_frame_id, position, orientation_xyzw, linear, angular,
+             pose_covariance=None, twist_covariance=None):
+    """nav_msgs/Odometry. What position/linear/angular mean per topic is fixed by DESIGN §4
+    (e.g. /sim/target/odom: angular = inertial angular velocity in target_body axes).
+    Covariances default to zeros (the message default)."""
+    p = _vec3(position, 'position')
+    q = _quat(orientation_xyzw, 'orientation_xyzw')
+    v = _vec3(linear, 'linear')
+    w = _vec3(angular, 'angular')
+    msg = Odometry()
+    header = msg.header
+    _stamp_into(header.stamp, t)
+    header.frame_id = _frame(frame_id)
+    msg.child_frame_id = _frame(child_frame_id, 'child_frame_id')
+    pose = msg.pose.pose
+    _set_xyz(pose.position, p)
+    _set_xyzw(pose.orientation, q)
+    twist = msg.twist.twist
+    _set_xyz(twist.linear, v)
+    _set_xyz(twist.angular, w)
+    if pose_covariance is not None:
+        msg.pose.covariance = _cov6(pose_covariance, 'pose_covariance')
+    if twist_covariance is not None:
+        msg.twist.covariance = _cov6(twist_covariance, 'twist_covariance')
+    return msg
+
+
+def odometry_to_numpy(msg):
+    pose, twist = msg.pose.pose, msg.twist.twist
+    p, q, v, w = pose.position, pose.orientation, twist.linear, twist.angular
+    return OdometryArrays(
+        stamp_to_sec(msg.header.stamp),
+        np.array((p.x, p.y, p.z)),
+        np.array((q.x, q.y, q.z, q.w)),
+        np.array((v.x, v.y, v.z)),
+        np.array((w.x, w.y, w.z)),
+        np.array(msg.pose.covariance, dtype=float).reshape(6, 6),
+        np.array(msg.twist.covariance, dtype=float).reshape(6, 6),
+        msg.header.frame_id,
+        msg.child_frame_id,
+    )
+
+
+# --------------------------------------------------------------------------------------------------
+# Stamped geometry
+
+class Stamped(NamedTuple):
+    """A stamped vector, point or quaternion; the frame is ``msg.header.frame_id``."""
+    t: float
+    value: np.ndarray   # (3,) vector or point, or (4,) quaternion (x, y, z, w)
+
+
+class WrenchArrays(NamedTuple):
+    t: float
+    force: np.ndarray    # (3,) [N]
+    torque: np.ndarray   # (3,) [N m]
+
+
+def vector3_stamped(t, frame_id, vector):
+    """geometry_msgs/Vector3Stamped (e.g. /guidance/maneuver: dv in hill [m/s], stamp = burn start)."""
+    xyz = _vec3(vector, 'vector')
+    msg = Vector3Stamped()
+    _stamp_into(msg.header.stamp, t)
+    msg.header.frame_id = _frame(frame_id)
+    _set_xyz(msg.vector, xyz)
+    return msg
+
+
+def vector3_stamped_to_numpy(msg):
+    v = msg.vector
+    return Stamped(stamp_to_sec(msg.header.stamp), np.array((v.x, v.y, v.z)))
+
+
+def point_stamped(t, frame_id, point):
+    """geometry_msgs/PointStamped (e.g. the relative-position measurement in hill [m])."""
+    xyz = _vec3(point, 'point')
+    msg = PointStamped()
+    _stamp_into(msg.header.stamp, t)
+    msg.header.frame_id = _frame(frame_id)
+    _set_xyz(msg.point, xyz)
+    return msg
+
+
+def point_stamped_to_numpy(msg):
+    p = msg.point
+    return Stamped(stamp_to_sec(msg.header.stamp), np.array((p.x, p.y, p.z)))
+
+
+def quaternion_stamped(t, frame_id, quaternion_xyzw):
+    """geometry_msgs/QuaternionStamped (e.g. the vision attitude of target_body in hill)."""
+    xyzw = _quat(quaternion_xyzw, 'quaternion_xyzw')
+    msg = QuaternionStamped()
+    _stamp_into(msg.header.stamp, t)
+    msg.header.frame_id = _frame(frame_id)
+    _set_xyzw(msg.quaternion, xyzw)
+    return msg
+
+
+def quaternion_stamped_to_numpy(msg):
+    q = msg.quaternion
+    return Stamped(stamp_to_sec(msg.header.stamp), np.array((q.x, q.y, q.z, q.w)))
+
+
+def wrench_stamped(t, frame_id, force, torque=(0.0, 0.0, 0.0)):
+    """geometry_msgs/WrenchStamped: force [N] and torque [N m] in frame_id axes."""
+    f = _vec3(force, 'force')
+    tq = _vec3(torque, 'torque')
+    msg = WrenchStamped()
+    _stamp_into(msg.header.stamp, t)
+    msg.header.frame_id = _frame(frame_id)
+    _set_xyz(msg.wrench.force, f)
+    _set_xyz(msg.wrench.torque, tq)
+    return msg
+
+
+def wrench_stamped_to_numpy(msg):
+    f, tq = msg.wrench.force, msg.wrench.torque
+    return WrenchArrays(stamp_to_sec(msg.header.stamp), np.array((f.x, f.y, f.z)), np.array((tq.x, tq.y, tq.z)))
+
+
+def string(data):
+    """std_msgs/String (e.g. /mission/phase)."""
+    if type(data) is not str:
+        raise ValueError(f'data: must be a string, got {_describe(data)}')
+    msg = String()
+    msg.data = data
+    return msg
+
+
+def string_to_str(msg):
+    return msg.data
+
+
+# --------------------------------------------------------------------------------------------------
+# Path
+
+class PathArrays(NamedTuple):
+    t: float
+    times: np.ndarray          # (N,) stamps of the poses [s]
+    positions: np.ndarray      # (N, 3)
+    orientations: np.ndarray   # (N, 4) (x, y, z, w)
+    frame_id: str
+
+
+def path(t, frame_id, times, positions, orientations=None):
+    """nav_msgs/Path in frame_id; pose i is stamped times[i]; orientations default to identity."""
+    frame_id = _frame(frame_id)
+    pos = _array(positions, 3, 'positions')
+    try:
+        ts = np.array(times, dtype=float).reshape(-1) if np.ndim(times) <= 1 else None
+    except (TypeError, ValueError):
+        ts = None
+    if ts is None or ts.shape[0] != pos.shape[0]:
+        raise ValueError(f'times: must be a sequence of {pos.shape[0]} numbers (one per position)')
+    if not np.isfinite(ts).all():
+        raise ValueError('times: must be finite')
+    if orientations is None:
+        quats = [(0.0, 0.0, 0.0, 1.0)] * len(pos)
+    else:
+        quats = _array(orientations, 4, 'orientations')
+        if quats.shape[0] != pos.shape[0]:
+            raise ValueError(f'orientations: must have {pos.shape[0]} rows (one per position), '
+                             f'got {quats.shape[0]}')
+        quats = [_quat(q, f'orientations[{i}]') for i, q in enumerate(quats.tolist())]
+    msg = Path()
+    _stamp_into(msg.header.stamp, t)
+    msg.header.frame_id = frame_id
+    poses = []
+    for ti, p, q in zip(ts.tolist(), pos.tolist(), quats):
+        ps = PoseStamped()
+        _stamp_into(ps.header.stamp, ti)
+        ps.header.frame_id = frame_id
+        _set_xyz(ps.pose.position, p)
+        _set_xyzw(ps.pose.orientation, q)
+        poses.append(ps)
+    msg.poses = poses
+    return msg
+
+
+def path_to_numpy(msg):
+    n = len(msg.poses)
+    times = np.empty(n)
+    positions = np.empty((n, 3))
+    orientations = np.empty((n, 4))
+    for i, ps in enumerate(msg.poses):
+        p, q = ps.pose.position, ps.pose.orientation
+        times[i] = stamp_to_sec(ps.header.stamp)
+        positions[i] = (p.x, p.y, p.z)
+        orientations[i] = (q.x, q.y, q.z, q.w)
+    return PathArrays(stamp_to_sec(msg.header.stamp), times, positions, orientations, msg.header.frame_id)
+
+
+# --------------------------------------------------------------------------------------------------
+# Markers (Foxglove / RViz). Namespaces and ids are stable, so a newer array replaces the old markers.
+
+NS_TARGET_GEOMETRY = 'target_geometry'
+NS_RESTRICTION_SPHERE = 'restriction_sphere'
+NS_GRASP_POINT = 'grasp_point'
+NS_PATH = 'path'
+
+RGBA_TARGET_BUS = (0.75, 0.75, 0.78, 1.0)
+RGBA_SOLAR_PANEL = (0.15, 0.25, 0.65, 1.0)
+RGBA_RESTRICTION_SPHERE = (1.0, 0.55, 0.0, 0.15)
+RGBA_GRASP_POINT = (0.1, 0.9, 0.2, 1.0)
+RGBA_PATH = (0.2, 0.6, 1.0, 1.0)
+
+
+def _marker(t, frame_id, ns, marker_id, kind, rgba):
+    m = Marker()
+    _stamp_into(m.header.stamp, t)
+    m.header.frame_id = _frame(frame_id)
+    m.ns = ns
+    m.id = int(marker_id)
+    m.type = kind
+    m.action = Marker.ADD
+    r, g, b, a = (_scalar(c, 'rgba') for c in rgba)
+    m.color.r, m.color.g, m.color.b, m.color.a = r, g, b, a
+    m.pose.orientation.w = 1.0
+    return m
+
+
+def target_box_markers(t, q_hill_from_body, centers_body_m, sizes_m, position_hill_m=(0.0, 0.0, 0.0),
+                       names=None, frame_id=FRAME_HILL, ns=NS_TARGET_GEOMETRY, rgba=None):
+    """One CUBE per body-frame box (``Scenario.boxes``), posed in hill by the target attitude:
+    centre_hill = position_hill + R(q_hill_from_body) centre_body. Marker id = box index.
+    Boxes whose name contains 'panel' are drawn blue unless ``rgba`` is given."""
+    from scipy.spatial.transform import Rotation
+    q = _quat(q_hill_from_body, 'q_hill_from_body')
+    origin = np.array(_vec3(position_hill_m, 'position_hill_m'))
+    centers = _array(centers_body_m, 3, 'centers_body_m')
+    sizes = _array(sizes_m, 3, 'sizes_m')
+    if sizes.shape != centers.shape:
+        raise ValueError(f'sizes_m: must have {len(centers)} rows like centers_body_m, got {len(sizes)}')
+    if (sizes <= 0.0).any():
+        raise ValueError('sizes_m: must be > 0')
+    if names is not None and len(names) != len(centers):
+        raise ValueError(f'names: must have {len(centers)} entries like centers_body_m, got {len(names)}')
+    centers_hill = origin + Rotation.from_quat(q).apply(centers) if len(centers) else centers
+    markers = []
+    for i, (c, s) in enumerate(zip(centers_hill.tolist(), sizes.tolist())):
+        colour = rgba if rgba is not None else (
+            RGBA_SOLAR_PANEL if names is not None and 'panel' in names[i] else RGBA_TARGET_BUS)
+        m = _marker(t, frame_id, ns, i, Marker.CUBE, colour)
+        _set_xyz(m.pose.position, c)
+        _set_xyzw(m.pose.orientation, q)
+        _set_xyz(m.scale, s)
+        markers.append(m)
+    return markers
+
+
+def target_markers(t, frame_id, q_hill_from_body, geometry, position_hill_m=(0.0, 0.0, 0.0)):
+    """MarkerArray of the target body: ``geometry`` is ``Scenario.target.geometry`` (boxes with
+    ``name``, ``center_m``, ``size_m``) or ``Scenario.boxes``; see ``target_box_markers``."""
+    if hasattr(geometry, 'center_body_m'):
+        names, centers, sizes = geometry.names, geometry.center_body_m, geometry.size_m
+    else:
+        boxes = list(geometry)
+        get = (lambda b, k: b[k]) if boxes and isinstance(boxes[0], dict) else getattr
+        names = [get(b, 'name') for b in boxes]
+        centers = [get(b, 'center_m') for b in boxes]
+        sizes = [get(b, 'size_m') for b in boxes]
+    return marker_array(target_box_markers(t, q_hill_from_body, centers, sizes, position_hill_m, names=names,
+                                           frame_id=frame_id))
+
+
+def sphere_marker(t, center, radius_m, frame_id=FRAME_HILL, ns=NS_RESTRICTION_SPHERE, marker_id=0,
+                  rgba=RGBA_RESTRICTION_SPHERE):
+    """A translucent SPHERE of radius_m (default: the thruster-restriction sphere)."""
+    r = _scalar(radius_m, 'radius_m')
+    if r <= 0.0:
+        raise ValueError(f'radius_m: must be > 0, got {r!r}')
+    m = _marker(t, frame_id, ns, marker_id, Marker.SPHERE, rgba)
+    _set_xyz(m.pose.position, _vec3(center, 'center'))
+    _set_xyz(m.scale, (2.0 * r, 2.0 * r, 2.0 * r))
+    return m
+
+
+def point_marker(t, position, diameter_m=0.2, frame_id=FRAME_HILL, ns=NS_GRASP_POINT, marker_id=0,
+                 rgba=RGBA_GRASP_POINT):
+    """A small opaque SPHERE at position (default: the grasp point)."""
+    return sphere_marker(t, position, 0.5 * _scalar(diameter_m, 'diameter_m'), frame_id, ns, marker_id, rgba)
+
+
+def line_strip_marker(t, positions, width_m=0.05, frame_id=FRAME_HILL, ns=NS_PATH, marker_id=0,
+                      rgba=RGBA_PATH):
+    """A LINE_STRIP through positions (N, 3) (a path); scale.x is the line width."""
+    pos = _array(positions, 3, 'positions')
+    w = _scalar(width_m, 'width_m')
+    if w <= 0.0:
+        raise ValueError(f'width_m: must be > 0, got {w!r}')
+    m = _marker(t, frame_id, ns, marker_id, Marker.LINE_STRIP, rgba)
+    m.scale.x = w
+    points = m.points
+    from geometry_msgs.msg import Point
+    for p in pos.tolist():
+        pt = Point()
+        _set_xyz(pt, p)
+        points.append(pt)
+    return m
+
+
+def delete_all_markers(t, frame_id=FRAME_HILL):
+    """A DELETEALL marker: put it first in an array to clear what an earlier array drew."""
+    m = Marker()
+    _stamp_into(m.header.stamp, t)
+    m.header.frame_id = _frame(frame_id)
+    m.action = Marker.DELETEALL
+    return m
+
+
+def marker_array(markers):
+    msg = MarkerArray()
+    msg.markers = list(markers)
+    return msg
+
+
+# --------------------------------------------------------------------------------------------------
+# Events on /mission/events
+
+LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN, 'ERROR': DiagnosticStatus.ERROR,
+          'STALE': DiagnosticStatus.STALE}
+_LEVEL_NAMES = {v: k for k, v in LEVELS.items()}
+
+
+def _value_text(v):
+    """Event values are text: floats with repr precision, sequences as JSON lists, the rest str()."""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, _BOOL_TYPES):
+        return 'true' if v else 'false'
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (list, tuple)):
+        return json.dumps(v)
+    return str(v)
+
+
+def event(t, level, name, message, values=None, source=''):
+    """diagnostic_msgs/DiagnosticArray with one status: level 'OK' | 'WARN' | 'ERROR' ('STALE' also
+    accepted), ``name`` the event kind (e.g. 'late_maneuver'), ``values`` a dict rendered to KeyValue
+    strings, ``source`` (-> hardware_id) the emitting node's name.
+
+    Values are text, so a non-finite number in ``values`` is allowed and written 'nan' / 'inf': an
+    ERROR event is how a diverging estimate is reported."""
+    if level not in LEVELS:
+        raise ValueError(f'level: must be one of {list(LEVELS)}, got {level!r}')
+    for field, text in (('name', name), ('message', message), ('source', source)):
+        if type(text) is not str:
+            raise ValueError(f'{field}: must be a string, got {_describe(text)}')
+    status = DiagnosticStatus()
+    status.level = LEVELS[level]
+    status.name = name
+    status.message = message
+    status.hardware_id = source
+    kvs = []
+    for k, v in (values or {}).items():
+        kv = KeyValue()
+        kv.key = str(k)
+        kv.value = _value_text(v)
+        kvs.append(kv)
+    status.values = kvs
+    msg = DiagnosticArray()
+    _stamp_into(msg.header.stamp, t)
+    msg.status = [status]
+    return msg
+
+
+def events_from_msg(msg):
+    """A DiagnosticArray -> list of {t, level, name, message, values (dict of str), source}."""
+    t = stamp_to_sec(msg.header.stamp)
+    out = []
+    for s in msg.status:
+        level = s.level if isinstance(s.level, bytes) else bytes([s.level])
+        out.append({
+            't': t,
+            'level': _LEVEL_NAMES.get(level, f'LEVEL_{level[0]}'),
+            'name': s.name,
+            'message': s.message,
+            'values': {kv.key: kv.value for kv in s.values},
+            'source': s.hardware_id,
+        })
+    return out

@@ -1,0 +1,338 @@
+"""numpy <-> message conversions: round trips through CDR, rejection of NaN and bad shapes, stamps."""
+
+import math
+import timeit
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rclpy.serialization import deserialize_message, serialize_message
+from visualization_msgs.msg import Marker
+
+from flyby_msgs_py import convert as cv
+from flyby_msgs_py.contract import FRAME_CHASER_BODY, FRAME_HILL, FRAME_TARGET_BODY
+
+RNG = np.random.default_rng(20240601)
+
+
+def cdr(msg):
+    """The message after a serialize/deserialize round trip (what a subscriber or a bag sees)."""
+    return deserialize_message(serialize_message(msg), type(msg))
+
+
+def unit_quat():
+    q = RNG.normal(size=4)
+    return q / np.linalg.norm(q)
+
+
+# ------------------------------------------------------------------------------------------------
+# Stamps
+
+@given(st.integers(min_value=-2 ** 31 * cv.NS_PER_S, max_value=(2 ** 31 - 1) * cv.NS_PER_S + cv.NS_PER_S - 1))
+def test_ns_stamp_round_trip_is_exact(ns):
+    stamp = cv.ns_to_stamp(ns)
+    assert 0 <= stamp.nanosec < cv.NS_PER_S
+    assert cv.stamp_to_ns(stamp) == ns
+    assert cv.stamp_to_ns(cdr(stamp)) == ns
+
+
+@given(st.integers(min_value=0, max_value=2 ** 50))  # 2**50 ns = 13 days of simulation time
+def test_ns_sec_round_trip_is_exact(ns):
+    t = cv.ns_to_sec(ns)
+    assert cv.sec_to_ns(t) == ns
+    assert cv.stamp_to_ns(cv.sec_to_stamp(t)) == ns
+    assert cv.stamp_to_sec(cv.ns_to_stamp(ns)) == t
+
+
+@given(st.floats(min_value=-1e6, max_value=1e6))
+def test_sec_to_stamp_rounds_to_nearest_ns(t):
+    ns = cv.stamp_to_ns(cv.sec_to_stamp(t))
+    assert abs(ns - t * 1e9) <= 0.5 + abs(t) * 1e9 * 2 ** -52
+
+
+def test_stamp_examples():
+    assert (cv.sec_to_stamp(1500.05).sec, cv.sec_to_stamp(1500.05).nanosec) == (1500, 50_000_000)
+    s = cv.sec_to_stamp(-0.25)
+    assert (s.sec, s.nanosec) == (-1, 750_000_000)
+    assert cv.sec_to_stamp(1e-10).nanosec == 0 and cv.sec_to_stamp(6e-10).nanosec == 1
+    # Simulator time kept as integer steps: k * 0.05 s comes back as exactly k * 50 ms.
+    for k in (1, 3, 7, 29_999, 123_457):
+        assert cv.stamp_to_ns(cv.sec_to_stamp(cv.ns_to_sec(k * 50_000_000))) == k * 50_000_000
+        assert cv.stamp_to_ns(cv.sec_to_stamp(k * 0.05)) == k * 50_000_000
+    assert cv.stamp_to_sec(cv.clock(12.5).clock) == 12.5
+    assert cv.clock_to_sec(cdr(cv.clock(12.5))) == 12.5
+
+
+@pytest.mark.parametrize('t', [math.nan, math.inf, -math.inf, 2.0 ** 31, '1.0', None, True])
+def test_bad_time_rejected(t):
+    with pytest.raises(ValueError, match='^t: '):
+        cv.sec_to_stamp(t)
+
+
+def test_bad_ns_rejected():
+    with pytest.raises(ValueError, match='^ns: must be an integer'):
+        cv.ns_to_stamp(1.0)
+    with pytest.raises(ValueError, match='^ns: .* does not fit'):
+        cv.ns_to_stamp(2 ** 31 * cv.NS_PER_S)
+
+
+# ------------------------------------------------------------------------------------------------
+# Odometry
+
+def test_odometry_round_trip_through_cdr():
+    p, v, w = RNG.normal(size=3), RNG.normal(size=3), RNG.normal(size=3)
+    q = unit_quat()
+    a = RNG.normal(size=(6, 6))
+    pc, tc = a @ a.T, a.T @ a + np.eye(6)
+    msg = cv.odometry(12.35, FRAME_HILL, FRAME_CHASER_BODY, p, q, v, w, pc, tc)
+    for m in (msg, cdr(msg)):
+        o = cv.odometry_to_numpy(m)
+        assert o.t == 12.35
+        assert (o.frame_id, o.child_frame_id) == (FRAME_HILL, FRAME_CHASER_BODY)
+        np.testing.assert_array_equal(o.position, p)
+        np.testing.assert_allclose(o.orientation_xyzw, q, rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(o.linear, v)
+        np.testing.assert_array_equal(o.angular, w)
+        np.testing.assert_array_equal(o.pose_covariance, pc)
+        np.testing.assert_array_equal(o.twist_covariance, tc)
+
+
+def test_odometry_accepts_lists_and_ints_and_stores_python_floats():
+    m = cv.odometry(1, FRAME_HILL, FRAME_TARGET_BODY, [0, 0, 0], [0, 0, 0, 1], (1, 2, 3), [0.0, 0.0, 0.1],
+                    pose_covariance=np.eye(6).reshape(36).tolist())
+    assert type(m.pose.pose.position.x) is float and type(m.twist.twist.linear.x) is float
+    o = cv.odometry_to_numpy(cdr(m))
+    np.testing.assert_array_equal(o.linear, [1.0, 2.0, 3.0])  # an int written raw would serialize as garbage
+    np.testing.assert_array_equal(o.pose_covariance, np.eye(6))
+    np.testing.assert_array_equal(o.twist_covariance, np.zeros((6, 6)))
+
+
+def test_odometry_does_not_alias_the_callers_covariance():
+    c = np.eye(6)
+    m = cv.odometry(0.0, FRAME_HILL, FRAME_CHASER_BODY, np.zeros(3), [0, 0, 0, 1], np.zeros(3), np.zeros(3), c)
+    c[0, 0] = 7.0
+    assert m.pose.covariance[0] == 1.0
+
+
+def test_odometry_normalizes_nearly_unit_quaternions_and_rejects_others():
+    q = np.array([0.0, 0.0, 0.0, 1.0 + 1e-6])
+    m = cv.odometry(0.0, FRAME_HILL, FRAME_TARGET_BODY, np.zeros(3), q, np.zeros(3), np.zeros(3))
+    assert m.pose.pose.orientation.w == 1.0
+    for bad in ([0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 1.0]):
+        with pytest.raises(ValueError, match='^orientation_xyzw: must be a unit quaternion'):
+            cv.odometry(0.0, FRAME_HILL, FRAME_TARGET_BODY, np.zeros(3), bad, np.zeros(3), np.zeros(3))
+
+
+GOOD = dict(t=0.0, frame_id=FRAME_HILL, child_frame_id=FRAME_CHASER_BODY, position=np.zeros(3),
+            orientation_xyzw=np.array([0.0, 0.0, 0.0, 1.0]), linear=np.zeros(3), angular=np.zeros(3))
+
+
+@pytest.mark.parametrize('field,value,match', [
+    ('position', np.array([0.0, math.nan, 0.0]), r'^position: must be finite'),
+    ('position', [0.0, 0.0, math.inf], r'^position(\[2\])?: must be finite'),
+    ('linear', np.zeros(4), r'^linear: must be a numeric array of shape \(3,\), got shape \(4,\)'),
+    ('linear', np.zeros((3, 1)), r'^linear: must be a numeric array of shape \(3,\)'),
+    ('angular', [0.0, 0.0], r'^angular: must be a sequence of 3 numbers, got a list of length 2'),
+    ('angular', [0.0, '1', 0.0], r'^angular\[1\]: must be a number'),
+    ('angular', 5.0, r'^angular: must be a sequence of 3 numbers'),
+    ('orientation_xyzw', [0.0, 0.0, math.nan, 1.0], r'^orientation_xyzw\[2\]: must be finite'),
+    ('orientation_xyzw', np.zeros(3), r'^orientation_xyzw: must be a numeric array of shape \(4,\)'),
+    ('pose_covariance', np.eye(5), r'^pose_covariance: must be a 6x6'),
+    ('twist_covariance', np.full((6, 6), math.nan), r'^twist_covariance: must be finite'),
+    ('frame_id', '', r'^frame_id: must be a non-empty string'),
+    ('child_frame_id', None, r'^child_frame_id: must be a non-empty string'),
+    ('t', math.nan, r'^t: must be finite'),
+])
+def test_odometry_rejects_bad_input(field, value, match):
+    kwargs = dict(GOOD)
+    kwargs[field] = value
+    with pytest.raises(ValueError, match=match):
+        cv.odometry(**kwargs)
+
+
+def test_odometry_is_fast():
+    """The simulator builds ~6 messages per 0.05 s step at >= 50x real time: budget well under 50 us."""
+    p, q, v, w = np.array([1.0, 2.0, 3.0]), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3)
+    n = 2000
+    best = min(timeit.repeat(lambda: cv.odometry(12.35, FRAME_HILL, FRAME_CHASER_BODY, p, q, v, w),
+                             number=n, repeat=5)) / n
+    assert best < 50e-6, f'odometry() takes {best * 1e6:.1f} us'
+
+
+# ------------------------------------------------------------------------------------------------
+# Stamped geometry, Clock, String
+
+def test_stamped_round_trips_through_cdr():
+    v, q = RNG.normal(size=3), unit_quat()
+    for build, read, value in ((cv.vector3_stamped, cv.vector3_stamped_to_numpy, v),
+                               (cv.point_stamped, cv.point_stamped_to_numpy, v),
+                               (cv.quaternion_stamped, cv.quaternion_stamped_to_numpy, q)):
+        msg = cdr(build(3.25, FRAME_HILL, value))
+        t, out = read(msg)
+        assert t == 3.25 and msg.header.frame_id == FRAME_HILL
+        np.testing.assert_allclose(out, value, rtol=0, atol=1e-15)
+
+
+def test_wrench_round_trip_through_cdr():
+    f, tq = RNG.normal(size=3), RNG.normal(size=3)
+    out = cv.wrench_stamped_to_numpy(cdr(cv.wrench_stamped(0.05, FRAME_HILL, f, tq)))
+    assert out.t == 0.05
+    np.testing.assert_array_equal(out.force, f)
+    np.testing.assert_array_equal(out.torque, tq)
+    np.testing.assert_array_equal(cv.wrench_stamped_to_numpy(cv.wrench_stamped(0.0, FRAME_HILL, f)).torque, 0.0)
+
+
+def test_string_round_trip_through_cdr():
+    assert cv.string_to_str(cdr(cv.string('TERMINAL_APPROACH'))) == 'TERMINAL_APPROACH'
+    with pytest.raises(ValueError, match='^data: must be a string'):
+        cv.string(3)
+
+
+@pytest.mark.parametrize('build,field', [(cv.vector3_stamped, 'vector'), (cv.point_stamped, 'point')])
+def test_stamped_rejects_nan_and_shape(build, field):
+    with pytest.raises(ValueError, match=f'^{field}: must be finite'):
+        build(0.0, FRAME_HILL, np.array([0.0, 0.0, math.nan]))
+    with pytest.raises(ValueError, match=f'^{field}: must be a numeric array of shape'):
+        build(0.0, FRAME_HILL, np.zeros(2))
+    with pytest.raises(ValueError, match=f'^{field}: must be a numeric array of shape'):
+        build(0.0, FRAME_HILL, np.array(['a', 'b', 'c']))
+
+
+def test_wrench_and_quaternion_reject_nan():
+    with pytest.raises(ValueError, match=r'^torque(\[0\])?: must be finite'):
+        cv.wrench_stamped(0.0, FRAME_HILL, np.zeros(3), [math.nan, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r'^quaternion_xyzw\[3\]: must be finite'):
+        cv.quaternion_stamped(0.0, FRAME_HILL, [0.0, 0.0, 0.0, math.nan])
+
+
+# ------------------------------------------------------------------------------------------------
+# Path
+
+def test_path_round_trip_through_cdr():
+    times = np.linspace(10.0, 20.0, 7)
+    positions = RNG.normal(size=(7, 3))
+    quats = np.array([unit_quat() for _ in range(7)])
+    out = cv.path_to_numpy(cdr(cv.path(9.5, FRAME_HILL, times, positions, quats)))
+    assert out.t == 9.5 and out.frame_id == FRAME_HILL
+    np.testing.assert_allclose(out.times, times, rtol=0, atol=0.5e-9)  # stamps are whole nanoseconds
+    np.testing.assert_array_equal(out.positions, positions)
+    np.testing.assert_allclose(out.orientations, quats, rtol=0, atol=1e-15)
+    plain = cv.path_to_numpy(cv.path(0.0, FRAME_HILL, times[:2], positions[:2]))
+    np.testing.assert_array_equal(plain.orientations, [[0, 0, 0, 1], [0, 0, 0, 1]])
+    empty = cv.path_to_numpy(cdr(cv.path(0.0, FRAME_HILL, [], np.zeros((0, 3)))))
+    assert empty.positions.shape == (0, 3) and empty.times.shape == (0,)
+
+
+def test_path_rejects_bad_input():
+    with pytest.raises(ValueError, match=r'^positions: must have shape \(N, 3\)'):
+        cv.path(0.0, FRAME_HILL, [0.0, 1.0], np.zeros((2, 2)))
+    with pytest.raises(ValueError, match='^positions: must be finite'):
+        cv.path(0.0, FRAME_HILL, [0.0, 1.0], [[0, 0, 0], [0, math.nan, 0]])
+    with pytest.raises(ValueError, match='^times: must be a sequence of 2 numbers'):
+        cv.path(0.0, FRAME_HILL, [0.0], np.zeros((2, 3)))
+    with pytest.raises(ValueError, match='^times: must be finite'):
+        cv.path(0.0, FRAME_HILL, [0.0, math.inf], np.zeros((2, 3)))
+    with pytest.raises(ValueError, match=r'^orientations: must have 2 rows'):
+        cv.path(0.0, FRAME_HILL, [0.0, 1.0], np.zeros((2, 3)), [[0, 0, 0, 1]])
+    with pytest.raises(ValueError, match=r'^orientations\[1\]: must be a unit quaternion'):
+        cv.path(0.0, FRAME_HILL, [0.0, 1.0], np.zeros((2, 3)), [[0, 0, 0, 1], [0, 0, 0, 0]])
+
+
+# ------------------------------------------------------------------------------------------------
+# Markers
+
+def test_target_box_markers_are_posed_by_the_attitude():
+    # Body z along hill x: a quarter turn about hill y. q = (0, sin 45, 0, cos 45).
+    s = math.sqrt(0.5)
+    q = [0.0, s, 0.0, s]
+    centers = np.array([[0.0, 0.0, 0.0], [0.0, 4.5, 0.0], [0.0, 0.0, 2.0]])
+    sizes = np.array([[3.0, 3.0, 3.0], [2.0, 6.0, 0.05], [1.0, 1.0, 1.0]])
+    markers = cv.target_box_markers(1.0, q, centers, sizes, position_hill_m=[0.0, 0.0, 1.0],
+                                    names=['bus', 'panel_plus_y', 'antenna'])
+    arr = cdr(cv.marker_array(markers))
+    assert [(m.ns, m.id, m.type) for m in arr.markers] == [(cv.NS_TARGET_GEOMETRY, i, Marker.CUBE) for i in range(3)]
+    m2 = arr.markers[2]
+    np.testing.assert_allclose([m2.pose.position.x, m2.pose.position.y, m2.pose.position.z], [2.0, 0.0, 1.0],
+                               atol=1e-15)
+    np.testing.assert_allclose([m2.pose.orientation.x, m2.pose.orientation.y, m2.pose.orientation.w], [0, s, s])
+    assert (arr.markers[1].scale.y, arr.markers[1].scale.z) == (6.0, 0.05)
+    assert arr.markers[1].color.b > arr.markers[1].color.r  # panels are blue
+    assert arr.markers[0].header.frame_id == FRAME_HILL and arr.markers[0].action == Marker.ADD
+    with pytest.raises(ValueError, match='^sizes_m: must be > 0'):
+        cv.target_box_markers(1.0, q, centers, -sizes)
+    with pytest.raises(ValueError, match='^centers_body_m: must be finite'):
+        cv.target_box_markers(1.0, q, np.full((3, 3), math.nan), sizes)
+
+
+def test_target_markers_from_the_scenario_geometry():
+    from flyby_msgs_py.scenario import load_scenario
+    from pathlib import Path
+    sc = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby.yaml')
+    q = sc.q_hill_from_body0
+    for geometry in (sc.target.geometry, sc.boxes, sc.to_dict()['target']['geometry']):
+        arr = cdr(cv.target_markers(0.0, FRAME_HILL, q, geometry))
+        assert [m.id for m in arr.markers] == [0, 1, 2]
+        p = arr.markers[1].pose.position  # panel_plus_y at body [0, 4.5, 0]
+        np.testing.assert_allclose([p.x, p.y, p.z], sc.rotation_hill_from_body0.apply([0.0, 4.5, 0.0]), atol=1e-12)
+        assert arr.markers[1].color.b > arr.markers[1].color.r
+
+
+def test_sphere_point_and_line_markers():
+    sphere = cdr(cv.sphere_marker(2.0, [0.0, 0.0, 0.0], 15.0))
+    assert (sphere.ns, sphere.id, sphere.type) == (cv.NS_RESTRICTION_SPHERE, 0, Marker.SPHERE)
+    assert sphere.scale.x == 30.0 and 0.0 < sphere.color.a < 0.5
+    grasp = cdr(cv.point_marker(2.0, [1.0, 2.0, 3.0]))
+    assert (grasp.ns, grasp.type, grasp.pose.position.z, grasp.color.a) == (cv.NS_GRASP_POINT, Marker.SPHERE, 3.0, 1.0)
+    pts = RNG.normal(size=(5, 3))
+    line = cdr(cv.line_strip_marker(2.0, pts, ns='planner_path', marker_id=3))
+    assert (line.ns, line.id, line.type, line.scale.x) == ('planner_path', 3, Marker.LINE_STRIP, 0.05)
+    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in line.points], pts)
+    with pytest.raises(ValueError, match='^radius_m: must be > 0'):
+        cv.sphere_marker(0.0, [0, 0, 0], 0.0)
+    with pytest.raises(ValueError, match='^center: must be finite'):
+        cv.sphere_marker(0.0, np.array([0, 0, math.nan]), 1.0)
+    with pytest.raises(ValueError, match='^positions: must be finite'):
+        cv.line_strip_marker(0.0, [[0, 0, 0], [math.nan, 0, 0]])
+    assert cv.delete_all_markers(0.0).action == Marker.DELETEALL
+
+
+# ------------------------------------------------------------------------------------------------
+# Events
+
+def test_event_round_trip_through_cdr():
+    values = {'dv_mps': 0.125, 'late_by_s': np.float64(0.05), 'count': 3, 'ok': True, 'dv_hill': [0.1, 0.0, -0.2],
+              'phase': 'FLYBY', 'sigma': math.nan}
+    msg = cv.event(101.5, 'WARN', 'late_maneuver', 'maneuver executed 0.05 s late', values, source='flyby_sim')
+    assert msg.status[0].level == DiagnosticStatus.WARN and msg.status[0].hardware_id == 'flyby_sim'
+    (ev,) = cv.events_from_msg(cdr(msg))
+    assert ev == {'t': 101.5, 'level': 'WARN', 'name': 'late_maneuver', 'message': 'maneuver executed 0.05 s late',
+                  'values': {'dv_mps': '0.125', 'late_by_s': '0.05', 'count': '3', 'ok': 'true',
+                             'dv_hill': '[0.1, 0.0, -0.2]', 'phase': 'FLYBY', 'sigma': 'nan'},
+                  'source': 'flyby_sim'}
+    assert float(ev['values']['dv_mps']) == 0.125
+    for level in ('OK', 'ERROR', 'STALE'):
+        assert cv.events_from_msg(cdr(cv.event(0.0, level, 'n', 'm')))[0]['level'] == level
+
+
+def test_event_rejects_bad_input():
+    with pytest.raises(ValueError, match=r"^level: must be one of \['OK', 'WARN', 'ERROR', 'STALE'\], got 'INFO'"):
+        cv.event(0.0, 'INFO', 'n', 'm')
+    with pytest.raises(ValueError, match='^message: must be a string'):
+        cv.event(0.0, 'OK', 'n', None)
+    with pytest.raises(ValueError, match='^t: must be finite'):
+        cv.event(math.nan, 'OK', 'n', 'm')
+
+
+def test_time_message_passes_through():
+    stamp = Time(sec=5, nanosec=7)
+    assert cv.stamp_to_ns(cv.point_stamped(stamp, FRAME_HILL, [0.0, 0.0, 0.0]).header.stamp) == 5 * cv.NS_PER_S + 7
+
+
+@settings(max_examples=50)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False, width=64), min_size=3, max_size=3))
+def test_vector_round_trip_is_exact_for_any_finite_value(v):
+    out = cv.vector3_stamped_to_numpy(cdr(cv.vector3_stamped(0.0, FRAME_HILL, v)))
+    assert out.value.tolist() == [float(x) for x in v]

@@ -1,0 +1,420 @@
+"""Scenario loading: the two shipped files, derived values, one test per error class, seed override."""
+
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flyby_msgs_py.scenario import (EARTH_RADIUS_M, SCHEMA, Scenario, ScenarioError, load_scenario,
+                                    scenario_from_dict, schema_markdown)
+
+REPO = Path(__file__).resolve().parents[4]
+PAPER = REPO / 'scenarios' / 'paper_flyby.yaml'
+SEWERYN = REPO / 'scenarios' / 'seweryn_tumbling.yaml'
+
+
+def paper_dict():
+    return yaml.safe_load(PAPER.read_text())
+
+
+def write(tmp_path, data, name='x.yaml'):
+    p = tmp_path / name
+    p.write_text(data if isinstance(data, str) else yaml.safe_dump(data, sort_keys=False))
+    return p
+
+
+def error_of(tmp_path, mutate):
+    """Load paper_flyby mutated by ``mutate(d)`` from a file; return (path, one-line message)."""
+    d = paper_dict()
+    mutate(d)
+    p = write(tmp_path, d)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    msg = str(info.value)
+    assert '\n' not in msg
+    assert msg.startswith(f'{p}: ')
+    return p, msg
+
+
+def rx(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def ry(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def rz(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def quat_matrix(q):
+    """Rotation matrix of a unit quaternion (x, y, z, w), written out independently of scipy."""
+    x, y, z, w = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+# ------------------------------------------------------------------------------------------------
+# The shipped scenarios
+
+def test_paper_flyby_loads_with_derived_values():
+    sc = load_scenario(PAPER)
+    assert sc.name == 'paper_flyby' and sc.seed == 1
+    assert sc.orbit_radius_m == 7000000.0
+    assert sc.mean_motion_rad_s == pytest.approx(math.sqrt(3.986004418e14 / 7e6 ** 3), rel=1e-15)
+    q = sc.q_hill_from_body0
+    assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-15) and q[3] >= 0.0
+    # DESIGN §6: the spin axis (body z) points along [1, 1, 1]/sqrt(3) in hill at t = 0.
+    np.testing.assert_allclose(quat_matrix(q) @ [0, 0, 1], np.ones(3) / math.sqrt(3), atol=1e-15)
+    np.testing.assert_allclose(sc.omega_body0_rad_s, [0.0, 0.0, math.radians(5.0)], atol=1e-15)
+    np.testing.assert_array_equal(sc.target_inertia, np.diag([1200.0, 1000.0, 2000.0]))
+    boxes = sc.boxes
+    assert boxes.names == ('bus', 'panel_plus_y', 'panel_minus_y')
+    assert boxes.center_body_m.shape == (3, 3) and boxes.size_m.shape == (3, 3)
+    np.testing.assert_array_equal(boxes.size_m[1], [2.0, 6.0, 0.05])
+    np.testing.assert_array_equal(sc.target.grasp_point_body_m, [1.5, 0.0, 1.5])
+    assert sc.chaser.thrusters.isp_s == 220.0
+    assert sc.simulation.dynamics == 'nonlinear'
+    assert sc.path == PAPER
+
+
+def test_seweryn_tumbling_loads_with_derived_values():
+    sc = load_scenario(SEWERYN)
+    assert sc.orbit_radius_m == 6578137.0
+    assert sc.orbit.altitude_m == 200000.0 and sc.orbit.radius_m is None
+    roll, pitch, yaw = 0.5, 0.01, 0.2
+    np.testing.assert_allclose(quat_matrix(sc.q_hill_from_body0), rz(yaw) @ ry(pitch) @ rx(roll), atol=1e-15)
+    np.testing.assert_allclose(sc.omega_body0_rad_s, [0.3, 0.2, 0.1], atol=0)
+    np.testing.assert_allclose(sc.rotation_hill_from_body0.as_matrix(), rz(yaw) @ ry(pitch) @ rx(roll),
+                               atol=1e-15)
+
+
+def test_defaults_are_filled_and_to_dict_reloads_equal(tmp_path):
+    d = paper_dict()
+    for key in ('planner', 'guidance', 'sensors', 'description'):
+        del d[key]
+    del d['chaser']['initial_velocity_hill_mps']
+    del d['chaser']['thrusters']['magnitude_error_sigma']
+    del d['orbit']
+    d['orbit'] = {'altitude_m': 400000.0}
+    sc = load_scenario(write(tmp_path, d))
+    assert sc.planner.offset_m == 1.0
+    assert sc.planner.flyby_duration_s == 300.0
+    assert sc.planner.restriction_sphere_radius_m == 15.0
+    assert sc.guidance.adjust_interval_s == 20.0
+    assert sc.sensors.target_attitude.rate_hz == 10.0
+    assert sc.description == ''
+    assert sc.orbit.mu_m3_s2 == 3.986004418e14
+    assert sc.chaser.thrusters.magnitude_error_sigma == 0.0
+    np.testing.assert_array_equal(sc.chaser.initial_velocity_hill_mps, [0.0, 0.0, 0.0])
+    assert sc.orbit_radius_m == EARTH_RADIUS_M + 400000.0
+    assert 'planner' not in sc.raw
+    resolved = sc.to_dict()
+    assert resolved['planner'] == {'offset_m': 1.0, 'flyby_duration_s': 300.0, 'restriction_sphere_radius_m': 15.0}
+    again = load_scenario(write(tmp_path, sc.to_yaml(), 'again.yaml'))
+    assert again == sc and again.to_dict() == resolved
+
+
+def test_scenario_is_read_only():
+    sc = load_scenario(PAPER)
+    with pytest.raises(AttributeError):
+        sc.seed = 3
+    with pytest.raises(AttributeError):
+        sc.chaser.mass_kg = 3.0
+    with pytest.raises(ValueError):
+        sc.chaser.initial_position_hill_m[0] = 1.0
+    with pytest.raises(AttributeError, match="chaser has no key 'mass'"):
+        sc.chaser.mass
+    sc.raw['seed'] = 99  # a copy
+    assert sc.raw['seed'] == 1
+    sc.q_hill_from_body0[0] = 5.0  # a fresh array
+    assert sc.q_hill_from_body0[0] != 5.0
+
+
+def test_pickle_and_deepcopy_keep_the_scenario():
+    import pickle
+    sc = load_scenario(PAPER, seed=5)
+    for other in (pickle.loads(pickle.dumps(sc)), copy.deepcopy(sc)):
+        assert other == sc and other.seed == 5 and other.path == PAPER and other.raw == sc.raw
+        assert other.orbit.altitude_m is None
+        np.testing.assert_array_equal(other.q_hill_from_body0, sc.q_hill_from_body0)
+        assert other.target.geometry[1].name == 'panel_plus_y'
+
+
+def test_integer_accepted_for_float_and_yaml12_exponent(tmp_path):
+    text = PAPER.read_text().replace('mass_kg: 100.0', 'mass_kg: 100').replace(
+        'radius_m: 7000000.0', 'radius_m: 7e6')
+    sc = load_scenario(write(tmp_path, text))
+    assert sc.chaser.mass_kg == 100.0 and isinstance(sc.chaser.mass_kg, float)
+    assert sc.orbit_radius_m == 7e6
+
+
+def test_null_section_means_all_defaults(tmp_path):
+    text = PAPER.read_text().replace('guidance:\n  adjust_interval_s: 20.0\n', 'guidance:\n')
+    assert load_scenario(write(tmp_path, text)).guidance.adjust_interval_s == 20.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Attitude and rate conventions
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-1, 1), min_size=4, max_size=4).filter(lambda q: np.linalg.norm(q) > 1e-3),
+       st.lists(st.floats(-1, 1), min_size=3, max_size=3))
+def test_quaternion_and_hill_rate_conventions(q, omega_hill):
+    d = paper_dict()
+    d['target']['initial_attitude'] = {'q_hill_from_body': q}
+    d['target']['initial_rate'] = {'omega_hill_rad_s': omega_hill}
+    sc = scenario_from_dict(d)
+    qn = np.array(q) / np.linalg.norm(q)
+    q0 = sc.q_hill_from_body0
+    assert abs(np.linalg.norm(q0) - 1.0) < 1e-14
+    assert min(np.linalg.norm(q0 - qn), np.linalg.norm(q0 + qn)) < 1e-12
+    # omega_hill = R_hill_from_body omega_body
+    np.testing.assert_allclose(quat_matrix(qn) @ sc.omega_body0_rad_s, omega_hill, atol=1e-12)
+
+
+def test_hill_rate_in_degrees():
+    d = paper_dict()
+    d['target']['initial_rate'] = {'omega_hill_deg_s': [5.0, 5.0, 5.0]}
+    sc = scenario_from_dict(d)
+    # The spin axis along [1, 1, 1]/sqrt(3) in hill is body z.
+    np.testing.assert_allclose(sc.omega_body0_rad_s, [0.0, 0.0, math.radians(5.0) * math.sqrt(3)], atol=1e-15)
+
+
+@pytest.mark.parametrize('body,hill', [([0, 0, 1], [0, 0, -2]), ([1, 0, 0], [-1, 0, 0]), ([0, 1, 0], [0, 3, 0]),
+                                       ([1, 2, 3], [-3, 1, 0.5])])
+def test_body_axis_along_hill_is_a_minimal_rotation(body, hill):
+    d = paper_dict()
+    d['target']['initial_attitude'] = {'body_axis_along_hill': {'body': body, 'hill': hill}}
+    sc = scenario_from_dict(d)
+    r = quat_matrix(sc.q_hill_from_body0)
+    b, h = np.array(body, float) / np.linalg.norm(body), np.array(hill, float) / np.linalg.norm(hill)
+    np.testing.assert_allclose(r @ b, h, atol=1e-14)
+    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
+    assert angle == pytest.approx(math.acos(max(-1.0, min(1.0, float(b @ h)))), abs=1e-7)
+
+
+# ------------------------------------------------------------------------------------------------
+# Errors: one line, file name, dotted key path
+
+def test_error_out_of_range(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d['chaser'].update(mass_kg=-5))
+    assert msg == f'{p}: chaser.mass_kg: must be > 0, got -5.0'
+
+
+def test_error_unknown_key_with_suggestion(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d['target'].update(inertial_attitude=d['target'].pop('initial_attitude')))
+    assert msg == f"{p}: target.inertial_attitude: unknown key (did you mean 'initial_attitude'?)"
+
+
+def test_error_unknown_key_deep_and_top_level(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['chaser']['thrusters'].update(isp=200.0))
+    assert ": chaser.thrusters.isp: unknown key (did you mean 'isp_s'?)" in msg
+    _, msg = error_of(tmp_path, lambda d: d.update(zzz=1))
+    assert ': zzz: unknown key (expected one of: name, description, seed, orbit,' in msg
+    _, msg = error_of(tmp_path, lambda d: d['target']['geometry'][2].update(colour='red'))
+    assert ': target.geometry[2].colour: unknown key' in msg
+
+
+def test_error_missing_required_key(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d['chaser']['thrusters'].pop('isp_s'))
+    assert msg == f'{p}: chaser.thrusters.isp_s: missing required key'
+    _, msg = error_of(tmp_path, lambda d: d.pop('chaser'))
+    assert msg.endswith(': chaser: missing required key')
+
+
+def test_error_enum(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d['simulation'].update(dynamics='kepler'))
+    assert msg == f"{p}: simulation.dynamics: must be one of ['cw', 'nonlinear'], got 'kepler'"
+
+
+def test_error_file_not_found(tmp_path):
+    p = tmp_path / 'nope.yaml'
+    with pytest.raises(ScenarioError, match='nope.yaml: file not found$'):
+        load_scenario(p)
+
+
+def test_error_yaml_syntax_names_line(tmp_path):
+    text = PAPER.read_text().replace('  mass_kg: 100.0', '  mass_kg: [100.0', 1)
+    p = write(tmp_path, text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    msg = str(info.value)
+    assert msg.startswith(f'{p}: YAML syntax error at line ') and '\n' not in msg
+
+
+def test_error_duplicate_yaml_key(tmp_path):
+    text = PAPER.read_text().replace('  mass_kg: 100.0\n', '  mass_kg: 100.0\n  mass_kg: 90.0\n')
+    p = write(tmp_path, text)
+    line = text.splitlines().index('  mass_kg: 90.0') + 1
+    with pytest.raises(ScenarioError, match=f"line {line}, column 3: .*duplicate key 'mass_kg'"):
+        load_scenario(p)
+
+
+@pytest.mark.parametrize('text,got', [('- a\n- b\n', 'a list of length 2'), ('', 'an empty file'),
+                                      ('42\n', '42')])
+def test_error_top_level_not_a_mapping(tmp_path, text, got):
+    p = write(tmp_path, text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    assert str(info.value) == f'{p}: top level must be a mapping of sections, got {got}'
+
+
+@pytest.mark.parametrize('value,shown', [('.nan', 'nan'), ('.inf', 'inf'), ('-.inf', '-inf')])
+def test_error_non_finite(tmp_path, value, shown):
+    p = write(tmp_path, PAPER.read_text().replace('isp_s: 220.0', f'isp_s: {value}'))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    assert str(info.value) == f'{p}: chaser.thrusters.isp_s: must be finite, got {shown}'
+
+
+def test_error_non_finite_vector_component(tmp_path):
+    p = write(tmp_path, PAPER.read_text().replace('[1.5, 0.0, 1.5]', '[1.5, .nan, 1.5]'))
+    with pytest.raises(ScenarioError, match=r': target\.grasp_point_body_m\[1\]: must be finite, got nan$'):
+        load_scenario(p)
+
+
+def test_error_wrong_vector_length(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d['chaser'].update(initial_position_hill_m=[50.0, 0.0]))
+    assert msg == f'{p}: chaser.initial_position_hill_m: must be a 3-vector [x, y, z], got a list of length 2'
+    _, msg = error_of(tmp_path, lambda d: d['target']['initial_attitude'].update(
+        q_hill_from_body=[0, 0, 1], body_axis_along_hill=None) or d['target']['initial_attitude'].pop(
+        'body_axis_along_hill'))
+    assert msg.endswith(': target.initial_attitude.q_hill_from_body: must be a quaternion [x, y, z, w], '
+                        'got a list of length 3')
+    _, msg = error_of(tmp_path, lambda d: d['target'].update(inertia_kg_m2=[[1, 0, 0], [0, 1, 0]]))
+    assert ': target.inertia_kg_m2: must be a 3x3 matrix' in msg
+    _, msg = error_of(tmp_path, lambda d: d['target'].update(inertia_kg_m2=[[1, 0, 0], [0, 1], [0, 0, 1]]))
+    assert ': target.inertia_kg_m2[1]: must be a row of 3 numbers, got a list of length 2' in msg
+
+
+def test_error_wrong_types(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['chaser'].update(mass_kg='100'))
+    assert msg.endswith(": chaser.mass_kg: must be a number, got string '100'")
+    _, msg = error_of(tmp_path, lambda d: d['chaser'].update(mass_kg=True))
+    assert msg.endswith(': chaser.mass_kg: must be a number, got true (bool)')
+    _, msg = error_of(tmp_path, lambda d: d['chaser'].update(mass_kg=None))
+    assert msg.endswith(': chaser.mass_kg: must be a number, got null')
+    _, msg = error_of(tmp_path, lambda d: d.update(seed=1.0))
+    assert msg.endswith(': seed: must be an integer, got 1.0')
+    _, msg = error_of(tmp_path, lambda d: d.update(name=5))
+    assert msg.endswith(': name: must be a string, got 5')
+    _, msg = error_of(tmp_path, lambda d: d.update(chaser=[1, 2]))
+    assert msg.endswith(': chaser: must be a mapping, got a list of length 2')
+    _, msg = error_of(tmp_path, lambda d: d['chaser'].update(initial_position_hill_m=[50.0, 'x', 0.0]))
+    assert msg.endswith(": chaser.initial_position_hill_m[1]: must be a number, got string 'x'")
+
+
+def test_error_exactly_one_of(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['orbit'].update(altitude_m=400000.0))
+    assert msg.endswith(": orbit: exactly one of 'radius_m', 'altitude_m' must be given, got 'radius_m', 'altitude_m'")
+    _, msg = error_of(tmp_path, lambda d: d['orbit'].pop('radius_m'))
+    assert msg.endswith(": orbit: exactly one of 'radius_m', 'altitude_m' must be given, got none")
+    _, msg = error_of(tmp_path, lambda d: d['target']['initial_rate'].update(omega_hill_rad_s=[0, 0, 1]))
+    assert ': target.initial_rate: exactly one of ' in msg
+
+
+def test_error_attitude_vectors_nonzero(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['target'].update(initial_attitude={'q_hill_from_body': [0, 0, 0, 0]}))
+    assert msg.endswith(': target.initial_attitude.q_hill_from_body: must be nonzero, got [0.0, 0.0, 0.0, 0.0]')
+    _, msg = error_of(tmp_path, lambda d: d['target']['initial_attitude']['body_axis_along_hill'].update(
+        hill=[0, 0, 0]))
+    assert msg.endswith(': target.initial_attitude.body_axis_along_hill.hill: must be nonzero, got [0.0, 0.0, 0.0]')
+
+
+@pytest.mark.parametrize('inertia,problem', [
+    ([[1200, 5, 0], [0, 1000, 0], [0, 0, 2000]], 'must be symmetric'),
+    ([[1200, 0, 0], [0, -1000, 0], [0, 0, 2000]], 'must be positive definite'),
+    ([[100, 0, 0], [0, 100, 0], [0, 0, 2000]], 'violate the triangle inequality'),
+])
+def test_error_inertia(tmp_path, inertia, problem):
+    _, msg = error_of(tmp_path, lambda d: d['target'].update(inertia_kg_m2=inertia))
+    assert ': target.inertia_kg_m2: ' in msg and problem in msg
+
+
+def test_error_geometry(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['target'].update(geometry=[]))
+    assert msg.endswith(': target.geometry: must be a non-empty list, got a list of length 0')
+    _, msg = error_of(tmp_path, lambda d: d['target']['geometry'][1].update(size_m=[2.0, 6.0, 0.0]))
+    assert msg.endswith(': target.geometry[1].size_m[2]: must be > 0, got 0.0')
+    _, msg = error_of(tmp_path, lambda d: d['target']['geometry'][2].update(name='bus'))
+    assert msg.endswith(": target.geometry[2].name: duplicate box name 'bus' (also at index 0)")
+    _, msg = error_of(tmp_path, lambda d: d['target']['geometry'][0].pop('center_m'))
+    assert msg.endswith(': target.geometry[0].center_m: missing required key')
+
+
+def test_error_step_too_long_says_why(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['simulation'].update(step_s=0.1))
+    assert msg.endswith(': simulation.step_s: must be in (0, 0.05], got 0.1 '
+                        '(truth is published every step and must reach >= 20 Hz, DESIGN §4)')
+
+
+def test_error_sensor_rate_above_step_rate(tmp_path):
+    def mutate(d):
+        d['simulation']['step_s'] = 0.04
+        d['sensors']['target_attitude']['rate_hz'] = 30.0
+    _, msg = error_of(tmp_path, mutate)
+    assert msg.endswith(': sensors.target_attitude.rate_hz: must be <= 1/simulation.step_s = 25 Hz '
+                        '(a sensor samples at most once per step), got 30.0')
+    # Exactly the step rate is fine despite 1/0.05 not being exact in binary.
+    d = paper_dict()
+    d['sensors']['relative_position']['rate_hz'] = 20.0
+    assert scenario_from_dict(d).sensors.relative_position.rate_hz == 20.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Seed override
+
+def test_seed_override():
+    sc = load_scenario(PAPER, seed=42)
+    assert sc.seed == 42 and sc.to_dict()['seed'] == 42 and sc.raw['seed'] == 1
+    assert load_scenario(PAPER, seed=np.int64(3)).seed == 3
+    with pytest.raises(ScenarioError, match=r'paper_flyby.yaml: seed: must be >= 0, got -1 \(from the seed argument\)$'):
+        load_scenario(PAPER, seed=-1)
+    with pytest.raises(ScenarioError, match=r': seed: must be an integer, got true \(bool\) \(from the seed argument\)$'):
+        load_scenario(PAPER, seed=True)
+    with pytest.raises(ScenarioError, match=r': seed: must be an integer, got 2.0'):
+        load_scenario(PAPER, seed=2.0)
+
+
+def test_scenario_from_dict_names_the_source():
+    d = paper_dict()
+    d['chaser']['mass_kg'] = 0
+    with pytest.raises(ScenarioError, match=r'^<dict>: chaser.mass_kg: must be > 0, got 0.0$'):
+        scenario_from_dict(d)
+    assert isinstance(scenario_from_dict(paper_dict()), Scenario)
+    assert scenario_from_dict(copy.deepcopy(paper_dict())).seed == 1
+
+
+# ------------------------------------------------------------------------------------------------
+# The docs page is generated from the schema
+
+def test_docs_page_holds_the_generated_key_table():
+    text = (REPO / 'docs' / 'scenario.md').read_text()
+    begin, end = '<!-- BEGIN GENERATED KEY TABLE -->\n', '<!-- END GENERATED KEY TABLE -->'
+    assert begin in text and end in text
+    table = text.split(begin, 1)[1].split(end, 1)[0]
+    assert table == schema_markdown(), \
+        'regenerate with: .venv/bin/python -m flyby_msgs_py.scenario --schema-markdown'
+
+
+def test_every_schema_key_has_a_description():
+    def walk(section, prefix):
+        for k, node in section.fields.items():
+            assert getattr(node, 'desc', ''), f'{prefix}{k} has no description'
+            inner = getattr(node, 'item', node)
+            if hasattr(inner, 'fields'):
+                walk(inner, f'{prefix}{k}.')
+    walk(SCHEMA, '')
