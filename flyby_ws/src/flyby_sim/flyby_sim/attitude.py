@@ -1,0 +1,114 @@
+"""Rigid-body attitude motion of the target (seed 000 eq 4, seed 001 eq 3).
+
+Quaternions are (x, y, z, w), scalar last; ``q_inertial_from_body`` rotates body vectors into the
+inertial frame. The paper writes eq 4 scalar first, q = [q0 q1 q2 q3] with q0 the scalar; its
+1/2 Q_T omega is the Hamilton product 1/2 q * (omega, 0), which is what quaternion_rate computes.
+``omega_body`` is the inertial angular velocity in body axes [rad/s]; inertia in kg m^2, torque
+in N m, body axes.
+"""
+
+import math
+
+import numpy as np
+from scipy.integrate import DOP853
+
+from flyby_sim.rotation import quat_normalize, quat_rotate
+
+
+def euler_rate(omega_body, inertia, inertia_inv, torque_body=(0.0, 0.0, 0.0)):
+    """d(omega_body)/dt = I^-1 (M - omega x (I omega)) [rad/s^2], seed 000 eq 4 / seed 001 eq 3."""
+    wx, wy, wz = omega_body
+    (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = inertia
+    hx = i00 * wx + i01 * wy + i02 * wz
+    hy = i10 * wx + i11 * wy + i12 * wz
+    hz = i20 * wx + i21 * wy + i22 * wz
+    mx, my, mz = torque_body
+    # M - omega x h
+    bx = mx - (wy * hz - wz * hy)
+    by = my - (wz * hx - wx * hz)
+    bz = mz - (wx * hy - wy * hx)
+    (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = inertia_inv
+    return np.array((
+        j00 * bx + j01 * by + j02 * bz,
+        j10 * bx + j11 * by + j12 * bz,
+        j20 * bx + j21 * by + j22 * bz,
+    ))
+
+
+def quaternion_rate(q_inertial_from_body, omega_body):
+    """dq/dt = 1/2 q * (omega_body, 0) for an (x, y, z, w) quaternion, seed 000 eq 4."""
+    x, y, z, w = q_inertial_from_body
+    wx, wy, wz = omega_body
+    return np.array((
+        0.5 * (w * wx + y * wz - z * wy),
+        0.5 * (w * wy + z * wx - x * wz),
+        0.5 * (w * wz + x * wy - y * wx),
+        -0.5 * (x * wx + y * wy + z * wz),
+    ))
+
+
+def kinetic_energy(omega_body, inertia):
+    """Rotational kinetic energy 1/2 omega . I omega [J]."""
+    w = np.asarray(omega_body, dtype=float)
+    return 0.5 * float(w @ (np.asarray(inertia, dtype=float) @ w))
+
+
+def angular_momentum_inertial(q_inertial_from_body, omega_body, inertia):
+    """Angular momentum C_inertial_from_body I omega [kg m^2/s] in inertial axes."""
+    h_body = np.asarray(inertia, dtype=float) @ np.asarray(omega_body, dtype=float)
+    return quat_rotate(quat_normalize(q_inertial_from_body), h_body)
+
+
+def validated_inertia(inertia):
+    """The inertia as a 3x3 float array; raises ValueError unless finite, symmetric and positive definite."""
+    i = np.asarray(inertia, dtype=float)
+    if i.shape != (3, 3) or not np.all(np.isfinite(i)):
+        raise ValueError(f'inertia must be a finite 3x3 matrix [kg m^2], got {inertia!r}')
+    if not np.allclose(i, i.T, rtol=1e-12, atol=0.0):
+        raise ValueError(f'inertia must be symmetric, got {i.tolist()}')
+    if np.linalg.eigvalsh(i).min() <= 0.0:
+        raise ValueError(f'inertia must be positive definite, got {i.tolist()}')
+    return i
+
+
+class AttitudePropagator:
+    """Torque-free target attitude from one initial state, integrated once forward with DOP853.
+
+    state_at(t) answers from the integrator's dense output (renormalized quaternion) for
+    non-decreasing t, stepping the integrator on as needed. It is never restarted by outside events,
+    so the answer depends only on t and the initial state.
+    """
+
+    def __init__(self, q_inertial_from_body0, omega_body0, inertia, t0=0.0, rtol=1e-12, atol=1e-14):
+        """Start at t0 [s] from q_inertial_from_body0 (normalized here) and omega_body0 [rad/s]."""
+        omega0 = np.asarray(omega_body0, dtype=float)
+        if omega0.shape != (3,) or not np.all(np.isfinite(omega0)):
+            raise ValueError(f'omega_body0 must be 3 finite values [rad/s], got {omega_body0!r}')
+        if not math.isfinite(t0):
+            raise ValueError(f't0 must be finite, got {t0}')
+        i = validated_inertia(inertia)
+        self._inertia = tuple(map(tuple, i.tolist()))
+        self._inertia_inv = tuple(map(tuple, np.linalg.inv(i).tolist()))
+        y0 = np.concatenate((quat_normalize(q_inertial_from_body0), omega0))
+        self._solver = DOP853(self._rhs, t0, y0, t_bound=np.inf, rtol=rtol, atol=atol)
+        self._dense = None
+        self._t_last = t0
+
+    def _rhs(self, t, y):
+        q = y[:4].tolist()
+        w = y[4:].tolist()
+        return np.concatenate((quaternion_rate(q, w), euler_rate(w, self._inertia, self._inertia_inv)))
+
+    def state_at(self, t):
+        """(q_inertial_from_body, omega_body) at t [s]; t must not decrease from call to call."""
+        if not t >= self._t_last:
+            raise ValueError(f't = {t} s precedes the last requested time {self._t_last} s')
+        self._t_last = t
+        solver = self._solver
+        while solver.t < t:
+            message = solver.step()
+            if solver.status == 'failed':
+                raise RuntimeError(f'attitude integration failed at t = {solver.t} s: {message}')
+            self._dense = solver.dense_output()
+        y = solver.y if t == solver.t else self._dense(t)
+        return quat_normalize(y[:4].tolist()), y[4:].copy()

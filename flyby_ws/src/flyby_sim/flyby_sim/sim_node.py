@@ -1,0 +1,180 @@
+"""The simulator node: owns the truth and the clock.
+
+It advances the plant (``flyby_sim.plant``) in fixed steps, publishes ``/clock``, the truth topics,
+the sensor samples and the target markers, and executes the time-tagged maneuvers it receives on
+``guidance/maneuver``. The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
+``flow_control_period_s`` of simulated time it waits until each reliable subscriber has
+acknowledged what was sent, so no subscriber (the recorder above all) is outrun.
+"""
+
+import time
+
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import convert
+from flyby_msgs_py.runtime import main_for
+from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_sim.plant import ManeuverRejected, Plant, plant_config_from_scenario
+
+STARTUP_TIMEOUT_S = 30.0
+ACK_TIMEOUT = Duration(seconds=10.0)
+
+
+class SimNode(Node):
+    """Plant simulator; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('flyby_sim', **kwargs)
+        self.declare_parameter('scenario_file', '')
+        self.declare_parameter('seed', -1)
+        self.declare_parameter('rtf', 0.0)
+        self.declare_parameter('flow_control_period_s', 1.0)
+        self.declare_parameter('wait_for_nodes', Parameter.Type.STRING_ARRAY)
+        scenario_file = self.get_parameter('scenario_file').value
+        seed = self.get_parameter('seed').value
+        self.rtf = float(self.get_parameter('rtf').value)
+        if self.rtf < 0.0:
+            raise ValueError(f'parameter rtf: must be >= 0 (0 = as fast as possible), got {self.rtf}')
+        self.scenario = load_scenario(scenario_file, seed=None if seed < 0 else seed)
+        self.plant = Plant(plant_config_from_scenario(self.scenario))
+        self.step_s = self.scenario.simulation.step_s
+        self.duration_s = self.scenario.simulation.duration_s
+        self.flow_every = max(1, round(self.get_parameter('flow_control_period_s').value / self.step_s))
+        self.wait_for_nodes = list(self.get_parameter('wait_for_nodes').get_parameter_value()
+                                   .string_array_value)
+
+        pubs = {}
+        for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
+                      c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE, c.MISSION_EVENTS,
+                      c.MARKERS):
+            name = '/clock' if topic == c.CLOCK else topic
+            pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name,
+                                                c.qos_for(topic))
+        self.pubs = pubs
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
+                                 c.GUIDANCE_MANEUVER, self.on_maneuver, c.QOS_STREAM)
+
+        self.started = False
+        self.finished = False
+        self.steps = 0
+        self.wall_start = None
+        self.startup_deadline = time.monotonic() + STARTUP_TIMEOUT_S
+
+    # -- the loop -------------------------------------------------------------------------
+    def tick(self):
+        """Advance one step when due; return how long the caller may wait (wall seconds)."""
+        if not self.started:
+            if not self.graph_ready():
+                return 0.02
+            self.start()
+        if self.rtf > 0.0:
+            due = self.wall_start + self.steps * self.step_s / self.rtf
+            ahead = due - time.monotonic()
+            if ahead > 0.0:
+                return ahead
+        self.advance()
+        return 0.0
+
+    def graph_ready(self):
+        """True once the expected nodes are up and every subscriber we see is matched."""
+        if time.monotonic() > self.startup_deadline:
+            self.emit('WARN', 'startup_timeout',
+                      f'starting without a complete graph after {STARTUP_TIMEOUT_S} s',
+                      {'waiting_for': ','.join(self.missing_nodes())})
+            return True
+        if self.missing_nodes():
+            return False
+        for topic, pub in self.pubs.items():
+            seen = len(self.get_subscriptions_info_by_topic(pub.topic_name))
+            if pub.get_subscription_count() < seen:
+                return False
+        return True
+
+    def missing_nodes(self):
+        present = {name for name, _ns in self.get_node_names_and_namespaces()}
+        return [n for n in self.wait_for_nodes if n not in present]
+
+    def start(self):
+        self.started = True
+        self.wall_start = time.monotonic()
+        sc = self.scenario
+        self.emit('OK', 'sim_started', f'scenario {sc.name}, seed {sc.seed}',
+                  {'scenario': sc.name, 'seed': str(sc.seed), 'dynamics': sc.simulation.dynamics,
+                   'step_s': repr(self.step_s), 'duration_s': repr(self.duration_s),
+                   'rtf': repr(self.rtf)})
+        self.publish_truth(self.plant.truth())
+
+    def advance(self):
+        sample = self.plant.step()
+        self.steps += 1
+        self.publish_truth(sample)
+        for m in self.plant.measurements():
+            self.publish_measurement(m)
+        for level, name, message, values in self.plant.drain_events():
+            self.emit(level, name, message, values)
+        if self.steps % self.flow_every == 0:
+            self.wait_for_subscribers()
+        if sample.t >= self.duration_s - 0.5 * self.step_s:
+            self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
+                      {'t': repr(sample.t)})
+            self.wait_for_subscribers()
+            self.finished = True
+
+    def wait_for_subscribers(self):
+        for pub in self.pubs.values():
+            pub.wait_for_all_acked(ACK_TIMEOUT)
+
+    # -- publishing -----------------------------------------------------------------------
+    def publish_truth(self, s):
+        self.pubs[c.CLOCK].publish(convert.clock(s.t))
+        self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+            s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
+            (0.0, 0.0, 0.0)))
+        self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry(
+            s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
+            (0.0, 0.0, 0.0), s.omega_body))
+        self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
+            s.t, c.FRAME_HILL, s.force_hill, (0.0, 0.0, 0.0)))
+        if self.steps % max(1, round(1.0 / self.step_s)) == 0:
+            self.pubs[c.MARKERS].publish(convert.target_markers(
+                s.t, c.FRAME_HILL, s.q_hill_from_body, self.scenario.target.geometry))
+
+    def publish_measurement(self, m):
+        if m.kind == 'relative_position':
+            self.pubs[c.SENSOR_RELATIVE_POSITION].publish(
+                convert.point_stamped(m.t, c.FRAME_HILL, m.value))
+        else:
+            self.pubs[c.SENSOR_TARGET_ATTITUDE].publish(
+                convert.quaternion_stamped(m.t, c.FRAME_HILL, m.value))
+
+    def emit(self, level, name, message, values):
+        self.pubs[c.MISSION_EVENTS].publish(
+            convert.event(self.plant.t, level, name, message, values, source=self.get_name()))
+        log = self.get_logger()
+        (log.info if level == 'OK' else log.warning if level == 'WARN' else log.error)(
+            f'{name}: {message}')
+
+    # -- commands -------------------------------------------------------------------------
+    def on_maneuver(self, msg):
+        t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)
+        try:
+            self.plant.command_maneuver(t_stamp, dv_hill)
+        except ManeuverRejected as err:
+            self.emit('ERROR', 'maneuver_rejected', str(err),
+                      {'t_stamp': repr(t_stamp), 'dv_hill': repr(list(dv_hill))})
+        for level, name, message, values in self.plant.drain_events():
+            self.emit(level, name, message, values)
+
+
+def main(args=None):
+    try:
+        main_for(SimNode, args)
+    except ScenarioError as err:
+        raise SystemExit(f'flyby_sim: {err}') from None
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,161 @@
+"""orbital.py: seed 000 eq 1, 2, 22, 23 and the hill/ECI conventions."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_accel, cw_transition_matrix, eci_from_relative,
+                               hill_axes_in_eci, mean_motion_rad_s, nonlinear_relative_accel,
+                               quat_eci_from_hill, relative_from_eci, rk4_step, target_eci_state)
+from flyby_sim.rotation import quat_to_matrix
+
+RADIUS_M = 7.0e6
+N = mean_motion_rad_s(RADIUS_M)
+
+
+def cw_rhs(t, y):
+    return np.concatenate((y[3:], cw_accel(y[:3], y[3:], N)))
+
+
+def test_mean_motion_of_7000_km_orbit():
+    assert N == pytest.approx(math.sqrt(MU_EARTH_M3_S2 / RADIUS_M**3), rel=1e-15)
+    assert 2 * math.pi / N == pytest.approx(5828.5, abs=0.1)  # period [s]
+    with pytest.raises(ValueError, match='radius_m'):
+        mean_motion_rad_s(-1.0)
+
+
+@pytest.mark.parametrize('t', [1.0, 300.0, 1500.0, 5828.5, 9000.0, -700.0])
+def test_seed000_eq22_matches_integration_of_eq2(t):
+    """Each column of Phi(t) is the eq 2 solution from a unit initial state (signs as printed)."""
+    phi = cw_transition_matrix(N, t)
+    for j in range(6):
+        y0 = np.eye(6)[j]
+        sol = solve_ivp(cw_rhs, (0.0, t), y0, method='DOP853', rtol=1e-13, atol=1e-15)
+        column = sol.y[:, -1]
+        assert np.linalg.norm(phi[:, j] - column) <= 1e-9 * np.linalg.norm(column)
+
+
+def test_seed000_eq22_is_identity_at_zero_and_solves_eq2():
+    np.testing.assert_array_equal(cw_transition_matrix(N, 0.0), np.eye(6))
+    # d/dt Phi = A Phi with A the eq 2 system matrix, by central differences.
+    a = np.array([cw_rhs(0.0, e) for e in np.eye(6)]).T
+    t, dt = 1234.0, 1e-2
+    dphi = (cw_transition_matrix(N, t + dt) - cw_transition_matrix(N, t - dt)) / (2 * dt)
+    np.testing.assert_allclose(dphi, a @ cw_transition_matrix(N, t), atol=1e-9)
+
+
+times = st.floats(-2.0e4, 2.0e4, allow_nan=False)
+rates = st.floats(1.0e-4, 2.0e-3, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(rates, times, times)
+def test_property_seed000_eq22_composition(n, a, b):
+    """Phi(a + b) = Phi(a) Phi(b)."""
+    lhs = cw_transition_matrix(n, a + b)
+    rhs = cw_transition_matrix(n, a) @ cw_transition_matrix(n, b)
+    scale = np.linalg.norm(cw_transition_matrix(n, a)) * np.linalg.norm(cw_transition_matrix(n, b))
+    assert np.max(np.abs(lhs - rhs)) <= 1e-12 * scale
+
+
+@settings(max_examples=200, deadline=None)
+@given(rates, times)
+def test_property_seed000_eq23_inverse_is_negative_time(n, t):
+    """Phi(t)^-1 = Phi(-t): Phi(t) Phi(-t) = I."""
+    phi = cw_transition_matrix(n, t)
+    product = phi @ cw_transition_matrix(n, -t)
+    assert np.max(np.abs(product - np.eye(6))) <= 1e-12 * np.linalg.norm(phi) ** 2
+
+
+def test_seed000_eq1_nonlinear_reduces_to_eq2_for_small_offsets():
+    """The nonlinear minus linear acceleration is second order: n^2 |p|^2 / R scale."""
+    v = np.array([0.1, -0.05, 0.02])
+    for p in ([50.0, 0.0, 0.0], [0.0, 30.0, 0.0], [0.0, 0.0, -40.0], [20.0, -10.0, 35.0]):
+        p = np.array(p)
+        diff = nonlinear_relative_accel(p, v, N, RADIUS_M) - cw_accel(p, v, N)
+        bound = 3.0 * N**2 * (p @ p) / RADIUS_M
+        assert np.linalg.norm(diff) <= bound
+        assert np.linalg.norm(diff) > 0.0
+
+
+def test_seed000_eq1_nonlinear_accel_is_exact_differential_gravity():
+    """Against the textbook form in ECI with extended precision (numpy longdouble), near and far."""
+    for p, v in (([50.0, 1.0, -2.0], [0.01, 0.02, -0.03]), ([3.0e4, -2.0e4, 1.0e4], [5.0, 1.0, -2.0])):
+        r_t, v_t = target_eci_state(0.0, RADIUS_M, N)
+        c = hill_axes_in_eci(0.0, N).astype(np.longdouble)
+        p_eci = c @ np.array(p, dtype=np.longdouble)
+        r_t = r_t.astype(np.longdouble)
+        r_c = r_t + p_eci
+        mu = np.longdouble(N) ** 2 * np.longdouble(RADIUS_M) ** 3
+        dg = -mu * r_c / np.sqrt(r_c @ r_c) ** 3 + mu * r_t / np.sqrt(r_t @ r_t) ** 3
+        omega = c @ np.array([0.0, -N, 0.0], dtype=np.longdouble)
+        v_eci = c @ np.array(v, dtype=np.longdouble)
+        a_rot = dg - 2 * np.cross(omega, v_eci) - np.cross(omega, np.cross(omega, p_eci))
+        expected = (c.T @ a_rot).astype(float)
+        got = nonlinear_relative_accel(p, v, N, RADIUS_M)
+        # longdouble is 80-bit on x86 (eps 1e-19): the reference itself is good to ~1e-19 * g.
+        assert np.linalg.norm(got - expected) <= 1e-15 * np.linalg.norm(expected) + 1e-18
+
+
+def test_external_acceleration_adds_linearly():
+    p, v, a = [10.0, 2.0, -3.0], [0.1, 0.0, 0.2], [1e-3, -2e-3, 3e-3]
+    np.testing.assert_allclose(nonlinear_relative_accel(p, v, N, RADIUS_M, a)
+                               - nonlinear_relative_accel(p, v, N, RADIUS_M), a, atol=1e-17)
+    np.testing.assert_allclose(cw_accel(p, v, N, a) - cw_accel(p, v, N), a, atol=1e-17)
+
+
+def test_hill_axes_convention_at_t0_and_rotation_rate():
+    c0 = hill_axes_in_eci(0.0, N)
+    np.testing.assert_array_equal(c0[:, 0], [0.0, 1.0, 0.0])  # hill x = ECI +y
+    np.testing.assert_array_equal(c0[:, 1], [0.0, 0.0, -1.0])  # hill y = ECI -z
+    np.testing.assert_array_equal(c0[:, 2], [-1.0, 0.0, 0.0])  # hill z = ECI -x
+    r_t, v_t = target_eci_state(0.0, RADIUS_M, N)
+    np.testing.assert_array_equal(r_t, [RADIUS_M, 0.0, 0.0])
+    assert v_t[1] > 0.0
+    # The hill frame turns at Omega = [0, -n, 0] in its own axes: skew(Omega) = C^T dC/dt.
+    t, dt = 1000.0, 1e-3
+    dc = (hill_axes_in_eci(t + dt, N) - hill_axes_in_eci(t - dt, N)) / (2 * dt)
+    skew = hill_axes_in_eci(t, N).T @ dc
+    np.testing.assert_allclose([skew[2, 1], skew[0, 2], skew[1, 0]], [0.0, -N, 0.0], atol=1e-12)
+    for tt in (0.0, 100.0, 4000.0):
+        np.testing.assert_allclose(quat_to_matrix(quat_eci_from_hill(tt, N)), hill_axes_in_eci(tt, N),
+                                   atol=1e-15)
+
+
+def test_eci_round_trip_and_circular_neighbour():
+    r_t, v_t = target_eci_state(2000.0, RADIUS_M, N)
+    r_hill, v_hill = np.array([30.0, -5.0, 12.0]), np.array([0.05, 0.01, -0.02])
+    r_c, v_c = eci_from_relative(r_hill, v_hill, r_t, v_t)
+    r_back, v_back = relative_from_eci(r_c, v_c, r_t, v_t)
+    np.testing.assert_allclose(r_back, r_hill, atol=1e-8)
+    np.testing.assert_allclose(v_back, v_hill, atol=1e-11)
+    # A spacecraft on the same circular orbit 10 s ahead sits still in hill, ahead (+x) and slightly
+    # toward Earth (+z), with |p| the chord length.
+    r_c, v_c = target_eci_state(2010.0, RADIUS_M, N)
+    r_hill, v_hill = relative_from_eci(r_c, v_c, r_t, v_t)
+    chord = 2 * RADIUS_M * math.sin(5.0 * N)
+    assert r_hill[0] > 0.0 and r_hill[2] > 0.0 and abs(r_hill[1]) < 1e-9
+    assert np.linalg.norm(r_hill) == pytest.approx(chord, rel=1e-12)
+    np.testing.assert_allclose(v_hill, 0.0, atol=1e-9)
+
+
+def test_relative_from_eci_rejects_degenerate_target_state():
+    with pytest.raises(ValueError, match='orbit plane'):
+        relative_from_eci([1.0, 0, 0], [0, 0, 0], [RADIUS_M, 0, 0], [1.0, 0, 0])
+
+
+def test_rk4_step_is_fourth_order():
+    def f(t, y):
+        return -y
+
+    errors = []
+    for h in (0.1, 0.05):
+        y = np.array([1.0])
+        for k in range(int(round(1.0 / h))):
+            y = rk4_step(f, k * h, y, h)
+        errors.append(abs(y[0] - math.exp(-1.0)))
+    assert errors[0] / errors[1] == pytest.approx(16.0, rel=0.05)
