@@ -31,7 +31,8 @@ class SimNode(Node):
         self.declare_parameter('scenario_file', '')
         self.declare_parameter('seed', -1)
         self.declare_parameter('rtf', 0.0)
-        self.declare_parameter('flow_control_period_s', 1.0)
+        self.declare_parameter('flow_control_period_s', 5.0)
+        self.declare_parameter('command_poll_period_s', 0.25)
         self.declare_parameter('wait_for_nodes', Parameter.Type.STRING_ARRAY)
         scenario_file = self.get_parameter('scenario_file').value
         seed = self.get_parameter('seed').value
@@ -43,6 +44,10 @@ class SimNode(Node):
         self.step_s = self.scenario.simulation.step_s
         self.duration_s = self.scenario.simulation.duration_s
         self.flow_every = max(1, round(self.get_parameter('flow_control_period_s').value / self.step_s))
+        # At full speed several steps run between two looks at incoming messages: a maneuver must
+        # arrive this much sim time before its stamp to start on time (else it is flagged late).
+        self.steps_per_tick = max(1, round(self.get_parameter('command_poll_period_s').value
+                                           / self.step_s))
         self.wait_for_nodes = list(self.get_parameter('wait_for_nodes').get_parameter_value()
                                    .string_array_value)
 
@@ -54,6 +59,9 @@ class SimNode(Node):
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name,
                                                 c.qos_for(topic))
         self.pubs = pubs
+        # Reused for every step (publishing serializes them).
+        self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])()
+                     for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST)}
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
                                  c.GUIDANCE_MANEUVER, self.on_maneuver, c.QOS_STREAM)
 
@@ -75,7 +83,11 @@ class SimNode(Node):
             ahead = due - time.monotonic()
             if ahead > 0.0:
                 return ahead
-        self.advance()
+            self.advance()
+            return 0.0
+        for _ in range(self.steps_per_tick):
+            if not self.finished:
+                self.advance()
         return 0.0
 
     def graph_ready(self):
@@ -129,15 +141,16 @@ class SimNode(Node):
 
     # -- publishing -----------------------------------------------------------------------
     def publish_truth(self, s):
-        self.pubs[c.CLOCK].publish(convert.clock(s.t))
+        msgs = self.msgs
+        self.pubs[c.CLOCK].publish(convert.clock(s.t, out=msgs[c.CLOCK]))
         self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
             s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
-            (0.0, 0.0, 0.0)))
+            (0.0, 0.0, 0.0), out=msgs[c.SIM_CHASER_ODOM]))
         self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry(
             s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
-            (0.0, 0.0, 0.0), s.omega_body))
+            (0.0, 0.0, 0.0), s.omega_body, out=msgs[c.SIM_TARGET_ODOM]))
         self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
-            s.t, c.FRAME_HILL, s.force_hill, (0.0, 0.0, 0.0)))
+            s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
         if self.steps % max(1, round(1.0 / self.step_s)) == 0:
             self.pubs[c.MARKERS].publish(convert.target_markers(
                 s.t, c.FRAME_HILL, s.q_hill_from_body, self.scenario.target.geometry))
@@ -154,17 +167,21 @@ class SimNode(Node):
         self.pubs[c.MISSION_EVENTS].publish(
             convert.event(self.plant.t, level, name, message, values, source=self.get_name()))
         log = self.get_logger()
-        (log.info if level == 'OK' else log.warning if level == 'WARN' else log.error)(
-            f'{name}: {message}')
+        # rclpy refuses one call site logging at varying severities.
+        if level == 'OK':
+            log.info(f'{name}: {message}')
+        elif level == 'WARN':
+            log.warning(f'{name}: {message}')
+        else:
+            log.error(f'{name}: {message}')
 
     # -- commands -------------------------------------------------------------------------
     def on_maneuver(self, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)
         try:
             self.plant.command_maneuver(t_stamp, dv_hill)
-        except ManeuverRejected as err:
-            self.emit('ERROR', 'maneuver_rejected', str(err),
-                      {'t_stamp': repr(t_stamp), 'dv_hill': repr(list(dv_hill))})
+        except ManeuverRejected:
+            pass  # the plant recorded why; reported below, never applied
         for level, name, message, values in self.plant.drain_events():
             self.emit(level, name, message, values)
 

@@ -1,0 +1,63 @@
+"""The recorder: every contract topic, subscribed raw, written as received into a rosbag2 MCAP bag.
+
+The serialized CDR bytes go to the bag untouched (no deserialize/serialize round trip). The log
+time of each message is the recorder's clock, i.e. simulation time (``use_sim_time``). Data reach
+the disk every ``flush_period_s`` of simulation time, so a recorder killed with SIGKILL loses at
+most that much (``python -m flyby_msgs_py.bag repair DIR`` rebuilds the index); SIGINT and SIGTERM
+close the bag cleanly.
+"""
+
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import BagWriter
+from flyby_msgs_py.runtime import main_for
+
+
+class RecorderNode(Node):
+    """Raw recorder of the contract topics; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('flyby_recorder', **kwargs)
+        self.declare_parameter('bag_dir', '')
+        self.declare_parameter('namespaces', [''])
+        self.declare_parameter('flush_period_s', 2.0)
+        bag_dir = self.get_parameter('bag_dir').value
+        if not bag_dir:
+            raise ValueError('parameter bag_dir: required (directory of the bag to write)')
+        namespaces = list(self.get_parameter('namespaces').value)
+        # Log times are simulation time whatever the launch file says.
+        if not self.get_parameter('use_sim_time').value:
+            self.set_parameters([Parameter('use_sim_time', Parameter.Type.BOOL, True)])
+
+        topics = {}
+        for topic, type_name in c.TOPIC_TYPES.items():
+            for ns in (namespaces if topic != c.CLOCK else ['']):
+                topics[c.absolute(topic, ns)] = (topic, type_name)
+        flush_ns = int(self.get_parameter('flush_period_s').value * 1e9)
+        self.writer = BagWriter(bag_dir, {name: t for name, (_, t) in topics.items()}, flush_ns)
+        self.count = 0
+        for name, (topic, type_name) in topics.items():
+            self.create_subscription(c.message_class(type_name), name, self._writer_for(name),
+                                     c.recorder_qos_for(topic), raw=True)
+
+    def _writer_for(self, name):
+        def write(raw):
+            self.writer.write(name, self.get_clock().now().nanoseconds, raw)
+            self.count += 1
+        return write
+
+    def close(self):
+        """Close the bag (index, summary, metadata.yaml); safe to call twice."""
+        if self.writer is not None:
+            self.writer.close()
+            self.writer = None
+
+
+def main(args=None):
+    main_for(RecorderNode, args)
+
+
+if __name__ == '__main__':
+    main()

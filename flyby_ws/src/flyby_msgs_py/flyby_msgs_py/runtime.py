@@ -1,0 +1,102 @@
+"""How flyby nodes run: one process per node, or every node on one executor (in-process mode).
+
+A node that has work of its own (the simulator advancing time) implements ``tick() -> float``:
+it does what is due and returns how long the loop may wait for messages before calling it again,
+and ``finished`` tells the loop to stop. Other nodes only react to messages.
+
+EventsExecutor driven by ``spin_once`` is about 3x faster than SingleThreadedExecutor on these
+wheels, and its ``spin()`` hangs (DESIGN §9), hence the explicit loops here.
+"""
+
+import fcntl
+import os
+import tempfile
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
+from std_msgs.msg import Empty
+
+# Fast DDS defaults of every flyby process (see the file); the launcher exports it.
+FASTDDS_PROFILES = os.path.join(os.path.dirname(__file__), 'config', 'fastdds_profiles.xml')
+BARRIER_TOPIC = '_flyby_drain_barrier'
+DOMAIN_LOCK_DIR = os.path.join(tempfile.gettempdir(), 'flyby_ros_domains')
+# Fast DDS derives ports from the domain id; ids up to 100 keep well inside the valid 0-232.
+DOMAIN_RANGE = range(1, 101)
+
+
+class DomainLease:
+    """An exclusive ROS_DOMAIN_ID on this machine, held (flock) until released or the process exits."""
+
+    def __init__(self, domain_id, lock_file):
+        self.domain_id = domain_id
+        self._lock_file = lock_file
+
+    def release(self):
+        if self._lock_file is not None:
+            self._lock_file.close()
+            self._lock_file = None
+
+
+def lease_domain():
+    """Take the first ROS domain no other flyby run or test on this machine holds."""
+    os.makedirs(DOMAIN_LOCK_DIR, exist_ok=True)
+    for domain_id in DOMAIN_RANGE:
+        lock_file = open(os.path.join(DOMAIN_LOCK_DIR, f'{domain_id}.lock'), 'w')
+        try:
+            fcntl.flock(lock_file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            lock_file.close()
+            continue
+        return DomainLease(domain_id, lock_file)
+    raise RuntimeError(f'no free ROS domain in {DOMAIN_RANGE.start}-{DOMAIN_RANGE.stop - 1} '
+                       f'(locks in {DOMAIN_LOCK_DIR})')
+
+
+def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=False):
+    """Spin ``executor`` and tick the ticking nodes until one is finished or ``should_stop()``.
+
+    With ``drain`` (every node in this process) each tick is followed by handling every message it
+    caused before the next tick: a marker message published after the tick is delivered (in-process,
+    synchronously) behind the messages already sent, and EventsExecutor handles its queue in order.
+    (EventsExecutor does not support guard conditions, hence a topic.) Without it a fast ticker
+    would outrun the subscribers of its own process and overflow their queues.
+    """
+    tickers = [n for n in nodes if hasattr(n, 'tick')]
+    reached = [True]
+    barrier = None
+    if drain and nodes:
+        barrier = nodes[0].create_publisher(Empty, BARRIER_TOPIC, 1)
+        nodes[0].create_subscription(Empty, BARRIER_TOPIC, lambda _m: reached.__setitem__(0, True), 1)
+    while executor.context.ok() and not should_stop():
+        wait_s = idle_s
+        for node in tickers:
+            wait_s = min(wait_s, node.tick())
+        if barrier is not None:
+            reached[0] = False
+            barrier.publish(Empty())
+            while not reached[0] and executor.context.ok():
+                executor.spin_once(timeout_sec=idle_s)
+        if any(getattr(n, 'finished', False) for n in tickers):
+            return
+        executor.spin_once(timeout_sec=max(wait_s, 0.0))
+
+
+def main_for(node_class, args=None):
+    """Process entry point of one node: init, build, spin until done or signalled, clean up."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = node_class()
+        executor = EventsExecutor()
+        executor.add_node(node)
+        run_loop(executor, [node])
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            close = getattr(node, 'close', None)
+            if close is not None:
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()

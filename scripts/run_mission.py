@@ -1,0 +1,355 @@
+#!/usr/bin/env python3
+"""Run one flyby mission: launch the node graph, record it, wait for the end, write the summary.
+
+    run_mission.py --scenario scenarios/paper_flyby.yaml --out runs/paper_flyby [--seed N]
+                   [--rtf X] [--in-process] [--force] [--wall-timeout S]
+
+Leaves in OUT: scenario.yaml (the exact input), bag/ (rosbag2, MCAP), summary.json, logs/ and
+params/ (one file per node), run.json (ROS domain and process ids, written at start). Every node runs as its own process on a ROS domain no other run on
+this machine holds; ``--in-process`` runs them all in this process on one executor instead.
+Exit code: 0 capture, 3 no capture but safe (escape, abort, time limit), 130 interrupted, 1 error.
+"""
+
+import argparse
+import ctypes
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import repair_bag
+from flyby_msgs_py.runtime import FASTDDS_PROFILES, lease_domain
+from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_sim.summary import EXIT_CODES, compute_summary, format_summary
+
+VENV_PYTHON = sys.executable
+FASTDDS_TOOL = Path(sys.prefix) / 'tools' / 'fastdds' / 'fastdds.py'
+SIGINT_GRACE_S = 10.0
+SIGTERM_GRACE_S = 5.0
+
+
+class Interrupted(Exception):
+    """SIGINT or SIGTERM reached the launcher."""
+
+
+@dataclass
+class NodeSpec:
+    """One node of the graph: where its class lives and what it is given."""
+
+    name: str
+    module: str
+    class_name: str
+    params: dict = field(default_factory=dict)
+    namespace: str = ''
+    remaps: dict = field(default_factory=dict)
+    essential: bool = True  # the run cannot go on without it
+
+
+def graph_for(scenario_path, seed, rtf, bag_dir, in_process=False):
+    """The nodes of a mission, in start order (the recorder first, the simulator last).
+
+    The simulator holds time still until the other nodes (and, across processes, the launcher's
+    monitor) are up and matched.
+    """
+    recorder = NodeSpec('flyby_recorder', 'flyby_msgs_py.recorder_node', 'RecorderNode',
+                        {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0})
+    others = []
+    sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',
+                   {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf),
+                    'wait_for_nodes': [n.name for n in [recorder, *others]]
+                    + ([] if in_process else ['flyby_launcher'])})
+    return [recorder, *others, sim]
+
+
+def _die_with_parent():
+    """Child side of Popen: get SIGTERM if the launcher dies, so no node outlives a lost run."""
+    libc = ctypes.CDLL('libc.so.6', use_errno=True)
+    libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+
+
+class ProcessGraph:
+    """Every node its own process."""
+
+    def __init__(self, specs, run_dir, env):
+        self.specs = specs
+        self.run_dir = run_dir
+        self.env = env
+        self.procs = {}
+        self.exit_codes = {}
+
+    def start(self):
+        (self.run_dir / 'logs').mkdir(exist_ok=True)
+        (self.run_dir / 'params').mkdir(exist_ok=True)
+        for spec in self.specs:
+            params_file = self.run_dir / 'params' / f'{spec.name}.yaml'
+            params_file.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.params}}))
+            cmd = [VENV_PYTHON, '-m', spec.module, '--ros-args', '-r', f'__node:={spec.name}',
+                   '--params-file', str(params_file)]
+            if spec.namespace:
+                cmd += ['-r', f'__ns:={spec.namespace}']
+            for src, dst in spec.remaps.items():
+                cmd += ['-r', f'{src}:={dst}']
+            log = open(self.run_dir / 'logs' / f'{spec.name}.log', 'w')
+            self.procs[spec.name] = subprocess.Popen(
+                cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                start_new_session=True, preexec_fn=_die_with_parent)
+            log.close()
+        # Lets a user (or a test) find the run's domain and processes while it runs.
+        (self.run_dir / 'run.json').write_text(json.dumps(
+            {'ros_domain_id': int(self.env['ROS_DOMAIN_ID']), 'launcher_pid': os.getpid(),
+             'pids': {name: p.pid for name, p in self.procs.items()}}, indent=2) + '\n')
+
+    def poll(self):
+        """Names of the nodes that have exited since the last call, with their exit codes."""
+        ended = {}
+        for name, proc in self.procs.items():
+            if name not in self.exit_codes and proc.poll() is not None:
+                self.exit_codes[name] = ended[name] = proc.returncode
+        return ended
+
+    def stop(self):
+        """Stop in order (simulator first, recorder last): SIGINT, then SIGTERM, then SIGKILL."""
+        killed = []
+        for spec in reversed(self.specs):
+            proc = self.procs.get(spec.name)
+            if proc is None or proc.poll() is not None:
+                continue
+            for sig, grace in ((signal.SIGINT, SIGINT_GRACE_S), (signal.SIGTERM, SIGTERM_GRACE_S),
+                               (signal.SIGKILL, None)):
+                proc.send_signal(sig)
+                if grace is None:
+                    proc.wait()
+                    killed.append(spec.name)
+                    break
+                try:
+                    proc.wait(timeout=grace)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+        self.poll()
+        return killed
+
+
+class Monitor:
+    """The launcher's own node: watches the phase and the clock."""
+
+    def __init__(self, context):
+        from rclpy.node import Node
+        from rclpy.experimental import EventsExecutor
+
+        self.node = Node('flyby_launcher', context=context)
+        self.phase = None
+        self.sim_time_s = 0.0
+        self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
+                                      c.MISSION_PHASE, self._on_phase, c.QOS_LATCHED)
+        self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock',
+                                      self._on_clock, c.QOS_STREAM)
+        self.executor = EventsExecutor(context=context)
+        self.executor.add_node(self.node)
+
+    def _on_phase(self, msg):
+        self.phase = msg.data
+
+    def _on_clock(self, msg):
+        self.sim_time_s = msg.clock.sec + 1e-9 * msg.clock.nanosec
+
+    def spin(self, seconds):
+        self.executor.spin_once(timeout_sec=seconds)
+
+    def close(self):
+        self.executor.shutdown()
+        self.node.destroy_node()
+
+
+def clean_shared_memory():
+    """Remove Fast DDS shared-memory segments left by killed processes (DESIGN §9)."""
+    subprocess.run([VENV_PYTHON, str(FASTDDS_TOOL), 'shm', 'clean'], stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, check=False, timeout=60)
+
+
+def run_processes(specs, run_dir, env, wall_timeout_s, progress):
+    """Run the graph as processes; return (end reason, nodes killed, node exit codes)."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.signals import SignalHandlerOptions
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    monitor = Monitor(context)
+    graph = ProcessGraph(specs, run_dir, env)
+    reason = None
+    try:
+        graph.start()
+        deadline = time.monotonic() + wall_timeout_s
+        while reason is None:
+            monitor.spin(0.1)
+            progress(monitor.sim_time_s)
+            for name, code in graph.poll().items():
+                spec = next(s for s in specs if s.name == name)
+                if name == 'flyby_sim' and code == 0:
+                    reason = 'time_limit'
+                elif spec.essential:
+                    reason = f'error: node {name} exited with code {code}'
+            if monitor.phase in c.TERMINAL_PHASES:
+                reason = f'phase {monitor.phase}'
+            if time.monotonic() > deadline:
+                reason = f'error: wall-clock timeout after {wall_timeout_s} s'
+    except Interrupted:
+        reason = 'interrupted'
+    finally:
+        killed = graph.stop()
+        monitor.close()
+        rclpy.try_shutdown(context=context)
+        clean_shared_memory()
+    return reason, killed, graph.exit_codes, monitor.phase
+
+
+def run_in_process(specs, env, wall_timeout_s, progress):
+    """Every node in this process on one EventsExecutor (what the integration tests use)."""
+    import importlib
+
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.experimental import EventsExecutor
+    from rclpy.parameter import Parameter
+    from rclpy.signals import SignalHandlerOptions
+
+    from flyby_msgs_py.runtime import run_loop
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    executor = EventsExecutor(context=context)
+    nodes = []
+    reason = None
+    try:
+        for spec in specs:
+            cls = getattr(importlib.import_module(spec.module), spec.class_name)
+            overrides = [Parameter(k, value=v) for k, v in spec.params.items()]
+            node = cls(context=context, parameter_overrides=overrides,
+                       namespace=spec.namespace or None, cli_args=None)
+            nodes.append(node)
+            executor.add_node(node)
+        deadline = time.monotonic() + wall_timeout_s
+        sim = nodes[-1]
+
+        def should_stop():
+            progress(sim.plant.t)
+            return time.monotonic() > deadline
+
+        run_loop(executor, nodes, should_stop, drain=True)
+        reason = 'time_limit' if sim.finished else f'error: wall-clock timeout after {wall_timeout_s} s'
+    except Interrupted:
+        reason = 'interrupted'
+    finally:
+        for node in reversed(nodes):
+            close = getattr(node, 'close', None)
+            if close is not None:
+                close()
+            executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.try_shutdown(context=context)
+    return reason, [], {}, None
+
+
+def parse_args(argv):
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--scenario', required=True, help='scenario YAML file')
+    ap.add_argument('--out', required=True, help='run directory to create')
+    ap.add_argument('--seed', type=int, default=None, help="override the scenario's seed")
+    ap.add_argument('--rtf', type=float, default=0.0,
+                    help='bound on the real-time factor (0 = as fast as the graph keeps up)')
+    ap.add_argument('--in-process', action='store_true', help='every node in this process')
+    ap.add_argument('--force', action='store_true', help='replace OUT if it holds a previous run')
+    ap.add_argument('--wall-timeout', type=float, default=1800.0, help='give up after S seconds')
+    ap.add_argument('--quiet', action='store_true', help='no progress line')
+    return ap.parse_args(argv)
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    try:
+        scenario = load_scenario(args.scenario, seed=args.seed)
+    except ScenarioError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 1
+    if args.rtf < 0:
+        print(f'error: --rtf: must be >= 0, got {args.rtf}', file=sys.stderr)
+        return 1
+    run_dir = Path(args.out)
+    if run_dir.exists() and any(run_dir.iterdir()):
+        if not args.force:
+            print(f'error: --out {run_dir}: exists and is not empty (pass --force to replace it)',
+                  file=sys.stderr)
+            return 1
+        shutil.rmtree(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(args.scenario, run_dir / 'scenario.yaml')
+    bag_dir = run_dir / 'bag'
+
+    lease = lease_domain()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain_id), PYTHONUNBUFFERED='1',
+               ROS_AUTOMATIC_DISCOVERY_RANGE='OFF' if args.in_process else 'LOCALHOST',
+               FASTRTPS_DEFAULT_PROFILES_FILE=str(FASTDDS_PROFILES))
+    os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE',
+                                           'FASTRTPS_DEFAULT_PROFILES_FILE')})
+
+    def on_signal(signum, _frame):
+        raise Interrupted(signal.Signals(signum).name)
+
+    previous_handlers = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+    last_print = [0.0]
+
+    def progress(sim_time_s):
+        now = time.monotonic()
+        if not args.quiet and now - last_print[0] > 2.0:
+            last_print[0] = now
+            print(f'  sim time {sim_time_s:8.1f} s / {scenario.simulation.duration_s:.0f} s',
+                  file=sys.stderr, flush=True)
+
+    specs = graph_for(Path(args.scenario).resolve(), scenario.seed, args.rtf, bag_dir.resolve(),
+                      args.in_process)
+    print(f'flyby: scenario {scenario.name}, seed {scenario.seed}, ROS domain {lease.domain_id}, '
+          f'{"in-process" if args.in_process else f"{len(specs)} processes"} -> {run_dir}',
+          file=sys.stderr, flush=True)
+    wall_start = time.monotonic()
+    try:
+        if args.in_process:
+            ended = run_in_process(specs, env, args.wall_timeout, progress)
+        else:
+            ended = run_processes(specs, run_dir, env, args.wall_timeout, progress)
+        reason, killed, exit_codes, phase = ended
+    finally:
+        # A second Ctrl-C must not cost the summary.
+        for sig in previous_handlers:
+            signal.signal(sig, signal.SIG_IGN)
+        lease.release()
+    wall_time_s = time.monotonic() - wall_start
+    try:
+        repair = None
+        if not (bag_dir / 'metadata.yaml').exists() and bag_dir.exists():
+            repair = repair_bag(bag_dir)
+        summary = compute_summary(
+            bag_dir, scenario, end_reason=reason, final_phase=phase, wall_time_s=wall_time_s,
+            node_exit_codes=exit_codes, nodes_killed=killed, bag_repair=repair)
+        (run_dir / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
+    finally:
+        for sig, handler in previous_handlers.items():
+            signal.signal(sig, handler)
+    print(format_summary(summary))
+    return EXIT_CODES[summary['outcome']]
+
+
+if __name__ == '__main__':
+    sys.exit(main())

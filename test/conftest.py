@@ -1,0 +1,32 @@
+"""Fixtures of the integration tests: each test gets its own ROS domain and context."""
+
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.experimental import EventsExecutor
+
+from flyby_msgs_py.runtime import lease_domain
+
+
+@pytest.fixture
+def ros_context(monkeypatch):
+    """An rclpy context of its own on a ROS domain no other run holds, discovery kept in-process."""
+    lease = lease_domain()
+    monkeypatch.setenv('ROS_DOMAIN_ID', str(lease.domain_id))
+    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'OFF')
+    context = Context()
+    rclpy.init(context=context, domain_id=lease.domain_id)
+    try:
+        yield context
+    finally:
+        rclpy.try_shutdown(context=context)
+        lease.release()
+
+
+@pytest.fixture
+def executor(ros_context):
+    ex = EventsExecutor(context=ros_context)
+    try:
+        yield ex
+    finally:
+        ex.shutdown()

@@ -1,0 +1,86 @@
+"""Helpers of the integration tests: scenario variants, running the launcher, spinning."""
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ROOT / 'scenarios'
+RUN_MISSION = ROOT / 'scripts' / 'run_mission.py'
+
+
+def write_scenario(tmp_path, base='paper_flyby', name='variant', edit=None):
+    """A copy of ``scenarios/<base>.yaml`` changed by ``edit(dict)``, written into tmp_path."""
+    data = yaml.safe_load((SCENARIOS / f'{base}.yaml').read_text())
+    if edit is not None:
+        edit(data)
+    path = Path(tmp_path) / f'{name}.yaml'
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def run_mission(*args, timeout=600):
+    """The launcher as a user runs it: a subprocess; returns the CompletedProcess."""
+    return subprocess.run([sys.executable, str(RUN_MISSION), '--quiet', *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout, cwd=ROOT)
+
+
+def read_summary(run_dir):
+    return json.loads((Path(run_dir) / 'summary.json').read_text())
+
+
+def spin_until(executor, predicate, timeout_s=30.0, tick=None):
+    """Spin (and tick) until ``predicate()``; fail the test on timeout."""
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f'condition not met within {timeout_s} s')
+        wait = tick() if tick is not None else 0.05
+        executor.spin_once(timeout_sec=min(max(wait, 0.0), 0.05))
+
+
+class ClockWatcher:
+    """Listens to /clock on another run's ROS domain (from its run.json), from this process."""
+
+    def __init__(self, run_dir):
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.experimental import EventsExecutor
+        from rclpy.node import Node
+        from rosgraph_msgs.msg import Clock
+
+        from flyby_msgs_py import contract as c
+
+        self.info = json.loads((Path(run_dir) / 'run.json').read_text())
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=self.info['ros_domain_id'])
+        self.node = Node('test_clock_watcher', context=self.context)
+        self.sim_time_s = 0.0
+        self.node.create_subscription(Clock, '/clock', self._on_clock, c.QOS_STREAM)
+        self.executor = EventsExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def _on_clock(self, msg):
+        self.sim_time_s = msg.clock.sec + 1e-9 * msg.clock.nanosec
+
+    def wait_until(self, sim_time_s, timeout_s=60.0):
+        spin_until(self.executor, lambda: self.sim_time_s >= sim_time_s, timeout_s)
+        return self.sim_time_s
+
+    def close(self):
+        import rclpy
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def wait_for_file(path, timeout_s=30.0):
+    deadline = time.monotonic() + timeout_s
+    while not Path(path).exists():
+        if time.monotonic() > deadline:
+            raise AssertionError(f'{path} did not appear within {timeout_s} s')
+        time.sleep(0.05)

@@ -1,0 +1,172 @@
+"""The launcher end to end: real processes over Fast DDS, a real MCAP bag read back with rosbags."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import read_bag
+from flyby_testing import (ROOT, RUN_MISSION, ClockWatcher, read_summary, run_mission,
+                           wait_for_file, write_scenario)
+
+SIM_TOPICS = {c.absolute(t): c.TOPIC_TYPES[t] for t in (
+    c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
+    c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE, c.MISSION_EVENTS, c.MARKERS)}
+
+
+def short(duration_s):
+    def edit(data):
+        data['simulation']['duration_s'] = duration_s
+    return edit
+
+
+def shm_segments():
+    """Fast DDS per-participant data segments. (The fastrtps_port<N> files are per port number and
+    reused by the next run on that port, so they cannot pile up.)"""
+    return sorted(p.name for p in Path('/dev/shm').glob('fastrtps_*')
+                  if not p.name.startswith('fastrtps_port'))
+
+
+def test_coasting_run_leaves_bag_and_summary(tmp_path):
+    scenario = write_scenario(tmp_path, edit=short(60.0))
+    out = tmp_path / 'run'
+    done = run_mission('--scenario', scenario, '--out', out)
+    assert done.returncode == 3, done.stderr + done.stdout
+    assert 'outcome' in done.stdout and 'TIME_LIMIT' in done.stdout
+    assert (out / 'scenario.yaml').read_bytes() == scenario.read_bytes()
+
+    summary = read_summary(out)
+    for key in ('outcome', 'final_phase', 'seed', 't_grasp_s', 'capture_position_error_m',
+                'capture_velocity_error_mps', 'delta_v_total_mps', 'fuel_used_kg',
+                'min_clearance_m', 'restriction_sphere_radius_m',
+                'thrust_inside_restriction_sphere', 'late_maneuvers', 'sim_time_s',
+                'wall_time_s', 'real_time_factor'):
+        assert key in summary
+    assert summary['outcome'] == 'TIME_LIMIT'
+    assert summary['sim_time_s'] == pytest.approx(60.0)
+    assert summary['delta_v_total_mps'] == 0.0
+    assert summary['min_clearance_m'] > 40.0
+
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    with AnyReader([out / 'bag'], default_typestore=typestore) as reader:
+        types = {conn.topic: conn.msgtype for conn in reader.connections}
+        counts = {conn.topic: conn.msgcount for conn in reader.connections}
+        for topic, type_name in c.TOPIC_TYPES.items():
+            assert types[c.absolute(topic)] == type_name
+        for topic in SIM_TOPICS:
+            assert counts[topic] > 0, topic
+        # 20 Hz truth: one sample per 0.05 s step plus the initial one.
+        assert counts['/sim/chaser/odom'] == 60 / 0.05 + 1
+        assert counts['/sensors/target/attitude'] == pytest.approx(600, abs=2)
+        for conn, _t, raw in reader.messages(
+                connections=[x for x in reader.connections if x.topic == '/sim/target/odom']):
+            msg = reader.deserialize(raw, conn.msgtype)
+            assert msg.header.frame_id == 'hill' and msg.child_frame_id == 'target_body'
+            q = msg.pose.pose.orientation
+            assert abs(q.x ** 2 + q.y ** 2 + q.z ** 2 + q.w ** 2 - 1.0) < 1e-12
+    assert list((out / 'bag').glob('*.mcap'))
+
+
+def test_truth_identical_at_rtf_10_and_full_speed(tmp_path):
+    scenario = write_scenario(tmp_path, edit=short(20.0))
+    runs = {}
+    for label, rtf in (('rtf10', 10.0), ('max', 0.0)):
+        out = tmp_path / label
+        done = run_mission('--scenario', scenario, '--out', out, '--rtf', rtf)
+        assert done.returncode == 3, done.stderr
+        runs[label] = read_bag(out / 'bag', topics=['/sim/chaser/odom', '/sim/target/odom'])
+        assert read_summary(out)['real_time_factor'] > 0
+    for topic in ('/sim/chaser/odom', '/sim/target/odom'):
+        a, b = runs['rtf10'][topic], runs['max'][topic]
+        assert np.array_equal(a.t, b.t)
+        assert np.array_equal(a.position, b.position)
+        assert np.array_equal(a.linear, b.linear)
+        assert np.array_equal(a.orientation_xyzw, b.orientation_xyzw)
+        assert np.array_equal(a.angular, b.angular)
+
+
+def test_seed_override_is_recorded(tmp_path):
+    scenario = write_scenario(tmp_path, edit=short(5.0))
+    out = tmp_path / 'run'
+    done = run_mission('--scenario', scenario, '--out', out, '--seed', 42)
+    assert done.returncode == 3, done.stderr
+    assert read_summary(out)['seed'] == 42
+
+
+def start_launcher(scenario, out, *extra):
+    return subprocess.Popen([sys.executable, str(RUN_MISSION), '--quiet', '--scenario',
+                             str(scenario), '--out', str(out), *map(str, extra)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+
+
+def test_ctrl_c_leaves_readable_bag_and_interrupted_summary(tmp_path):
+    scenario = write_scenario(tmp_path, edit=short(1000.0))
+    out = tmp_path / 'run'
+    launcher = start_launcher(scenario, out, '--rtf', 20.0)
+    wait_for_file(out / 'run.json')
+    watcher = ClockWatcher(out)
+    try:
+        watcher.wait_until(20.0)
+    finally:
+        watcher.close()
+    launcher.send_signal(signal.SIGINT)
+    stdout, stderr = launcher.communicate(timeout=120)
+    assert launcher.returncode == 130, stderr
+    summary = read_summary(out)
+    assert summary['outcome'] == 'INTERRUPTED'
+    assert summary['nodes_killed'] == []
+    data = read_bag(out / 'bag', topics=['/sim/chaser/odom'])
+    assert data['/sim/chaser/odom'].t[-1] >= 20.0
+    assert summary['sim_time_s'] == data['/sim/chaser/odom'].t[-1]
+    assert 'INTERRUPTED' in stdout
+
+
+def test_recorder_sigkill_loses_at_most_10s_and_leaves_no_shm(tmp_path):
+    shm_before = set(shm_segments())
+    scenario = write_scenario(tmp_path, edit=short(2000.0))
+    out = tmp_path / 'run'
+    launcher = start_launcher(scenario, out, '--rtf', 20.0)
+    wait_for_file(out / 'run.json')
+    watcher = ClockWatcher(out)
+    try:
+        watcher.wait_until(40.0)
+        os.kill(watcher.info['pids']['flyby_recorder'], signal.SIGKILL)
+        t_kill = watcher.sim_time_s
+    finally:
+        watcher.close()
+    launcher.communicate(timeout=120)
+    assert launcher.returncode == 1
+    summary = read_summary(out)
+    assert summary['outcome'] == 'ERROR'
+    assert 'flyby_recorder' in summary['end_reason']
+    assert summary['bag_repair'] is not None
+    data = read_bag(out / 'bag', topics=['/sim/chaser/odom'])
+    t = data['/sim/chaser/odom'].t
+    assert t[-1] >= t_kill - 10.0, (t[-1], t_kill)
+    assert np.all(np.diff(t) > 0)
+    assert set(shm_segments()) <= shm_before
+
+
+@pytest.mark.parametrize('edit, culprit', [
+    (lambda d: d['chaser'].__setitem__('mass_kgg', 100.0), 'chaser.mass_kgg'),
+    (lambda d: d['chaser'].__setitem__('mass_kg', -5.0), 'chaser.mass_kg'),
+    (lambda d: d['chaser']['thrusters'].pop('isp_s'), 'chaser.thrusters.isp_s'),
+])
+def test_bad_scenario_is_one_line_naming_the_key(tmp_path, edit, culprit):
+    scenario = write_scenario(tmp_path, edit=edit)
+    out = tmp_path / 'run'
+    done = run_mission('--scenario', scenario, '--out', out, timeout=60)
+    assert done.returncode == 1
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert culprit in lines[0] and str(scenario) in lines[0]
+    assert not (out / 'bag').exists()
