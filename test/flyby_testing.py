@@ -84,3 +84,23 @@ def wait_for_file(path, timeout_s=30.0):
         if time.monotonic() > deadline:
             raise AssertionError(f'{path} did not appear within {timeout_s} s')
         time.sleep(0.05)
+
+
+def start_launcher(scenario, out, *extra):
+    """The launcher as a background process (stdout/stderr piped)."""
+    return subprocess.Popen([sys.executable, str(RUN_MISSION), '--quiet', '--scenario',
+                             str(scenario), '--out', str(out), *map(str, extra)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+
+
+def launch_and_wait(scenario, out, sim_time_s, *extra):
+    """Start the launcher and return (process, run.json contents, sim time) once the run's clock
+    has reached ``sim_time_s``."""
+    launcher = start_launcher(scenario, out, *extra)
+    wait_for_file(Path(out) / 'run.json')
+    watcher = ClockWatcher(out)
+    try:
+        reached = watcher.wait_until(sim_time_s)
+    finally:
+        watcher.close()
+    return launcher, watcher.info, reached

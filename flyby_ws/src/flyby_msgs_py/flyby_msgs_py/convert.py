@@ -282,12 +282,17 @@ class WrenchArrays(NamedTuple):
     torque: np.ndarray   # (3,) [N m]
 
 
+def _with_header(msg, t, frame_id):
+    """``msg`` with its header set: stamp t [s] (sim time) and frame_id."""
+    _stamp_into(msg.header.stamp, t)
+    msg.header.frame_id = _frame(frame_id)
+    return msg
+
+
 def vector3_stamped(t, frame_id, vector):
     """geometry_msgs/Vector3Stamped (e.g. /guidance/maneuver: dv in hill [m/s], stamp = burn start)."""
     xyz = _vec3(vector, 'vector')
-    msg = Vector3Stamped()
-    _stamp_into(msg.header.stamp, t)
-    msg.header.frame_id = _frame(frame_id)
+    msg = _with_header(Vector3Stamped(), t, frame_id)
     _set_xyz(msg.vector, xyz)
     return msg
 
@@ -300,9 +305,7 @@ def vector3_stamped_to_numpy(msg):
 def point_stamped(t, frame_id, point):
     """geometry_msgs/PointStamped (e.g. the relative-position measurement in hill [m])."""
     xyz = _vec3(point, 'point')
-    msg = PointStamped()
-    _stamp_into(msg.header.stamp, t)
-    msg.header.frame_id = _frame(frame_id)
+    msg = _with_header(PointStamped(), t, frame_id)
     _set_xyz(msg.point, xyz)
     return msg
 
@@ -315,9 +318,7 @@ def point_stamped_to_numpy(msg):
 def quaternion_stamped(t, frame_id, quaternion_xyzw):
     """geometry_msgs/QuaternionStamped (e.g. the vision attitude of target_body in hill)."""
     xyzw = _quat(quaternion_xyzw, 'quaternion_xyzw')
-    msg = QuaternionStamped()
-    _stamp_into(msg.header.stamp, t)
-    msg.header.frame_id = _frame(frame_id)
+    msg = _with_header(QuaternionStamped(), t, frame_id)
     _set_xyzw(msg.quaternion, xyzw)
     return msg
 
@@ -332,9 +333,7 @@ def wrench_stamped(t, frame_id, force, torque=(0.0, 0.0, 0.0), out=None):
     to fill instead)."""
     f = _vec3(force, 'force')
     tq = _vec3(torque, 'torque')
-    msg = WrenchStamped() if out is None else out
-    _stamp_into(msg.header.stamp, t)
-    msg.header.frame_id = _frame(frame_id)
+    msg = _with_header(WrenchStamped() if out is None else out, t, frame_id)
     _set_xyz(msg.wrench.force, f)
     _set_xyz(msg.wrench.torque, tq)
     return msg
