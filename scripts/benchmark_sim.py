@@ -4,7 +4,7 @@
     benchmark_sim.py [--scenario scenarios/paper_flyby.yaml] [--duration 1500] [--compare-rtf 10]
 
 Prints the real-time factor of a full-speed run (sim time / wall time from launch to summary,
-start-up included), the cost of one plant step alone, and with ``--compare-rtf X`` whether the truth
+start-up included) of the simulator and recorder alone and of the whole current graph, the cost of one plant step alone, and with ``--compare-rtf X`` whether the truth
 of a run paced at X is identical to the full-speed one.
 """
 
@@ -27,11 +27,11 @@ ROOT = Path(__file__).resolve().parents[1]
 TRUTH = ['/sim/chaser/odom', '/sim/target/odom']
 
 
-def run(scenario, out, rtf):
+def run(scenario, out, rtf, *extra):
     t0 = time.monotonic()
     done = subprocess.run([sys.executable, str(ROOT / 'scripts' / 'run_mission.py'), '--quiet',
-                           '--scenario', str(scenario), '--out', str(out), '--rtf', str(rtf)],
-                          capture_output=True, text=True)
+                           '--scenario', str(scenario), '--out', str(out), '--rtf', str(rtf),
+                           *extra], capture_output=True, text=True)
     wall = time.monotonic() - t0
     if done.returncode not in (0, 3):
         raise SystemExit(f'run failed ({done.returncode}): {done.stderr}')
@@ -62,10 +62,12 @@ def main():
 
         print(f'plant step alone: {plant_step_cost_us(scenario):.1f} us per '
               f'{data["simulation"]["step_s"]} s step')
-        summary, wall = run(scenario, tmp / 'max', 0.0)
-        print(f'full speed: {summary["sim_time_s"]:.0f} s simulated in {wall:.1f} s wall '
-              f'(launcher to summary) -> {summary["sim_time_s"] / wall:.1f}x real time; '
-              f'summary real_time_factor {summary["real_time_factor"]:.1f}x')
+        for label, extra in (('simulator + recorder', ('--without', 'flyby_estimator')),
+                             ('simulator + recorder + estimator', ())):
+            summary, wall = run(scenario, tmp / 'max', 0.0, '--force', *extra)
+            print(f'{label}, full speed: {summary["sim_time_s"]:.0f} s simulated in {wall:.1f} s '
+                  f'wall (launcher to summary) -> {summary["sim_time_s"] / wall:.1f}x real time; '
+                  f'summary real_time_factor {summary["real_time_factor"]:.1f}x')
         if args.compare_rtf:
             slow, slow_wall = run(scenario, tmp / 'paced', args.compare_rtf)
             a = read_bag(tmp / 'max' / 'bag', topics=TRUTH)

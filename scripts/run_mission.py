@@ -53,19 +53,25 @@ class NodeSpec:
     essential: bool = True  # the run cannot go on without it
 
 
-def graph_for(scenario_path, seed, rtf, bag_dir, in_process=False):
+OPTIONAL_NODES = ('flyby_estimator',)
+
+
+def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
     """The nodes of a mission, in start order (the recorder first, the simulator last).
 
-    The simulator holds time still until the other nodes (and, across processes, the launcher's
-    monitor) are up and matched.
+    The simulator holds time still until the other nodes are up and matched, and keeps its pace
+    to theirs. ``without`` leaves out optional nodes by name.
     """
     recorder = NodeSpec('flyby_recorder', 'flyby_msgs_py.recorder_node', 'RecorderNode',
                         {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0})
-    others = []
+    others = [NodeSpec('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode',
+                       {'use_sim_time': True, 'scenario_file': str(scenario_path), 'seed': seed},
+                       essential=False)]
+    others = [n for n in others if n.name not in without]
     sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',
                    {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf),
-                    'wait_for_nodes': [n.name for n in [recorder, *others]]
-                    + ([] if in_process else ['flyby_launcher'])})
+                    'wait_for_nodes': [n.name for n in [recorder, *others]],
+                    'keep_up_with': [n.name for n in [recorder, *others]]})
     return [recorder, *others, sim]
 
 
@@ -272,6 +278,8 @@ def parse_args(argv):
     ap.add_argument('--in-process', action='store_true', help='every node in this process')
     ap.add_argument('--force', action='store_true', help='replace OUT if it holds a previous run')
     ap.add_argument('--wall-timeout', type=float, default=1800.0, help='give up after S seconds')
+    ap.add_argument('--without', action='append', default=[], choices=OPTIONAL_NODES,
+                    help='leave out an optional node (repeatable)')
     ap.add_argument('--quiet', action='store_true', help='no progress line')
     return ap.parse_args(argv)
 
@@ -319,7 +327,7 @@ def main(argv=None):
                   file=sys.stderr, flush=True)
 
     specs = graph_for(Path(args.scenario).resolve(), scenario.seed, args.rtf, bag_dir.resolve(),
-                      args.in_process)
+                      args.without)
     print(f'flyby: scenario {scenario.name}, seed {scenario.seed}, ROS domain {lease.domain_id}, '
           f'{"in-process" if args.in_process else f"{len(specs)} processes"} -> {run_dir}',
           file=sys.stderr, flush=True)

@@ -12,7 +12,7 @@ from flyby_msgs_py import convert
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.sim_node import SimNode
-from flyby_msgs_py.runtime import run_loop
+from flyby_msgs_py.runtime import announce_ready, run_loop
 from flyby_testing import run_mission, spin_until, write_scenario
 
 G0 = 9.80665
@@ -50,7 +50,8 @@ def zero_errors(data):
     data['simulation']['duration_s'] = 30.0
 
 
-def make_sim(context, scenario_path):
+def make_sim(context, scenario_path, probe):
+    announce_ready(probe)
     return SimNode(context=context, parameter_overrides=[
         Parameter('scenario_file', value=str(scenario_path)),
         Parameter('wait_for_nodes', value=['probe'])])
@@ -64,7 +65,8 @@ def run_sim(executor, sim, probe, until_s):
 def test_time_tagged_maneuver_starts_at_its_stamp_and_delivers_its_dv(ros_context, executor,
                                                                          tmp_path):
     scenario_path = write_scenario(tmp_path, edit=zero_errors)
-    sim, probe = make_sim(ros_context, scenario_path), Probe(ros_context)
+    probe = Probe(ros_context)
+    sim = make_sim(ros_context, scenario_path, probe)
     executor.add_node(sim)
     executor.add_node(probe)
     spin_until(executor, lambda: sim.started, 10.0, sim.tick)
@@ -101,7 +103,8 @@ def test_time_tagged_maneuver_starts_at_its_stamp_and_delivers_its_dv(ros_contex
 
 def test_nan_and_late_maneuvers_are_reported(ros_context, executor, tmp_path):
     scenario_path = write_scenario(tmp_path, edit=zero_errors)
-    sim, probe = make_sim(ros_context, scenario_path), Probe(ros_context)
+    probe = Probe(ros_context)
+    sim = make_sim(ros_context, scenario_path, probe)
     executor.add_node(sim)
     executor.add_node(probe)
     spin_until(executor, lambda: sim.started, 10.0, sim.tick)

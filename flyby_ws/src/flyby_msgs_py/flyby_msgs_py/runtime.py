@@ -2,24 +2,37 @@
 
 A node that has work of its own (the simulator advancing time) implements ``tick() -> float``:
 it does what is due and returns how long the loop may wait for messages before calling it again,
-and ``finished`` tells the loop to stop. Other nodes only react to messages.
+and ``finished`` tells the loop to stop. Other nodes only react to messages; the loop reports how
+far each of them has got (``ProgressReporter``), which is how the simulator keeps its pace to what
+the slowest node can handle.
 
 EventsExecutor driven by ``spin_once`` is about 3x faster than SingleThreadedExecutor on these
 wheels, and its ``spin()`` hangs (DESIGN §9), hence the explicit loops here.
 """
 
 import fcntl
+import json
 import os
 import tempfile
+import time
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
-from std_msgs.msg import Empty
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Empty, Header, String
+
+from flyby_msgs_py.contract import QOS_EVENTS, QOS_STREAM
 
 # Fast DDS defaults of every flyby process (see the file); the launcher exports it.
 FASTDDS_PROFILES = os.path.join(os.path.dirname(__file__), 'config', 'fastdds_profiles.xml')
 BARRIER_TOPIC = '_flyby_drain_barrier'
+# Not a contract topic (not recorded): header.frame_id = node name, stamp = its sim time.
+PROGRESS_TOPIC = '/flyby/progress'
+PROGRESS_PERIOD_NS = 250_000_000
+# Each node announces here, once running, the topics it subscribes (JSON), so that the simulator can
+# hold time until every one of those subscriptions is matched (discovery takes 0-3 s).
+READY_TOPIC = '/flyby/ready'
 DOMAIN_LOCK_DIR = os.path.join(tempfile.gettempdir(), 'flyby_ros_domains')
 # Fast DDS derives ports from the domain id; ids up to 100 keep well inside the valid 0-232.
 DOMAIN_RANGE = range(1, 101)
@@ -53,6 +66,43 @@ def lease_domain():
                        f'(locks in {DOMAIN_LOCK_DIR})')
 
 
+class ProgressReporter:
+    """Tells the simulator how far a node has got: the last ``/clock`` it handled.
+
+    EventsExecutor handles a node's messages in arrival order, so once a node has handled the
+    clock message of t it has handled everything published before it. The reporter keeps its own
+    reliable ``/clock`` subscription: the time source's is best effort, and a lost last clock
+    message would leave the simulator waiting forever. Reported every PROGRESS_PERIOD_NS of sim
+    time, and whenever the node has gone idle with news to tell.
+    """
+
+    def __init__(self, node):
+        self.node = node
+        self.publisher = node.create_publisher(Header, PROGRESS_TOPIC, QOS_STREAM)
+        self.clock_ns = 0
+        self.reported_ns = -1
+        node.create_subscription(Clock, '/clock', self._on_clock, QOS_STREAM)
+
+    def _on_clock(self, msg):
+        self.clock_ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+
+    def report(self, idle):
+        now_ns = self.clock_ns
+        if now_ns - self.reported_ns >= PROGRESS_PERIOD_NS or (idle and now_ns != self.reported_ns):
+            msg = Header(frame_id=self.node.get_name())
+            msg.stamp.sec, msg.stamp.nanosec = divmod(now_ns, 1_000_000_000)
+            self.publisher.publish(msg)
+            self.reported_ns = now_ns
+
+
+def announce_ready(node):
+    """Publish (latched) the node's name and the topics it subscribes, once it has built them all."""
+    publisher = node.create_publisher(String, READY_TOPIC, QOS_EVENTS)
+    topics = sorted(sub.topic_name for sub in node.subscriptions)
+    publisher.publish(String(data=json.dumps({'node': node.get_name(), 'subscriptions': topics})))
+    return publisher
+
+
 def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=False):
     """Spin ``executor`` and tick the ticking nodes until one is finished or ``should_stop()``.
 
@@ -63,6 +113,9 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
     would outrun the subscribers of its own process and overflow their queues.
     """
     tickers = [n for n in nodes if hasattr(n, 'tick')]
+    reporters = [ProgressReporter(n) for n in nodes if not hasattr(n, 'tick')]
+    for node in nodes:
+        announce_ready(node)
     reached = [True]
     barrier = None
     if drain and nodes:
@@ -79,7 +132,12 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
                 executor.spin_once(timeout_sec=idle_s)
         if any(getattr(n, 'finished', False) for n in tickers):
             return
-        executor.spin_once(timeout_sec=max(wait_s, 0.0))
+        wait_s = max(wait_s, 0.0)
+        started = time.monotonic()
+        executor.spin_once(timeout_sec=wait_s)
+        idle = wait_s > 0.0 and time.monotonic() - started >= 0.9 * wait_s
+        for reporter in reporters:
+            reporter.report(idle)
 
 
 def main_for(node_class, args=None):

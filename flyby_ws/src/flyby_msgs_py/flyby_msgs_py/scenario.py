@@ -311,6 +311,21 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         }),
     }),
 
+    'estimation': Section(desc='Target motion estimation and chaser relative navigation', fields={
+        'gate_probability': Field(FLOAT, 0.9999, '(0, 1)', 'Chi-square(3) probability of the innovation gate of both filters.'),
+        'convergence_attitude_3sigma_deg': Field(FLOAT, 1.0, '> 0', 'Target estimate converged when its 3-sigma attitude bound is below this.'),
+        'convergence_rate_3sigma_deg_s': Field(FLOAT, 0.05, '> 0', '... and its 3-sigma rate bound below this.'),
+        'spin_rate_deg_s': Field(FLOAT, 18.0, '> 0', 'Category IV (spinning) at and above this inertial rate (20 s period).'),
+        'hill_fixed_rate_deg_s': Field(FLOAT, 0.1, '> 0', 'Rate relative to hill below which the attitude counts as held in hill (I, II).'),
+        'inertial_hold_rate_deg_s': Field(FLOAT, 0.01, '> 0', 'Inertial rate below which the target counts as held in inertial space (I).'),
+        'controlled_rate_deg_s': Field(FLOAT, 0.01, '> 0', 'Hill-relative rate below which a hill-held target is three-axis controlled (I), not librating (II).'),
+        'controlled_excursion_deg': Field(FLOAT, 2.0, '> 0', 'Largest attitude excursion in hill for category I.'),
+        'initial_rate_sigma_deg_s': Field(FLOAT, 20.0, '> 0', 'Prior 1-sigma per axis of the unknown target rate.'),
+        'torque_psd_n2m2s': Field(FLOAT, 1e-10, '>= 0', 'Torque-noise spectral density of the target filter per body axis.'),
+        'accel_psd_m2_s3': Field(FLOAT, 1e-9, '>= 0', 'White-acceleration spectral density of the chaser navigation filter.'),
+        'initial_velocity_sigma_mps': Field(FLOAT, 0.1, '> 0', 'Prior 1-sigma per axis of the chaser velocity.'),
+    }),
+
     'planner': Section(desc='Capture planning (seed 000)', fields={
         'offset_m': Field(FLOAT, 1.0, '> 0', 'Offset delta r of the fly-by target point from the grasp point.'),
         'flyby_duration_s': Field(FLOAT, 300.0, '> 0', 'Time from the fly-by initial point to the grasp.'),

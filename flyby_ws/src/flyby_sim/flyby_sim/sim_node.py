@@ -3,24 +3,28 @@
 It advances the plant (``flyby_sim.plant``) in fixed steps, publishes ``/clock``, the truth topics,
 the sensor samples and the target markers, and executes the time-tagged maneuvers it receives on
 ``guidance/maneuver``. The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
-``flow_control_period_s`` of simulated time it waits until each reliable subscriber has
-acknowledged what was sent, so no subscriber (the recorder above all) is outrun.
+``flow_control_period_s`` of simulated time it waits until each node named in ``keep_up_with`` has
+reported (``flyby_msgs_py.runtime.ProgressReporter``) that it handled everything up to one such
+period ago, so no node (the recorder, the estimator) is outrun; and it ends only once they all
+have handled the last step. A node that leaves the graph is no longer waited for (and reported).
 """
 
+import json
 import time
 
-from rclpy.duration import Duration
+from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import main_for
+from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for
 from flyby_msgs_py.scenario import ScenarioError, load_scenario
 from flyby_sim.plant import ManeuverRejected, Plant, plant_config_from_scenario
 
 STARTUP_TIMEOUT_S = 30.0
-ACK_TIMEOUT = Duration(seconds=10.0)
+SLOW_NODE_WARNING_S = 5.0
 
 
 class SimNode(Node):
@@ -33,7 +37,6 @@ class SimNode(Node):
         self.declare_parameter('rtf', 0.0)
         self.declare_parameter('flow_control_period_s', 5.0)
         self.declare_parameter('command_poll_period_s', 0.25)
-        self.declare_parameter('wait_for_nodes', Parameter.Type.STRING_ARRAY)
         scenario_file = self.get_parameter('scenario_file').value
         seed = self.get_parameter('seed').value
         self.rtf = float(self.get_parameter('rtf').value)
@@ -48,8 +51,11 @@ class SimNode(Node):
         # arrive this much sim time before its stamp to start on time (else it is flagged late).
         self.steps_per_tick = max(1, round(self.get_parameter('command_poll_period_s').value
                                            / self.step_s))
-        self.wait_for_nodes = list(self.get_parameter('wait_for_nodes').get_parameter_value()
-                                   .string_array_value)
+        self.wait_for_nodes = self.declare_node_list('wait_for_nodes')
+        self.progress_s = {name: 0.0 for name in self.declare_node_list('keep_up_with')}
+        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, c.QOS_STREAM)
+        self.subscriptions_of = {}  # node name -> the topics it subscribes, as it announced them
+        self.create_subscription(String, READY_TOPIC, self.on_ready, c.QOS_EVENTS)
 
         pubs = {}
         for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
@@ -66,10 +72,20 @@ class SimNode(Node):
                                  c.GUIDANCE_MANEUVER, self.on_maneuver, c.QOS_STREAM)
 
         self.started = False
+        self.ending = False  # reached the duration, waiting for the others to catch up
         self.finished = False
         self.steps = 0
         self.wall_start = None
+        self.waiting_since = time.monotonic()
         self.startup_deadline = time.monotonic() + STARTUP_TIMEOUT_S
+
+    def declare_node_list(self, name):
+        """A string-array parameter of node names, empty when not given."""
+        self.declare_parameter(name, Parameter.Type.STRING_ARRAY)
+        try:
+            return list(self.get_parameter(name).value)
+        except ParameterUninitializedException:
+            return []
 
     # -- the loop -------------------------------------------------------------------------
     def tick(self):
@@ -78,6 +94,12 @@ class SimNode(Node):
             if not self.graph_ready():
                 return 0.02
             self.start()
+        if self.ending or self.steps % self.flow_every == 0:
+            if not self.others_caught_up():
+                return 0.002
+            if self.ending:
+                self.finished = True
+                return 0.0
         if self.rtf > 0.0:
             due = self.wall_start + self.steps * self.step_s / self.rtf
             ahead = due - time.monotonic()
@@ -86,28 +108,31 @@ class SimNode(Node):
             self.advance()
             return 0.0
         for _ in range(self.steps_per_tick):
-            if not self.finished:
-                self.advance()
+            self.advance()
+            if self.ending or self.steps % self.flow_every == 0:
+                break
         return 0.0
 
+    def on_ready(self, msg):
+        announced = json.loads(msg.data)
+        self.subscriptions_of[announced['node']] = announced['subscriptions']
+
     def graph_ready(self):
-        """True once the expected nodes are up and every subscriber we see is matched."""
+        """True once every expected node has announced its subscriptions and each one of them on a
+        topic we publish is matched."""
+        missing = [n for n in self.wait_for_nodes if n not in self.subscriptions_of]
         if time.monotonic() > self.startup_deadline:
             self.emit('WARN', 'startup_timeout',
                       f'starting without a complete graph after {STARTUP_TIMEOUT_S} s',
-                      {'waiting_for': ','.join(self.missing_nodes())})
+                      {'waiting_for': ','.join(missing)})
             return True
-        if self.missing_nodes():
+        if missing:
             return False
-        for topic, pub in self.pubs.items():
-            seen = len(self.get_subscriptions_info_by_topic(pub.topic_name))
-            if pub.get_subscription_count() < seen:
+        for pub in self.pubs.values():
+            expected = sum(topics.count(pub.topic_name) for topics in self.subscriptions_of.values())
+            if pub.get_subscription_count() < expected:
                 return False
         return True
-
-    def missing_nodes(self):
-        present = {name for name, _ns in self.get_node_names_and_namespaces()}
-        return [n for n in self.wait_for_nodes if n not in present]
 
     def start(self):
         self.started = True
@@ -127,17 +152,35 @@ class SimNode(Node):
             self.publish_measurement(m)
         for level, name, message, values in self.plant.drain_events():
             self.emit(level, name, message, values)
-        if self.steps % self.flow_every == 0:
-            self.wait_for_subscribers()
         if sample.t >= self.duration_s - 0.5 * self.step_s:
             self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
                       {'t': repr(sample.t)})
-            self.wait_for_subscribers()
-            self.finished = True
+            self.ending = True
 
-    def wait_for_subscribers(self):
-        for pub in self.pubs.values():
-            pub.wait_for_all_acked(ACK_TIMEOUT)
+    def on_progress(self, msg):
+        if msg.frame_id in self.progress_s:
+            self.progress_s[msg.frame_id] = convert.stamp_to_sec(msg.stamp)
+
+    def others_caught_up(self):
+        """True when every node we keep up with is close enough behind (all the way at the end)."""
+        lag_s = 0.0 if self.ending else self.flow_every * self.step_s
+        behind = [n for n, t in self.progress_s.items() if t < self.plant.t - lag_s - 1e-9]
+        if not behind:
+            self.waiting_since = time.monotonic()
+            return True
+        gone = set(behind) - {name for name, _ns in self.get_node_names_and_namespaces()}
+        for name in gone:
+            del self.progress_s[name]
+            self.emit('WARN', 'node_lost', f'{name} left the graph; no longer waiting for it',
+                      {'node': name})
+        waiting = set(behind) - gone
+        now = time.monotonic()
+        if waiting and now - self.waiting_since > SLOW_NODE_WARNING_S:
+            self.waiting_since = now
+            self.emit('WARN', 'waiting_for_nodes', f'holding time at {self.plant.t:.2f} s for '
+                      f'{", ".join(sorted(waiting))}',
+                      {name: f'{self.progress_s[name]:.3f}' for name in waiting})
+        return not waiting
 
     # -- publishing -----------------------------------------------------------------------
     def publish_truth(self, s):

@@ -1,0 +1,174 @@
+"""The estimator node: target attitude-motion filter and chaser relative navigation (seed 000 §2.2 (1)).
+
+Subscribes the vision attitude, the relative-position measurements and the commanded maneuvers
+(known inputs of the navigation filter); publishes ``estimation/target/odom`` and
+``estimation/chaser/odom`` with covariances at each measurement, and on ``mission/events`` the
+convergence of the target estimate, its motion category (seed 000 §2.1) and every rejected
+measurement with the running count of its kind. The filters live in ``target_filter`` and
+``relative_nav`` (no ROS); this node converts messages and calls them.
+
+Odometry covariances: target pose orientation block = attitude error about hill axes, twist angular
+block = rate error in body axes (the twist is in child_frame_id, target_body); chaser pose position
+block and twist linear block from the navigation filter (the position-velocity cross terms are not
+representable in Odometry).
+"""
+
+import collections
+import math
+
+import numpy as np
+from rclpy.node import Node
+
+from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
+from flyby_estimation.target_filter import (ConvergenceThresholds, MeasurementRejected,
+                                            TargetAttitudeFilter, target_filter_config_from_scenario)
+from flyby_estimation.target_motion import MotionThresholds
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import convert
+from flyby_msgs_py.runtime import main_for
+from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_sim.thrusters import ManeuverRejected
+
+
+# The category is re-evaluated this often once converged (it scans the attitude history).
+CLASSIFY_PERIOD_S = 10.0
+
+
+def _block_diag_6(a3, b3):
+    cov = np.zeros((6, 6))
+    cov[:3, :3] = a3
+    cov[3:, 3:] = b3
+    return cov
+
+
+def filters_from_scenario(scenario):
+    """The two filters and the target thresholds, configured from ``scenario.estimation``."""
+    est = scenario.estimation
+    rad = math.radians
+    target = TargetAttitudeFilter(target_filter_config_from_scenario(
+        scenario, gate_probability=est.gate_probability,
+        rate_sigma0_rad_s=rad(est.initial_rate_sigma_deg_s), torque_psd=est.torque_psd_n2m2s))
+    nav = RelativeNavFilter(relative_nav_config_from_scenario(
+        scenario, gate_probability=est.gate_probability, accel_psd_m2_s3=est.accel_psd_m2_s3,
+        initial_velocity_sigma_mps=est.initial_velocity_sigma_mps))
+    convergence = ConvergenceThresholds(rad(est.convergence_attitude_3sigma_deg),
+                                        rad(est.convergence_rate_3sigma_deg_s))
+    motion = MotionThresholds(
+        spin_rate_rad_s=rad(est.spin_rate_deg_s), hill_fixed_rate_rad_s=rad(est.hill_fixed_rate_deg_s),
+        inertial_hold_rate_rad_s=rad(est.inertial_hold_rate_deg_s),
+        controlled_rate_rad_s=rad(est.controlled_rate_deg_s),
+        controlled_excursion_rad=rad(est.controlled_excursion_deg))
+    return target, nav, convergence, motion
+
+
+class EstimatorNode(Node):
+    """Target and chaser estimation; see the module docstring."""
+
+    def __init__(self, **kwargs):
+        super().__init__('flyby_estimator', **kwargs)
+        self.declare_parameter('scenario_file', '')
+        self.declare_parameter('seed', -1)
+        seed = self.get_parameter('seed').value
+        self.scenario = load_scenario(self.get_parameter('scenario_file').value,
+                                      seed=None if seed < 0 else seed)
+        self.target, self.nav, self.convergence, self.motion = filters_from_scenario(self.scenario)
+        self.converged = False
+        self.category = None
+        self.t_classified = -math.inf
+        self.rejected = collections.Counter()
+
+        def pub(topic):
+            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic,
+                                         c.qos_for(topic))
+        self.pub_target, self.pub_chaser, self.pub_events = (
+            pub(c.EST_TARGET_ODOM), pub(c.EST_CHASER_ODOM), pub(c.MISSION_EVENTS))
+        for topic, callback in ((c.SENSOR_TARGET_ATTITUDE, self.on_attitude),
+                                (c.SENSOR_RELATIVE_POSITION, self.on_position),
+                                (c.GUIDANCE_MANEUVER, self.on_maneuver)):
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback,
+                                     c.QOS_STREAM)
+
+    # -- target -------------------------------------------------------------------------------
+    def on_attitude(self, msg):
+        t, q_meas = convert.quaternion_stamped_to_numpy(msg)
+        try:
+            self.target.update(t, q_meas)
+        except MeasurementRejected as err:
+            self.reject(t, 'target_attitude', err.kind, err.reason)
+            return
+        s = self.target.state()
+        self.pub_target.publish(convert.odometry(
+            s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
+            (0.0, 0.0, 0.0), s.omega_body,
+            pose_covariance=_block_diag_6(np.zeros((3, 3)), s.covariance_hill[:3, :3]),
+            twist_covariance=_block_diag_6(np.zeros((3, 3)), s.covariance[3:, 3:])))
+        self.check_convergence(s.t)
+
+    def check_convergence(self, t):
+        converged = self.target.convergence(self.convergence)
+        attitude_3s, rate_3s = self.target.three_sigma()
+        bounds = {'attitude_3sigma_deg': f'{math.degrees(attitude_3s):.4g}',
+                  'rate_3sigma_deg_s': f'{math.degrees(rate_3s):.4g}'}
+        if converged != self.converged:
+            self.converged = converged
+            self.emit(t, 'OK' if converged else 'WARN',
+                      'target_converged' if converged else 'target_diverged',
+                      f'target estimate {"within" if converged else "outside"} the convergence '
+                      f'bounds', bounds)
+        if converged and t >= self.t_classified + CLASSIFY_PERIOD_S:
+            self.t_classified = t
+            motion = self.target.classify_motion(self.motion)
+            if motion.category != self.category:
+                self.category = motion.category
+                self.emit(t, 'OK', 'target_category', motion.reason,
+                          {'category': motion.category,
+                           'inertial_rate_deg_s': f'{math.degrees(motion.inertial_rate_rad_s):.4g}',
+                           'hill_relative_rate_deg_s':
+                               f'{math.degrees(motion.hill_relative_rate_rad_s):.4g}'})
+
+    # -- chaser -------------------------------------------------------------------------------
+    def on_position(self, msg):
+        t, r_meas = convert.point_stamped_to_numpy(msg)
+        result = self.nav.update(t, r_meas)
+        if not result.accepted:
+            self.reject(t, 'relative_position', result.kind, result.reason)
+            return
+        s = self.nav.state()
+        self.pub_chaser.publish(convert.odometry(
+            s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
+            (0.0, 0.0, 0.0),
+            pose_covariance=_block_diag_6(s.covariance[:3, :3], np.zeros((3, 3))),
+            twist_covariance=_block_diag_6(s.covariance[3:, 3:], np.zeros((3, 3)))))
+
+    def on_maneuver(self, msg):
+        t, dv_hill = convert.vector3_stamped_to_numpy(msg)
+        try:
+            self.nav.add_maneuver(t, dv_hill)
+        except (ManeuverRejected, ValueError) as err:
+            # The simulator rejects it too; the filter must not expect it.
+            self.emit(t, 'WARN', 'maneuver_ignored', f'not a known input of the navigation '
+                      f'filter: {err}', {'t_stamp': repr(t)})
+
+    # -- events -------------------------------------------------------------------------------
+    def reject(self, t, sensor, kind, reason):
+        self.rejected[(sensor, kind)] += 1
+        self.emit(t, 'WARN', 'measurement_rejected', reason,
+                  {'sensor': sensor, 'kind': kind, 'count': str(self.rejected[(sensor, kind)]),
+                   'total': str(sum(self.rejected.values()))})
+
+    def emit(self, t, level, name, message, values):
+        self.pub_events.publish(convert.event(t if math.isfinite(t) else 0.0, level, name,
+                                              message, values, source=self.get_name()))
+        if level != 'OK':
+            self.get_logger().warning(f'{name}: {message}')
+
+
+def main(args=None):
+    try:
+        main_for(EstimatorNode, args)
+    except ScenarioError as err:
+        raise SystemExit(f'flyby_estimator: {err}') from None
+
+
+if __name__ == '__main__':
+    main()

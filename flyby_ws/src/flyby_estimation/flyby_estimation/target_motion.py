@@ -1,0 +1,391 @@
+"""Target attitude motion: error-state dynamics, prediction (seed 000 eq 4, 6-9) and categories I-IV.
+
+Pure numpy/scipy, no ROS. The target attitude filter (``target_filter``) and the planner use it.
+
+Conventions. Quaternions are (x, y, z, w), scalar last; ``q_a_from_b`` rotates b-frame vectors into
+frame a (``flyby_sim.rotation``). ``hill`` and ``eci`` are those of ``flyby_sim.orbital``: hill
+rotates relative to inertial space with Omega^H = [0, -n, 0] in its own axes (seed 000 eq 11).
+``omega_body`` is the target's inertial angular velocity in body axes; ``omega_hill`` is the same
+vector in hill axes (seed 000 eq 6) -- *not* the rate relative to the rotating hill frame, which is
+``omega_hill - Omega^H``.
+
+Error state (6): x = [dtheta_body, domega_body]. The true attitude is the reference attitude turned
+by the small body-frame rotation vector dtheta, q_true = q_ref * exp(dtheta) (a right, body-frame
+error, the form of Lefferts, Markley and Shuster, seed 004 ref. 3), and omega_true = omega_ref +
+domega. Its linearized dynamics about the torque-free reference motion (seed 000 eq 4 / seed 001
+eq 3 with M = 0 plus white torque noise w) are
+
+    d(dtheta)/dt = -[omega x] dtheta + domega
+    d(domega)/dt = I^-1 ([(I omega) x] - [omega x] I) domega + I^-1 w
+
+The transition matrix Phi (dPhi/dt = F Phi) and the discrete process noise Qd
+(dQd/dt = F Qd + Qd F' + G Qc G', Qd(0) = 0) are integrated alongside the reference state, so
+P(t) = Phi P(t0) Phi' + Qd is the exact covariance of the linearized system.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.orbital import quat_eci_from_hill, rk4_step
+from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
+
+_I3 = np.eye(3)
+_STATE = 7  # q (4) + omega (3)
+_PHI = slice(7, 43)
+_QD = slice(43, 79)
+_AUGMENTED = 79
+_Y_IDENTITY = np.concatenate((np.zeros(_STATE), np.eye(6).ravel(), np.zeros(36)))
+
+
+def skew(v):
+    """[v x], the 3x3 matrix with skew(v) @ u = cross(v, u)."""
+    x, y, z = v
+    return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
+
+
+class ErrorStateDynamics:
+    """Torque-free rigid body with known inertia and its 6-state error dynamics (module doc).
+
+    Args:
+        inertia: 3x3 [kg m^2], body axes (validated: symmetric positive definite).
+        torque_psd: two-sided power spectral density of the white torque noise per body axis
+            [N^2 m^2 s]. It models the unmodelled torques (gravity gradient, drag, outgassing)
+            of seed 000 eq 4's M_T^B; 0 makes the rate a constant of the model.
+    """
+
+    def __init__(self, inertia, torque_psd=0.0):
+        i = validated_inertia(inertia)
+        if not (math.isfinite(torque_psd) and torque_psd >= 0.0):
+            raise ValueError(f'torque_psd must be finite and >= 0 [N^2 m^2 s], got {torque_psd}')
+        self.inertia = i
+        self.inertia_inv = np.linalg.inv(i)
+        self.torque_psd = float(torque_psd)
+        self._inertia_t = tuple(map(tuple, i.tolist()))
+        self._inertia_inv_t = tuple(map(tuple, self.inertia_inv.tolist()))
+        # G Qc G': torque noise enters the rate error through I^-1.
+        self.noise_density = np.zeros((6, 6))
+        self.noise_density[3:, 3:] = self.torque_psd * self.inertia_inv @ self.inertia_inv.T
+
+    def jacobian(self, omega_body):
+        """F, the 6x6 Jacobian of the error dynamics at omega_body (module doc)."""
+        w = np.asarray(omega_body, dtype=float)
+        w_x = skew(w)
+        f = np.zeros((6, 6))
+        f[:3, :3] = -w_x  # attitude-error kinematics, body-frame error
+        f[:3, 3:] = _I3
+        # d/domega of -I^-1 (omega x I omega), seed 000 eq 4
+        f[3:, 3:] = self.inertia_inv @ (skew(self.inertia @ w) - w_x @ self.inertia)
+        return f
+
+    def state_rate(self, q_eci_from_body, omega_body):
+        """(dq/dt, domega/dt) of the reference motion, seed 000 eq 4 (flyby_sim.attitude)."""
+        return (quaternion_rate(q_eci_from_body, omega_body),
+                euler_rate(omega_body, self._inertia_t, self._inertia_inv_t))
+
+    def augmented_rate(self, t, y):
+        """d/dt of y = [q_eci_from_body (4), omega_body (3), Phi (36, row-major), Qd (36)]."""
+        q = y[:4].tolist()
+        w = y[4:7].tolist()
+        q_dot, w_dot = self.state_rate(q, w)
+        f = self.jacobian(w)
+        phi_dot = f @ y[_PHI].reshape(6, 6)  # dPhi/dt = F Phi
+        fq = f @ y[_QD].reshape(6, 6)
+        qd_dot = fq + fq.T + self.noise_density  # dQd/dt = F Qd + Qd F' + G Qc G'
+        return np.concatenate((q_dot, w_dot, phi_dot.ravel(), qd_dot.ravel()))
+
+    def propagate_rk4(self, q_eci_from_body, omega_body, dt, max_step_angle_rad=0.02, max_step_s=0.1):
+        """(q, omega, Phi, Qd) after dt [s] >= 0 by fixed-step RK4 (the filter's time update).
+
+        The interval is cut into equal substeps no longer than max_step_s that turn the body by at
+        most max_step_angle_rad; RK4's local error is then ~(angle)^5 / 120, below 1e-10 rad per step
+        for the default, far under any measurement noise. The quaternion is renormalized at the end.
+        """
+        if not dt >= 0.0:
+            raise ValueError(f'dt must be >= 0, got {dt}')
+        y = _Y_IDENTITY.copy()
+        y[:4] = q_eci_from_body
+        y[4:7] = omega_body
+        if dt > 0.0:
+            rate = float(np.linalg.norm(omega_body))
+            steps = max(1, math.ceil(dt / max_step_s), math.ceil(rate * dt / max_step_angle_rad))
+            h = dt / steps
+            for _ in range(steps):
+                y = rk4_step(self.augmented_rate, 0.0, y, h)
+        return (quat_normalize(y[:4].tolist()), y[4:7].copy(), y[_PHI].reshape(6, 6).copy(),
+                y[_QD].reshape(6, 6).copy())
+
+
+def q_hill_from_body(t, n, q_eci_from_body):
+    """q_hill_from_body = q_hill_from_eci(t) * q_eci_from_body (the plant's convention)."""
+    return quat_multiply(quat_conjugate(quat_eci_from_hill(t, n)), q_eci_from_body)
+
+
+def q_eci_from_body(t, n, q_hill_from_body_):
+    """Inverse of q_hill_from_body: q_eci_from_hill(t) * q_hill_from_body."""
+    return quat_multiply(quat_eci_from_hill(t, n), q_hill_from_body_)
+
+
+def orbit_rate_hill(n):
+    """Omega^H = [0, -n, 0] [rad/s]: the hill frame's inertial angular velocity in hill axes, seed 000 eq 11."""
+    return np.array((0.0, -n, 0.0))
+
+
+def covariance_in_hill(c_hill_from_body, omega_body, covariance_body):
+    """The error covariance in hill axes: of [dtheta_hill, domega_hill] from [dtheta_body, domega_body].
+
+    dtheta_hill = C dtheta_body (q_ref * exp(dtheta_b) = exp(C dtheta_b) * q_ref), and
+    omega_hill = C omega_body (eq 6) varies as d(omega_hill) = C (-[omega x] dtheta_body + domega_body)
+    because C_true = C (I + [dtheta x]).
+    """
+    c = np.asarray(c_hill_from_body, dtype=float)
+    j = np.zeros((6, 6))
+    j[:3, :3] = c
+    j[3:, :3] = -c @ skew(omega_body)
+    j[3:, 3:] = c
+    return j @ covariance_body @ j.T
+
+
+def body_point_in_hill(c_hill_from_body, omega_body, x_body, n):
+    """Position and velocity of a body-fixed point in hill and their Jacobian, seed 000 eq 8-9.
+
+    Eq 8: x_g^H = C_I^H C_B^I x_g^B + C_I^H x_T^I. Our hill frame is centred on the target's centre
+    of mass (DESIGN §3), so the second term (the target's own position in hill) is zero.
+
+    Eq 9 as printed, v_g^H = C_I^H C_B^I (omega x x_g^B) + C_I^H (Omega^I x C_B^I x_g^B), has the
+    wrong sign on the orbital-rate term for a velocity relative to the rotating hill frame (the
+    velocity the chaser must match, DESIGN §3): d/dt(C_hill_from_body x_B) = C (omega_B x x_B)
+    - Omega^H x x_g^H, i.e. v_g^H = (omega^H - Omega^H) x x_g^H.
+    test_target_motion.py::test_seed000_eq9_sign_by_numerical_derivative settles it.
+
+    Args:
+        c_hill_from_body: rotation matrix of q_hill_from_body.
+        omega_body: inertial angular velocity, body axes [rad/s].
+        x_body: the point in body axes [m] (e.g. the grasp point).
+        n: orbital mean motion [rad/s].
+
+    Returns:
+        (r_hill [m], v_hill [m/s] relative to the rotating hill frame, J) with J the 6x6 Jacobian of
+        [r_hill; v_hill] with respect to the error state [dtheta_body; domega_body].
+    """
+    c = np.asarray(c_hill_from_body, dtype=float)
+    x_b = np.asarray(x_body, dtype=float)
+    w = np.asarray(omega_body, dtype=float)
+    big_omega_x = skew(orbit_rate_hill(n))
+    r_hill = c @ x_b  # eq 8
+    wx_b = np.cross(w, x_b)
+    v_hill = c @ wx_b - big_omega_x @ r_hill  # eq 9, sign settled above
+    c_xb = c @ skew(x_b)
+    j = np.zeros((6, 6))
+    j[:3, :3] = -c_xb  # C [dtheta x] x_b = -C [x_b x] dtheta
+    j[3:, :3] = -c @ skew(wx_b) + big_omega_x @ c_xb
+    j[3:, 3:] = -c_xb
+    return r_hill, v_hill, j
+
+
+@dataclasses.dataclass(frozen=True)
+class PredictedState:
+    """The target's attitude motion predicted to time t (or the filter's estimate at t).
+
+    Attributes:
+        t: sim time [s].
+        q_hill_from_body, q_eci_from_body: attitude (x, y, z, w).
+        omega_body: inertial angular velocity in body axes [rad/s] (odometry twist.angular).
+        omega_hill: the same vector in hill axes, seed 000 eq 6 (inertial rate, not relative to hill).
+        covariance: 6x6 of the error state [dtheta_body, domega_body] [rad^2, rad^2/s, rad^2/s^2].
+        covariance_hill: 6x6 of [dtheta_hill, domega_hill] (covariance_in_hill). For a
+            nav_msgs/Odometry with frame hill and child target_body: pose orientation covariance =
+            covariance_hill[:3, :3] (rotation about hill axes), twist angular covariance =
+            covariance[3:, 3:] (body axes, as twist is in child_frame_id).
+    """
+
+    t: float
+    q_hill_from_body: np.ndarray
+    q_eci_from_body: np.ndarray
+    omega_body: np.ndarray
+    omega_hill: np.ndarray
+    covariance: np.ndarray
+    covariance_hill: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class BodyPointPrediction:
+    """A body-fixed point in hill at time t (seed 000 eq 8-9) with its 6x6 covariance of [r_hill; v_hill]."""
+
+    t: float
+    r_hill: np.ndarray  # [m], from the target's centre of mass
+    v_hill: np.ndarray  # [m/s], relative to the rotating hill frame (= d r_hill / dt)
+    covariance: np.ndarray  # [m^2, m^2/s, m^2/s^2]
+
+
+def make_state(t, n, q_eci_from_body_, omega_body, covariance):
+    """PredictedState from the inertial reference state and error covariance at t."""
+    q_hb = q_hill_from_body(t, n, q_eci_from_body_)
+    c = quat_to_matrix(q_hb)
+    w = np.asarray(omega_body, dtype=float).copy()
+    p = 0.5 * (covariance + covariance.T)
+    return PredictedState(t=float(t), q_hill_from_body=q_hb, q_eci_from_body=np.asarray(q_eci_from_body_).copy(),
+                          omega_body=w, omega_hill=c @ w, covariance=p,
+                          covariance_hill=covariance_in_hill(c, w, p))
+
+
+def point_prediction(state, x_body, n):
+    """BodyPointPrediction of x_body [m, body axes] from a PredictedState (seed 000 eq 8-9)."""
+    c = quat_to_matrix(state.q_hill_from_body)
+    r, v, j = body_point_in_hill(c, state.omega_body, x_body, n)
+    return BodyPointPrediction(t=state.t, r_hill=r, v_hill=v, covariance=j @ state.covariance @ j.T)
+
+
+class MotionPrediction:
+    """Dense prediction of the target's attitude motion over [t0, t_end] (seed 000 eq 4, 6-9).
+
+    One DOP853 integration of the reference state, Phi and Qd; ``state(t)`` and
+    ``body_point_in_hill(x_body, t)`` then answer at any t in the interval from the dense output
+    without integrating again (for a planner scanning candidate grasp times).
+
+    Args:
+        dynamics: ErrorStateDynamics.
+        n: orbital mean motion [rad/s].
+        t0, q_eci_from_body0, omega_body0, covariance0: the estimate at t0 (error-state covariance 6x6).
+        t_end: last time of interest [s], >= t0.
+        rtol, atol: DOP853 tolerances; the default keeps a 600 s prediction of the 21 deg/s seed 001
+            tumbler within 1e-8 rad of flyby_sim's reference integration (rtol 1e-13), far below
+            the estimation error.
+    """
+
+    def __init__(self, dynamics, n, t0, q_eci_from_body0, omega_body0, covariance0, t_end,
+                 rtol=1e-9, atol=1e-12):
+        if not (math.isfinite(t_end) and t_end >= t0):
+            raise ValueError(f't_end = {t_end} s must be finite and >= t0 = {t0} s')
+        self.t0 = float(t0)
+        self.t_end = float(t_end)
+        self._n = n
+        self._p0 = np.array(covariance0, dtype=float)
+        y0 = _Y_IDENTITY.copy()
+        y0[:4] = q_eci_from_body0
+        y0[4:7] = omega_body0
+        if t_end > t0:
+            sol = solve_ivp(dynamics.augmented_rate, (self.t0, self.t_end), y0, method='DOP853',
+                            rtol=rtol, atol=atol, dense_output=True)
+            if not sol.success:
+                raise RuntimeError(f'attitude prediction to t = {t_end} s failed: {sol.message}')
+            self._dense = sol.sol
+        else:
+            self._dense = lambda t: y0
+
+    def state(self, t):
+        """PredictedState at t [s] in [t0, t_end]."""
+        if not (self.t0 <= t <= self.t_end):
+            raise ValueError(f't = {t} s is outside the predicted interval [{self.t0}, {self.t_end}] s')
+        y = self._dense(t)
+        phi = y[_PHI].reshape(6, 6)
+        p = phi @ self._p0 @ phi.T + y[_QD].reshape(6, 6)  # P(t) = Phi P0 Phi' + Qd
+        return make_state(t, self._n, quat_normalize(y[:4].tolist()), y[4:7], p)
+
+    def body_point_in_hill(self, x_body, t):
+        """BodyPointPrediction of the body point x_body [m] at t [s] (seed 000 eq 8-9)."""
+        return point_prediction(self.state(t), x_body, self._n)
+
+
+# --------------------------------------------------------------------------------------------------
+# Categories of target motion, seed 000 section 2.1 / Fig. 2
+
+@dataclasses.dataclass(frozen=True)
+class MotionThresholds:
+    """Thresholds of classify_motion (defaults from seed 000 section 2.1).
+
+    Attributes:
+        spin_rate_rad_s: inertial rate at and above which the target is category IV (spinning).
+            Default 18 deg/s, a 20 s rotation period: the paper gives 20-3600 s as the period range
+            of categories II and III, the fly-by cases.
+        hill_fixed_rate_rad_s: rate relative to the hill frame below which the attitude counts as
+            held in hill (categories I, II). Default 0.1 deg/s, a 3600 s period, the slow end of
+            the paper's range.
+        inertial_hold_rate_rad_s: inertial rate below which the target counts as held in inertial
+            space (category I, e.g. sun pointing). Default 0.01 deg/s.
+        controlled_rate_rad_s: rate relative to hill below which a hill-held target counts as
+            three-axis controlled (I) rather than librating under gravity gradient (II).
+            Default 0.01 deg/s: a 10 deg gravity-gradient libration at sqrt(3) n (LEO) moves at
+            about 0.1 deg/s peak.
+        controlled_excursion_rad: largest attitude excursion in hill over the observation window
+            for category I (when known). Default 2 deg; gravity-gradient librations are larger.
+    """
+
+    spin_rate_rad_s: float = math.radians(18.0)
+    hill_fixed_rate_rad_s: float = math.radians(0.1)
+    inertial_hold_rate_rad_s: float = math.radians(0.01)
+    controlled_rate_rad_s: float = math.radians(0.01)
+    controlled_excursion_rad: float = math.radians(2.0)
+
+    def __post_init__(self):
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f'{field.name} must be finite and > 0, got {value}')
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionCategory:
+    """Result of classify_motion: category 'I'..'IV' of seed 000 section 2.1 and a one-line reason."""
+
+    category: str
+    reason: str
+    inertial_rate_rad_s: float
+    hill_relative_rate_rad_s: float
+
+
+CATEGORY_NAMES = {
+    'I': 'three-axis controlled',
+    'II': 'gravity-gradient stabilized',
+    'III': 'slowly tumbling',
+    'IV': 'spinning',
+}
+
+
+def classify_motion(omega_hill, n, attitude_excursion_rad=None, thresholds=MotionThresholds()):
+    """Category I-IV of the target motion (seed 000 section 2.1, Fig. 2).
+
+    Decision, in order:
+      IV  |omega| >= spin_rate (rotation period under 20 s): synchronized approach, not fly-by.
+      I   |omega| < inertial_hold_rate: attitude held in inertial space.
+      III |omega - Omega^H| >= hill_fixed_rate: slowly tumbling relative to the orbit frame.
+      I   held in hill with |omega - Omega^H| < controlled_rate and (if known) an attitude
+          excursion < controlled_excursion: three-axis controlled (e.g. Earth pointing).
+      II  otherwise held in hill, librating: gravity-gradient stabilized.
+
+    Args:
+        omega_hill: inertial angular velocity in hill axes [rad/s] (seed 000 eq 6).
+        n: orbital mean motion [rad/s].
+        attitude_excursion_rad: largest attitude change in hill over the observation window, or None.
+        thresholds: MotionThresholds.
+    """
+    w = np.asarray(omega_hill, dtype=float)
+    if w.shape != (3,) or not np.all(np.isfinite(w)):
+        raise ValueError(f'omega_hill must be 3 finite values [rad/s], got {omega_hill!r}')
+    th = thresholds
+    rate = float(np.linalg.norm(w))
+    rel = float(np.linalg.norm(w - orbit_rate_hill(n)))
+
+    def result(category, why):
+        return MotionCategory(category, f'{CATEGORY_NAMES[category]}: {why}', rate, rel)
+
+    deg = math.degrees
+    if rate >= th.spin_rate_rad_s:
+        return result('IV', f'inertial rate {deg(rate):.3g} deg/s >= {deg(th.spin_rate_rad_s):.3g} deg/s '
+                            f'(period {2 * math.pi / rate:.3g} s)')
+    if rate < th.inertial_hold_rate_rad_s:
+        return result('I', f'inertial rate {deg(rate):.3g} deg/s < {deg(th.inertial_hold_rate_rad_s):.3g} deg/s '
+                           '(held in inertial space)')
+    if rel >= th.hill_fixed_rate_rad_s:
+        return result('III', f'rate relative to hill {deg(rel):.3g} deg/s >= {deg(th.hill_fixed_rate_rad_s):.3g} '
+                             f'deg/s (period {2 * math.pi / rel:.3g} s)')
+    excursion_ok = attitude_excursion_rad is None or attitude_excursion_rad < th.controlled_excursion_rad
+    excursion = 'unknown' if attitude_excursion_rad is None else f'{deg(attitude_excursion_rad):.3g} deg'
+    if rel < th.controlled_rate_rad_s and excursion_ok:
+        return result('I', f'rate relative to hill {deg(rel):.3g} deg/s < {deg(th.controlled_rate_rad_s):.3g} '
+                           f'deg/s, attitude excursion {excursion} (held in hill)')
+    return result('II', f'rate relative to hill {deg(rel):.3g} deg/s, attitude excursion {excursion} '
+                        '(librating about the hill attitude)')

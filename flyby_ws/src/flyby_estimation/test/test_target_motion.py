@@ -1,0 +1,208 @@
+"""target_motion.py: error dynamics against finite differences, seed 000 eq 6-9, categories I-IV."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flyby_estimation.target_motion import (ErrorStateDynamics, MotionPrediction, MotionThresholds,
+                                            body_point_in_hill, classify_motion, covariance_in_hill, make_state,
+                                            orbit_rate_hill, q_hill_from_body)
+from flyby_sim.attitude import AttitudePropagator
+from flyby_sim.orbital import mean_motion_rad_s
+from flyby_sim.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
+                                quat_to_matrix, rotation_vector_from_quat)
+
+N = mean_motion_rad_s(7.0e6)
+# Seed 001 Table 1: the tumbler, and seed 000 section 5: the stable spinner.
+INERTIA_TUMBLER = np.diag([4069.0, 12030.0, 11029.0])
+OMEGA_TUMBLER = np.array([0.3, 0.2, 0.1])
+INERTIA_PAPER = np.diag([1200.0, 1000.0, 2000.0])
+Q0 = quat_normalize([0.1, -0.2, 0.3, 0.9])
+
+
+def perturbed(q, omega, dx):
+    """The state whose error relative to (q, omega) is dx = [dtheta_body, domega_body]."""
+    return quat_multiply(q, quat_from_rotation_vector(dx[:3])), omega + dx[3:]
+
+
+def error_between(q_ref, omega_ref, q, omega):
+    return np.concatenate((rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q)), omega - omega_ref))
+
+
+def test_transition_matrix_matches_finite_differences_of_the_nonlinear_flow():
+    """Phi from dPhi/dt = F Phi (analytic Jacobian of seed 000 eq 4) against perturbed integrations."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER)
+    dt = 5.0
+    q1, w1, phi, _ = dyn.propagate_rk4(Q0, OMEGA_TUMBLER, dt, max_step_angle_rad=0.002)
+    eps = 1e-6
+    numeric = np.empty((6, 6))
+    for k in range(6):
+        columns = []
+        for sign in (1.0, -1.0):
+            dx = np.zeros(6)
+            dx[k] = sign * eps
+            q, w = perturbed(Q0, OMEGA_TUMBLER, dx)
+            qk, wk, _, _ = dyn.propagate_rk4(q, w, dt, max_step_angle_rad=0.002)
+            columns.append(error_between(q1, w1, qk, wk))
+        numeric[:, k] = (columns[0] - columns[1]) / (2 * eps)
+    np.testing.assert_allclose(phi, numeric, atol=2e-6 * np.abs(phi).max())
+
+
+def test_process_noise_matches_integral_of_phi_g_qc_g_phi():
+    """Qd integrated as dQd/dt = F Qd + Qd F' + GQcG' equals int_0^dt Phi(dt, s) GQcG' Phi(dt, s)' ds."""
+    dyn = ErrorStateDynamics(INERTIA_PAPER, torque_psd=1e-4)
+    omega = np.array([0.01, -0.02, math.radians(5.0)])
+    dt, steps = 2.0, 200
+    _, _, _, qd = dyn.propagate_rk4(Q0, omega, dt, max_step_angle_rad=1e-3)
+    h = dt / steps
+    # Riemann sum with Phi(dt, s) from integrating from s to dt along the same reference
+    states = [(Q0, omega)]
+    for _ in range(steps):
+        q, w, _, _ = dyn.propagate_rk4(*states[-1], h)
+        states.append((q, w))
+    total = np.zeros((6, 6))
+    for k in range(steps):
+        s_mid = (k + 0.5) * h
+        q, w, _, _ = dyn.propagate_rk4(*states[k], 0.5 * h)
+        _, _, phi, _ = dyn.propagate_rk4(q, w, dt - s_mid, max_step_angle_rad=1e-3)
+        total += phi @ dyn.noise_density @ phi.T * h
+    np.testing.assert_allclose(qd, total, rtol=1e-3, atol=1e-6 * np.abs(total).max())
+
+
+def test_prediction_matches_flyby_sim_propagator_over_600_s():
+    """MotionPrediction (DOP853 on state + Phi + Qd) against flyby_sim.attitude at tight tolerance."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER)
+    prediction = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, np.eye(6) * 1e-8, 610.0)
+    reference = AttitudePropagator(Q0, OMEGA_TUMBLER, INERTIA_TUMBLER, t0=10.0, rtol=1e-13, atol=1e-15)
+    for t in (10.0, 123.4, 610.0):
+        s = prediction.state(t)
+        q_ref, w_ref = reference.state_at(t)
+        assert np.linalg.norm(error_between(s.q_eci_from_body, s.omega_body, q_ref, w_ref)) < 1e-7
+    with pytest.raises(ValueError, match='outside'):
+        prediction.state(611.0)
+
+
+def test_rk4_time_update_matches_dense_prediction():
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
+    p0 = np.diag([1e-4, 2e-4, 3e-4, 1e-6, 2e-6, 3e-6])
+    q, w, phi, qd = dyn.propagate_rk4(Q0, OMEGA_TUMBLER, 3.0)
+    s = MotionPrediction(dyn, N, 0.0, Q0, OMEGA_TUMBLER, p0, 3.0).state(3.0)
+    assert np.linalg.norm(error_between(s.q_eci_from_body, s.omega_body, q, w)) < 1e-9
+    np.testing.assert_allclose(phi @ p0 @ phi.T + qd, s.covariance, rtol=1e-7, atol=1e-15)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0.1, 20.0), st.floats(0.1, 20.0), st.tuples(*[st.floats(-0.4, 0.4)] * 3))
+def test_property_transition_matrix_composes(dt1, dt2, omega):
+    """Phi(t0 + dt1 + dt2, t0) = Phi(t0 + dt1 + dt2, t0 + dt1) Phi(t0 + dt1, t0) along one reference."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER)
+    q1, w1, phi1, _ = dyn.propagate_rk4(Q0, np.array(omega), dt1)
+    _, _, phi2, _ = dyn.propagate_rk4(q1, w1, dt2)
+    _, _, phi12, _ = dyn.propagate_rk4(Q0, np.array(omega), dt1 + dt2)
+    np.testing.assert_allclose(phi2 @ phi1, phi12, atol=1e-6 * max(1.0, np.abs(phi12).max()))
+
+
+def test_seed000_eq9_sign_by_numerical_derivative():
+    """v_g^H must be d/dt of x_g^H (eq 8): the orbital-rate term of eq 9 enters with a minus sign.
+
+    The printed '+' sign is off by 2 Omega^H x x_g^H; with our (large) test orbit rate the difference
+    is far above the derivative's error, so this settles the sign.
+    """
+    n_fast = 0.05  # exaggerated orbit rate [rad/s] so that the Omega term is large
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER)
+    prediction = MotionPrediction(dyn, n_fast, 0.0, Q0, OMEGA_TUMBLER, np.eye(6) * 1e-8, 100.0)
+    x_body = np.array([1.5, 0.0, 1.5])
+    h = 1e-3
+    for t in (20.0, 55.5, 80.0):
+        v = prediction.body_point_in_hill(x_body, t).v_hill
+        numeric = (prediction.body_point_in_hill(x_body, t + h).r_hill
+                   - prediction.body_point_in_hill(x_body, t - h).r_hill) / (2 * h)
+        np.testing.assert_allclose(v, numeric, atol=1e-7)
+        s = prediction.state(t)
+        r = quat_to_matrix(s.q_hill_from_body) @ x_body
+        printed = quat_to_matrix(s.q_hill_from_body) @ np.cross(s.omega_body, x_body) + np.cross(orbit_rate_hill(n_fast), r)
+        assert np.linalg.norm(printed - numeric) > 1e3 * np.linalg.norm(v - numeric)
+        # equivalent form: (omega^H - Omega^H) x x_g^H with omega^H of eq 6
+        np.testing.assert_allclose(v, np.cross(s.omega_hill - orbit_rate_hill(n_fast), r), atol=1e-12)
+
+
+def test_seed000_section5_grasp_values():
+    """|x_g| = 2.1213 m and |v_g| = 0.131 m/s for a 5 deg/s spin about body z, grasp point [1.5, 0, 1.5]."""
+    c = quat_to_matrix(quat_normalize([0.2, 0.3, -0.1, 0.9]))
+    r, v, _ = body_point_in_hill(c, [0.0, 0.0, math.radians(5.0)], [1.5, 0.0, 1.5], N)
+    assert np.linalg.norm(r) == pytest.approx(2.1213, abs=1e-4)
+    assert np.linalg.norm(v) == pytest.approx(0.131, abs=2e-3)  # the orbit-rate term is ~1e-3 m/s
+
+
+def test_body_point_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(3)
+    q = quat_normalize(rng.normal(size=4))
+    omega = rng.normal(size=3) * 0.2
+    x_body = np.array([1.0, -0.5, 2.0])
+    _, _, jac = body_point_in_hill(quat_to_matrix(q), omega, x_body, N)
+    eps = 1e-7
+    numeric = np.empty((6, 6))
+    for k in range(6):
+        dx = np.zeros(6)
+        dx[k] = eps
+        qp, wp = perturbed(q, omega, dx)
+        qm, wm = perturbed(q, omega, -dx)
+        rp, vp, _ = body_point_in_hill(quat_to_matrix(qp), wp, x_body, N)
+        rm, vm, _ = body_point_in_hill(quat_to_matrix(qm), wm, x_body, N)
+        numeric[:, k] = np.concatenate((rp - rm, vp - vm)) / (2 * eps)
+    np.testing.assert_allclose(jac, numeric, atol=1e-7)
+
+
+def test_covariance_in_hill_matches_sampled_errors():
+    """covariance_hill is the covariance of [dtheta_hill, domega_hill] (seed 000 eq 6) of sampled body errors."""
+    rng = np.random.default_rng(5)
+    q_eci = quat_normalize([0.3, 0.1, -0.4, 0.8])
+    omega = np.array([0.2, -0.1, 0.3])
+    p = np.diag([1e-6, 4e-6, 9e-6, 1e-8, 4e-8, 1e-8])
+    state = make_state(12.0, N, q_eci, omega, p)
+    samples = []
+    for dx in rng.multivariate_normal(np.zeros(6), p, size=4000):
+        q_true, w_true = perturbed(q_eci, omega, dx)
+        q_hb = q_hill_from_body(12.0, N, q_true)
+        dtheta_hill = rotation_vector_from_quat(quat_multiply(q_hb, quat_conjugate(state.q_hill_from_body)))
+        samples.append(np.concatenate((dtheta_hill, quat_to_matrix(q_hb) @ w_true - state.omega_hill)))
+    sampled = np.cov(np.array(samples).T)
+    scale = np.sqrt(np.outer(np.diag(state.covariance_hill), np.diag(state.covariance_hill)))
+    assert np.abs(sampled - state.covariance_hill).max() / scale.max() < 0.1
+    np.testing.assert_allclose(covariance_in_hill(np.eye(3), np.zeros(3), p), p)
+
+
+DEG = math.radians(1.0)
+OMEGA_H = orbit_rate_hill(N)
+
+
+@pytest.mark.parametrize('omega_hill, excursion, category', [
+    (OMEGA_H, math.radians(0.2), 'I'),  # Earth pointing, held tightly
+    (np.array([1e-5, 0.0, 0.0]), None, 'I'),  # inertially held (sun pointing)
+    (OMEGA_H + np.array([0.03 * DEG, 0.0, 0.0]), math.radians(8.0), 'II'),  # gravity-gradient libration
+    (OMEGA_H, math.radians(10.0), 'II'),  # at rest in hill but with a large excursion
+    (np.array([0.0, 0.0, 5.0 * DEG]), None, 'III'),  # seed 000 section 5: 5 deg/s
+    (np.array([0.0, 0.5 * DEG, 0.0]), None, 'III'),  # 720 s period
+    (np.array([25.0 * DEG, 0.0, 0.0]), None, 'IV'),
+])
+def test_seed000_section2_1_categories(omega_hill, excursion, category):
+    result = classify_motion(omega_hill, N, excursion)
+    assert result.category == category, result.reason
+    assert result.reason
+
+
+def test_seed001_tumbler_is_category_iv_at_default_thresholds():
+    """|(0.3, 0.2, 0.1)| rad/s = 21.4 deg/s, a 17 s period: faster than the fly-by range (20-3600 s)."""
+    result = classify_motion(OMEGA_TUMBLER, N)
+    assert result.category == 'IV'
+    assert classify_motion(OMEGA_TUMBLER, N, thresholds=MotionThresholds(spin_rate_rad_s=0.5)).category == 'III'
+
+
+def test_classify_rejects_bad_input():
+    with pytest.raises(ValueError, match='omega_hill'):
+        classify_motion([math.nan, 0.0, 0.0], N)
+    with pytest.raises(ValueError, match='spin_rate_rad_s'):
+        MotionThresholds(spin_rate_rad_s=-1.0)
