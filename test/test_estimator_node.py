@@ -14,7 +14,8 @@ from flyby_msgs_py import convert
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_testing import SCENARIOS, read_summary, run_mission, spin_until, write_scenario
+from flyby_testing import (SCENARIOS, collect, read_summary, run_mission, spin_until,
+                           write_scenario)
 
 
 def test_estimates_from_a_recorded_run_meet_the_accuracy(tmp_path):
@@ -66,11 +67,8 @@ class SensorProbe(Node):
         self.attitude = self.create_publisher(
             c.message_class(c.TOPIC_TYPES[c.SENSOR_TARGET_ATTITUDE]), c.SENSOR_TARGET_ATTITUDE,
             c.QOS_STREAM)
-        self.events, self.estimates = [], []
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]),
-                                 c.MISSION_EVENTS, self.events.append, c.QOS_EVENTS)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.EST_TARGET_ODOM]),
-                                 c.EST_TARGET_ODOM, self.estimates.append, c.QOS_STREAM)
+        self.events = collect(self, c.MISSION_EVENTS)
+        self.estimates = collect(self, c.EST_TARGET_ODOM)
 
     def send(self, t, q_xyzw):
         msg = c.message_class(c.TOPIC_TYPES[c.SENSOR_TARGET_ATTITUDE])()

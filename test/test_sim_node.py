@@ -13,7 +13,7 @@ from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.sim_node import SimNode
 from flyby_msgs_py.runtime import announce_ready, run_loop
-from flyby_testing import run_mission, spin_until, write_scenario
+from flyby_testing import collect, run_mission, spin_until, write_scenario
 
 G0 = 9.80665
 
@@ -25,13 +25,9 @@ class Probe(Node):
         super().__init__('probe', context=context)
         self.maneuvers = self.create_publisher(
             c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]), c.GUIDANCE_MANEUVER, c.QOS_STREAM)
-        self.thrust, self.odom, self.events = [], [], []
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.SIM_CHASER_THRUST]),
-                                 c.SIM_CHASER_THRUST, self.thrust.append, c.QOS_STREAM)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.SIM_CHASER_ODOM]),
-                                 c.SIM_CHASER_ODOM, self.odom.append, c.QOS_STREAM)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]),
-                                 c.MISSION_EVENTS, self.events.append, c.QOS_EVENTS)
+        self.thrust = collect(self, c.SIM_CHASER_THRUST)
+        self.odom = collect(self, c.SIM_CHASER_ODOM)
+        self.events = collect(self, c.MISSION_EVENTS)
 
     def send(self, t, dv_hill):
         msg = c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER])()

@@ -26,7 +26,7 @@ from flyby_estimation.target_motion import MotionThresholds
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import main_for
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.thrusters import ManeuverRejected
 
 
@@ -164,10 +164,7 @@ class EstimatorNode(Node):
 
 
 def main(args=None):
-    try:
-        main_for(EstimatorNode, args)
-    except ScenarioError as err:
-        raise SystemExit(f'flyby_estimator: {err}') from None
+    main_for(EstimatorNode, args)
 
 
 if __name__ == '__main__':

@@ -23,6 +23,7 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, Header, String
 
 from flyby_msgs_py.contract import QOS_EVENTS, QOS_STREAM
+from flyby_msgs_py.scenario import ScenarioError
 
 # Fast DDS defaults of every flyby process (see the file); the launcher exports it.
 FASTDDS_PROFILES = os.path.join(os.path.dirname(__file__), 'config', 'fastdds_profiles.xml')
@@ -141,7 +142,10 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
 
 
 def main_for(node_class, args=None):
-    """Process entry point of one node: init, build, spin until done or signalled, clean up."""
+    """Process entry point of one node: init, build, spin until done or signalled, clean up.
+
+    A bad scenario ends the process with its one-line message (exit code 1).
+    """
     rclpy.init(args=args)
     node = None
     try:
@@ -151,6 +155,8 @@ def main_for(node_class, args=None):
         run_loop(executor, [node])
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except ScenarioError as err:
+        raise SystemExit(f'{node_class.__name__}: {err}') from None
     finally:
         if node is not None:
             close = getattr(node, 'close', None)

@@ -20,7 +20,7 @@ from std_msgs.msg import Header, String
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import ManeuverRejected, Plant, plant_config_from_scenario
 
 STARTUP_TIMEOUT_S = 30.0
@@ -230,10 +230,7 @@ class SimNode(Node):
 
 
 def main(args=None):
-    try:
-        main_for(SimNode, args)
-    except ScenarioError as err:
-        raise SystemExit(f'flyby_sim: {err}') from None
+    main_for(SimNode, args)
 
 
 if __name__ == '__main__':
