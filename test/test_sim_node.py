@@ -46,11 +46,19 @@ def zero_errors(data):
     data['simulation']['duration_s'] = 30.0
 
 
-def make_sim(context, scenario_path, probe):
+@pytest.fixture
+def started(ros_context, executor, tmp_path):
+    """A simulator (no thruster errors) and a probe on one executor, time started."""
+    scenario_path = write_scenario(tmp_path, edit=zero_errors)
+    probe = Probe(ros_context)
     announce_ready(probe)
-    return SimNode(context=context, parameter_overrides=[
+    sim = SimNode(context=ros_context, parameter_overrides=[
         Parameter('scenario_file', value=str(scenario_path)),
         Parameter('wait_for_nodes', value=['probe'])])
+    executor.add_node(sim)
+    executor.add_node(probe)
+    spin_until(executor, lambda: sim.started, 10.0, sim.tick)
+    return scenario_path, sim, probe
 
 
 def run_sim(executor, sim, probe, until_s):
@@ -58,14 +66,8 @@ def run_sim(executor, sim, probe, until_s):
     run_loop(executor, [sim, probe], lambda: sim.plant.t >= until_s - 1e-9, drain=True)
 
 
-def test_time_tagged_maneuver_starts_at_its_stamp_and_delivers_its_dv(ros_context, executor,
-                                                                         tmp_path):
-    scenario_path = write_scenario(tmp_path, edit=zero_errors)
-    probe = Probe(ros_context)
-    sim = make_sim(ros_context, scenario_path, probe)
-    executor.add_node(sim)
-    executor.add_node(probe)
-    spin_until(executor, lambda: sim.started, 10.0, sim.tick)
+def test_time_tagged_maneuver_starts_at_its_stamp_and_delivers_its_dv(started, executor):
+    scenario_path, sim, probe = started
     dv_cmd = np.array([0.05, -0.02, 0.03])
     t_burn = 5.0
     probe.send(t_burn, dv_cmd)
@@ -97,13 +99,8 @@ def test_time_tagged_maneuver_starts_at_its_stamp_and_delivers_its_dv(ros_contex
     assert 'burn_started' in probe.event_names()
 
 
-def test_nan_and_late_maneuvers_are_reported(ros_context, executor, tmp_path):
-    scenario_path = write_scenario(tmp_path, edit=zero_errors)
-    probe = Probe(ros_context)
-    sim = make_sim(ros_context, scenario_path, probe)
-    executor.add_node(sim)
-    executor.add_node(probe)
-    spin_until(executor, lambda: sim.started, 10.0, sim.tick)
+def test_nan_and_late_maneuvers_are_reported(started, executor):
+    _scenario_path, sim, probe = started
     run_sim(executor, sim, probe, 2.0)
     probe.send(3.0, [math.nan, 0.0, 0.0])
     probe.send(1.0, [0.01, 0.0, 0.0])  # already past

@@ -529,7 +529,7 @@ def test_cut_at_chosen_offsets_repairs_to_complete_prefix(tmp_path, flushed_bag)
     bag_dir, marks, raws = flushed_bag
     assert len(marks) >= 15
     full = mcap_of(bag_dir).stat().st_size
-    (s1, n1), (s2, n2), (s9, n9) = marks[0], marks[1], marks[8]
+    (s1, n1), s2, (s9, n9) = marks[0], marks[1][0], marks[8]
     cases = {
         0: 0, 5: 0, 8: 0, 30: 0,             # nothing, half magic, magic, inside the header
         s1 - 1: n1,                          # chunk 1 complete, its message index cut
