@@ -106,10 +106,12 @@ def launch_and_wait(scenario, out, sim_time_s, *extra):
     return launcher, watcher.info, reached
 
 
-def collect(node, topic):
-    """Subscribe ``node`` to a contract topic; return the list its messages are appended to."""
+def collect(node, topic, namespace=''):
+    """Subscribe ``node`` to a contract topic (under ``namespace`` if given); return the list its
+    messages are appended to."""
     from flyby_msgs_py import contract as c
     received = []
     qos = c.QOS_EVENTS if topic == c.MISSION_EVENTS else c.QOS_STREAM
-    node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, received.append, qos)
+    name = c.absolute(topic, namespace) if namespace else topic
+    node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, received.append, qos)
     return received

@@ -130,3 +130,17 @@ def test_in_process_mode_records_every_message(tmp_path):
     assert topics['/sim/target/odom'][1] == 2001
     assert topics['/clock'][1] == 2001
     assert topics['/sensors/chaser/relative_position'][1] == pytest.approx(1000, abs=1)
+
+
+def test_a_namespaced_simulator_publishes_under_its_namespace(ros_context, executor, tmp_path):
+    scenario_path = write_scenario(tmp_path, edit=zero_errors)
+    listener = Node('listener', context=ros_context)
+    odom = collect(listener, c.SIM_CHASER_ODOM, namespace='/chaser1')
+    sim = SimNode(context=ros_context, namespace='/chaser1', parameter_overrides=[
+        Parameter('scenario_file', value=str(scenario_path))])
+    executor.add_node(sim)
+    executor.add_node(listener)
+    run_loop(executor, [sim, listener], lambda: sim.plant.t >= 1.0 - 1e-9, drain=True)
+    assert sim.pubs[c.SIM_CHASER_ODOM].topic_name == '/chaser1/sim/chaser/odom'
+    assert sim.pubs[c.CLOCK].topic_name == '/clock'
+    assert len(odom) == 21
