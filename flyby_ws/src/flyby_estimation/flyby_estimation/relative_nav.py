@@ -60,6 +60,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
+from flyby_sim.checks import require_positive
 from flyby_sim.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s, nonlinear_relative_accel, rk4_step
 from flyby_sim.plant import plant_config_from_scenario
 from flyby_sim.thrusters import ManeuverRejected, ThrusterConfig, ThrusterModel, fuel_for_delta_v_kg
@@ -72,13 +73,6 @@ _I3 = np.eye(3)
 __all__ = ['DEFAULT_ACCEL_PSD_M2_S3', 'DYNAMICS', 'REJECTION_KINDS', 'ManeuverRejected', 'NavState',
            'RelativeNavConfig', 'RelativeNavFilter', 'ScheduledBurn', 'UpdateResult',
            'relative_nav_config_from_scenario']
-
-
-def _check(name, value, allow_zero=False):
-    ok = isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and (
-        value >= 0.0 if allow_zero else value > 0.0)
-    if not ok:
-        raise ValueError(f'{name} must be finite and {">=" if allow_zero else ">"} 0, got {value!r}')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,11 +92,11 @@ class RelativeNavConfig:
     max_rk4_step_s: float = 1.0  # RK4 step bound for burns and nonlinear coasting
 
     def __post_init__(self):
-        _check('mean_motion_rad_s', self.mean_motion_rad_s)
-        _check('position_sigma_m', self.position_sigma_m)
-        _check('accel_psd_m2_s3', self.accel_psd_m2_s3, allow_zero=True)
-        _check('initial_velocity_sigma_mps', self.initial_velocity_sigma_mps)
-        _check('max_rk4_step_s', self.max_rk4_step_s)
+        require_positive('mean_motion_rad_s', self.mean_motion_rad_s)
+        require_positive('position_sigma_m', self.position_sigma_m)
+        require_positive('accel_psd_m2_s3', self.accel_psd_m2_s3, allow_zero=True)
+        require_positive('initial_velocity_sigma_mps', self.initial_velocity_sigma_mps)
+        require_positive('max_rk4_step_s', self.max_rk4_step_s)
         if not (0.0 < self.gate_probability < 1.0):
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability!r}')
         if isinstance(self.max_consecutive_outliers, bool) or not isinstance(
@@ -114,14 +108,14 @@ class RelativeNavConfig:
         if self.dynamics == 'nonlinear':
             if self.radius_m is None:
                 raise ValueError("radius_m is required with dynamics='nonlinear'")
-            _check('radius_m', self.radius_m)
+            require_positive('radius_m', self.radius_m)
         if self.thrusters is not None:
             if not isinstance(self.thrusters, ThrusterConfig):
                 raise ValueError(f'thrusters must be a ThrusterConfig or None, got {self.thrusters!r}')
             if self.chaser_mass_kg is None:
                 raise ValueError('chaser_mass_kg is required with thrusters')
         if self.chaser_mass_kg is not None:
-            _check('chaser_mass_kg', self.chaser_mass_kg)
+            require_positive('chaser_mass_kg', self.chaser_mass_kg)
 
 
 def relative_nav_config_from_scenario(scenario, **overrides):
@@ -297,7 +291,7 @@ class RelativeNavFilter:
         if dv.shape != (3,) or not np.all(np.isfinite(dv)) or not np.any(dv):
             raise ValueError(f'add_maneuver: dv_hill must be 3 finite numbers, not all zero, got {dv_hill!r}')
         if burn_duration_s is not None:
-            _check('burn_duration_s', burn_duration_s, allow_zero=True)
+            require_positive('burn_duration_s', burn_duration_s, allow_zero=True)
         dv_mps = float(np.linalg.norm(dv))
         mass_kg = self._mass_kg
         start = float(t_start)

@@ -37,6 +37,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
+from flyby_sim.checks import require_positive
 from flyby_sim.orbital import quat_eci_from_hill
 from flyby_sim.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
                                 rotation_vector_from_quat)
@@ -97,11 +98,8 @@ class TargetFilterConfig:
         object.__setattr__(self, 'inertia', tuple(map(tuple, np.asarray(self.inertia, dtype=float).tolist())))
         for name in ('mean_motion_rad_s', 'attitude_sigma_rad', 'rate_sigma0_rad_s', 'norm_tolerance',
                      'max_step_angle_rad', 'excursion_window_s'):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f'{name} must be finite and > 0, got {value}')
-        if not (math.isfinite(self.torque_psd) and self.torque_psd >= 0.0):
-            raise ValueError(f'torque_psd must be finite and >= 0, got {self.torque_psd}')
+            require_positive(name, getattr(self, name))
+        require_positive('torque_psd', self.torque_psd, allow_zero=True)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability}')
         if not (isinstance(self.max_consecutive_outliers, int) and self.max_consecutive_outliers >= 1):

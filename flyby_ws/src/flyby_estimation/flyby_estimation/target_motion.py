@@ -30,6 +30,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.checks import require_positive
 from flyby_sim.orbital import quat_eci_from_hill, rk4_step
 from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
 
@@ -322,9 +323,7 @@ class MotionThresholds:
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f'{field.name} must be finite and > 0, got {value}')
+            require_positive(field.name, getattr(self, field.name))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_sim.attitude import AttitudePropagator, validated_inertia
+from flyby_sim.checks import require_positive
 from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_accel, mean_motion_rad_s, nonlinear_relative_accel,
                                quat_eci_from_hill, rk4_step)
 from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize
@@ -41,12 +42,6 @@ def _finite_vector(name, value, size):
     if len(v) != size or not all(math.isfinite(c) for c in v):
         raise ValueError(f'{name} must be {size} finite numbers, got {value!r}')
     return v
-
-
-def _positive(name, value, allow_zero=False):
-    ok = math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
-    if not ok:
-        raise ValueError(f'{name} must be finite and {">=" if allow_zero else ">"} 0, got {value}')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,9 +68,9 @@ class PlantConfig:
 
     def __post_init__(self):
         for name in ('radius_m', 'chaser_mass_kg', 'mu', 'step_s', 'position_rate_hz', 'attitude_rate_hz'):
-            _positive(name, getattr(self, name))
+            require_positive(name, getattr(self, name))
         for name in ('position_sigma_m', 'attitude_sigma_rad', 'restriction_sphere_radius_m'):
-            _positive(name, getattr(self, name), allow_zero=True)
+            require_positive(name, getattr(self, name), allow_zero=True)
         for name, size in (('r0_hill', 3), ('v0_hill', 3), ('q_hill_from_body0', 4), ('omega_body0', 3)):
             object.__setattr__(self, name, _finite_vector(name, getattr(self, name), size))
         try:

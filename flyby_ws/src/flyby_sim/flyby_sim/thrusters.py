@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from flyby_sim.checks import require_positive
+
 STANDARD_GRAVITY_M_S2 = 9.80665
 
 
@@ -33,13 +35,6 @@ class ManeuverRejected(Exception):
     def __init__(self, reason):
         super().__init__(reason)
         self.reason = reason
-
-
-def _check_finite(name, value, minimum, inclusive):
-    ok = math.isfinite(value) and (value >= minimum if inclusive else value > minimum)
-    if not ok:
-        bound = '>=' if inclusive else '>'
-        raise ValueError(f'{name} must be finite and {bound} {minimum}, got {value}')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,14 +49,12 @@ class ThrusterConfig:
     direction_error_sigma_rad: float = 0.0  # 1-sigma
 
     def __post_init__(self):
-        _check_finite('max_thrust_n', self.max_thrust_n, 0.0, inclusive=False)
-        _check_finite('isp_s', self.isp_s, 0.0, inclusive=False)
-        _check_finite('min_impulse_bit_ns', self.min_impulse_bit_ns, 0.0, inclusive=True)
-        _check_finite('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, 0.0,
-                      inclusive=False)
-        _check_finite('magnitude_error_sigma', self.magnitude_error_sigma, 0.0, inclusive=True)
-        _check_finite('direction_error_sigma_rad', self.direction_error_sigma_rad, 0.0,
-                      inclusive=True)
+        require_positive('max_thrust_n', self.max_thrust_n)
+        require_positive('isp_s', self.isp_s)
+        require_positive('min_impulse_bit_ns', self.min_impulse_bit_ns, allow_zero=True)
+        require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps)
+        require_positive('magnitude_error_sigma', self.magnitude_error_sigma, allow_zero=True)
+        require_positive('direction_error_sigma_rad', self.direction_error_sigma_rad, allow_zero=True)
 
 
 @dataclasses.dataclass(frozen=True)
