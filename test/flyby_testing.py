@@ -23,6 +23,13 @@ def write_scenario(tmp_path, base='paper_flyby', name='variant', edit=None):
     return path
 
 
+def with_duration(duration_s):
+    """A scenario edit (for write_scenario) that sets simulation.duration_s."""
+    def edit(data):
+        data['simulation']['duration_s'] = duration_s
+    return edit
+
+
 def run_mission(*args, timeout=600):
     """The launcher as a user runs it: a subprocess; returns the CompletedProcess."""
     return subprocess.run([sys.executable, str(RUN_MISSION), '--quiet', *map(str, args)],

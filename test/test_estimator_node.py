@@ -15,13 +15,11 @@ from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_testing import (SCENARIOS, collect, read_summary, run_mission, spin_until,
-                           write_scenario)
+                           with_duration, write_scenario)
 
 
 def test_estimates_from_a_recorded_run_meet_the_accuracy(tmp_path):
-    def edit(data):
-        data['simulation']['duration_s'] = 90.0
-    scenario = write_scenario(tmp_path, edit=edit)
+    scenario = write_scenario(tmp_path, edit=with_duration(90.0))
     out = tmp_path / 'run'
     done = run_mission('--scenario', scenario, '--out', out, '--in-process')
     assert done.returncode == 3, done.stderr

@@ -13,17 +13,12 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_testing import launch_and_wait, read_summary, run_mission, write_scenario
+from flyby_testing import (launch_and_wait, read_summary, run_mission, with_duration,
+                           write_scenario)
 
 SIM_TOPICS = {c.absolute(t): c.TOPIC_TYPES[t] for t in (
     c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
     c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE, c.MISSION_EVENTS, c.MARKERS)}
-
-
-def short(duration_s):
-    def edit(data):
-        data['simulation']['duration_s'] = duration_s
-    return edit
 
 
 def shm_segments():
@@ -34,7 +29,7 @@ def shm_segments():
 
 
 def test_coasting_run_leaves_bag_and_summary(tmp_path):
-    scenario = write_scenario(tmp_path, edit=short(60.0))
+    scenario = write_scenario(tmp_path, edit=with_duration(60.0))
     out = tmp_path / 'run'
     done = run_mission('--scenario', scenario, '--out', out)
     assert done.returncode == 3, done.stderr + done.stdout
@@ -85,7 +80,7 @@ def test_coasting_run_leaves_bag_and_summary(tmp_path):
 
 
 def test_truth_identical_at_rtf_10_and_full_speed(tmp_path):
-    scenario = write_scenario(tmp_path, edit=short(20.0))
+    scenario = write_scenario(tmp_path, edit=with_duration(20.0))
     runs = {}
     for label, rtf in (('rtf10', 10.0), ('max', 0.0)):
         out = tmp_path / label
@@ -103,7 +98,7 @@ def test_truth_identical_at_rtf_10_and_full_speed(tmp_path):
 
 
 def test_seed_override_is_recorded(tmp_path):
-    scenario = write_scenario(tmp_path, edit=short(5.0))
+    scenario = write_scenario(tmp_path, edit=with_duration(5.0))
     out = tmp_path / 'run'
     done = run_mission('--scenario', scenario, '--out', out, '--seed', 42)
     assert done.returncode == 3, done.stderr
@@ -111,7 +106,7 @@ def test_seed_override_is_recorded(tmp_path):
 
 
 def test_ctrl_c_leaves_readable_bag_and_interrupted_summary(tmp_path):
-    scenario = write_scenario(tmp_path, edit=short(1000.0))
+    scenario = write_scenario(tmp_path, edit=with_duration(1000.0))
     out = tmp_path / 'run'
     launcher, _info, _t = launch_and_wait(scenario, out, 20.0, '--rtf', 20.0)
     launcher.send_signal(signal.SIGINT)
@@ -128,7 +123,7 @@ def test_ctrl_c_leaves_readable_bag_and_interrupted_summary(tmp_path):
 
 def test_recorder_sigkill_loses_at_most_10s_and_leaves_no_shm(tmp_path):
     shm_before = set(shm_segments())
-    scenario = write_scenario(tmp_path, edit=short(2000.0))
+    scenario = write_scenario(tmp_path, edit=with_duration(2000.0))
     out = tmp_path / 'run'
     launcher, info, t_kill = launch_and_wait(scenario, out, 40.0, '--rtf', 20.0)
     os.kill(info['pids']['flyby_recorder'], signal.SIGKILL)

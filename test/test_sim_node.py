@@ -9,11 +9,12 @@ from rclpy.parameter import Parameter
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
+from flyby_msgs_py.bag import bag_topics
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.sim_node import SimNode
 from flyby_msgs_py.runtime import announce_ready, run_loop
-from flyby_testing import collect, run_mission, spin_until, write_scenario
+from flyby_testing import collect, run_mission, spin_until, with_duration, write_scenario
 
 G0 = 9.80665
 
@@ -118,13 +119,10 @@ def test_nan_and_late_maneuvers_are_reported(started, executor):
 
 
 def test_in_process_mode_records_every_message(tmp_path):
-    def edit(data):
-        data['simulation']['duration_s'] = 100.0
-    scenario = write_scenario(tmp_path, edit=edit)
+    scenario = write_scenario(tmp_path, edit=with_duration(100.0))
     out = tmp_path / 'run'
     done = run_mission('--scenario', scenario, '--out', out, '--in-process')
     assert done.returncode == 3, done.stderr
-    from flyby_msgs_py.bag import bag_topics
     topics = bag_topics(out / 'bag')
     assert topics['/sim/chaser/odom'][1] == 2001
     assert topics['/sim/target/odom'][1] == 2001
