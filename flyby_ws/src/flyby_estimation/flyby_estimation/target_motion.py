@@ -28,10 +28,11 @@ import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.spatial.transform import Rotation
 
 from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.checks import require_positive
-from flyby_sim.orbital import quat_eci_from_hill, rk4_step
+from flyby_sim.orbital import eci_vector_in_hill, quat_eci_from_hill, rk4_step
 from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
 
 _I3 = np.eye(3)
@@ -97,6 +98,10 @@ class ErrorStateDynamics:
         fq = f @ y[_QD].reshape(6, 6)
         qd_dot = fq + fq.T + self.noise_density  # dQd/dt = F Qd + Qd F' + G Qc G'
         return np.concatenate((q_dot, w_dot, phi_dot.ravel(), qd_dot.ravel()))
+
+    def reference_rate(self, t, y):
+        """d/dt of y = [q_eci_from_body (4), omega_body (3)], the reference motion alone."""
+        return np.concatenate(self.state_rate(y[:4].tolist(), y[4:7].tolist()))
 
     def propagate_rk4(self, q_eci_from_body, omega_body, dt, max_step_angle_rad=0.02, max_step_s=0.1):
         """(q, omega, Phi, Qd) after dt [s] >= 0 by fixed-step RK4 (the filter's time update).
@@ -196,7 +201,7 @@ class PredictedState:
         q_hill_from_body, q_eci_from_body: attitude (x, y, z, w).
         omega_body: inertial angular velocity in body axes [rad/s] (odometry twist.angular).
         omega_hill: the same vector in hill axes, seed 000 eq 6 (inertial rate, not relative to hill).
-        covariance: 6x6 of the error state [dtheta_body, domega_body] [rad^2, rad^2/s, rad^2/s^2].
+        covariance: 6x6 (None for a prediction without covariance) of the error state [dtheta_body, domega_body] [rad^2, rad^2/s, rad^2/s^2].
         covariance_hill: 6x6 of [dtheta_hill, domega_hill] (covariance_in_hill). For a
             nav_msgs/Odometry with frame hill and child target_body: pose orientation covariance =
             covariance_hill[:3, :3] (rotation about hill axes), twist angular covariance =
@@ -223,21 +228,36 @@ class BodyPointPrediction:
 
 
 def make_state(t, n, q_eci_from_body_, omega_body, covariance):
-    """PredictedState from the inertial reference state and error covariance at t."""
+    """PredictedState from the inertial reference state and error covariance (or None) at t."""
     q_hb = q_hill_from_body(t, n, q_eci_from_body_)
     c = quat_to_matrix(q_hb)
     w = np.asarray(omega_body, dtype=float).copy()
-    p = 0.5 * (covariance + covariance.T)
+    p = None if covariance is None else 0.5 * (covariance + covariance.T)
     return PredictedState(t=float(t), q_hill_from_body=q_hb, q_eci_from_body=np.asarray(q_eci_from_body_).copy(),
                           omega_body=w, omega_hill=c @ w, covariance=p,
-                          covariance_hill=covariance_in_hill(c, w, p))
+                          covariance_hill=None if p is None else covariance_in_hill(c, w, p))
 
 
 def point_prediction(state, x_body, n):
-    """BodyPointPrediction of x_body [m, body axes] from a PredictedState (seed 000 eq 8-9)."""
+    """BodyPointPrediction of x_body [m, body axes] from a PredictedState (seed 000 eq 8-9).
+
+    The covariance is None when the state has none (a MotionPrediction without covariance).
+    """
     c = quat_to_matrix(state.q_hill_from_body)
     r, v, j = body_point_in_hill(c, state.omega_body, x_body, n)
-    return BodyPointPrediction(t=state.t, r_hill=r, v_hill=v, covariance=j @ state.covariance @ j.T)
+    cov = None if state.covariance is None else j @ state.covariance @ j.T
+    return BodyPointPrediction(t=state.t, r_hill=r, v_hill=v, covariance=cov)
+
+
+@dataclasses.dataclass(frozen=True)
+class PointTrack:
+    """A body point over many times (vectorized eq 8-9): t (N,), r_hill (N, 3) [m],
+    v_hill (N, 3) [m/s] relative to hill, omega_hill (N, 3) [rad/s] (eq 6)."""
+
+    t: np.ndarray
+    r_hill: np.ndarray
+    v_hill: np.ndarray
+    omega_hill: np.ndarray
 
 
 class MotionPrediction:
@@ -245,7 +265,8 @@ class MotionPrediction:
 
     One DOP853 integration of the reference state, Phi and Qd; ``state(t)`` and
     ``body_point_in_hill(x_body, t)`` then answer at any t in the interval from the dense output
-    without integrating again (for a planner scanning candidate grasp times).
+    without integrating again, and ``track(x_body, times)`` answers for many times at once (for a
+    planner scanning candidate grasp times).
 
     Args:
         dynamics: ErrorStateDynamics.
@@ -255,40 +276,66 @@ class MotionPrediction:
         rtol, atol: DOP853 tolerances; the default keeps a 600 s prediction of the 21 deg/s seed 001
             tumbler within 1e-8 rad of flyby_sim's reference integration (rtol 1e-13), far below
             the estimation error.
+        with_covariance: False integrates the reference motion alone (about 6x faster; states then
+            carry covariance None). covariance0 may then be None.
     """
 
     def __init__(self, dynamics, n, t0, q_eci_from_body0, omega_body0, covariance0, t_end,
-                 rtol=1e-9, atol=1e-12):
+                 rtol=1e-9, atol=1e-12, with_covariance=True):
         if not (math.isfinite(t_end) and t_end >= t0):
             raise ValueError(f't_end = {t_end} s must be finite and >= t0 = {t0} s')
         self.t0 = float(t0)
         self.t_end = float(t_end)
         self._n = n
-        self._p0 = np.array(covariance0, dtype=float)
+        self._p0 = np.array(covariance0, dtype=float) if with_covariance else None
         y0 = _Y_IDENTITY.copy()
         y0[:4] = q_eci_from_body0
         y0[4:7] = omega_body0
+        if not with_covariance:
+            y0 = y0[:_STATE]
         if t_end > t0:
-            sol = solve_ivp(dynamics.augmented_rate, (self.t0, self.t_end), y0, method='DOP853',
+            rate = dynamics.augmented_rate if with_covariance else dynamics.reference_rate
+            sol = solve_ivp(rate, (self.t0, self.t_end), y0, method='DOP853',
                             rtol=rtol, atol=atol, dense_output=True)
             if not sol.success:
                 raise RuntimeError(f'attitude prediction to t = {t_end} s failed: {sol.message}')
             self._dense = sol.sol
         else:
-            self._dense = lambda t: y0
+            self._dense = lambda t: np.repeat(y0[:, None], np.size(t), axis=1) if np.ndim(t) else y0
 
     def state(self, t):
         """PredictedState at t [s] in [t0, t_end]."""
         if not (self.t0 <= t <= self.t_end):
             raise ValueError(f't = {t} s is outside the predicted interval [{self.t0}, {self.t_end}] s')
         y = self._dense(t)
-        phi = y[_PHI].reshape(6, 6)
-        p = phi @ self._p0 @ phi.T + y[_QD].reshape(6, 6)  # P(t) = Phi P0 Phi' + Qd
+        p = None
+        if self._p0 is not None:
+            phi = y[_PHI].reshape(6, 6)
+            p = phi @ self._p0 @ phi.T + y[_QD].reshape(6, 6)  # P(t) = Phi P0 Phi' + Qd
         return make_state(t, self._n, quat_normalize(y[:4].tolist()), y[4:7], p)
 
     def body_point_in_hill(self, x_body, t):
         """BodyPointPrediction of the body point x_body [m] at t [s] (seed 000 eq 8-9)."""
         return point_prediction(self.state(t), x_body, self._n)
+
+    def track(self, x_body, times):
+        """PointTrack of the body point x_body [m] at the times (N,) [s], without covariance.
+
+        Eq 8-9 evaluated for all times at once, with eq 9's orbital-rate term as settled in
+        body_point_in_hill: v = C_hill_from_eci (C_eci_from_body (omega x x_B)) - Omega^H x r.
+        """
+        t = np.atleast_1d(np.asarray(times, dtype=float))
+        if t.size and not (self.t0 <= t.min() and t.max() <= self.t_end):
+            raise ValueError(f'times [{t.min()}, {t.max()}] s leave the predicted interval [{self.t0}, {self.t_end}] s')
+        y = self._dense(t)
+        c_eci_from_body = Rotation.from_quat(y[:4].T).as_matrix()  # normalizes
+        w_body = y[4:7].T
+        x_b = np.asarray(x_body, dtype=float)
+        r_hill = eci_vector_in_hill(c_eci_from_body @ x_b, t, self._n)  # eq 8
+        v_rot = eci_vector_in_hill(np.einsum('nij,nj->ni', c_eci_from_body, np.cross(w_body, x_b)), t, self._n)
+        v_hill = v_rot - np.cross(orbit_rate_hill(self._n), r_hill)  # eq 9
+        omega_hill = eci_vector_in_hill(np.einsum('nij,nj->ni', c_eci_from_body, w_body), t, self._n)  # eq 6
+        return PointTrack(t=t, r_hill=r_hill, v_hill=v_hill, omega_hill=omega_hill)
 
 
 # --------------------------------------------------------------------------------------------------

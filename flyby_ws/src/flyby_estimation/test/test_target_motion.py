@@ -85,6 +85,29 @@ def test_prediction_matches_flyby_sim_propagator_over_600_s():
         prediction.state(611.0)
 
 
+def test_track_and_reference_only_prediction_agree_with_the_full_one():
+    """track() (vectorized eq 8-9) equals body_point_in_hill; with_covariance=False keeps the motion."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER)
+    full = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, np.eye(6) * 1e-8, 400.0)
+    bare = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, None, 400.0, with_covariance=False)
+    x_b = np.array((1.0, -0.5, 2.0))
+    times = np.array((10.0, 77.7, 250.0, 400.0))
+    track = full.track(x_b, times)
+    for k, t in enumerate(times):
+        p = full.body_point_in_hill(x_b, t)
+        np.testing.assert_allclose(track.r_hill[k], p.r_hill, atol=1e-12)
+        np.testing.assert_allclose(track.v_hill[k], p.v_hill, atol=1e-12)
+        np.testing.assert_allclose(track.omega_hill[k], full.state(t).omega_hill, atol=1e-12)
+        b = bare.state(t)
+        assert b.covariance is None and bare.body_point_in_hill(x_b, t).covariance is None
+        assert np.linalg.norm(error_between(b.q_eci_from_body, b.omega_body, full.state(t).q_eci_from_body,
+                                            full.state(t).omega_body)) < 1e-7
+    with pytest.raises(ValueError, match='leave the predicted interval'):
+        full.track(x_b, (5.0, 20.0))
+    still = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, None, 10.0, with_covariance=False)
+    np.testing.assert_allclose(still.track(x_b, (10.0,)).r_hill[0], still.body_point_in_hill(x_b, 10.0).r_hill)
+
+
 def test_rk4_time_update_matches_dense_prediction():
     dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
     p0 = np.diag([1e-4, 2e-4, 3e-4, 1e-6, 2e-6, 3e-6])

@@ -326,10 +326,19 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'initial_velocity_sigma_mps': Field(FLOAT, 0.1, '> 0', 'Prior 1-sigma per axis of the chaser velocity.'),
     }),
 
-    'planner': Section(desc='Capture planning (seed 000)', fields={
+    'planner': Section(desc='Capture planning (seed 000 section 4); condition (a) uses estimation.spin_rate_deg_s', fields={
         'offset_m': Field(FLOAT, 1.0, '> 0', 'Offset delta r of the fly-by target point from the grasp point.'),
         'flyby_duration_s': Field(FLOAT, 300.0, '> 0', 'Time from the fly-by initial point to the grasp.'),
         'restriction_sphere_radius_m': Field(FLOAT, 15.0, '> 0', 'No thrusting inside this sphere about the target.'),
+        'clearance_margin_m': Field(FLOAT, 0.1, '>= 0', 'Least gap between the chaser envelope and the swept keep-out region on the passive path.'),
+        'escape_check_orbits': Field(FLOAT, 1.0, '>= 1', 'Length of the passive escape checked after the grasp, in orbits.'),
+        'min_spin_axis_angle_from_orbit_normal_deg': Field(FLOAT, 10.0, '[0, 90)', 'Condition (b): spin axis at least this far from hill y (no pure out-of-plane motion).'),
+        'sun_direction_hill': Field(VEC3, None, None, 'Condition (c): sun direction in hill at t = 0 (inertially fixed); omitted: lighting not checked.', check=_check_nonzero),
+        'max_sun_angle_from_grasp_velocity_deg': Field(FLOAT, 100.0, '(0, 180]', 'Condition (c): angle between the grasp velocity and the sun at most this.'),
+        'maneuver_lead_s': Field(FLOAT, 10.0, '> 0', 'Time from the plan to the first terminal-approach burn.'),
+        'transfer_min_s': Field(FLOAT, 150.0, '> 0', 'Shortest terminal transfer (first burn to the fly-by initial point).'),
+        'transfer_max_s': Field(FLOAT, 450.0, '> 0', 'Longest terminal transfer; with transfer_min_s it sets the grasp-time search window.'),
+        'delta_v_tie_mps': Field(FLOAT, 0.001, '>= 0', 'Plans within this total delta-v of the cheapest tie; the larger clearance wins.'),
     }),
 
     'guidance': Section(desc='Terminal approach and trajectory adjusting', fields={
@@ -356,6 +365,10 @@ def _cross_checks(d):
             raise _Invalid(f'sensors.{sensor}.rate_hz',
                            f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
                            f'once per step), got {rate!r}')
+    planner = d['planner']
+    if planner['transfer_max_s'] < planner['transfer_min_s']:
+        raise _Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
+                                                 f"got {planner['transfer_max_s']!r}")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -515,6 +528,8 @@ def _node(node, v, key):
                 i, k, problem = bad
                 raise _Invalid(f'{key}[{i}].{k}', problem)
         return items
+    if v is None and node.default is None:  # an optional key written out as null
+        return None
     return _leaf(node, v, key)
 
 

@@ -122,7 +122,8 @@ def test_defaults_are_filled_and_to_dict_reloads_equal(tmp_path):
     assert sc.orbit_radius_m == EARTH_RADIUS_M + 400000.0
     assert 'planner' not in sc.raw
     resolved = sc.to_dict()
-    assert resolved['planner'] == {'offset_m': 1.0, 'flyby_duration_s': 300.0, 'restriction_sphere_radius_m': 15.0}
+    assert resolved['planner']['offset_m'] == 1.0 and resolved['planner']['flyby_duration_s'] == 300.0
+    assert resolved['planner']['sun_direction_hill'] is None  # optional: lighting not checked
     again = load_scenario(write(tmp_path, sc.to_yaml(), 'again.yaml'))
     assert again == sc and again.to_dict() == resolved
 
@@ -372,6 +373,16 @@ def test_error_sensor_rate_above_step_rate(tmp_path):
     d = paper_dict()
     d['sensors']['relative_position']['rate_hz'] = 20.0
     assert scenario_from_dict(d).sensors.relative_position.rate_hz == 20.0
+
+
+def test_error_transfer_window_reversed(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['planner'].update(transfer_min_s=500.0, transfer_max_s=400.0))
+    assert msg.endswith(': planner.transfer_max_s: must be >= planner.transfer_min_s = 500.0, got 400.0')
+
+
+def test_error_sun_direction_zero(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['planner'].update(sun_direction_hill=[0, 0, 0]))
+    assert msg.endswith(': planner.sun_direction_hill: must be nonzero, got [0.0, 0.0, 0.0]')
 
 
 # ------------------------------------------------------------------------------------------------

@@ -199,28 +199,26 @@ def convex_condition_closed_form(omega_hill, x_norm_m, xi_rad, phi_sign, n):
 # General search, eq 13-15
 
 def _point_source(prediction_or_callable, x_grasp_body):
-    """A function t -> (x_hill, v_hill, omega_hill) from a MotionPrediction-like object or a callable."""
-    if hasattr(prediction_or_callable, 'body_point_in_hill') and hasattr(prediction_or_callable, 'state'):
+    """A function times (N,) -> (x_hill, v_hill, omega_hill), each (N, 3), of the grasp point."""
+    if hasattr(prediction_or_callable, 'track'):
         pred = prediction_or_callable
         if x_grasp_body is None:
             raise ValueError('x_grasp_body is required with a prediction object')
         x_b = np.asarray(x_grasp_body, dtype=float)
 
-        def source(t):
-            p = pred.body_point_in_hill(x_b, t)
-            r, v = (p.r_hill, p.v_hill) if hasattr(p, 'r_hill') else (p[0], p[1])
-            return np.asarray(r, dtype=float), np.asarray(v, dtype=float), \
-                np.asarray(pred.state(t).omega_hill, dtype=float)
+        def source(times):
+            track = pred.track(x_b, times)
+            return track.r_hill, track.v_hill, track.omega_hill
         return source
     if callable(prediction_or_callable):
         f = prediction_or_callable
 
-        def source(t):
-            r, v, w = f(t)
-            return np.asarray(r, dtype=float), np.asarray(v, dtype=float), np.asarray(w, dtype=float)
+        def source(times):
+            rows = [f(t) for t in np.atleast_1d(times)]
+            return tuple(np.array([row[k] for row in rows], dtype=float) for k in range(3))
         return source
-    raise TypeError('prediction_or_callable must have body_point_in_hill(x_body, t) and state(t), '
-                    f'or be a callable t -> (x_hill, v_hill, omega_hill); got {type(prediction_or_callable)}')
+    raise TypeError('prediction_or_callable must have track(x_body, times) (a MotionPrediction) or be a '
+                    f'callable t -> (x_hill, v_hill, omega_hill); got {type(prediction_or_callable)}')
 
 
 def grasp_candidates(prediction_or_callable, x_grasp_body, t_start, t_end, n, sample_step_s=None,
@@ -237,11 +235,10 @@ def grasp_candidates(prediction_or_callable, x_grasp_body, t_start, t_end, n, sa
     no sign change and so no candidates -- seed 000 section 4.4 (b) excludes that case anyway.
 
     Args:
-        prediction_or_callable: either an object with ``body_point_in_hill(x_body, t)`` (returning
-            an object with r_hill, v_hill or a tuple (r_hill, v_hill, ...)) and ``state(t)`` with
-            ``omega_hill`` -- e.g. flyby_estimation.target_motion.MotionPrediction or
-            TargetAttitudeFilter.prediction(t_end) -- or a callable t -> (x_hill [m],
-            v_hill [m/s] relative to hill, omega_hill [rad/s]) of the grasp point itself.
+        prediction_or_callable: either a flyby_estimation.target_motion.MotionPrediction (e.g.
+            TargetAttitudeFilter.prediction(t_end); anything with its ``track(x_body, times)``) or a
+            callable t -> (x_hill [m], v_hill [m/s] relative to hill, omega_hill [rad/s]) of the
+            grasp point itself.
         x_grasp_body: grasp point in body axes [m]; ignored (may be None) with a callable.
         t_start, t_end: search interval [s], t_start < t_end, inside the prediction's interval.
         n: orbital mean motion Omega_t [rad/s] for eq 15 (> 0 for any candidate to be convex).
@@ -259,7 +256,7 @@ def grasp_candidates(prediction_or_callable, x_grasp_body, t_start, t_end, n, sa
     source = _point_source(prediction_or_callable, x_grasp_body)
     span = t_end - t_start
     if sample_step_s is None:
-        _, _, w0 = source(t_start)
+        w0 = source(t_start)[2][0]
         rate_rel = float(np.linalg.norm(w0 - np.array((0.0, -n, 0.0))))
         sample_step_s = 2.0 * math.pi / rate_rel / 72.0 if rate_rel > 0.0 else span
     if not (math.isfinite(sample_step_s) and sample_step_s > 0.0):
@@ -268,11 +265,11 @@ def grasp_candidates(prediction_or_callable, x_grasp_body, t_start, t_end, n, sa
     grid = np.linspace(t_start, t_end, steps + 1)
 
     def v_y(t):
-        return float(source(t)[1] @ _E_Y)  # eq 13
+        return float(source(t)[1][0] @ _E_Y)  # eq 13
 
-    samples = [source(t) for t in grid]
-    vy = np.array([s[1] @ _E_Y for s in samples])
-    speed_scale = max(float(np.linalg.norm(s[1])) for s in samples)
+    v_grid = source(grid)[1]
+    vy = v_grid @ _E_Y
+    speed_scale = float(np.linalg.norm(v_grid, axis=1).max())
     sign = np.where(np.abs(vy) <= 1e-12 * speed_scale, 0, np.sign(vy)).astype(int)
     roots = []
     for i in range(steps + 1):
@@ -286,7 +283,7 @@ def grasp_candidates(prediction_or_callable, x_grasp_body, t_start, t_end, n, sa
 
     out = []
     for t in roots:
-        x_g, v_g, w = source(t)
+        x_g, v_g, w = (a[0] for a in source(t))
         value = convex_condition_value(w, x_g, v_g, n)  # eq 15
         out.append(GraspCandidate(t_grasp=t, x_g=x_g, v_g=v_g, omega_hill=w,
                                   convex_value=value, convex=value > 0.0))

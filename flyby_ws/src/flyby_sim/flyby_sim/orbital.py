@@ -47,19 +47,22 @@ def nonlinear_relative_accel(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0
     plus centrifugal term is n^2 [-f x, -(1 + f) y, f (R - z)], free of cancellation for |p| << R.
 
     Args:
-        r_hill: chaser position [m], hill axes.
-        v_hill: chaser velocity relative to the rotating frame [m/s], hill axes.
+        r_hill: chaser position [m], hill axes: shape (3,), or (3, N) for N states at once.
+        v_hill: chaser velocity relative to the rotating frame [m/s], hill axes, shaped as r_hill.
         n: mean motion [rad/s].
         radius_m: target orbit radius [m].
         accel_ext_hill: external (thrust) acceleration [m/s^2], hill axes.
+
+    Returns:
+        the acceleration, shaped as r_hill.
     """
     x, y, z = r_hill
     vx, vy, vz = v_hill
     ax, ay, az = accel_ext_hill
     q = ((x * x + y * y + z * z) / radius_m - 2.0 * z) / radius_m  # |r_chaser|^2 / R^2 - 1
-    if not q > -1.0:
-        raise ValueError(f'r_hill {list(r_hill)} is at or beyond Earth centre (radius_m {radius_m})')
-    f = math.expm1(-1.5 * math.log1p(q))  # (R / |r_chaser|)^3 - 1
+    if not np.all(q > -1.0):
+        raise ValueError(f'r_hill {np.asarray(r_hill).tolist()} is at or beyond Earth centre (radius_m {radius_m})')
+    f = np.expm1(-1.5 * np.log1p(q))  # (R / |r_chaser|)^3 - 1
     n2 = n * n
     return np.array((
         2.0 * n * vz - n2 * f * x + ax,
@@ -118,6 +121,20 @@ def hill_axes_in_eci(t, n):
         (c, 0.0, -s),
         (0.0, -1.0, 0.0),
     ))
+
+
+def eci_vector_in_hill(v_eci, t, n):
+    """ECI vectors expressed in hill axes at the times t [s]: C_hill_from_eci(t) v = hill_axes_in_eci(t, n).T v.
+
+    v_eci is one vector (3,) (then an inertially fixed direction, e.g. the sun or a torque-free
+    target's angular momentum, seen at every t: it turns in hill by n t about +y, opposite to the
+    frame's rotation Omega^H = [0, -n, 0]) or one vector per time (N, 3); t is a scalar or (N,).
+    Returns shape (3,) or (N, 3).
+    """
+    vx, vy, vz = np.moveaxis(np.asarray(v_eci, dtype=float), -1, 0)
+    s = np.sin(n * np.asarray(t, dtype=float))
+    c = np.cos(n * np.asarray(t, dtype=float))
+    return np.stack(np.broadcast_arrays(-s * vx + c * vy, -vz, -c * vx - s * vy), axis=-1)
 
 
 # q_eci_from_hill at t = 0: hill x = ECI +y, hill y = ECI -z, hill z = ECI -x.

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_accel, cw_transition_matrix, eci_from_relative,
+from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_accel, cw_transition_matrix, eci_from_relative, eci_vector_in_hill,
                                hill_axes_in_eci, mean_motion_rad_s, nonlinear_relative_accel,
                                quat_eci_from_hill, relative_from_eci, rk4_step, target_eci_state)
 from flyby_sim.rotation import quat_to_matrix
@@ -124,6 +124,29 @@ def test_hill_axes_convention_at_t0_and_rotation_rate():
     for tt in (0.0, 100.0, 4000.0):
         np.testing.assert_allclose(quat_to_matrix(quat_eci_from_hill(tt, N)), hill_axes_in_eci(tt, N),
                                    atol=1e-15)
+
+
+def test_eci_vector_in_hill_is_the_transposed_hill_axes_for_many_times():
+    v = np.array((0.3, -1.2, 0.7))
+    t = np.array((0.0, 250.0, 4000.0))
+    expected = np.array([hill_axes_in_eci(tt, N).T @ v for tt in t])
+    np.testing.assert_allclose(eci_vector_in_hill(v, t, N), expected, atol=1e-15)
+    np.testing.assert_allclose(eci_vector_in_hill(v, 250.0, N), expected[1], atol=1e-15)
+    per_time = np.array((v, 2 * v, -v))
+    np.testing.assert_allclose(eci_vector_in_hill(per_time, t, N), expected * [[1], [2], [-1]], atol=1e-15)
+    # An inertially fixed vector turns in hill by n t about +y (opposite to the frame's -n about y).
+    u0 = eci_vector_in_hill(v, 0.0, N)
+    a = N * 250.0
+    rot_y = np.array(((math.cos(a), 0.0, math.sin(a)), (0.0, 1.0, 0.0), (-math.sin(a), 0.0, math.cos(a))))
+    np.testing.assert_allclose(expected[1], rot_y @ u0, atol=1e-15)
+
+
+def test_nonlinear_accel_of_many_states_at_once():
+    rng = np.random.default_rng(3)
+    r, v = rng.normal(0.0, 50.0, (3, 5)), rng.normal(0.0, 0.1, (3, 5))
+    together = nonlinear_relative_accel(r, v, N, RADIUS_M)
+    one_by_one = np.array([nonlinear_relative_accel(r[:, k], v[:, k], N, RADIUS_M) for k in range(5)]).T
+    np.testing.assert_allclose(together, one_by_one, rtol=1e-14, atol=1e-20)
 
 
 def test_eci_round_trip_and_circular_neighbour():
