@@ -53,7 +53,7 @@ class NodeSpec:
     essential: bool = True  # the run cannot go on without it
 
 
-OPTIONAL_NODES = ('flyby_estimator',)
+OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner')
 
 
 def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
@@ -64,9 +64,10 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
     """
     recorder = NodeSpec('flyby_recorder', 'flyby_msgs_py.recorder_node', 'RecorderNode',
                         {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0})
-    others = [NodeSpec('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode',
-                       {'use_sim_time': True, 'scenario_file': str(scenario_path), 'seed': seed},
-                       essential=False)]
+    others = [NodeSpec(name, module, cls, {'use_sim_time': True, 'scenario_file': str(scenario_path), 'seed': seed},
+                       essential=False)
+              for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
+                                        ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'))]
     others = [n for n in others if n.name not in without]
     sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',
                    {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf),

@@ -50,6 +50,13 @@ def spin_until(executor, predicate, timeout_s=30.0, tick=None):
         executor.spin_once(timeout_sec=min(max(wait, 0.0), 0.05))
 
 
+def spin_for(executor, seconds):
+    """Spin for a while (to show that something does *not* happen)."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+
+
 class ClockWatcher:
     """Listens to /clock on another run's ROS domain (from its run.json), from this process."""
 
@@ -118,7 +125,7 @@ def collect(node, topic, namespace=''):
     messages are appended to."""
     from flyby_msgs_py import contract as c
     received = []
-    qos = c.QOS_EVENTS if topic == c.MISSION_EVENTS else c.QOS_STREAM
+    qos = c.recorder_qos_for(topic)  # deep, and transient-local where the publisher latches
     name = c.absolute(topic, namespace) if namespace else topic
     node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, received.append, qos)
     return received

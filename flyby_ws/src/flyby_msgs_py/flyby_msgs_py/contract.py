@@ -31,6 +31,7 @@ MISSION_PHASE = 'mission/phase'
 MISSION_EVENTS = 'mission/events'
 MARKERS = 'visualization/markers'
 MISSION_ABORT_SERVICE = 'mission/abort'
+PLANNER_REPLAN_SERVICE = 'planner/replan'
 
 # Every recorded topic with its ROS type name (rosbags spelling).
 TOPIC_TYPES = {

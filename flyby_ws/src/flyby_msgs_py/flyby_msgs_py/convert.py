@@ -423,12 +423,14 @@ NS_TARGET_GEOMETRY = 'target_geometry'
 NS_RESTRICTION_SPHERE = 'restriction_sphere'
 NS_GRASP_POINT = 'grasp_point'
 NS_PATH = 'path'
+NS_KEEP_OUT = 'keep_out'
 
 RGBA_TARGET_BUS = (0.75, 0.75, 0.78, 1.0)
 RGBA_SOLAR_PANEL = (0.15, 0.25, 0.65, 1.0)
 RGBA_RESTRICTION_SPHERE = (1.0, 0.55, 0.0, 0.15)
 RGBA_GRASP_POINT = (0.1, 0.9, 0.2, 1.0)
 RGBA_PATH = (0.2, 0.6, 1.0, 1.0)
+RGBA_KEEP_OUT = (0.9, 0.1, 0.1, 0.25)
 
 
 def _marker(t, frame_id, ns, marker_id, kind, rgba):
@@ -498,6 +500,28 @@ def sphere_marker(t, center, radius_m, frame_id=FRAME_HILL, ns=NS_RESTRICTION_SP
     m = _marker(t, frame_id, ns, marker_id, Marker.SPHERE, rgba)
     _set_xyz(m.pose.position, _vec3(center, 'center'))
     _set_xyz(m.scale, (2.0 * r, 2.0 * r, 2.0 * r))
+    return m
+
+
+def cylinder_marker(t, center, axis, radius_m, height_m, frame_id=FRAME_HILL, ns=NS_KEEP_OUT, marker_id=0,
+                    rgba=RGBA_KEEP_OUT):
+    """A CYLINDER of radius_m and height_m centred on center with its axis along ``axis`` (the swept
+    keep-out region of a spinning target)."""
+    r, h = _scalar(radius_m, 'radius_m'), _scalar(height_m, 'height_m')
+    if r <= 0.0 or h <= 0.0:
+        raise ValueError(f'radius_m and height_m: must be > 0, got {r!r}, {h!r}')
+    a = np.array(_vec3(axis, 'axis'))
+    norm = float(np.linalg.norm(a))
+    if norm == 0.0:
+        raise ValueError('axis: must be nonzero')
+    a /= norm
+    # Shortest rotation taking the marker's z axis onto a: q = (z x a, 1 + z.a) normalized.
+    q = np.array((-a[1], a[0], 0.0, 1.0 + a[2]))
+    q = q / np.linalg.norm(q) if np.linalg.norm(q) > 1e-9 else np.array((1.0, 0.0, 0.0, 0.0))
+    m = _marker(t, frame_id, ns, marker_id, Marker.CYLINDER, rgba)
+    _set_xyz(m.pose.position, _vec3(center, 'center'))
+    _set_xyzw(m.pose.orientation, q.tolist())
+    _set_xyz(m.scale, (2.0 * r, 2.0 * r, h))
     return m
 
 
