@@ -19,10 +19,8 @@ import math
 import numpy as np
 from rclpy.node import Node
 
-from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
-from flyby_estimation.target_filter import (ConvergenceThresholds, MeasurementRejected,
-                                            TargetAttitudeFilter, target_filter_config_from_scenario)
-from flyby_estimation.target_motion import MotionThresholds
+from flyby_estimation.filters import filters_from_scenario
+from flyby_estimation.target_filter import MeasurementRejected
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import main_for
@@ -39,26 +37,6 @@ def _block_diag_6(a3, b3):
     cov[:3, :3] = a3
     cov[3:, 3:] = b3
     return cov
-
-
-def filters_from_scenario(scenario):
-    """The two filters and the target thresholds, configured from ``scenario.estimation``."""
-    est = scenario.estimation
-    rad = math.radians
-    target = TargetAttitudeFilter(target_filter_config_from_scenario(
-        scenario, gate_probability=est.gate_probability,
-        rate_sigma0_rad_s=rad(est.initial_rate_sigma_deg_s), torque_psd=est.torque_psd_n2m2s))
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(
-        scenario, gate_probability=est.gate_probability, accel_psd_m2_s3=est.accel_psd_m2_s3,
-        initial_velocity_sigma_mps=est.initial_velocity_sigma_mps))
-    convergence = ConvergenceThresholds(rad(est.convergence_attitude_3sigma_deg),
-                                        rad(est.convergence_rate_3sigma_deg_s))
-    motion = MotionThresholds(
-        spin_rate_rad_s=rad(est.spin_rate_deg_s), hill_fixed_rate_rad_s=rad(est.hill_fixed_rate_deg_s),
-        inertial_hold_rate_rad_s=rad(est.inertial_hold_rate_deg_s),
-        controlled_rate_rad_s=rad(est.controlled_rate_deg_s),
-        controlled_excursion_rad=rad(est.controlled_excursion_deg))
-    return target, nav, convergence, motion
 
 
 class EstimatorNode(Node):

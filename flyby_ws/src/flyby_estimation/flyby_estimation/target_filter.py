@@ -324,10 +324,14 @@ class TargetAttitudeFilter:
         return classify_motion(s.omega_hill, self._n, self.attitude_excursion_rad(), thresholds)
 
     # -- prediction (seed 000 eq 4, 6-9) ------------------------------------------------------------
-    def prediction(self, t_end):
-        """target_motion.MotionPrediction from the filter time to t_end [s]: ask it at many times."""
+    def prediction(self, t_end, with_covariance=True):
+        """target_motion.MotionPrediction from the filter time to t_end [s]: ask it at many times.
+
+        with_covariance=False predicts the motion alone (about 6x faster, no covariance).
+        """
         self._require_initialized()
-        return MotionPrediction(self.dynamics, self._n, self.t, self._q, self._omega, self._kf.P, t_end)
+        return MotionPrediction(self.dynamics, self._n, self.t, self._q, self._omega, self._kf.P, t_end,
+                                with_covariance=with_covariance)
 
     def predict(self, t_future):
         """PredictedState at t_future >= filter time: attitude, omega_body, omega_hill (eq 6), covariance.

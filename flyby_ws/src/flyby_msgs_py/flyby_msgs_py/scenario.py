@@ -335,6 +335,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'min_spin_axis_angle_from_orbit_normal_deg': Field(FLOAT, 10.0, '[0, 90)', 'Condition (b): spin axis at least this far from hill y (no pure out-of-plane motion).'),
         'sun_direction_hill': Field(VEC3, None, None, 'Condition (c): sun direction in hill at t = 0 (inertially fixed); omitted: lighting not checked.', check=_check_nonzero),
         'max_sun_angle_from_grasp_velocity_deg': Field(FLOAT, 100.0, '(0, 180]', 'Condition (c): angle between the grasp velocity and the sun at most this.'),
+        'min_observation_s': Field(FLOAT, 60.0, '>= 0', 'Plan no earlier than this after the first target measurement (and with a converged estimate).'),
         'maneuver_lead_s': Field(FLOAT, 10.0, '> 0', 'Time from the plan to the first terminal-approach burn.'),
         'transfer_min_s': Field(FLOAT, 150.0, '> 0', 'Shortest terminal transfer (first burn to the fly-by initial point).'),
         'transfer_max_s': Field(FLOAT, 450.0, '> 0', 'Longest terminal transfer; with transfer_min_s it sets the grasp-time search window.'),
@@ -343,6 +344,13 @@ SCHEMA = Section(desc='A flyby scenario', fields={
 
     'guidance': Section(desc='Terminal approach and trajectory adjusting', fields={
         'adjust_interval_s': Field(FLOAT, 20.0, '> 0', 'Cadence of trajectory-adjusting maneuvers.'),
+        'midcourse_corrections': Field(INT, 1, '>= 0', 'CW re-solves (eq 28) spread evenly over the terminal transfer.'),
+        'command_lead_s': Field(FLOAT, 1.0, '> 0', 'A burn is computed from the latest estimate and sent this long before it starts.'),
+        'deadband_mps': Field(FLOAT, 0.0002, '>= 0', 'Adjusting burns smaller than this (or the minimum impulse bit) are skipped.'),
+        'adjust_position_tolerance_m': Field(FLOAT, 0.005, '> 0', 'Predicted miss at the fly-by target point small enough to stop adjusting ...'),
+        'adjust_velocity_tolerance_mps': Field(FLOAT, 0.0005, '> 0', '... together with this velocity miss.'),
+        'sphere_margin_m': Field(FLOAT, 1.0, '>= 0', 'No burn whose predicted arc comes within this of the restriction sphere.'),
+        'refine_target': Field(BOOL, True, None, 'Re-aim each adjusting burn at the grasp re-solved from the latest target estimate.'),
     }),
 
     'simulation': Section(desc='Plant integration', fields={

@@ -40,7 +40,9 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from flyby_estimation.target_motion import body_point_in_hill
 from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.rotation import quat_to_matrix
 
 _E_Y = np.array((0.0, 1.0, 0.0))
 
@@ -346,3 +348,33 @@ def flyby_initial_point(x_ft, v_ft, duration_s, n):
     state_f = np.concatenate((np.asarray(x_ft, dtype=float), np.asarray(v_ft, dtype=float)))
     state_i = cw_transition_matrix(n, -duration_s) @ state_f  # eq 23
     return state_i[:3], state_i[3:]
+
+
+def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n):
+    """The convex grasp instant nearest t_grasp_prev according to a newer prediction, or None.
+
+    Re-aiming during the trajectory-adjusting phase (seed 000 section 4.6: the adjusting maneuvers
+    absorb "timing errors due to ... motion estimation"): the same turn's convex root (eq 13-15),
+    searched within 0.4 of a turn (relative to hill) either side of the previous grasp time and
+    inside the prediction's interval. Convex roots are a turn apart, so the window holds one.
+    """
+    omega = prediction.state(min(max(t_grasp_prev, prediction.t0), prediction.t_end)).omega_hill
+    rate_rel = float(np.linalg.norm(np.asarray(omega) - np.array((0.0, -n, 0.0))))
+    if not rate_rel > 0.0:
+        return None
+    half = 0.4 * 2.0 * math.pi / rate_rel
+    lo, hi = max(t_grasp_prev - half, prediction.t0), min(t_grasp_prev + half, prediction.t_end)
+    if not hi > lo:
+        return None
+    convex = [c for c in grasp_candidates(prediction, x_grasp_body, lo, hi, n) if c.convex]
+    return min(convex, key=lambda c: abs(c.t_grasp - t_grasp_prev)) if convex else None
+
+
+def flyby_target_from_attitude(q_hill_from_body, omega_body, x_grasp_body, offset_m, n):
+    """X_Ft, V_Ft (eq 20-21) of the grasp point of a target in the given attitude and body rate (eq 8-9).
+
+    With the *true* attitude at the grasp time this is the point the chaser should truly be at: the
+    reference of the capture position and velocity errors (DESIGN §7).
+    """
+    x_g, v_g, _ = body_point_in_hill(quat_to_matrix(q_hill_from_body), omega_body, x_grasp_body, n)
+    return flyby_target_point(x_g, v_g, offset_m)

@@ -76,8 +76,10 @@ class PlannerConfig:
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
                      'restriction_sphere_radius_m', 'escape_check_orbits', 'max_rate_rad_s', 'maneuver_lead_s',
-                     'transfer_min_s', 'transfer_max_s', 'max_delta_v_per_maneuver_mps'):
+                     'transfer_min_s', 'transfer_max_s'):
             require_positive(name, getattr(self, name))
+        if not self.max_delta_v_per_maneuver_mps > 0.0:  # inf: no limit
+            raise ValueError(f'max_delta_v_per_maneuver_mps must be > 0, got {self.max_delta_v_per_maneuver_mps!r}')
         if self.transfer_max_s < self.transfer_min_s:
             raise ValueError(f'transfer_max_s {self.transfer_max_s} s < transfer_min_s {self.transfer_min_s} s')
 

@@ -1,0 +1,238 @@
+"""Fly-by guidance: terminal approach (seed 000 eq 27-29), trajectory adjusting (eq 24-26) and the
+thruster-restriction sphere interlock (seed 000 section 4.1, seed 003 section 3.1).
+
+Pure numpy, no ROS: ``FlybyGuidance`` is stepped with the chaser's *estimated* state and returns the
+time-tagged maneuvers to command; the guidance node and the one-process loop (closed_loop) both
+drive it. Frames and units as in flyby_sim.orbital (hill; velocities relative to the rotating frame).
+
+Sequence for a plan (t_Ti < t_i < t_f):
+
+1. Transfer (terminal approach, eq 28): at t_Ti the first impulse of the CW transfer to X_Fi at t_i;
+   ``midcourse_corrections`` more re-solves of eq 28 from the then-current estimate, evenly spaced
+   in (t_Ti, t_i).
+2. Injection at t_i (eq 29): the arrival impulse V_Fi - v(t_i), with the estimated arrival velocity
+   in place of eq 29's predicted one.
+3. Trajectory adjusting every ``adjust_interval_s`` after t_i (eq 24-26): the least-squares impulse
+   that cancels the predicted position and velocity miss at the fly-by target point, skipped inside
+   the deadband / below the minimum impulse bit / when the predicted miss is within tolerance.
+   The aim point is whatever ``retarget`` last set (the grasp re-solved from the latest target
+   estimate), which is how timing and attitude-estimation errors are absorbed.
+4. The first adjusting burn whose predicted arc would come within ``sphere_margin_m`` of the
+   restriction sphere ends all thrusting: from there the chaser coasts (fly-by, then escape).
+
+Each burn is computed ``command_lead_s`` before it starts, from the estimate carried to its start
+time along CW (eq 22), and is sent stamped with that start time.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from flyby_planner.transfer import terminal_impulses
+from flyby_sim.checks import require_positive
+from flyby_sim.orbital import cw_transition_matrix
+
+# Points checked along a predicted burn arc.
+_ARC_SAMPLES = 9
+
+
+@dataclasses.dataclass(frozen=True)
+class GuidanceConfig:
+    """Guidance settings (the ``guidance`` section of docs/scenario.md) and the thruster limits."""
+
+    mean_motion_rad_s: float
+    restriction_sphere_radius_m: float
+    max_thrust_n: float
+    min_impulse_bit_ns: float = 0.0
+    max_delta_v_per_maneuver_mps: float = math.inf
+    adjust_interval_s: float = 20.0
+    midcourse_corrections: int = 1
+    command_lead_s: float = 1.0
+    deadband_mps: float = 0.0002
+    adjust_position_tolerance_m: float = 0.005
+    adjust_velocity_tolerance_mps: float = 0.0005
+    sphere_margin_m: float = 1.0
+
+    def __post_init__(self):
+        for name in ('mean_motion_rad_s', 'restriction_sphere_radius_m', 'max_thrust_n',
+                     'adjust_interval_s', 'command_lead_s', 'adjust_position_tolerance_m',
+                     'adjust_velocity_tolerance_mps'):
+            require_positive(name, getattr(self, name))
+        if not self.max_delta_v_per_maneuver_mps > 0.0:  # inf: no limit
+            raise ValueError(f'max_delta_v_per_maneuver_mps must be > 0, got {self.max_delta_v_per_maneuver_mps!r}')
+        if self.midcourse_corrections < 0:
+            raise ValueError(f'midcourse_corrections must be >= 0, got {self.midcourse_corrections}')
+
+
+def guidance_config_from_scenario(scenario):
+    g, th = scenario.guidance, scenario.chaser.thrusters
+    return GuidanceConfig(
+        mean_motion_rad_s=scenario.mean_motion_rad_s,
+        restriction_sphere_radius_m=scenario.planner.restriction_sphere_radius_m,
+        max_thrust_n=th.max_thrust_n, min_impulse_bit_ns=th.min_impulse_bit_ns,
+        max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps, adjust_interval_s=g.adjust_interval_s,
+        midcourse_corrections=g.midcourse_corrections, command_lead_s=g.command_lead_s, deadband_mps=g.deadband_mps,
+        adjust_position_tolerance_m=g.adjust_position_tolerance_m,
+        adjust_velocity_tolerance_mps=g.adjust_velocity_tolerance_mps, sphere_margin_m=g.sphere_margin_m)
+
+
+@dataclasses.dataclass(frozen=True)
+class FlybyTarget:
+    """What the planner decided: first burn time t_ti, X_Fi/V_Fi at t_i (eq 23), X_Ft/V_Ft at t_f (eq 20-21)."""
+
+    t_ti: float
+    t_i: float
+    x_fi: np.ndarray
+    v_fi: np.ndarray
+    t_f: float
+    x_ft: np.ndarray
+    v_ft: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class Maneuver:
+    """A commanded impulse: start time t [s], dv_hill [m/s], kind ('transfer', 'midcourse', 'injection',
+    'adjust'), and the figures behind it (predicted miss before the burn, for an adjust)."""
+
+    t: float
+    dv_hill: np.ndarray
+    kind: str
+    values: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class GuidanceEvent:
+    """Something the guidance decided not to do, or a change of its state: t [s], name, message, values."""
+
+    t: float
+    level: str
+    name: str
+    message: str
+    values: dict
+
+
+def predicted_miss(r_hill, v_hill, x_ft, v_ft, time_to_go_s, n):
+    """Position and velocity error at the fly-by target point if the chaser coasts, seed 000 eq 24."""
+    state_f = cw_transition_matrix(n, time_to_go_s) @ np.concatenate((r_hill, v_hill))
+    return state_f - np.concatenate((x_ft, v_ft))
+
+
+def adjusting_delta_v(r_hill, v_hill, x_ft, v_ft, time_to_go_s, n):
+    """The trajectory-adjusting impulse, seed 000 eq 24-26, and the miss it corrects.
+
+    Eq 26 gives the least-squares Delta V with [Phi12; Phi22] Delta V = [dX; dV] (eq 25): the impulse
+    that would *cause* the predicted miss. The burn that cancels it is its negative, so the returned
+    dv minimizes |[Phi12; Phi22] dv + miss| (test_eq26_is_the_least_squares_optimum).
+
+    Returns:
+        (dv_hill [m/s] (3,), miss (6,) [m, m/s] before the burn).
+    """
+    miss = predicted_miss(r_hill, v_hill, x_ft, v_ft, time_to_go_s, n)  # eq 24
+    phi = cw_transition_matrix(n, time_to_go_s)
+    a = phi[:, 3:]  # [Phi12; Phi22]
+    dv_eq26 = np.linalg.solve(a.T @ a, a.T @ miss)  # eq 26
+    return -dv_eq26, miss
+
+
+def burn_arc(r_hill, v_hill, dv_hill, mass_kg, max_thrust_n, n):
+    """Predicted positions (K, 3) over a finite burn at max thrust delivering dv_hill from (r, v).
+
+    The burn lasts m |dv| / F (a few seconds); over it the coast is CW and the thrust adds a constant
+    acceleration dv / T along the command (position offset a tau^2 / 2).
+    """
+    dv = np.asarray(dv_hill, dtype=float)
+    duration = mass_kg * float(np.linalg.norm(dv)) / max_thrust_n
+    taus = np.linspace(0.0, duration, _ARC_SAMPLES)
+    accel = dv / duration if duration > 0.0 else np.zeros(3)
+    state = np.concatenate((r_hill, v_hill))
+    return np.array([(cw_transition_matrix(n, tau) @ state)[:3] + 0.5 * accel * tau * tau for tau in taus])
+
+
+class FlybyGuidance:
+    """Guidance of one fly-by (module doc). ``set_target`` starts it, ``step`` is called with each estimate."""
+
+    def __init__(self, config):
+        self.config = config
+        self.target = None
+        self.schedule = []  # (t, kind) of the burns still to compute, in time order
+        self.thrust_ended = None  # why thrusting has ended, once it has
+        self.commanded = []
+
+    def set_target(self, target):
+        """A new plan: schedule its transfer, midcourse corrections, injection and adjusting."""
+        cfg = self.config
+        self.target = target
+        k = cfg.midcourse_corrections
+        span = target.t_i - target.t_ti
+        self.schedule = ([(target.t_ti, 'transfer')]
+                         + [(target.t_ti + span * (j + 1) / (k + 1), 'midcourse') for j in range(k)]
+                         + [(target.t_i, 'injection')])
+        self.thrust_ended = None
+
+    def retarget(self, t_f, x_ft, v_ft):
+        """Aim the adjusting burns at a refined fly-by target point (the re-solved grasp)."""
+        if self.target is not None:
+            self.target = dataclasses.replace(self.target, t_f=float(t_f), x_ft=np.asarray(x_ft, dtype=float),
+                                              v_ft=np.asarray(v_ft, dtype=float))
+
+    @property
+    def next_burn_time(self):
+        """Start time of the next scheduled burn, or None."""
+        return self.schedule[0][0] if self.schedule else None
+
+    def step(self, t, r_hill, v_hill, mass_kg):
+        """Maneuvers to command now (each to start at its stamp >= t) and events, from the estimate at t."""
+        cfg = self.config
+        maneuvers, events = [], []
+        while self.schedule and t >= self.schedule[0][0] - cfg.command_lead_s:
+            t_burn, kind = self.schedule.pop(0)
+            t_burn = max(t_burn, t + cfg.command_lead_s) if t_burn < t else t_burn
+            state = cw_transition_matrix(cfg.mean_motion_rad_s, t_burn - t) @ np.concatenate((r_hill, v_hill))
+            m, e = self._burn(t_burn, kind, state[:3], state[3:], mass_kg)
+            maneuvers += m
+            events += e
+        self.commanded += maneuvers
+        return maneuvers, events
+
+    def _burn(self, t_burn, kind, r, v, mass_kg):
+        cfg, tg = self.config, self.target
+        n = cfg.mean_motion_rad_s
+        values = {}
+        if kind in ('transfer', 'midcourse'):
+            dv, _ = terminal_impulses(r, v, tg.x_fi, tg.v_fi, tg.t_i - t_burn, n)  # eq 28
+        elif kind == 'injection':
+            dv = tg.v_fi - v  # eq 29 with the estimated arrival velocity
+            self._schedule_adjust(t_burn + cfg.adjust_interval_s)
+        else:
+            dv, miss = adjusting_delta_v(r, v, tg.x_ft, tg.v_ft, tg.t_f - t_burn, n)  # eq 24-26
+            values = {'miss_position_m': float(np.linalg.norm(miss[:3])),
+                      'miss_velocity_mps': float(np.linalg.norm(miss[3:]))}
+        arc = burn_arc(r, v, dv, mass_kg, cfg.max_thrust_n, n)
+        closest = float(np.linalg.norm(arc, axis=1).min())
+        limit = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m
+        if closest < limit:
+            # The interlock: no thrust near the sphere, ever again in this fly-by (seed 000 section 4.1).
+            self.schedule = []
+            self.thrust_ended = f'{kind} burn at t = {t_burn:.1f} s would thrust {closest:.2f} m from the target'
+            return [], [GuidanceEvent(t_burn, 'OK' if kind == 'adjust' else 'ERROR', 'thrusting_ended',
+                                      f'{self.thrust_ended} (< sphere {cfg.restriction_sphere_radius_m:g} m + margin '
+                                      f'{cfg.sphere_margin_m:g} m); coasting from here', {'closest_m': closest, **values})]
+        if kind == 'adjust':
+            small = (values['miss_position_m'] < cfg.adjust_position_tolerance_m
+                     and values['miss_velocity_mps'] < cfg.adjust_velocity_tolerance_mps)
+            smallest = max(cfg.deadband_mps, cfg.min_impulse_bit_ns / mass_kg)
+            self._schedule_adjust(t_burn + cfg.adjust_interval_s)
+            if small or np.linalg.norm(dv) < smallest:
+                why = 'predicted miss within tolerance' if small else f'|dv| below {smallest:.2g} m/s'
+                return [], [GuidanceEvent(t_burn, 'OK', 'adjust_skipped', why,
+                                          {**values, 'dv_mps': float(np.linalg.norm(dv))})]
+        size = float(np.linalg.norm(dv))
+        if size > cfg.max_delta_v_per_maneuver_mps:
+            dv = dv * (cfg.max_delta_v_per_maneuver_mps / size)
+            values['clipped_from_mps'] = size
+        return [Maneuver(t_burn, dv, kind, {**values, 'closest_m': closest})], []
+
+    def _schedule_adjust(self, t_next):
+        if self.target is not None and t_next < self.target.t_f:
+            self.schedule.append((t_next, 'adjust'))
