@@ -53,7 +53,7 @@ class NodeSpec:
     essential: bool = True  # the run cannot go on without it
 
 
-OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner')
+OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance')
 
 
 def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
@@ -67,7 +67,8 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
     others = [NodeSpec(name, module, cls, {'use_sim_time': True, 'scenario_file': str(scenario_path), 'seed': seed},
                        essential=False)
               for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
-                                        ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'))]
+                                        ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'),
+                                        ('flyby_guidance', 'flyby_guidance.guidance_node', 'GuidanceNode'))]
     others = [n for n in others if n.name not in without]
     sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',
                    {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf),

@@ -338,6 +338,12 @@ class MotionPrediction:
         return PointTrack(t=t, r_hill=r_hill, v_hill=v_hill, omega_hill=omega_hill)
 
 
+def prediction_from_estimate(dynamics, n, t, q_hill_from_body_, omega_body, t_end):
+    """MotionPrediction (without covariance) from a published estimate: attitude in hill and body rate at t."""
+    return MotionPrediction(dynamics, n, t, q_eci_from_body(t, n, q_hill_from_body_), omega_body, None, t_end,
+                            with_covariance=False)
+
+
 # --------------------------------------------------------------------------------------------------
 # Categories of target motion, seed 000 section 2.1 / Fig. 2
 

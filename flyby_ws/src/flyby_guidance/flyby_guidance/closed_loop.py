@@ -20,9 +20,9 @@ import numpy as np
 
 from flyby_estimation.filters import filters_from_scenario
 from flyby_estimation.target_filter import MeasurementRejected
-from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
+from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario, refined_flyby_target
 from flyby_msgs_py.scenario import scenario_from_dict
-from flyby_planner.grasp import flyby_target_from_attitude, flyby_target_point, refine_grasp
+from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.geometry import clearance
@@ -153,13 +153,13 @@ def _ideal_delta_v(plant, chosen, n):
 def _guide(guidance, nav, target_filter, plant, result, refine, x_grasp_body, offset, n):
     """One guidance step at the latest navigation estimate; re-aims before an adjusting burn."""
     est = nav.state()
-    t_next = guidance.next_burn_time
-    if refine and guidance.schedule[0][1] == 'adjust' and est.t >= t_next - guidance.config.command_lead_s:
+    if refine and guidance.wants_refined_target(est.t):
         t_f = guidance.target.t_f
-        g = refine_grasp(target_filter.prediction(t_f + 60.0, with_covariance=False), x_grasp_body, t_f, n)
-        if g is not None:
-            guidance.retarget(g.t_grasp, *flyby_target_point(g.x_g, g.v_g, offset))
-    maneuvers, events = guidance.step(est.t, est.r_hill, est.v_hill, nav.mass_kg)
+        aim = refined_flyby_target(target_filter.prediction(t_f + 60.0, with_covariance=False), x_grasp_body, t_f,
+                                   offset, n)
+        if aim is not None:
+            guidance.retarget(*aim)
+    maneuvers, events = guidance.step(est.t, est.r_hill, est.v_hill)
     result.events += events
     for mv in maneuvers:
         plant.command_maneuver(mv.t, mv.dv_hill)

@@ -29,9 +29,11 @@ import math
 
 import numpy as np
 
+from flyby_planner.grasp import flyby_target_point, refine_grasp
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.checks import require_positive
 from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2, fuel_for_delta_v_kg
 
 # Points checked along a predicted burn arc.
 _ARC_SAMPLES = 9
@@ -44,6 +46,8 @@ class GuidanceConfig:
     mean_motion_rad_s: float
     restriction_sphere_radius_m: float
     max_thrust_n: float
+    chaser_mass_kg: float
+    exhaust_velocity_mps: float
     min_impulse_bit_ns: float = 0.0
     max_delta_v_per_maneuver_mps: float = math.inf
     adjust_interval_s: float = 20.0
@@ -55,7 +59,8 @@ class GuidanceConfig:
     sphere_margin_m: float = 1.0
 
     def __post_init__(self):
-        for name in ('mean_motion_rad_s', 'restriction_sphere_radius_m', 'max_thrust_n',
+        for name in ('mean_motion_rad_s', 'restriction_sphere_radius_m', 'max_thrust_n', 'chaser_mass_kg',
+                     'exhaust_velocity_mps',
                      'adjust_interval_s', 'command_lead_s', 'adjust_position_tolerance_m',
                      'adjust_velocity_tolerance_mps'):
             require_positive(name, getattr(self, name))
@@ -70,7 +75,8 @@ def guidance_config_from_scenario(scenario):
     return GuidanceConfig(
         mean_motion_rad_s=scenario.mean_motion_rad_s,
         restriction_sphere_radius_m=scenario.planner.restriction_sphere_radius_m,
-        max_thrust_n=th.max_thrust_n, min_impulse_bit_ns=th.min_impulse_bit_ns,
+        max_thrust_n=th.max_thrust_n, chaser_mass_kg=scenario.chaser.mass_kg,
+        exhaust_velocity_mps=th.isp_s * STANDARD_GRAVITY_M_S2, min_impulse_bit_ns=th.min_impulse_bit_ns,
         max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps, adjust_interval_s=g.adjust_interval_s,
         midcourse_corrections=g.midcourse_corrections, command_lead_s=g.command_lead_s, deadband_mps=g.deadband_mps,
         adjust_position_tolerance_m=g.adjust_position_tolerance_m,
@@ -149,11 +155,27 @@ def burn_arc(r_hill, v_hill, dv_hill, mass_kg, max_thrust_n, n):
     return np.array([(cw_transition_matrix(n, tau) @ state)[:3] + 0.5 * accel * tau * tau for tau in taus])
 
 
+def refined_flyby_target(prediction, x_grasp_body, t_f, offset_m, n):
+    """(t_f, X_Ft, V_Ft) of the grasp re-solved near t_f from a newer target prediction, or None.
+
+    The re-aiming of seed 000 section 4.6 (grasp.refine_grasp, eq 13-15, then eq 20-21).
+    """
+    g = refine_grasp(prediction, x_grasp_body, t_f, n)
+    if g is None:
+        return None
+    return (g.t_grasp, *flyby_target_point(g.x_g, g.v_g, offset_m))
+
+
 class FlybyGuidance:
-    """Guidance of one fly-by (module doc). ``set_target`` starts it, ``step`` is called with each estimate."""
+    """Guidance of one fly-by (module doc). ``set_target`` starts it, ``step`` is called with each estimate.
+
+    The chaser mass (burn durations, minimum impulse bit) is tracked from the commanded delta-v by the
+    rocket equation, as the navigation filter does.
+    """
 
     def __init__(self, config):
         self.config = config
+        self.mass_kg = config.chaser_mass_kg
         self.target = None
         self.schedule = []  # (t, kind) of the burns still to compute, in time order
         self.thrust_ended = None  # why thrusting has ended, once it has
@@ -176,12 +198,17 @@ class FlybyGuidance:
             self.target = dataclasses.replace(self.target, t_f=float(t_f), x_ft=np.asarray(x_ft, dtype=float),
                                               v_ft=np.asarray(v_ft, dtype=float))
 
+    def wants_refined_target(self, t):
+        """True when the next burn is an adjusting one due within command_lead_s of t: re-aim first."""
+        return bool(self.schedule) and self.schedule[0][1] == 'adjust' \
+            and t >= self.schedule[0][0] - self.config.command_lead_s
+
     @property
     def next_burn_time(self):
         """Start time of the next scheduled burn, or None."""
         return self.schedule[0][0] if self.schedule else None
 
-    def step(self, t, r_hill, v_hill, mass_kg):
+    def step(self, t, r_hill, v_hill):
         """Maneuvers to command now (each to start at its stamp >= t) and events, from the estimate at t."""
         cfg = self.config
         maneuvers, events = [], []
@@ -189,7 +216,10 @@ class FlybyGuidance:
             t_burn, kind = self.schedule.pop(0)
             t_burn = max(t_burn, t + cfg.command_lead_s) if t_burn < t else t_burn
             state = cw_transition_matrix(cfg.mean_motion_rad_s, t_burn - t) @ np.concatenate((r_hill, v_hill))
-            m, e = self._burn(t_burn, kind, state[:3], state[3:], mass_kg)
+            m, e = self._burn(t_burn, kind, state[:3], state[3:], self.mass_kg)
+            for mv in m:
+                self.mass_kg -= fuel_for_delta_v_kg(self.mass_kg, float(np.linalg.norm(mv.dv_hill)),
+                                                    cfg.exhaust_velocity_mps)
             maneuvers += m
             events += e
         self.commanded += maneuvers

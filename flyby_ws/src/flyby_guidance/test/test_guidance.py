@@ -45,7 +45,8 @@ def test_eq26_removes_an_exactly_correctable_miss():
 
 
 def _config(**kw):
-    return GuidanceConfig(mean_motion_rad_s=N, restriction_sphere_radius_m=15.0, max_thrust_n=10.0, **kw)
+    return GuidanceConfig(mean_motion_rad_s=N, restriction_sphere_radius_m=15.0, max_thrust_n=10.0, chaser_mass_kg=100.0,
+                          exhaust_velocity_mps=2157.0, **kw)
 
 
 def _target():
@@ -54,12 +55,12 @@ def _target():
     return FlybyTarget(t_ti=10.0, t_i=400.0, x_fi=x_fi, v_fi=v_fi, t_f=700.0, x_ft=x_ft, v_ft=v_ft)
 
 
-def _fly(guidance, r0, v0, t_end, dt=1.0, mass=100.0):
+def _fly(guidance, r0, v0, t_end, dt=1.0):
     """Perfect estimates and impulsive, exact burns under CW: the nominal guidance sequence."""
     state, t, flown = np.concatenate((r0, v0)), 0.0, []
     pending = []
     while t < t_end:
-        maneuvers, _ = guidance.step(t, state[:3], state[3:], mass)
+        maneuvers, _ = guidance.step(t, state[:3], state[3:])
         pending += maneuvers
         for mv in [m for m in pending if m.t <= t + dt]:
             state = cw_transition_matrix(N, mv.t - t) @ state
@@ -88,6 +89,7 @@ def test_nominal_sequence_reaches_the_flyby_target_point_with_eq28_29_impulses()
     np.testing.assert_allclose(state[:3], target.x_ft, atol=1e-6)
     np.testing.assert_allclose(state[3:], target.v_ft, atol=1e-9)
     assert guidance.thrust_ended is not None and 'would thrust' in guidance.thrust_ended
+    assert 99.9 < guidance.mass_kg < 100.0  # about 0.45 m/s of fuel at Isp 220 s
 
 
 def test_adjusting_aims_at_a_retargeted_point_and_stops_before_the_sphere():
@@ -100,7 +102,7 @@ def test_adjusting_aims_at_a_retargeted_point_and_stops_before_the_sphere():
     t = target.t_i + 5.0
     flown_adjust = []
     while t < target.t_f:
-        maneuvers, events = guidance.step(t, state[:3], state[3:], 100.0)
+        maneuvers, events = guidance.step(t, state[:3], state[3:])
         for mv in maneuvers:
             assert mv.kind == 'adjust'
             state = cw_transition_matrix(N, mv.t - t) @ state
@@ -127,7 +129,7 @@ def test_a_transfer_burn_into_the_sphere_is_refused_with_an_error():
     target = _target()
     guidance = FlybyGuidance(_config())
     guidance.set_target(target)
-    maneuvers, events = guidance.step(9.5, np.array((5.0, 0.0, 0.0)), np.zeros(3), 100.0)  # already inside
+    maneuvers, events = guidance.step(9.5, np.array((5.0, 0.0, 0.0)), np.zeros(3))  # already inside
     assert not maneuvers
     assert events[0].name == 'thrusting_ended' and events[0].level == 'ERROR'
     assert guidance.next_burn_time is None

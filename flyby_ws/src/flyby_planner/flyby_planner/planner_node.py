@@ -21,7 +21,7 @@ import numpy as np
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction, q_eci_from_body
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import main_for
@@ -111,8 +111,8 @@ class PlannerNode(Node):
         n = cfg.mean_motion_rad_s
         t_c, r_c, v_c = self.chaser
         chaser_now = cw_transition_matrix(n, t - t_c) @ np.concatenate((r_c, v_c))
-        prediction = MotionPrediction(self.dynamics, n, t, q_eci_from_body(t, n, q_hill_from_body), omega_body,
-                                      None, t + cfg.search_window[1], with_covariance=False)
+        prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body,
+                                              t + cfg.search_window[1])
         plan = plan_capture(prediction, chaser_now[:3], chaser_now[3:], t, cfg)
         self.plans += 1
         for cand in plan.candidates:
