@@ -26,7 +26,7 @@ from flyby_sim.attitude import AttitudePropagator, validated_inertia
 from flyby_sim.checks import require_positive
 from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_accel, mean_motion_rad_s, nonlinear_relative_accel,
                                quat_eci_from_hill, rk4_step)
-from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize
+from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
 from flyby_sim.sensors import SensorModel, is_sample_step
 from flyby_sim.thrusters import ManeuverRejected, ThrusterConfig, ThrusterModel
 
@@ -167,6 +167,7 @@ class Plant:
         self._dv_total_mps = 0.0
         self._burn_rhs = None
         self._restriction_reported = False
+        self._r_body_captured = None
         self._events = []
         self._measurements = []
         self._last = self._truth(0.0, np.zeros(3), False)
@@ -187,6 +188,8 @@ class Plant:
         Raises ManeuverRejected (and records an ERROR event) for an unexecutable command.
         """
         try:
+            if self.captured:
+                raise ManeuverRejected(f'the chaser is attached to the target; maneuver stamped {t_stamp} s dropped')
             return self._thrusters.schedule(t_stamp, dv_hill, self.t, self._mass_kg)
         except ManeuverRejected as exc:
             self._events.append(Event('ERROR', 'maneuver_rejected', exc.reason,
@@ -202,8 +205,31 @@ class Plant:
         events, self._events = self._events, []
         return events
 
+    @property
+    def captured(self):
+        """True once ``capture`` has attached the chaser to the target."""
+        return self._r_body_captured is not None
+
+    def capture(self):
+        """Attach the chaser rigidly to the target where it is now (seed 000 section 2.2 (4)-(5)).
+
+        From the next step on the chaser keeps its current position in target_body axes and moves
+        with the target (r_hill = C r_body, v_hill = C (omega_body x r_body) - Omega^H x r_hill); truth
+        keeps flowing. Pending and later maneuvers are dropped (the combined body's control is a later
+        capability). Idempotent.
+        """
+        if self.captured:
+            return
+        c_hill_from_body = quat_to_matrix(self._last.q_hill_from_body)
+        self._r_body_captured = c_hill_from_body.T @ self._y[:3]
+        self._thrusters.cancel_all()
+        self._events.append(Event('OK', 'captured', f'chaser attached to the target at t = {self.t:.3f} s',
+                                  _values(t=self.t, r_hill=self._y[:3], r_body=self._r_body_captured)))
+
     def step(self):
         """Advance exactly one step_s; returns the TruthSample at the new time."""
+        if self.captured:
+            return self._step_attached()
         thrusters = self._thrusters
         t = self.t
         self._step_index += 1
@@ -238,6 +264,19 @@ class Plant:
         self._y = y
         step_s = self.config.step_s
         self._last = self._truth(t1, np.array(impulse) / step_s, firing)
+        self._sample(self._last)
+        return self._last
+
+    def _step_attached(self):
+        self._step_index += 1
+        t = self.t
+        q_eci_from_body, omega_body = self._attitude.state_at(t)
+        q_hill_from_body = quat_multiply(quat_conjugate(quat_eci_from_hill(t, self.mean_motion_rad_s)), q_eci_from_body)
+        c = quat_to_matrix(q_hill_from_body)
+        r_hill = c @ self._r_body_captured
+        omega_rel_hill = c @ np.asarray(omega_body) - np.array((0.0, -self.mean_motion_rad_s, 0.0))
+        self._y = np.concatenate((r_hill, np.cross(omega_rel_hill, r_hill)))  # eq 8-9 of a body-fixed point
+        self._last = self._truth(t, np.zeros(3), False)
         self._sample(self._last)
         return self._last
 

@@ -196,6 +196,10 @@ class ThrusterModel:
         self._active = self._pending.pop(0)
         return self._active
 
+    def cancel_all(self):
+        """Drop the active and every pending burn (the chaser was captured)."""
+        self._requests, self._pending, self._active = [], [], None
+
     def finish_active(self):
         """End the active burn and return it."""
         burn, self._active = self._active, None

@@ -4,15 +4,18 @@ import dataclasses
 import math
 import re
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.integrate import quad_vec, solve_ivp
 
+from flyby_estimation.target_motion import body_point_in_hill  # an independent eq 8-9
+from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_transition_matrix, eci_from_relative, hill_axes_in_eci,
                                mean_motion_rad_s, relative_from_eci, target_eci_state)
-from flyby_sim.plant import Plant, PlantConfig
-from flyby_sim.rotation import quat_from_axis_angle, quat_multiply, quat_normalize
+from flyby_sim.plant import Plant, PlantConfig, plant_config_from_scenario
+from flyby_sim.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
 from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2, ManeuverRejected, ThrusterConfig
 
 RADIUS_M = 7.0e6
@@ -312,3 +315,23 @@ def test_coasting_step_cost():
     per_step_us = (time.perf_counter() - start) / 4000 * 1e6
     print(f'coasting step() with the seed 001 tumbler and both sensors at 10 Hz: {per_step_us:.0f} us')
     assert per_step_us < 1000.0  # budget 300 us; generous for a loaded machine
+
+
+def test_capture_attaches_the_chaser_to_the_target_and_drops_maneuvers():
+    """After capture the chaser stays at its body-frame point (moves with the tumbling target, eq 8-9)."""
+    sc = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby.yaml')
+    plant = Plant(plant_config_from_scenario(sc))
+    for _ in range(20):
+        plant.step()
+    plant.command_maneuver(plant.t + 5.0, (0.01, 0.0, 0.0))
+    plant.capture()
+    r_body = quat_to_matrix(plant.truth().q_hill_from_body).T @ plant.truth().r_hill
+    assert [e.name for e in plant.drain_events()] == ['captured']
+    with pytest.raises(ManeuverRejected, match='attached'):
+        plant.command_maneuver(plant.t + 1.0, (0.01, 0.0, 0.0))
+    for _ in range(400):
+        s = plant.step()
+    assert not s.firing and s.dv_applied_total_mps == 0.0
+    r, v, _ = body_point_in_hill(quat_to_matrix(s.q_hill_from_body), s.omega_body, r_body, plant.mean_motion_rad_s)
+    np.testing.assert_allclose(s.r_hill, r, atol=1e-9)
+    np.testing.assert_allclose(s.v_hill, v, atol=1e-12)
