@@ -62,7 +62,8 @@ def main():
 
         print(f'plant step alone: {plant_step_cost_us(scenario):.1f} us per '
               f'{data["simulation"]["step_s"]} s step')
-        alone = ('--without', 'flyby_estimator', '--without', 'flyby_planner', '--without', 'flyby_guidance')
+        alone = [a for node in ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor')
+                 for a in ('--without', node)]
         for label, extra in (('simulator + recorder', alone), ('whole graph', ())):
             summary, wall = run(scenario, tmp / 'max', 0.0, '--force', *extra)
             print(f'{label}, full speed: {summary["sim_time_s"]:.0f} s simulated in {wall:.1f} s '

@@ -53,7 +53,7 @@ class NodeSpec:
     essential: bool = True  # the run cannot go on without it
 
 
-OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance')
+OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor')
 
 
 def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
@@ -68,10 +68,17 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
                        essential=False)
               for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
                                         ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'),
-                                        ('flyby_guidance', 'flyby_guidance.guidance_node', 'GuidanceNode'))]
+                                        ('flyby_guidance', 'flyby_guidance.guidance_node', 'GuidanceNode'),
+                                        ('flyby_supervisor', 'flyby_planner.supervisor_node', 'SupervisorNode'))]
     others = [n for n in others if n.name not in without]
+    names = [n.name for n in others]
+    for n in others:
+        if n.name == 'flyby_supervisor':
+            n.params['watched_nodes'] = [w for w in ('flyby_estimator', 'flyby_guidance') if w in names] or ['']
+    # Flow control every 1 s of sim time: no node lags more than 2 s, well inside the 5 s lead of
+    # guidance's commands, so every burn starts on its stamp at any pace (determinism).
     sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',
-                   {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf),
+                   {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf), 'flow_control_period_s': 1.0,
                     'wait_for_nodes': [n.name for n in [recorder, *others]],
                     'keep_up_with': [n.name for n in [recorder, *others]]})
     return [recorder, *others, sim]
@@ -147,33 +154,52 @@ class ProcessGraph:
 
 
 class Monitor:
-    """The launcher's own node: watches the phase and the clock."""
+    """The launcher's own node: watches the phase and the clock.
 
-    def __init__(self, context):
+    The run is over once the phase is terminal: at once for COMPLETE, after ``abort_hold_s`` of sim
+    time for ABORTED (so the bag records the start of the escape and any avoidance burn).
+    """
+
+    def __init__(self, context, abort_hold_s, executor=None):
         from rclpy.node import Node
         from rclpy.experimental import EventsExecutor
 
         self.node = Node('flyby_launcher', context=context)
         self.phase = None
         self.sim_time_s = 0.0
+        self.abort_hold_s = abort_hold_s
+        self.t_terminal = None
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
                                       c.MISSION_PHASE, self._on_phase, c.QOS_LATCHED)
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock',
                                       self._on_clock, c.QOS_STREAM)
-        self.executor = EventsExecutor(context=context)
+        self.own_executor = executor is None
+        self.executor = EventsExecutor(context=context) if executor is None else executor
         self.executor.add_node(self.node)
 
     def _on_phase(self, msg):
         self.phase = msg.data
+        if self.phase in c.TERMINAL_PHASES and self.t_terminal is None:
+            self.t_terminal = self.sim_time_s
 
     def _on_clock(self, msg):
         self.sim_time_s = msg.clock.sec + 1e-9 * msg.clock.nanosec
+
+    @property
+    def done(self):
+        if self.t_terminal is None:
+            return False
+        hold = self.abort_hold_s if self.phase == c.PHASE_ABORTED else 0.0
+        return self.sim_time_s >= self.t_terminal + hold
 
     def spin(self, seconds):
         self.executor.spin_once(timeout_sec=seconds)
 
     def close(self):
-        self.executor.shutdown()
+        if self.own_executor:
+            self.executor.shutdown()
+        else:
+            self.executor.remove_node(self.node)
         self.node.destroy_node()
 
 
@@ -183,7 +209,7 @@ def clean_shared_memory():
                    stderr=subprocess.DEVNULL, check=False, timeout=60)
 
 
-def run_processes(specs, run_dir, env, wall_timeout_s, progress):
+def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s):
     """Run the graph as processes; return (end reason, nodes killed, node exit codes)."""
     import rclpy
     from rclpy.context import Context
@@ -192,7 +218,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress):
     context = Context()
     rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
                signal_handler_options=SignalHandlerOptions.NO)
-    monitor = Monitor(context)
+    monitor = Monitor(context, abort_hold_s)
     graph = ProcessGraph(specs, run_dir, env)
     reason = None
     try:
@@ -207,7 +233,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress):
                     reason = 'time_limit'
                 elif spec.essential:
                     reason = f'error: node {name} exited with code {code}'
-            if monitor.phase in c.TERMINAL_PHASES:
+            if monitor.done:
                 reason = f'phase {monitor.phase}'
             if time.monotonic() > deadline:
                 reason = f'error: wall-clock timeout after {wall_timeout_s} s'
@@ -221,7 +247,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress):
     return reason, killed, graph.exit_codes, monitor.phase
 
 
-def run_in_process(specs, env, wall_timeout_s, progress):
+def run_in_process(specs, env, wall_timeout_s, progress, abort_hold_s):
     """Every node in this process on one EventsExecutor (what the integration tests use)."""
     import importlib
 
@@ -239,6 +265,7 @@ def run_in_process(specs, env, wall_timeout_s, progress):
     executor = EventsExecutor(context=context)
     nodes = []
     reason = None
+    monitor = None
     try:
         for spec in specs:
             cls = getattr(importlib.import_module(spec.module), spec.class_name)
@@ -247,18 +274,24 @@ def run_in_process(specs, env, wall_timeout_s, progress):
                        namespace=spec.namespace or None, cli_args=None)
             nodes.append(node)
             executor.add_node(node)
+        monitor = Monitor(context, abort_hold_s, executor)
         deadline = time.monotonic() + wall_timeout_s
         sim = nodes[-1]
 
         def should_stop():
             progress(sim.plant.t)
-            return time.monotonic() > deadline
+            return monitor.done or time.monotonic() > deadline
 
         run_loop(executor, nodes, should_stop, drain=True)
-        reason = 'time_limit' if sim.finished else f'error: wall-clock timeout after {wall_timeout_s} s'
+        if monitor.done:
+            reason = f'phase {monitor.phase}'
+        else:
+            reason = 'time_limit' if sim.finished else f'error: wall-clock timeout after {wall_timeout_s} s'
     except Interrupted:
         reason = 'interrupted'
     finally:
+        if monitor is not None:
+            monitor.close()
         for node in reversed(nodes):
             close = getattr(node, 'close', None)
             if close is not None:
@@ -267,7 +300,7 @@ def run_in_process(specs, env, wall_timeout_s, progress):
             node.destroy_node()
         executor.shutdown()
         rclpy.try_shutdown(context=context)
-    return reason, [], {}, None
+    return reason, [], {}, monitor.phase if monitor is not None else None
 
 
 def parse_args(argv):
@@ -336,9 +369,10 @@ def main(argv=None):
     wall_start = time.monotonic()
     try:
         if args.in_process:
-            ended = run_in_process(specs, env, args.wall_timeout, progress)
+            ended = run_in_process(specs, env, args.wall_timeout, progress, scenario.supervisor.abort_observation_s)
         else:
-            ended = run_processes(specs, run_dir, env, args.wall_timeout, progress)
+            ended = run_processes(specs, run_dir, env, args.wall_timeout, progress,
+                                  scenario.supervisor.abort_observation_s)
         reason, killed, exit_codes, phase = ended
     finally:
         # A second Ctrl-C must not cost the summary.

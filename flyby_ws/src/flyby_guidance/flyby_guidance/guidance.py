@@ -52,7 +52,7 @@ class GuidanceConfig:
     max_delta_v_per_maneuver_mps: float = math.inf
     adjust_interval_s: float = 20.0
     midcourse_corrections: int = 1
-    command_lead_s: float = 1.0
+    command_lead_s: float = 5.0
     deadband_mps: float = 0.0002
     adjust_position_tolerance_m: float = 0.005
     adjust_velocity_tolerance_mps: float = 0.0005

@@ -345,12 +345,19 @@ SCHEMA = Section(desc='A flyby scenario', fields={
     'guidance': Section(desc='Terminal approach and trajectory adjusting', fields={
         'adjust_interval_s': Field(FLOAT, 20.0, '> 0', 'Cadence of trajectory-adjusting maneuvers.'),
         'midcourse_corrections': Field(INT, 1, '>= 0', 'CW re-solves (eq 28) spread evenly over the terminal transfer.'),
-        'command_lead_s': Field(FLOAT, 1.0, '> 0', 'A burn is computed from the latest estimate and sent this long before it starts.'),
+        'command_lead_s': Field(FLOAT, 5.0, '> 0', 'A burn is computed from the latest estimate and sent this long before it starts.'),
         'deadband_mps': Field(FLOAT, 0.0002, '>= 0', 'Adjusting burns smaller than this (or the minimum impulse bit) are skipped.'),
         'adjust_position_tolerance_m': Field(FLOAT, 0.005, '> 0', 'Predicted miss at the fly-by target point small enough to stop adjusting ...'),
         'adjust_velocity_tolerance_mps': Field(FLOAT, 0.0005, '> 0', '... together with this velocity miss.'),
         'sphere_margin_m': Field(FLOAT, 1.0, '>= 0', 'No burn whose predicted arc comes within this of the restriction sphere.'),
         'refine_target': Field(BOOL, True, None, 'Re-aim each adjusting burn at the grasp re-solved from the latest target estimate.'),
+    }),
+
+    'supervisor': Section(desc='Mission phases, capture decision, watchdog and abort', fields={
+        'capture_hold_s': Field(FLOAT, 10.0, '>= 0', 'Time attached to the target before COMPLETE.'),
+        'watchdog_s': Field(FLOAT, 5.0, '> 0', 'Abort and escape when the estimator or guidance has been silent this long (sim time).'),
+        'abort_observation_s': Field(FLOAT, 60.0, '>= 0', 'The run goes on this long after ABORTED, to record the escape.'),
+        'avoidance_delta_v_mps': Field(FLOAT, 0.05, '> 0', 'Size of the collision-avoidance burn an abort outside the restriction sphere may fire.'),
     }),
 
     'simulation': Section(desc='Plant integration', fields={

@@ -370,11 +370,16 @@ def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n):
     return min(convex, key=lambda c: abs(c.t_grasp - t_grasp_prev)) if convex else None
 
 
+def grasp_from_attitude(q_hill_from_body, omega_body, x_grasp_body, n):
+    """Grasp point x_g [m] and its velocity relative to hill v_g [m/s] of a target in the given attitude (eq 8-9)."""
+    x_g, v_g, _ = body_point_in_hill(quat_to_matrix(q_hill_from_body), omega_body, x_grasp_body, n)
+    return x_g, v_g
+
+
 def flyby_target_from_attitude(q_hill_from_body, omega_body, x_grasp_body, offset_m, n):
     """X_Ft, V_Ft (eq 20-21) of the grasp point of a target in the given attitude and body rate (eq 8-9).
 
     With the *true* attitude at the grasp time this is the point the chaser should truly be at: the
     reference of the capture position and velocity errors (DESIGN §7).
     """
-    x_g, v_g, _ = body_point_in_hill(quat_to_matrix(q_hill_from_body), omega_body, x_grasp_body, n)
-    return flyby_target_point(x_g, v_g, offset_m)
+    return flyby_target_point(*grasp_from_attitude(q_hill_from_body, omega_body, x_grasp_body, n), offset_m)

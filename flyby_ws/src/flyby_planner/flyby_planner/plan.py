@@ -419,3 +419,32 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     path_t, path_r = _path(chosen, r_now, v_now, t_now, lambda tau: dense(tau)[:3, j, :], config)
     return CapturePlan(ok=True, reason='', t_plan=t_now, selected=chosen, candidates=candidates, region=region,
                        path_t=path_t, path_r_hill=path_r)
+
+
+def avoidance_burn(r_hill, v_hill, t, region, config, dv_mps):
+    """The collision-avoidance burn of an abort outside the restriction sphere, or None if none is needed.
+
+    The chaser's coast from (r, v) at t is propagated (nonlinear) for escape_check_orbits orbits; if
+    its envelope keeps clearance_margin_m from the swept region no burn is needed (the fly-by's
+    passive safety, seed 000 section 4.1). Otherwise impulses of dv_mps along +-x, +-y, +-z and
+    radially away from the target, and a retreat (cancel the closing speed, then dv_mps away), are
+    tried and the one whose coast keeps the largest least clearance is returned.
+
+    Returns:
+        (dv_hill or None, least clearance of the coast without the burn [m], with it [m]).
+    """
+    r = np.asarray(r_hill, dtype=float)
+    v = np.asarray(v_hill, dtype=float)
+    away = r / np.linalg.norm(r) if np.linalg.norm(r) > 0.0 else np.array((1.0, 0.0, 0.0))
+    closing = min(float(v @ away), 0.0)
+    options = [np.zeros(3)] + [dv_mps * d for d in (*np.eye(3), *-np.eye(3), away)] + [(dv_mps - closing) * away]
+    span = config.escape_duration_s
+    dense = _propagate_passive(np.array([np.concatenate((r, v + dv)) for dv in options]), span, config)
+    tau = np.linspace(0.0, span, int(math.ceil(span / _PATH_STEP_S)) + 1)
+    states = dense(tau)
+    least = [float(region.clearance(states[:3, j, :].T, t + tau, config.mean_motion_rad_s,
+                                    config.envelope_radius_m).min()) for j in range(len(options))]
+    if least[0] >= config.clearance_margin_m:
+        return None, least[0], least[0]
+    best = int(np.argmax(least[1:])) + 1
+    return options[best], least[0], least[best]

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from flyby_msgs_py.scenario import load_scenario, scenario_from_dict
-from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
+from flyby_planner.plan import avoidance_burn, plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_sim.geometry import clearance
 from flyby_sim.orbital import cw_transition_matrix, nonlinear_relative_accel, rk4_step
 
@@ -171,3 +171,16 @@ def test_prediction_must_cover_the_window():
         plan_capture(truth_prediction(sc, 100.0), np.ones(3), np.zeros(3), 0.0, cfg)
     with pytest.raises(ValueError, match='chaser state'):
         plan_capture(truth_prediction(sc, cfg.search_window[1]), np.array((np.nan, 0.0, 0.0)), np.zeros(3), 0.0, cfg)
+
+
+def test_avoidance_burn_only_when_the_coast_is_unsafe(paper_plan):
+    plan, cfg = paper_plan
+    c = plan.selected
+    # On the planned fly-by the coast is passively safe: no burn.
+    dv, before, after = avoidance_burn(c.x_fi, c.v_fi, c.t_i, plan.region, cfg, 0.05)
+    assert dv is None and before == after >= cfg.clearance_margin_m
+    # Falling onto the bus along the spin axis from 20 m: a burn, and its coast is safe.
+    axis = plan.region.axis_hill(c.t_i, cfg.mean_motion_rad_s)
+    dv, before, after = avoidance_burn(20.0 * axis, -0.2 * axis, c.t_i, plan.region, cfg, 0.05)
+    assert dv is not None and before < 0.0 and after >= cfg.clearance_margin_m
+    np.testing.assert_allclose(dv, 0.25 * axis, atol=1e-12)  # the retreat: stop the 0.2 m/s fall, 0.05 m/s away

@@ -2,7 +2,7 @@
 
 It advances the plant (``flyby_sim.plant``) in fixed steps, publishes ``/clock``, the truth topics,
 the sensor samples and the target markers, and executes the time-tagged maneuvers it receives on
-``guidance/maneuver``. The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
+``guidance/maneuver``; when ``mission/phase`` turns to CAPTURE the chaser is attached to the target. The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
 ``flow_control_period_s`` of simulated time it waits until each node named in ``keep_up_with`` has
 reported (``flyby_msgs_py.runtime.ProgressReporter``) that it handled everything up to one such
 period ago, so no node (the recorder, the estimator) is outrun; and it ends only once they all
@@ -70,6 +70,8 @@ class SimNode(Node):
                      for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST)}
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
                                  c.GUIDANCE_MANEUVER, self.on_maneuver, c.QOS_STREAM)
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), c.MISSION_PHASE,
+                                 self.on_phase, c.QOS_LATCHED)
 
         self.started = False
         self.ending = False  # reached the duration, waiting for the others to catch up
@@ -219,6 +221,13 @@ class SimNode(Node):
             log.error(f'{name}: {message}')
 
     # -- commands -------------------------------------------------------------------------
+    def on_phase(self, msg):
+        """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
+        if convert.string_to_str(msg) == c.PHASE_CAPTURE:
+            self.plant.capture()
+            for level, name, message, values in self.plant.drain_events():
+                self.emit(level, name, message, values)
+
     def on_maneuver(self, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)
         try:
