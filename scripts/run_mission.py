@@ -28,7 +28,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import repair_bag
 from flyby_msgs_py.runtime import FASTDDS_PROFILES, lease_domain
 from flyby_msgs_py.scenario import ScenarioError, load_scenario
-from flyby_sim.summary import EXIT_CODES, compute_summary, format_summary
+from flyby_planner.summary import EXIT_CODES, compute_summary, format_summary
 
 VENV_PYTHON = sys.executable
 FASTDDS_TOOL = Path(sys.prefix) / 'tools' / 'fastdds' / 'fastdds.py'

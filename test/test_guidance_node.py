@@ -62,6 +62,7 @@ def _start(ros_context, executor):
     executor.add_node(guidance)
     executor.add_node(probe)
     spin_until(executor, lambda: all(p.get_subscription_count() > 0 for p in probe.pubs.values()))
+    spin_for(executor, 1.0)  # a large latched message (the path) sent right at matching can be lost
     return probe
 
 

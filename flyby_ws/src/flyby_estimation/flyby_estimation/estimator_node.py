@@ -65,6 +65,16 @@ class EstimatorNode(Node):
                                 (c.GUIDANCE_MANEUVER, self.on_maneuver)):
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback,
                                      c.QOS_STREAM)
+        self.attached = False  # captured: the free-flyer navigation model no longer holds
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), c.MISSION_PHASE,
+                                 self.on_phase, c.QOS_LATCHED)
+
+    def on_phase(self, msg):
+        if convert.string_to_str(msg) == c.PHASE_CAPTURE and not self.attached:
+            self.attached = True
+            t = self.nav.t if self.nav.initialized else 0.0
+            self.emit(t, 'OK', 'navigation_suspended', 'captured: the chaser moves with the target, '
+                      'its free-flight navigation filter stops', {})
 
     # -- target -------------------------------------------------------------------------------
     def on_attitude(self, msg):
@@ -106,6 +116,8 @@ class EstimatorNode(Node):
 
     # -- chaser -------------------------------------------------------------------------------
     def on_position(self, msg):
+        if self.attached:
+            return
         t, r_meas = convert.point_stamped_to_numpy(msg)
         result = self.nav.update(t, r_meas)
         if not result.accepted:

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from flyby_sim.summary import outcome_of, thrust_figures
+from flyby_planner.summary import outcome_of, thrust_figures
 from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2 as G0_MPS2
 
 

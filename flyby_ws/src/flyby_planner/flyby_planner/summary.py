@@ -2,15 +2,18 @@
 
 Nothing here trusts what a node claimed about itself: delta-v and fuel come from the applied thrust
 (``/sim/chaser/thrust`` is the mean force over each step, so force x step is the exact impulse),
-clearance from the truth poses and the scenario's geometry.
+clearance from the truth poses and the scenario's geometry, the capture errors from the truth at the
+grasp time. The one claim used is *which* grasp time: the one the supervisor decided at.
 """
 
 import math
 
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
+from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_sim.geometry import clearance
 from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2
 EXIT_CODES = {'CAPTURE': 0, 'ESCAPE': 3, 'ABORTED': 3, 'TIME_LIMIT': 3, 'INTERRUPTED': 130,
@@ -53,6 +56,34 @@ def thrust_figures(t, force_hill, r_hill, mass0_kg, isp_s, sphere_radius_m):
             bool(np.any(firing & inside)))
 
 
+def grasp_time(events):
+    """The grasp time t_g the supervisor decided at (its FLYBY -> CAPTURE / ESCAPE event), or None."""
+    for e in events:
+        if e['name'] == 'phase_changed' and e['values'].get('to') in (c.PHASE_CAPTURE, c.PHASE_ESCAPE) \
+                and 't_grasp_s' in e['values']:
+            return float(e['values']['t_grasp_s'])
+    return None
+
+
+def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
+    """Truth chaser at t_g against X_Ft, V_Ft recomputed from the true target attitude at t_g (DESIGN §7).
+
+    Truth is sampled every step: the chaser is interpolated linearly (its error is a dt^2 / 8 ~ 1e-7 m),
+    the attitude by slerp and the body rate linearly between the samples around t_g.
+    Returns (position error [m], velocity error [m/s]), or (None, None) when t_g is outside the truth.
+    """
+    if t_g is None or not (chaser.t[0] <= t_g <= chaser.t[-1] and target.t[0] <= t_g <= target.t[-1]):
+        return None, None
+    r = np.array([np.interp(t_g, chaser.t, chaser.position[:, k]) for k in range(3)])
+    v = np.array([np.interp(t_g, chaser.t, chaser.linear[:, k]) for k in range(3)])
+    i = int(np.clip(np.searchsorted(target.t, t_g), 1, len(target.t) - 1))
+    pair = Rotation.from_quat(target.orientation_xyzw[i - 1:i + 1])
+    q = Slerp(target.t[i - 1:i + 1], pair)([t_g]).as_quat()[0]
+    w = np.array([np.interp(t_g, target.t, target.angular[:, k]) for k in range(3)])
+    x_ft, v_ft = flyby_target_from_attitude(q, w, x_grasp_body, offset_m, n)
+    return float(np.linalg.norm(r - x_ft)), float(np.linalg.norm(v - v_ft))
+
+
 def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'),
                     node_exit_codes=None, nodes_killed=(), bag_repair=None):
     """The summary dict of a run from its bag; robust to a bag cut short by an interruption."""
@@ -85,6 +116,12 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
         k = int(np.argmin(gaps))
         min_clearance, t_min_clearance = float(gaps[k]), float(t_common[k])
 
+    t_g = grasp_time(events)
+    e_pos = e_vel = None
+    if chaser is not None and target is not None and len(chaser.t) and len(target.t):
+        e_pos, e_vel = capture_errors(t_g, chaser, target, np.array(scenario.target.grasp_point_body_m),
+                                      scenario.planner.offset_m, scenario.mean_motion_rad_s)
+
     def count(name):
         return sum(1 for e in events if e['name'] == name)
 
@@ -94,9 +131,9 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
         'end_reason': end_reason,
         'scenario': scenario.name,
         'seed': scenario.seed,
-        't_grasp_s': None,
-        'capture_position_error_m': None,
-        'capture_velocity_error_mps': None,
+        't_grasp_s': t_g,
+        'capture_position_error_m': e_pos,
+        'capture_velocity_error_mps': e_vel,
         'delta_v_total_mps': delta_v,
         'fuel_used_kg': fuel,
         'min_clearance_m': min_clearance,
@@ -129,7 +166,7 @@ def format_summary(summary):
         ('final phase', fmt(summary['final_phase'])),
         ('end reason', fmt(summary['end_reason'])),
         ('seed', fmt(summary['seed'])),
-        ('grasp time', fmt(summary['t_grasp_s'], 's')),
+        ('grasp time', fmt(summary['t_grasp_s'], 's', 7)),
         ('capture position error', fmt(summary['capture_position_error_m'], 'm')),
         ('capture velocity error', fmt(summary['capture_velocity_error_mps'], 'm/s')),
         ('delta-v total', fmt(summary['delta_v_total_mps'], 'm/s')),

@@ -1,0 +1,154 @@
+#!/usr/bin/env python3
+"""Recompute a run's figures from the truth topics of its bag and check them against summary.json.
+
+    .venv/bin/python scripts/analyze_bag.py RUN_DIR [--scenario FILE]
+
+RUN_DIR is what scripts/run_mission.py leaves (bag/, scenario.yaml, summary.json); a bag directory
+alone also works with --scenario. A bag cut short by an interruption is repaired first (a copy is
+not needed: the repair only writes the missing metadata). Every figure is recomputed here by a
+different route than flyby_planner.summary takes, from truth alone:
+
+* delta-v and fuel: the total impulse of /sim/chaser/thrust gives the fuel, the rocket equation over
+  the whole run the delta-v (the summary sums it per step);
+* capture errors: the chaser at t_g by cubic Hermite interpolation of truth position and velocity,
+  the target attitude by propagating the nearest truth sample with its body rate (the summary
+  interpolates linearly and by slerp); the grasp time is the supervisor's decision, the one claim used;
+* clearance: every truth sample against the target boxes; thrust inside the sphere: every thrusting
+  step's end points; counts from the simulator's own events.
+
+Prints a table and exits 0 when everything agrees (1 mm, 0.1 mm/s, 1e-6 kg, 1 ms), 4 when something
+disagrees, 2 on bad input.
+"""
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+from scipy.spatial.transform import Rotation
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import read_bag, repair_bag
+from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.summary import grasp_time
+from flyby_sim.geometry import clearance
+from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2
+
+# figure -> tolerance of the agreement (its unit)
+TOLERANCES = {
+    't_grasp_s': 1e-3, 'capture_position_error_m': 1e-3, 'capture_velocity_error_mps': 1e-4,
+    'delta_v_total_mps': 1e-4, 'fuel_used_kg': 1e-6, 'min_clearance_m': 1e-3, 't_min_clearance_s': 1e-3,
+    'sim_time_s': 1e-3, 'thrust_inside_restriction_sphere': 0, 'maneuvers_executed': 0, 'late_maneuvers': 0,
+    'rejected_maneuvers': 0,
+}
+
+
+def recompute(bag_dir, scenario):
+    """Every figure of TOLERANCES from the truth topics of the bag."""
+    topics = [c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_EVENTS)]
+    data = read_bag(bag_dir, topics=topics)
+    chaser, target = data.get(topics[0]), data.get(topics[1])
+    thrust, events = data.get(topics[2]), data.get(topics[3]) or []
+    out = {k: None for k in TOLERANCES}
+    sim_events = [e for e in events if e.get('hardware_id') == 'flyby_sim']
+    for key, name in (('maneuvers_executed', 'burn_started'), ('late_maneuvers', 'late_maneuver'),
+                      ('rejected_maneuvers', 'maneuver_rejected')):
+        out[key] = sum(1 for e in sim_events if e['name'] == name)
+    if chaser is None or not len(chaser.t):
+        return out
+    out['sim_time_s'] = float(chaser.t[-1])
+
+    th = scenario.chaser.thrusters
+    v_exhaust = th.isp_s * STANDARD_GRAVITY_M_S2
+    m0 = scenario.chaser.mass_kg
+    out['delta_v_total_mps'], out['fuel_used_kg'], out['thrust_inside_restriction_sphere'] = 0.0, 0.0, False
+    if thrust is not None and len(thrust.t) > 1:
+        impulse = np.linalg.norm(thrust.force[1:], axis=1) * np.diff(thrust.t)
+        fuel = float(impulse.sum()) / v_exhaust
+        out['fuel_used_kg'] = fuel
+        out['delta_v_total_mps'] = v_exhaust * math.log(m0 / (m0 - fuel))  # rocket equation, whole run
+        idx = np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)
+        inside = np.linalg.norm(chaser.position[idx], axis=1) < scenario.planner.restriction_sphere_radius_m
+        firing = np.concatenate(([False], impulse > 0.0))
+        out['thrust_inside_restriction_sphere'] = bool(np.any(firing & (inside | np.roll(inside, 1))))
+
+    if target is not None and len(target.t):
+        common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
+        boxes = list(zip(scenario.boxes.center_body_m, scenario.boxes.size_m))
+        gaps = clearance(chaser.position[i_c], target.orientation_xyzw[i_t], boxes, scenario.chaser.envelope_radius_m)
+        k = int(np.argmin(gaps))
+        out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
+        t_g = grasp_time(events)
+        out['t_grasp_s'] = t_g
+        if t_g is not None and chaser.t[0] <= t_g <= chaser.t[-1]:
+            spline = CubicHermiteSpline(chaser.t, chaser.position, chaser.linear)
+            r, v = spline(t_g), np.array([np.interp(t_g, chaser.t, chaser.linear[:, j]) for j in range(3)])
+            j = int(np.argmin(np.abs(target.t - t_g)))
+            n = scenario.mean_motion_rad_s
+            w_body = target.angular[j]
+            # Body rotation over dt (body rate about constant over <= 25 ms), then the hill frame's own
+            # turn by n dt about -y: q_hb(t_g) = R_y(n dt) q_hb(t_j) exp(w dt).
+            dt = t_g - target.t[j]
+            q = (Rotation.from_rotvec((0.0, n * dt, 0.0)) * Rotation.from_quat(target.orientation_xyzw[j])
+                 * Rotation.from_rotvec(w_body * dt)).as_quat()
+            x_ft, v_ft = flyby_target_from_attitude(q, w_body, np.array(scenario.target.grasp_point_body_m),
+                                                    scenario.planner.offset_m, n)
+            out['capture_position_error_m'] = float(np.linalg.norm(r - x_ft))
+            out['capture_velocity_error_mps'] = float(np.linalg.norm(v - v_ft))
+    return out
+
+
+def compare(summary, recomputed):
+    """Rows (figure, summary value, recomputed value, agrees)."""
+    rows = []
+    for key, tol in TOLERANCES.items():
+        a, b = summary.get(key), recomputed.get(key)
+        if a is None or b is None:
+            agrees = a is None and b is None
+        elif isinstance(a, bool) or tol == 0:
+            agrees = a == b
+        else:
+            agrees = abs(float(a) - float(b)) <= tol
+        rows.append((key, a, b, agrees))
+    return rows
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('run_dir', help='run directory (bag/, scenario.yaml, summary.json) or a bag directory')
+    ap.add_argument('--scenario', help='scenario file (default RUN_DIR/scenario.yaml)')
+    args = ap.parse_args(argv)
+    run_dir = Path(args.run_dir)
+    bag_dir = run_dir / 'bag' if (run_dir / 'bag').is_dir() else run_dir
+    scenario_path = Path(args.scenario) if args.scenario else run_dir / 'scenario.yaml'
+    try:
+        scenario = load_scenario(scenario_path)
+    except (ScenarioError, OSError) as err:
+        print(f'analyze_bag: {err}', file=sys.stderr)
+        return 2
+    if not bag_dir.is_dir():
+        print(f'analyze_bag: {bag_dir}: no bag directory', file=sys.stderr)
+        return 2
+    if not (bag_dir / 'metadata.yaml').exists():
+        print(f'analyze_bag: {bag_dir} was cut short; repairing: {repair_bag(bag_dir)}', file=sys.stderr)
+    recomputed = recompute(bag_dir, scenario)
+    summary_path = run_dir / 'summary.json'
+    if not summary_path.exists():
+        print(json.dumps(recomputed, indent=2))
+        print('analyze_bag: no summary.json to compare with; figures above recomputed from the bag', file=sys.stderr)
+        return 0
+    rows = compare(json.loads(summary_path.read_text()), recomputed)
+    width = max(len(r[0]) for r in rows)
+    for key, a, b, agrees in rows:
+        print(f'{key:<{width}}  {a!s:>24}  {b!s:>24}  {"ok" if agrees else "DISAGREES"}')
+    bad = [r[0] for r in rows if not r[3]]
+    print('every figure agrees' if not bad else f'{len(bad)} figure(s) disagree: {", ".join(bad)}')
+    return 4 if bad else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
