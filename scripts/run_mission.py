@@ -130,6 +130,12 @@ class ProcessGraph:
                 self.exit_codes[name] = ended[name] = proc.returncode
         return ended
 
+    def kill(self, name):
+        """SIGKILL one node (an injected crash)."""
+        proc = self.procs.get(name)
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+
     def stop(self):
         """Stop in order (simulator first, recorder last): SIGINT, then SIGTERM, then SIGKILL."""
         killed = []
@@ -153,6 +159,16 @@ class ProcessGraph:
         return killed
 
 
+@dataclass
+class Faults:
+    """Faults the launcher injects (for tests and what-if runs): an abort request, a killed node."""
+
+    abort_at_s: float = None
+    kill_node: str = None
+    kill_at_s: float = None
+    killed: bool = False
+
+
 class Monitor:
     """The launcher's own node: watches the phase and the clock.
 
@@ -160,15 +176,19 @@ class Monitor:
     time for ABORTED (so the bag records the start of the escape and any avoidance burn).
     """
 
-    def __init__(self, context, abort_hold_s, executor=None):
+    def __init__(self, context, abort_hold_s, executor=None, faults=None):
         from rclpy.node import Node
         from rclpy.experimental import EventsExecutor
+        from std_srvs.srv import Trigger
 
         self.node = Node('flyby_launcher', context=context)
         self.phase = None
         self.sim_time_s = 0.0
         self.abort_hold_s = abort_hold_s
         self.t_terminal = None
+        self.faults = faults or Faults()
+        self.abort_client = self.node.create_client(Trigger, c.MISSION_ABORT_SERVICE)
+        self.abort_future = None
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
                                       c.MISSION_PHASE, self._on_phase, c.QOS_LATCHED)
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock',
@@ -184,6 +204,18 @@ class Monitor:
 
     def _on_clock(self, msg):
         self.sim_time_s = msg.clock.sec + 1e-9 * msg.clock.nanosec
+        f = self.faults
+        if f.abort_at_s is not None and self.abort_future is None and self.sim_time_s >= f.abort_at_s:
+            from std_srvs.srv import Trigger
+            self.abort_future = self.abort_client.call_async(Trigger.Request())
+
+    def due_kill(self):
+        """The node to kill now (once), if the --kill fault is due."""
+        f = self.faults
+        if f.kill_node and not f.killed and self.sim_time_s >= f.kill_at_s:
+            f.killed = True
+            return f.kill_node
+        return None
 
     @property
     def done(self):
@@ -209,7 +241,7 @@ def clean_shared_memory():
                    stderr=subprocess.DEVNULL, check=False, timeout=60)
 
 
-def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s):
+def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s, faults):
     """Run the graph as processes; return (end reason, nodes killed, node exit codes)."""
     import rclpy
     from rclpy.context import Context
@@ -218,7 +250,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s):
     context = Context()
     rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
                signal_handler_options=SignalHandlerOptions.NO)
-    monitor = Monitor(context, abort_hold_s)
+    monitor = Monitor(context, abort_hold_s, faults=faults)
     graph = ProcessGraph(specs, run_dir, env)
     reason = None
     try:
@@ -227,11 +259,14 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s):
         while reason is None:
             monitor.spin(0.1)
             progress(monitor.sim_time_s)
+            victim = monitor.due_kill()
+            if victim:
+                graph.kill(victim)
             for name, code in graph.poll().items():
                 spec = next(s for s in specs if s.name == name)
                 if name == 'flyby_sim' and code == 0:
                     reason = 'time_limit'
-                elif spec.essential:
+                elif spec.essential and name != faults.kill_node:
                     reason = f'error: node {name} exited with code {code}'
             if monitor.done:
                 reason = f'phase {monitor.phase}'
@@ -247,7 +282,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s):
     return reason, killed, graph.exit_codes, monitor.phase
 
 
-def run_in_process(specs, env, wall_timeout_s, progress, abort_hold_s):
+def run_in_process(specs, env, wall_timeout_s, progress, abort_hold_s, faults):
     """Every node in this process on one EventsExecutor (what the integration tests use)."""
     import importlib
 
@@ -274,12 +309,18 @@ def run_in_process(specs, env, wall_timeout_s, progress, abort_hold_s):
                        namespace=spec.namespace or None, cli_args=None)
             nodes.append(node)
             executor.add_node(node)
-        monitor = Monitor(context, abort_hold_s, executor)
+        monitor = Monitor(context, abort_hold_s, executor, faults)
         deadline = time.monotonic() + wall_timeout_s
         sim = nodes[-1]
 
         def should_stop():
             progress(sim.plant.t)
+            victim = monitor.due_kill()
+            if victim:
+                node = next(n for n in nodes if n.get_name() == victim)
+                nodes.remove(node)
+                executor.remove_node(node)
+                node.destroy_node()
             return monitor.done or time.monotonic() > deadline
 
         run_loop(executor, nodes, should_stop, drain=True)
@@ -316,7 +357,23 @@ def parse_args(argv):
     ap.add_argument('--without', action='append', default=[], choices=OPTIONAL_NODES,
                     help='leave out an optional node (repeatable)')
     ap.add_argument('--quiet', action='store_true', help='no progress line')
+    ap.add_argument('--abort-at', type=float, metavar='T', help='call mission/abort at sim time T (a fault)')
+    ap.add_argument('--kill', metavar='NODE@T', help='kill a node at sim time T, e.g. flyby_guidance@200 (a fault)')
     return ap.parse_args(argv)
+
+
+def faults_from_args(args):
+    """Faults of --abort-at / --kill; ValueError naming the bad option."""
+    faults = Faults(abort_at_s=args.abort_at)
+    if args.kill:
+        name, _, at = args.kill.partition('@')
+        try:
+            faults.kill_node, faults.kill_at_s = name, float(at)
+        except ValueError:
+            raise ValueError(f'--kill: expected NODE@T with T a sim time in s, got {args.kill!r}') from None
+        if name not in OPTIONAL_NODES:
+            raise ValueError(f'--kill: {name!r} is not a node that can be killed ({", ".join(OPTIONAL_NODES)})')
+    return faults
 
 
 def main(argv=None):
@@ -324,6 +381,11 @@ def main(argv=None):
     try:
         scenario = load_scenario(args.scenario, seed=args.seed)
     except ScenarioError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 1
+    try:
+        faults = faults_from_args(args)
+    except ValueError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1
     if args.rtf < 0:
@@ -369,10 +431,11 @@ def main(argv=None):
     wall_start = time.monotonic()
     try:
         if args.in_process:
-            ended = run_in_process(specs, env, args.wall_timeout, progress, scenario.supervisor.abort_observation_s)
+            ended = run_in_process(specs, env, args.wall_timeout, progress, scenario.supervisor.abort_observation_s,
+                                   faults)
         else:
             ended = run_processes(specs, run_dir, env, args.wall_timeout, progress,
-                                  scenario.supervisor.abort_observation_s)
+                                  scenario.supervisor.abort_observation_s, faults)
         reason, killed, exit_codes, phase = ended
     finally:
         # A second Ctrl-C must not cost the summary.
@@ -387,6 +450,7 @@ def main(argv=None):
         summary = compute_summary(
             bag_dir, scenario, end_reason=reason, final_phase=phase, wall_time_s=wall_time_s,
             node_exit_codes=exit_codes, nodes_killed=killed, bag_repair=repair)
+        summary['faults_injected'] = {'abort_at_s': faults.abort_at_s, 'kill': args.kill}
         (run_dir / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     finally:
         for sig, handler in previous_handlers.items():

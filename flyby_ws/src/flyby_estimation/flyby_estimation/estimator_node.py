@@ -54,6 +54,8 @@ class EstimatorNode(Node):
         self.category = None
         self.t_classified = -math.inf
         self.rejected = collections.Counter()
+        # A fault to inject (tests of the escape): the published rate is off, the filter itself is not.
+        self.rate_error = np.radians(self.scenario.estimation.injected_rate_error_deg_s)
 
         def pub(topic):
             return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic,
@@ -87,7 +89,7 @@ class EstimatorNode(Node):
         s = self.target.state()
         self.pub_target.publish(convert.odometry(
             s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
-            (0.0, 0.0, 0.0), s.omega_body,
+            (0.0, 0.0, 0.0), s.omega_body + self.rate_error,
             pose_covariance=_block_diag_6(np.zeros((3, 3)), s.covariance_hill[:3, :3]),
             twist_covariance=_block_diag_6(np.zeros((3, 3)), s.covariance[3:, 3:])))
         self.check_convergence(s.t)

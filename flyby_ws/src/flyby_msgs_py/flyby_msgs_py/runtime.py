@@ -17,6 +17,7 @@ import tempfile
 import time
 
 import rclpy
+from rclpy._rclpy_pybind11 import InvalidHandle
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rosgraph_msgs.msg import Clock
@@ -88,11 +89,17 @@ class ProgressReporter:
         self.clock_ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
 
     def report(self, idle):
+        if self.publisher is None:
+            return
         now_ns = self.clock_ns
         if now_ns - self.reported_ns >= PROGRESS_PERIOD_NS or (idle and now_ns != self.reported_ns):
             msg = Header(frame_id=self.node.get_name())
             msg.stamp.sec, msg.stamp.nanosec = divmod(now_ns, 1_000_000_000)
-            self.publisher.publish(msg)
+            try:
+                self.publisher.publish(msg)
+            except InvalidHandle:  # the node was destroyed (a fault injected by the launcher)
+                self.publisher = None
+                return
             self.reported_ns = now_ns
 
 

@@ -324,6 +324,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'torque_psd_n2m2s': Field(FLOAT, 1e-10, '>= 0', 'Torque-noise spectral density of the target filter per body axis.'),
         'accel_psd_m2_s3': Field(FLOAT, 1e-9, '>= 0', 'White-acceleration spectral density of the chaser navigation filter.'),
         'initial_velocity_sigma_mps': Field(FLOAT, 0.1, '> 0', 'Prior 1-sigma per axis of the chaser velocity.'),
+        'injected_rate_error_deg_s': Field(VEC3, _VEC0, None, 'Fault injection: added to the published target body rate (body axes).'),
     }),
 
     'planner': Section(desc='Capture planning (seed 000 section 4); condition (a) uses estimation.spin_rate_deg_s', fields={
