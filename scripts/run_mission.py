@@ -357,6 +357,7 @@ def parse_args(argv):
     ap.add_argument('--without', action='append', default=[], choices=OPTIONAL_NODES,
                     help='leave out an optional node (repeatable)')
     ap.add_argument('--quiet', action='store_true', help='no progress line')
+    ap.add_argument('--report', action='store_true', help='write the plots of the run (*.png) into OUT')
     ap.add_argument('--abort-at', type=float, metavar='T', help='call mission/abort at sim time T (a fault)')
     ap.add_argument('--kill', metavar='NODE@T', help='kill a node at sim time T, e.g. flyby_guidance@200 (a fault)')
     return ap.parse_args(argv)
@@ -456,6 +457,10 @@ def main(argv=None):
         for sig, handler in previous_handlers.items():
             signal.signal(sig, handler)
     print(format_summary(summary))
+    if args.report:
+        from mission_report import write_report  # scripts/, beside this file
+        for png in write_report(run_dir):
+            print(f'report: {png}', file=sys.stderr)
     return EXIT_CODES[summary['outcome']]
 
 

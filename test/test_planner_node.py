@@ -22,9 +22,9 @@ class EstimateProbe(Node):
         super().__init__('estimate_probe', context=context)
         self.scenario = scenario
         self.truth = truth_prediction(scenario, 3000.0)
-        self.pub_target, self.pub_chaser, self.pub_phase = (
+        self.pub_target, self.pub_chaser, self.pub_events = (
             self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, c.qos_for(t))
-            for t in (c.EST_TARGET_ODOM, c.EST_CHASER_ODOM, c.MISSION_PHASE))
+            for t in (c.EST_TARGET_ODOM, c.EST_CHASER_ODOM, c.MISSION_EVENTS))
         self.received = {t: collect(self, t) for t in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,
             c.MISSION_EVENTS)}
@@ -53,6 +53,12 @@ class EstimateProbe(Node):
             return 0.01
         spin_until(executor, predicate, tick=tick)
 
+    def enter_planning(self, t):
+        """What the supervisor publishes when it turns the mission to PLANNING at t."""
+        self.pub_events.publish(convert.event(t, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING: test',
+                                              {'from': c.PHASE_ESTIMATION, 'to': c.PHASE_PLANNING},
+                                              source='flyby_supervisor'))
+
     def events(self, name):
         return [e for m in self.received[c.MISSION_EVENTS] for e in convert.events_from_msg(m) if e['name'] == name]
 
@@ -63,7 +69,7 @@ def _start(ros_context, executor, scenario_path):
     executor.add_node(planner)
     executor.add_node(probe)
     spin_until(executor, lambda: all(p.get_subscription_count() > 0 for p in
-                                     (probe.pub_target, probe.pub_chaser, probe.pub_phase)))
+                                     (probe.pub_target, probe.pub_chaser, probe.pub_events)))
     return planner, probe
 
 
@@ -74,11 +80,12 @@ def test_plans_on_planning_phase_and_on_replan_like_the_core(ros_context, execut
     spin_for(executor, 1.0)
     assert not probe.events('plan_selected')
 
-    probe.pub_phase.publish(convert.string(c.PHASE_PLANNING))
+    probe.enter_planning(30.0)
     probe.stream_until(executor, lambda: probe.events('plan_selected') and probe.received[c.MARKERS], 30.0)
 
     selected = probe.events('plan_selected')[0]
     t_plan = selected['t']
+    assert t_plan == pytest.approx(30.0)  # the first target estimate stamped at or after the request
     sc = load_scenario(scenario_path)
     cfg = planner_config_from_scenario(sc)
     x = probe.chaser_state(t_plan)
@@ -114,7 +121,7 @@ def test_refuses_a_spin_along_hill_y_with_the_reason(ros_context, executor, tmp_
     scenario_path = write_scenario(tmp_path, edit=lambda d: d['target']['initial_attitude']['body_axis_along_hill']
                                    .update(hill=[0.0, 1.0, 0.0]))
     _, probe = _start(ros_context, executor, scenario_path)
-    probe.pub_phase.publish(convert.string(c.PHASE_PLANNING))
+    probe.enter_planning(30.0)
     probe.stream_until(executor, lambda: probe.events('plan_refused'), 30.0)
     refused = probe.events('plan_refused')[0]
     assert refused['level'] == 'ERROR' and 'condition (b)' in refused['message']

@@ -5,13 +5,15 @@ A new plan (``planner/flyby_initial`` X_Fi at t_i, ``planner/flyby_target`` X_Ft
 after it, as the planner assumed) starts ``FlybyGuidance`` (flyby_guidance.guidance, no ROS). Each
 chaser estimate on ``estimation/chaser/odom`` steps it; the maneuvers it returns are published on
 ``guidance/maneuver`` (geometry_msgs/Vector3Stamped, stamp = start time, frame hill) ahead of their
-start. Before each adjusting burn the grasp is re-solved from the latest target estimate
-(``estimation/target/odom``) and the burn aims at it (``guidance.refine_target``). In the phases
+start. Before each adjusting burn the grasp is re-solved from the target estimate
+(``estimation/target/odom``) of the deciding chaser estimate's stamp and the burn aims at it
+(``guidance.refine_target``). In the phases
 CAPTURE, ESCAPE, COMPLETE and ABORTED (``mission/phase``) nothing is commanded. On
 ``mission/events``: ``maneuver_commanded`` per burn, ``adjust_skipped``, ``thrusting_ended``,
 ``target_refined``. Nothing reads the wall clock; every decision is at an estimate's stamp.
 """
 
+import collections
 import math
 
 import numpy as np
@@ -21,7 +23,7 @@ from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_e
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario, refined_flyby_target
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import main_for
+from flyby_msgs_py.runtime import StampedBuffer, main_for
 from flyby_msgs_py.scenario import load_scenario
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
@@ -43,7 +45,8 @@ class GuidanceNode(Node):
         self.phase = None
         self.flyby_initial = self.flyby_target = None
         self.plan_stamp = None  # the plan time of the plan being flown
-        self.target_estimate = None  # (t, q_hill_from_body, omega_body)
+        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) of the target estimates
+        self.waiting = collections.deque()  # chaser estimates not yet stepped, in order
         self.pub_maneuver = self.create_publisher(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
                                                   c.GUIDANCE_MANEUVER, c.qos_for(c.GUIDANCE_MANEUVER))
         self.pub_events = self.create_publisher(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]),
@@ -83,16 +86,33 @@ class GuidanceNode(Node):
 
     def on_target(self, msg):
         o = convert.odometry_to_numpy(msg)
-        self.target_estimate = (o.t, o.orientation_xyzw, o.angular)
+        self.targets.add(o.t, (o.orientation_xyzw, o.angular))
+        self.step_waiting()
 
     # -- stepping -------------------------------------------------------------------------------
     def on_chaser(self, msg):
+        self.waiting.append(convert.odometry_to_numpy(msg))
+        self.step_waiting()
+
+    def step_waiting(self):
+        """Step with the chaser estimates in order. One that re-aims waits for the target estimate of its
+        own stamp, so the aim is the same at any pace of the run (not whichever estimate came first)."""
         g = self.guidance
-        if g.next_burn_time is None or self.phase in QUIET_PHASES:
-            return
-        est = convert.odometry_to_numpy(msg)
-        if self.scenario.guidance.refine_target and g.wants_refined_target(est.t):
-            self.refine(est.t)
+        while self.waiting:
+            est = self.waiting[0]
+            if g.next_burn_time is None or self.phase in QUIET_PHASES:
+                self.waiting.clear()
+                return
+            if self.scenario.guidance.refine_target and g.wants_refined_target(est.t):
+                target = self.targets.first_at_or_after(est.t)
+                if target is None:
+                    return
+                self.refine(est.t, target)
+            self.waiting.popleft()
+            self.step(est)
+
+    def step(self, est):
+        g = self.guidance
         maneuvers, events = g.step(est.t, est.position, est.linear)
         for mv in maneuvers:
             self.pub_maneuver.publish(convert.vector3_stamped(mv.t, c.FRAME_HILL, mv.dv_hill))
@@ -103,11 +123,9 @@ class GuidanceNode(Node):
         for e in events:
             self.emit(e.t, e.level, e.name, e.message, e.values)
 
-    def refine(self, t):
-        """Re-aim at the grasp re-solved from the latest target estimate (seed 000 section 4.6)."""
-        if self.target_estimate is None:
-            return
-        t_est, q_hb, omega_body = self.target_estimate
+    def refine(self, t, target):
+        """Re-aim at the grasp re-solved from the target estimate (stamp, (q, omega)) (seed 000 section 4.6)."""
+        t_est, (q_hb, omega_body) = target
         t_f = self.guidance.target.t_f
         if t_f <= t_est:
             return

@@ -42,6 +42,8 @@ from flyby_sim.orbital import cw_transition_matrix, eci_vector_in_hill, hill_axe
 _REGION_SAMPLES = 64
 _PATH_STEP_S = 1.0
 _PUBLISHED_PATH_POINTS = 1500
+# Below this inertial rate (0.01 deg/s, category I's hold rate) there is no turn to time a grasp with.
+_MIN_SPIN_RAD_S = math.radians(0.01)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -358,6 +360,10 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     if rate >= config.max_rate_rad_s:
         return _refused(f'condition (a): target rate {math.degrees(rate):.3g} deg/s >= {_deg(config.max_rate_rad_s)}/s '
                         '(category IV, spinning: beyond the fly-by method, seed 000 section 2.1)', t_now)
+
+    if rate < _MIN_SPIN_RAD_S:
+        return _refused(f'target rate {math.degrees(rate):.3g} deg/s: no rotation to time a grasp with '
+                        '(category I; approach it conventionally, seed 000 section 2.1)', t_now)
 
     samples = [prediction.state(t) for t in np.linspace(t_now, prediction.t_end, _REGION_SAMPLES)]
     region = swept_region(config.boxes, config.inertia_kg_m2, [s.q_eci_from_body for s in samples],

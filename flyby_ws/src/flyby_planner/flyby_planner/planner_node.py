@@ -1,10 +1,12 @@
 """The planner node: fly-by capture task planning on request (seed 000 §2.2 (2), §4.3-4.5, 4.7).
 
-Plans when ``mission/phase`` turns to ``PLANNING`` or when ``planner/replan`` (std_srvs/Trigger)
-is called, at the first target estimate that arrives after the request (the plan time is that
-estimate's stamp; nothing here reads the wall clock). The target motion is predicted from the
-estimate on ``estimation/target/odom`` (attitude, body rate, the scenario's inertia), the chaser
-state is the latest ``estimation/chaser/odom`` carried to the plan time along CW (eq 22).
+Plans when the supervisor turns the mission to ``PLANNING`` (its ``phase_changed`` event on
+``mission/events``, stamped) or when ``planner/replan`` (std_srvs/Trigger) is called, at the first
+target estimate stamped at or after the request (the plan time is that estimate's stamp: the same
+at any pace of the run; nothing here reads the wall clock). The target motion is predicted from
+that estimate on ``estimation/target/odom`` (attitude, body rate, the scenario's inertia), the
+chaser state is the last ``estimation/chaser/odom`` up to the plan time carried to it along CW
+(eq 22).
 
 Publishes (latched): ``planner/grasp`` (stamp t_g; the grasp point in hill, its velocity relative to
 hill, and the predicted target attitude and body rate at t_g), ``planner/flyby_target`` (stamp t_g;
@@ -24,7 +26,7 @@ from std_srvs.srv import Trigger
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import main_for
+from flyby_msgs_py.runtime import StampedBuffer, main_for
 from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
 from flyby_sim.orbital import cw_transition_matrix
@@ -64,9 +66,9 @@ class PlannerNode(Node):
         self.scenario = load_scenario(self.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
         self.config = planner_config_from_scenario(self.scenario)
         self.dynamics = ErrorStateDynamics(self.scenario.target_inertia)
-        self.phase = None
-        self.request = None  # why a plan is wanted, until it is made
-        self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
+        self.request = None  # (t_request, why) until the plan is made
+        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) by stamp
+        self.chasers = StampedBuffer()  # (r_hill, v_hill) by stamp
         self.plans = 0
 
         def pub(topic):
@@ -76,40 +78,50 @@ class PlannerNode(Node):
             c.MISSION_EVENTS)}
         for topic, callback, qos in ((c.EST_TARGET_ODOM, self.on_target, c.QOS_STREAM),
                                      (c.EST_CHASER_ODOM, self.on_chaser, c.QOS_STREAM),
-                                     (c.MISSION_PHASE, self.on_phase, c.QOS_LATCHED)):
+                                     (c.MISSION_EVENTS, self.on_event, c.QOS_EVENTS)):
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos)
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
 
-    def on_phase(self, msg):
-        phase = convert.string_to_str(msg)
-        if phase == c.PHASE_PLANNING and self.phase != c.PHASE_PLANNING:
-            self.request = 'phase PLANNING'
-        self.phase = phase
+    def on_event(self, msg):
+        """The supervisor's transition to PLANNING, stamped: the plan is made at that time."""
+        for e in convert.events_from_msg(msg):
+            if e['name'] == 'phase_changed' and e['values'].get('to') == c.PHASE_PLANNING:
+                self.request = (e['t'], 'phase PLANNING')
+                self.try_plan()
 
     def on_replan(self, _request, response):
-        self.request = 'replan requested'
+        self.request = (self.targets.latest_t, 'replan requested')
         response.success = True
         response.message = 'planning at the next target estimate'
         return response
 
     def on_chaser(self, msg):
         o = convert.odometry_to_numpy(msg)
-        self.chaser = (o.t, o.position, o.linear)
+        self.chasers.add(o.t, (o.position, o.linear))
+        self.try_plan()
 
     def on_target(self, msg):
+        o = convert.odometry_to_numpy(msg)
+        self.targets.add(o.t, (o.orientation_xyzw, o.angular))
+        self.try_plan()
+
+    def try_plan(self):
+        """Plan at the first target estimate stamped at or after the request, once the chaser estimates
+        up to that stamp are in (the same estimates at any pace of the run)."""
         if self.request is None:
             return
-        if self.chaser is None:
-            return  # the plan needs a chaser estimate too; the request stays pending
-        o = convert.odometry_to_numpy(msg)
-        self.plan(o.t, o.orientation_xyzw, o.angular, self.request)
+        t_request, why = self.request
+        target = self.targets.first_at_or_after(t_request)
+        if target is None or self.chasers.latest_t < target[0]:
+            return
         self.request = None
+        self.plan(target[0], *target[1], why)
 
     def plan(self, t, q_hill_from_body, omega_body, why):
         """Plan at the target estimate of time t (the plan time) and publish the result."""
         cfg = self.config
         n = cfg.mean_motion_rad_s
-        t_c, r_c, v_c = self.chaser
+        t_c, (r_c, v_c) = self.chasers.last_at_or_before(t)
         chaser_now = cw_transition_matrix(n, t - t_c) @ np.concatenate((r_c, v_c))
         prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body,
                                               t + cfg.search_window[1])

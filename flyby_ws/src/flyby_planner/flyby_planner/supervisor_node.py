@@ -22,7 +22,7 @@ from std_srvs.srv import Trigger
 from flyby_estimation.target_motion import ErrorStateDynamics, make_state, prediction_from_estimate, q_eci_from_body
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import PROGRESS_TOPIC, main_for
+from flyby_msgs_py.runtime import PROGRESS_TOPIC, StampedBuffer, main_for
 from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.grasp import flyby_target_point, grasp_from_attitude
 from flyby_planner.keepout import swept_region
@@ -49,7 +49,9 @@ class SupervisorNode(Node):
         self.dynamics = ErrorStateDynamics(self.scenario.target_inertia)
         self.n = self.scenario.mean_motion_rad_s
         self.target = None  # (t, q_hill_from_body, omega_body) of the latest target estimate
+        self.targets = StampedBuffer()
         self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
+        self.decision_at = None  # the chaser estimate the capture decision waits to be made at
         self.t_clock = 0.0
 
         def pub(topic):
@@ -71,14 +73,25 @@ class SupervisorNode(Node):
     def on_target(self, msg):
         o = convert.odometry_to_numpy(msg)
         self.target = (o.t, o.orientation_xyzw, o.angular)
+        self.targets.add(o.t, self.target)
         self.apply(self.machine.target_estimate(o.t))
+        self.try_decision()
 
     def on_chaser(self, msg):
         o = convert.odometry_to_numpy(msg)
         self.chaser = (o.t, o.position, o.linear)
         self.apply(self.machine.chaser_estimate(o.t, o.position))
-        if self.machine.wants_decision(o.t) and self.target is not None:
-            self.apply(self.machine.decide(o.t, self.decide_capture()))
+        if self.decision_at is None and self.machine.wants_decision(o.t):
+            self.decision_at = self.chaser
+        self.try_decision()
+
+    def try_decision(self):
+        """Decide at the first chaser estimate at or after t_g, with the target estimate of its stamp."""
+        if self.decision_at is None or not self.machine.wants_decision(self.decision_at[0]):
+            return
+        target = self.targets.first_at_or_after(self.decision_at[0])
+        if target is not None:
+            self.apply(self.machine.decide(self.decision_at[0], self.decide_capture(self.decision_at, target[1])))
 
     def on_event(self, msg):
         for e in convert.events_from_msg(msg):
@@ -102,12 +115,12 @@ class SupervisorNode(Node):
         return response
 
     # -- decisions ------------------------------------------------------------------------------
-    def decide_capture(self):
-        """The capture decision at the grasp time from the latest estimates (both carried to t_g)."""
+    def decide_capture(self, chaser, target):
+        """The capture decision at the grasp time from a chaser and a target estimate (both carried to t_g)."""
         t_g = self.machine.t_grasp
-        t_c, r, v = self.chaser
+        t_c, r, v = chaser
         state = cw_transition_matrix(self.n, t_g - t_c) @ np.concatenate((r, v))
-        t_t, q_hb, omega_body = self.target
+        t_t, q_hb, omega_body = target
         t_at = max(t_g, t_t)  # the estimate may be a little newer than t_g: then its own time
         s = prediction_from_estimate(self.dynamics, self.n, t_t, q_hb, omega_body, t_at).state(t_at)
         x_g, v_g = grasp_from_attitude(s.q_hill_from_body, s.omega_body, self.planner_config.x_grasp_body_m, self.n)

@@ -134,6 +134,12 @@ def test_faster_than_category_iii_is_refused():
     assert plan.reason.startswith('condition (a): target rate 20 deg/s >= 18 deg/s')
 
 
+def test_a_target_at_rest_is_refused():
+    sc = _scenario(lambda d: d['target']['initial_rate'].update(omega_body_deg_s=[0.0, 0.0, 0.0]))
+    plan, _ = _plan(sc)
+    assert not plan.ok and 'no rotation' in plan.reason
+
+
 def test_seed001_tumbler_is_refused_as_category_iv():
     sc = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
     plan, _ = _plan(sc)

@@ -1,0 +1,741 @@
+#!/usr/bin/env python3
+"""Figures of a mission run, from its bag and scenario (PNG, matplotlib Agg).
+
+    .venv/bin/python scripts/mission_report.py RUN_DIR [--out DIR]
+
+RUN_DIR is what scripts/run_mission.py leaves (bag/, scenario.yaml, summary.json); the figures go to
+DIR (default RUN_DIR):
+
+* trajectory_xz.png  chaser path in the hill x-z plane (seed 000 Fig. 11): truth, planned path, the
+                     restriction sphere, the target's swept keep-out region and its boxes at the grasp
+                     time, burns, start, X_Fi, X_Ft, grasp point; a second panel +-10 m about the target
+* trajectory_3d.png  the same in 3-D within +-20 m of the target
+* range.png          range and range rate, truth and estimate, over the mission phases and burns
+* maneuvers.png      each executed burn's delta-v, commanded against executed
+* estimation.png     chaser position / velocity and target attitude / body-rate errors with +-3 sigma
+* clearance.png      gap of the chaser envelope to the target's boxes and to the swept region
+
+An interrupted run works too: a bag without metadata.yaml is repaired first (as analyze_bag.py
+does), and whatever is missing (topics, plan, grasp, burns, scenario) is left out; what was left out
+is said on stderr. A figure whose essential data is missing is not written. Exit code 0, or 1 when a
+figure failed (a bug: its traceback is on stderr) or the bag cannot be read.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import functools
+import json
+import math
+import sys
+import traceback
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy.spatial import ConvexHull  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+
+from flyby_estimation.target_motion import q_eci_from_body  # noqa: E402
+from flyby_msgs_py import contract as c  # noqa: E402
+from flyby_msgs_py.bag import (BagError, PathLatest, StringSeries, bag_topics, read_bag,  # noqa: E402
+                               repair_bag)
+from flyby_msgs_py.scenario import ScenarioError, load_scenario  # noqa: E402
+from flyby_planner.keepout import swept_region  # noqa: E402
+from flyby_planner.summary import grasp_time  # noqa: E402
+from flyby_sim.geometry import clearance  # noqa: E402
+
+DPI = 100
+STAMP_TOLERANCE_S = 1e-6      # truth (every step) and estimate stamps that are the same instant
+BURN_MATCH_TOLERANCE_S = 0.01  # a commanded burn time against the simulator's start of it
+STEP_TOLERANCE_S = 0.05        # a time this close to the truth's span is within it (one step)
+REGION_SAMPLES = 200           # truth attitude samples the swept region is built from
+TRUTH, ESTIMATE, PLAN = 'C0', 'C1', 'k'
+REGION_FILL, BODY_FILL = '0.82', '0.45'
+PHASE_COLORS = {
+    c.PHASE_ESTIMATION: '#dddddd', c.PHASE_PLANNING: '#ffe9a8', c.PHASE_TERMINAL_APPROACH: '#cfe3ff',
+    c.PHASE_TRAJECTORY_ADJUST: '#d9f2d0', c.PHASE_FLYBY: '#f9d5e5', c.PHASE_CAPTURE: '#b9f0e4',
+    c.PHASE_ESCAPE: '#ffd9b3', c.PHASE_COMPLETE: '#e5e5ff', c.PHASE_ABORTED: '#ffb3b3',
+}
+TOPICS = (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.EST_CHASER_ODOM, c.EST_TARGET_ODOM, c.PLANNER_PATH,
+          c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.MISSION_PHASE,
+          c.MISSION_EVENTS)
+
+
+class Skipped(Exception):
+    """A figure (or a part of one) cannot be drawn: its data is not in the run."""
+
+
+def _say(message):
+    print(f'mission_report: {message}', file=sys.stderr)
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Burn:
+    t_start: float
+    kind: str
+    dv_cmd_hill: np.ndarray | None   # [m/s]
+    dv_hill: np.ndarray | None       # executed [m/s]
+
+
+def _vector(values, key):
+    """A '[x, y, z]' event value as an array, None if absent."""
+    return np.array(json.loads(values[key]), dtype=float) if key in values else None
+
+
+def _burns(events):
+    """Executed burns (the simulator's burn_started), labelled with the kind guidance commanded."""
+    commanded = [(float(e['values']['t_burn_s']), e['values'].get('kind', 'burn'))
+                 for e in events if e['name'] == 'maneuver_commanded' and 't_burn_s' in e['values']]
+    burns = []
+    for e in events:
+        if e['name'] != 'burn_started' or e['hardware_id'] != 'flyby_sim':
+            continue
+        v = e['values']
+        t_start = float(v.get('t_start', e['t']))
+        t_cmd = float(v.get('t_cmd', t_start))
+        kind = next((k for t, k in commanded if abs(t - t_cmd) <= BURN_MATCH_TOLERANCE_S), 'burn')
+        burns.append(Burn(t_start, kind, _vector(v, 'dv_cmd_hill'), _vector(v, 'dv_hill')))
+    return burns
+
+
+def _is_empty(series):
+    if isinstance(series, list):          # events
+        return not series
+    if isinstance(series, PathLatest):
+        return not len(series.positions)
+    if isinstance(series, StringSeries):
+        return not series.data
+    return not len(series.t)
+
+
+def _open_bag(bag_dir):
+    """The bag's topics; a bag whose recorder was killed (no metadata.yaml) is repaired first."""
+    try:
+        return bag_topics(bag_dir)
+    except BagError as err:
+        if not bag_dir.is_dir():
+            raise
+        _say(f'{err}; repairing it')
+        report = repair_bag(bag_dir)
+        _say(f'bag repaired: {report["message_count"]} messages kept ({report.get("stop_reason")})')
+        return bag_topics(bag_dir)
+
+
+def match_stamps(t_a, t_b, tolerance_s=STAMP_TOLERANCE_S):
+    """Index pairs (i_a, i_b) of the stamps of t_a with a stamp of t_b (sorted) within tolerance_s."""
+    if not len(t_a) or not len(t_b):
+        return np.zeros(0, int), np.zeros(0, int)
+    right = np.searchsorted(t_b, t_a).clip(1, len(t_b) - 1) if len(t_b) > 1 else np.zeros(len(t_a), int)
+    left = (right - 1).clip(0)
+    nearest = np.where(np.abs(t_b[left] - t_a) <= np.abs(t_b[right] - t_a), left, right)
+    ok = np.abs(t_b[nearest] - t_a) <= tolerance_s
+    return np.flatnonzero(ok), nearest[ok]
+
+
+class Run:
+    """What the figures draw from: the bag's series (absent or empty topics left out), the scenario,
+    the summary, and quantities derived from them once."""
+
+    def __init__(self, run_dir):
+        self.run_dir = Path(run_dir)
+        present = _open_bag(self.run_dir / 'bag')
+        wanted = [c.absolute(t) for t in TOPICS]
+        data = read_bag(self.run_dir / 'bag', topics=[t for t in wanted if t in present])
+        self.series = {t: s for t, s in data.items() if not _is_empty(s)}
+        absent = [t for t in wanted if t not in self.series]
+        if absent:
+            _say(f'not in the bag or empty, left out: {", ".join(absent)}')
+        self.events = self.series.get(c.absolute(c.MISSION_EVENTS), [])
+        self.burns = _burns(self.events)
+        self.scenario = self._load_scenario()
+        summary = self.run_dir / 'summary.json'
+        self.summary = json.loads(summary.read_text()) if summary.is_file() else {}
+
+    def _load_scenario(self):
+        try:
+            return load_scenario(self.run_dir / 'scenario.yaml')
+        except (OSError, ScenarioError) as err:
+            _say(f'no scenario ({err}): the sphere, keep-out region and clearances are left out')
+            return None
+
+    def get(self, topic):
+        """The series of a contract topic, None if the run has none."""
+        return self.series.get(c.absolute(topic))
+
+    def need(self, *topics):
+        """The series of the topics; Skipped naming the first one the run lacks."""
+        for topic in topics:
+            if self.get(topic) is None:
+                raise Skipped(f'no {c.absolute(topic)}')
+        return tuple(self.get(t) for t in topics) if len(topics) > 1 else self.get(topics[0])
+
+    def need_scenario(self):
+        if self.scenario is None:
+            raise Skipped('no scenario.yaml')
+        return self.scenario
+
+    @property
+    def title(self):
+        s = self.scenario
+        name = f'{s.name}, seed {s.seed}' if s is not None else self.run_dir.name
+        outcome = self.summary.get('outcome')
+        return f'{name}: {outcome}' if outcome else name
+
+    @functools.cached_property
+    def t_end(self):
+        chaser = self.get(c.SIM_CHASER_ODOM)
+        return float(chaser.t[-1]) if chaser is not None else max((e['t'] for e in self.events), default=0.0)
+
+    @functools.cached_property
+    def grasp(self):
+        """(t_g, label): the supervisor's decided grasp time, else the planned one, else None."""
+        t_g = grasp_time(self.events)
+        if t_g is not None:
+            return t_g, 'grasp'
+        planned = self.get(c.PLANNER_GRASP)
+        if planned is not None:
+            return float(planned.t[-1]), 'planned grasp'
+        return None, None
+
+    @functools.cached_property
+    def phases(self):
+        """[(t_start, t_end, phase)] from /mission/phase (else the phase_changed events)."""
+        msgs = self.get(c.MISSION_PHASE)
+        if msgs is not None:
+            starts = list(zip(msgs.t_received, msgs.data))
+        else:
+            starts = [(e['t'], e['values']['to']) for e in self.events
+                      if e['name'] == 'phase_changed' and 'to' in e['values']]
+        ends = [t for t, _ in starts[1:]] + [self.t_end]
+        return [(t0, max(t0, t1), phase) for (t0, phase), t1 in zip(starts, ends)]
+
+    @functools.cached_property
+    def kind_colors(self):
+        kinds = list(dict.fromkeys(b.kind for b in self.burns))
+        palette = ('C3', 'C4', 'C6', 'C5', 'C8', 'C9', 'C7')  # not truth, estimate or start colours
+        return {k: palette[i % len(palette)] for i, k in enumerate(kinds)}
+
+    def truth_at(self, t):
+        """Truth chaser position (3,) at time t, interpolated."""
+        chaser = self.need(c.SIM_CHASER_ODOM)
+        return np.array([np.interp(t, chaser.t, chaser.position[:, k]) for k in range(3)])
+
+    def target_attitude_at(self, t):
+        """Truth q_hill_from_body at the truth sample nearest t, None if t is outside the truth."""
+        target = self.get(c.SIM_TARGET_ODOM)
+        if target is None or not target.t[0] - STEP_TOLERANCE_S <= t <= target.t[-1] + STEP_TOLERANCE_S:
+            return None
+        return target.orientation_xyzw[int(np.argmin(np.abs(target.t - t)))]
+
+    @functools.cached_property
+    def region(self):
+        """The target's swept keep-out region from truth attitude samples up to the grasp, or None."""
+        target = self.get(c.SIM_TARGET_ODOM)
+        if self.scenario is None or target is None:
+            return None
+        t_g, _ = self.grasp
+        before = np.flatnonzero(target.t <= (t_g if t_g is not None else np.inf))
+        idx = before[np.linspace(0, len(before) - 1, min(REGION_SAMPLES, len(before))).astype(int)]
+        n = self.scenario.mean_motion_rad_s
+        try:
+            return swept_region(self.scenario.boxes, self.scenario.target_inertia,
+                                [q_eci_from_body(target.t[i], n, target.orientation_xyzw[i]) for i in idx],
+                                target.angular[idx])
+        except ValueError as err:
+            _say(f'no swept keep-out region: {err}')
+            return None
+
+    @functools.cached_property
+    def region_time(self):
+        """(t, label) the region and the target's boxes are drawn at: the grasp time, else the end."""
+        t_g, label = self.grasp
+        return (t_g, label) if t_g is not None else (self.t_end, 'end of run')
+
+    def planned_path(self):
+        """(times, positions) of the last published path, up to the later of the run's end and the
+        planned escape (flyby_duration_s past the grasp); None if no path."""
+        path = self.get(c.PLANNER_PATH)
+        if path is None:
+            return None
+        t_g, _ = self.grasp
+        t_stop = self.t_end
+        if t_g is not None and self.scenario is not None:
+            t_stop = max(t_stop, t_g + self.scenario.planner.flyby_duration_s)
+        keep = path.times <= t_stop
+        return path.times[keep], path.positions[keep]
+
+    def points(self):
+        """[(position, label, marker style)] of the start and the planner's points the run has."""
+        out = []
+        chaser = self.get(c.SIM_CHASER_ODOM)
+        if chaser is not None:
+            out.append((chaser.position[0], 'start', dict(marker='o', color='g', ms=11)))
+        for topic, label, style in ((c.PLANNER_FLYBY_INITIAL, '$X_{Fi}$', dict(marker='s', color='m', ms=11)),
+                                    (c.PLANNER_FLYBY_TARGET, '$X_{Ft}$', dict(marker='*', color='r', ms=13)),
+                                    (c.PLANNER_GRASP, 'grasp point', dict(marker='X', color='darkred', ms=9))):
+            series = self.get(topic)
+            if series is not None:
+                out.append((series.position[-1], label, style))
+        return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared drawing
+# ---------------------------------------------------------------------------------------------
+
+def cylinder_surfaces(region, axis):
+    """Per cylinder of the region about the unit hill axis: its closed surface as a (4, 64, 3) grid
+    [m] (bottom centre, bottom rim, top rim, top centre), for plot_surface or an outline."""
+    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    u = np.cross(axis, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    phi = np.linspace(0.0, 2.0 * np.pi, 64)
+    ring = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v
+    centre = np.zeros_like(ring)
+    return [np.stack((lo * axis + centre, lo * axis + r * ring, hi * axis + r * ring, hi * axis + centre))
+            for lo, hi, r in zip(region.axial_min_m, region.axial_max_m, region.radius_m)]
+
+
+def box_corners_hill(scenario, q_hill_from_body):
+    """Per target box: its 8 corners in hill (8, 3) [m] at the attitude q_hill_from_body."""
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    rot = Rotation.from_quat(q_hill_from_body)
+    return [rot.apply(np.asarray(center) + 0.5 * signs * np.asarray(size))
+            for center, size in zip(scenario.boxes.center_body_m, scenario.boxes.size_m)]
+
+
+def _fill_xz(ax, point_sets, **style):
+    """Fill the x-z outline (convex hull) of each point set; label only the first."""
+    for points in point_sets:
+        xz = points.reshape(-1, 3)[:, [0, 2]]
+        hull = xz[ConvexHull(xz, qhull_options='QJ').vertices]  # QJ: a flat outline does not fail
+        ax.fill(hull[:, 0], hull[:, 1], **style)
+        style.pop('label', None)
+
+
+def _target_xz(ax, run):
+    """The swept region and the target's boxes at the region time, and the restriction sphere."""
+    t_r, label = run.region_time
+    if run.region is not None:
+        axis = run.region.axis_hill(t_r, run.scenario.mean_motion_rad_s)
+        _fill_xz(ax, cylinder_surfaces(run.region, axis), color=REGION_FILL, lw=0, zorder=1,
+                 label=f'swept keep-out region ({label}, t = {t_r:.0f} s)')
+    q_true = run.target_attitude_at(t_r)
+    if run.scenario is not None and q_true is not None:
+        _fill_xz(ax, box_corners_hill(run.scenario, q_true), color=BODY_FILL, lw=0, zorder=2,
+                 label=f'target boxes at t = {t_r:.0f} s')
+    if run.scenario is not None:
+        radius = run.scenario.planner.restriction_sphere_radius_m
+        phi = np.linspace(0.0, 2.0 * np.pi, 200)
+        ax.plot(radius * np.cos(phi), radius * np.sin(phi), color='0.4', lw=0.8, ls=':',
+                label=f'restriction sphere {radius:g} m')
+
+
+def _paths_and_points(ax, run, project):
+    """Truth path, planned path, burns and the planner's points, drawn through project((N, 3)) ->
+    plot coordinates (NaN for a point the axes leave out: it gets no legend entry either)."""
+    chaser = run.need(c.SIM_CHASER_ODOM)
+    ax.plot(*project(chaser.position), color=TRUTH, lw=2.2, label='chaser truth')
+    planned = run.planned_path()
+    if planned is not None:
+        ax.plot(*project(planned[1]), color=PLAN, lw=1.0, ls='--', label='planned path')
+    marks = [(run.truth_at(b.t_start), f'{b.kind} burn',
+              dict(marker='^', ms=6, color=run.kind_colors[b.kind])) for b in run.burns]
+    seen = set()
+    for position, label, style in run.points() + marks:
+        coords = project(np.asarray(position)[None, :])
+        if np.isnan(coords[0]).all():
+            continue
+        ax.plot(*coords, ls='', mec='k', mew=0.5, zorder=5, label=None if label in seen else label, **style)
+        seen.add(label)
+
+
+def _phase_bands(ax, run, legend=True):
+    seen = set()
+    for t0, t1, phase in run.phases:
+        ax.axvspan(t0, t1, color=PHASE_COLORS.get(phase, '#eeeeee'), lw=0, zorder=0,
+                   label=phase if legend and phase not in seen else None)
+        seen.add(phase)
+
+
+def _burn_lines(ax, run, labels=True):
+    for b in run.burns:
+        ax.axvline(b.t_start, color=run.kind_colors[b.kind], lw=0.9, zorder=1)
+        if labels:
+            ax.text(b.t_start, 1.0, f' {b.kind}', transform=ax.get_xaxis_transform(), rotation=90,
+                    va='bottom', ha='center', fontsize=7, color=run.kind_colors[b.kind])
+
+
+def _save(fig, path):
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------------------------------
+# Figures
+# ---------------------------------------------------------------------------------------------
+
+def _xz(points):
+    return points[:, 0], points[:, 2]
+
+
+def fig_trajectory_xz(run, path):
+    run.need(c.SIM_CHASER_ODOM)
+    fig, axes = plt.subplots(1, 2, figsize=(16, 7.5))
+    for ax, zoom in zip(axes, (None, 10.0)):
+        _target_xz(ax, run)
+        _paths_and_points(ax, run, _xz)
+        ax.set(aspect='equal', xlabel='hill x, along-track [m]', ylabel='hill z, toward Earth [m] (up: away)')
+        ax.grid(alpha=0.3)
+        if zoom is not None:
+            ax.set(xlim=(-zoom, zoom), ylim=(zoom, -zoom), title=f'within {zoom:g} m of the target')
+        else:
+            ax.set(adjustable='datalim', title='chaser in the hill x-z plane')
+            ax.invert_yaxis()
+    fig.legend(*axes[0].get_legend_handles_labels(), loc='center right', fontsize=9)
+    fig.suptitle(run.title)
+    fig.tight_layout(rect=(0, 0, 0.76, 1))
+    _save(fig, path)
+
+
+def _oblique_view(axis, elev=25.0, off_axis_deg=55.0):
+    """(elev, azim) [deg]: the camera azimuth, nearest matplotlib's default -60 deg, that sees the
+    region's axis about off_axis_deg from the line of sight, so its discs show as ellipses rather
+    than edge-on or face-on (the z axis is drawn inverted: display up is -z)."""
+    a = np.array((axis[0], axis[1], -axis[2]))
+    azims = np.arange(-180.0, 180.0, 5.0)
+    e, z = math.radians(elev), np.radians(azims)
+    sight = np.stack((np.cos(e) * np.cos(z), np.cos(e) * np.sin(z), np.full_like(z, math.sin(e))), axis=1)
+    off_axis = np.degrees(np.arccos(np.clip(np.abs(sight @ a), 0.0, 1.0)))
+    from_default = np.abs((azims + 60.0 + 180.0) % 360.0 - 180.0)
+    return elev, float(azims[np.argmin(np.abs(off_axis - off_axis_deg) + 0.1 * from_default)])
+
+
+def fig_trajectory_3d(run, path, half_width_m=20.0):
+    run.need(c.SIM_CHASER_ODOM)
+
+    def clip(points):
+        p = np.array(points, dtype=float)
+        p[np.any(np.abs(p) > half_width_m, axis=1)] = np.nan  # 3-D axes do not clip
+        return p.T
+
+    fig = plt.figure(figsize=(10, 9.5))
+    ax = fig.add_axes((0.0, 0.1, 1.0, 0.85), projection='3d')
+    t_r, label = run.region_time
+    elev, azim = 22.0, -55.0
+    if run.region is not None:
+        axis = run.region.axis_hill(t_r, run.scenario.mean_motion_rad_s)
+        elev, azim = _oblique_view(axis)
+        for surface in cylinder_surfaces(run.region, axis):
+            ax.plot_surface(*np.moveaxis(surface, -1, 0), color='0.5', alpha=0.3, lw=0)
+        ax.plot([], [], color='0.55', lw=6, alpha=0.5, label=f'swept keep-out region ({label}, t = {t_r:.0f} s)')
+    if run.scenario is not None:
+        radius = run.scenario.planner.restriction_sphere_radius_m
+        u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 19), np.linspace(0, np.pi, 10))
+        ax.plot_wireframe(radius * np.cos(u) * np.sin(v), radius * np.sin(u) * np.sin(v), radius * np.cos(v),
+                          color='0.6', lw=0.3, alpha=0.5, label=f'restriction sphere {radius:g} m')
+    _paths_and_points(ax, run, clip)
+    ticks = np.linspace(-half_width_m, half_width_m, 5)
+    ax.set(xlim=(-half_width_m, half_width_m), ylim=(-half_width_m, half_width_m),
+           zlim=(half_width_m, -half_width_m), xticks=ticks, yticks=ticks, zticks=ticks,
+           xlabel='hill x, along-track [m]', ylabel='hill y, anti-normal [m]', zlabel='hill z, toward Earth [m]')
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=elev, azim=azim)
+    fig.legend(*ax.get_legend_handles_labels(), loc='lower center', ncol=3, fontsize=9)
+    fig.suptitle(f'{run.title}: within {half_width_m:g} m of the target (what lies beyond is left out)')
+    _save(fig, path)
+
+
+def _range_and_rate(series):
+    r = np.linalg.norm(series.position, axis=1)
+    return r, np.sum(series.position * series.linear, axis=1) / np.maximum(r, 1e-9)
+
+
+def fig_range(run, path):
+    truth = run.need(c.SIM_CHASER_ODOM)
+    estimate = run.get(c.EST_CHASER_ODOM)
+    curves = [(truth.t, _range_and_rate(truth), dict(color=TRUTH, lw=1.3, label='truth'))]
+    if estimate is not None:
+        curves.append((estimate.t, _range_and_rate(estimate), dict(color=ESTIMATE, lw=1.1, ls='--',
+                                                                     label='estimate')))
+    fig, (ax_r, ax_v) = plt.subplots(2, 1, figsize=(13, 8), sharex=True)
+    for ax, k, unit in ((ax_r, 0, 'range |r| [m]'), (ax_v, 1, 'range rate [m/s]')):
+        _phase_bands(ax, run, legend=ax is ax_r)
+        _burn_lines(ax, run, labels=ax is ax_r)
+        for t, values, style in curves:
+            ax.plot(t, values[k], **style)
+        ax.set_ylabel(unit)
+        ax.grid(alpha=0.3, which='both')
+    ax_r.set_yscale('log')
+    if run.scenario is not None:
+        ax_r.axhline(run.scenario.planner.restriction_sphere_radius_m, color='0.4', ls=':', lw=0.9,
+                     label='restriction sphere')
+    t_g, label = run.grasp
+    if t_g is not None:
+        for ax in (ax_r, ax_v):
+            ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label if ax is ax_r else None)
+    ax_v.axhline(0.0, color='k', lw=0.6)
+    ax_v.set(xlabel='simulation time [s]', xlim=(0.0, run.t_end))
+    ax_r.legend(fontsize=8, ncol=3, loc='lower left', framealpha=0.9)
+    ax_v.legend(fontsize=8, loc='lower left')
+    fig.suptitle(f'{run.title}: range to the target (vertical lines: burn starts)')
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def fig_maneuvers(run, path):
+    burns = run.burns
+    if not burns:
+        raise Skipped('no executed burn (burn_started event)')
+    idx = np.arange(len(burns))
+    mm = 1e3  # m/s -> mm/s
+    nan3 = np.full(3, np.nan)
+    cmd = np.array([b.dv_cmd_hill if b.dv_cmd_hill is not None else nan3 for b in burns]) * mm
+    exe = np.array([b.dv_hill if b.dv_hill is not None else nan3 for b in burns]) * mm
+    fig, (ax_c, ax_m, ax_e) = plt.subplots(3, 1, figsize=(13, 10), sharex=True,
+                                           gridspec_kw=dict(height_ratios=(1.4, 1, 0.8)))
+    width = 0.13
+    for k, axis in enumerate('xyz'):
+        color = f'C{k}'
+        ax_c.bar(idx + (2 * k - 2.5) * width, cmd[:, k], width, color=color, alpha=0.35, edgecolor=color,
+                 hatch='//', label=f'{axis} commanded')
+        ax_c.bar(idx + (2 * k - 1.5) * width, exe[:, k], width, color=color, label=f'{axis} executed')
+    linthresh = 0.01  # mm/s: well below any burn a thruster can make (0.1 mm/s for the paper's chaser)
+    ax_c.set_yscale('symlog', linthresh=linthresh)
+    ax_c.axhline(0.0, color='k', lw=0.6)
+    ax_c.set_ylabel(f'delta-v hill component [mm/s]\n(symlog, linear below {linthresh:.2g})')
+    ax_c.legend(fontsize=8, ncol=3)
+
+    mag_cmd, mag_exe = np.linalg.norm(cmd, axis=1), np.linalg.norm(exe, axis=1)
+    ax_m.bar(idx - 0.15, mag_cmd, 0.3, color='0.7', hatch='//', edgecolor='0.4', label='commanded |dv|')
+    ax_m.bar(idx + 0.15, mag_exe, 0.3, color='C3', label='executed |dv|')
+    for i, m in enumerate(mag_exe):
+        if np.isfinite(m):
+            ax_m.text(i + 0.15, m, f'{m:.3g}', ha='center', va='bottom', fontsize=7)
+    ax_m.set(yscale='log', ylabel='|delta-v| [mm/s]')
+    ax_m.legend(fontsize=8)
+
+    magnitude_error = np.abs(mag_exe - mag_cmd) / mag_cmd * 100.0
+    vector_error = np.linalg.norm(exe - cmd, axis=1) / mag_cmd * 100.0
+    pointing_error = np.degrees(np.arccos(np.clip(np.sum(exe * cmd, axis=1) / (mag_exe * mag_cmd), -1.0, 1.0)))
+    ax_e.bar(idx - 0.15, magnitude_error, 0.3, color='C4', label='magnitude error [%]')
+    ax_e.bar(idx + 0.15, vector_error, 0.3, color='C5', label='|dv_exec - dv_cmd| / |dv_cmd| [%]')
+    ax_e2 = ax_e.twinx()
+    ax_e2.plot(idx, pointing_error, 'kd', ms=5, label='pointing error [deg]')
+    ax_e2.set_ylabel('pointing error [deg]')
+    for ax in (ax_e, ax_e2):  # headroom for the legend
+        ax.set_ylim(0.0, 1.4 * ax.get_ylim()[1])
+    ax_e.set_ylabel('execution error [%]')
+    handles = ax_e.get_legend_handles_labels()[0] + ax_e2.get_legend_handles_labels()[0]
+    ax_e.legend(handles=handles, fontsize=8, ncol=3, loc='upper left')
+    ax_e.set_xticks(idx, [f'{b.kind}\nt = {b.t_start:.1f} s' for b in burns], fontsize=8)
+    ax_e.set_xlabel('executed burns in order (kind, start time)')
+    for ax in (ax_c, ax_m, ax_e):
+        ax.grid(alpha=0.3, axis='y', which='both')
+    fig.suptitle(f'{run.title}: {len(burns)} executed burns, commanded (hatched) against executed')
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _sigma3(covariance, block):
+    return 3.0 * np.sqrt(np.maximum(np.diagonal(covariance[:, block, block], axis1=1, axis2=2), 0.0))
+
+
+def _matched(run, est_topic, truth_topic):
+    """(estimate, truth, i_est, i_truth) at the same stamps, or the reason there is none."""
+    est, truth = run.get(est_topic), run.get(truth_topic)
+    if est is None or truth is None:
+        return f'no {c.absolute(est_topic if est is None else truth_topic)}'
+    i_est, i_truth = match_stamps(est.t, truth.t)
+    if not len(i_est):
+        return f'no {c.absolute(est_topic)} stamp matches {c.absolute(truth_topic)}'
+    return est, truth, i_est, i_truth
+
+
+def estimation_errors(run):
+    """The four rows of estimation.png: (quantity, unit, t, error (N, 3), 3 sigma (N, 3)), or
+    (quantity, reason) for a row the run has no data for.
+
+    Errors are estimate minus truth at the same stamps. The target attitude error is the rotation
+    vector of q_est q_true^-1, i.e. about hill axes like the pose covariance the estimator publishes
+    (flyby_estimation.target_motion.PredictedState.covariance_hill); the body-rate error and its
+    covariance are in body axes.
+    """
+    pos, rot = slice(0, 3), slice(3, 6)
+    deg = math.degrees(1.0)
+    rows = []
+    chaser = _matched(run, c.EST_CHASER_ODOM, c.SIM_CHASER_ODOM)
+    if isinstance(chaser, str):
+        rows += [('chaser position', chaser), ('chaser velocity', chaser)]
+    else:
+        e, tr, i, j = chaser
+        rows.append(('chaser position', 'm', e.t[i], e.position[i] - tr.position[j],
+                     _sigma3(e.pose_covariance[i], pos)))
+        rows.append(('chaser velocity', 'm/s', e.t[i], e.linear[i] - tr.linear[j],
+                     _sigma3(e.twist_covariance[i], pos)))
+    target = _matched(run, c.EST_TARGET_ODOM, c.SIM_TARGET_ODOM)
+    if isinstance(target, str):
+        rows += [('target attitude', target), ('target body rate', target)]
+    else:
+        e, tr, i, j = target
+        dtheta = (Rotation.from_quat(e.orientation_xyzw[i]) * Rotation.from_quat(tr.orientation_xyzw[j]).inv())
+        rows.append(('target attitude (hill axes)', 'deg', e.t[i], dtheta.as_rotvec() * deg,
+                     _sigma3(e.pose_covariance[i], rot) * deg))
+        rows.append(('target body rate (body axes)', 'deg/s', e.t[i], (e.angular[i] - tr.angular[j]) * deg,
+                     _sigma3(e.twist_covariance[i], rot) * deg))
+    return rows
+
+
+def fig_estimation(run, path):
+    rows = estimation_errors(run)
+    if all(len(r) == 2 for r in rows):
+        raise Skipped('; '.join(dict.fromkeys(r[1] for r in rows)))
+    fig, axes = plt.subplots(len(rows), 3, figsize=(15, 12), sharex=True)
+    t_g, label = run.grasp
+    for row, ax_row in zip(rows, axes):
+        if len(row) == 2:
+            _say(f'estimation.png: {row[0]} left out: {row[1]}')
+            for ax in ax_row:
+                ax.text(0.5, 0.5, row[1], transform=ax.transAxes, ha='center', fontsize=8)
+            ax_row[0].set_ylabel(row[0])
+            continue
+        name, unit, t, err, sig3 = row
+        # Linear up to the decade above the typical 3 sigma of the second half of the run,
+        # logarithmic beyond (the first estimates are far larger).
+        typical = float(np.median(sig3[len(sig3) // 2:]))
+        linthresh = 10.0 ** math.ceil(math.log10(typical)) if typical > 0.0 else 1e-9
+        for k, (ax, axis) in enumerate(zip(ax_row, 'xyz')):
+            ax.fill_between(t, -sig3[:, k], sig3[:, k], color='C0', alpha=0.2, lw=0, label='$\\pm 3\\sigma$')
+            ax.plot(t, err[:, k], color='C3', lw=0.7, label='estimate - truth')
+            ax.set_yscale('symlog', linthresh=linthresh)
+            ax.axhline(0.0, color='k', lw=0.5)
+            if t_g is not None:
+                ax.axvline(t_g, color='darkred', ls='-.', lw=0.8, label=label)
+            ax.grid(alpha=0.3)
+            ax.set_title(f'{name}, {axis}', fontsize=9)
+            outside = np.mean(np.abs(err[:, k]) > sig3[:, k]) * 100.0
+            ax.text(0.99, 0.03, f'{outside:.1f} % outside 3$\\sigma$', transform=ax.transAxes, ha='right',
+                    fontsize=7)
+        ax_row[0].set_ylabel(f'[{unit}] (symlog,\nlinear below {linthresh:.2g})')
+    for ax in axes[-1]:
+        ax.set_xlabel('simulation time [s]')
+    handles = next((ax.get_legend_handles_labels() for ax in axes[:, 0] if ax.get_legend_handles_labels()[0]),
+                   None)
+    if handles:
+        fig.legend(*handles, loc='upper right', fontsize=8, ncol=3)
+    fig.suptitle(f'{run.title}: estimation errors')
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    _save(fig, path)
+
+
+def clearances(run):
+    """(t, gap to the target's boxes [m], gap to the swept region [m] or None) over the truth."""
+    scenario = run.need_scenario()
+    chaser, target = run.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM)
+    i_c, i_t = match_stamps(chaser.t, target.t)
+    if not len(i_c):
+        raise Skipped('no truth chaser and target samples at the same stamps')
+    t, r = chaser.t[i_c], chaser.position[i_c]
+    envelope = scenario.chaser.envelope_radius_m
+    boxes = list(zip(scenario.boxes.center_body_m, scenario.boxes.size_m))
+    actual = clearance(r, target.orientation_xyzw[i_t], boxes, envelope)
+    swept = None if run.region is None else run.region.clearance(r, t, scenario.mean_motion_rad_s, envelope)
+    return t, actual, swept
+
+
+def fig_clearance(run, path, window_s=30.0):
+    t, actual, swept = clearances(run)
+    k = int(np.argmin(actual))
+    fig, (ax_all, ax_zoom) = plt.subplots(2, 1, figsize=(13, 9))
+    zoom = np.abs(t - t[k]) <= window_s
+    for ax, keep in ((ax_all, slice(None)), (ax_zoom, zoom)):
+        ax.plot(t[keep], actual[keep], color=TRUTH, lw=1.3, label="to the target's boxes (truth attitude)")
+        if swept is not None:
+            ax.plot(t[keep], swept[keep], color='C2', lw=1.1, ls='--', label='to the swept keep-out region')
+        ax.axhline(0.0, color='r', lw=1.0, label='contact')
+        ax.plot(t[k], actual[k], 'rv', ms=8, label=f'closest: {actual[k]:.3f} m at t = {t[k]:.2f} s')
+        t_g, label = run.grasp
+        if t_g is not None and t[keep][0] <= t_g <= t[keep][-1]:
+            ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label)
+        ax.grid(alpha=0.3, which='both')
+        ax.set_ylabel('envelope clearance [m]')
+    _phase_bands(ax_all, run)
+    _phase_bands(ax_zoom, run, legend=False)
+    ax_all.set_yscale('symlog', linthresh=1.0)
+    ax_all.set(xlim=(t[0], t[-1]), title='whole run (symlog: linear below 1 m)')
+    ax_all.legend(fontsize=8, ncol=3, loc='lower left', framealpha=0.9)
+    ax_zoom.set(xlabel='simulation time [s]', xlim=(t[zoom][0], t[zoom][-1]),
+                title=f'within {window_s:g} s of the closest approach')
+    ax_zoom.legend(fontsize=8, loc='best')
+    fig.suptitle(f'{run.title}: clearance of the chaser envelope '
+                 f'({run.scenario.chaser.envelope_radius_m:g} m sphere)')
+    fig.tight_layout()
+    _save(fig, path)
+
+
+FIGURES = (
+    ('trajectory_xz.png', fig_trajectory_xz),
+    ('trajectory_3d.png', fig_trajectory_3d),
+    ('range.png', fig_range),
+    ('maneuvers.png', fig_maneuvers),
+    ('estimation.png', fig_estimation),
+    ('clearance.png', fig_clearance),
+)
+
+
+def _write(run_dir, out_dir):
+    """(paths written, names of the figures that failed)."""
+    run = Run(run_dir)
+    out = Path(out_dir) if out_dir is not None else Path(run_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written, failed = [], []
+    for name, draw in FIGURES:
+        path = out / name
+        try:
+            draw(run, path)
+            written.append(path)
+        except Skipped as why:
+            _say(f'{name} skipped: {why}')
+        except Exception:  # noqa: BLE001 - one broken figure must not cost the others
+            _say(f'{name} failed:\n{traceback.format_exc()}')
+            failed.append(name)
+        finally:
+            plt.close('all')
+    return written, failed
+
+
+def write_report(run_dir, out_dir=None):
+    """Write the figures of the run in run_dir into out_dir (default run_dir); the paths written.
+
+    A figure whose data is missing is skipped, one that fails is reported; both on stderr.
+    """
+    return _write(run_dir, out_dir)[0]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('run_dir', type=Path, help='run directory (bag/, scenario.yaml, summary.json)')
+    parser.add_argument('--out', type=Path, default=None, help='where the PNGs go (default RUN_DIR)')
+    args = parser.parse_args(argv)
+    try:
+        written, failed = _write(args.run_dir, args.out)
+    except BagError as err:
+        _say(str(err))
+        return 1
+    for path in written:
+        print(path)
+    return 1 if failed else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
