@@ -52,13 +52,17 @@ def started(ros_context, executor, tmp_path):
     """A simulator (no thruster errors) and a probe on one executor, time started."""
     scenario_path = write_scenario(tmp_path, edit=zero_errors)
     probe = Probe(ros_context)
-    announce_ready(probe)
+    announcer = announce_ready(probe)
     sim = SimNode(context=ros_context, parameter_overrides=[
         Parameter('scenario_file', value=str(scenario_path)),
         Parameter('wait_for_nodes', value=['probe'])])
     executor.add_node(sim)
     executor.add_node(probe)
-    spin_until(executor, lambda: sim.started, 10.0, sim.tick)
+
+    def tick():
+        announcer.update()  # the probe's maneuver publisher announces its match with the simulator
+        return sim.tick()
+    spin_until(executor, lambda: sim.started, 10.0, tick)
     return scenario_path, sim, probe
 
 

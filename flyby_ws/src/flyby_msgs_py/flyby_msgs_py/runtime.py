@@ -105,12 +105,40 @@ class ProgressReporter:
             self.reported_ns = now_ns
 
 
+class ReadyAnnouncer:
+    """Publishes (latched) the node's name, the topics it subscribes and, per topic it publishes, how
+    many subscriptions its publisher has matched; again whenever a match count changes.
+
+    The simulator holds time until every publisher of the graph has matched every announced
+    subscription of its topic (not only its own publishers): a discovery that is slow between two
+    other processes would otherwise lose their first messages (e.g. the estimates in the bag).
+    """
+
+    def __init__(self, node):
+        self.node = node
+        self.publisher = node.create_publisher(String, READY_TOPIC, QOS_EVENTS)
+        self.subscriptions = sorted(sub.topic_name for sub in node.subscriptions)
+        self.matched = None
+        self.update()
+
+    def update(self):
+        if self.publisher is None:
+            return
+        try:
+            matched = {p.topic_name: p.get_subscription_count() for p in self.node.publishers
+                       if p is not self.publisher}
+            if matched != self.matched:
+                self.matched = matched
+                self.publisher.publish(String(data=json.dumps(
+                    {'node': self.node.get_name(), 'subscriptions': self.subscriptions,
+                     'publications': matched})))
+        except InvalidHandle:  # the node was destroyed (a fault injected by the launcher)
+            self.publisher = None
+
+
 def announce_ready(node):
-    """Publish (latched) the node's name and the topics it subscribes, once it has built them all."""
-    publisher = node.create_publisher(String, READY_TOPIC, QOS_EVENTS)
-    topics = sorted(sub.topic_name for sub in node.subscriptions)
-    publisher.publish(String(data=json.dumps({'node': node.get_name(), 'subscriptions': topics})))
-    return publisher
+    """A ReadyAnnouncer for node (call its update() as the loop runs)."""
+    return ReadyAnnouncer(node)
 
 
 def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=False):
@@ -124,8 +152,7 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
     """
     tickers = [n for n in nodes if hasattr(n, 'tick')]
     reporters = [ProgressReporter(n) for n in nodes if not hasattr(n, 'tick')]
-    for node in nodes:
-        announce_ready(node)
+    announcers = [announce_ready(node) for node in nodes]
     reached = [True]
     barrier = None
     if drain and nodes:
@@ -148,6 +175,8 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
         idle = wait_s > 0.0 and time.monotonic() - started >= 0.9 * wait_s
         for reporter in reporters:
             reporter.report(idle)
+        for announcer in announcers:
+            announcer.update()
 
 
 def main_for(node_class, args=None):

@@ -121,7 +121,7 @@ class PlannerNode(Node):
         """Plan at the target estimate of time t (the plan time) and publish the result."""
         cfg = self.config
         n = cfg.mean_motion_rad_s
-        t_c, (r_c, v_c) = self.chasers.last_at_or_before(t)
+        t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
         chaser_now = cw_transition_matrix(n, t - t_c) @ np.concatenate((r_c, v_c))
         prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body,
                                               t + cfg.search_window[1])

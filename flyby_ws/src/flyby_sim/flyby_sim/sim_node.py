@@ -55,6 +55,7 @@ class SimNode(Node):
         self.progress_s = {name: 0.0 for name in self.declare_node_list('keep_up_with')}
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, c.QOS_STREAM)
         self.subscriptions_of = {}  # node name -> the topics it subscribes, as it announced them
+        self.publications_of = {}  # node name -> {topic: subscriptions its publisher has matched}
         self.create_subscription(String, READY_TOPIC, self.on_ready, c.QOS_EVENTS)
 
         pubs = {}
@@ -118,10 +119,11 @@ class SimNode(Node):
     def on_ready(self, msg):
         announced = json.loads(msg.data)
         self.subscriptions_of[announced['node']] = announced['subscriptions']
+        self.publications_of[announced['node']] = announced.get('publications', {})
 
     def graph_ready(self):
-        """True once every expected node has announced its subscriptions and each one of them on a
-        topic we publish is matched."""
+        """True once every expected node has announced its subscriptions and every publisher of the
+        graph (ours and theirs) has matched each announced subscription of its topic."""
         missing = [n for n in self.wait_for_nodes if n not in self.subscriptions_of]
         if time.monotonic() > self.startup_deadline:
             self.emit('WARN', 'startup_timeout',
@@ -130,11 +132,14 @@ class SimNode(Node):
             return True
         if missing:
             return False
+        def expected(topic, publisher_node):
+            return sum(topics.count(topic) for node, topics in self.subscriptions_of.items()
+                       if node != publisher_node)
         for pub in self.pubs.values():
-            expected = sum(topics.count(pub.topic_name) for topics in self.subscriptions_of.values())
-            if pub.get_subscription_count() < expected:
+            if pub.get_subscription_count() < expected(pub.topic_name, self.get_name()):
                 return False
-        return True
+        return all(count >= expected(topic, node) for node in self.wait_for_nodes
+                   for topic, count in self.publications_of.get(node, {}).items())
 
     def start(self):
         self.started = True
