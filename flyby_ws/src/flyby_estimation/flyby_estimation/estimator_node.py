@@ -23,8 +23,7 @@ from flyby_estimation.filters import filters_from_scenario
 from flyby_estimation.target_filter import MeasurementRejected
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import main_for
-from flyby_msgs_py.scenario import load_scenario
+from flyby_msgs_py.runtime import main_for, publish_event, scenario_of
 from flyby_sim.thrusters import ManeuverRejected
 
 
@@ -44,11 +43,7 @@ class EstimatorNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_estimator', **kwargs)
-        self.declare_parameter('scenario_file', '')
-        self.declare_parameter('seed', -1)
-        seed = self.get_parameter('seed').value
-        self.scenario = load_scenario(self.get_parameter('scenario_file').value,
-                                      seed=None if seed < 0 else seed)
+        self.scenario = scenario_of(self)
         self.target, self.nav, self.convergence, self.motion = filters_from_scenario(self.scenario)
         self.converged = False
         self.category = None
@@ -149,10 +144,7 @@ class EstimatorNode(Node):
                    'total': str(sum(self.rejected.values()))})
 
     def emit(self, t, level, name, message, values):
-        self.pub_events.publish(convert.event(t if math.isfinite(t) else 0.0, level, name,
-                                              message, values, source=self.get_name()))
-        if level != 'OK':
-            self.get_logger().warning(f'{name}: {message}')
+        publish_event(self, self.pub_events, t, level, name, message, values)
 
 
 def main(args=None):

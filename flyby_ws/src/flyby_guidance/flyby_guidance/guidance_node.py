@@ -14,7 +14,6 @@ CAPTURE, ESCAPE, COMPLETE and ABORTED (``mission/phase``) nothing is commanded. 
 """
 
 import collections
-import math
 
 import numpy as np
 from rclpy.node import Node
@@ -23,8 +22,7 @@ from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_e
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario, refined_flyby_target
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import StampedBuffer, main_for
-from flyby_msgs_py.scenario import load_scenario
+from flyby_msgs_py.runtime import StampedBuffer, main_for, publish_event, scenario_of
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 
@@ -34,10 +32,7 @@ class GuidanceNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_guidance', **kwargs)
-        self.declare_parameter('scenario_file', '')
-        self.declare_parameter('seed', -1)
-        seed = self.get_parameter('seed').value
-        self.scenario = load_scenario(self.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
+        self.scenario = scenario_of(self)
         self.guidance = FlybyGuidance(guidance_config_from_scenario(self.scenario))
         self.dynamics = ErrorStateDynamics(self.scenario.target_inertia)
         self.n = self.scenario.mean_motion_rad_s
@@ -140,10 +135,7 @@ class GuidanceNode(Node):
                   {'t_grasp_s': aim[0], 'shift_m': shift})
 
     def emit(self, t, level, name, message, values):
-        self.pub_events.publish(convert.event(t if math.isfinite(t) else 0.0, level, name, message, values,
-                                              source=self.get_name()))
-        if level == 'ERROR':
-            self.get_logger().error(f'{name}: {message}')
+        publish_event(self, self.pub_events, t, level, name, message, values)
 
 
 def main(args=None):

@@ -26,7 +26,8 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, Header, String
 
 from flyby_msgs_py.contract import QOS_EVENTS, QOS_STREAM
-from flyby_msgs_py.scenario import ScenarioError
+from flyby_msgs_py import convert
+from flyby_msgs_py.scenario import ScenarioError, load_scenario
 
 # Fast DDS defaults of every flyby process (see the file); the launcher exports it.
 FASTDDS_PROFILES = os.path.join(os.path.dirname(__file__), 'config', 'fastdds_profiles.xml')
@@ -229,3 +230,26 @@ class StampedBuffer:
     def last_at_or_before(self, t):
         """(stamp, value) of the last item stamped <= t, or None."""
         return next(((ti, v) for ti, v in reversed(self._items) if ti <= t), None)
+
+
+def scenario_of(node):
+    """Declare the node's ``scenario_file`` and ``seed`` parameters and load the scenario (seed < 0: the file's)."""
+    node.declare_parameter('scenario_file', '')
+    node.declare_parameter('seed', -1)
+    seed = node.get_parameter('seed').value
+    return load_scenario(node.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
+
+
+def publish_event(node, publisher, t, level, name, message, values, log_ok=False):
+    """Publish one event on mission/events with the node as its source and log it at its level
+    (OK events only with log_ok)."""
+    publisher.publish(convert.event(t if math.isfinite(t) else 0.0, level, name, message, values,
+                                    source=node.get_name()))
+    log = node.get_logger()
+    # rclpy refuses one call site logging at varying severities.
+    if level == 'ERROR':
+        log.error(f'{name}: {message}')
+    elif level == 'WARN':
+        log.warning(f'{name}: {message}')
+    elif log_ok:
+        log.info(f'{name}: {message}')

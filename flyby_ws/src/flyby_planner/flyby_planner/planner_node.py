@@ -17,7 +17,6 @@ then ``plan_selected`` or ``plan_refused`` with the reason. The planning itself 
 ``flyby_planner.plan`` (no ROS).
 """
 
-import math
 
 import numpy as np
 from rclpy.node import Node
@@ -26,8 +25,7 @@ from std_srvs.srv import Trigger
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import StampedBuffer, main_for
-from flyby_msgs_py.scenario import load_scenario
+from flyby_msgs_py.runtime import StampedBuffer, main_for, publish_event, scenario_of
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
 from flyby_sim.orbital import cw_transition_matrix
 
@@ -60,10 +58,7 @@ class PlannerNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_planner', **kwargs)
-        self.declare_parameter('scenario_file', '')
-        self.declare_parameter('seed', -1)
-        seed = self.get_parameter('seed').value
-        self.scenario = load_scenario(self.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
+        self.scenario = scenario_of(self)
         self.config = planner_config_from_scenario(self.scenario)
         self.dynamics = ErrorStateDynamics(self.scenario.target_inertia)
         self.request = None  # (t_request, why) until the plan is made
@@ -159,10 +154,7 @@ class PlannerNode(Node):
                       't_sphere_entry_s', 'x_g_hill_m', 'v_g_hill_mps', 'x_ft_hill_m', 'x_fi_hill_m')}})
 
     def emit(self, t, level, name, message, values):
-        self.pubs[c.MISSION_EVENTS].publish(convert.event(t if math.isfinite(t) else 0.0, level, name, message,
-                                                          values, source=self.get_name()))
-        if level == 'ERROR':
-            self.get_logger().error(f'{name}: {message}')
+        publish_event(self, self.pubs[c.MISSION_EVENTS], t, level, name, message, values)
 
 
 def main(args=None):

@@ -12,7 +12,6 @@ event end the mission in ABORTED: guidance then commands nothing; outside the re
 never. All decisions are at message stamps, none at the wall clock.
 """
 
-import math
 
 import numpy as np
 from rclpy.node import Node
@@ -22,8 +21,7 @@ from std_srvs.srv import Trigger
 from flyby_estimation.target_motion import ErrorStateDynamics, make_state, prediction_from_estimate, q_eci_from_body
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import PROGRESS_TOPIC, StampedBuffer, main_for
-from flyby_msgs_py.scenario import load_scenario
+from flyby_msgs_py.runtime import PROGRESS_TOPIC, StampedBuffer, main_for, publish_event, scenario_of
 from flyby_planner.grasp import flyby_target_point, grasp_from_attitude
 from flyby_planner.keepout import swept_region
 from flyby_planner.plan import avoidance_burn, planner_config_from_scenario
@@ -38,11 +36,8 @@ class SupervisorNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_supervisor', **kwargs)
-        self.declare_parameter('scenario_file', '')
-        self.declare_parameter('seed', -1)
         self.declare_parameter('watched_nodes', ['flyby_estimator', 'flyby_guidance'])
-        seed = self.get_parameter('seed').value
-        self.scenario = load_scenario(self.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
+        self.scenario = scenario_of(self)
         watched = tuple(w for w in self.get_parameter('watched_nodes').value if w)
         self.machine = PhaseMachine(supervisor_config_from_scenario(self.scenario, watched))
         self.planner_config = planner_config_from_scenario(self.scenario)
@@ -165,14 +160,7 @@ class SupervisorNode(Node):
                 self.escape_burn(tr.t)
 
     def emit(self, t, level, name, message, values):
-        self.pub_events.publish(convert.event(t if math.isfinite(t) else 0.0, level, name, message, values,
-                                              source=self.get_name()))
-        if level == 'ERROR':
-            self.get_logger().error(f'{name}: {message}')
-        elif level == 'WARN':
-            self.get_logger().warning(f'{name}: {message}')
-        else:
-            self.get_logger().info(f'{name}: {message}')
+        publish_event(self, self.pub_events, t, level, name, message, values, log_ok=True)
 
 
 def main(args=None):

@@ -19,8 +19,7 @@ from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for
-from flyby_msgs_py.scenario import load_scenario
+from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event, scenario_of
 from flyby_sim.plant import ManeuverRejected, Plant, plant_config_from_scenario
 
 STARTUP_TIMEOUT_S = 30.0
@@ -32,17 +31,13 @@ class SimNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_sim', **kwargs)
-        self.declare_parameter('scenario_file', '')
-        self.declare_parameter('seed', -1)
         self.declare_parameter('rtf', 0.0)
         self.declare_parameter('flow_control_period_s', 5.0)
         self.declare_parameter('command_poll_period_s', 0.25)
-        scenario_file = self.get_parameter('scenario_file').value
-        seed = self.get_parameter('seed').value
         self.rtf = float(self.get_parameter('rtf').value)
         if self.rtf < 0.0:
             raise ValueError(f'parameter rtf: must be >= 0 (0 = as fast as possible), got {self.rtf}')
-        self.scenario = load_scenario(scenario_file, seed=None if seed < 0 else seed)
+        self.scenario = scenario_of(self)
         self.plant = Plant(plant_config_from_scenario(self.scenario))
         self.step_s = self.scenario.simulation.step_s
         self.duration_s = self.scenario.simulation.duration_s
@@ -214,16 +209,7 @@ class SimNode(Node):
                 convert.quaternion_stamped(m.t, c.FRAME_HILL, m.value))
 
     def emit(self, level, name, message, values):
-        self.pubs[c.MISSION_EVENTS].publish(
-            convert.event(self.plant.t, level, name, message, values, source=self.get_name()))
-        log = self.get_logger()
-        # rclpy refuses one call site logging at varying severities.
-        if level == 'OK':
-            log.info(f'{name}: {message}')
-        elif level == 'WARN':
-            log.warning(f'{name}: {message}')
-        else:
-            log.error(f'{name}: {message}')
+        publish_event(self, self.pubs[c.MISSION_EVENTS], self.plant.t, level, name, message, values, log_ok=True)
 
     # -- commands -------------------------------------------------------------------------
     def on_phase(self, msg):
