@@ -38,8 +38,8 @@ def _stats(label, values, unit, scale=1.0):
     a = np.array([v for v in values if v is not None], dtype=float) * scale
     if a.size == 0:
         return f'{label}: no data'
-    return (f'{label}: median {np.median(a):.4g} {unit}, 95th percentile {np.percentile(a, 95):.4g} {unit}, '
-            f'max {a.max():.4g} {unit} (n = {a.size})')
+    return (f'{label}: min {a.min():.4g} {unit}, median {np.median(a):.4g} {unit}, 95th percentile '
+            f'{np.percentile(a, 95):.4g} {unit}, max {a.max():.4g} {unit} (n = {a.size})')
 
 
 def main():
