@@ -36,6 +36,12 @@ def run_mission(*args, timeout=600):
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 
+def analyze_bag(run_dir):
+    """scripts/analyze_bag.py on a run directory, as a user runs it; returns the CompletedProcess."""
+    return subprocess.run([sys.executable, str(ROOT / 'scripts' / 'analyze_bag.py'), str(run_dir)],
+                          capture_output=True, text=True, cwd=ROOT)
+
+
 def read_summary(run_dir):
     return json.loads((Path(run_dir) / 'summary.json').read_text())
 

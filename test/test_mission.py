@@ -4,17 +4,12 @@ Nominal capture; a target-rate fault that must end in a safe escape over one orb
 mission/abort during the terminal approach; the guidance node killed mid-approach.
 """
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_testing import ROOT, read_summary, run_mission, write_scenario
-
-ANALYZE = ROOT / 'scripts' / 'analyze_bag.py'
+from flyby_testing import ROOT, analyze_bag, read_summary, run_mission, write_scenario
 
 
 def _phases(out):
@@ -26,7 +21,7 @@ def _events(out):
 
 
 def _analyze(out):
-    done = subprocess.run([sys.executable, str(ANALYZE), str(out)], capture_output=True, text=True, cwd=ROOT)
+    done = analyze_bag(out)
     assert done.returncode == 0, done.stdout + done.stderr
     assert 'every figure agrees' in done.stdout
 

@@ -13,7 +13,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_testing import (launch_and_wait, read_summary, run_mission, with_duration,
+from flyby_testing import (analyze_bag, launch_and_wait, read_summary, run_mission, with_duration,
                            write_scenario)
 
 SIM_TOPICS = {c.absolute(t): c.TOPIC_TYPES[t] for t in (
@@ -119,6 +119,8 @@ def test_ctrl_c_leaves_readable_bag_and_interrupted_summary(tmp_path):
     assert data['/sim/chaser/odom'].t[-1] >= 20.0
     assert summary['sim_time_s'] == data['/sim/chaser/odom'].t[-1]
     assert 'INTERRUPTED' in stdout
+    checked = analyze_bag(out)  # the interrupted run's figures, recomputed from its bag
+    assert checked.returncode == 0 and 'every figure agrees' in checked.stdout, checked.stdout + checked.stderr
 
 
 def test_recorder_sigkill_loses_at_most_10s_and_leaves_no_shm(tmp_path):
