@@ -208,13 +208,13 @@ class Run:
 
     @functools.cached_property
     def phases(self):
-        """[(t_start, t_end, phase)] from /mission/phase (else the phase_changed events)."""
+        """[(t_start, t_end, phase)] from the supervisor's stamped phase_changed events (else the
+        receive times of /mission/phase, which lag the decisions)."""
+        starts = [(e['t'], e['values']['to']) for e in self.events
+                  if e['name'] == 'phase_changed' and 'to' in e['values']]
         msgs = self.get(c.MISSION_PHASE)
-        if msgs is not None:
+        if not starts and msgs is not None:
             starts = list(zip(msgs.t_received, msgs.data))
-        else:
-            starts = [(e['t'], e['values']['to']) for e in self.events
-                      if e['name'] == 'phase_changed' and 'to' in e['values']]
         ends = [t for t, _ in starts[1:]] + [self.t_end]
         return [(t0, max(t0, t1), phase) for (t0, phase), t1 in zip(starts, ends)]
 
