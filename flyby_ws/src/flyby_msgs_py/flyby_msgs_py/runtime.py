@@ -220,6 +220,11 @@ class StampedBuffer:
         self._items.append((t, value))
 
     @property
+    def latest(self):
+        """(stamp, value) of the newest item, or None."""
+        return self._items[-1] if self._items else None
+
+    @property
     def latest_t(self):
         return self._items[-1][0] if self._items else -math.inf
 

@@ -18,7 +18,7 @@ from rclpy.node import Node
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from flyby_estimation.target_motion import ErrorStateDynamics, make_state, prediction_from_estimate, q_eci_from_body
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate, q_eci_from_body
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, StampedBuffer, main_for, publish_event, scenario_of
@@ -43,8 +43,7 @@ class SupervisorNode(Node):
         self.planner_config = planner_config_from_scenario(self.scenario)
         self.dynamics = ErrorStateDynamics(self.scenario.target_inertia)
         self.n = self.scenario.mean_motion_rad_s
-        self.target = None  # (t, q_hill_from_body, omega_body) of the latest target estimate
-        self.targets = StampedBuffer()
+        self.targets = StampedBuffer()  # (t, q_hill_from_body, omega_body) of the target estimates
         self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
         self.decision_at = None  # the chaser estimate the capture decision waits to be made at
         self.t_clock = 0.0
@@ -67,8 +66,7 @@ class SupervisorNode(Node):
     # -- inputs ---------------------------------------------------------------------------------
     def on_target(self, msg):
         o = convert.odometry_to_numpy(msg)
-        self.target = (o.t, o.orientation_xyzw, o.angular)
-        self.targets.add(o.t, self.target)
+        self.targets.add(o.t, (o.t, o.orientation_xyzw, o.angular))
         self.apply(self.machine.target_estimate(o.t))
         self.try_decision()
 
@@ -124,7 +122,8 @@ class SupervisorNode(Node):
 
     def escape_burn(self, t):
         """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast is unsafe."""
-        if self.chaser is None or self.target is None:
+        latest = self.targets.latest
+        if self.chaser is None or latest is None:
             return
         lead = self.scenario.guidance.command_lead_s
         t_c, r, v = self.chaser
@@ -134,9 +133,9 @@ class SupervisorNode(Node):
         if np.linalg.norm(state[:3]) < sphere:
             self.emit(t, 'WARN', 'no_avoidance_burn', 'inside the restriction sphere: coasting, never thrusting', {})
             return
-        t_t, q_hb, omega_body = self.target
-        s = make_state(t_t, self.n, q_eci_from_body(t_t, self.n, q_hb), omega_body, None)
-        region = swept_region(self.scenario.boxes, self.scenario.target_inertia, [s.q_eci_from_body], [s.omega_body])
+        t_t, q_hb, omega_body = latest[1]
+        region = swept_region(self.scenario.boxes, self.scenario.target_inertia, [q_eci_from_body(t_t, self.n, q_hb)],
+                              [omega_body])
         dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, self.planner_config,
                                            self.scenario.supervisor.avoidance_delta_v_mps)
         if dv is None:
