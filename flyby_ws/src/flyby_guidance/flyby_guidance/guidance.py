@@ -64,8 +64,7 @@ class GuidanceConfig:
                      'adjust_interval_s', 'command_lead_s', 'adjust_position_tolerance_m',
                      'adjust_velocity_tolerance_mps'):
             require_positive(name, getattr(self, name))
-        if not self.max_delta_v_per_maneuver_mps > 0.0:  # inf: no limit
-            raise ValueError(f'max_delta_v_per_maneuver_mps must be > 0, got {self.max_delta_v_per_maneuver_mps!r}')
+        require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
         if self.midcourse_corrections < 0:
             raise ValueError(f'midcourse_corrections must be >= 0, got {self.midcourse_corrections}')
 

@@ -80,8 +80,7 @@ class PlannerConfig:
                      'restriction_sphere_radius_m', 'escape_check_orbits', 'max_rate_rad_s', 'maneuver_lead_s',
                      'transfer_min_s', 'transfer_max_s'):
             require_positive(name, getattr(self, name))
-        if not self.max_delta_v_per_maneuver_mps > 0.0:  # inf: no limit
-            raise ValueError(f'max_delta_v_per_maneuver_mps must be > 0, got {self.max_delta_v_per_maneuver_mps!r}')
+        require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
         if self.transfer_max_s < self.transfer_min_s:
             raise ValueError(f'transfer_max_s {self.transfer_max_s} s < transfer_min_s {self.transfer_min_s} s')
 
@@ -255,6 +254,20 @@ def _propagate_passive(states0, duration_s, config):
     return lambda tau: sol.sol(tau).reshape(6, k, -1)
 
 
+def _passive_gaps(states0, t0s, span_s, region, config):
+    """Coast the hill states (K, 6), starting at the times t0s (K,), for span_s and sample their
+    clearance from the swept region every _PATH_STEP_S.
+
+    Returns (dense, tau (M,), states (6, K, M), gaps (K, M)); dense(tau) -> (6, K, len(tau)).
+    """
+    dense = _propagate_passive(states0, span_s, config)
+    tau = np.linspace(0.0, span_s, int(math.ceil(span_s / _PATH_STEP_S)) + 1)
+    states = dense(tau)
+    gaps = np.array([region.clearance(states[:3, j, :].T, t0 + tau, config.mean_motion_rad_s,
+                                      config.envelope_radius_m) for j, t0 in enumerate(t0s)])
+    return dense, tau, states, gaps
+
+
 def _check_passive_safety(candidates, region, config):
     """Fill clearances and sphere entry of the candidates (step 3) and reject the unsafe ones.
 
@@ -265,16 +278,15 @@ def _check_passive_safety(candidates, region, config):
     n = config.mean_motion_rad_s
     t_fb = config.flyby_duration_s
     span = t_fb + config.escape_duration_s
-    dense = _propagate_passive(np.array([np.concatenate((c.x_fi, c.v_fi)) for c in candidates]), span, config)
-    tau = np.linspace(0.0, span, int(math.ceil(span / _PATH_STEP_S)) + 1)
-    states = dense(tau)
+    dense, tau, states, gaps = _passive_gaps(np.array([np.concatenate((c.x_fi, c.v_fi)) for c in candidates]),
+                                             [c.t_i for c in candidates], span, region, config)
     for j, c in enumerate(candidates):
         r = states[:3, j, :].T
 
         def gap(tau_s, c=c, j=j):
             return float(region.clearance(dense(np.atleast_1d(tau_s))[:3, j, :].T, c.t_i + tau_s, n,
                                           config.envelope_radius_m)[0])
-        g = region.clearance(r, c.t_i + tau, n, config.envelope_radius_m)
+        g = gaps[j]
         i = int(np.argmin(g))
         # The grid minimum, refined between its neighbours (the passage is a smooth minimum).
         lo, hi = tau[max(i - 1, 0)], tau[min(i + 1, len(tau) - 1)]
@@ -444,12 +456,9 @@ def avoidance_burn(r_hill, v_hill, t, region, config, dv_mps):
     away = r / np.linalg.norm(r) if np.linalg.norm(r) > 0.0 else np.array((1.0, 0.0, 0.0))
     closing = min(float(v @ away), 0.0)
     options = [np.zeros(3)] + [dv_mps * d for d in (*np.eye(3), *-np.eye(3), away)] + [(dv_mps - closing) * away]
-    span = config.escape_duration_s
-    dense = _propagate_passive(np.array([np.concatenate((r, v + dv)) for dv in options]), span, config)
-    tau = np.linspace(0.0, span, int(math.ceil(span / _PATH_STEP_S)) + 1)
-    states = dense(tau)
-    least = [float(region.clearance(states[:3, j, :].T, t + tau, config.mean_motion_rad_s,
-                                    config.envelope_radius_m).min()) for j in range(len(options))]
+    *_, gaps = _passive_gaps(np.array([np.concatenate((r, v + dv)) for dv in options]), [t] * len(options),
+                             config.escape_duration_s, region, config)
+    least = [float(g.min()) for g in gaps]
     if least[0] >= config.clearance_margin_m:
         return None, least[0], least[0]
     best = int(np.argmax(least[1:])) + 1

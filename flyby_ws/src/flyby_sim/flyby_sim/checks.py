@@ -4,9 +4,12 @@ import math
 import numbers
 
 
-def require_positive(name, value, allow_zero=False):
-    """Raise ValueError naming ``name`` unless ``value`` is a finite real > 0 (>= 0 with allow_zero)."""
-    ok = (isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+def require_positive(name, value, allow_zero=False, allow_inf=False):
+    """Raise ValueError naming ``name`` unless ``value`` is a finite real > 0 (>= 0 with allow_zero;
+    +inf also accepted with allow_inf, meaning "no limit")."""
+    ok = (isinstance(value, numbers.Real) and not isinstance(value, bool) and not math.isnan(value)
+          and (math.isfinite(value) or (allow_inf and value > 0.0))
           and (value >= 0.0 if allow_zero else value > 0.0))
     if not ok:
-        raise ValueError(f'{name} must be finite and {">=" if allow_zero else ">"} 0, got {value!r}')
+        finite = '' if allow_inf else 'finite and '
+        raise ValueError(f'{name} must be {finite}{">=" if allow_zero else ">"} 0, got {value!r}')
