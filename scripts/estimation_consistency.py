@@ -18,7 +18,15 @@ Accuracy: attitude and rate errors at `accuracy-time` (default 60 s) after the f
 the error of the grasp point (scenario target.grasp_point_body_m) predicted `horizon` seconds past
 that time (seed 000 eq 8),
 against the true attitude integrated by flyby_sim.attitude.AttitudePropagator from the Plant's
-initial state (the Plant's own integrator and tolerances).
+initial state (the Plant's own integrator and tolerances). With each figure, the number of runs that
+meet the issue's limit (--limits).
+
+Efficiency: at `accuracy-time` each run's fused measurements are also fitted at once by the batch
+maximum-likelihood estimator (flyby_estimation.batch). The script prints the largest gap between the
+filter's state and that fit in units of the fit's sigma, the range of the eigenvalues of
+CRB^-1/2 P CRB^-1/2 (1 = the filter's covariance is the Cramer-Rao bound), the bound's 1-sigma of the
+rate, and the probability that a rate error distributed as the bound is below the limit (Anderson:
+no unbiased Gaussian estimator does better; a seeded Monte Carlo draw).
 """
 
 import argparse
@@ -29,30 +37,25 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
+from flyby_estimation.batch import error_between, fit_attitude_motion
 from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.attitude import AttitudePropagator
 from flyby_sim.orbital import quat_eci_from_hill
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_to_matrix, rotation_vector_from_quat
+from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_to_matrix
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def error_state(state, q_eci_from_body_true, omega_body_true):
-    """[dtheta_body, domega_body] of the truth relative to the estimate (q_true = q_est * exp(dtheta))."""
-    dtheta = rotation_vector_from_quat(quat_multiply(quat_conjugate(state.q_eci_from_body), q_eci_from_body_true))
-    return np.concatenate((dtheta, np.asarray(omega_body_true) - state.omega_body))
-
-
 def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
-    """One seeded run: (times, NEES per time, accuracy dict)."""
+    """One seeded run: (times, NEES per time, accuracy dict, rejected counts)."""
     sc = load_scenario(path, seed=seed)
     config = plant_config_from_scenario(sc)
     plant = Plant(config)
     n = plant.mean_motion_rad_s
     filt = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
-    times, nees = [], []
+    times, nees, window = [], [], []
     accuracy = None
     t_first = None
     next_sample = None
@@ -66,6 +69,8 @@ def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
             except Exception as exc:  # MeasurementRejected: counted by the filter
                 if not hasattr(exc, 'kind'):
                     raise
+            else:
+                window.append((m.t, m.value))
         if not filt.initialized:
             continue
         if t_first is None:
@@ -74,11 +79,12 @@ def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
             next_sample += 1.0
             state = filt.state()
             q_eci_true = quat_multiply(quat_eci_from_hill(truth.t, n), truth.q_hill_from_body)
-            e = error_state(state, q_eci_true, truth.omega_body)
+            e = error_between(state.q_eci_from_body, state.omega_body, q_eci_true, truth.omega_body)
             times.append(truth.t - t_first)
             nees.append(float(e @ np.linalg.solve(state.covariance, e)))
             if accuracy is None and truth.t - t_first >= accuracy_time_s - 1e-9:
                 accuracy = accuracy_at(sc, config, filt, state, e, n, horizon_s)
+                accuracy.update(efficiency_at(sc, filt, state, window, (q_eci_true, truth.omega_body)))
     return np.array(times), np.array(nees), accuracy, dict(filt.rejected_counts)
 
 
@@ -99,10 +105,34 @@ def accuracy_at(sc, config, filt, state, e, n, horizon_s):
                 converged=filt.convergence())
 
 
-def summarize(values, unit, fmt='.4g'):
+def efficiency_at(sc, filt, state, window, truth):
+    """The filter against the batch maximum-likelihood fit of the same measurements (module doc)."""
+    times, measurements = zip(*window)
+    fit = fit_attitude_motion(times, measurements, filt.config.mean_motion_rad_s, sc.target_inertia,
+                              filt.config.attitude_sigma_rad, state.q_eci_from_body, state.omega_body)
+    sigma = np.sqrt(np.diag(fit.covariance))
+    gap = error_between(state.q_eci_from_body, state.omega_body, fit.q_eci_from_body, fit.omega_body)
+    root_inv = np.linalg.inv(np.linalg.cholesky(fit.covariance))
+    ratios = np.linalg.eigvalsh(root_inv @ state.covariance @ root_inv.T)
+    e_fit = error_between(fit.q_eci_from_body, fit.omega_body, *truth)
+    return dict(gap_sigma=float(np.abs(gap / sigma).max()), ratio_min=float(ratios[0]), ratio_max=float(ratios[-1]),
+                fit_rate_deg_s=math.degrees(np.linalg.norm(e_fit[3:])),
+                crb_rate_deg_s=math.degrees(math.sqrt(np.trace(fit.covariance[3:, 3:]))),
+                crb_rate_cov=fit.covariance[3:, 3:])
+
+
+def summarize(values, unit, fmt='.4g', limit=None):
     v = np.asarray(values)
-    return (f'median {np.median(v):{fmt}} {unit}, 95th pct {np.percentile(v, 95):{fmt}} {unit}, '
+    text = (f'median {np.median(v):{fmt}} {unit}, 95th pct {np.percentile(v, 95):{fmt}} {unit}, '
             f'max {v.max():{fmt}} {unit}')
+    return text if limit is None else f'{text}; < {limit:g} {unit} in {int(np.sum(v < limit))}/{v.size} runs'
+
+
+def probability_below(covariances, limit, draws=20000, seed=0):
+    """P(|x| < limit) for x ~ N(0, C), averaged over the runs' covariances (seeded Monte Carlo)."""
+    rng = np.random.default_rng(seed)
+    return float(np.mean([np.mean(np.linalg.norm(rng.multivariate_normal(np.zeros(3), c, draws), axis=1) < limit)
+                          for c in covariances]))
 
 
 def main():
@@ -115,6 +145,8 @@ def main():
     ap.add_argument('--horizon', type=float, default=600.0, help='grasp-point prediction horizon past 60 s')
     ap.add_argument('--accuracy-time', type=float, default=60.0,
                     help='accuracy figures this long after the first measurement [s]')
+    ap.add_argument('--limits', type=float, nargs=3, default=(0.3, 0.01, 0.05), metavar=('DEG', 'DEG_S', 'M'),
+                    help='limits of the attitude error, the rate error and the grasp-point prediction error')
     ap.add_argument('--jobs', type=int, default=2)
     args = ap.parse_args()
     if args.duration < args.accuracy_time:
@@ -134,20 +166,29 @@ def main():
     avg = float(mean_nees[mask].mean())
     inside = float(np.mean((mean_nees[mask] >= lo) & (mean_nees[mask] <= hi)))
     name = load_scenario(args.scenario).name
+    attitude_limit, rate_limit, grasp_limit = args.limits
+    at = f'at {args.accuracy_time:g} s'
     print(f'{name}: {n_runs} runs (seeds {seeds.start}-{seeds.stop - 1}), {args.duration:g} s of 10 Hz vision each')
     print(f'  NEES (6 dof) averaged over runs and over t = {args.settle:g}-{times[-1]:g} s: {avg:.3f}; '
           f'95 % band for {n_runs} runs [{lo:.3f}, {hi:.3f}] -> {"INSIDE" if lo <= avg <= hi else "OUTSIDE"}; '
           f'{inside:.0%} of the {int(mask.sum())} time points inside')
     acc = [r[2] for r in results]
-    print(f'  at {args.accuracy_time:g} s: attitude error {summarize([a["attitude_deg"] for a in acc], "deg")}')
-    print(f'  at {args.accuracy_time:g} s: rate error {summarize([a["rate_deg_s"] for a in acc], "deg/s")}')
-    print(f'  at {args.accuracy_time:g} s: rate error along the spin axis '
-          f'{summarize([a["rate_along_spin_deg_s"] for a in acc], "deg/s")}')
+    print(f'  {at}: attitude error {summarize([a["attitude_deg"] for a in acc], "deg", limit=attitude_limit)}')
+    print(f'  {at}: rate error {summarize([a["rate_deg_s"] for a in acc], "deg/s", limit=rate_limit)}')
+    print(f'  {at}: rate error along the spin axis '
+          f'{summarize([a["rate_along_spin_deg_s"] for a in acc], "deg/s", limit=rate_limit)}')
     print(f'  grasp point predicted {args.horizon:g} s past {args.accuracy_time:g} s: error '
-          f'{summarize([a["grasp_err_m"] for a in acc], "m")}; filter 1-sigma (rss) '
+          f'{summarize([a["grasp_err_m"] for a in acc], "m", limit=grasp_limit)}; filter 1-sigma (rss) '
           f'{np.median([a["grasp_sigma_m"] for a in acc]):.4g} m')
-    print(f'  converged (3-sigma < 1 deg, 0.05 deg/s) at {args.accuracy_time:g} s in '
-          f'{sum(a["converged"] for a in acc)}/{n_runs} runs')
+    print(f'  converged (3-sigma < 1 deg, 0.05 deg/s) {at} in {sum(a["converged"] for a in acc)}/{n_runs} runs')
+    print(f'  {at}, filter vs batch maximum-likelihood fit of the same measurements: largest state gap '
+          f'{max(a["gap_sigma"] for a in acc):.3g} sigma; eigenvalues of CRB^-1/2 P CRB^-1/2 in '
+          f'[{min(a["ratio_min"] for a in acc):.3f}, {max(a["ratio_max"] for a in acc):.3f}]')
+    print(f'  {at}: rate error of the batch fit {summarize([a["fit_rate_deg_s"] for a in acc], "deg/s", limit=rate_limit)}')
+    rate_covariances = [a['crb_rate_cov'] for a in acc]
+    print(f'  {at}: Cramer-Rao bound of the rate, 1-sigma rss, median '
+          f'{np.median([a["crb_rate_deg_s"] for a in acc]):.4g} deg/s; P(rate error < {rate_limit:g} deg/s) '
+          f'at the bound {probability_below(rate_covariances, math.radians(rate_limit)):.2f}')
     rejected = {k: sum(r[3][k] for r in results) for k in results[0][3]}
     print(f'  rejected measurements: {rejected}')
 

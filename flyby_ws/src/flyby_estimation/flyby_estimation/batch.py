@@ -1,0 +1,137 @@
+"""Batch maximum-likelihood fit of the target's attitude motion to a window of vision attitudes (no ROS).
+
+The independent route to the target filter's answer. Where the EKF (``target_filter``) fuses one
+measurement at a time through a linearized error model, this fits the full nonlinear torque-free
+motion (seed 000 eq 4 with M = 0, the known inertia of seed 001 section 1) to every measurement of a
+window at once: the state at the epoch t_e (the last measurement) is the 6-vector
+p = [dtheta_body, domega_body] about a reference (q_ref * exp(dtheta), omega_ref + domega); each
+measurement time is reached by integrating backward from t_e with DOP853 (rtol 1e-12), and
+scipy.optimize.least_squares minimizes the sum of the whitened residuals
+
+    r_k = log(q_model(t_k)^-1 * q_meas_k) / sigma        (body-frame rotation vector, 3 per sample)
+
+which is the negative log-likelihood of the plant's sensor model (a Gaussian body-frame rotation
+error of sigma per axis, ``flyby_sim.sensors``). Jacobians are taken by finite differences of the
+nonlinear model, not from the EKF's transition matrix, so the two routes share nothing but the
+Euler equation itself.
+
+At the optimum, (J' J)^-1 of the whitened Jacobian is the Cramer-Rao bound of the epoch state: the
+smallest covariance any unbiased estimator can reach from these measurements (Bar-Shalom, Li,
+Kirubarajan 2001, section 2.7.2). An efficient filter matches both the fitted state (to a small
+fraction of sigma) and the bound.
+
+Conventions are those of ``target_motion``: quaternions (x, y, z, w), q_eci_from_body, omega_body
+the inertial angular velocity in body axes, error state with q_true = q_ref * exp(dtheta).
+"""
+
+import dataclasses
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import least_squares
+
+from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.checks import require_positive
+from flyby_sim.rotation import quat_conjugate, quat_from_rotation_vector, quat_multiply, rotation_vector_from_quat
+
+from flyby_estimation.target_motion import make_state, q_eci_from_body
+
+
+@dataclasses.dataclass(frozen=True)
+class BatchFit:
+    """The fitted attitude motion at the epoch t (the last measurement of the window).
+
+    Attributes:
+        t: epoch [s].
+        q_eci_from_body: fitted attitude (x, y, z, w).
+        omega_body: fitted inertial angular velocity in body axes [rad/s].
+        covariance: 6x6 Cramer-Rao bound (J' J)^-1 of [dtheta_body, domega_body] at t [rad^2, rad^2/s, rad^2/s^2].
+        chi2: sum of squared whitened residuals at the optimum (about 3 N - 6 for N samples).
+        samples: number of attitude measurements N.
+        evaluations: model evaluations the optimizer used (finite-difference Jacobians not counted).
+    """
+
+    t: float
+    q_eci_from_body: np.ndarray
+    omega_body: np.ndarray
+    covariance: np.ndarray
+    chi2: float
+    samples: int
+    evaluations: int
+
+    def state(self, n):
+        """target_motion.PredictedState at the epoch (mean motion n [rad/s] of the hill frame)."""
+        return make_state(self.t, n, self.q_eci_from_body, self.omega_body, self.covariance)
+
+
+def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sigma_rad,
+                        q_eci_from_body_guess, omega_body_guess):
+    """BatchFit of the torque-free motion (seed 000 eq 4) to vision attitudes, by least squares (module doc).
+
+    Args:
+        times_s: (N,) strictly increasing measurement times [s], N >= 3; the epoch is times_s[-1].
+        q_hill_from_body_meas: (N, 4) measured attitudes (x, y, z, w), as on /sensors/target/attitude.
+        n: mean motion of the hill frame [rad/s] (flyby_sim.orbital.quat_eci_from_hill).
+        inertia: 3x3 target inertia [kg m^2], body axes (known).
+        attitude_sigma_rad: vision noise, 1 sigma per body axis [rad].
+        q_eci_from_body_guess, omega_body_guess: starting point at the epoch. Any start from which
+            the spin phase is not ambiguous over the window converges (e.g. the EKF's estimate).
+
+    Raises ValueError naming the argument for a malformed window, RuntimeError if the fit fails.
+    """
+    t = np.asarray(times_s, dtype=float)
+    z = np.asarray(q_hill_from_body_meas, dtype=float)
+    if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
+        raise ValueError(f'times_s must be at least 3 finite, strictly increasing times [s], got shape {t.shape}')
+    if z.shape != (t.size, 4) or not np.all(np.isfinite(z)):
+        raise ValueError(f'q_hill_from_body_meas must be {t.size} finite quaternions, got shape {z.shape}')
+    require_positive('attitude_sigma_rad', attitude_sigma_rad)
+    i = validated_inertia(inertia)
+    inertia_t = tuple(map(tuple, i.tolist()))
+    inertia_inv_t = tuple(map(tuple, np.linalg.inv(i).tolist()))
+    q_meas_eci = [q_eci_from_body(tk, n, zk / np.linalg.norm(zk)) for tk, zk in zip(t, z)]
+    q_ref = np.asarray(q_eci_from_body_guess, dtype=float)
+    omega_ref = np.asarray(omega_body_guess, dtype=float)
+    t_epoch = float(t[-1])
+    backward = t[::-1]
+
+    def rhs(_, y):
+        q = y[:4].tolist()
+        w = y[4:].tolist()
+        return np.concatenate((quaternion_rate(q, w), euler_rate(w, inertia_t, inertia_inv_t)))  # eq 4, M = 0
+
+    def epoch_state(p):
+        return quat_multiply(q_ref, quat_from_rotation_vector(p[:3])), omega_ref + p[3:]
+
+    def residuals(p):
+        q, w = epoch_state(p)
+        sol = solve_ivp(rhs, (t_epoch, float(t[0])), np.concatenate((q, w)), method='DOP853',
+                        t_eval=backward, rtol=1e-12, atol=1e-14)
+        if not sol.success:
+            raise RuntimeError(f'attitude integration failed over the window: {sol.message}')
+        q_model = sol.y[:4, ::-1].T
+        r = [rotation_vector_from_quat(quat_multiply(quat_conjugate(qm), qz)) for qm, qz in zip(q_model, q_meas_eci)]
+        return np.concatenate(r) / attitude_sigma_rad
+
+    # Scales: about a measurement sigma in attitude, and that over the window length in rate.
+    span = max(t_epoch - float(t[0]), 1e-3)
+    scale = np.array([attitude_sigma_rad] * 3 + [attitude_sigma_rad / span] * 3)
+    result = least_squares(residuals, np.zeros(6), x_scale=scale, diff_step=1e-7, xtol=1e-12, ftol=1e-12,
+                           gtol=1e-12)
+    if not result.success:
+        raise RuntimeError(f'batch attitude fit did not converge: {result.message}')
+    # The bound from a central-difference Jacobian at the optimum (the optimizer's own is a one-sided
+    # difference taken along the way, and zero when the start is already the optimum).
+    jac = np.column_stack([(residuals(result.x + step) - residuals(result.x - step)) / (2.0 * h)
+                           for h, step in zip(1e-4 * scale, np.diag(1e-4 * scale))])
+    covariance = np.linalg.inv(jac.T @ jac)  # inverse Fisher information of the whitened problem
+    q, w = epoch_state(result.x)
+    return BatchFit(t=t_epoch, q_eci_from_body=np.asarray(q), omega_body=np.asarray(w),
+                    covariance=0.5 * (covariance + covariance.T), chi2=float(2.0 * result.cost),
+                    samples=int(t.size), evaluations=int(result.nfev))
+
+
+def error_between(q_eci_from_body_a, omega_body_a, q_eci_from_body_b, omega_body_b):
+    """[dtheta_body, domega_body] of b relative to a: q_b = q_a * exp(dtheta), omega_b = omega_a + domega."""
+    dtheta = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_eci_from_body_a), q_eci_from_body_b))
+    return np.concatenate((dtheta, np.asarray(omega_body_b, dtype=float) - np.asarray(omega_body_a, dtype=float)))
