@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-from flyby_estimation.batch import error_between, fit_attitude_motion
+from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
 from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.attitude import AttitudePropagator
@@ -110,12 +110,9 @@ def efficiency_at(sc, filt, state, window, truth):
     times, measurements = zip(*window)
     fit = fit_attitude_motion(times, measurements, filt.config.mean_motion_rad_s, sc.target_inertia,
                               filt.config.attitude_sigma_rad, state.q_eci_from_body, state.omega_body)
-    sigma = np.sqrt(np.diag(fit.covariance))
-    gap = error_between(state.q_eci_from_body, state.omega_body, fit.q_eci_from_body, fit.omega_body)
-    root_inv = np.linalg.inv(np.linalg.cholesky(fit.covariance))
-    ratios = np.linalg.eigvalsh(root_inv @ state.covariance @ root_inv.T)
+    check = check_filter(state.q_eci_from_body, state.omega_body, state.covariance, fit)
     e_fit = error_between(fit.q_eci_from_body, fit.omega_body, *truth)
-    return dict(gap_sigma=float(np.abs(gap / sigma).max()), ratio_min=float(ratios[0]), ratio_max=float(ratios[-1]),
+    return dict(gap_sigma=check.gap_sigma, ratio_min=check.ratio_min, ratio_max=check.ratio_max,
                 fit_rate_deg_s=math.degrees(np.linalg.norm(e_fit[3:])),
                 crb_rate_deg_s=math.degrees(math.sqrt(np.trace(fit.covariance[3:, 3:]))),
                 crb_rate_cov=fit.covariance[3:, 3:])

@@ -52,7 +52,12 @@ def test_estimates_from_a_recorded_run_meet_the_accuracy(tmp_path):
     assert np.sqrt(np.mean(vel_err ** 2)) < 0.001
 
     names = [e['name'] for e in data['/mission/events']]
-    assert 'target_converged' in names
+    assert 'target_filter_check' not in names
+    converged = [e for e in data['/mission/events'] if e['name'] == 'target_converged'][0]
+    # at its first convergence the filter equals the batch maximum-likelihood fit (flyby_estimation.batch)
+    assert float(converged['values']['ml_gap_sigma']) < 0.1
+    assert 0.9 < float(converged['values']['crb_ratio_min']) <= float(converged['values']['crb_ratio_max']) < 1.1
+    assert int(converged['values']['window_samples']) >= 100
     category = [e for e in data['/mission/events'] if e['name'] == 'target_category'][0]
     assert category['values']['category'] == 'III'
 

@@ -135,3 +135,43 @@ def error_between(q_eci_from_body_a, omega_body_a, q_eci_from_body_b, omega_body
     """[dtheta_body, domega_body] of b relative to a: q_b = q_a * exp(dtheta), omega_b = omega_a + domega."""
     dtheta = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_eci_from_body_a), q_eci_from_body_b))
     return np.concatenate((dtheta, np.asarray(omega_body_b, dtype=float) - np.asarray(omega_body_a, dtype=float)))
+
+
+@dataclasses.dataclass(frozen=True)
+class FilterCheck:
+    """A filter estimate against the batch fit of the same measurements (check_filter).
+
+    Attributes:
+        gap_sigma: largest component of the filter-minus-fit state, in units of the fit's sigma.
+        ratio_min, ratio_max: extreme eigenvalues of CRB^-1/2 P CRB^-1/2 (1: P is the bound).
+        chi2_per_dof: fit residual chi2 / (3 N - 6); about 1 when the sensor noise is as configured.
+        fit: the BatchFit.
+    """
+
+    gap_sigma: float
+    ratio_min: float
+    ratio_max: float
+    chi2_per_dof: float
+    fit: BatchFit
+
+    # An efficient filter sits at ~0.02 sigma and ratios 0.96-1.05 (docs/estimation.md); these
+    # limits flag a filter that has lost the optimum (divergence, a bad linearization), not noise.
+    GAP_LIMIT_SIGMA = 1.0
+    RATIO_LIMITS = (0.5, 2.0)
+
+    @property
+    def consistent(self):
+        """True if the filter state is within GAP_LIMIT_SIGMA of the fit and P within RATIO_LIMITS of the bound."""
+        lo, hi = self.RATIO_LIMITS
+        return self.gap_sigma < self.GAP_LIMIT_SIGMA and lo < self.ratio_min and self.ratio_max < hi
+
+
+def check_filter(q_eci_from_body, omega_body, covariance, fit):
+    """FilterCheck of a filter state (attitude, omega_body [rad/s], 6x6 covariance) at fit.t."""
+    sigma = np.sqrt(np.diag(fit.covariance))
+    gap = error_between(q_eci_from_body, omega_body, fit.q_eci_from_body, fit.omega_body)
+    root_inv = np.linalg.inv(np.linalg.cholesky(fit.covariance))
+    ratios = np.linalg.eigvalsh(root_inv @ np.asarray(covariance) @ root_inv.T)
+    return FilterCheck(gap_sigma=float(np.abs(gap / sigma).max()), ratio_min=float(ratios[0]),
+                       ratio_max=float(ratios[-1]), chi2_per_dof=fit.chi2 / (3 * fit.samples - 6), fit=fit)
+

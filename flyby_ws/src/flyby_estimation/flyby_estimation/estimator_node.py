@@ -3,7 +3,8 @@
 Subscribes the vision attitude, the relative-position measurements and the commanded maneuvers
 (known inputs of the navigation filter); publishes ``estimation/target/odom`` and
 ``estimation/chaser/odom`` with covariances at each measurement, and on ``mission/events`` the
-convergence of the target estimate, its motion category (seed 000 §2.1) and every rejected
+convergence of the target estimate (with, at the first, the batch maximum-likelihood check of the
+filter, ``batch``), its motion category (seed 000 §2.1) and every rejected
 measurement with the running count of its kind. The filters live in ``target_filter`` and
 ``relative_nav`` (no ROS); this node converts messages and calls them.
 
@@ -46,6 +47,7 @@ class EstimatorNode(Node):
         self.scenario = scenario_of(self)
         self.target, self.nav, self.convergence, self.motion = filters_from_scenario(self.scenario)
         self.converged = False
+        self.checked = False  # the batch check runs at the first convergence
         self.category = None
         self.t_classified = -math.inf
         self.rejected = collections.Counter()
@@ -96,6 +98,9 @@ class EstimatorNode(Node):
                   'rate_3sigma_deg_s': f'{math.degrees(rate_3s):.4g}'}
         if converged != self.converged:
             self.converged = converged
+            if converged and not self.checked:
+                self.checked = True
+                bounds.update(self.batch_check(t))
             self.emit(t, 'OK' if converged else 'WARN',
                       'target_converged' if converged else 'target_diverged',
                       f'target estimate {"within" if converged else "outside"} the convergence '
@@ -110,6 +115,23 @@ class EstimatorNode(Node):
                            'inertial_rate_deg_s': f'{math.degrees(motion.inertial_rate_rad_s):.4g}',
                            'hill_relative_rate_deg_s':
                                f'{math.degrees(motion.hill_relative_rate_rad_s):.4g}'})
+
+    def batch_check(self, t):
+        """The filter against the batch maximum-likelihood fit of its measurements (batch.FilterCheck):
+        its figures for the converged event, and a WARN target_filter_check if they disagree."""
+        try:
+            check = self.target.batch_check()
+        except (RuntimeError, ValueError) as err:
+            self.emit(t, 'WARN', 'target_filter_check', f'batch check not done: {err}', {})
+            return {}
+        values = {'ml_gap_sigma': f'{check.gap_sigma:.3g}', 'crb_ratio_min': f'{check.ratio_min:.3g}',
+                  'crb_ratio_max': f'{check.ratio_max:.3g}', 'chi2_per_dof': f'{check.chi2_per_dof:.4g}',
+                  'window_samples': str(check.fit.samples)}
+        if not check.consistent:
+            self.emit(t, 'WARN', 'target_filter_check', 'the filter differs from the batch maximum-likelihood '
+                      f'fit of its measurements (gap {check.gap_sigma:.3g} sigma, covariance '
+                      f'{check.ratio_min:.3g}-{check.ratio_max:.3g} x the Cramer-Rao bound)', values)
+        return values
 
     # -- chaser -------------------------------------------------------------------------------
     def on_position(self, msg):

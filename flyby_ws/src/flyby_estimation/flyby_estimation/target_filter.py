@@ -42,6 +42,7 @@ from flyby_sim.orbital import quat_eci_from_hill
 from flyby_sim.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
                                 rotation_vector_from_quat)
 
+from flyby_estimation.batch import check_filter, fit_attitude_motion
 from flyby_estimation.target_motion import (ErrorStateDynamics, MotionPrediction, MotionThresholds,
                                             classify_motion, make_state, point_prediction, q_hill_from_body)
 
@@ -81,6 +82,8 @@ class TargetFilterConfig:
             the next measurement (a wrong initial measurement would otherwise lock it out).
         max_step_angle_rad: RK4 substep limit, as a rotation angle (target_motion.propagate_rk4).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
+        check_window_max_samples: fused measurements kept for batch_check (default 36000: one hour at
+            10 Hz); past that the window is dropped and batch_check refuses.
     """
 
     inertia: tuple
@@ -93,6 +96,7 @@ class TargetFilterConfig:
     max_consecutive_outliers: int = 20
     max_step_angle_rad: float = 0.02
     excursion_window_s: float = 600.0
+    check_window_max_samples: int = 36000
 
     def __post_init__(self):
         object.__setattr__(self, 'inertia', tuple(map(tuple, np.asarray(self.inertia, dtype=float).tolist())))
@@ -102,8 +106,10 @@ class TargetFilterConfig:
         require_positive('torque_psd', self.torque_psd, allow_zero=True)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability}')
-        if not (isinstance(self.max_consecutive_outliers, int) and self.max_consecutive_outliers >= 1):
-            raise ValueError(f'max_consecutive_outliers must be an integer >= 1, got {self.max_consecutive_outliers!r}')
+        for name in ('max_consecutive_outliers', 'check_window_max_samples'):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise ValueError(f'{name} must be an integer >= 1, got {value!r}')
 
 
 def target_filter_config_from_scenario(scenario, **overrides):
@@ -167,6 +173,7 @@ class TargetAttitudeFilter:
         self.reinitializations = 0
         self._consecutive_outliers = 0
         self._history = collections.deque()  # (t, q_hill_from_body) at ~1 Hz for classify_motion
+        self._window = []  # (t, q_hill_from_body) fused since the last initialization, for batch_check
 
     # -- state ------------------------------------------------------------------------------------
     @property
@@ -229,7 +236,7 @@ class TargetAttitudeFilter:
         z = z / norm
         q_eci_meas = quat_multiply(quat_eci_from_hill(t, self._n), z)
         if not self.initialized:
-            return self._initialize(t, q_eci_meas)
+            return self._initialize(t, q_eci_meas, z)
         if t < self.t:
             raise MeasurementRejected(f'measurement stamped t = {t} s precedes the filter time '
                                       f'{self.t} s', 'stale')
@@ -243,7 +250,7 @@ class TargetAttitudeFilter:
             self._consecutive_outliers += 1
             if self._consecutive_outliers > self.config.max_consecutive_outliers:
                 self.reinitializations += 1
-                return self._initialize(t, q_eci_meas)
+                return self._initialize(t, q_eci_meas, z)
             raise MeasurementRejected(f'innovation {math.degrees(float(np.linalg.norm(nu))):.3g} deg at '
                                       f't = {t} s: d2 = {d2:.4g} > gate {self._gate_d2:.4g}', 'outlier')
         self._consecutive_outliers = 0
@@ -264,11 +271,10 @@ class TargetAttitudeFilter:
         p = g @ kf.P @ g.T
         kf.P = 0.5 * (p + p.T)
         kf.x = np.zeros((6, 1))
-        self.accepted_count += 1
-        self._record_history()
+        self._accept(t, z)
         return UpdateResult(t=float(t), innovation_rad=nu, d2=d2, initialized=False)
 
-    def _initialize(self, t, q_eci_meas):
+    def _initialize(self, t, q_eci_meas, z):
         sigma_w = self.config.rate_sigma0_rad_s
         self.t = float(t)
         self._q = q_eci_meas
@@ -277,17 +283,43 @@ class TargetAttitudeFilter:
         self._kf.P = np.diag([self.config.attitude_sigma_rad ** 2] * 3 + [sigma_w ** 2] * 3)
         self._consecutive_outliers = 0
         self._history.clear()
-        self.accepted_count += 1
-        self._record_history()
+        self._window = []
+        self._accept(t, z)
         return UpdateResult(t=float(t), innovation_rad=np.zeros(3), d2=0.0, initialized=True)
 
-    def _record_history(self):
+    def _accept(self, t, z):
+        self.accepted_count += 1
+        if self._window is not None:
+            self._window.append((float(t), z))
+            if len(self._window) > self.config.check_window_max_samples:
+                self._window = None
         history = self._history
         if history and self.t - history[-1][0] < 1.0:
             return
         history.append((self.t, q_hill_from_body(self.t, self._n, self._q)))
         while self.t - history[0][0] > self.config.excursion_window_s:
             history.popleft()
+
+    def batch_check(self):
+        """batch.FilterCheck of the estimate against the batch maximum-likelihood fit of every
+        measurement fused since the last (re)initialization: an efficient filter equals the fit and
+        its Cramer-Rao bound (docs/estimation.md). Costs one nonlinear fit: 0.2 s for 180 samples,
+        2 s for 760 samples of a 21 deg/s tumbler. The filter is unchanged.
+
+        Raises RuntimeError if the filter was propagated past its last measurement or kept more
+        than check_window_max_samples, ValueError for fewer than 3 measurements.
+        """
+        self._require_initialized()
+        if self._window is None:
+            raise RuntimeError(f'more than {self.config.check_window_max_samples} measurements since the '
+                               f'last initialization: the check window was dropped')
+        if self._window[-1][0] != self.t:
+            raise RuntimeError(f'the filter time {self.t} s is past its last measurement {self._window[-1][0]} s')
+        times, measurements = zip(*self._window)
+        s = self.state()
+        fit = fit_attitude_motion(times, measurements, self._n, self.config.inertia,
+                                  self.config.attitude_sigma_rad, s.q_eci_from_body, s.omega_body)
+        return check_filter(s.q_eci_from_body, s.omega_body, s.covariance, fit)
 
     def _require_initialized(self):
         if not self.initialized:

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import chi2
 
-from flyby_estimation.batch import error_between, fit_attitude_motion
+from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
 from flyby_estimation.target_filter import (REJECTION_KINDS, ConvergenceThresholds, MeasurementRejected,
                                             TargetAttitudeFilter, TargetFilterConfig,
                                             target_filter_config_from_scenario)
@@ -162,17 +162,33 @@ def test_filter_equals_the_batch_maximum_likelihood_fit_and_its_cramer_rao_bound
     fit = fit_attitude_motion(times, measurements, run.plant.mean_motion_rad_s, run.scenario.target_inertia,
                               run.filter.config.attitude_sigma_rad, q_guess, omega_guess)
     assert fit.t == s.t and fit.samples == len(run.window60)
-    crb = fit.covariance
-    sigma = np.sqrt(np.diag(crb))
-    gap = error_between(s.q_eci_from_body, s.omega_body, fit.q_eci_from_body, fit.omega_body)
-    assert np.all(np.abs(gap) < 0.05 * sigma), gap / sigma
+    check = check_filter(s.q_eci_from_body, s.omega_body, s.covariance, fit)
+    assert check.gap_sigma < 0.05
     # P and the bound agree in every direction: the eigenvalues of CRB^-1/2 P CRB^-1/2 are ~1 (paper
     # 0.99-1.01, tumbler 0.96-1.05: the EKF linearized its early steps about a poorer estimate)
-    root_inv = np.linalg.inv(np.linalg.cholesky(crb))
-    ratios = np.linalg.eigvalsh(root_inv @ s.covariance @ root_inv.T)
-    assert np.all((ratios > 0.9) & (ratios < 1.1)), ratios
+    assert 0.9 < check.ratio_min and check.ratio_max < 1.1, check
     dof = 3 * fit.samples - 6
     assert abs(fit.chi2 - dof) < 5.0 * math.sqrt(2.0 * dof)  # residuals sized as the sensor's noise
+    # the filter's own check (its window, its estimate as the start) finds the same
+    own = run.filter60.batch_check()
+    assert own.consistent and own.fit.samples == fit.samples and own.gap_sigma < 0.05
+
+
+def test_batch_check_flags_a_mistuned_filter_and_refuses_without_its_window(paper):
+    """A torque PSD of 1e-2 N^2 m^2 s (the truth has none) makes P far wider than the bound."""
+    f = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario, torque_psd=1e-2))
+    for t, q in paper.window60[:300]:
+        f.update(t, q)
+    check = f.batch_check()
+    assert not check.consistent and check.ratio_max > check.RATIO_LIMITS[1]
+    f.propagate_to(f.t + 1.0)
+    with pytest.raises(RuntimeError, match='past its last measurement'):
+        f.batch_check()
+    short = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario, check_window_max_samples=10))
+    for t, q in paper.window60[:11]:
+        short.update(t, q)
+    with pytest.raises(RuntimeError, match='more than 10 measurements'):
+        short.batch_check()
 
 
 def test_categories_of_both_scenarios(paper, tumbler):
@@ -281,7 +297,8 @@ def test_state_outputs_are_consistent(paper):
 def test_config_validation_names_the_field():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     for field, value in (('attitude_sigma_rad', 0.0), ('gate_probability', 1.0), ('torque_psd', -1.0),
-                         ('max_consecutive_outliers', 0), ('mean_motion_rad_s', math.nan)):
+                         ('max_consecutive_outliers', 0), ('mean_motion_rad_s', math.nan),
+                         ('check_window_max_samples', 0)):
         with pytest.raises(ValueError, match=field):
             target_filter_config_from_scenario(sc, **{field: value})
     with pytest.raises(ValueError, match='inertia'):
