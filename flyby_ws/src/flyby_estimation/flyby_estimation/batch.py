@@ -34,7 +34,7 @@ from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.checks import require_positive
 from flyby_sim.rotation import quat_conjugate, quat_from_rotation_vector, quat_multiply, rotation_vector_from_quat
 
-from flyby_estimation.target_motion import make_state, q_eci_from_body
+from flyby_estimation.target_motion import q_eci_from_body
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,10 +58,6 @@ class BatchFit:
     chi2: float
     samples: int
     evaluations: int
-
-    def state(self, n):
-        """target_motion.PredictedState at the epoch (mean motion n [rad/s] of the hill frame)."""
-        return make_state(self.t, n, self.q_eci_from_body, self.omega_body, self.covariance)
 
 
 def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sigma_rad,
@@ -90,8 +86,7 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
     inertia_t = tuple(map(tuple, i.tolist()))
     inertia_inv_t = tuple(map(tuple, np.linalg.inv(i).tolist()))
     q_meas_eci = [q_eci_from_body(tk, n, zk / np.linalg.norm(zk)) for tk, zk in zip(t, z)]
-    q_ref = np.asarray(q_eci_from_body_guess, dtype=float)
-    omega_ref = np.asarray(omega_body_guess, dtype=float)
+    guess = (np.asarray(q_eci_from_body_guess, dtype=float), np.asarray(omega_body_guess, dtype=float))
     t_epoch = float(t[-1])
     backward = t[::-1]
 
@@ -100,11 +95,12 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
         w = y[4:].tolist()
         return np.concatenate((quaternion_rate(q, w), euler_rate(w, inertia_t, inertia_inv_t)))  # eq 4, M = 0
 
-    def epoch_state(p):
+    def epoch_state(reference, p):
+        q_ref, omega_ref = reference
         return quat_multiply(q_ref, quat_from_rotation_vector(p[:3])), omega_ref + p[3:]
 
-    def residuals(p):
-        q, w = epoch_state(p)
+    def residuals(p, reference):
+        q, w = epoch_state(reference, p)
         sol = solve_ivp(rhs, (t_epoch, float(t[0])), np.concatenate((q, w)), method='DOP853',
                         t_eval=backward, rtol=1e-12, atol=1e-14)
         if not sol.success:
@@ -117,15 +113,17 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
     span = max(t_epoch - float(t[0]), 1e-3)
     scale = np.array([attitude_sigma_rad] * 3 + [attitude_sigma_rad / span] * 3)
     result = least_squares(residuals, np.zeros(6), x_scale=scale, diff_step=1e-7, xtol=1e-12, ftol=1e-12,
-                           gtol=1e-12)
+                           gtol=1e-12, args=(guess,))
     if not result.success:
         raise RuntimeError(f'batch attitude fit did not converge: {result.message}')
-    # The bound from a central-difference Jacobian at the optimum (the optimizer's own is a one-sided
-    # difference taken along the way, and zero when the start is already the optimum).
-    jac = np.column_stack([(residuals(result.x + step) - residuals(result.x - step)) / (2.0 * h)
+    q, w = epoch_state(guess, result.x)
+    # The bound from a central-difference Jacobian about the fitted state itself, so that it is the
+    # covariance of [dtheta_body, domega_body] about the estimate (the optimizer's Jacobian is a
+    # one-sided difference about the guess, and zero when the guess is already the optimum).
+    fitted = (q, w)
+    jac = np.column_stack([(residuals(step, fitted) - residuals(-step, fitted)) / (2.0 * h)
                            for h, step in zip(1e-4 * scale, np.diag(1e-4 * scale))])
     covariance = np.linalg.inv(jac.T @ jac)  # inverse Fisher information of the whitened problem
-    q, w = epoch_state(result.x)
     return BatchFit(t=t_epoch, q_eci_from_body=np.asarray(q), omega_body=np.asarray(w),
                     covariance=0.5 * (covariance + covariance.T), chi2=float(2.0 * result.cost),
                     samples=int(t.size), evaluations=int(result.nfev))

@@ -117,8 +117,9 @@ def test_paper_flyby_accuracy_after_60_s(paper):
     assert np.linalg.norm(paper.e60[:3]) < 0.3 * DEG
     # The rate along the spin axis is observed through the accumulating spin angle; the transverse
     # rates only through the nutation they would cause (amplitude |domega| / spin rate), so after 60 s
-    # their 1-sigma is ~0.006 deg/s per axis (the filter's P, at the Cramer-Rao level). The total rate
-    # error is < 0.01 deg/s after 180 s; at 60 s it is asserted against the filter's own covariance.
+    # their 1-sigma is ~0.007 deg/s per axis: the Cramer-Rao bound, which the filter reaches
+    # (test_filter_equals_the_batch_maximum_likelihood_fit_and_its_cramer_rao_bound). On this seed
+    # the total is 0.018 deg/s for the filter and the batch fit alike; < 0.01 deg/s after 180 s.
     spin_axis = paper.state60.omega_body / np.linalg.norm(paper.state60.omega_body)
     assert abs(paper.e60[3:] @ spin_axis) < 0.01 * DEG
     assert nees(paper.e60, paper.state60.covariance) < chi2.ppf(0.999, 6)
