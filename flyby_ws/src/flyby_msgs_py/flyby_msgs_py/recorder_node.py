@@ -4,7 +4,8 @@ The serialized CDR bytes go to the bag untouched (no deserialize/serialize round
 time of each message is the recorder's clock, i.e. simulation time (``use_sim_time``). Data reach
 the disk every ``flush_period_s`` of simulation time, so a recorder killed with SIGKILL loses at
 most that much (``python -m flyby_msgs_py.bag repair DIR`` rebuilds the index); SIGINT and SIGTERM
-close the bag cleanly.
+close the bag cleanly, after taking every message already on its way (``runtime.main_for``,
+drain_on_signal): the launcher stops the recorder last, so the bag ends with the graph's last words.
 """
 
 from rclpy.node import Node
@@ -56,7 +57,7 @@ class RecorderNode(Node):
 
 
 def main(args=None):
-    main_for(RecorderNode, args)
+    main_for(RecorderNode, args, drain_on_signal=True)
 
 
 if __name__ == '__main__':

@@ -15,6 +15,7 @@ import fcntl
 import json
 import math
 import os
+import signal
 import tempfile
 import time
 
@@ -22,6 +23,7 @@ import rclpy
 from rclpy._rclpy_pybind11 import InvalidHandle
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, Header, String
 
@@ -41,6 +43,10 @@ READY_TOPIC = '/flyby/ready'
 DOMAIN_LOCK_DIR = os.path.join(tempfile.gettempdir(), 'flyby_ros_domains')
 # Fast DDS derives ports from the domain id; ids up to 100 keep well inside the valid 0-232.
 DOMAIN_RANGE = range(1, 101)
+# A draining node (the recorder) stops after a signal once no message has come for DRAIN_QUIET_S,
+# or after DRAIN_MAX_S; well inside the launcher's SIGINT grace (10 s).
+DRAIN_QUIET_S = 0.5
+DRAIN_MAX_S = 5.0
 
 
 class DomainLease:
@@ -180,18 +186,31 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
             announcer.update()
 
 
-def main_for(node_class, args=None):
+def main_for(node_class, args=None, drain_on_signal=False):
     """Process entry point of one node: init, build, spin until done or signalled, clean up.
 
     A bad scenario ends the process with its one-line message (exit code 1).
+
+    drain_on_signal (the recorder; its node counts what it has handled in ``count``): SIGINT and
+    SIGTERM do not shut ROS down at once, as rclpy's own handlers would, dropping what was delivered
+    but not yet handled. The loop stops, the node goes on taking the messages already on their way
+    until none has come for DRAIN_QUIET_S (at most DRAIN_MAX_S), and only then cleans up.
     """
-    rclpy.init(args=args)
+    stop = []
+    if drain_on_signal:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda signum, _frame: stop.append(signum))
+    else:
+        rclpy.init(args=args)
     node = None
     try:
         node = node_class()
         executor = EventsExecutor()
         executor.add_node(node)
-        run_loop(executor, [node])
+        run_loop(executor, [node], should_stop=lambda: bool(stop))
+        if stop:
+            drain(executor, node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except ScenarioError as err:
@@ -203,6 +222,18 @@ def main_for(node_class, args=None):
                 close()
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def drain(executor, node):
+    """Handle messages until node.count has not changed for DRAIN_QUIET_S (at most DRAIN_MAX_S)."""
+    deadline = time.monotonic() + DRAIN_MAX_S
+    last_count, quiet_since = node.count, time.monotonic()
+    while executor.context.ok() and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+        if node.count != last_count:
+            last_count, quiet_since = node.count, time.monotonic()
+        elif time.monotonic() - quiet_since >= DRAIN_QUIET_S:
+            return
 
 
 class StampedBuffer:
