@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
+from flyby_estimation.batch import error_between
 from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
 from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.attitude import AttitudePropagator
@@ -55,7 +55,7 @@ def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
     plant = Plant(config)
     n = plant.mean_motion_rad_s
     filt = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
-    times, nees, window = [], [], []
+    times, nees = [], []
     accuracy = None
     t_first = None
     next_sample = None
@@ -69,8 +69,6 @@ def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
             except Exception as exc:  # MeasurementRejected: counted by the filter
                 if not hasattr(exc, 'kind'):
                     raise
-            else:
-                window.append((m.t, m.value))
         if not filt.initialized:
             continue
         if t_first is None:
@@ -84,7 +82,7 @@ def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
             nees.append(float(e @ np.linalg.solve(state.covariance, e)))
             if accuracy is None and truth.t - t_first >= accuracy_time_s - 1e-9:
                 accuracy = accuracy_at(sc, config, filt, state, e, n, horizon_s)
-                accuracy.update(efficiency_at(sc, filt, state, window, (q_eci_true, truth.omega_body)))
+                accuracy.update(efficiency_at(filt, (q_eci_true, truth.omega_body)))
     return np.array(times), np.array(nees), accuracy, dict(filt.rejected_counts)
 
 
@@ -105,12 +103,10 @@ def accuracy_at(sc, config, filt, state, e, n, horizon_s):
                 converged=filt.convergence())
 
 
-def efficiency_at(sc, filt, state, window, truth):
+def efficiency_at(filt, truth):
     """The filter against the batch maximum-likelihood fit of the same measurements (module doc)."""
-    times, measurements = zip(*window)
-    fit = fit_attitude_motion(times, measurements, filt.config.mean_motion_rad_s, sc.target_inertia,
-                              filt.config.attitude_sigma_rad, state.q_eci_from_body, state.omega_body)
-    check = check_filter(state.q_eci_from_body, state.omega_body, state.covariance, fit)
+    check = filt.batch_check()
+    fit = check.fit
     e_fit = error_between(fit.q_eci_from_body, fit.omega_body, *truth)
     return dict(gap_sigma=check.gap_sigma, ratio_min=check.ratio_min, ratio_max=check.ratio_max,
                 fit_rate_deg_s=math.degrees(np.linalg.norm(e_fit[3:])),
