@@ -35,8 +35,8 @@ from flyby_msgs_py.bag import read_bag, repair_bag
 from flyby_msgs_py.scenario import ScenarioError, load_scenario
 from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_planner.summary import grasp_time
-from flyby_sim.geometry import clearance
-from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 
 # figure -> tolerance of the agreement (its unit)
 TOLERANCES = {

@@ -17,7 +17,7 @@ and the fraction of time points inside the band.
 Accuracy: attitude and rate errors at `accuracy-time` (default 60 s) after the first measurement, and
 the error of the grasp point (scenario target.grasp_point_body_m) predicted `horizon` seconds past
 that time (seed 000 eq 8),
-against the true attitude integrated by flyby_sim.attitude.AttitudePropagator from the Plant's
+against the true attitude integrated by flyby_sim.dynamics.attitude.AttitudePropagator from the Plant's
 initial state (the Plant's own integrator and tolerances). With each figure, the number of runs that
 meet the issue's limit (--limits).
 
@@ -40,10 +40,10 @@ from scipy.stats import chi2
 from flyby_estimation.batch import error_between
 from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
 from flyby_msgs_py.scenario import load_scenario
-from flyby_sim.attitude import AttitudePropagator
-from flyby_sim.orbital import quat_eci_from_hill
+from flyby_sim.dynamics.attitude import AttitudePropagator
+from flyby_sim.dynamics.orbital import quat_eci_from_hill
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_to_matrix
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_to_matrix
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -47,7 +47,7 @@ from flyby_msgs_py.bag import (BagError, PathLatest, StringSeries, bag_topics, r
 from flyby_msgs_py.scenario import ScenarioError, load_scenario  # noqa: E402
 from flyby_planner.keepout import swept_region  # noqa: E402
 from flyby_planner.summary import grasp_time  # noqa: E402
-from flyby_sim.geometry import clearance  # noqa: E402
+from flyby_sim.dynamics.geometry import clearance  # noqa: E402
 
 DPI = 100
 STAMP_TOLERANCE_S = 1e-6      # truth (every step) and estimate stamps that are the same instant

@@ -20,7 +20,7 @@ from matplotlib.patches import Rectangle  # noqa: E402
 from flyby_planner.families import (SEED000_CASES, SEED000_CYLINDER_HALF_LENGTH_M,  # noqa: E402
                                     SEED000_CYLINDER_RADIUS_M, SEED000_SPEEDS_M_S, seed000_family,
                                     time_grid)
-from flyby_sim.orbital import mean_motion_rad_s  # noqa: E402
+from flyby_sim.dynamics.orbital import mean_motion_rad_s  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RADIUS_M = 7.0e6  # seed 000 section 5

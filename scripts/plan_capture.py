@@ -35,7 +35,7 @@ from scipy.spatial import ConvexHull  # noqa: E402
 
 from flyby_msgs_py.scenario import ScenarioError, load_scenario  # noqa: E402
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction  # noqa: E402
-from flyby_sim.orbital import cw_transition_matrix  # noqa: E402
+from flyby_sim.dynamics.orbital import cw_transition_matrix  # noqa: E402
 
 EXIT_PLANNED, EXIT_BAD_INPUT, EXIT_REFUSED = 0, 2, 3
 # Fields of the selected candidate's to_dict() repeated at the top level of the output.

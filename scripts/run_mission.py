@@ -25,6 +25,7 @@ from pathlib import Path
 import yaml
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py.bag import repair_bag
 from flyby_msgs_py.runtime import FASTDDS_PROFILES, lease_domain
 from flyby_msgs_py.scenario import ScenarioError, load_scenario
@@ -190,9 +191,9 @@ class Monitor:
         self.abort_client = self.node.create_client(Trigger, c.MISSION_ABORT_SERVICE)
         self.abort_future = None
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
-                                      c.MISSION_PHASE, self._on_phase, c.QOS_LATCHED)
+                                      c.MISSION_PHASE, self._on_phase, qos.QOS_LATCHED)
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock',
-                                      self._on_clock, c.QOS_STREAM)
+                                      self._on_clock, qos.QOS_STREAM)
         self.own_executor = executor is None
         self.executor = EventsExecutor(context=context) if executor is None else executor
         self.executor.add_node(self.node)

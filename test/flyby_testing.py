@@ -74,13 +74,14 @@ class ClockWatcher:
         from rosgraph_msgs.msg import Clock
 
         from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 
         self.info = json.loads((Path(run_dir) / 'run.json').read_text())
         self.context = Context()
         rclpy.init(context=self.context, domain_id=self.info['ros_domain_id'])
         self.node = Node('test_clock_watcher', context=self.context)
         self.sim_time_s = 0.0
-        self.node.create_subscription(Clock, '/clock', self._on_clock, c.QOS_STREAM)
+        self.node.create_subscription(Clock, '/clock', self._on_clock, qos.QOS_STREAM)
         self.executor = EventsExecutor(context=self.context)
         self.executor.add_node(self.node)
 
@@ -131,7 +132,7 @@ def collect(node, topic, namespace=''):
     messages are appended to."""
     from flyby_msgs_py import contract as c
     received = []
-    qos = c.recorder_qos_for(topic)  # deep, and transient-local where the publisher latches
+    qos = qos.recorder_qos_for(topic)  # deep, and transient-local where the publisher latches
     name = c.absolute(topic, namespace) if namespace else topic
     node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, received.append, qos)
     return received

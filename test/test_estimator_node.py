@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from flyby_estimation.estimator_node import EstimatorNode
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.scenario import load_scenario
@@ -69,7 +70,7 @@ class SensorProbe(Node):
         super().__init__('sensor_probe', context=context)
         self.attitude = self.create_publisher(
             c.message_class(c.TOPIC_TYPES[c.SENSOR_TARGET_ATTITUDE]), c.SENSOR_TARGET_ATTITUDE,
-            c.QOS_STREAM)
+            qos.QOS_STREAM)
         self.events = collect(self, c.MISSION_EVENTS)
         self.estimates = collect(self, c.EST_TARGET_ODOM)
 

@@ -6,11 +6,12 @@ from rclpy.parameter import Parameter
 
 from flyby_guidance.guidance_node import GuidanceNode
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_testing import SCENARIOS, collect, spin_for, spin_until
 
 SCENARIO = SCENARIOS / 'paper_flyby.yaml'
@@ -27,7 +28,7 @@ class PlanProbe(Node):
         x = self.chaser_state(T_PLAN)
         self.plan = plan_capture(truth_prediction(self.scenario, T_PLAN + cfg.search_window[1]), x[:3], x[3:], T_PLAN,
                                  cfg)
-        self.pubs = {t: self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, c.qos_for(t))
+        self.pubs = {t: self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, qos.qos_for(t))
                      for t in (c.PLANNER_FLYBY_INITIAL, c.PLANNER_FLYBY_TARGET, c.PLANNER_PATH, c.EST_CHASER_ODOM,
                                c.MISSION_PHASE)}
         self.maneuvers = collect(self, c.GUIDANCE_MANEUVER)

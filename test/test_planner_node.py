@@ -7,11 +7,12 @@ from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.planner_node import PlannerNode
-from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_testing import SCENARIOS, collect, spin_for, spin_until, write_scenario
 
 
@@ -23,7 +24,7 @@ class EstimateProbe(Node):
         self.scenario = scenario
         self.truth = truth_prediction(scenario, 3000.0)
         self.pub_target, self.pub_chaser, self.pub_events = (
-            self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, c.qos_for(t))
+            self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, qos.qos_for(t))
             for t in (c.EST_TARGET_ODOM, c.EST_CHASER_ODOM, c.MISSION_EVENTS))
         self.received = {t: collect(self, t) for t in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,

@@ -12,6 +12,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.runtime import FASTDDS_PROFILES, lease_domain
@@ -36,7 +37,7 @@ def test_signal_right_after_a_burst_loses_no_message(tmp_path, sig):
     executor.add_node(node)
     try:
         odom = node.create_publisher(c.message_class(c.TOPIC_TYPES[c.SIM_CHASER_ODOM]), c.SIM_CHASER_ODOM,
-                                     c.qos_for(c.SIM_CHASER_ODOM))
+                                     qos.qos_for(c.SIM_CHASER_ODOM))
         spin_until(executor, lambda: odom.get_subscription_count() > 0)
         for k in range(BURST):
             odom.publish(convert.odometry(0.05 * k, c.FRAME_HILL, c.FRAME_CHASER_BODY, (float(k), 0.0, 0.0),

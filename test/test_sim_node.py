@@ -8,6 +8,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.bag import bag_topics
 from flyby_msgs_py.scenario import load_scenario
@@ -25,7 +26,7 @@ class Probe(Node):
     def __init__(self, context):
         super().__init__('probe', context=context)
         self.maneuvers = self.create_publisher(
-            c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]), c.GUIDANCE_MANEUVER, c.QOS_STREAM)
+            c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]), c.GUIDANCE_MANEUVER, qos.QOS_STREAM)
         self.thrust = collect(self, c.SIM_CHASER_THRUST)
         self.odom = collect(self, c.SIM_CHASER_ODOM)
         self.events = collect(self, c.MISSION_EVENTS)

@@ -30,9 +30,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import least_squares
 
-from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
-from flyby_sim.checks import require_positive
-from flyby_sim.rotation import quat_conjugate, quat_from_rotation_vector, quat_multiply, rotation_vector_from_quat
+from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_from_rotation_vector, quat_multiply, rotation_vector_from_quat
 
 from flyby_estimation.target_motion import q_eci_from_body
 
@@ -67,7 +67,7 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
     Args:
         times_s: (N,) strictly increasing measurement times [s], N >= 3; the epoch is times_s[-1].
         q_hill_from_body_meas: (N, 4) measured attitudes (x, y, z, w), as on /sensors/target/attitude.
-        n: mean motion of the hill frame [rad/s] (flyby_sim.orbital.quat_eci_from_hill).
+        n: mean motion of the hill frame [rad/s] (flyby_sim.dynamics.orbital.quat_eci_from_hill).
         inertia: 3x3 target inertia [kg m^2], body axes (known).
         attitude_sigma_rad: vision noise, 1 sigma per body axis [rad].
         q_eci_from_body_guess, omega_body_guess: starting point at the epoch. Any start from which

@@ -23,9 +23,10 @@ from rclpy.node import Node
 from flyby_estimation.filters import filters_from_scenario
 from flyby_estimation.target_filter import MeasurementRejected
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import main_for, publish_event, scenario_of
-from flyby_sim.thrusters import ManeuverRejected
+from flyby_sim.dynamics.propulsion import ManeuverRejected
 
 
 # The category is re-evaluated this often once converged (it scans the attitude history).
@@ -56,17 +57,17 @@ class EstimatorNode(Node):
 
         def pub(topic):
             return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic,
-                                         c.qos_for(topic))
+                                         qos.qos_for(topic))
         self.pub_target, self.pub_chaser, self.pub_events = (
             pub(c.EST_TARGET_ODOM), pub(c.EST_CHASER_ODOM), pub(c.MISSION_EVENTS))
         for topic, callback in ((c.SENSOR_TARGET_ATTITUDE, self.on_attitude),
                                 (c.SENSOR_RELATIVE_POSITION, self.on_position),
                                 (c.GUIDANCE_MANEUVER, self.on_maneuver)):
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback,
-                                     c.QOS_STREAM)
+                                     qos.QOS_STREAM)
         self.attached = False  # captured: the free-flyer navigation model no longer holds
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), c.MISSION_PHASE,
-                                 self.on_phase, c.QOS_LATCHED)
+                                 self.on_phase, qos.QOS_LATCHED)
 
     def on_phase(self, msg):
         if convert.string_to_str(msg) == c.PHASE_CAPTURE and not self.attached:

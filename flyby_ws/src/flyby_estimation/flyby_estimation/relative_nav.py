@@ -60,10 +60,11 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
-from flyby_sim.checks import require_positive
-from flyby_sim.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s, nonlinear_relative_accel, rk4_step
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s, nonlinear_relative_accel, rk4_step
 from flyby_sim.plant import plant_config_from_scenario
-from flyby_sim.thrusters import ManeuverRejected, ThrusterConfig, ThrusterModel, fuel_for_delta_v_kg
+from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig, fuel_for_delta_v_kg
+from flyby_sim.thrusters import ThrusterModel
 
 DYNAMICS = ('cw', 'nonlinear')
 REJECTION_KINDS = ('non_finite', 'stale', 'outlier')

@@ -37,9 +37,9 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
-from flyby_sim.checks import require_positive
-from flyby_sim.orbital import quat_eci_from_hill
-from flyby_sim.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.orbital import quat_eci_from_hill
+from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
                                 rotation_vector_from_quat)
 
 from flyby_estimation.batch import check_filter, fit_attitude_motion

@@ -3,7 +3,7 @@
 Pure numpy/scipy, no ROS. The target attitude filter (``target_filter``) and the planner use it.
 
 Conventions. Quaternions are (x, y, z, w), scalar last; ``q_a_from_b`` rotates b-frame vectors into
-frame a (``flyby_sim.rotation``). ``hill`` and ``eci`` are those of ``flyby_sim.orbital``: hill
+frame a (``flyby_sim.dynamics.rotation``). ``hill`` and ``eci`` are those of ``flyby_sim.dynamics.orbital``: hill
 rotates relative to inertial space with Omega^H = [0, -n, 0] in its own axes (seed 000 eq 11).
 ``omega_body`` is the target's inertial angular velocity in body axes; ``omega_hill`` is the same
 vector in hill axes (seed 000 eq 6) -- *not* the rate relative to the rotating hill frame, which is
@@ -30,10 +30,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from flyby_sim.attitude import euler_rate, quaternion_rate, validated_inertia
-from flyby_sim.checks import require_positive
-from flyby_sim.orbital import eci_vector_in_hill, quat_eci_from_hill, rk4_step
-from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.orbital import eci_vector_in_hill, quat_eci_from_hill, rk4_step
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
 
 _I3 = np.eye(3)
 _STATE = 7  # q (4) + omega (3)
@@ -84,7 +84,7 @@ class ErrorStateDynamics:
         return f
 
     def state_rate(self, q_eci_from_body, omega_body):
-        """(dq/dt, domega/dt) of the reference motion, seed 000 eq 4 (flyby_sim.attitude)."""
+        """(dq/dt, domega/dt) of the reference motion, seed 000 eq 4 (flyby_sim.dynamics.attitude)."""
         return (quaternion_rate(q_eci_from_body, omega_body),
                 euler_rate(omega_body, self._inertia_t, self._inertia_inv_t))
 

@@ -8,8 +8,8 @@ from scipy.stats import chi2
 
 from flyby_estimation.batch import error_between, fit_attitude_motion
 from flyby_estimation.target_motion import q_hill_from_body
-from flyby_sim.attitude import AttitudePropagator
-from flyby_sim.rotation import quat_from_axis_angle, quat_multiply, quat_normalize
+from flyby_sim.dynamics.attitude import AttitudePropagator
+from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize
 
 DEG = math.radians(1.0)
 N_RAD_S = 1.1e-3

@@ -18,7 +18,7 @@ from scipy.integrate import quad_vec
 from flyby_estimation.relative_nav import (DEFAULT_ACCEL_PSD_M2_S3, ManeuverRejected, RelativeNavConfig,
                                            RelativeNavFilter, relative_nav_config_from_scenario)
 from flyby_msgs_py.scenario import load_scenario, scenario_from_dict
-from flyby_sim.orbital import cw_transition_matrix, mean_motion_rad_s
+from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
 from flyby_sim.plant import Plant, plant_config_from_scenario
 
 PAPER = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby.yaml')

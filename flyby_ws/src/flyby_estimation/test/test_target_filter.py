@@ -15,9 +15,9 @@ from flyby_estimation.target_filter import (REJECTION_KINDS, ConvergenceThreshol
                                             TargetAttitudeFilter, TargetFilterConfig,
                                             target_filter_config_from_scenario)
 from flyby_msgs_py.scenario import load_scenario
-from flyby_sim.orbital import quat_eci_from_hill
+from flyby_sim.dynamics.orbital import quat_eci_from_hill
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_sim.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 DEG = math.radians(1.0)

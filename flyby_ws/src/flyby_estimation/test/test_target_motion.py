@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 from flyby_estimation.target_motion import (ErrorStateDynamics, MotionPrediction, MotionThresholds,
                                             body_point_in_hill, classify_motion, covariance_in_hill, make_state,
                                             orbit_rate_hill, q_hill_from_body)
-from flyby_sim.attitude import AttitudePropagator
-from flyby_sim.orbital import mean_motion_rad_s
-from flyby_sim.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
+from flyby_sim.dynamics.attitude import AttitudePropagator
+from flyby_sim.dynamics.orbital import mean_motion_rad_s
+from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
                                 quat_to_matrix, rotation_vector_from_quat)
 
 N = mean_motion_rad_s(7.0e6)
@@ -73,7 +73,7 @@ def test_process_noise_matches_integral_of_phi_g_qc_g_phi():
 
 
 def test_prediction_matches_flyby_sim_propagator_over_600_s():
-    """MotionPrediction (DOP853 on state + Phi + Qd) against flyby_sim.attitude at tight tolerance."""
+    """MotionPrediction (DOP853 on state + Phi + Qd) against flyby_sim.dynamics.attitude at tight tolerance."""
     dyn = ErrorStateDynamics(INERTIA_TUMBLER)
     prediction = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, np.eye(6) * 1e-8, 610.0)
     reference = AttitudePropagator(Q0, OMEGA_TUMBLER, INERTIA_TUMBLER, t0=10.0, rtol=1e-13, atol=1e-15)

@@ -25,8 +25,8 @@ from flyby_msgs_py.scenario import scenario_from_dict
 from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.geometry import clearance
-from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.plant import Plant, plant_config_from_scenario
 
 # Truth samples kept for the clearance, every this many plant steps away from the passage.

@@ -3,7 +3,7 @@ thruster-restriction sphere interlock (seed 000 section 4.1, seed 003 section 3.
 
 Pure numpy, no ROS: ``FlybyGuidance`` is stepped with the chaser's *estimated* state and returns the
 time-tagged maneuvers to command; the guidance node and the one-process loop (closed_loop) both
-drive it. Frames and units as in flyby_sim.orbital (hill; velocities relative to the rotating frame).
+drive it. Frames and units as in flyby_sim.dynamics.orbital (hill; velocities relative to the rotating frame).
 
 Sequence for a plan (t_Ti < t_i < t_f):
 
@@ -31,9 +31,10 @@ import numpy as np
 
 from flyby_planner.grasp import flyby_target_point, refine_grasp
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.checks import require_positive
-from flyby_sim.orbital import cw_transition_matrix
-from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2, fuel_for_delta_v_kg
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.propulsion import fuel_for_delta_v_kg
 
 # Points checked along a predicted burn arc.
 _ARC_SAMPLES = 9

@@ -21,6 +21,7 @@ from rclpy.node import Node
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario, refined_flyby_target
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import StampedBuffer, main_for, publish_event, scenario_of
 
@@ -43,16 +44,16 @@ class GuidanceNode(Node):
         self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) of the target estimates
         self.waiting = collections.deque()  # chaser estimates not yet stepped, in order
         self.pub_maneuver = self.create_publisher(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
-                                                  c.GUIDANCE_MANEUVER, c.qos_for(c.GUIDANCE_MANEUVER))
+                                                  c.GUIDANCE_MANEUVER, qos.qos_for(c.GUIDANCE_MANEUVER))
         self.pub_events = self.create_publisher(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]),
-                                                c.MISSION_EVENTS, c.qos_for(c.MISSION_EVENTS))
+                                                c.MISSION_EVENTS, qos.qos_for(c.MISSION_EVENTS))
         for topic, callback in ((c.PLANNER_FLYBY_INITIAL, self.on_flyby_initial),
                                 (c.PLANNER_FLYBY_TARGET, self.on_flyby_target),
                                 (c.PLANNER_PATH, self.on_path),
                                 (c.MISSION_PHASE, self.on_phase),
                                 (c.EST_TARGET_ODOM, self.on_target),
                                 (c.EST_CHASER_ODOM, self.on_chaser)):
-            qos = c.QOS_LATCHED if topic in c.LATCHED_TOPICS else c.QOS_STREAM
+            qos = qos.QOS_LATCHED if topic in c.LATCHED_TOPICS else qos.QOS_STREAM
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos)
 
     # -- the plan -------------------------------------------------------------------------------

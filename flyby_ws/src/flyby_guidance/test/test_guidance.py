@@ -14,7 +14,7 @@ from flyby_guidance.guidance import (FlybyGuidance, FlybyTarget, GuidanceConfig,
                                      predicted_miss)
 from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.orbital import cw_transition_matrix, mean_motion_rad_s
+from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
 
 N = mean_motion_rad_s(7000e3)
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'

@@ -118,11 +118,11 @@ def contract_qos(topic):
 
     ``/chaser1/mission/phase`` matches the contract topic ``mission/phase``.
     """
-    from flyby_msgs_py import contract
+    from flyby_msgs_py import contract, qos
 
     for relative in contract.TOPIC_TYPES:
         if topic.rstrip('/').endswith('/' + relative):
-            return [_rosbags_qos(contract.qos_for(relative))]
+            return [_rosbags_qos(qos.qos_for(relative))]
     return []
 
 

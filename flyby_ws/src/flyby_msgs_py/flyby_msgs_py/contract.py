@@ -1,13 +1,12 @@
-"""The topic contract of DESIGN §4 in code: names, message types, QoS profiles, frame ids, phases.
+"""The topic contract of DESIGN §4 and §10 in code: names, message types, frame ids, phases, outcomes.
 
 Tools outside the project read our bags by these names; change none of them without changing DESIGN.md.
 Topic names are given without the leading slash so that nodes create them relative to their namespace
 (several chasers live under ``/chaser1`` ...); ``absolute(name)`` gives the single-chaser form.
+No rclpy here (the QoS profiles are ``flyby_msgs_py.qos``), so that the cores can use the names.
 """
 
 import importlib
-
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 FRAME_HILL = 'hill'
 FRAME_ECI = 'eci'
@@ -64,60 +63,20 @@ PHASE_COMPLETE = 'COMPLETE'
 PHASE_ABORTED = 'ABORTED'
 TERMINAL_PHASES = (PHASE_COMPLETE, PHASE_ABORTED)
 
-# Streams (truth, sensors, estimates, commands): reliable so that nothing is lost on the way to
-# the recorder; the depth covers the burst between two flow-control points of the simulator.
-QOS_STREAM = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=200,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-# Latched state: late joiners get the last value (mission phase, the plan, markers).
-QOS_LATCHED = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
-# Events: a late joiner gets the recent history.
-QOS_EVENTS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
-# The recorder subscribes deeper than any publisher keeps, so a slow callback never drops a sample.
-QOS_RECORDER = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=5000,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-QOS_RECORDER_LATCHED = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
+# Outcomes of a run (DESIGN §7, §10): summary.json "outcome".
+OUTCOME_CAPTURE = 'CAPTURE'
+OUTCOME_ESCAPE = 'ESCAPE'
+OUTCOME_NO_SAFE_PLAN = 'NO_SAFE_PLAN'
+OUTCOME_ABORTED = 'ABORTED'
+OUTCOME_TIME_LIMIT = 'TIME_LIMIT'
+OUTCOME_COLLISION = 'COLLISION'
+OUTCOME_INTERRUPTED = 'INTERRUPTED'
+OUTCOME_ERROR = 'ERROR'
+OUTCOMES = (OUTCOME_CAPTURE, OUTCOME_ESCAPE, OUTCOME_NO_SAFE_PLAN, OUTCOME_ABORTED, OUTCOME_TIME_LIMIT,
+            OUTCOME_COLLISION, OUTCOME_INTERRUPTED, OUTCOME_ERROR)
 
 LATCHED_TOPICS = (MISSION_PHASE, PLANNER_GRASP, PLANNER_FLYBY_TARGET, PLANNER_FLYBY_INITIAL,
                   PLANNER_PATH, MARKERS)
-
-
-def qos_for(topic):
-    """Publisher QoS of a contract topic."""
-    if topic == MISSION_EVENTS:
-        return QOS_EVENTS
-    if topic in LATCHED_TOPICS:
-        return QOS_LATCHED
-    return QOS_STREAM
-
-
-def recorder_qos_for(topic):
-    """Subscription QoS the recorder uses for a contract topic (compatible with ``qos_for``)."""
-    if topic == MISSION_EVENTS or topic in LATCHED_TOPICS:
-        return QOS_RECORDER_LATCHED
-    return QOS_RECORDER
 
 
 def absolute(topic, namespace=''):

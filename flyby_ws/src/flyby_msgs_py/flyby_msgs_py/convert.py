@@ -16,7 +16,6 @@ The ``*_to_numpy`` readers return small NamedTuples of fresh arrays; ``t`` (floa
 first and frame ids, where returned, come last (``t, dv_hill = vector3_stamped_to_numpy(msg)``).
 """
 
-import json
 import math
 from typing import NamedTuple
 
@@ -30,6 +29,7 @@ from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
 from flyby_msgs_py.contract import FRAME_HILL
+from flyby_msgs_py.wire import value_text
 
 NS_PER_S = 1_000_000_000
 _INT32_MIN, _INT32_MAX = -2 ** 31, 2 ** 31 - 1
@@ -572,23 +572,6 @@ LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN, 'ERROR': Dia
 _LEVEL_NAMES = {v: k for k, v in LEVELS.items()}
 
 
-def _value_text(v):
-    """Event values are text: floats with repr precision, sequences as JSON lists, the rest str()."""
-    if isinstance(v, str):
-        return v
-    if isinstance(v, _BOOL_TYPES):
-        return 'true' if v else 'false'
-    if isinstance(v, (float, np.floating)):
-        return repr(float(v))
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, np.ndarray):
-        v = v.tolist()
-    if isinstance(v, (list, tuple)):
-        return json.dumps(v)
-    return str(v)
-
-
 def event(t, level, name, message, values=None, source=''):
     """diagnostic_msgs/DiagnosticArray with one status: level 'OK' | 'WARN' | 'ERROR' ('STALE' also
     accepted), ``name`` the event kind (e.g. 'late_maneuver'), ``values`` a dict rendered to KeyValue
@@ -610,7 +593,7 @@ def event(t, level, name, message, values=None, source=''):
     for k, v in (values or {}).items():
         kv = KeyValue()
         kv.key = str(k)
-        kv.value = _value_text(v)
+        kv.value = value_text(v)
         kvs.append(kv)
     status.values = kvs
     msg = DiagnosticArray()

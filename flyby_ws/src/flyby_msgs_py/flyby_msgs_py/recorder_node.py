@@ -12,6 +12,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py.bag import BagWriter
 from flyby_msgs_py.runtime import main_for
 
@@ -41,7 +42,7 @@ class RecorderNode(Node):
         self.count = 0
         for name, (topic, type_name) in topics.items():
             self.create_subscription(c.message_class(type_name), name, self._writer_for(name),
-                                     c.recorder_qos_for(topic), raw=True)
+                                     qos.recorder_qos_for(topic), raw=True)
 
     def _writer_for(self, name):
         def write(raw):

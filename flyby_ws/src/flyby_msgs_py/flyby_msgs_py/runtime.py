@@ -27,7 +27,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, Header, String
 
-from flyby_msgs_py.contract import QOS_EVENTS, QOS_STREAM
+from flyby_msgs_py.qos import QOS_EVENTS, QOS_STREAM
 from flyby_msgs_py import convert
 from flyby_msgs_py.scenario import ScenarioError, load_scenario
 

@@ -12,7 +12,7 @@ and the escape path (t > 0). Each path is measured against the target's collisio
 * ``hill_fixed``: the axis frozen at its t = 0 pose in hill -- the paper's "spin axis along the z
   axis of Hill's coordinates" taken literally, the picture of seed 000 Fig. 6-8.
 
-Frames and units as in ``flyby_sim.orbital``: hill x along-track, y orbit anti-normal, z toward
+Frames and units as in ``flyby_sim.dynamics.orbital``: hill x along-track, y orbit anti-normal, z toward
 Earth; v_hill relative to the rotating frame; SI units.
 """
 
@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 
 from flyby_planner.keepout import SweptRegion
-from flyby_sim.orbital import cw_transition_matrix, hill_axes_in_eci
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci
 
 # Seed 000 Fig. 5 and section 3.3: targeted speeds v_i [m/s].
 SEED000_SPEEDS_M_S = (0.05, 0.1, 0.2, 0.35, 0.5, 1.0, 2.0)

@@ -2,7 +2,7 @@
 
 Pure numpy/scipy, no ROS.
 
-Frames. ``hill`` is that of ``flyby_sim.orbital`` (seed 000 Fig. 3): origin at the target's centre
+Frames. ``hill`` is that of ``flyby_sim.dynamics.orbital`` (seed 000 Fig. 3): origin at the target's centre
 of mass, x along-track, y orbit anti-normal, z toward Earth's centre; it rotates relative to inertial
 space with Omega^H = [0, -n, 0] (eq 11). Every velocity here is relative to the rotating hill frame
 (d/dt of the hill position, the velocity the chaser must match). ``omega_hill`` is the target's
@@ -41,8 +41,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from flyby_estimation.target_motion import body_point_in_hill
-from flyby_sim.orbital import cw_transition_matrix
-from flyby_sim.rotation import quat_to_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.rotation import quat_to_matrix
 
 _E_Y = np.array((0.0, 1.0, 0.0))
 
@@ -330,7 +330,7 @@ def flyby_initial_point(x_ft, v_ft, duration_s, n):
     """Fly-by approach initial point X_Fi, V_Fi, seed 000 eq 23.
 
     [X_Fi; V_Fi] = Phi(t_f - t_i)^-1 [X_Ft; V_Ft] = Phi(t_i - t_f) [X_Ft; V_Ft], with the CW
-    transition matrix of eq 22 (flyby_sim.orbital.cw_transition_matrix) run backward by the
+    transition matrix of eq 22 (flyby_sim.dynamics.orbital.cw_transition_matrix) run backward by the
     fly-by duration t_f - t_i.
 
     Args:

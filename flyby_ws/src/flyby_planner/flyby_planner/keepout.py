@@ -17,7 +17,7 @@ For a tumbler the H direction in body axes, I omega_body / |I omega_body|, moves
 the region is the union over the sampled motion (the caller samples at least one polhode period).
 
 The region is fixed in inertial space, so in ``hill`` its axis turns by n t about +y
-(flyby_sim.orbital.eci_vector_in_hill); clearances are evaluated at each time with the axis of that
+(flyby_sim.dynamics.orbital.eci_vector_in_hill); clearances are evaluated at each time with the axis of that
 time. The chaser is a sphere of ``envelope_radius_m`` (DESIGN §5).
 """
 
@@ -25,9 +25,9 @@ import dataclasses
 
 import numpy as np
 
-from flyby_sim.geometry import signed_distance_to_box
-from flyby_sim.orbital import eci_vector_in_hill
-from flyby_sim.rotation import quat_to_matrix
+from flyby_sim.dynamics.geometry import signed_distance_to_box
+from flyby_sim.dynamics.orbital import eci_vector_in_hill
+from flyby_sim.dynamics.rotation import quat_to_matrix
 
 _CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
 

@@ -16,7 +16,7 @@ Steps (seed 000 section 4.4: "multiple candidates ... over a period of rotations
    direction; X_Ft, X_Fi; X_Fi outside the thruster-restriction sphere; the eq 28-29 impulses within
    the per-maneuver limit.
 3. Passive safety of each candidate that passed step 2: the coast from X_Fi through X_Ft and the
-   escape after it are propagated with the nonlinear relative dynamics (flyby_sim.orbital) for
+   escape after it are propagated with the nonlinear relative dynamics (flyby_sim.dynamics.orbital) for
    flyby_duration_s + escape_check_orbits orbits, and the chaser envelope must stay
    clearance_margin_m outside the target's swept keep-out region (keepout.SweptRegion) throughout.
 4. Selection: the least total delta-v of the terminal transfer; plans within delta_v_tie_mps of it
@@ -35,8 +35,8 @@ from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction,
 from flyby_planner.grasp import flyby_initial_point, flyby_target_point, grasp_candidates
 from flyby_planner.keepout import swept_region
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.checks import require_positive
-from flyby_sim.orbital import cw_transition_matrix, eci_vector_in_hill, hill_axes_in_eci, nonlinear_relative_accel
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.orbital import cw_transition_matrix, eci_vector_in_hill, hill_axes_in_eci, nonlinear_relative_accel
 
 # Samples of the target motion for the swept region (a tumbler's polhode) and of the passive path.
 _REGION_SAMPLES = 64

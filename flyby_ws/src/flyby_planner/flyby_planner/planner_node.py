@@ -24,10 +24,11 @@ from std_srvs.srv import Trigger
 
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import StampedBuffer, main_for, publish_event, scenario_of
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
-from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix
 
 FRAME_GRASP_POINT = 'grasp_point'
 RGBA_FLYBY_POINTS = (1.0, 0.9, 0.1, 1.0)
@@ -67,13 +68,13 @@ class PlannerNode(Node):
         self.plans = 0
 
         def pub(topic):
-            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, c.qos_for(topic))
+            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
         self.pubs = {topic: pub(topic) for topic in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,
             c.MISSION_EVENTS)}
-        for topic, callback, qos in ((c.EST_TARGET_ODOM, self.on_target, c.QOS_STREAM),
-                                     (c.EST_CHASER_ODOM, self.on_chaser, c.QOS_STREAM),
-                                     (c.MISSION_EVENTS, self.on_event, c.QOS_EVENTS)):
+        for topic, callback, qos in ((c.EST_TARGET_ODOM, self.on_target, qos.QOS_STREAM),
+                                     (c.EST_CHASER_ODOM, self.on_chaser, qos.QOS_STREAM),
+                                     (c.MISSION_EVENTS, self.on_event, qos.QOS_EVENTS)):
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos)
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
 

@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation, Slerp
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.grasp import flyby_target_from_attitude
-from flyby_sim.geometry import clearance
-from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 EXIT_CODES = {'CAPTURE': 0, 'ESCAPE': 3, 'ABORTED': 3, 'TIME_LIMIT': 3, 'INTERRUPTED': 130,
               'ERROR': 1}
 TRUTH_TOPICS = [c.absolute(t) for t in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM,

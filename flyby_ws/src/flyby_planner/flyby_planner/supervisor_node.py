@@ -20,13 +20,14 @@ from std_srvs.srv import Trigger
 
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate, q_eci_from_body
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, StampedBuffer, main_for, publish_event, scenario_of
 from flyby_planner.grasp import flyby_target_point, grasp_from_attitude
 from flyby_planner.keepout import swept_region
 from flyby_planner.plan import avoidance_burn, planner_config_from_scenario
 from flyby_planner.supervisor import PhaseMachine, capture_decision, supervisor_config_from_scenario
-from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix
 
 _LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN'}
 
@@ -49,15 +50,15 @@ class SupervisorNode(Node):
         self.t_clock = 0.0
 
         def pub(topic):
-            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, c.qos_for(topic))
+            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
         self.pub_phase, self.pub_events, self.pub_maneuver = (
             pub(c.MISSION_PHASE), pub(c.MISSION_EVENTS), pub(c.GUIDANCE_MANEUVER))
         for topic, callback in ((c.EST_TARGET_ODOM, self.on_target), (c.EST_CHASER_ODOM, self.on_chaser),
                                 (c.MISSION_EVENTS, self.on_event)):
-            qos = c.QOS_EVENTS if topic == c.MISSION_EVENTS else c.QOS_STREAM
+            qos = qos.QOS_EVENTS if topic == c.MISSION_EVENTS else qos.QOS_STREAM
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos)
-        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, c.QOS_STREAM)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock', self.on_clock, c.QOS_STREAM)
+        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM)
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock', self.on_clock, qos.QOS_STREAM)
         self.create_service(Trigger, c.MISSION_ABORT_SERVICE, self.on_abort)
         self.pub_phase.publish(convert.string(self.machine.phase))
         self.emit(0.0, 'OK', 'phase_changed', f'mission starts in {self.machine.phase}',

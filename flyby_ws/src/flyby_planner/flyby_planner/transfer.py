@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from flyby_sim.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix
 
 
 def terminal_impulses(r_hill, v_hill, r_target_hill, v_target_hill, duration_s, n):

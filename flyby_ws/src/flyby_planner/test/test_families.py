@@ -5,7 +5,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from flyby_planner.families import SEED000_CASES, SEED000_SPEEDS_M_S, seed000_family, time_grid
-from flyby_sim.orbital import mean_motion_rad_s
+from flyby_sim.dynamics.orbital import mean_motion_rad_s
 
 N = mean_motion_rad_s(7.0e6)  # seed 000 section 5 orbit
 T_S = time_grid()  # [-300, 300] s, 0.05 s steps within 10 s of the grasp
@@ -24,7 +24,7 @@ def out_of_plane():
 
 
 def _eq2(_t, state):
-    """Seed 000 eq 2a-2c, A = 0, written out independently of flyby_sim.orbital."""
+    """Seed 000 eq 2a-2c, A = 0, written out independently of flyby_sim.dynamics.orbital."""
     x, y, z, vx, vy, vz = state
     return (vx, vy, vz, 2.0 * N * vz, -N * N * y, -2.0 * N * vx + 3.0 * N * N * z)
 

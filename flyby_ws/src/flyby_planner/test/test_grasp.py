@@ -18,8 +18,8 @@ from flyby_planner.grasp import (
     grasp_candidates,
     grasp_point_closed_form,
 )
-from flyby_sim.orbital import cw_transition_matrix, mean_motion_rad_s, quat_eci_from_hill
-from flyby_sim.rotation import quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate
+from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s, quat_eci_from_hill
+from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate
 
 # Seed 000 section 5 (DESIGN §6, scenarios/paper_flyby.yaml).
 N_PAPER = mean_motion_rad_s(7000e3)

@@ -11,8 +11,8 @@ import yaml
 
 from flyby_msgs_py.scenario import load_scenario, scenario_from_dict
 from flyby_planner.plan import avoidance_burn, plan_capture, planner_config_from_scenario, truth_prediction
-from flyby_sim.geometry import clearance
-from flyby_sim.orbital import cw_transition_matrix, nonlinear_relative_accel, rk4_step
+from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.orbital import cw_transition_matrix, nonlinear_relative_accel, rk4_step
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER_DICT = yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
@@ -79,7 +79,7 @@ def test_ties_go_to_the_larger_clearance():
 
 def test_passive_path_clears_the_real_target_independently(paper_plan):
     """Fly the selected X_Fi, V_Fi with the simulator's RK4 and nonlinear dynamics past the truly rotating
-    target boxes (flyby_sim.geometry): the real clearance is at least the planned one, over one orbit."""
+    target boxes (flyby_sim.dynamics.geometry): the real clearance is at least the planned one, over one orbit."""
     plan, cfg = paper_plan
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     c = plan.selected

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from flyby_planner.summary import outcome_of, thrust_figures
-from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2 as G0_MPS2
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2 as G0_MPS2
 
 
 def test_constant_burn_delta_v_and_fuel():

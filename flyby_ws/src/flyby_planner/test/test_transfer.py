@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s
+from flyby_sim.dynamics.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s
 
 N = mean_motion_rad_s(7000e3)
 _vec = st.lists(st.floats(-80.0, 80.0), min_size=3, max_size=3).map(np.array)

@@ -2,7 +2,7 @@
 
 Pure numpy/scipy, no ROS: the simulator node wraps it, Monte Carlo drives it directly.
 
-Frames and conventions are those of ``flyby_sim.orbital`` (hill, ECI) with quaternions (x, y, z, w),
+Frames and conventions are those of ``flyby_sim.dynamics.orbital`` (hill, ECI) with quaternions (x, y, z, w),
 scalar last. The target's attitude is integrated in ECI (q_eci_from_body, seed 000 eq 4) and
 reported in hill: q_hill_from_body(t) = q_hill_from_eci(t) * q_eci_from_body(t), where the hill
 axes turn by n t about ECI +z. ``omega_body`` is always the target's inertial angular velocity
@@ -22,13 +22,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flyby_sim.attitude import AttitudePropagator, validated_inertia
-from flyby_sim.checks import require_positive
-from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_accel, mean_motion_rad_s, nonlinear_relative_accel,
+from flyby_sim.dynamics.attitude import AttitudePropagator, validated_inertia
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
+from flyby_sim.dynamics.orbital import (cw_accel, mean_motion_rad_s, nonlinear_relative_accel,
                                quat_eci_from_hill, rk4_step)
-from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
 from flyby_sim.sensors import SensorModel, is_sample_step
-from flyby_sim.thrusters import ManeuverRejected, ThrusterConfig, ThrusterModel
+from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
+from flyby_sim.thrusters import ThrusterModel
 
 DYNAMICS = ('nonlinear', 'cw')
 _ZERO3 = (0.0, 0.0, 0.0)

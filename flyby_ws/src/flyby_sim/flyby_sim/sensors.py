@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from flyby_sim.rotation import quat_multiply, quat_normalize, random_small_rotation
+from flyby_sim.dynamics.rotation import quat_multiply, quat_normalize, random_small_rotation
 
 
 class SensorModel:

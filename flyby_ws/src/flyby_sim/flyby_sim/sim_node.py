@@ -18,6 +18,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event, scenario_of
 from flyby_sim.plant import ManeuverRejected, Plant, plant_config_from_scenario
@@ -48,10 +49,10 @@ class SimNode(Node):
                                            / self.step_s))
         self.wait_for_nodes = self.declare_node_list('wait_for_nodes')
         self.progress_s = {name: 0.0 for name in self.declare_node_list('keep_up_with')}
-        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, c.QOS_STREAM)
+        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM)
         self.subscriptions_of = {}  # node name -> the topics it subscribes, as it announced them
         self.publications_of = {}  # node name -> {topic: subscriptions its publisher has matched}
-        self.create_subscription(String, READY_TOPIC, self.on_ready, c.QOS_EVENTS)
+        self.create_subscription(String, READY_TOPIC, self.on_ready, qos.QOS_EVENTS)
 
         pubs = {}
         for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
@@ -59,15 +60,15 @@ class SimNode(Node):
                       c.MARKERS):
             name = '/clock' if topic == c.CLOCK else topic
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name,
-                                                c.qos_for(topic))
+                                                qos.qos_for(topic))
         self.pubs = pubs
         # Reused for every step (publishing serializes them).
         self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])()
                      for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST)}
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
-                                 c.GUIDANCE_MANEUVER, self.on_maneuver, c.QOS_STREAM)
+                                 c.GUIDANCE_MANEUVER, self.on_maneuver, qos.QOS_STREAM)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), c.MISSION_PHASE,
-                                 self.on_phase, c.QOS_LATCHED)
+                                 self.on_phase, qos.QOS_LATCHED)
 
         self.started = False
         self.ending = False  # reached the duration, waiting for the others to catch up

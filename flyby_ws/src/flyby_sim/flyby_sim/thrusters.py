@@ -1,15 +1,9 @@
 """Chaser thrusters: a time-tagged impulsive delta-v command becomes a finite burn (DESIGN §5).
 
 A command (t_cmd, dv_hill) is validated, given execution errors drawn from the thruster random
-stream, and scheduled as a burn at full thrust in the fixed hill direction of the errored delta-v.
-The burn starts exactly at t_cmd, or at once (t_now) when t_cmd has passed, or when the burn
-scheduled before it ends; either of the last two makes it late. Burns never overlap: the pending
-ones run in order of their requested start (max(t_cmd, t_now at command), then command order), and
-their start, duration and mass are recomputed along that chain whenever a command is added.
-
-The duration follows the rocket equation with mdot = F / (Isp g0), so the delta-v delivered,
-integral of F/m dt = Isp g0 ln(m0/m1), equals the errored delta-v exactly; the fuel is
-m0 (1 - exp(-dv / (Isp g0))).
+stream, and scheduled as a burn at full thrust in the fixed hill direction of the errored delta-v,
+by the burn chain of ``flyby_sim.dynamics.propulsion`` (start at the stamp, or at once when it has
+passed, or when the burn before it ends; duration from the rocket equation).
 
 Errors: magnitude times (1 + N(0, magnitude_error_sigma)); direction turned by an angle
 N(0, direction_error_sigma_rad) about an axis perpendicular to the command, uniformly distributed
@@ -19,78 +13,11 @@ commands draw none.
 Vectors in hill axes; SI units (N, s, kg, m/s).
 """
 
-import dataclasses
 import math
 
 import numpy as np
 
-from flyby_sim.checks import require_positive
-
-STANDARD_GRAVITY_M_S2 = 9.80665
-
-
-class ManeuverRejected(Exception):
-    """A delta-v command the thrusters cannot execute; ``reason`` says why, naming the value."""
-
-    def __init__(self, reason):
-        super().__init__(reason)
-        self.reason = reason
-
-
-@dataclasses.dataclass(frozen=True)
-class ThrusterConfig:
-    """Thruster parameters; values validated on construction (ValueError names the field)."""
-
-    max_thrust_n: float
-    isp_s: float
-    min_impulse_bit_ns: float
-    max_delta_v_per_maneuver_mps: float
-    magnitude_error_sigma: float = 0.0  # fraction of |dv|, 1-sigma
-    direction_error_sigma_rad: float = 0.0  # 1-sigma
-
-    def __post_init__(self):
-        require_positive('max_thrust_n', self.max_thrust_n)
-        require_positive('isp_s', self.isp_s)
-        require_positive('min_impulse_bit_ns', self.min_impulse_bit_ns, allow_zero=True)
-        require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps)
-        require_positive('magnitude_error_sigma', self.magnitude_error_sigma, allow_zero=True)
-        require_positive('direction_error_sigma_rad', self.direction_error_sigma_rad, allow_zero=True)
-
-
-@dataclasses.dataclass(frozen=True)
-class Burn:
-    """One scheduled finite burn at full thrust; all times sim time [s]."""
-
-    seq: int  # command number, counting accepted commands from 0
-    t_cmd_s: float  # the command's stamp
-    start_s: float
-    end_s: float
-    dv_cmd_hill: tuple  # commanded delta-v [m/s]
-    dv_hill: tuple  # errored delta-v the burn delivers [m/s]
-    mass_start_kg: float
-    fuel_kg: float
-    late: bool  # start_s > t_cmd_s
-
-    @property
-    def dv_mps(self):
-        """|dv_hill| [m/s]."""
-        return math.sqrt(sum(c * c for c in self.dv_hill))
-
-    @property
-    def direction_hill(self):
-        """Unit thrust direction in hill axes (fixed during the burn)."""
-        norm = self.dv_mps
-        return tuple(c / norm for c in self.dv_hill)
-
-    @property
-    def mass_end_kg(self):
-        """Chaser mass when the burn ends [kg]."""
-        return self.mass_start_kg - self.fuel_kg
-
-
-def fuel_for_delta_v_kg(mass_kg, dv_mps, exhaust_velocity_mps):
-    """Propellant m0 (1 - exp(-dv / ve)) [kg] for a delta-v dv_mps from mass mass_kg (rocket equation)."""
-    return -mass_kg * math.expm1(-dv_mps / exhaust_velocity_mps)
+from flyby_sim.dynamics.propulsion import BurnRequest, ManeuverRejected, chain_burns, check_delta_v, insert_request
 
 
 class ThrusterModel:
@@ -100,31 +27,16 @@ class ThrusterModel:
         """config: ThrusterConfig; rng: numpy.random.Generator used for the execution errors only."""
         self.config = config
         self._rng = rng
-        self.exhaust_velocity_mps = config.isp_s * STANDARD_GRAVITY_M_S2
-        self.mass_flow_kg_s = config.max_thrust_n / self.exhaust_velocity_mps
-        self._requests = []  # (request_s, seq, t_cmd, dv_cmd, dv_exec) of pending burns, sorted
+        self.exhaust_velocity_mps = config.exhaust_velocity_mps
+        self.mass_flow_kg_s = config.mass_flow_kg_s
+        self._requests = []  # BurnRequest of the pending burns, in burn order
         self._pending = []  # Burn schedule matching _requests
         self._active = None
         self._seq = 0
 
     def check(self, dv_hill, mass_kg):
         """dv_hill as a float array if executable from mass mass_kg, else ManeuverRejected."""
-        dv = np.asarray(dv_hill, dtype=float)
-        if dv.shape != (3,):
-            raise ManeuverRejected(f'dv_hill must have 3 components, got {dv_hill!r}')
-        if not np.all(np.isfinite(dv)):
-            raise ManeuverRejected(f'dv_hill {dv.tolist()} has non-finite components')
-        dv_mps = math.sqrt(float(dv @ dv))
-        limit = self.config.max_delta_v_per_maneuver_mps
-        if dv_mps > limit:
-            raise ManeuverRejected(
-                f'|dv_hill| = {dv_mps:.6g} m/s exceeds max_delta_v_per_maneuver_mps = {limit:.6g} m/s')
-        impulse = mass_kg * dv_mps
-        if dv_mps == 0.0 or impulse < self.config.min_impulse_bit_ns:
-            raise ManeuverRejected(
-                f'impulse m |dv_hill| = {impulse:.6g} N s (|dv_hill| = {dv_mps:.6g} m/s, mass '
-                f'{mass_kg:.6g} kg) is below min_impulse_bit_ns = {self.config.min_impulse_bit_ns:.6g} N s')
-        return dv
+        return check_delta_v(dv_hill, mass_kg, self.config)
 
     def perturb(self, dv_hill):
         """Errored delta-v [m/s]: magnitude and direction errors drawn from the stream (module doc)."""
@@ -154,12 +66,11 @@ class ThrusterModel:
             raise ManeuverRejected(f'maneuver stamp t_cmd = {t_cmd} is not finite')
         dv_cmd = self.check(dv_hill, mass_now_kg)
         dv_exec = self.perturb(dv_cmd)
-        request = (max(t_cmd, t_now), self._seq, t_cmd, tuple(dv_cmd.tolist()), tuple(dv_exec.tolist()))
+        request = BurnRequest(max(t_cmd, t_now), self._seq, t_cmd, tuple(dv_cmd.tolist()), tuple(dv_exec.tolist()))
         self._seq += 1
-        self._requests.append(request)
-        self._requests.sort(key=lambda r: (r[0], r[1]))
+        self._requests = insert_request(self._requests, request)
         self._reschedule(mass_now_kg)
-        return next(b for b in self._pending if b.seq == request[1])
+        return next(b for b in self._pending if b.seq == request.seq)
 
     def _reschedule(self, mass_now_kg):
         """Chain the pending burns after the active one: start, mass and duration of each."""
@@ -167,16 +78,7 @@ class ThrusterModel:
             prev_end, mass = -math.inf, mass_now_kg
         else:
             prev_end, mass = self._active.end_s, self._active.mass_end_kg
-        self._pending = []
-        for request_s, seq, t_cmd, dv_cmd, dv_exec in self._requests:
-            start = max(request_s, prev_end)
-            dv_mps = math.sqrt(sum(c * c for c in dv_exec))
-            fuel = fuel_for_delta_v_kg(mass, dv_mps, self.exhaust_velocity_mps)
-            burn = Burn(seq=seq, t_cmd_s=t_cmd, start_s=start, end_s=start + fuel / self.mass_flow_kg_s,
-                        dv_cmd_hill=dv_cmd, dv_hill=dv_exec, mass_start_kg=mass, fuel_kg=fuel,
-                        late=start > t_cmd)
-            self._pending.append(burn)
-            prev_end, mass = burn.end_s, burn.mass_end_kg
+        self._pending = chain_burns(self._requests, prev_end, mass, self.config)
 
     @property
     def active(self):

@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from flyby_sim.attitude import (AttitudePropagator, angular_momentum_inertial, euler_rate,
+from flyby_sim.dynamics.attitude import (AttitudePropagator, angular_momentum_inertial, euler_rate,
                                 kinetic_energy, quaternion_rate)
-from flyby_sim.rotation import quat_normalize
+from flyby_sim.dynamics.rotation import quat_normalize
 
 STABLE_SPIN = (np.diag([1200.0, 1000.0, 2000.0]), [0.0, 0.0, math.radians(5.0)])  # seed 000 section 5
 SEED001_TUMBLER = (np.diag([4069.0, 12030.0, 11029.0]), [0.3, 0.2, 0.1])  # seed 001 Table 1

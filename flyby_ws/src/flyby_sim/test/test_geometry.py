@@ -6,7 +6,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from flyby_sim.geometry import clearance, rotate_into_body, signed_distance_to_box
+from flyby_sim.dynamics.geometry import clearance, rotate_into_body, signed_distance_to_box
 
 PAPER_BOXES = [((0.0, 0.0, 0.0), (3.0, 3.0, 3.0)), ((0.0, 4.5, 0.0), (2.0, 6.0, 0.05)),
                ((0.0, -4.5, 0.0), (2.0, 6.0, 0.05))]

@@ -12,11 +12,13 @@ from scipy.integrate import quad_vec, solve_ivp
 
 from flyby_estimation.target_motion import body_point_in_hill  # an independent eq 8-9
 from flyby_msgs_py.scenario import load_scenario
-from flyby_sim.orbital import (MU_EARTH_M3_S2, cw_transition_matrix, eci_from_relative, hill_axes_in_eci,
+from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
+from flyby_sim.dynamics.orbital import (cw_transition_matrix, eci_from_relative, hill_axes_in_eci,
                                mean_motion_rad_s, relative_from_eci, target_eci_state)
 from flyby_sim.plant import Plant, PlantConfig, plant_config_from_scenario
-from flyby_sim.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
-from flyby_sim.thrusters import STANDARD_GRAVITY_M_S2, ManeuverRejected, ThrusterConfig
+from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
 
 RADIUS_M = 7.0e6
 N = mean_motion_rad_s(RADIUS_M)

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from flyby_sim.rotation import (quat_conjugate, quat_from_axis_angle, quat_from_matrix,
+from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_axis_angle, quat_from_matrix,
                                 quat_from_rotation_vector, quat_multiply, quat_normalize, quat_rotate,
                                 quat_to_matrix, random_small_rotation, rotation_vector_from_quat)
 

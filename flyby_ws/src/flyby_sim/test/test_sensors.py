@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from flyby_sim.rotation import quat_conjugate, quat_multiply, quat_normalize, rotation_vector_from_quat
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, rotation_vector_from_quat
 from flyby_sim.sensors import SensorModel, is_sample_step
 
 

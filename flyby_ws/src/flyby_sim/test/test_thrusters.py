@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from flyby_sim.thrusters import (STANDARD_GRAVITY_M_S2, ManeuverRejected, ThrusterConfig, ThrusterModel,
-                                 fuel_for_delta_v_kg)
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig, fuel_for_delta_v_kg
+from flyby_sim.thrusters import ThrusterModel
 
 SIGMA_MAG = 0.01
 SIGMA_DIR = math.radians(0.5)

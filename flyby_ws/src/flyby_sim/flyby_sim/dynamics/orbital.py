@@ -19,10 +19,8 @@ import math
 
 import numpy as np
 
-from flyby_sim.rotation import quat_from_matrix, quat_multiply
-
-MU_EARTH_M3_S2 = 3.986004418e14
-R_EARTH_M = 6378137.0
+from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
+from flyby_sim.dynamics.rotation import quat_from_matrix, quat_multiply
 
 
 def mean_motion_rad_s(radius_m, mu=MU_EARTH_M3_S2):
@@ -110,6 +108,11 @@ def cw_transition_matrix(n, t):
         (0.0, -n * s, 0.0, 0.0, c, 0.0),
         (0.0, 0.0, 3.0 * n * s, -2.0 * s, 0.0, c),
     ))
+
+
+def cw_coast(r_hill, v_hill, dt_s, n):
+    """State [r_hill; v_hill] (6,) after coasting dt_s [s] (may be negative) along CW, seed 000 eq 22."""
+    return cw_transition_matrix(n, dt_s) @ np.concatenate((r_hill, v_hill))
 
 
 def hill_axes_in_eci(t, n):

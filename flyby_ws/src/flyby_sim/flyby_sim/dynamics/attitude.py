@@ -12,7 +12,7 @@ import math
 import numpy as np
 from scipy.integrate import DOP853
 
-from flyby_sim.rotation import quat_normalize, quat_rotate
+from flyby_sim.dynamics.rotation import quat_normalize, quat_rotate, skew
 
 
 def euler_rate(omega_body, inertia, inertia_inv, torque_body=(0.0, 0.0, 0.0)):
@@ -45,6 +45,31 @@ def quaternion_rate(q_inertial_from_body, omega_body):
         0.5 * (w * wz + x * wy - y * wx),
         -0.5 * (x * wx + y * wy + z * wz),
     ))
+
+
+def body_point_state(c_hill_from_body, omega_body, x_body, n):
+    """Position and velocity of a body-fixed point in hill, seed 000 eq 8-9, for a body whose centre
+    of mass is the hill origin.
+
+    Eq 8: x^H = C_hill_from_body x_B. Eq 9 as printed, v^H = C (omega x x_B) + C_I^H (Omega^I x C_B^I x_B),
+    has the wrong sign on the orbital-rate term for a velocity relative to the rotating hill frame:
+    d/dt(C x_B) = C (omega_B x x_B) - Omega^H x x^H with Omega^H = [0, -n, 0] (seed 000 eq 11).
+    test_target_motion.py::test_seed000_eq9_sign_by_numerical_derivative settles it.
+
+    Args:
+        c_hill_from_body: rotation matrix of q_hill_from_body.
+        omega_body: inertial angular velocity, body axes [rad/s].
+        x_body: the point in body axes [m].
+        n: orbital mean motion [rad/s].
+
+    Returns:
+        (r_hill [m], v_hill [m/s] relative to the rotating hill frame).
+    """
+    c = np.asarray(c_hill_from_body, dtype=float)
+    x_b = np.asarray(x_body, dtype=float)
+    r_hill = c @ x_b  # eq 8
+    v_hill = c @ np.cross(np.asarray(omega_body, dtype=float), x_b) - skew((0.0, -n, 0.0)) @ r_hill  # eq 9
+    return r_hill, v_hill
 
 
 def kinetic_energy(omega_body, inertia):

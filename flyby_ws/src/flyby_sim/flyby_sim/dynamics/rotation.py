@@ -98,6 +98,47 @@ def quat_rotate(q, v):
     ))
 
 
+def quat_rotate_many(q, v):
+    """Vectors v (N, 3) rotated by unit quaternions q: one (4,) for all, or one per vector (N, 4).
+
+    The vectorized ``quat_rotate`` for arrays of samples (N >= 1); returns (N, 3).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    v = np.atleast_2d(np.asarray(v, dtype=float))
+    u = q[:, :3]
+    w = q[:, 3:4]
+    t = 2.0 * np.cross(u, v)  # t = 2 (u x v); v' = v + w t + u x t
+    return v + w * t + np.cross(u, t)
+
+
+def skew(v):
+    """[v x], the 3x3 matrix with skew(v) @ u = cross(v, u)."""
+    x, y, z = v
+    return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
+
+
+def quat_shortest_arc(u_from, u_to):
+    """Unit quaternion of the smallest rotation taking direction u_from onto direction u_to.
+
+    Both directions need not be unit, must be nonzero. Opposite directions: a half turn about the
+    axis perpendicular to u_from nearest the basis vector least aligned with it.
+    """
+    a = np.asarray(u_from, dtype=float)
+    b = np.asarray(u_to, dtype=float)
+    na, nb = math.sqrt(float(a @ a)), math.sqrt(float(b @ b))
+    if not (math.isfinite(na) and math.isfinite(nb) and na > 0.0 and nb > 0.0):
+        raise ValueError(f'directions {a.tolist()} and {b.tolist()} must be finite and nonzero')
+    a, b = a / na, b / nb
+    axis = np.cross(a, b)
+    s, c = math.sqrt(float(axis @ axis)), float(a @ b)
+    if s < 1e-12:
+        if c > 0.0:
+            return np.array((0.0, 0.0, 0.0, 1.0))
+        axis = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+        return quat_from_axis_angle(axis, math.pi)
+    return quat_from_rotation_vector(axis / s * math.atan2(s, c))
+
+
 def quat_from_rotation_vector(rotvec):
     """Unit quaternion of the rotation by |rotvec| [rad] about rotvec (the exponential map)."""
     rx, ry, rz = rotvec

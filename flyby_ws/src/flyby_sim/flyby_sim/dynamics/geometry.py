@@ -5,15 +5,13 @@ Quaternions are (x, y, z, w), scalar last; ``q_hill_from_body`` rotates body vec
 
 import numpy as np
 
+from flyby_sim.dynamics.rotation import quat_rotate_many
+
 
 def rotate_into_body(q_hill_from_body, r_hill):
-    """Hill vectors (N,3) expressed in body axes, for per-sample attitudes (N,4)."""
+    """Hill vectors (N,3) expressed in body axes, for per-sample attitudes (N,4) or one (4,)."""
     q = np.atleast_2d(np.asarray(q_hill_from_body, dtype=float))
-    r = np.atleast_2d(np.asarray(r_hill, dtype=float))
-    u = -q[:, :3]  # inverse rotation: conjugate quaternion
-    w = q[:, 3:4]
-    t = 2.0 * np.cross(u, r)
-    return r + w * t + np.cross(u, t)
+    return quat_rotate_many(np.column_stack((-q[:, :3], q[:, 3:4])), r_hill)  # the conjugate: hill -> body
 
 
 def signed_distance_to_box(p_body, center_m, size_m):

@@ -1,0 +1,57 @@
+"""QoS profiles of the contract topics (DESIGN §4) (rclpy side; the names are ``contract``)."""
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from flyby_msgs_py.contract import LATCHED_TOPICS, MISSION_EVENTS
+
+# Streams (truth, sensors, estimates, commands): reliable so that nothing is lost on the way to
+# the recorder; the depth covers the burst between two flow-control points of the simulator.
+QOS_STREAM = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=200,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+# Latched state: late joiners get the last value (mission phase, the plan, markers).
+QOS_LATCHED = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+# Events: a late joiner gets the recent history.
+QOS_EVENTS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+# The recorder subscribes deeper than any publisher keeps, so a slow callback never drops a sample.
+QOS_RECORDER = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=5000,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+QOS_RECORDER_LATCHED = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+
+
+def qos_for(topic):
+    """Publisher QoS of a contract topic."""
+    if topic == MISSION_EVENTS:
+        return QOS_EVENTS
+    if topic in LATCHED_TOPICS:
+        return QOS_LATCHED
+    return QOS_STREAM
+
+
+def recorder_qos_for(topic):
+    """Subscription QoS the recorder uses for a contract topic (compatible with ``qos_for``)."""
+    if topic == MISSION_EVENTS or topic in LATCHED_TOPICS:
+        return QOS_RECORDER_LATCHED
+    return QOS_RECORDER
