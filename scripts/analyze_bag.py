@@ -10,11 +10,15 @@ different route than flyby_planner.summary takes, from truth alone:
 
 * delta-v and fuel: the total impulse of /sim/chaser/thrust gives the fuel, the rocket equation over
   the whole run the delta-v (the summary sums it per step);
+* grasp time: the stamp of the last planner/grasp published before the supervisor's decision (the
+  grasp the mission aimed at; the summary reads the supervisor's decision event);
 * capture errors: the chaser at t_g by cubic Hermite interpolation of truth position and velocity,
   the target attitude by propagating the nearest truth sample with its body rate (the summary
-  interpolates linearly and by slerp); the grasp time is the supervisor's decision, the one claim used;
-* clearance: every truth sample against the target boxes; thrust inside the sphere: every thrusting
-  step's end points; counts from the simulator's own events.
+  interpolates linearly and by slerp). Shared with the summary: the fly-by target point of a given
+  attitude (seed 000 eq 8-9, 20-21, flyby_planner.grasp.flyby_target_from_attitude), the one physics;
+* clearance: every truth sample against the target boxes by a second implementation (scipy rotation,
+  closest point by clamping; the summary uses flyby_sim.dynamics.geometry); thrust inside the sphere:
+  every thrusting step's end points; counts from the simulator's own events.
 
 Prints a table and exits 0 when everything agrees (1 mm, 0.1 mm/s, 1e-6 kg, 1 ms), 4 when something
 disagrees, 2 on bad input.
@@ -32,11 +36,10 @@ from scipy.spatial.transform import Rotation
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag, repair_bag
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.grasp import flyby_target_from_attitude
-from flyby_planner.summary import grasp_time
-from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.scenario import load_scenario
 
 # figure -> tolerance of the agreement (its unit)
 TOLERANCES = {
@@ -47,12 +50,35 @@ TOLERANCES = {
 }
 
 
+def box_clearance(r_hill, q_hill_from_body, centers_body_m, sizes_m, envelope_radius_m):
+    """Gap (N,) between the envelope sphere and the nearest box, by the closest point of each box."""
+    p_body = Rotation.from_quat(q_hill_from_body).inv().apply(r_hill)
+    gaps = []
+    for center, size in zip(centers_body_m, sizes_m):
+        lo, hi = np.asarray(center) - 0.5 * np.asarray(size), np.asarray(center) + 0.5 * np.asarray(size)
+        outside = np.linalg.norm(p_body - np.clip(p_body, lo, hi), axis=1)
+        depth = np.minimum(p_body - lo, hi - p_body).min(axis=1)  # > 0 inside: distance to the nearest face
+        gaps.append(np.where(outside > 0.0, outside, -np.maximum(depth, 0.0)))
+    return np.min(gaps, axis=0) - envelope_radius_m
+
+
+def aimed_grasp_time(events, grasp):
+    """The stamp of the last planner/grasp sent before the supervisor decided capture or escape, or None."""
+    decided = [e['t'] for e in events if e['name'] == 'phase_changed'
+               and e['values'].get('to') in (c.PHASE_CAPTURE, c.PHASE_ESCAPE)]
+    if not decided or grasp is None or not len(grasp.t):
+        return None
+    sent = grasp.t[grasp.t_received <= decided[0]]
+    return float(sent[-1]) if len(sent) else None
+
+
 def recompute(bag_dir, scenario):
     """Every figure of TOLERANCES from the truth topics of the bag."""
-    topics = [c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_EVENTS)]
+    topics = [c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_EVENTS,
+                                      c.PLANNER_GRASP)]
     data = read_bag(bag_dir, topics=topics)
     chaser, target = data.get(topics[0]), data.get(topics[1])
-    thrust, events = data.get(topics[2]), data.get(topics[3]) or []
+    thrust, events, grasp = data.get(topics[2]), data.get(topics[3]) or [], data.get(topics[4])
     out = {k: None for k in TOLERANCES}
     sim_events = [e for e in events if e.get('hardware_id') == 'flyby_sim']
     for key, name in (('maneuvers_executed', 'burn_started'), ('late_maneuvers', 'late_maneuver'),
@@ -78,11 +104,11 @@ def recompute(bag_dir, scenario):
 
     if target is not None and len(target.t):
         common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
-        boxes = list(zip(scenario.boxes.center_body_m, scenario.boxes.size_m))
-        gaps = clearance(chaser.position[i_c], target.orientation_xyzw[i_t], boxes, scenario.chaser.envelope_radius_m)
+        gaps = box_clearance(chaser.position[i_c], target.orientation_xyzw[i_t], scenario.boxes.center_body_m,
+                             scenario.boxes.size_m, scenario.chaser.envelope_radius_m)
         k = int(np.argmin(gaps))
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
-        t_g = grasp_time(events)
+        t_g = aimed_grasp_time(events, grasp)
         out['t_grasp_s'] = t_g
         if t_g is not None and chaser.t[0] <= t_g <= chaser.t[-1]:
             spline = CubicHermiteSpline(chaser.t, chaser.position, chaser.linear)

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_msgs_py.schema import ScenarioError
+from flyby_sim.scenario import load_scenario
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # scripts/ is not a package
 from plan_capture import timed_plan  # noqa: E402

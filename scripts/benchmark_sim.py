@@ -24,8 +24,8 @@ import numpy as np
 import yaml
 
 from flyby_msgs_py.bag import read_bag
-from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 TRUTH = ['/sim/chaser/odom', '/sim/target/odom']

@@ -1,27 +1,35 @@
 #!/usr/bin/env python3
-"""Closed-loop fly-by approaches in one process (no ROS): figures of the guidance, measured from truth.
+"""Headless missions in one process (no ROS), by the rules of the node graph, figures from truth.
 
-    .venv/bin/python scripts/closed_loop.py [--scenario S] [--runs N] [--first-seed K] [--nav-noise-scale F]
+    .venv/bin/python scripts/closed_loop.py --scenario S --seed N --out DIR
+    .venv/bin/python scripts/closed_loop.py [--scenario S] --runs N [--first-seed K] [--nav-noise-scale F]
                                             [--jobs J] [--json FILE]
 
-Each run is the scenario with seed K, K+1, ...: estimation, planning (on the estimates), terminal
-transfer, trajectory adjusting and the coast past the grasp (flyby_guidance.closed_loop). Prints one
-line per run and the statistics: miss of the true chaser at the grasp time against the fly-by target
-point recomputed from the true target attitude (position, velocity), commanded against ideal
-delta-v (eq 28-29 of the same transfer from the true state), least clearance from the real target
-geometry, and any thrust inside the restriction sphere.
+With --out: one mission (flyby_guidance.closed_loop: the plant and the cores every node runs, wired as
+the topics wire them); DIR receives scenario.yaml (the exact input) and summary.json with the keys and
+outcome classes of scripts/run_mission.py's, and the outcome table is printed. Exit code as
+run_mission.py's (0 capture, 3 safe without capture, 5 collision, 1 error).
+
+With --runs: seeds K, K+1, ... in J processes; one line per run and the statistics: the miss of the
+true chaser at the grasp time against the fly-by target point recomputed from the true target
+attitude (position, velocity), the delta-v commanded against the ideal one (eq 28-29 of the same
+transfer from the true state), the least clearance from the real target geometry, and any thrust
+inside the restriction sphere.
 """
 
 import argparse
 import json
 import multiprocessing
+import shutil
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from flyby_guidance.closed_loop import run_closed_loop, scaled_navigation_noise
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_guidance.closed_loop import run_headless, scaled_navigation_noise
+from flyby_msgs_py.schema import ScenarioError
+from flyby_planner.summary import EXIT_CODES, format_summary
+from flyby_sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,7 +39,8 @@ def _one(job):
     scenario = load_scenario(path, seed=seed)
     if scale != 1.0:
         scenario = scaled_navigation_noise(scenario, scale)
-    return run_closed_loop(scenario).to_dict()
+    run = run_headless(scenario)
+    return {**run.summary, 'dv_commanded_mps': run.dv_commanded_mps, 'dv_ideal_mps': run.dv_ideal_mps}
 
 
 def _stats(label, values, unit, scale=1.0):
@@ -42,45 +51,66 @@ def _stats(label, values, unit, scale=1.0):
             f'{np.percentile(a, 95):.4g} {unit}, max {a.max():.4g} {unit} (n = {a.size})')
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby.yaml'))
-    ap.add_argument('--runs', type=int, default=10)
-    ap.add_argument('--first-seed', type=int, default=1)
-    ap.add_argument('--nav-noise-scale', type=float, default=1.0, help='multiply the relative-position noise')
-    ap.add_argument('--jobs', type=int, default=2)
-    ap.add_argument('--json', help='write every run as JSON here')
-    args = ap.parse_args()
-    try:
-        load_scenario(args.scenario)
-    except (ScenarioError, OSError) as err:
-        print(err, file=sys.stderr)
-        return 2
+def _fmt(x, spec):
+    return format(x, spec) if x is not None else format(float('nan'), spec)
+
+
+def many(args):
     jobs = [(args.scenario, args.first_seed + k, args.nav_noise_scale) for k in range(args.runs)]
     with multiprocessing.Pool(args.jobs) as pool:
         runs = pool.map(_one, jobs)
-    print(f'{"seed":>5} {"t_grasp":>9} {"miss_m":>8} {"miss_mm/s":>9} {"dv":>7} {"ideal":>7} {"dv/ideal":>8} '
-          f'{"clear_m":>7} {"thrust_in":>9}')
+    print(f'{"seed":>5} {"outcome":>12} {"t_grasp":>9} {"miss_m":>8} {"miss_mm/s":>9} {"dv":>7} {"ideal":>7} '
+          f'{"dv/ideal":>8} {"clear_m":>7} {"thrust_in":>9}')
     for r in runs:
-        if not r['plan_ok']:
-            print(f'{r["seed"]:>5} no plan: {r["plan_reason"]}')
-            continue
-        miss = r['miss_position_m']
-        print(f'{r["seed"]:>5} {r["t_grasp"] or float("nan"):9.2f} {miss if miss is not None else float("nan"):8.4f} '
-              f'{1e3 * (r["miss_velocity_mps"] or float("nan")):9.3f} {r["dv_commanded_mps"]:7.4f} '
-              f'{r["dv_ideal_mps"]:7.4f} {r["dv_commanded_mps"] / r["dv_ideal_mps"]:8.3f} '
-              f'{r["min_clearance_m"] if r["min_clearance_m"] is not None else float("nan"):7.3f} '
-              f'{str(r["thrust_inside_sphere"]):>9}')
-    planned = [r for r in runs if r['plan_ok']]
-    print(f'navigation noise x{args.nav_noise_scale:g}, {len(planned)}/{len(runs)} planned')
-    print(_stats('position miss at the grasp', [r['miss_position_m'] for r in planned], 'cm', 100.0))
-    print(_stats('velocity miss at the grasp', [r['miss_velocity_mps'] for r in planned], 'mm/s', 1e3))
-    print(_stats('commanded / ideal delta-v', [r['dv_commanded_mps'] / r['dv_ideal_mps'] for r in planned], ''))
-    print(_stats('least clearance (real geometry)', [r['min_clearance_m'] for r in planned], 'm'))
-    print(f'runs with thrust inside the restriction sphere: {sum(r["thrust_inside_sphere"] for r in runs)}')
+        ratio = r['dv_commanded_mps'] / r['dv_ideal_mps'] if r['dv_ideal_mps'] else None
+        vel = None if r['capture_velocity_error_mps'] is None else 1e3 * r['capture_velocity_error_mps']
+        print(f'{r["seed"]:>5} {r["outcome"]:>12} {_fmt(r["t_grasp_s"], "9.2f")} '
+              f'{_fmt(r["capture_position_error_m"], "8.4f")} {_fmt(vel, "9.3f")} {r["dv_commanded_mps"]:7.4f} '
+              f'{_fmt(r["dv_ideal_mps"], "7.4f")} {_fmt(ratio, "8.3f")} {_fmt(r["min_clearance_m"], "7.3f")} '
+              f'{str(r["thrust_inside_restriction_sphere"]):>9}')
+    flown = [r for r in runs if r['dv_ideal_mps']]
+    outcomes = {o: sum(r['outcome'] == o for r in runs) for o in sorted({r['outcome'] for r in runs})}
+    print(f'navigation noise x{args.nav_noise_scale:g}; outcomes {outcomes}')
+    print(_stats('position miss at the grasp', [r['capture_position_error_m'] for r in flown], 'cm', 100.0))
+    print(_stats('velocity miss at the grasp', [r['capture_velocity_error_mps'] for r in flown], 'mm/s', 1e3))
+    print(_stats('commanded / ideal delta-v', [r['dv_commanded_mps'] / r['dv_ideal_mps'] for r in flown], ''))
+    print(_stats('least clearance (real geometry)', [r['min_clearance_m'] for r in flown], 'm'))
+    print(f'runs with thrust inside the restriction sphere: {sum(r["thrust_inside_restriction_sphere"] for r in runs)}')
     if args.json:
         Path(args.json).write_text(json.dumps(runs, indent=1))
     return 0
+
+
+def one(args):
+    scenario = load_scenario(args.scenario, seed=args.seed)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(args.scenario, out / 'scenario.yaml')
+    summary = run_headless(scenario).summary
+    (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
+    print(format_summary(summary))
+    return EXIT_CODES[summary['outcome']]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby.yaml'))
+    ap.add_argument('--seed', type=int, help="one run: override the scenario's seed")
+    ap.add_argument('--out', help='one run: write scenario.yaml and summary.json here')
+    ap.add_argument('--runs', type=int, help='many runs: how many (seeds first-seed, first-seed + 1, ...)')
+    ap.add_argument('--first-seed', type=int, default=1)
+    ap.add_argument('--nav-noise-scale', type=float, default=1.0, help='many runs: multiply the relative-position noise')
+    ap.add_argument('--jobs', type=int, default=2)
+    ap.add_argument('--json', help='many runs: write every run as JSON here')
+    args = ap.parse_args(argv)
+    if (args.out is None) == (args.runs is None):
+        ap.error('give either --out DIR (one run) or --runs N (many runs)')
+    try:
+        load_scenario(args.scenario)
+    except ScenarioError as err:
+        print(f'error: {err}', file=sys.stderr)
+        return 1
+    return one(args) if args.out else many(args)
 
 
 if __name__ == '__main__':

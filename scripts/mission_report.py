@@ -32,22 +32,27 @@ import sys
 import traceback
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy.spatial import ConvexHull  # noqa: E402
-from scipy.spatial.transform import Rotation  # noqa: E402
+from flyby_estimation.target_motion import q_eci_from_body
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import BagError, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
+from flyby_msgs_py.schema import ScenarioError
+from flyby_planner.keepout import swept_region
+from flyby_planner.summary import grasp_time
+from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate_many,
+    rotation_vector_from_quat,
+)
+from flyby_sim.scenario import load_scenario
 
-from flyby_estimation.target_motion import q_eci_from_body  # noqa: E402
-from flyby_msgs_py import contract as c  # noqa: E402
-from flyby_msgs_py.bag import (BagError, PathLatest, StringSeries, bag_topics, read_bag,  # noqa: E402
-                               repair_bag)
-from flyby_msgs_py.scenario import ScenarioError, load_scenario  # noqa: E402
-from flyby_planner.keepout import swept_region  # noqa: E402
-from flyby_planner.summary import grasp_time  # noqa: E402
-from flyby_sim.dynamics.geometry import clearance  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # scripts/ is not a package
+import plots  # noqa: E402
+from plots import plt  # noqa: E402
 
 DPI = 100
 STAMP_TOLERANCE_S = 1e-6      # truth (every step) and estimate stamps that are the same instant
@@ -214,9 +219,9 @@ class Run:
                   if e['name'] == 'phase_changed' and 'to' in e['values']]
         msgs = self.get(c.MISSION_PHASE)
         if not starts and msgs is not None:
-            starts = list(zip(msgs.t_received, msgs.data))
+            starts = list(zip(msgs.t_received, msgs.data, strict=True))
         ends = [t for t, _ in starts[1:]] + [self.t_end]
-        return [(t0, max(t0, t1), phase) for (t0, phase), t1 in zip(starts, ends)]
+        return [(t0, max(t0, t1), phase) for (t0, phase), t1 in zip(starts, ends, strict=True)]
 
     @functools.cached_property
     def kind_colors(self):
@@ -274,17 +279,17 @@ class Run:
         return path.times[keep], path.positions[keep]
 
     def points(self):
-        """[(position, label, marker style)] of the start and the planner's points the run has."""
+        """[(label, position, marker style)] of the start and the planner's points the run has."""
         out = []
         chaser = self.get(c.SIM_CHASER_ODOM)
         if chaser is not None:
-            out.append((chaser.position[0], 'start', dict(marker='o', color='g', ms=11)))
+            out.append(('start', chaser.position[0], dict(marker='o', color='g', ms=11)))
         for topic, label, style in ((c.PLANNER_FLYBY_INITIAL, '$X_{Fi}$', dict(marker='s', color='m', ms=11)),
                                     (c.PLANNER_FLYBY_TARGET, '$X_{Ft}$', dict(marker='*', color='r', ms=13)),
                                     (c.PLANNER_GRASP, 'grasp point', dict(marker='X', color='darkred', ms=9))):
             series = self.get(topic)
             if series is not None:
-                out.append((series.position[-1], label, style))
+                out.append((label, series.position[-1], style))
         return out
 
 
@@ -292,35 +297,12 @@ class Run:
 # Shared drawing
 # ---------------------------------------------------------------------------------------------
 
-def cylinder_surfaces(region, axis):
-    """Per cylinder of the region about the unit hill axis: its closed surface as a (4, 64, 3) grid
-    [m] (bottom centre, bottom rim, top rim, top centre), for plot_surface or an outline."""
-    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u)
-    v = np.cross(axis, u)
-    phi = np.linspace(0.0, 2.0 * np.pi, 64)
-    ring = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v
-    centre = np.zeros_like(ring)
-    return [np.stack((lo * axis + centre, lo * axis + r * ring, hi * axis + r * ring, hi * axis + centre))
-            for lo, hi, r in zip(region.axial_min_m, region.axial_max_m, region.radius_m)]
-
-
 def box_corners_hill(scenario, q_hill_from_body):
     """Per target box: its 8 corners in hill (8, 3) [m] at the attitude q_hill_from_body."""
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    rot = Rotation.from_quat(q_hill_from_body)
-    return [rot.apply(np.asarray(center) + 0.5 * signs * np.asarray(size))
-            for center, size in zip(scenario.boxes.center_body_m, scenario.boxes.size_m)]
-
-
-def _fill_xz(ax, point_sets, **style):
-    """Fill the x-z outline (convex hull) of each point set; label only the first."""
-    for points in point_sets:
-        xz = points.reshape(-1, 3)[:, [0, 2]]
-        hull = xz[ConvexHull(xz, qhull_options='QJ').vertices]  # QJ: a flat outline does not fail
-        ax.fill(hull[:, 0], hull[:, 1], **style)
-        style.pop('label', None)
+    q = quat_normalize(q_hill_from_body)
+    return [quat_rotate_many(q, np.asarray(center) + 0.5 * signs * np.asarray(size))
+            for center, size in zip(scenario.boxes.center_body_m, scenario.boxes.size_m, strict=True)]
 
 
 def _target_xz(ax, run):
@@ -328,17 +310,15 @@ def _target_xz(ax, run):
     t_r, label = run.region_time
     if run.region is not None:
         axis = run.region.axis_hill(t_r, run.scenario.mean_motion_rad_s)
-        _fill_xz(ax, cylinder_surfaces(run.region, axis), color=REGION_FILL, lw=0, zorder=1,
-                 label=f'swept keep-out region ({label}, t = {t_r:.0f} s)')
+        plots.fill_outline_xz(ax, plots.cylinder_surfaces(run.region, axis), color=REGION_FILL, lw=0, zorder=1,
+                              label=f'swept keep-out region ({label}, t = {t_r:.0f} s)')
     q_true = run.target_attitude_at(t_r)
     if run.scenario is not None and q_true is not None:
-        _fill_xz(ax, box_corners_hill(run.scenario, q_true), color=BODY_FILL, lw=0, zorder=2,
-                 label=f'target boxes at t = {t_r:.0f} s')
+        plots.fill_outline_xz(ax, box_corners_hill(run.scenario, q_true), color=BODY_FILL, lw=0, zorder=2,
+                              label=f'target boxes at t = {t_r:.0f} s')
     if run.scenario is not None:
         radius = run.scenario.planner.restriction_sphere_radius_m
-        phi = np.linspace(0.0, 2.0 * np.pi, 200)
-        ax.plot(radius * np.cos(phi), radius * np.sin(phi), color='0.4', lw=0.8, ls=':',
-                label=f'restriction sphere {radius:g} m')
+        plots.sphere_xz(ax, radius, color='0.4', lw=0.8, ls=':', label=f'restriction sphere {radius:g} m')
 
 
 def _paths_and_points(ax, run, project):
@@ -349,15 +329,9 @@ def _paths_and_points(ax, run, project):
     planned = run.planned_path()
     if planned is not None:
         ax.plot(*project(planned[1]), color=PLAN, lw=1.0, ls='--', label='planned path')
-    marks = [(run.truth_at(b.t_start), f'{b.kind} burn',
-              dict(marker='^', ms=6, color=run.kind_colors[b.kind])) for b in run.burns]
-    seen = set()
-    for position, label, style in run.points() + marks:
-        coords = project(np.asarray(position)[None, :])
-        if np.isnan(coords[0]).all():
-            continue
-        ax.plot(*coords, ls='', mec='k', mew=0.5, zorder=5, label=None if label in seen else label, **style)
-        seen.add(label)
+    marks = [(f'{b.kind} burn', run.truth_at(b.t_start), dict(marker='^', ms=6, color=run.kind_colors[b.kind]))
+             for b in run.burns]
+    plots.mark_points(ax, run.points() + marks, project, mec='k', mew=0.5, zorder=5)
 
 
 def _phase_bands(ax, run, legend=True):
@@ -376,25 +350,16 @@ def _burn_lines(ax, run, labels=True):
                     va='bottom', ha='center', fontsize=7, color=run.kind_colors[b.kind])
 
 
-def _save(fig, path):
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-
-
 # ---------------------------------------------------------------------------------------------
 # Figures
 # ---------------------------------------------------------------------------------------------
 
-def _xz(points):
-    return points[:, 0], points[:, 2]
-
-
 def fig_trajectory_xz(run, path):
     run.need(c.SIM_CHASER_ODOM)
     fig, axes = plt.subplots(1, 2, figsize=(16, 7.5))
-    for ax, zoom in zip(axes, (None, 10.0)):
+    for ax, zoom in zip(axes, (None, 10.0), strict=True):
         _target_xz(ax, run)
-        _paths_and_points(ax, run, _xz)
+        _paths_and_points(ax, run, plots.xz)
         ax.set(aspect='equal', xlabel='hill x, along-track [m]', ylabel='hill z, toward Earth [m] (up: away)')
         ax.grid(alpha=0.3)
         if zoom is not None:
@@ -405,7 +370,7 @@ def fig_trajectory_xz(run, path):
     fig.legend(*axes[0].get_legend_handles_labels(), loc='center right', fontsize=9)
     fig.suptitle(run.title)
     fig.tight_layout(rect=(0, 0, 0.76, 1))
-    _save(fig, path)
+    plots.save(fig, path, DPI)
 
 
 def _oblique_view(axis, elev=25.0, off_axis_deg=55.0):
@@ -423,12 +388,6 @@ def _oblique_view(axis, elev=25.0, off_axis_deg=55.0):
 
 def fig_trajectory_3d(run, path, half_width_m=20.0):
     run.need(c.SIM_CHASER_ODOM)
-
-    def clip(points):
-        p = np.array(points, dtype=float)
-        p[np.any(np.abs(p) > half_width_m, axis=1)] = np.nan  # 3-D axes do not clip
-        return p.T
-
     fig = plt.figure(figsize=(10, 9.5))
     ax = fig.add_axes((0.0, 0.1, 1.0, 0.85), projection='3d')
     t_r, label = run.region_time
@@ -436,24 +395,21 @@ def fig_trajectory_3d(run, path, half_width_m=20.0):
     if run.region is not None:
         axis = run.region.axis_hill(t_r, run.scenario.mean_motion_rad_s)
         elev, azim = _oblique_view(axis)
-        for surface in cylinder_surfaces(run.region, axis):
+        for surface in plots.cylinder_surfaces(run.region, axis):
             ax.plot_surface(*np.moveaxis(surface, -1, 0), color='0.5', alpha=0.3, lw=0)
         ax.plot([], [], color='0.55', lw=6, alpha=0.5, label=f'swept keep-out region ({label}, t = {t_r:.0f} s)')
     if run.scenario is not None:
         radius = run.scenario.planner.restriction_sphere_radius_m
-        u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 19), np.linspace(0, np.pi, 10))
-        ax.plot_wireframe(radius * np.cos(u) * np.sin(v), radius * np.sin(u) * np.sin(v), radius * np.cos(v),
-                          color='0.6', lw=0.3, alpha=0.5, label=f'restriction sphere {radius:g} m')
-    _paths_and_points(ax, run, clip)
-    ticks = np.linspace(-half_width_m, half_width_m, 5)
-    ax.set(xlim=(-half_width_m, half_width_m), ylim=(-half_width_m, half_width_m),
-           zlim=(half_width_m, -half_width_m), xticks=ticks, yticks=ticks, zticks=ticks,
-           xlabel='hill x, along-track [m]', ylabel='hill y, anti-normal [m]', zlabel='hill z, toward Earth [m]')
+        plots.sphere_wireframe(ax, radius, 19, 10, color='0.6', lw=0.3, alpha=0.5,
+                               label=f'restriction sphere {radius:g} m')
+    _paths_and_points(ax, run, plots.cube_clip(half_width_m))
+    plots.cube_axes(ax, half_width_m, 5,
+                    labels=('hill x, along-track [m]', 'hill y, anti-normal [m]', 'hill z, toward Earth [m]'))
     ax.set_box_aspect((1, 1, 1))
     ax.view_init(elev=elev, azim=azim)
     fig.legend(*ax.get_legend_handles_labels(), loc='lower center', ncol=3, fontsize=9)
     fig.suptitle(f'{run.title}: within {half_width_m:g} m of the target (what lies beyond is left out)')
-    _save(fig, path)
+    plots.save(fig, path, DPI)
 
 
 def _range_and_rate(series):
@@ -490,7 +446,7 @@ def fig_range(run, path):
     ax_v.legend(fontsize=8, loc='lower left')
     fig.suptitle(f'{run.title}: range to the target (vertical lines: burn starts)')
     fig.tight_layout()
-    _save(fig, path)
+    plots.save(fig, path, DPI)
 
 
 def fig_maneuvers(run, path):
@@ -544,7 +500,7 @@ def fig_maneuvers(run, path):
         ax.grid(alpha=0.3, axis='y', which='both')
     fig.suptitle(f'{run.title}: {len(burns)} executed burns, commanded (hatched) against executed')
     fig.tight_layout()
-    _save(fig, path)
+    plots.save(fig, path, DPI)
 
 
 def _sigma3(covariance, block):
@@ -588,8 +544,9 @@ def estimation_errors(run):
         rows += [('target attitude', target), ('target body rate', target)]
     else:
         e, tr, i, j = target
-        dtheta = (Rotation.from_quat(e.orientation_xyzw[i]) * Rotation.from_quat(tr.orientation_xyzw[j]).inv())
-        rows.append(('target attitude (hill axes)', 'deg', e.t[i], dtheta.as_rotvec() * deg,
+        dtheta = np.array([rotation_vector_from_quat(quat_multiply(q_est, quat_conjugate(q_true)))
+                           for q_est, q_true in zip(e.orientation_xyzw[i], tr.orientation_xyzw[j], strict=True)])
+        rows.append(('target attitude (hill axes)', 'deg', e.t[i], dtheta * deg,
                      _sigma3(e.pose_covariance[i], rot) * deg))
         rows.append(('target body rate (body axes)', 'deg/s', e.t[i], (e.angular[i] - tr.angular[j]) * deg,
                      _sigma3(e.twist_covariance[i], rot) * deg))
@@ -602,7 +559,7 @@ def fig_estimation(run, path):
         raise Skipped('; '.join(dict.fromkeys(r[1] for r in rows)))
     fig, axes = plt.subplots(len(rows), 3, figsize=(15, 12), sharex=True)
     t_g, label = run.grasp
-    for row, ax_row in zip(rows, axes):
+    for row, ax_row in zip(rows, axes, strict=True):
         if len(row) == 2:
             _say(f'estimation.png: {row[0]} left out: {row[1]}')
             for ax in ax_row:
@@ -614,7 +571,7 @@ def fig_estimation(run, path):
         # logarithmic beyond (the first estimates are far larger).
         typical = float(np.median(sig3[len(sig3) // 2:]))
         linthresh = 10.0 ** math.ceil(math.log10(typical)) if typical > 0.0 else 1e-9
-        for k, (ax, axis) in enumerate(zip(ax_row, 'xyz')):
+        for k, (ax, axis) in enumerate(zip(ax_row, 'xyz', strict=True)):
             ax.fill_between(t, -sig3[:, k], sig3[:, k], color='C0', alpha=0.2, lw=0, label='$\\pm 3\\sigma$')
             ax.plot(t, err[:, k], color='C3', lw=0.7, label='estimate - truth')
             ax.set_yscale('symlog', linthresh=linthresh)
@@ -635,7 +592,7 @@ def fig_estimation(run, path):
         fig.legend(*handles, loc='upper right', fontsize=8, ncol=3)
     fig.suptitle(f'{run.title}: estimation errors')
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    _save(fig, path)
+    plots.save(fig, path, DPI)
 
 
 def clearances(run):
@@ -647,7 +604,7 @@ def clearances(run):
         raise Skipped('no truth chaser and target samples at the same stamps')
     t, r = chaser.t[i_c], chaser.position[i_c]
     envelope = scenario.chaser.envelope_radius_m
-    boxes = list(zip(scenario.boxes.center_body_m, scenario.boxes.size_m))
+    boxes = list(zip(scenario.boxes.center_body_m, scenario.boxes.size_m, strict=True))
     actual = clearance(r, target.orientation_xyzw[i_t], boxes, envelope)
     swept = None if run.region is None else run.region.clearance(r, t, scenario.mean_motion_rad_s, envelope)
     return t, actual, swept
@@ -680,7 +637,7 @@ def fig_clearance(run, path, window_s=30.0):
     fig.suptitle(f'{run.title}: clearance of the chaser envelope '
                  f'({run.scenario.chaser.envelope_radius_m:g} m sphere)')
     fig.tight_layout()
-    _save(fig, path)
+    plots.save(fig, path, DPI)
 
 
 FIGURES = (

@@ -10,22 +10,26 @@ seed000_fig8_outofplane.png, and prints the Markdown table of docs/relative_moti
 import argparse
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.patches import Rectangle
 
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
-
-from flyby_planner.families import (SEED000_CASES, SEED000_CYLINDER_HALF_LENGTH_M,  # noqa: E402
-                                    SEED000_CYLINDER_RADIUS_M, SEED000_SPEEDS_M_S, seed000_family,
-                                    time_grid)
-from flyby_sim.dynamics.orbital import mean_motion_rad_s  # noqa: E402
+import plots
+from flyby_planner.families import (
+    SEED000_CASES,
+    SEED000_CYLINDER_HALF_LENGTH_M,
+    SEED000_CYLINDER_RADIUS_M,
+    SEED000_SPEEDS_M_S,
+    seed000_family,
+    time_grid,
+)
+from flyby_sim.dynamics.orbital import mean_motion_rad_s
+from plots import plt
 
 ROOT = Path(__file__).resolve().parents[1]
 RADIUS_M = 7.0e6  # seed 000 section 5
 T_MAX_S = 300.0  # planner.flyby_duration_s of scenarios/paper_flyby.yaml
 TABLE_TIMES_S = (10.0, 60.0, 300.0)
+DPI = 100
 COLORS = plt.cm.viridis(np.linspace(0.0, 0.9, len(SEED000_SPEEDS_M_S)))
 R_CYL = SEED000_CYLINDER_RADIUS_M
 H_CYL = SEED000_CYLINDER_HALF_LENGTH_M
@@ -43,7 +47,8 @@ def _arrow(ax, points, i, color):
 
 def fig6_inplane_xz(family, path):
     fig, ax = plt.subplots(figsize=(10, 4.6))
-    ax.add_patch(Rectangle((-R_CYL, -H_CYL), 2 * R_CYL, 2 * H_CYL, color='0.75', label='collision region (y = 0 section)'))
+    ax.add_patch(Rectangle((-R_CYL, -H_CYL), 2 * R_CYL, 2 * H_CYL, color='0.75',
+                           label='collision region (y = 0 section)'))
     for k, v in enumerate(SEED000_SPEEDS_M_S):
         xz = family.r_hill[k][:, [0, 2]]
         ax.plot(xz[:, 0], xz[:, 1], color=COLORS[k], label=_label(v))
@@ -58,8 +63,7 @@ def fig6_inplane_xz(family, path):
     ax.grid(alpha=0.3)
     ax.legend(loc='lower right', fontsize=8, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    plots.save(fig, path, DPI)
 
 
 def _cylinder_surface(ax, axis_index):
@@ -72,16 +76,12 @@ def _cylinder_surface(ax, axis_index):
 
 def _panel_3d(ax, family, axis_index, half_width_m, title):
     _cylinder_surface(ax, axis_index)
+    clip = plots.cube_clip(half_width_m)
     for k, v in enumerate(SEED000_SPEEDS_M_S):
-        r = family.r_hill[k].copy()
-        r[np.any(np.abs(r) > half_width_m, axis=1)] = np.nan  # 3-D axes do not clip
-        ax.plot(*r.T, color=COLORS[k], label=_label(v))
+        ax.plot(*clip(family.r_hill[k]), color=COLORS[k], label=_label(v))
     i0 = int(np.flatnonzero(family.t_s == 0.0)[0])
     ax.plot(*family.r_hill[0, i0][:, None], 'r*', ms=10)
-    ticks = np.linspace(-half_width_m, half_width_m, 5)
-    ax.set(xlim=(-half_width_m, half_width_m), ylim=(-half_width_m, half_width_m),
-           zlim=(half_width_m, -half_width_m), xticks=ticks, yticks=ticks, zticks=ticks,
-           xlabel='hill x [m]', ylabel='hill y [m]', zlabel='hill z, toward Earth [m]', title=title)
+    plots.cube_axes(ax, half_width_m, 5, title=title)
     ax.view_init(elev=20, azim=-60)
 
 
@@ -117,11 +117,11 @@ def _panel_distance(ax, family, title):
 def fig_region(family, axis_index, axial_lim_m, title, path):
     fig = plt.figure(figsize=(17, 5.2))
     _panel_3d(fig.add_subplot(1, 3, 1, projection='3d'), family, axis_index, 10.0, f'{title}: paths |x|,|y|,|z| < 10 m')
-    _panel_axial_radial(fig.add_subplot(1, 3, 2), family, 20.0, axial_lim_m, 'paths in the cylinder coordinates (approach = escape)')
+    _panel_axial_radial(fig.add_subplot(1, 3, 2), family, 20.0, axial_lim_m,
+                        'paths in the cylinder coordinates (approach = escape)')
     _panel_distance(fig.add_subplot(1, 3, 3), family, 'signed distance to the region (dashed: axis fixed in hill)')
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    plots.save(fig, path, DPI)
 
 
 def markdown_table(families):

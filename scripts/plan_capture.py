@@ -25,17 +25,14 @@ import sys
 import time
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Circle, Polygon  # noqa: E402
-from scipy.spatial import ConvexHull  # noqa: E402
-
-from flyby_msgs_py.scenario import ScenarioError, load_scenario  # noqa: E402
-from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction  # noqa: E402
-from flyby_sim.dynamics.orbital import cw_transition_matrix  # noqa: E402
+import plots
+from flyby_msgs_py.schema import ScenarioError
+from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
+from flyby_sim.dynamics.orbital import cw_coast
+from flyby_sim.scenario import load_scenario
+from plots import plt
 
 EXIT_PLANNED, EXIT_BAD_INPUT, EXIT_REFUSED = 0, 2, 3
 # Fields of the selected candidate's to_dict() repeated at the top level of the output.
@@ -47,12 +44,13 @@ NEAR_HALF_WIDTH_M = 15.0
 TERMINAL_HALF_WIDTH_M = 60.0
 VIEW_ELEVATION_DEG = 25.0
 VIEW_AZIMUTH_OFFSET_DEG = -60.0
+DPI = 80
 
 
 def chaser_state_at(scenario, t_plan_s):
     """Chaser (r_hill [m], v_hill [m/s]) at t_plan_s: the scenario's initial state coasted under CW (eq 22)."""
-    state0 = np.concatenate((scenario.chaser.initial_position_hill_m, scenario.chaser.initial_velocity_hill_mps))
-    state = cw_transition_matrix(scenario.mean_motion_rad_s, t_plan_s) @ state0
+    state = cw_coast(scenario.chaser.initial_position_hill_m, scenario.chaser.initial_velocity_hill_mps, t_plan_s,
+                     scenario.mean_motion_rad_s)
     return state[:3], state[3:]
 
 
@@ -88,28 +86,6 @@ def plan_report(scenario, plan, config, prediction_s, plan_s):
 # --------------------------------------------------------------------------------------------------
 # Figures: plan fields and SweptRegion only
 
-def _unit_normals(axis):
-    """Two unit vectors completing the unit axis to a right-handed orthonormal triad."""
-    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
-    u = np.cross(axis, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(axis, u)
-
-
-def _cylinder_grids(region, t_s, n, samples=48):
-    """Per cylinder of the region at time t_s: (side, lower cap, upper cap), each a (3, 2, samples) hill grid."""
-    axis = region.axis_hill(t_s, n)
-    u, w = _unit_normals(axis)
-    phi = np.linspace(0.0, 2.0 * np.pi, samples)
-    ring = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w  # (samples, 3)
-    out = []
-    for lo, hi, radius in zip(region.axial_min_m, region.axial_max_m, region.radius_m):
-        side = np.stack([h * axis + radius * ring for h in (lo, hi)])  # (2, samples, 3)
-        caps = [np.stack([np.broadcast_to(h * axis, ring.shape), h * axis + radius * ring]) for h in (lo, hi)]
-        out.append(tuple(np.moveaxis(g, -1, 0) for g in (side, *caps)))
-    return out
-
-
 def _segments(plan):
     """Boolean masks of the path parts: coast, terminal transfer, fly-by approach (passive), escape."""
     t, c = plan.path_t, plan.selected
@@ -133,20 +109,18 @@ def _points(plan):
 
 
 def _xz_panel(ax, plan, config, half_width_m=None):
-    c, n = plan.selected, config.mean_motion_rad_s
-    for side, _, _ in _cylinder_grids(plan.region, c.t_grasp, n):
-        xz = side[[0, 2]].reshape(2, -1).T
-        ax.add_patch(Polygon(xz[ConvexHull(xz).vertices], closed=True, color='0.55', alpha=0.45, lw=0))
+    c = plan.selected
+    axis = plan.region.axis_hill(c.t_grasp, config.mean_motion_rad_s)
+    plots.fill_outline_xz(ax, plots.cylinder_surfaces(plan.region, axis, samples=48), color='0.55', alpha=0.45,
+                          lw=0)
     ax.plot([], [], color='0.55', alpha=0.45, lw=6, label='swept keep-out region at $t_g$')
-    axis = plan.region.axis_hill(c.t_grasp, n)
     reach = plan.region.bounding_radius_m
     ax.plot(*(np.outer((-reach, reach), axis)[:, [0, 2]].T), color='0.3', lw=0.8, ls='-.', label='its axis at $t_g$')
-    ax.add_patch(Circle((0.0, 0.0), config.restriction_sphere_radius_m, fill=False, color='tab:red', ls='--',
-                        label=f'restriction sphere ({config.restriction_sphere_radius_m:g} m)'))
+    plots.sphere_xz(ax, config.restriction_sphere_radius_m, color='tab:red', ls='--',
+                    label=f'restriction sphere ({config.restriction_sphere_radius_m:g} m)')
     for part, mask in _segments(plan).items():
-        ax.plot(plan.path_r_hill[mask, 0], plan.path_r_hill[mask, 2], label=part, **SEGMENT_STYLE[part])
-    for label, r, style in _points(plan):
-        ax.plot(r[0], r[2], ls='none', label=label, **{'ms': 8, **style})
+        plots.plot_path(ax, plan.path_r_hill[mask], plots.xz, label=part, **SEGMENT_STYLE[part])
+    plots.mark_points(ax, _points(plan), plots.xz, ms=8)
     if half_width_m is not None and half_width_m <= ZOOM_HALF_WIDTH_M:
         ax.annotate('', xy=(c.x_ft + 10.0 * c.v_ft)[[0, 2]], xytext=c.x_ft[[0, 2]],
                     arrowprops=dict(arrowstyle='-|>', color='tab:green'))
@@ -172,45 +146,33 @@ def plot_xz(plan, config, path):
         _xz_panel(ax, plan, config, half)
         ax.set_title(f'near the target, ±{half:g} m (region: silhouette in x-z)')
     fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    plots.save(fig, path, DPI)
 
 
 def plot_3d(plan, config, path):
-    c, n, half = plan.selected, config.mean_motion_rad_s, NEAR_HALF_WIDTH_M
+    c, half = plan.selected, NEAR_HALF_WIDTH_M
+    axis = plan.region.axis_hill(c.t_grasp, config.mean_motion_rad_s)
     fig = plt.figure(figsize=(9, 8))
     ax = fig.add_subplot(projection='3d')
-    for grids in _cylinder_grids(plan.region, c.t_grasp, n, samples=36):
-        for g in grids:
-            ax.plot_surface(*g, color='0.55', alpha=0.35, linewidth=0)
-    lon, lat = np.meshgrid(np.linspace(0.0, 2.0 * np.pi, 25), np.linspace(0.0, np.pi, 13))
+    for surface in plots.cylinder_surfaces(plan.region, axis, samples=36):
+        for part in (surface[1:3], surface[0:2], surface[3:1:-1]):  # side, lower cap, upper cap (centre first)
+            ax.plot_surface(*np.moveaxis(part, -1, 0), color='0.55', alpha=0.35, linewidth=0)
     radius = config.restriction_sphere_radius_m
-    ax.plot_wireframe(radius * np.cos(lon) * np.sin(lat), radius * np.sin(lon) * np.sin(lat), radius * np.cos(lat),
-                      color='tab:red', lw=0.3, alpha=0.4)
+    plots.sphere_wireframe(ax, radius, 25, 13, color='tab:red', lw=0.3, alpha=0.4)
+    clip = plots.cube_clip(half)
     for part, mask in _segments(plan).items():
-        r = plan.path_r_hill[mask].copy()
-        outside = np.any(np.abs(r) > half, axis=1)
-        if outside.all():
-            continue
-        r[outside] = np.nan  # 3-D axes do not clip
-        ax.plot(*r.T, label=part, **SEGMENT_STYLE[part])
-    for label, r, style in _points(plan):
-        if np.all(np.abs(r) <= half):
-            ax.plot(*r[:, None], ls='none', label=label, **{'ms': 8, **style})
+        plots.plot_path(ax, plan.path_r_hill[mask], clip, label=part, **SEGMENT_STYLE[part])
+    plots.mark_points(ax, _points(plan), clip, ms=8)
     ax.plot([], [], color='0.55', alpha=0.5, lw=6, label='swept keep-out region at $t_g$')
     ax.plot([], [], color='tab:red', lw=0.5, label=f'restriction sphere ({radius:g} m)')
-    ticks = np.linspace(-half, half, 7)
-    ax.set(xlim=(-half, half), ylim=(-half, half), zlim=(half, -half), xticks=ticks, yticks=ticks, zticks=ticks,
-           xlabel='hill x [m]', ylabel='hill y [m]', zlabel='hill z, toward Earth [m]',
-           title=f'Fly-by near the target (±{half:g} m), keep-out region about its axis at $t_g$ = {c.t_grasp:.1f} s')
+    plots.cube_axes(ax, half, 7, title=f'Fly-by near the target (±{half:g} m), keep-out region about its axis at '
+                                       f'$t_g$ = {c.t_grasp:.1f} s')
     ax.set_box_aspect((1, 1, 1))
     # Look obliquely along the region's axis, so the panel disks show their face and the bus its end.
-    axis = plan.region.axis_hill(c.t_grasp, n)
     ax.view_init(elev=VIEW_ELEVATION_DEG, azim=np.degrees(np.arctan2(axis[1], axis[0])) + VIEW_AZIMUTH_OFFSET_DEG)
     ax.legend(fontsize=8, loc='upper left')
     fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    plots.save(fig, path, DPI)
 
 
 def plot_clearance(plan, config, path):
@@ -242,8 +204,7 @@ def plot_clearance(plan, config, path):
     ax_range.grid(alpha=0.3, which='both')
     ax_range.legend(fontsize=8, loc='lower right')
     fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+    plots.save(fig, path, DPI)
 
 
 def write_plots(plan, config, out_dir, prefix):

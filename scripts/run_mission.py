@@ -7,7 +7,8 @@
 Leaves in OUT: scenario.yaml (the exact input), bag/ (rosbag2, MCAP), summary.json, logs/ and
 params/ (one file per node), run.json (ROS domain and process ids, written at start). Every node runs as its own process on a ROS domain no other run on
 this machine holds; ``--in-process`` runs them all in this process on one executor instead.
-Exit code: 0 capture, 3 no capture but safe (escape, abort, time limit), 130 interrupted, 1 error.
+Exit code: 0 capture, 3 no capture but safe (escape, no safe plan, abort, time limit), 5 collision,
+130 interrupted, 1 error.
 """
 
 import argparse
@@ -27,9 +28,12 @@ import yaml
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py.bag import repair_bag
-from flyby_msgs_py.runtime import FASTDDS_PROFILES, lease_domain
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_msgs_py.domain import lease_domain
+from flyby_msgs_py.runtime import FASTDDS_PROFILES
+from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.summary import EXIT_CODES, compute_summary, format_summary
+from flyby_planner.supervisor import WATCHED_NODES
+from flyby_sim.scenario import load_scenario
 
 VENV_PYTHON = sys.executable
 FASTDDS_TOOL = Path(sys.prefix) / 'tools' / 'fastdds' / 'fastdds.py'
@@ -75,7 +79,7 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
     names = [n.name for n in others]
     for n in others:
         if n.name == 'flyby_supervisor':
-            n.params['watched_nodes'] = [w for w in ('flyby_estimator', 'flyby_guidance') if w in names] or ['']
+            n.params['watched_nodes'] = [w for w in WATCHED_NODES if w in names] or ['']
     # Flow control every 1 s of sim time: no node lags more than 2 s, well inside the 5 s lead of
     # guidance's commands, so every burn starts on its stamp at any pace (determinism).
     sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',

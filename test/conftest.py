@@ -5,7 +5,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 
-from flyby_msgs_py.runtime import lease_domain
+from flyby_msgs_py.domain import lease_domain
 
 
 @pytest.fixture

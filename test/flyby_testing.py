@@ -73,8 +73,7 @@ class ClockWatcher:
         from rclpy.node import Node
         from rosgraph_msgs.msg import Clock
 
-        from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
+        from flyby_msgs_py import qos
 
         self.info = json.loads((Path(run_dir) / 'run.json').read_text())
         self.context = Context()
@@ -131,8 +130,9 @@ def collect(node, topic, namespace=''):
     """Subscribe ``node`` to a contract topic (under ``namespace`` if given); return the list its
     messages are appended to."""
     from flyby_msgs_py import contract as c
+    from flyby_msgs_py import qos
     received = []
-    qos = qos.recorder_qos_for(topic)  # deep, and transient-local where the publisher latches
+    profile = qos.recorder_qos_for(topic)  # deep, and transient-local where the publisher latches
     name = c.absolute(topic, namespace) if namespace else topic
-    node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, received.append, qos)
+    node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, received.append, profile)
     return received

@@ -13,8 +13,8 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.bag import read_bag
-from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.scenario import load_scenario
 from flyby_testing import (SCENARIOS, collect, read_summary, run_mission, spin_until,
                            with_duration, write_scenario)
 

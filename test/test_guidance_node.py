@@ -8,10 +8,10 @@ from flyby_guidance.guidance_node import GuidanceNode
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py import convert
-from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_coast
+from flyby_sim.scenario import load_scenario
 from flyby_testing import SCENARIOS, collect, spin_for, spin_until
 
 SCENARIO = SCENARIOS / 'paper_flyby.yaml'
@@ -36,8 +36,7 @@ class PlanProbe(Node):
 
     def chaser_state(self, t):
         sc = self.scenario
-        x0 = np.concatenate((sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps))
-        return cw_transition_matrix(sc.mean_motion_rad_s, t) @ x0
+        return cw_coast(sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps, t, sc.mean_motion_rad_s)
 
     def publish_plan(self):
         s = self.plan.selected

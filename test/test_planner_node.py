@@ -9,10 +9,11 @@ from std_srvs.srv import Trigger
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py import convert
-from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.planner_node import PlannerNode
-from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_coast
+from flyby_sim.dynamics.rotation import quat_rotate
+from flyby_sim.scenario import load_scenario
 from flyby_testing import SCENARIOS, collect, spin_for, spin_until, write_scenario
 
 
@@ -33,8 +34,7 @@ class EstimateProbe(Node):
 
     def chaser_state(self, t):
         sc = self.scenario
-        x0 = np.concatenate((sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps))
-        return cw_transition_matrix(sc.mean_motion_rad_s, t) @ x0
+        return cw_coast(sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps, t, sc.mean_motion_rad_s)
 
     def send_estimates(self, t):
         x = self.chaser_state(t)
@@ -99,9 +99,12 @@ def test_plans_on_planning_phase_and_on_replan_like_the_core(ros_context, execut
     grasp = convert.odometry_to_numpy(probe.received[c.PLANNER_GRASP][0])
     assert grasp.t == pytest.approx(chosen.t_grasp, abs=1e-6)
     np.testing.assert_allclose(grasp.position, chosen.x_g, atol=1e-6)
-    np.testing.assert_allclose(grasp.linear, chosen.v_g, atol=1e-7)
+    # nav_msgs' rule: the twist is in the child frame (the target's body axes at t_g), rotated into hill here.
+    np.testing.assert_allclose(quat_rotate(grasp.orientation_xyzw, grasp.linear), chosen.v_g, atol=1e-7)
+    assert grasp.child_frame_id == 'grasp_point'
     target = convert.odometry_to_numpy(probe.received[c.PLANNER_FLYBY_TARGET][0])
     np.testing.assert_allclose(target.position, chosen.x_ft, atol=1e-6)
+    np.testing.assert_allclose(target.linear, chosen.v_ft, atol=1e-7)  # child frame aligned with hill
     initial = convert.odometry_to_numpy(probe.received[c.PLANNER_FLYBY_INITIAL][0])
     assert initial.t == pytest.approx(chosen.t_i, abs=1e-6)
     np.testing.assert_allclose(initial.linear, chosen.v_fi, atol=1e-7)

@@ -15,7 +15,8 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py import convert
 from flyby_msgs_py.bag import read_bag
-from flyby_msgs_py.runtime import FASTDDS_PROFILES, lease_domain
+from flyby_msgs_py.domain import lease_domain
+from flyby_msgs_py.runtime import FASTDDS_PROFILES
 from flyby_testing import spin_until
 
 BURST = 150  # below the publisher's depth (QOS_STREAM, 200): reliable delivery keeps every one

@@ -11,8 +11,8 @@ from rosbags.typesys import Stores, get_typestore
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.scenario import load_scenario
 from flyby_testing import (analyze_bag, launch_and_wait, read_summary, run_mission, with_duration,
                            write_scenario)
 

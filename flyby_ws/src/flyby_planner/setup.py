@@ -18,7 +18,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'flyby_planner = flyby_planner.planner_node:main'
+            'flyby_planner = flyby_planner.planner_node:main',
+            'flyby_supervisor = flyby_planner.supervisor_node:main',
         ],
     },
 )

@@ -4,9 +4,10 @@ State x = [r_hill (3) [m]; v_hill (3) [m/s]], v_hill the velocity relative to th
 (seed 000 section 3: x along-track, y orbit anti-normal, z toward Earth's centre; the frame turns at
 [0, -n, 0]). Built on ``filterpy.kalman.KalmanFilter`` (linear KF; with ``dynamics='nonlinear'`` an
 EKF in the sense of seed 004 section 2.2: the mean follows the nonlinear model, the covariance its
-linearization).
+linearization). The verbs and outcomes are those of ``filter_interface``: ``update`` returns an
+``UpdateResult``, ``propagate_to`` moves the filter time, ``predict`` leaves the filter unchanged.
 
-Process model (predict):
+Process model (time update):
   * mean: x(t+dt) = Phi(dt) x(t), Phi the CW transition matrix of seed 000 eq 22
     (``dynamics='cw'``, the default), or RK4 of the exact two-body relative dynamics
     (``dynamics='nonlinear'``, seed 000 eq 1, needs ``radius_m``). During a burn the commanded thrust
@@ -18,11 +19,13 @@ Process model (predict):
     test_cw_model_vs_plant_truth_coasting), far below the 1 cm sensor noise, hence CW is the default.
 
 Known inputs (``add_maneuver``): a time-tagged impulsive delta-v command is modelled the way the plant
-executes it (``flyby_sim.thrusters``): a burn at max thrust F in the commanded direction starting at
-the stamp (or at the end of the previously added burn, whichever is later), thrust acceleration
-F / m(t) with the mass falling at F / (Isp g0), duration from the rocket equation so that the burn
-delivers exactly the commanded delta-v. The mass is tracked over the maneuvers. Without thruster data
-a burn of given duration has constant acceleration dv / T; duration 0 is an impulse at the stamp.
+executes it, with the burn chain of ``flyby_sim.dynamics.propulsion`` that the plant's thrusters use:
+the commands not yet started wait in order of (stamp, command number) and are re-chained whenever one
+is added, each a burn at max thrust F in the commanded direction starting at its stamp or when the burn
+before it ends, after the last burn already started. Thrust acceleration F / m(t) with the mass falling
+at F / (Isp g0); duration from the rocket equation so that the burn delivers exactly the commanded
+delta-v; the mass is tracked over the maneuvers. Without thruster data a burn of given duration has
+constant acceleration dv / T; duration 0 is an impulse at its start.
 The residual left is only the unknown execution error; it enters the covariance when the burn starts
 as P += G Qdv G' with
     Qdv = |dv|^2 (s_mag^2 u u' + s_dir^2 / 2 (I - u u')),   G = [(tau - T/2) I; I],
@@ -31,22 +34,25 @@ known in time). The thrusters' error is a constant acceleration dv_err / T over 
 the burn end is [dv_err T / 2; dv_err]: injecting G dv_err at the start and coasting gives exactly
 that at the end (during the burn the injected velocity spread is conservative).
 
-A command stamped before the filter time ("late" for the filter) is applied retroactively: the
-CW response to the part of the burn already past is added to the mean. Measurements already
+A command whose burn starts before the filter time ("late" for the filter) is applied retroactively:
+the CW response to the part of the burn already past is added to the mean. Measurements already
 processed in between were not explained by the burn; the gate and the outlier reset below cover
-what that leaves.
+what that leaves. (The plant, which hears the command at its own time, starts such a burn then: the
+filter's request time is the stamp, the plant's the later of stamp and arrival.)
 
 Measurements (``update``): r_hill with per-axis noise sigma, H = [I 0]. The normalized innovation
 squared NIS = y' S^-1 y (y = z - H x, S = H P H' + R) is gated against the chi-square(3) quantile of
-``gate_probability``. Outcomes (``UpdateResult.kind``): 'initialized', 'accepted', and the
-rejections 'non_finite', 'stale' (t before the filter time), 'outlier' (NIS above the gate), counted
-in ``counts``. After ``max_consecutive_outliers`` outliers in a row the filter assumes it is lost and
-resets its position to the measurement (kind 'reset', counted too). The covariance update is Joseph
-form (filterpy's), followed by explicit symmetrization.
+``gate_probability``. Outcomes: 'initialized', 'accepted', and the rejections 'non_finite' (not a
+finite stamp and 3 finite numbers), 'stale' (t before the filter time), 'outlier' (NIS above the
+gate), counted in ``counts``. The ``max_consecutive_outliers``-th outlier in a row makes the filter
+assume it is lost and restart from that measurement: the position is set to it, the velocity kept
+with at least its prior spread (kind 'reset'). The covariance update is Joseph form (filterpy's),
+followed by explicit symmetrization.
 
 Initialization: from the first finite measurement, r = z, P_r = sigma^2 I, v = 0 with
 P_v = initial_velocity_sigma_mps^2 I (default 0.1 m/s: the chaser holds station before the approach),
-or explicitly with ``initialize``.
+or explicitly with ``initialize``. The initial state includes the maneuvers whose burns started before
+it: they are taken as done (a burn still going continues from there).
 
 No rclpy. SI units throughout.
 """
@@ -60,32 +66,34 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
+from flyby_estimation.filter_interface import UpdateResult, new_counts
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s, nonlinear_relative_accel, rk4_step
-from flyby_sim.plant import plant_config_from_scenario
-from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig, fuel_for_delta_v_kg
-from flyby_sim.thrusters import ThrusterModel
+from flyby_sim.dynamics.orbital import cw_accel, cw_coast, cw_transition_matrix, nonlinear_relative_accel, rk4_step
+from flyby_sim.dynamics.propulsion import (BurnRequest, ManeuverRejected, ThrusterConfig, chain_burns, check_delta_v,
+                                           fuel_for_delta_v_kg, insert_request)
 
 DYNAMICS = ('cw', 'nonlinear')
-REJECTION_KINDS = ('non_finite', 'stale', 'outlier')
 DEFAULT_ACCEL_PSD_M2_S3 = 1.0e-9
 _I3 = np.eye(3)
 
-__all__ = ['DEFAULT_ACCEL_PSD_M2_S3', 'DYNAMICS', 'REJECTION_KINDS', 'ManeuverRejected', 'NavState',
-           'RelativeNavConfig', 'RelativeNavFilter', 'ScheduledBurn', 'UpdateResult',
-           'relative_nav_config_from_scenario']
+__all__ = ['DEFAULT_ACCEL_PSD_M2_S3', 'DYNAMICS', 'ManeuverRejected', 'NavState', 'RelativeNavConfig',
+           'RelativeNavFilter', 'ScheduledBurn', 'relative_nav_config_from_scenario']
 
 
 @dataclasses.dataclass(frozen=True)
 class RelativeNavConfig:
-    """Filter parameters; validated on construction (ValueError names the field)."""
+    """Filter parameters; validated on construction (ValueError names the field).
+
+    max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that measurement
+    (module doc); N >= 1.
+    """
 
     mean_motion_rad_s: float  # n of the target orbit
     position_sigma_m: float  # measurement noise, 1-sigma per axis
     accel_psd_m2_s3: float = DEFAULT_ACCEL_PSD_M2_S3  # q: white-acceleration spectral density
     initial_velocity_sigma_mps: float = 0.1  # velocity prior, 1-sigma per axis
     gate_probability: float = 0.9999  # chi2(3) gate on the NIS
-    max_consecutive_outliers: int = 20  # then reset to the measurement (2 s at 10 Hz)
+    max_consecutive_outliers: int = 20  # the 20th in a row resets (2 s at 10 Hz)
     dynamics: str = 'cw'  # 'cw' (seed 000 eq 22) or 'nonlinear' (seed 000 eq 1, needs radius_m)
     radius_m: float = None  # target orbit radius, for 'nonlinear'
     thrusters: ThrusterConfig = None  # max thrust, Isp, execution-error sigmas
@@ -120,15 +128,17 @@ class RelativeNavConfig:
 
 
 def relative_nav_config_from_scenario(scenario, **overrides):
-    """RelativeNavConfig of a validated scenario (orbit, sensor noise, thrusters, chaser mass).
-
-    The orbit, thruster and sensor values are read through ``plant_config_from_scenario`` so the
-    filter and the plant see the same numbers; ``overrides`` replace any field.
-    """
-    plant = plant_config_from_scenario(scenario)
-    fields = dict(mean_motion_rad_s=mean_motion_rad_s(plant.radius_m, plant.mu), radius_m=plant.radius_m,
-                  position_sigma_m=plant.position_sigma_m, thrusters=plant.thrusters,
-                  chaser_mass_kg=plant.chaser_mass_kg)
+    """RelativeNavConfig of a validated scenario (``flyby_sim.scenario.Scenario``): orbit, position
+    sensor noise, thrusters and chaser mass, the numbers the plant is built with
+    (test_filter_and_plant_configs_agree); ``overrides`` replace any field."""
+    th = scenario.chaser.thrusters
+    thrusters = ThrusterConfig(max_thrust_n=th.max_thrust_n, isp_s=th.isp_s, min_impulse_bit_ns=th.min_impulse_bit_ns,
+                               max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps,
+                               magnitude_error_sigma=th.magnitude_error_sigma,
+                               direction_error_sigma_rad=math.radians(th.direction_error_sigma_deg))
+    fields = dict(mean_motion_rad_s=scenario.mean_motion_rad_s, radius_m=scenario.orbit_radius_m,
+                  position_sigma_m=scenario.sensors.relative_position.noise_sigma_m, thrusters=thrusters,
+                  chaser_mass_kg=scenario.chaser.mass_kg)
     fields.update(overrides)
     return RelativeNavConfig(**fields)
 
@@ -142,29 +152,25 @@ class NavState(NamedTuple):
     covariance: np.ndarray
 
 
-class UpdateResult(NamedTuple):
-    """Outcome of one measurement: kind in 'initialized', 'accepted', 'reset' or REJECTION_KINDS."""
-
-    kind: str
-    accepted: bool  # the measurement changed the state (initialized, accepted, reset)
-    t: float
-    nis: float  # normalized innovation squared (nan when not computed)
-    reason: str
-
-
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True, eq=False)
 class ScheduledBurn:
-    """A maneuver as the filter models it (times sim time [s], hill axes)."""
+    """A maneuver as the filter models it (times sim time [s], hill axes).
 
-    t_cmd_s: float
+    The plant's burn (with thruster data) is the ``propulsion.Burn`` of the chain, thrust F with mass
+    flow F / (Isp g0); a burn of given duration T has thrust |dv| m / T and no mass flow (constant
+    acceleration), an impulse infinite thrust and T = 0.
+    """
+
+    seq: int  # command number, counting the maneuvers added from 0 (as the plant numbers them)
+    t_cmd_s: float  # the command's stamp
     start_s: float
     end_s: float  # == start_s for an impulse
     dv_hill: np.ndarray  # commanded delta-v [m/s]
-    thrust_n: float  # F, or |dv| m / T for a constant-acceleration burn (m = 1 without mass data)
-    mass_start_kg: float
+    thrust_n: float
+    mass_start_kg: float  # for the thrust acceleration: 1 without mass data
     mass_flow_kg_s: float
+    mass_end_kg: float  # None without mass data
     magnitude_error_at_end: bool  # the plant's burn: a magnitude error lengthens or shortens it
-    started: bool = False
 
     @property
     def duration_s(self):
@@ -186,7 +192,10 @@ def _white_accel_q(q, dt):
 
 
 class RelativeNavFilter:
-    """Kalman filter for the chaser's relative state (module doc). Not thread-safe."""
+    """Kalman filter for the chaser's relative state (module doc); a ``filter_interface.EstimationFilter``.
+
+    Not thread-safe.
+    """
 
     def __init__(self, config):
         if not isinstance(config, RelativeNavConfig):
@@ -199,14 +208,14 @@ class RelativeNavFilter:
         self._kf = kf
         self._gate = float(chi2.ppf(config.gate_probability, df=3))
         self._t = None
-        self._burns = []  # scheduled, not finished, in start order
-        self._mass_kg = config.chaser_mass_kg  # after every burn added so far
-        self._thruster_model = None
-        if config.thrusters is not None:
-            # Used only for validation (check) and the exhaust velocity and mass flow; never draws.
-            self._thruster_model = ThrusterModel(config.thrusters, rng=None)
+        self._requests = []  # propulsion.BurnRequest of the maneuvers not started, in burn order
+        self._fixed_duration_s = {}  # seq -> the burn_duration_s given to add_maneuver (absent: the plant's burn)
+        self._pending = []  # ScheduledBurn of each request, chained after the last started burn
+        self._active = None  # the started burn, until the filter time passes its end
+        self._chain_end = (-math.inf, config.chaser_mass_kg)  # end time and mass after the last started burn
+        self._seq = 0
         self._consecutive_outliers = 0
-        self.counts = dict.fromkeys(('initialized', 'accepted', 'reset') + REJECTION_KINDS, 0)
+        self.counts = new_counts()
 
     # ---------------------------------------------------------------------------------------------
     # State
@@ -226,7 +235,10 @@ class RelativeNavFilter:
         return self._gate
 
     def initialize(self, t, r_hill, v_hill=(0.0, 0.0, 0.0), covariance=None):
-        """Set the state at time t; covariance defaults to diag(sigma_pos^2 I, sigma_v0^2 I)."""
+        """Set the state at time t; covariance defaults to diag(sigma_pos^2 I, sigma_v0^2 I).
+
+        The state given includes the burns started before t (module doc).
+        """
         x = np.concatenate((np.asarray(r_hill, dtype=float).reshape(3), np.asarray(v_hill, dtype=float).reshape(3)))
         if not (math.isfinite(t) and np.all(np.isfinite(x))):
             raise ValueError(f'initialize: t {t!r}, r_hill {r_hill!r}, v_hill {v_hill!r} must be finite')
@@ -240,6 +252,9 @@ class RelativeNavFilter:
         self._kf.P = 0.5 * (covariance + covariance.T)
         self._t = float(t)
         self._consecutive_outliers = 0
+        while self._pending and self._pending[0].start_s < self._t:
+            self._take_next_burn()
+        self._retire_active()
 
     def state(self):
         """NavState at the filter time."""
@@ -247,122 +262,157 @@ class RelativeNavFilter:
         x = self._kf.x[:, 0]
         return NavState(self._t, x[:3].copy(), x[3:].copy(), self._kf.P.copy())
 
-    def predict_to(self, t):
-        """Propagate the filter to time t >= filter time (no measurement) and return the NavState.
+    def propagate_to(self, t):
+        """Time update to t >= the filter time [s], in place (no measurement).
 
-        This moves the filter time: measurements stamped before t are then stale. For output at a
-        time without touching the filter use ``state_at``.
+        Measurements stamped before t are then stale; ``predict`` leaves the filter unchanged.
         """
-        self._require_initialized('predict_to')
+        self._require_initialized('propagate_to')
         if not math.isfinite(t):
-            raise ValueError(f'predict_to: t = {t!r} is not finite')
+            raise ValueError(f'propagate_to: t = {t!r} s is not finite')
         if t < self._t:
-            raise ValueError(f'predict_to: t = {t!r} is before the filter time {self._t!r}')
+            raise ValueError(f'propagate_to: t = {t!r} s is before the filter time {self._t!r} s')
         self._advance(float(t))
-        return self.state()
 
-    def state_at(self, t):
-        """NavState predicted to t >= filter time, leaving the filter unchanged."""
-        return copy.deepcopy(self).predict_to(t)
+    def predict(self, t):
+        """NavState predicted to t >= the filter time [s], leaving the filter unchanged."""
+        ahead = copy.deepcopy(self)
+        ahead.propagate_to(t)
+        return ahead.state()
 
     @property
     def burns(self):
-        """Maneuvers scheduled and not yet finished (ScheduledBurn, copies)."""
-        return [dataclasses.replace(b, dv_hill=b.dv_hill.copy()) for b in self._burns]
+        """Maneuvers scheduled and not yet finished, in burn order (ScheduledBurn, copies)."""
+        active = [] if self._active is None else [self._active]
+        return [dataclasses.replace(b, dv_hill=b.dv_hill.copy()) for b in active + self._pending]
 
     @property
     def mass_kg(self):
         """Modelled chaser mass after all maneuvers added so far [kg] (None without mass data)."""
-        return self._mass_kg
+        return self._pending[-1].mass_end_kg if self._pending else self._chain_end[1]
 
     # ---------------------------------------------------------------------------------------------
     # Inputs
 
-    def add_maneuver(self, t_start, dv_hill, burn_duration_s=None):
-        """Add a commanded maneuver: delta-v dv_hill [m/s] stamped t_start [s]; returns its ScheduledBurn.
+    def add_maneuver(self, t_cmd, dv_hill, burn_duration_s=None):
+        """Add a commanded maneuver: delta-v dv_hill [m/s] stamped t_cmd [s]; returns its ScheduledBurn
+        as scheduled now (a later command stamped earlier shifts it, as in the plant).
 
         burn_duration_s None: the plant's finite burn from the thruster data (module doc), or an
-        impulse at the stamp without thruster data; a number: a constant-acceleration burn of that
-        duration (0 = impulse). Raises ManeuverRejected for a delta-v the thrusters reject (as the
-        plant would: the maneuver then never happens) and ValueError for a malformed input.
+        impulse without thruster data; a number: a constant-acceleration burn of that duration
+        (0 = impulse). Raises ManeuverRejected for a delta-v the thrusters reject
+        (``propulsion.check_delta_v`` from the mass after the burns started, as the plant would: the
+        maneuver then never happens) and ValueError for a malformed input.
         """
-        if not math.isfinite(t_start):
-            raise ValueError(f'add_maneuver: t_start = {t_start!r} is not finite')
+        if not math.isfinite(t_cmd):
+            raise ValueError(f'add_maneuver: t_cmd = {t_cmd!r} is not finite')
         dv = np.asarray(dv_hill, dtype=float)
         if dv.shape != (3,) or not np.all(np.isfinite(dv)) or not np.any(dv):
             raise ValueError(f'add_maneuver: dv_hill must be 3 finite numbers, not all zero, got {dv_hill!r}')
         if burn_duration_s is not None:
             require_positive('burn_duration_s', burn_duration_s, allow_zero=True)
-        dv_mps = float(np.linalg.norm(dv))
-        mass_kg = self._mass_kg
-        start = float(t_start)
-        if self._burns:
-            start = max(start, self._burns[-1].end_s)  # burns never overlap, as in the plant
-        model = self._thruster_model
-        if model is not None:
-            model.check(dv, mass_kg)
-            fuel_kg = fuel_for_delta_v_kg(mass_kg, dv_mps, model.exhaust_velocity_mps)
-        else:
-            fuel_kg = 0.0
-        if burn_duration_s is None and model is not None:
-            # The plant's burn: F / m(t), mdot = F / (Isp g0), ends when the fuel is spent.
-            thrust_n, mass_flow = self.config.thrusters.max_thrust_n, model.mass_flow_kg_s
-            duration = fuel_kg / mass_flow
-            burn_mass = mass_kg
-        else:
-            duration = 0.0 if burn_duration_s is None else float(burn_duration_s)
-            burn_mass = 1.0 if mass_kg is None else mass_kg
-            thrust_n = dv_mps * burn_mass / duration if duration > 0.0 else math.inf
-            mass_flow = 0.0
-        burn = ScheduledBurn(t_cmd_s=float(t_start), start_s=start, end_s=start + duration, dv_hill=dv,
-                             thrust_n=thrust_n, mass_start_kg=burn_mass, mass_flow_kg_s=mass_flow,
-                             magnitude_error_at_end=mass_flow > 0.0)
-        if mass_kg is not None:
-            self._mass_kg = mass_kg - fuel_kg
-        self._burns.append(burn)
-        if self.initialized and burn.start_s < self._t:
-            self._start_late_burn(burn)
-        return dataclasses.replace(burn, dv_hill=dv.copy())
+        if self.config.thrusters is not None:
+            check_delta_v(dv, self._chain_end[1], self.config.thrusters)
+        seq = self._seq
+        self._seq += 1
+        dv_tuple = tuple(dv.tolist())
+        # Requested at the stamp, even when it has passed: the burn is then applied retroactively.
+        self._requests = insert_request(self._requests, BurnRequest(float(t_cmd), seq, float(t_cmd), dv_tuple,
+                                                                    dv_tuple))
+        if burn_duration_s is not None:
+            self._fixed_duration_s[seq] = float(burn_duration_s)
+        self._rechain()
+        added = next(b for b in self._pending if b.seq == seq)
+        if self.initialized:
+            while self._pending and self._pending[0].start_s < self._t:
+                self._start_next_burn()
+            self._retire_active()
+        return dataclasses.replace(added, dv_hill=added.dv_hill.copy())
+
+    def _rechain(self):
+        """Schedule the requests after the last started burn, in burn order (propulsion.chain_burns)."""
+        prev_end_s, mass_kg = self._chain_end
+        thrusters = self.config.thrusters
+        pending = []
+        for request in self._requests:
+            dv = np.array(request.dv_hill)
+            duration = self._fixed_duration_s.get(request.seq)
+            if duration is None and thrusters is not None:
+                # The plant's burn: F / m(t), mdot = F / (Isp g0), ends when the fuel is spent.
+                (burn,) = chain_burns([request], prev_end_s, mass_kg, thrusters)
+                scheduled = ScheduledBurn(
+                    seq=request.seq, t_cmd_s=request.t_cmd_s, start_s=burn.start_s, end_s=burn.end_s, dv_hill=dv,
+                    thrust_n=thrusters.max_thrust_n, mass_start_kg=mass_kg, mass_flow_kg_s=thrusters.mass_flow_kg_s,
+                    mass_end_kg=burn.mass_end_kg, magnitude_error_at_end=True)
+            else:
+                duration = 0.0 if duration is None else duration  # without thruster data: an impulse
+                start = max(request.request_s, prev_end_s)  # burns never overlap, as in the plant
+                dv_mps = float(np.linalg.norm(dv))
+                accel_mass_kg = 1.0 if mass_kg is None else mass_kg
+                fuel_kg = 0.0 if thrusters is None else fuel_for_delta_v_kg(mass_kg, dv_mps,
+                                                                            thrusters.exhaust_velocity_mps)
+                scheduled = ScheduledBurn(
+                    seq=request.seq, t_cmd_s=request.t_cmd_s, start_s=start, end_s=start + duration, dv_hill=dv,
+                    thrust_n=dv_mps * accel_mass_kg / duration if duration > 0.0 else math.inf,
+                    mass_start_kg=accel_mass_kg, mass_flow_kg_s=0.0,
+                    mass_end_kg=None if mass_kg is None else mass_kg - fuel_kg, magnitude_error_at_end=False)
+            pending.append(scheduled)
+            prev_end_s, mass_kg = scheduled.end_s, scheduled.mass_end_kg
+        self._pending = pending
+
+    def _take_next_burn(self):
+        """Move the first pending burn to the started one (the chain after it is unchanged); returns it."""
+        burn = self._pending.pop(0)
+        self._requests.pop(0)
+        self._fixed_duration_s.pop(burn.seq, None)
+        self._active = burn
+        self._chain_end = (burn.end_s, burn.mass_end_kg)
+        return burn
+
+    def _retire_active(self):
+        if self._active is not None and self._active.end_s <= self._t:
+            self._active = None
 
     # ---------------------------------------------------------------------------------------------
     # Measurements
 
     def update(self, t, r_hill):
-        """Predict to t and update with the measured r_hill [m]; returns an UpdateResult (module doc)."""
+        """Propagate to t and update with the measured r_hill [m]; returns an UpdateResult (module doc)."""
         z = np.asarray(r_hill, dtype=float)
-        if z.shape != (3,):
-            raise ValueError(f'update: r_hill must have 3 components, got {r_hill!r}')
-        if not (math.isfinite(t) and np.all(np.isfinite(z))):
-            return self._reject('non_finite', t, f'measurement t = {t!r}, r_hill = {z.tolist()} is not finite')
+        if not (math.isfinite(t) and z.shape == (3,) and np.all(np.isfinite(z))):
+            return self._outcome('non_finite', t, reason=f'measurement t = {t!r} s, r_hill = {r_hill!r} is not a '
+                                                         f'finite stamp and 3 finite numbers')
         if not self.initialized:
             self.initialize(t, z)
-            self.counts['initialized'] += 1
-            return UpdateResult('initialized', True, float(t), math.nan, 'first measurement')
+            return self._outcome('initialized', t)
         if t < self._t:
-            return self._reject('stale', t, f'measurement t = {t!r} is before the filter time {self._t!r}')
+            return self._outcome('stale', t, reason=f'measurement t = {t!r} s is before the filter time {self._t!r} s')
         self._advance(float(t))
         kf = self._kf
         y = z - kf.x[:3, 0]  # y = z - H x
         s = kf.P[:3, :3] + kf.R  # S = H P H' + R
-        nis = float(y @ np.linalg.solve(s, y))
+        nis = float(y @ np.linalg.solve(s, y))  # NIS = y' S^-1 y
         if nis > self._gate:
             self._consecutive_outliers += 1
             if self._consecutive_outliers >= self.config.max_consecutive_outliers:
-                return self._reset(z, nis)
-            return self._reject('outlier', t, f'NIS {nis:.4g} > gate {self._gate:.4g}', nis)
+                self._reset(z)
+                return self._outcome('reset', t, nis, f'{self.config.max_consecutive_outliers} consecutive '
+                                                      f'outliers, the last NIS {nis:.4g} > gate {self._gate:.4g}: '
+                                                      f'position reset to the measurement', y)
+            return self._outcome('outlier', t, nis, f'NIS {nis:.4g} > gate {self._gate:.4g} (|y| = '
+                                                    f'{float(np.linalg.norm(y)):.4g} m)', y)
         self._consecutive_outliers = 0
         # K = P H' inv(S); x = x + K y; P = (I - K H) P (I - K H)' + K R K' (Joseph form: stays
         # symmetric positive semi-definite whatever the rounding in K).
         kf.update(z)
         kf.P = 0.5 * (kf.P + kf.P.T)
-        self.counts['accepted'] += 1
-        return UpdateResult('accepted', True, self._t, nis, '')
+        return self._outcome('accepted', t, nis, '', y)
 
-    def _reject(self, kind, t, reason, nis=math.nan):
+    def _outcome(self, kind, t, nis=math.nan, reason='', innovation=None):
         self.counts[kind] += 1
-        return UpdateResult(kind, False, float(t), nis, reason)
+        return UpdateResult(kind, float(t), nis, reason, innovation)
 
-    def _reset(self, z, nis):
+    def _reset(self, z):
         """Lost: position from the measurement, velocity kept with at least its prior spread."""
         kf = self._kf
         p_v = kf.P[3:, 3:]
@@ -374,12 +424,9 @@ class RelativeNavFilter:
         kf.x[:3, 0] = z
         kf.P = 0.5 * (p + p.T)
         self._consecutive_outliers = 0
-        self.counts['reset'] += 1
-        return UpdateResult('reset', True, self._t, nis,
-                            f'{self.config.max_consecutive_outliers} consecutive outliers: position reset')
 
     # ---------------------------------------------------------------------------------------------
-    # Prediction
+    # Time update
 
     def _require_initialized(self, what):
         if not self.initialized:
@@ -388,21 +435,17 @@ class RelativeNavFilter:
     def _advance(self, t_target):
         """Propagate mean and covariance to t_target, splitting at burn starts and ends."""
         while True:
-            for burn in self._burns:
-                if not burn.started and burn.start_s <= self._t:
-                    self._start_burn(burn, 0.0)
-            self._burns = [b for b in self._burns if not (b.started and b.end_s <= self._t)]
+            self._retire_active()
+            if self._active is None and self._pending and self._pending[0].start_s <= self._t:
+                self._start_next_burn()
+                continue
             if self._t >= t_target:
                 return
-            t_next = t_target
-            active = None
-            for burn in self._burns:
-                if burn.started:
-                    active = burn
-                    t_next = min(t_next, burn.end_s)
-                else:
-                    t_next = min(t_next, burn.start_s)
-            self._propagate(t_next - self._t, active)
+            if self._active is not None:
+                t_next = min(t_target, self._active.end_s)
+            else:
+                t_next = min(t_target, self._pending[0].start_s) if self._pending else t_target
+            self._propagate(t_next - self._t, self._active)
             self._t = t_next
 
     def _propagate(self, dt, burn):
@@ -439,11 +482,21 @@ class RelativeNavFilter:
             y = rk4_step(rhs, t0 + k * h, y, h)
         return y
 
-    def _start_burn(self, burn, tau):
-        """Burn starting (tau = 0) or found tau seconds after its start: execution-error covariance."""
-        burn.started = True
-        if burn.duration_s == 0.0 and tau == 0.0:
-            self._kf.x[3:, 0] += burn.dv_hill  # impulse
+    def _start_next_burn(self):
+        """Start the first pending burn, due at or before the filter time.
+
+        Mean: an impulse adds its dv; a burn that began tau > 0 s before the filter time (late for the
+        filter) adds the CW response to its past part. Covariance: the execution error (module doc).
+        """
+        burn = self._take_next_burn()
+        tau = self._t - burn.start_s
+        kf = self._kf
+        if burn.duration_s == 0.0:
+            kf.x[:, 0] += cw_coast(np.zeros(3), burn.dv_hill, tau, self._n)  # eq 22
+        elif tau > 0.0:
+            t_burn = min(tau, burn.duration_s)
+            dx = self._integrate(np.zeros(6), burn.start_s, t_burn, burn, linear=True)
+            kf.x[:, 0] += cw_transition_matrix(self._n, tau - t_burn) @ dx
         thr = self.config.thrusters
         if thr is None:
             return
@@ -460,20 +513,5 @@ class RelativeNavFilter:
         c_mag = tau - (t_burn if burn.magnitude_error_at_end else 0.5 * t_burn)
         g_mag = np.vstack((c_mag * _I3, _I3))
         g_dir = np.vstack(((tau - 0.5 * t_burn) * _I3, _I3))
-        kf = self._kf
-        kf.P = kf.P + g_mag @ q_mag @ g_mag.T + g_dir @ q_dir @ g_dir.T
+        kf.P = kf.P + g_mag @ q_mag @ g_mag.T + g_dir @ q_dir @ g_dir.T  # P += G Qdv G'
         kf.P = 0.5 * (kf.P + kf.P.T)
-
-    def _start_late_burn(self, burn):
-        """A burn that began before the filter time: add the CW response to its past part."""
-        tau = self._t - burn.start_s
-        if burn.duration_s == 0.0:
-            dx = np.concatenate((np.zeros(3), burn.dv_hill))
-            dx = cw_transition_matrix(self._n, tau) @ dx
-        else:
-            t_burn = min(tau, burn.duration_s)
-            dx = self._integrate(np.zeros(6), burn.start_s, t_burn, burn, linear=True)
-            dx = cw_transition_matrix(self._n, tau - t_burn) @ dx
-        self._kf.x[:, 0] += dx
-        self._start_burn(burn, tau)
-        # An impulse was applied through dx; _start_burn adds only its covariance (tau > 0).

@@ -18,11 +18,17 @@ Markley and Shuster 1982):
 - measurement: z = q_hill_from_body at stamp t, taken to inertial with quat_eci_from_hill(t, n);
   the innovation is the body-frame rotation vector nu = log(q_ref^-1 * q_meas), so H = [I 0] and
   R = sigma^2 I per body axis (the plant's sensor model: a Gaussian body-frame rotation error).
-- gating: d2 = nu' S^-1 nu against chi2(3) at gate_probability; rejected measurements are not fused.
+- gating: the normalized innovation squared d2 = nu' S^-1 nu against chi2(3) at gate_probability;
+  rejected measurements are not fused. The ``max_consecutive_outliers``-th outlier in a row restarts
+  the filter from that measurement (a wrong first measurement would otherwise lock it out).
 - reset: the estimated error is folded into the reference (q <- q * exp(dtheta), omega += domega)
   and zeroed, so q stays unit and the attitude covariance stays 3x3.
 
-Initialization from the first accepted measurement: attitude = the measurement (sigma per axis =
+The verbs and outcomes are those of ``filter_interface``: ``update`` returns an ``UpdateResult``
+(kinds 'initialized', 'accepted', 'reset', 'non_finite', 'non_unit', 'stale', 'outlier', counted in
+``counts``), ``propagate_to`` moves the filter time, ``predict`` leaves the filter unchanged.
+
+Initialization (and restart) from the first accepted measurement: attitude = the measurement (sigma per axis =
 the sensor's), rate = 0 with sigma rate_sigma0 per axis. A finite difference of the first two
 measurements would not help: at 10 Hz with 1 deg noise it has a sigma of sqrt(2) deg / 0.1 s =
 14 deg/s per axis, no better than the prior, whereas the Kalman update weighs every following
@@ -40,26 +46,14 @@ from scipy.stats import chi2
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import quat_eci_from_hill
 from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
-                                rotation_vector_from_quat)
+                                         rotation_vector_from_quat, skew)
 
 from flyby_estimation.batch import check_filter, fit_attitude_motion
+from flyby_estimation.filter_interface import UpdateResult, new_counts
 from flyby_estimation.target_motion import (ErrorStateDynamics, MotionPrediction, MotionThresholds,
                                             classify_motion, make_state, point_prediction, q_hill_from_body)
 
-REJECTION_KINDS = ('non_finite', 'non_unit', 'stale', 'outlier')
 _H = np.hstack((np.eye(3), np.zeros((3, 3))))  # the measurement sees the attitude error only
-
-
-class MeasurementRejected(ValueError):
-    """A measurement the filter did not fuse; the filter state is unchanged (or, for 'outlier',
-    predicted to the measurement time). ``kind`` is one of REJECTION_KINDS, ``reason`` one line."""
-
-    def __init__(self, reason, kind):
-        if kind not in REJECTION_KINDS:
-            raise ValueError(f'unknown rejection kind {kind!r}')
-        super().__init__(reason)
-        self.reason = reason
-        self.kind = kind
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,8 +72,8 @@ class TargetFilterConfig:
             The plant is torque free; raise it if the truth has unmodelled torques (gravity gradient).
         gate_probability: chi2(3) probability of the innovation gate (default 0.9999: d2 < 21.1).
         norm_tolerance: measurements with |norm - 1| above this are rejected as 'non_unit'.
-        max_consecutive_outliers: after this many outliers in a row the filter re-initializes from
-            the next measurement (a wrong initial measurement would otherwise lock it out).
+        max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that
+            measurement (a wrong initial measurement would otherwise lock it out); N >= 1.
         max_step_angle_rad: RK4 substep limit, as a rotation angle (target_motion.propagate_rk4).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
         check_window_max_samples: fused measurements kept for batch_check (default 36000: one hour at
@@ -132,26 +126,16 @@ class ConvergenceThresholds:
     rate_3sigma_rad_s: float = math.radians(0.05)
 
 
-@dataclasses.dataclass(frozen=True)
-class UpdateResult:
-    """An accepted measurement: its time, innovation [rad, body axes] and d2 = nu' S^-1 nu."""
-
-    t: float
-    innovation_rad: np.ndarray
-    d2: float
-    initialized: bool  # True if this measurement (re-)initialized the filter
-
-
 class TargetAttitudeFilter:
-    """Multiplicative EKF of the target attitude and inertial angular velocity (module doc).
+    """Multiplicative EKF of the target attitude and inertial angular velocity (module doc); a
+    ``filter_interface.EstimationFilter``.
 
     Typical use (the node):
 
         f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
-        try:
-            f.update(t, q_hill_from_body)
-        except MeasurementRejected as exc:
-            count[exc.kind] += 1          # also in f.rejected_counts
+        result = f.update(t, q_hill_from_body)
+        if not result.accepted:
+            warn(result.kind, result.reason)  # counted in f.counts as well
         s = f.state()                     # PredictedState at f.t
         g = f.body_point_in_hill(sc.target.grasp_point_body_m, t_grasp)
     """
@@ -161,16 +145,14 @@ class TargetAttitudeFilter:
         self.dynamics = ErrorStateDynamics(config.inertia, config.torque_psd)
         self._n = config.mean_motion_rad_s
         self._r = config.attitude_sigma_rad ** 2 * np.eye(3)
-        self._gate_d2 = float(chi2.ppf(config.gate_probability, 3))
+        self._gate = float(chi2.ppf(config.gate_probability, 3))
         self._kf = KalmanFilter(dim_x=6, dim_z=3)
         self._kf.H = _H
         self._kf.R = self._r
-        self.t = None  # filter time [s]; None until initialized
+        self._t = None  # filter time [s]; None until initialized
         self._q = None  # reference q_eci_from_body
         self._omega = None  # reference omega_body [rad/s]
-        self.rejected_counts = dict.fromkeys(REJECTION_KINDS, 0)
-        self.accepted_count = 0
-        self.reinitializations = 0
+        self.counts = new_counts()
         self._consecutive_outliers = 0
         self._history = collections.deque()  # (t, q_hill_from_body) at ~1 Hz for classify_motion
         self._window = []  # (t, q_hill_from_body) fused since the last initialization, for batch_check
@@ -178,12 +160,17 @@ class TargetAttitudeFilter:
     # -- state ------------------------------------------------------------------------------------
     @property
     def initialized(self):
-        return self.t is not None
+        return self._t is not None
 
     @property
-    def gate_d2(self):
-        """The innovation gate: chi2(3).ppf(gate_probability)."""
-        return self._gate_d2
+    def t(self):
+        """Filter time [s] (None before initialization)."""
+        return self._t
+
+    @property
+    def gate_threshold(self):
+        """d2 above which a measurement is an outlier (chi2(3) quantile of gate_probability)."""
+        return self._gate
 
     @property
     def covariance(self):
@@ -194,65 +181,63 @@ class TargetAttitudeFilter:
     def state(self):
         """target_motion.PredictedState at the filter time t (last measurement or propagate_to)."""
         self._require_initialized()
-        return make_state(self.t, self._n, self._q, self._omega, self._kf.P)
+        return make_state(self._t, self._n, self._q, self._omega, self._kf.P)
 
     # -- time and measurement updates ---------------------------------------------------------------
     def propagate_to(self, t):
-        """Time update to t [s] >= the filter time without a measurement (seed 000 eq 4)."""
+        """Time update to t [s] >= the filter time, in place, without a measurement (seed 000 eq 4)."""
         self._require_initialized()
-        if not (math.isfinite(t) and t >= self.t):
-            raise ValueError(f't = {t} s precedes the filter time {self.t} s')
-        if t == self.t:
+        if not (math.isfinite(t) and t >= self._t):
+            raise ValueError(f'propagate_to: t = {t} s is before the filter time {self._t} s (or not finite)')
+        if t == self._t:
             return
-        q, omega, phi, qd = self.dynamics.propagate_rk4(self._q, self._omega, t - self.t,
+        q, omega, phi, qd = self.dynamics.propagate_rk4(self._q, self._omega, t - self._t,
                                                         self.config.max_step_angle_rad)
         # x = Phi x (x = 0 after every reset); P = Phi P Phi' + Qd
         self._kf.predict(F=phi, Q=qd)
         self._kf.P = 0.5 * (self._kf.P + self._kf.P.T)  # exactly symmetric despite rounding
-        self._q, self._omega, self.t = q, omega, float(t)
+        self._q, self._omega, self._t = q, omega, float(t)
 
     def update(self, t, q_hill_from_body_meas):
         """Fuse the vision attitude q_hill_from_body (x, y, z, w) measured at sim time t [s].
 
-        Returns an UpdateResult. Raises MeasurementRejected (and counts it in rejected_counts) for a
-        non-finite or non-unit quaternion, a stamp before the filter time ('stale'), or an
-        innovation outside the chi2 gate ('outlier'); the filter keeps running.
+        Returns an UpdateResult (filter_interface), counted in ``counts``: rejected as 'non_finite' (not a
+        finite stamp and 4 finite numbers), 'non_unit' (norm off by more than norm_tolerance), 'stale'
+        (stamp before the filter time) or 'outlier' (innovation outside the chi2 gate, the filter then
+        propagated to t); the filter keeps running.
         """
-        try:
-            return self._update(t, q_hill_from_body_meas)
-        except MeasurementRejected as exc:
-            self.rejected_counts[exc.kind] += 1
-            raise
-
-    def _update(self, t, q_meas):
-        z = np.asarray(q_meas, dtype=float)
+        z = np.asarray(q_hill_from_body_meas, dtype=float)
         if z.shape != (4,) or not np.all(np.isfinite(z)) or not math.isfinite(t):
-            raise MeasurementRejected(f'measurement at t = {t} s is not a finite quaternion and time: '
-                                      f'{q_meas!r}', 'non_finite')
+            return self._outcome('non_finite', t, reason=f'measurement at t = {t} s is not a finite quaternion and '
+                                                         f'time: {q_hill_from_body_meas!r}')
         norm = float(np.linalg.norm(z))
         if abs(norm - 1.0) > self.config.norm_tolerance:
-            raise MeasurementRejected(f'measurement at t = {t} s has norm {norm:.6g}, not within '
-                                      f'{self.config.norm_tolerance} of 1', 'non_unit')
+            return self._outcome('non_unit', t, reason=f'measurement at t = {t} s has norm {norm:.6g}, not within '
+                                                       f'{self.config.norm_tolerance} of 1')
         z = z / norm
         q_eci_meas = quat_multiply(quat_eci_from_hill(t, self._n), z)
         if not self.initialized:
-            return self._initialize(t, q_eci_meas, z)
-        if t < self.t:
-            raise MeasurementRejected(f'measurement stamped t = {t} s precedes the filter time '
-                                      f'{self.t} s', 'stale')
+            self._initialize(t, q_eci_meas, z)
+            return self._outcome('initialized', t)
+        if t < self._t:
+            return self._outcome('stale', t, reason=f'measurement stamped t = {t} s is before the filter time '
+                                                    f'{self._t} s')
         self.propagate_to(t)
         kf = self._kf
         # nu = log(q_ref^-1 * q_meas): the measured body-frame attitude error
         nu = rotation_vector_from_quat(quat_multiply(quat_conjugate(self._q), q_eci_meas))
         s = kf.P[:3, :3] + self._r  # S = H P H' + R
         d2 = float(nu @ np.linalg.solve(s, nu))  # nu' S^-1 nu
-        if d2 > self._gate_d2:
+        if d2 > self._gate:
             self._consecutive_outliers += 1
-            if self._consecutive_outliers > self.config.max_consecutive_outliers:
-                self.reinitializations += 1
-                return self._initialize(t, q_eci_meas, z)
-            raise MeasurementRejected(f'innovation {math.degrees(float(np.linalg.norm(nu))):.3g} deg at '
-                                      f't = {t} s: d2 = {d2:.4g} > gate {self._gate_d2:.4g}', 'outlier')
+            innovation_deg = math.degrees(float(np.linalg.norm(nu)))
+            if self._consecutive_outliers >= self.config.max_consecutive_outliers:
+                self._initialize(t, q_eci_meas, z)
+                return self._outcome('reset', t, d2, f'{self.config.max_consecutive_outliers} consecutive outliers, '
+                                                     f'the last {innovation_deg:.3g} deg at t = {t} s (d2 = {d2:.4g} '
+                                                     f'> gate {self._gate:.4g}): re-initialized from it', nu)
+            return self._outcome('outlier', t, d2, f'innovation {innovation_deg:.3g} deg at t = {t} s: d2 = {d2:.4g} '
+                                                   f'> gate {self._gate:.4g}', nu)
         self._consecutive_outliers = 0
         # filterpy: K = P H' inv(S); x = x + K nu; P = (I-KH) P (I-KH)' + K R K' (Joseph form). The
         # Joseph form keeps P symmetric positive definite under rounding, which matters here because
@@ -266,17 +251,20 @@ class TargetAttitudeFilter:
         self._q = quat_normalize(quat_multiply(self._q, quat_from_rotation_vector(dtheta)))
         self._omega = self._omega + dx[3:]
         g = np.eye(6)
-        g[:3, :3] -= 0.5 * np.array(((0.0, -dtheta[2], dtheta[1]), (dtheta[2], 0.0, -dtheta[0]),
-                                     (-dtheta[1], dtheta[0], 0.0)))
-        p = g @ kf.P @ g.T
+        g[:3, :3] -= 0.5 * skew(dtheta)
+        p = g @ kf.P @ g.T  # P = G P G'
         kf.P = 0.5 * (p + p.T)
         kf.x = np.zeros((6, 1))
         self._accept(t, z)
-        return UpdateResult(t=float(t), innovation_rad=nu, d2=d2, initialized=False)
+        return self._outcome('accepted', t, d2, '', nu)
+
+    def _outcome(self, kind, t, nis=math.nan, reason='', innovation=None):
+        self.counts[kind] += 1
+        return UpdateResult(kind, float(t), nis, reason, innovation)
 
     def _initialize(self, t, q_eci_meas, z):
         sigma_w = self.config.rate_sigma0_rad_s
-        self.t = float(t)
+        self._t = float(t)
         self._q = q_eci_meas
         self._omega = np.zeros(3)
         self._kf.x = np.zeros((6, 1))
@@ -285,19 +273,17 @@ class TargetAttitudeFilter:
         self._history.clear()
         self._window = []
         self._accept(t, z)
-        return UpdateResult(t=float(t), innovation_rad=np.zeros(3), d2=0.0, initialized=True)
 
     def _accept(self, t, z):
-        self.accepted_count += 1
         if self._window is not None:
             self._window.append((float(t), z))
             if len(self._window) > self.config.check_window_max_samples:
                 self._window = None
         history = self._history
-        if history and self.t - history[-1][0] < 1.0:
+        if history and self._t - history[-1][0] < 1.0:
             return
-        history.append((self.t, q_hill_from_body(self.t, self._n, self._q)))
-        while self.t - history[0][0] > self.config.excursion_window_s:
+        history.append((self._t, q_hill_from_body(self._t, self._n, self._q)))
+        while self._t - history[0][0] > self.config.excursion_window_s:
             history.popleft()
 
     def batch_check(self):
@@ -313,8 +299,8 @@ class TargetAttitudeFilter:
         if self._window is None:
             raise RuntimeError(f'more than {self.config.check_window_max_samples} measurements since the '
                                f'last initialization: the check window was dropped')
-        if self._window[-1][0] != self.t:
-            raise RuntimeError(f'the filter time {self.t} s is past its last measurement {self._window[-1][0]} s')
+        if self._window[-1][0] != self._t:
+            raise RuntimeError(f'the filter time {self._t} s is past its last measurement {self._window[-1][0]} s')
         times, measurements = zip(*self._window)
         s = self.state()
         fit = fit_attitude_motion(times, measurements, self._n, self.config.inertia,
@@ -342,7 +328,7 @@ class TargetAttitudeFilter:
     def attitude_excursion_rad(self):
         """Largest rotation between the current estimated hill attitude and any in the window [rad]."""
         self._require_initialized()
-        q_now_inv = quat_conjugate(q_hill_from_body(self.t, self._n, self._q))
+        q_now_inv = quat_conjugate(q_hill_from_body(self._t, self._n, self._q))
         return max(float(np.linalg.norm(rotation_vector_from_quat(quat_multiply(q_now_inv, q))))
                    for _, q in self._history)
 
@@ -362,7 +348,7 @@ class TargetAttitudeFilter:
         with_covariance=False predicts the motion alone (about 6x faster, no covariance).
         """
         self._require_initialized()
-        return MotionPrediction(self.dynamics, self._n, self.t, self._q, self._omega, self._kf.P, t_end,
+        return MotionPrediction(self.dynamics, self._n, self._t, self._q, self._omega, self._kf.P, t_end,
                                 with_covariance=with_covariance)
 
     def predict(self, t_future):

@@ -28,12 +28,12 @@ import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.spatial.transform import Rotation
 
-from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import eci_vector_in_hill, quat_eci_from_hill, rk4_step
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.rotation import (quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix,
+                                         quat_to_matrix_many, skew)
 
 _I3 = np.eye(3)
 _STATE = 7  # q (4) + omega (3)
@@ -41,12 +41,6 @@ _PHI = slice(7, 43)
 _QD = slice(43, 79)
 _AUGMENTED = 79
 _Y_IDENTITY = np.concatenate((np.zeros(_STATE), np.eye(6).ravel(), np.zeros(36)))
-
-
-def skew(v):
-    """[v x], the 3x3 matrix with skew(v) @ u = cross(v, u)."""
-    x, y, z = v
-    return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
 
 
 class ErrorStateDynamics:
@@ -161,11 +155,10 @@ def body_point_in_hill(c_hill_from_body, omega_body, x_body, n):
     Eq 8: x_g^H = C_I^H C_B^I x_g^B + C_I^H x_T^I. Our hill frame is centred on the target's centre
     of mass (DESIGN §3), so the second term (the target's own position in hill) is zero.
 
-    Eq 9 as printed, v_g^H = C_I^H C_B^I (omega x x_g^B) + C_I^H (Omega^I x C_B^I x_g^B), has the
-    wrong sign on the orbital-rate term for a velocity relative to the rotating hill frame (the
-    velocity the chaser must match, DESIGN §3): d/dt(C_hill_from_body x_B) = C (omega_B x x_B)
-    - Omega^H x x_g^H, i.e. v_g^H = (omega^H - Omega^H) x x_g^H.
-    test_target_motion.py::test_seed000_eq9_sign_by_numerical_derivative settles it.
+    Eq 9 as printed has the wrong sign on the orbital-rate term for a velocity relative to the
+    rotating hill frame (the velocity the chaser must match, DESIGN §3): v_g^H = (omega^H - Omega^H) x x_g^H
+    (flyby_sim.dynamics.attitude.body_point_state, which computes both;
+    test_target_motion.py::test_seed000_eq9_sign_by_numerical_derivative settles the sign).
 
     Args:
         c_hill_from_body: rotation matrix of q_hill_from_body.
@@ -177,13 +170,11 @@ def body_point_in_hill(c_hill_from_body, omega_body, x_body, n):
         (r_hill [m], v_hill [m/s] relative to the rotating hill frame, J) with J the 6x6 Jacobian of
         [r_hill; v_hill] with respect to the error state [dtheta_body; domega_body].
     """
+    r_hill, v_hill = body_point_state(c_hill_from_body, omega_body, x_body, n)  # eq 8-9
     c = np.asarray(c_hill_from_body, dtype=float)
     x_b = np.asarray(x_body, dtype=float)
-    w = np.asarray(omega_body, dtype=float)
+    wx_b = np.cross(np.asarray(omega_body, dtype=float), x_b)
     big_omega_x = skew(orbit_rate_hill(n))
-    r_hill = c @ x_b  # eq 8
-    wx_b = np.cross(w, x_b)
-    v_hill = c @ wx_b - big_omega_x @ r_hill  # eq 9, sign settled above
     c_xb = c @ skew(x_b)
     j = np.zeros((6, 6))
     j[:3, :3] = -c_xb  # C [dtheta x] x_b = -C [x_b x] dtheta
@@ -201,7 +192,8 @@ class PredictedState:
         q_hill_from_body, q_eci_from_body: attitude (x, y, z, w).
         omega_body: inertial angular velocity in body axes [rad/s] (odometry twist.angular).
         omega_hill: the same vector in hill axes, seed 000 eq 6 (inertial rate, not relative to hill).
-        covariance: 6x6 (None for a prediction without covariance) of the error state [dtheta_body, domega_body] [rad^2, rad^2/s, rad^2/s^2].
+        covariance: 6x6 (None for a prediction without covariance) of the error state
+            [dtheta_body, domega_body] [rad^2, rad^2/s, rad^2/s^2].
         covariance_hill: 6x6 of [dtheta_hill, domega_hill] (covariance_in_hill). For a
             nav_msgs/Odometry with frame hill and child target_body: pose orientation covariance =
             covariance_hill[:3, :3] (rotation about hill axes), twist angular covariance =
@@ -321,20 +313,19 @@ class MotionPrediction:
     def track(self, x_body, times):
         """PointTrack of the body point x_body [m] at the times (N,) [s], without covariance.
 
-        Eq 8-9 evaluated for all times at once, with eq 9's orbital-rate term as settled in
-        body_point_in_hill: v = C_hill_from_eci (C_eci_from_body (omega x x_B)) - Omega^H x r.
+        Eq 8-9 evaluated for all times at once (flyby_sim.dynamics.attitude.body_point_state on the
+        stack of C_hill_from_body).
         """
         t = np.atleast_1d(np.asarray(times, dtype=float))
         if t.size and not (self.t0 <= t.min() and t.max() <= self.t_end):
             raise ValueError(f'times [{t.min()}, {t.max()}] s leave the predicted interval [{self.t0}, {self.t_end}] s')
         y = self._dense(t)
-        c_eci_from_body = Rotation.from_quat(y[:4].T).as_matrix()  # normalizes
+        body_axes_eci = np.swapaxes(quat_to_matrix_many(y[:4].T), 1, 2)  # row k: body axis k in ECI
+        # C_hill_from_body = C_hill_from_eci(t) C_eci_from_body: the body axes seen in hill at their time.
+        c_hill_from_body = np.swapaxes(eci_vector_in_hill(body_axes_eci, t[:, None], self._n), 1, 2)
         w_body = y[4:7].T
-        x_b = np.asarray(x_body, dtype=float)
-        r_hill = eci_vector_in_hill(c_eci_from_body @ x_b, t, self._n)  # eq 8
-        v_rot = eci_vector_in_hill(np.einsum('nij,nj->ni', c_eci_from_body, np.cross(w_body, x_b)), t, self._n)
-        v_hill = v_rot - np.cross(orbit_rate_hill(self._n), r_hill)  # eq 9
-        omega_hill = eci_vector_in_hill(np.einsum('nij,nj->ni', c_eci_from_body, w_body), t, self._n)  # eq 6
+        r_hill, v_hill = body_point_state(c_hill_from_body, w_body, x_body, self._n)  # eq 8-9
+        omega_hill = np.einsum('nij,nj->ni', c_hill_from_body, w_body)  # eq 6
         return PointTrack(t=t, r_hill=r_hill, v_hill=v_hill, omega_hill=omega_hill)
 
 

@@ -15,13 +15,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad_vec
 
+from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
 from flyby_estimation.relative_nav import (DEFAULT_ACCEL_PSD_M2_S3, ManeuverRejected, RelativeNavConfig,
                                            RelativeNavFilter, relative_nav_config_from_scenario)
-from flyby_msgs_py.scenario import load_scenario, scenario_from_dict
 from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
 from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.scenario import load_scenario, scenario_from_dict
+from flyby_sim.thrusters import ThrusterModel
 
-PAPER = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby.yaml')
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+PAPER = load_scenario(SCENARIOS / 'paper_flyby.yaml')
 # Maneuvers (stamp [s], commanded dv_hill [m/s]) of 0.05-0.2 m/s, every 60 s.
 MANEUVERS = ((60.0, (-0.1, 0.0, 0.05)), (120.0, (0.0, 0.2, 0.0)), (180.0, (0.05, 0.0, -0.1)),
              (240.0, (0.1, 0.1, 0.1)), (300.0, (-0.05, 0.0, 0.0)))
@@ -153,7 +156,7 @@ def test_cw_model_vs_plant_truth_coasting():
     for dynamics in ('cw', 'nonlinear'):
         nav = RelativeNavFilter(relative_nav_config_from_scenario(sc, dynamics=dynamics))
         nav.initialize(0.0, config.r0_hill, config.v0_hill)
-        s = nav.predict_to(truth.t)
+        s = nav.predict(truth.t)
         figures[dynamics] = (np.linalg.norm(s.r_hill - truth.r_hill), np.linalg.norm(s.v_hill - truth.v_hill))
     print('\n[relative_nav] 60 s prediction from truth at 50 m: '
           + ', '.join(f'{k} |dr| {v[0] * 1e6:.3f} um, |dv| {v[1] * 1e9:.3f} nm/s' for k, v in figures.items()))
@@ -175,7 +178,8 @@ def test_burn_prediction_matches_plant_without_execution_errors():
     for t in (10.5, 20.3, 22.5, 40.0):
         while plant.t < t - 1e-9:
             plant.step()
-        s = nav.predict_to(plant.t)
+        nav.propagate_to(plant.t)
+        s = nav.state()
         assert np.allclose(s.r_hill, plant.truth().r_hill, atol=1e-9, rtol=0.0)
         assert np.allclose(s.v_hill, plant.truth().v_hill, atol=1e-11, rtol=0.0)
     assert nav.mass_kg == pytest.approx(plant.truth().mass_kg, abs=1e-12)
@@ -189,13 +193,66 @@ def test_late_maneuver_is_applied_retroactively():
     for f in (nav, ref):
         f.initialize(0.0, (50.0, 0.0, 0.0))
     ref.add_maneuver(10.0, (-0.1, 0.0, 0.05))
-    nav.predict_to(10.7)  # half-way through the 1.1 s burn
+    nav.propagate_to(10.7)  # half-way through the 1.1 s burn
     nav.add_maneuver(10.0, (-0.1, 0.0, 0.05))
-    a, b = nav.predict_to(30.0), ref.predict_to(30.0)
+    a, b = nav.predict(30.0), ref.predict(30.0)
     assert np.allclose(a.r_hill, b.r_hill, atol=1e-9) and np.allclose(a.v_hill, b.v_hill, atol=1e-12)
     # The execution-error covariance is injected at 10.7 s instead of 10 s and propagated: equal up to
     # the CW coupling over 0.7 s that the injection neglects.
     assert np.allclose(a.covariance, b.covariance, rtol=1e-5, atol=1e-6)
+
+
+def test_maneuvers_added_out_of_stamp_order_chain_as_in_stamp_order_and_as_the_plant():
+    """Two overlapping commands added in reverse stamp order: the filter equals the one told in stamp order,
+    and its burns start and end when the plant's ThrusterModel (no execution errors) runs them."""
+    sc = scenario(1)
+    commands = ((20.0, (0.0, 0.2, 0.0)), (20.5, (-0.1, 0.0, 0.05)))  # the second waits for the first's end
+    in_order, reverse = (RelativeNavFilter(relative_nav_config_from_scenario(sc)) for _ in range(2))
+    for nav, sequence in ((in_order, commands), (reverse, commands[::-1])):
+        nav.initialize(0.0, (50.0, 0.0, 0.0))
+        nav.propagate_to(10.0)
+        for t_cmd, dv in sequence:
+            nav.add_maneuver(t_cmd, dv)
+    times = [(b.t_cmd_s, b.start_s, b.end_s) for b in reverse.burns]
+    assert times == [(b.t_cmd_s, b.start_s, b.end_s) for b in in_order.burns]
+    assert [t_cmd for t_cmd, _, _ in times] == [20.0, 20.5] and times[1][1] == times[0][2] > 20.5
+    assert reverse.mass_kg == in_order.mass_kg
+
+    exact = dataclasses.replace(plant_config_from_scenario(sc).thrusters, magnitude_error_sigma=0.0,
+                                direction_error_sigma_rad=0.0)
+    thrusters = ThrusterModel(exact, np.random.default_rng(0))
+    for t_cmd, dv in commands[::-1]:
+        thrusters.schedule(t_cmd, dv, 10.0, sc.chaser.mass_kg)
+    plant_burns = []
+    while thrusters.next_burn is not None:
+        plant_burns.append(thrusters.start_next())
+        thrusters.finish_active()
+    assert [b.t_cmd_s for b in plant_burns] == [20.0, 20.5]
+    for ours, plant in zip(reverse.burns, plant_burns, strict=True):
+        assert ours.start_s == pytest.approx(plant.start_s, abs=1e-12)
+        assert ours.end_s == pytest.approx(plant.end_s, abs=1e-12)
+        assert ours.mass_end_kg == pytest.approx(plant.mass_end_kg, abs=1e-12)
+
+    for t in (20.7, 40.0):
+        a, b = reverse.predict(t), in_order.predict(t)
+        np.testing.assert_array_equal(a.r_hill, b.r_hill)
+        np.testing.assert_array_equal(a.v_hill, b.v_hill)
+        np.testing.assert_array_equal(a.covariance, b.covariance)
+
+
+def test_a_burn_begun_before_initialization_belongs_to_the_initial_state():
+    """Initialized mid-burn with the state then, the filter models only the rest of the burn."""
+    config = relative_nav_config_from_scenario(scenario(1))
+    ref, late = RelativeNavFilter(config), RelativeNavFilter(config)
+    ref.initialize(0.0, (50.0, 0.0, 0.0))
+    for nav in (ref, late):
+        nav.add_maneuver(5.0, (0.0, 0.0, 0.1))  # about 1 s
+    mid = ref.predict(5.5)
+    late.initialize(5.5, mid.r_hill, mid.v_hill, mid.covariance)
+    assert [b.start_s for b in late.burns] == [5.0]
+    a, b = late.predict(20.0), ref.predict(20.0)
+    assert np.allclose(a.r_hill, b.r_hill, atol=1e-9, rtol=0.0) and np.allclose(a.v_hill, b.v_hill, atol=1e-11, rtol=0.0)
+    assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=0.0)
 
 
 def test_process_noise_is_the_white_acceleration_integral():
@@ -207,7 +264,7 @@ def test_process_noise_is_the_white_acceleration_integral():
     b = np.vstack((np.zeros((3, 3)), np.eye(3)))
     exact, _ = quad_vec(lambda tau: cw_transition_matrix(n, tau) @ b @ b.T @ cw_transition_matrix(n, tau).T * q,
                         0.0, dt)
-    assert np.allclose(nav.predict_to(dt).covariance, exact, rtol=0.0, atol=2.0 * n * dt * np.abs(exact).max())
+    assert np.allclose(nav.predict(dt).covariance, exact, rtol=0.0, atol=2.0 * n * dt * np.abs(exact).max())
 
 
 # --------------------------------------------------------------------------------------------------
@@ -228,11 +285,12 @@ def test_rejections_are_counted_and_the_filter_continues():
                 bad = nav.update(m.t + 0.01, m.value + np.array([0.5, 0.0, 0.0]))  # 50 cm outlier
                 assert bad.kind == 'outlier' and not bad.accepted and bad.nis > nav.gate_threshold
                 assert nav.update(m.t + 0.02, [math.nan, 0.0, 0.0]).kind == 'non_finite'
+                assert nav.update(m.t + 0.02, [0.0, 0.0]).kind == 'non_finite'
                 assert nav.update(math.inf, m.value).kind == 'non_finite'
                 stale = nav.update(m.t - 0.05, m.value)
                 assert stale.kind == 'stale' and 'before the filter time' in stale.reason
     assert nav.counts == {'initialized': 1, 'accepted': len(kinds) - 1, 'reset': 0,
-                          'non_finite': 2, 'stale': 1, 'outlier': 1}
+                          'non_finite': 3, 'non_unit': 0, 'stale': 1, 'outlier': 1}
     s = nav.state()
     assert np.linalg.norm(s.r_hill - truth.r_hill) < 0.01
     assert np.linalg.norm(s.v_hill - truth.v_hill) < 1e-3
@@ -241,15 +299,19 @@ def test_rejections_are_counted_and_the_filter_continues():
     assert 1.0 - math.erf(math.sqrt(x / 2)) + math.sqrt(2 * x / math.pi) * math.exp(-x / 2) == pytest.approx(1e-4)
 
 
-def test_consecutive_outliers_reset_the_position():
-    sc = scenario(1)
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc, max_consecutive_outliers=5))
+def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement():
+    """max_consecutive_outliers = N: N - 1 outliers rejected, the Nth resets (same test as the target filter's)."""
+    n_outliers = 5
+    nav = RelativeNavFilter(relative_nav_config_from_scenario(scenario(1), max_consecutive_outliers=n_outliers))
     nav.initialize(0.0, (50.0, 0.0, 0.0), covariance=np.diag([1e-4] * 3 + [1e-8] * 3))
     jumped = np.array([52.0, 0.0, 0.0])  # 2 m away: an unmodelled event
-    kinds = [nav.update(0.1 * (k + 1), jumped).kind for k in range(6)]
-    assert kinds == ['outlier'] * 4 + ['reset', 'accepted']
+    results = [nav.update(0.1 * (k + 1), jumped) for k in range(n_outliers + 1)]
+    assert [r.kind for r in results] == ['outlier'] * (n_outliers - 1) + ['reset', 'accepted']
+    assert not any(r.accepted for r in results[:-2]) and results[-2].accepted
+    assert results[-2].nis > nav.gate_threshold and f'{n_outliers} consecutive outliers' in results[-2].reason
+    np.testing.assert_allclose(results[-2].innovation, jumped - (50.0, 0.0, 0.0), atol=1e-3)
     assert np.allclose(nav.state().r_hill, jumped, atol=0.01)
-    assert nav.counts['reset'] == 1 and nav.counts['outlier'] == 4
+    assert nav.counts['reset'] == 1 and nav.counts['outlier'] == n_outliers - 1
 
 
 def test_unexecutable_maneuver_is_rejected_like_the_plant():
@@ -257,6 +319,19 @@ def test_unexecutable_maneuver_is_rejected_like_the_plant():
     with pytest.raises(ManeuverRejected, match='exceeds max_delta_v_per_maneuver_mps'):
         nav.add_maneuver(10.0, (3.0, 0.0, 0.0))
     assert nav.burns == [] and nav.mass_kg == 100.0
+
+
+@pytest.mark.parametrize('name', ['paper_flyby', 'seweryn_tumbling'])
+def test_filter_and_plant_configs_agree(name):
+    """relative_nav_config_from_scenario reads the scenario itself; every number it shares with the plant's
+    configuration is the same."""
+    sc = load_scenario(SCENARIOS / f'{name}.yaml')
+    ours, plant = relative_nav_config_from_scenario(sc), plant_config_from_scenario(sc)
+    assert ours.mean_motion_rad_s == Plant(plant).mean_motion_rad_s
+    assert ours.radius_m == plant.radius_m
+    assert ours.position_sigma_m == plant.position_sigma_m
+    assert ours.chaser_mass_kg == plant.chaser_mass_kg
+    assert ours.thrusters == plant.thrusters  # every ThrusterConfig field
 
 
 def test_config_errors_name_the_field():
@@ -270,15 +345,22 @@ def test_config_errors_name_the_field():
     assert RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01).accel_psd_m2_s3 == DEFAULT_ACCEL_PSD_M2_S3
 
 
-def test_state_at_leaves_the_filter_unchanged():
+def test_predict_leaves_the_filter_unchanged_and_propagate_to_moves_it():
     nav = RelativeNavFilter(relative_nav_config_from_scenario(scenario(1)))
-    nav.update(0.0, (50.0, 0.0, 0.0))
+    assert isinstance(nav, EstimationFilter) and set(nav.counts) == set(UPDATE_KINDS)
+    first = nav.update(0.0, (50.0, 0.0, 0.0))
+    assert first.kind == 'initialized' and first.accepted and math.isnan(first.nis) and first.innovation is None
     nav.add_maneuver(5.0, (0.0, 0.0, 0.1))
-    ahead = nav.state_at(20.0)
+    ahead = nav.predict(20.0)
     assert nav.t == 0.0 and len(nav.burns) == 1
     assert ahead.t == 20.0 and ahead.v_hill[2] == pytest.approx(0.1, abs=1e-3)
-    with pytest.raises(ValueError, match='before the filter time'):
-        nav.predict_to(-1.0)
+    nav.propagate_to(20.0)
+    assert nav.t == 20.0 and nav.burns == []
+    np.testing.assert_array_equal(nav.state().r_hill, ahead.r_hill)
+    np.testing.assert_array_equal(nav.state().covariance, ahead.covariance)
+    for verb in (nav.propagate_to, nav.predict):
+        with pytest.raises(ValueError, match='before the filter time'):
+            verb(19.0)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -11,13 +11,14 @@ from hypothesis import strategies as st
 from scipy.stats import chi2
 
 from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
-from flyby_estimation.target_filter import (REJECTION_KINDS, ConvergenceThresholds, MeasurementRejected,
-                                            TargetAttitudeFilter, TargetFilterConfig,
+from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
+from flyby_estimation.target_filter import (ConvergenceThresholds, TargetAttitudeFilter, TargetFilterConfig,
                                             target_filter_config_from_scenario)
-from flyby_msgs_py.scenario import load_scenario
 from flyby_sim.dynamics.orbital import quat_eci_from_hill
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_axis_angle, quat_multiply, quat_normalize,
+                                         quat_to_matrix, rotation_vector_from_quat)
+from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 DEG = math.radians(1.0)
@@ -36,7 +37,7 @@ def error_state(filt, plant):
 
 
 def feed(plant, filt, t_end, accepted=None):
-    """Step the plant to t_end, fusing every vision attitude sample; returns the rejections.
+    """Step the plant to t_end, fusing every vision attitude sample; returns the UpdateResults of the rejections.
 
     accepted: a list that collects (t, q_hill_from_body) of every fused measurement.
     """
@@ -45,13 +46,11 @@ def feed(plant, filt, t_end, accepted=None):
         plant.step()
         for m in plant.measurements():
             if m.kind == 'target_attitude':
-                try:
-                    filt.update(m.t, m.value)
-                except MeasurementRejected as exc:
-                    rejected.append(exc)
-                else:
-                    if accepted is not None:
-                        accepted.append((m.t, m.value))
+                result = filt.update(m.t, m.value)
+                if not result.accepted:
+                    rejected.append(result)
+                elif accepted is not None:
+                    accepted.append((m.t, m.value))
     return rejected
 
 
@@ -105,6 +104,11 @@ def paper():
 @pytest.fixture(scope='module')
 def tumbler():
     return Run('seweryn_tumbling')
+
+
+def rotation_angle(q_a, q_b):
+    """Angle of the rotation between two attitudes [rad]."""
+    return float(np.linalg.norm(rotation_vector_from_quat(quat_multiply(quat_conjugate(q_a), q_b))))
 
 
 def nees(e, covariance):
@@ -197,16 +201,23 @@ def test_categories_of_both_scenarios(paper, tumbler):
     assert tumbler.filter.classify_motion().category == 'IV'  # 21 deg/s: 17 s period, spinning
 
 
-def test_prediction_does_not_change_the_filter(paper):
+def test_predict_leaves_the_filter_unchanged_and_propagate_to_moves_it(paper):
     f = copy.deepcopy(paper.filter60)
+    assert isinstance(f, EstimationFilter) and set(f.counts) == set(UPDATE_KINDS)
     before = f.state()
-    f.predict(f.t + 100.0)
+    ahead = f.predict(f.t + 100.0)
     f.body_point_in_hill([1.0, 0.0, 0.0], f.t + 10.0)
     after = f.state()
     assert after.t == before.t
     np.testing.assert_array_equal(after.covariance, before.covariance)
     with pytest.raises(ValueError, match='t_end'):
         f.predict(f.t - 1.0)
+    f.propagate_to(before.t + 100.0)
+    assert f.t == ahead.t == before.t + 100.0
+    np.testing.assert_allclose(f.state().q_hill_from_body, ahead.q_hill_from_body, atol=1e-9)
+    np.testing.assert_allclose(f.state().covariance, ahead.covariance, rtol=1e-6, atol=1e-18)
+    with pytest.raises(ValueError, match='before the filter time'):
+        f.propagate_to(before.t)
 
 
 def converged_filter(paper):
@@ -218,13 +229,34 @@ def test_outlier_of_30_deg_is_rejected_and_counted(paper):
     t = f.t + 0.1
     q_true_hill = f.predict(t).q_hill_from_body
     outlier = quat_multiply(q_true_hill, quat_from_axis_angle([1.0, 1.0, 0.0], 30 * DEG))
-    with pytest.raises(MeasurementRejected) as info:
-        f.update(t, outlier)
-    assert info.value.kind == 'outlier' and 'd2' in info.value.reason
-    assert f.rejected_counts['outlier'] == 1
+    counts = dict(f.counts)
+    result = f.update(t, outlier)
+    assert result.kind == 'outlier' and not result.accepted and 'd2' in result.reason
+    assert result.nis > f.gate_threshold and np.linalg.norm(result.innovation) == pytest.approx(30 * DEG, abs=DEG)
+    assert f.counts['outlier'] == counts['outlier'] + 1
     # the filter keeps running: the next good measurement is fused
     result = f.update(t + 0.1, f.predict(t + 0.1).q_hill_from_body)
-    assert not result.initialized and result.d2 < 1.0
+    assert result.kind == 'accepted' and result.nis < 1.0
+
+
+def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement(paper):
+    """max_consecutive_outliers = N: N - 1 outliers rejected, the Nth resets (same test as the navigation filter's)."""
+    n_outliers = 5
+    f = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario, max_consecutive_outliers=n_outliers))
+    for t, q in paper.window60:
+        f.update(t, q)
+    truth = copy.deepcopy(f)
+    turn = quat_from_axis_angle([1.0, 1.0, 0.0], 30 * DEG)  # the body seen 30 deg away: an unmodelled event
+    times = [f.t + 0.1 * (k + 1) for k in range(n_outliers + 1)]
+    jumped = [quat_multiply(truth.predict(t).q_hill_from_body, turn) for t in times]
+    results = [f.update(t, q) for t, q in zip(times, jumped)]
+    assert [r.kind for r in results] == ['outlier'] * (n_outliers - 1) + ['reset', 'accepted']
+    assert not any(r.accepted for r in results[:-2]) and results[-2].accepted
+    assert results[-2].nis > f.gate_threshold and f'{n_outliers} consecutive outliers' in results[-2].reason
+    assert np.linalg.norm(results[-2].innovation) == pytest.approx(30 * DEG, abs=DEG)
+    # restarted from the Nth measurement (rate 0 +- 20 deg/s), then the next one fused
+    assert rotation_angle(f.state().q_hill_from_body, jumped[-1]) < DEG
+    assert f.counts['reset'] == 1 and f.counts['outlier'] == n_outliers - 1
 
 
 @pytest.mark.parametrize('measurement, kind', [
@@ -236,11 +268,10 @@ def test_outlier_of_30_deg_is_rejected_and_counted(paper):
 ])
 def test_invalid_measurements_are_rejected_by_kind(paper, measurement, kind):
     f = converged_filter(paper)
-    before = f.state()
-    with pytest.raises(MeasurementRejected) as info:
-        f.update(f.t + 0.1, measurement)
-    assert info.value.kind == kind
-    assert f.rejected_counts == {k: int(k == kind) for k in REJECTION_KINDS}
+    before, counts = f.state(), dict(f.counts)
+    result = f.update(f.t + 0.1, measurement)
+    assert result.kind == kind and not result.accepted and math.isnan(result.nis) and result.innovation is None
+    assert f.counts == {k: counts[k] + (k == kind) for k in UPDATE_KINDS}
     assert f.t == before.t
     f.update(f.t + 0.1, f.predict(f.t + 0.1).q_hill_from_body)
 
@@ -248,9 +279,8 @@ def test_invalid_measurements_are_rejected_by_kind(paper, measurement, kind):
 def test_stale_measurement_is_rejected(paper):
     f = converged_filter(paper)
     t = f.t
-    with pytest.raises(MeasurementRejected) as info:
-        f.update(t - 0.1, f.state().q_hill_from_body)
-    assert info.value.kind == 'stale' and f.rejected_counts['stale'] == 1
+    result = f.update(t - 0.1, f.state().q_hill_from_body)
+    assert result.kind == 'stale' and 'before the filter time' in result.reason and f.counts['stale'] == 1
     assert f.t == t
     f.update(t, f.state().q_hill_from_body)  # a second measurement at the filter time is fine
 
@@ -259,18 +289,18 @@ def test_rejections_before_initialization_and_recovery_from_a_bad_first_measurem
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     plant = Plant(plant_config_from_scenario(sc))
     f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
-    with pytest.raises(MeasurementRejected):
-        f.update(0.0, [math.nan] * 4)
+    assert f.update(0.0, [math.nan] * 4).kind == 'non_finite'
     assert not f.initialized
     with pytest.raises(RuntimeError, match='no accepted measurement'):
         f.state()
     # a wrong first measurement locks the gate; after max_consecutive_outliers the filter re-initializes
-    f.update(0.0, quat_multiply(plant.truth().q_hill_from_body, quat_from_axis_angle([0, 1, 0], 90 * DEG)))
+    assert f.update(0.0, quat_multiply(plant.truth().q_hill_from_body,
+                                       quat_from_axis_angle([0, 1, 0], 90 * DEG))).kind == 'initialized'
     rejected = feed(plant, f, 30.0)
     # (while P is still wide from the 20 deg/s rate prior, one of them may pass the gate and be fused)
-    assert f.reinitializations >= 1
-    assert len(rejected) >= f.config.max_consecutive_outliers
-    assert all(exc.kind == 'outlier' for exc in rejected)
+    assert f.counts['reset'] >= 1
+    assert len(rejected) >= f.config.max_consecutive_outliers - 1
+    assert all(result.kind == 'outlier' for result in rejected)
     e, _ = error_state(f, plant)
     assert np.linalg.norm(e[:3]) < 1.0 * DEG
 
@@ -331,10 +361,7 @@ def test_property_covariance_stays_symmetric_positive_definite(seed, sigma_deg, 
     for _ in range(40):
         noisy = quat_multiply(q, quat_from_axis_angle(rng.normal(size=3) + 1e-9, sigma_deg * DEG * rng.normal()))
         measurement = noisy if rng.random() < 0.8 else quat_normalize(rng.normal(size=4))
-        try:
-            f.update(t, measurement)
-        except MeasurementRejected:
-            pass
+        f.update(t, measurement)
         p = f.covariance
         np.testing.assert_array_equal(p, p.T)
         assert np.linalg.eigvalsh(p).min() > 0.0

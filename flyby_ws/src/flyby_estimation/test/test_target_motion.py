@@ -132,7 +132,8 @@ def test_seed000_eq9_sign_by_numerical_derivative():
     """v_g^H must be d/dt of x_g^H (eq 8): the orbital-rate term of eq 9 enters with a minus sign.
 
     The printed '+' sign is off by 2 Omega^H x x_g^H; with our (large) test orbit rate the difference
-    is far above the derivative's error, so this settles the sign.
+    is far above the derivative's error, so this settles the sign of flyby_sim.dynamics.attitude.body_point_state,
+    which both body_point_in_hill and the vectorized track() use.
     """
     n_fast = 0.05  # exaggerated orbit rate [rad/s] so that the Omega term is large
     dyn = ErrorStateDynamics(INERTIA_TUMBLER)
@@ -144,9 +145,12 @@ def test_seed000_eq9_sign_by_numerical_derivative():
         numeric = (prediction.body_point_in_hill(x_body, t + h).r_hill
                    - prediction.body_point_in_hill(x_body, t - h).r_hill) / (2 * h)
         np.testing.assert_allclose(v, numeric, atol=1e-7)
+        track = prediction.track(x_body, (t - h, t, t + h))
+        np.testing.assert_allclose(track.v_hill[1], (track.r_hill[2] - track.r_hill[0]) / (2 * h), atol=1e-7)
         s = prediction.state(t)
         r = quat_to_matrix(s.q_hill_from_body) @ x_body
-        printed = quat_to_matrix(s.q_hill_from_body) @ np.cross(s.omega_body, x_body) + np.cross(orbit_rate_hill(n_fast), r)
+        printed = (quat_to_matrix(s.q_hill_from_body) @ np.cross(s.omega_body, x_body)
+                   + np.cross(orbit_rate_hill(n_fast), r))
         assert np.linalg.norm(printed - numeric) > 1e3 * np.linalg.norm(v - numeric)
         # equivalent form: (omega^H - Omega^H) x x_g^H with omega^H of eq 6
         np.testing.assert_allclose(v, np.cross(s.omega_hill - orbit_rate_hill(n_fast), r), atol=1e-12)

@@ -29,10 +29,11 @@ import math
 
 import numpy as np
 
+from flyby_msgs_py.wire import Event
 from flyby_planner.grasp import flyby_target_point, refine_grasp
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.propulsion import fuel_for_delta_v_kg
 
@@ -107,21 +108,9 @@ class Maneuver:
     values: dict
 
 
-@dataclasses.dataclass(frozen=True)
-class GuidanceEvent:
-    """Something the guidance decided not to do, or a change of its state: t [s], name, message, values."""
-
-    t: float
-    level: str
-    name: str
-    message: str
-    values: dict
-
-
 def predicted_miss(r_hill, v_hill, x_ft, v_ft, time_to_go_s, n):
     """Position and velocity error at the fly-by target point if the chaser coasts, seed 000 eq 24."""
-    state_f = cw_transition_matrix(n, time_to_go_s) @ np.concatenate((r_hill, v_hill))
-    return state_f - np.concatenate((x_ft, v_ft))
+    return cw_coast(r_hill, v_hill, time_to_go_s, n) - np.concatenate((x_ft, v_ft))
 
 
 def adjusting_delta_v(r_hill, v_hill, x_ft, v_ft, time_to_go_s, n):
@@ -151,8 +140,7 @@ def burn_arc(r_hill, v_hill, dv_hill, mass_kg, max_thrust_n, n):
     duration = mass_kg * float(np.linalg.norm(dv)) / max_thrust_n
     taus = np.linspace(0.0, duration, _ARC_SAMPLES)
     accel = dv / duration if duration > 0.0 else np.zeros(3)
-    state = np.concatenate((r_hill, v_hill))
-    return np.array([(cw_transition_matrix(n, tau) @ state)[:3] + 0.5 * accel * tau * tau for tau in taus])
+    return np.array([cw_coast(r_hill, v_hill, tau, n)[:3] + 0.5 * accel * tau * tau for tau in taus])
 
 
 def refined_flyby_target(prediction, x_grasp_body, t_f, offset_m, n):
@@ -215,7 +203,7 @@ class FlybyGuidance:
         while self.schedule and t >= self.schedule[0][0] - cfg.command_lead_s:
             t_burn, kind = self.schedule.pop(0)
             t_burn = max(t_burn, t + cfg.command_lead_s) if t_burn < t else t_burn
-            state = cw_transition_matrix(cfg.mean_motion_rad_s, t_burn - t) @ np.concatenate((r_hill, v_hill))
+            state = cw_coast(r_hill, v_hill, t_burn - t, cfg.mean_motion_rad_s)
             m, e = self._burn(t_burn, kind, state[:3], state[3:], self.mass_kg)
             for mv in m:
                 self.mass_kg -= fuel_for_delta_v_kg(self.mass_kg, float(np.linalg.norm(mv.dv_hill)),
@@ -245,7 +233,7 @@ class FlybyGuidance:
             # The interlock: no thrust near the sphere, ever again in this fly-by (seed 000 section 4.1).
             self.schedule = []
             self.thrust_ended = f'{kind} burn at t = {t_burn:.1f} s would thrust {closest:.2f} m from the target'
-            return [], [GuidanceEvent(t_burn, 'OK' if kind == 'adjust' else 'ERROR', 'thrusting_ended',
+            return [], [Event(t_burn, 'OK' if kind == 'adjust' else 'ERROR', 'thrusting_ended',
                                       f'{self.thrust_ended} (< sphere {cfg.restriction_sphere_radius_m:g} m + margin '
                                       f'{cfg.sphere_margin_m:g} m); coasting from here', {'closest_m': closest, **values})]
         if kind == 'adjust':
@@ -255,7 +243,7 @@ class FlybyGuidance:
             self._schedule_adjust(t_burn + cfg.adjust_interval_s)
             if small or np.linalg.norm(dv) < smallest:
                 why = 'predicted miss within tolerance' if small else f'|dv| below {smallest:.2g} m/s'
-                return [], [GuidanceEvent(t_burn, 'OK', 'adjust_skipped', why,
+                return [], [Event(t_burn, 'OK', 'adjust_skipped', why,
                                           {**values, 'dv_mps': float(np.linalg.norm(dv))})]
         size = float(np.linalg.norm(dv))
         if size > cfg.max_delta_v_per_maneuver_mps:

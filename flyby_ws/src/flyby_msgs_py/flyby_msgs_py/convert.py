@@ -26,9 +26,7 @@ from geometry_msgs.msg import PointStamped, PoseStamped, QuaternionStamped, Vect
 from nav_msgs.msg import Odometry, Path
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import String
-from visualization_msgs.msg import Marker, MarkerArray
 
-from flyby_msgs_py.contract import FRAME_HILL
 from flyby_msgs_py.wire import value_text
 
 NS_PER_S = 1_000_000_000
@@ -392,7 +390,7 @@ def path(t, frame_id, times, positions, orientations=None):
     _stamp_into(msg.header.stamp, t)
     msg.header.frame_id = frame_id
     poses = []
-    for ti, p, q in zip(ts.tolist(), pos.tolist(), quats):
+    for ti, p, q in zip(ts.tolist(), pos.tolist(), quats, strict=True):
         ps = PoseStamped()
         _stamp_into(ps.header.stamp, ti)
         ps.header.frame_id = frame_id
@@ -414,154 +412,6 @@ def path_to_numpy(msg):
         positions[i] = (p.x, p.y, p.z)
         orientations[i] = (q.x, q.y, q.z, q.w)
     return PathArrays(stamp_to_sec(msg.header.stamp), times, positions, orientations, msg.header.frame_id)
-
-
-# --------------------------------------------------------------------------------------------------
-# Markers (Foxglove / RViz). Namespaces and ids are stable, so a newer array replaces the old markers.
-
-NS_TARGET_GEOMETRY = 'target_geometry'
-NS_RESTRICTION_SPHERE = 'restriction_sphere'
-NS_GRASP_POINT = 'grasp_point'
-NS_PATH = 'path'
-NS_KEEP_OUT = 'keep_out'
-
-RGBA_TARGET_BUS = (0.75, 0.75, 0.78, 1.0)
-RGBA_SOLAR_PANEL = (0.15, 0.25, 0.65, 1.0)
-RGBA_RESTRICTION_SPHERE = (1.0, 0.55, 0.0, 0.15)
-RGBA_GRASP_POINT = (0.1, 0.9, 0.2, 1.0)
-RGBA_PATH = (0.2, 0.6, 1.0, 1.0)
-RGBA_KEEP_OUT = (0.9, 0.1, 0.1, 0.25)
-
-
-def _marker(t, frame_id, ns, marker_id, kind, rgba):
-    m = Marker()
-    _stamp_into(m.header.stamp, t)
-    m.header.frame_id = _frame(frame_id)
-    m.ns = ns
-    m.id = int(marker_id)
-    m.type = kind
-    m.action = Marker.ADD
-    r, g, b, a = (_scalar(c, 'rgba') for c in rgba)
-    m.color.r, m.color.g, m.color.b, m.color.a = r, g, b, a
-    m.pose.orientation.w = 1.0
-    return m
-
-
-def target_box_markers(t, q_hill_from_body, centers_body_m, sizes_m, position_hill_m=(0.0, 0.0, 0.0),
-                       names=None, frame_id=FRAME_HILL, ns=NS_TARGET_GEOMETRY, rgba=None):
-    """One CUBE per body-frame box (``Scenario.boxes``), posed in hill by the target attitude:
-    centre_hill = position_hill + R(q_hill_from_body) centre_body. Marker id = box index.
-    Boxes whose name contains 'panel' are drawn blue unless ``rgba`` is given."""
-    from scipy.spatial.transform import Rotation
-    q = _quat(q_hill_from_body, 'q_hill_from_body')
-    origin = np.array(_vec3(position_hill_m, 'position_hill_m'))
-    centers = _array(centers_body_m, 3, 'centers_body_m')
-    sizes = _array(sizes_m, 3, 'sizes_m')
-    if sizes.shape != centers.shape:
-        raise ValueError(f'sizes_m: must have {len(centers)} rows like centers_body_m, got {len(sizes)}')
-    if (sizes <= 0.0).any():
-        raise ValueError('sizes_m: must be > 0')
-    if names is not None and len(names) != len(centers):
-        raise ValueError(f'names: must have {len(centers)} entries like centers_body_m, got {len(names)}')
-    centers_hill = origin + Rotation.from_quat(q).apply(centers) if len(centers) else centers
-    markers = []
-    for i, (c, s) in enumerate(zip(centers_hill.tolist(), sizes.tolist())):
-        colour = rgba if rgba is not None else (
-            RGBA_SOLAR_PANEL if names is not None and 'panel' in names[i] else RGBA_TARGET_BUS)
-        m = _marker(t, frame_id, ns, i, Marker.CUBE, colour)
-        _set_xyz(m.pose.position, c)
-        _set_xyzw(m.pose.orientation, q)
-        _set_xyz(m.scale, s)
-        markers.append(m)
-    return markers
-
-
-def target_markers(t, frame_id, q_hill_from_body, geometry, position_hill_m=(0.0, 0.0, 0.0)):
-    """MarkerArray of the target body: ``geometry`` is ``Scenario.target.geometry`` (boxes with
-    ``name``, ``center_m``, ``size_m``) or ``Scenario.boxes``; see ``target_box_markers``."""
-    if hasattr(geometry, 'center_body_m'):
-        names, centers, sizes = geometry.names, geometry.center_body_m, geometry.size_m
-    else:
-        boxes = list(geometry)
-        get = (lambda b, k: b[k]) if boxes and isinstance(boxes[0], dict) else getattr
-        names = [get(b, 'name') for b in boxes]
-        centers = [get(b, 'center_m') for b in boxes]
-        sizes = [get(b, 'size_m') for b in boxes]
-    return marker_array(target_box_markers(t, q_hill_from_body, centers, sizes, position_hill_m, names=names,
-                                           frame_id=frame_id))
-
-
-def sphere_marker(t, center, radius_m, frame_id=FRAME_HILL, ns=NS_RESTRICTION_SPHERE, marker_id=0,
-                  rgba=RGBA_RESTRICTION_SPHERE):
-    """A translucent SPHERE of radius_m (default: the thruster-restriction sphere)."""
-    r = _scalar(radius_m, 'radius_m')
-    if r <= 0.0:
-        raise ValueError(f'radius_m: must be > 0, got {r!r}')
-    m = _marker(t, frame_id, ns, marker_id, Marker.SPHERE, rgba)
-    _set_xyz(m.pose.position, _vec3(center, 'center'))
-    _set_xyz(m.scale, (2.0 * r, 2.0 * r, 2.0 * r))
-    return m
-
-
-def cylinder_marker(t, center, axis, radius_m, height_m, frame_id=FRAME_HILL, ns=NS_KEEP_OUT, marker_id=0,
-                    rgba=RGBA_KEEP_OUT):
-    """A CYLINDER of radius_m and height_m centred on center with its axis along ``axis`` (the swept
-    keep-out region of a spinning target)."""
-    r, h = _scalar(radius_m, 'radius_m'), _scalar(height_m, 'height_m')
-    if r <= 0.0 or h <= 0.0:
-        raise ValueError(f'radius_m and height_m: must be > 0, got {r!r}, {h!r}')
-    a = np.array(_vec3(axis, 'axis'))
-    norm = float(np.linalg.norm(a))
-    if norm == 0.0:
-        raise ValueError('axis: must be nonzero')
-    a /= norm
-    # Shortest rotation taking the marker's z axis onto a: q = (z x a, 1 + z.a) normalized.
-    q = np.array((-a[1], a[0], 0.0, 1.0 + a[2]))
-    q = q / np.linalg.norm(q) if np.linalg.norm(q) > 1e-9 else np.array((1.0, 0.0, 0.0, 0.0))
-    m = _marker(t, frame_id, ns, marker_id, Marker.CYLINDER, rgba)
-    _set_xyz(m.pose.position, _vec3(center, 'center'))
-    _set_xyzw(m.pose.orientation, q.tolist())
-    _set_xyz(m.scale, (2.0 * r, 2.0 * r, h))
-    return m
-
-
-def point_marker(t, position, diameter_m=0.2, frame_id=FRAME_HILL, ns=NS_GRASP_POINT, marker_id=0,
-                 rgba=RGBA_GRASP_POINT):
-    """A small opaque SPHERE at position (default: the grasp point)."""
-    return sphere_marker(t, position, 0.5 * _scalar(diameter_m, 'diameter_m'), frame_id, ns, marker_id, rgba)
-
-
-def line_strip_marker(t, positions, width_m=0.05, frame_id=FRAME_HILL, ns=NS_PATH, marker_id=0,
-                      rgba=RGBA_PATH):
-    """A LINE_STRIP through positions (N, 3) (a path); scale.x is the line width."""
-    pos = _array(positions, 3, 'positions')
-    w = _scalar(width_m, 'width_m')
-    if w <= 0.0:
-        raise ValueError(f'width_m: must be > 0, got {w!r}')
-    m = _marker(t, frame_id, ns, marker_id, Marker.LINE_STRIP, rgba)
-    m.scale.x = w
-    points = m.points
-    from geometry_msgs.msg import Point
-    for p in pos.tolist():
-        pt = Point()
-        _set_xyz(pt, p)
-        points.append(pt)
-    return m
-
-
-def delete_all_markers(t, frame_id=FRAME_HILL):
-    """A DELETEALL marker: put it first in an array to clear what an earlier array drew."""
-    m = Marker()
-    _stamp_into(m.header.stamp, t)
-    m.header.frame_id = _frame(frame_id)
-    m.action = Marker.DELETEALL
-    return m
-
-
-def marker_array(markers):
-    msg = MarkerArray()
-    msg.markers = list(markers)
-    return msg
 
 
 # --------------------------------------------------------------------------------------------------

@@ -10,26 +10,23 @@ EventsExecutor driven by ``spin_once`` is about 3x faster than SingleThreadedExe
 wheels, and its ``spin()`` hangs (DESIGN §9), hence the explicit loops here.
 """
 
-import collections
-import fcntl
 import json
 import math
 import os
 import signal
-import tempfile
 import time
 
 import rclpy
-from rclpy._rclpy_pybind11 import InvalidHandle
+from rclpy.exceptions import InvalidHandle
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, Header, String
 
-from flyby_msgs_py.qos import QOS_EVENTS, QOS_STREAM
 from flyby_msgs_py import convert
-from flyby_msgs_py.scenario import ScenarioError, load_scenario
+from flyby_msgs_py.qos import QOS_EVENTS, QOS_STREAM
+from flyby_msgs_py.schema import ScenarioError
 
 # Fast DDS defaults of every flyby process (see the file); the launcher exports it.
 FASTDDS_PROFILES = os.path.join(os.path.dirname(__file__), 'config', 'fastdds_profiles.xml')
@@ -40,41 +37,10 @@ PROGRESS_PERIOD_NS = 250_000_000
 # Each node announces here, once running, the topics it subscribes (JSON), so that the simulator can
 # hold time until every one of those subscriptions is matched (discovery takes 0-3 s).
 READY_TOPIC = '/flyby/ready'
-DOMAIN_LOCK_DIR = os.path.join(tempfile.gettempdir(), 'flyby_ros_domains')
-# Fast DDS derives ports from the domain id; ids up to 100 keep well inside the valid 0-232.
-DOMAIN_RANGE = range(1, 101)
 # A draining node (the recorder) stops after a signal once no message has come for DRAIN_QUIET_S,
 # or after DRAIN_MAX_S; well inside the launcher's SIGINT grace (10 s).
 DRAIN_QUIET_S = 0.5
 DRAIN_MAX_S = 5.0
-
-
-class DomainLease:
-    """An exclusive ROS_DOMAIN_ID on this machine, held (flock) until released or the process exits."""
-
-    def __init__(self, domain_id, lock_file):
-        self.domain_id = domain_id
-        self._lock_file = lock_file
-
-    def release(self):
-        if self._lock_file is not None:
-            self._lock_file.close()
-            self._lock_file = None
-
-
-def lease_domain():
-    """Take the first ROS domain no other flyby run or test on this machine holds."""
-    os.makedirs(DOMAIN_LOCK_DIR, exist_ok=True)
-    for domain_id in DOMAIN_RANGE:
-        lock_file = open(os.path.join(DOMAIN_LOCK_DIR, f'{domain_id}.lock'), 'w')
-        try:
-            fcntl.flock(lock_file, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            lock_file.close()
-            continue
-        return DomainLease(domain_id, lock_file)
-    raise RuntimeError(f'no free ROS domain in {DOMAIN_RANGE.start}-{DOMAIN_RANGE.stop - 1} '
-                       f'(locks in {DOMAIN_LOCK_DIR})')
 
 
 class ProgressReporter:
@@ -236,49 +202,10 @@ def drain(executor, node):
             return
 
 
-class StampedBuffer:
-    """The recent values of one stream by stamp, for decisions that must not depend on the order in
-    which messages of *different* topics arrive (which varies with the pace of the run).
-
-    A node that decides at "the first target estimate stamped at or after t" gets the same estimate
-    at any real-time factor; "the latest target estimate when the chaser estimate came" it would not.
-    """
-
-    def __init__(self, maxlen=600):
-        self._items = collections.deque(maxlen=maxlen)
-
-    def add(self, t, value):
-        self._items.append((t, value))
-
-    @property
-    def latest(self):
-        """(stamp, value) of the newest item, or None."""
-        return self._items[-1] if self._items else None
-
-    @property
-    def latest_t(self):
-        return self._items[-1][0] if self._items else -math.inf
-
-    def first_at_or_after(self, t):
-        """(stamp, value) of the first item stamped >= t, or None."""
-        return next(((ti, v) for ti, v in self._items if ti >= t), None)
-
-    def last_at_or_before(self, t):
-        """(stamp, value) of the last item stamped <= t, or None."""
-        return next(((ti, v) for ti, v in reversed(self._items) if ti <= t), None)
-
-
-def scenario_of(node):
-    """Declare the node's ``scenario_file`` and ``seed`` parameters and load the scenario (seed < 0: the file's)."""
-    node.declare_parameter('scenario_file', '')
-    node.declare_parameter('seed', -1)
-    seed = node.get_parameter('seed').value
-    return load_scenario(node.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
-
-
-def publish_event(node, publisher, t, level, name, message, values, log_ok=False):
-    """Publish one event on mission/events with the node as its source and log it at its level
+def publish_event(node, publisher, event, log_ok=False):
+    """Publish one wire.Event on mission/events with the node as its source and log it at its level
     (OK events only with log_ok)."""
+    t, level, name, message, values, _source = event
     publisher.publish(convert.event(t if math.isfinite(t) else 0.0, level, name, message, values,
                                     source=node.get_name()))
     log = node.get_logger()

@@ -1,4 +1,4 @@
-"""Tests of flyby_msgs_py.bag: raw durable writer, repair of cut-off bags, numpy readers.
+"""Tests of flyby_msgs_py.bag: raw durable writer, salvage and repair of cut-off bags, numpy readers.
 
 Messages are serialized with rclpy (real CDR bytes as a raw subscription delivers them); every bag
 lives in ``tmp_path``. Throughput is measured by ``scripts/benchmark_bag.py``, not here.
@@ -7,6 +7,7 @@ lives in ``tmp_path``. Throughput is measured by ``scripts/benchmark_bag.py``, n
 import os
 import shutil
 import signal
+import struct
 import subprocess
 import sys
 import tempfile
@@ -18,14 +19,15 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import (PointStamped, PoseStamped, QuaternionStamped, Vector3Stamped,
-                               WrenchStamped)
+from geometry_msgs.msg import PointStamped, PoseStamped, QuaternionStamped, Vector3Stamped, WrenchStamped
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from nav_msgs.msg import Odometry, Path as PathMsg
+from nav_msgs.msg import Odometry
+from nav_msgs.msg import Path as PathMsg
 from rclpy.serialization import serialize_message
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import QosDurability, QosReliability
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
@@ -34,6 +36,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from flyby_msgs_py import bag as fb
 from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import reader as bag_reader
 
 S_NS = 1_000_000_000
 ALL_TOPICS = {c.absolute(t): type_name for t, type_name in c.TOPIC_TYPES.items()}
@@ -283,7 +286,7 @@ def test_vectorized_decode_equals_rosbags_deserializer(frame, child, seed, t_ns)
     rng = np.random.default_rng(seed)
     typestore = get_typestore(Stores.ROS2_JAZZY)
     raws = [serialize_message(odometry(t_ns + k, rng, frame, child)) for k in range(3)]
-    t, values, frames = fb._decode_fixed(raws, 2, 85)
+    t, values, frames = bag_reader._decode_fixed(raws, 2, 85)
     assert frames == [frame, child]
     for k, raw in enumerate(raws):
         m = typestore.deserialize_cdr(raw, 'nav_msgs/msg/Odometry')
@@ -462,7 +465,7 @@ def test_sigkill_loses_at_most_one_flush_period(tmp_path):
     assert t_reported >= KILL_AFTER_NS, 'child too slow to reach 31.35 s of message time'
 
     assert not (bag_dir / 'metadata.yaml').exists()
-    with pytest.raises(Exception):
+    with pytest.raises(Exception, match='metadata'):
         with AnyReader([bag_dir], default_typestore=get_typestore(Stores.ROS2_JAZZY)):
             pass
     with pytest.raises(fb.BagError, match='repair'):
@@ -567,6 +570,86 @@ def test_cut_anywhere_repairs_to_a_prefix(flushed_bag, fraction):
         # Every chunk that reached the file before the cut is salvaged.
         assert n >= max([m for size, m in marks if size <= offset], default=0)
         assert salvaged_raws(cut) == [bytes(r) for r in raws[:n]]
+
+
+OP_FOOTER, OP_CHUNK, OP_MESSAGE_INDEX = 0x02, 0x06, 0x07
+
+
+def record_spans(data):
+    """``(opcode, start, end)`` of the top-level records of a closed MCAP file up to its footer, walked
+    by their 9-byte heads (opcode uint8, body length uint64; https://mcap.dev/spec#records)."""
+    spans, pos = [], len(fb.MCAP_MAGIC)
+    while True:
+        op, length = struct.unpack_from('<BQ', data, pos)
+        spans.append((op, pos, pos + 9 + length))
+        if op == OP_FOOTER:
+            return spans
+        pos += 9 + length
+
+
+def test_salvage_cut_inside_last_chunk_and_record_heads(tmp_path, flushed_bag):
+    """A file cut inside its last chunk (its head, its fixed fields, its records) or inside the head
+    of a record is salvaged without exception: every message of the chunks before the cut, and the
+    salvage stops where the cut record starts."""
+    bag_dir, marks, raws = flushed_bag
+    data = mcap_of(bag_dir).read_bytes()
+    spans = record_spans(data)
+    chunks = [(start, end) for op, start, end in spans if op == OP_CHUNK]
+    # One chunk per flush, each on disk when the flush returned, then the one close() wrote.
+    assert len(chunks) == len(marks) + 1
+    assert all(end <= size for (_, end), (size, _) in zip(chunks[:-1], marks, strict=True))
+    first_start = chunks[0][0]
+    last_start, last_end = chunks[-1]
+    index_start = next(start for op, start, _ in spans if op == OP_MESSAGE_INDEX and start >= last_end)
+    # rosbags 0.11.9 writes chunks uncompressed: the compression string (body offset 28) is empty,
+    # so the records length is at body offset 32 and the records start at 40.
+    assert data[last_start + 9 + 28:last_start + 9 + 32] == b'\0\0\0\0'
+    n_before = marks[-1][1]
+    cases = [  # (cut offset, start of the record cut, messages salvaged)
+        *[(last_start + k, last_start, n_before) for k in (1, 4, 8)],        # in the last chunk's head
+        *[(last_start + 9 + k, last_start, n_before)                        # in its body: empty, times,
+          for k in (0, 5, 24, 30, 36, 40, 41)],                            # crc, compression, length, records
+        ((last_start + last_end) // 2, last_start, n_before),               # halfway through its records
+        (last_end - 1, last_start, n_before),                               # all but its last byte
+        *[(index_start + k, index_start, len(raws)) for k in (1, 8)],       # in the next record's head
+        *[(first_start + k, first_start, 0) for k in (1, 8)],               # in the first chunk's head
+    ]
+    for i, (offset, cut_record, n) in enumerate(cases):
+        cut = cut_copy(bag_dir, offset, tmp_path / f'cut{i}')
+        found = fb.salvage_mcap(mcap_of(cut))
+        assert [bytes(raw) for _, _, raw in found.messages] == [bytes(r) for r in raws[:n]], offset
+        assert [t for _, t, _ in found.messages] == [k * 100_000_000 for k in range(n)], offset
+        assert found.complete_until == cut_record, (offset, found.stop_reason)
+        assert found.stop_reason == f'record after byte {cut_record} cut off', offset
+        assert [topic for _, topic, _, _ in found.channels.values()] == ([ODOM] if n else []), offset
+        report = fb.repair_bag(cut)
+        assert (report['message_count'], report['bytes_salvaged']) == (n, cut_record), offset
+        assert salvaged_raws(cut) == [bytes(r) for r in raws[:n]], offset
+
+
+def test_salvage_zstd_chunks(tmp_path):
+    """Chunks compressed with zstd (rosbags' storage compression; BagWriter writes none) are salvaged
+    the same way: every complete chunk, nothing of the one cut."""
+    rng = np.random.default_rng(5)
+    raws = [serialize_message(odometry(k * S_NS, rng)) for k in range(12)]
+    writer = Writer(tmp_path / 'bag', version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    writer.open()
+    connection = writer.add_connection(ODOM, 'nav_msgs/msg/Odometry', typestore=get_typestore(Stores.ROS2_JAZZY))
+    for k, raw in enumerate(raws):
+        writer.write(connection, k * S_NS, raw)
+        if k in (3, 7):
+            writer.storage.close_chunk()  # the rosbags 0.11.9 internal BagWriter.flush uses
+    writer.close()
+    data = mcap_of(tmp_path / 'bag').read_bytes()
+    chunks = [(start, end) for op, start, end in record_spans(data) if op == OP_CHUNK]
+    assert len(chunks) == 3
+    assert data[chunks[0][0] + 9 + 28:chunks[0][0] + 9 + 36] == b'\4\0\0\0zstd'
+    for offset, n in [(chunks[1][0] + 20, 4), ((chunks[2][0] + chunks[2][1]) // 2, 8), (len(data) - 1, 12)]:
+        path = tmp_path / f'cut{offset}.mcap'
+        path.write_bytes(data[:offset])
+        found = fb.salvage_mcap(path)
+        assert [bytes(raw) for _, _, raw in found.messages] == [bytes(r) for r in raws[:n]], offset
 
 
 def test_interrupted_repair_resumes_from_damaged_file(tmp_path, flushed_bag):

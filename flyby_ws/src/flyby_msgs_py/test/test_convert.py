@@ -10,7 +10,6 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
-from visualization_msgs.msg import Marker
 
 from flyby_msgs_py import convert as cv
 from flyby_msgs_py.contract import FRAME_CHASER_BODY, FRAME_HILL, FRAME_TARGET_BODY
@@ -239,64 +238,6 @@ def test_path_rejects_bad_input():
         cv.path(0.0, FRAME_HILL, [0.0, 1.0], np.zeros((2, 3)), [[0, 0, 0, 1]])
     with pytest.raises(ValueError, match=r'^orientations\[1\]: must be a unit quaternion'):
         cv.path(0.0, FRAME_HILL, [0.0, 1.0], np.zeros((2, 3)), [[0, 0, 0, 1], [0, 0, 0, 0]])
-
-
-# ------------------------------------------------------------------------------------------------
-# Markers
-
-def test_target_box_markers_are_posed_by_the_attitude():
-    # Body z along hill x: a quarter turn about hill y. q = (0, sin 45, 0, cos 45).
-    s = math.sqrt(0.5)
-    q = [0.0, s, 0.0, s]
-    centers = np.array([[0.0, 0.0, 0.0], [0.0, 4.5, 0.0], [0.0, 0.0, 2.0]])
-    sizes = np.array([[3.0, 3.0, 3.0], [2.0, 6.0, 0.05], [1.0, 1.0, 1.0]])
-    markers = cv.target_box_markers(1.0, q, centers, sizes, position_hill_m=[0.0, 0.0, 1.0],
-                                    names=['bus', 'panel_plus_y', 'antenna'])
-    arr = cdr(cv.marker_array(markers))
-    assert [(m.ns, m.id, m.type) for m in arr.markers] == [(cv.NS_TARGET_GEOMETRY, i, Marker.CUBE) for i in range(3)]
-    m2 = arr.markers[2]
-    np.testing.assert_allclose([m2.pose.position.x, m2.pose.position.y, m2.pose.position.z], [2.0, 0.0, 1.0],
-                               atol=1e-15)
-    np.testing.assert_allclose([m2.pose.orientation.x, m2.pose.orientation.y, m2.pose.orientation.w], [0, s, s])
-    assert (arr.markers[1].scale.y, arr.markers[1].scale.z) == (6.0, 0.05)
-    assert arr.markers[1].color.b > arr.markers[1].color.r  # panels are blue
-    assert arr.markers[0].header.frame_id == FRAME_HILL and arr.markers[0].action == Marker.ADD
-    with pytest.raises(ValueError, match='^sizes_m: must be > 0'):
-        cv.target_box_markers(1.0, q, centers, -sizes)
-    with pytest.raises(ValueError, match='^centers_body_m: must be finite'):
-        cv.target_box_markers(1.0, q, np.full((3, 3), math.nan), sizes)
-
-
-def test_target_markers_from_the_scenario_geometry():
-    from flyby_msgs_py.scenario import load_scenario
-    from pathlib import Path
-    sc = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby.yaml')
-    q = sc.q_hill_from_body0
-    for geometry in (sc.target.geometry, sc.boxes, sc.to_dict()['target']['geometry']):
-        arr = cdr(cv.target_markers(0.0, FRAME_HILL, q, geometry))
-        assert [m.id for m in arr.markers] == [0, 1, 2]
-        p = arr.markers[1].pose.position  # panel_plus_y at body [0, 4.5, 0]
-        np.testing.assert_allclose([p.x, p.y, p.z], sc.rotation_hill_from_body0.apply([0.0, 4.5, 0.0]), atol=1e-12)
-        assert arr.markers[1].color.b > arr.markers[1].color.r
-
-
-def test_sphere_point_and_line_markers():
-    sphere = cdr(cv.sphere_marker(2.0, [0.0, 0.0, 0.0], 15.0))
-    assert (sphere.ns, sphere.id, sphere.type) == (cv.NS_RESTRICTION_SPHERE, 0, Marker.SPHERE)
-    assert sphere.scale.x == 30.0 and 0.0 < sphere.color.a < 0.5
-    grasp = cdr(cv.point_marker(2.0, [1.0, 2.0, 3.0]))
-    assert (grasp.ns, grasp.type, grasp.pose.position.z, grasp.color.a) == (cv.NS_GRASP_POINT, Marker.SPHERE, 3.0, 1.0)
-    pts = RNG.normal(size=(5, 3))
-    line = cdr(cv.line_strip_marker(2.0, pts, ns='planner_path', marker_id=3))
-    assert (line.ns, line.id, line.type, line.scale.x) == ('planner_path', 3, Marker.LINE_STRIP, 0.05)
-    np.testing.assert_array_equal([[p.x, p.y, p.z] for p in line.points], pts)
-    with pytest.raises(ValueError, match='^radius_m: must be > 0'):
-        cv.sphere_marker(0.0, [0, 0, 0], 0.0)
-    with pytest.raises(ValueError, match='^center: must be finite'):
-        cv.sphere_marker(0.0, np.array([0, 0, math.nan]), 1.0)
-    with pytest.raises(ValueError, match='^positions: must be finite'):
-        cv.line_strip_marker(0.0, [[0, 0, 0], [math.nan, 0, 0]])
-    assert cv.delete_all_markers(0.0).action == Marker.DELETEALL
 
 
 # ------------------------------------------------------------------------------------------------

@@ -20,10 +20,11 @@ Two routes to the grasp instant:
 Paper notes (one line each, settled by tests in test/test_grasp.py):
 
 * Eq 13 writes v_g^H = omega_T^H x x_g^H, i.e. it neglects the hill frame's own rotation. The
-  velocity relative to hill is (omega^H - Omega^H) x x_g^H (flyby_estimation eq 9 note); with the
-  section 5 orbit (7000 km, n = 1.08e-3 rad/s) and 5 deg/s spin this moves the grasp point by 7 mm
-  and its velocity by 2.6 mm/s (2 %) (test_hill_rotation_effect_on_seed000_grasp). The closed forms hold exactly with the rate
-  relative to hill, omega_rel = omega^H - Omega^H, at the grasp instant.
+  velocity relative to hill is (omega^H - Omega^H) x x_g^H (eq 9 note of
+  flyby_sim.dynamics.attitude.body_point_state); with the section 5 orbit (7000 km, n = 1.08e-3 rad/s)
+  and 5 deg/s spin this moves the grasp point by 7 mm and its velocity by 2.6 mm/s (2 %)
+  (test_hill_rotation_effect_on_seed000_grasp). The closed forms hold exactly with the rate relative
+  to hill, omega_rel = omega^H - Omega^H, at the grasp instant.
 * Eq 15 is the sign test of the projection of x_g on the spin axis against the CW acceleration at
   the grasp state; it vanishes identically for n = 0, so it needs the true orbit rate even when the
   kinematics neglect it (test_seed000_section5_grasp_values).
@@ -41,7 +42,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from flyby_estimation.target_motion import body_point_in_hill
-from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.orbital import cw_accel, cw_coast
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
 _E_Y = np.array((0.0, 1.0, 0.0))
@@ -68,27 +69,13 @@ class GraspCandidate:
     convex: bool
 
 
-def cw_gravity_accel(x_g, v_g, n):
-    """The orbital-mechanics acceleration at the grasp state, the X''_g^H under seed 000 eq 15.
-
-    It is eq 2a-2c without external acceleration: [2 n z', -n^2 y, -2 n x' + 3 n^2 z].
-
-    Args:
-        x_g: position in hill [m].
-        v_g: velocity relative to hill [m/s].
-        n: orbital mean motion Omega_t [rad/s].
-    """
-    _, y, z = np.asarray(x_g, dtype=float)
-    vx, _, vz = np.asarray(v_g, dtype=float)
-    return np.array((2.0 * n * vz, -n * n * y, -2.0 * n * vx + 3.0 * n * n * z))
-
-
 def convex_condition_value(omega_hill, x_g, v_g, n):
     """Left side of seed 000 eq 15; the approach is safely convex when it is > 0.
 
     .. math:: \\left(\\frac{\\omega^\\top x_g}{|\\omega|}\\frac{\\omega}{|\\omega|}\\right)^\\top \\ddot X_g
 
-    The projection of x_g on the spin axis dotted with the CW acceleration at (x_g, v_g): positive
+    The projection of x_g on the spin axis dotted with the CW acceleration at (x_g, v_g) (the X''_g^H
+    under eq 15: eq 2a-2c without external acceleration, flyby_sim.dynamics.orbital.cw_accel): positive
     when the Coriolis curvature (right-handed screw about +y, section 3.2) bends the approach and
     escape paths away from the target body. The full acceleration is used (eq 16), not the
     small-n approximation eq 17. Zero for n = 0.
@@ -104,7 +91,7 @@ def convex_condition_value(omega_hill, x_g, v_g, n):
     if not (math.isfinite(w2) and w2 > 0.0):
         raise ValueError(f'omega_hill must be finite and nonzero, got {list(w)}')
     projection = (w @ np.asarray(x_g, dtype=float)) / w2 * w  # (w'x / |w|) w / |w|
-    return float(projection @ cw_gravity_accel(x_g, v_g, n))  # eq 15
+    return float(projection @ cw_accel(x_g, v_g, n))  # eq 15
 
 
 # --------------------------------------------------------------------------------------------------
@@ -329,9 +316,8 @@ def flyby_target_point(x_g, v_g, offset_m):
 def flyby_initial_point(x_ft, v_ft, duration_s, n):
     """Fly-by approach initial point X_Fi, V_Fi, seed 000 eq 23.
 
-    [X_Fi; V_Fi] = Phi(t_f - t_i)^-1 [X_Ft; V_Ft] = Phi(t_i - t_f) [X_Ft; V_Ft], with the CW
-    transition matrix of eq 22 (flyby_sim.dynamics.orbital.cw_transition_matrix) run backward by the
-    fly-by duration t_f - t_i.
+    [X_Fi; V_Fi] = Phi(t_f - t_i)^-1 [X_Ft; V_Ft] = Phi(t_i - t_f) [X_Ft; V_Ft], the CW coast of eq 22
+    (flyby_sim.dynamics.orbital.cw_coast) run backward by the fly-by duration t_f - t_i.
 
     Args:
         x_ft, v_ft: fly-by target point [m], [m/s] (hill, relative velocity).
@@ -345,8 +331,7 @@ def flyby_initial_point(x_ft, v_ft, duration_s, n):
         raise ValueError(f'duration_s must be finite and >= 0, got {duration_s}')
     if not (math.isfinite(n) and n > 0.0):
         raise ValueError(f'n must be finite and positive [rad/s], got {n}')
-    state_f = np.concatenate((np.asarray(x_ft, dtype=float), np.asarray(v_ft, dtype=float)))
-    state_i = cw_transition_matrix(n, -duration_s) @ state_f  # eq 23
+    state_i = cw_coast(x_ft, v_ft, -duration_s, n)  # eq 23
     return state_i[:3], state_i[3:]
 
 

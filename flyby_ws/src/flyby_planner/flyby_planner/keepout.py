@@ -86,7 +86,7 @@ def swept_region(boxes, inertia, q_eci_from_body, omega_body):
 
     Args:
         boxes: target body-frame boxes with ``names``, ``center_body_m`` (K, 3) and ``size_m`` (K, 3)
-            (flyby_msgs_py.scenario.Boxes, ``Scenario.boxes``).
+            (flyby_sim.scenario.Boxes, ``Scenario.boxes``).
         inertia: 3x3 body inertia [kg m^2] (angular momentum H = I omega_body).
         q_eci_from_body: (M, 4) attitude samples (x, y, z, w) over the motion (one is enough for a
             principal-axis spin).

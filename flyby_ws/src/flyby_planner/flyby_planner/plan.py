@@ -36,7 +36,7 @@ from flyby_planner.grasp import flyby_initial_point, flyby_target_point, grasp_c
 from flyby_planner.keepout import swept_region
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import cw_transition_matrix, eci_vector_in_hill, hill_axes_in_eci, nonlinear_relative_accel
+from flyby_sim.dynamics.orbital import cw_coast, eci_vector_in_hill, hill_axes_in_eci, nonlinear_relative_accel
 
 # Samples of the target motion for the swept region (a tumbler's polhode) and of the passive path.
 _REGION_SAMPLES = 64
@@ -51,7 +51,7 @@ class PlannerConfig:
     """Everything ``plan_capture`` needs besides the prediction and the chaser state.
 
     Attributes (SI; angles in rad): see the ``planner`` section of docs/scenario.md for the meaning
-    and the seed 000 example defaults; ``boxes`` is flyby_msgs_py.scenario.Boxes.
+    and the seed 000 example defaults; ``boxes`` is flyby_sim.scenario.Boxes.
     """
 
     mean_motion_rad_s: float
@@ -327,14 +327,14 @@ def _path(chosen, r_now, v_now, t_now, passive_xyz, config):
     n = config.mean_motion_rad_s
     t_fb = config.flyby_duration_s
     span = t_fb + config.escape_duration_s
-    state = np.concatenate((r_now, v_now))
     t_coast = np.linspace(t_now, chosen.t_ti, 20)
-    coast = np.array([cw_transition_matrix(n, t - t_now) @ state for t in t_coast])
-    after_burn = coast[-1] + np.concatenate((np.zeros(3), chosen.dv_ti))
+    coast = np.array([cw_coast(r_now, v_now, t - t_now, n) for t in t_coast])
+    r_ti, v_ti = coast[-1, :3], coast[-1, 3:] + chosen.dv_ti
     t_transfer = np.linspace(chosen.t_ti, chosen.t_i, 200)
-    transfer = np.array([cw_transition_matrix(n, t - chosen.t_ti) @ after_burn for t in t_transfer])
+    transfer = np.array([cw_coast(r_ti, v_ti, t - chosen.t_ti, n) for t in t_transfer])
     # Coarse over the orbit, every 0.5 s for a minute either side of the passage.
-    tau = np.union1d(np.linspace(0.0, span, _PUBLISHED_PATH_POINTS), np.arange(max(t_fb - 60.0, 0.0), min(t_fb + 60.0, span), 0.5))
+    tau = np.union1d(np.linspace(0.0, span, _PUBLISHED_PATH_POINTS),
+                     np.arange(max(t_fb - 60.0, 0.0), min(t_fb + 60.0, span), 0.5))
     passive = passive_xyz(tau).T
     t = np.concatenate((t_coast, t_transfer[1:], chosen.t_i + tau[1:]))
     r = np.concatenate((coast[:, :3], transfer[1:, :3], passive[1:]))
@@ -391,8 +391,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
         return _refused(f'no grasp instant in [{w_lo:.1f}, {w_hi:.1f}] s: {why}', t_now, region=region)
 
     t_ti = t_now + config.maneuver_lead_s
-    phi_lead = cw_transition_matrix(n, config.maneuver_lead_s)
-    chaser_at_ti = phi_lead @ np.concatenate((r_now, v_now))
+    chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)
     cos_sun_min = math.cos(config.max_sun_angle_from_grasp_velocity_rad)
     candidates = []
     for g in found:

@@ -1,12 +1,16 @@
-"""The figures of a run (DESIGN §7 ``summary.json``), computed from the truth topics of its bag.
+"""The figures of a run (DESIGN §7, §10 ``summary.json``), computed from its truth.
 
-Nothing here trusts what a node claimed about itself: delta-v and fuel come from the applied thrust
-(``/sim/chaser/thrust`` is the mean force over each step, so force x step is the exact impulse),
-clearance from the truth poses and the scenario's geometry, the capture errors from the truth at the
-grasp time. The one claim used is *which* grasp time: the one the supervisor decided at.
+Both drivers write the same summary by the same function, ``summarize``: the graph from the truth
+topics of its bag (``compute_summary``), the headless driver (flyby_guidance.closed_loop) from the
+plant's truth samples, stamped as the messages would be. Nothing here trusts what a node claimed
+about itself: delta-v and fuel come from the applied thrust (``/sim/chaser/thrust`` is the mean force
+over each step, so force x step is the exact impulse), clearance and collision from the truth poses
+and the scenario's geometry, the capture errors from the truth at the grasp time. The claims used
+are *which* grasp time (the one the supervisor decided at) and the phases the mission went through.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -14,27 +18,68 @@ from scipy.spatial.transform import Rotation, Slerp
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.grasp import flyby_target_from_attitude
-from flyby_sim.dynamics.geometry import clearance
+from flyby_planner.supervisor import NO_SAFE_PLAN_PREFIX
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
-EXIT_CODES = {'CAPTURE': 0, 'ESCAPE': 3, 'ABORTED': 3, 'TIME_LIMIT': 3, 'INTERRUPTED': 130,
-              'ERROR': 1}
+from flyby_sim.dynamics.geometry import clearance
+
+# Process exit code of each outcome: 0 capture, 3 safe without capture, 5 collision, 130 interrupted, 1 error.
+EXIT_CODES = {c.OUTCOME_CAPTURE: 0, c.OUTCOME_ESCAPE: 3, c.OUTCOME_NO_SAFE_PLAN: 3, c.OUTCOME_ABORTED: 3,
+              c.OUTCOME_TIME_LIMIT: 3, c.OUTCOME_COLLISION: 5, c.OUTCOME_INTERRUPTED: 130, c.OUTCOME_ERROR: 1}
 TRUTH_TOPICS = [c.absolute(t) for t in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM,
                                         c.SIM_CHASER_THRUST, c.MISSION_PHASE, c.MISSION_EVENTS)]
 
 
-def outcome_of(end_reason, phases):
-    """Outcome from how the run ended and the phases it went through."""
+class ChaserTruth(NamedTuple):
+    """Truth of the chaser (the fields of /sim/chaser/odom the summary reads): t (N,) [s], position (N, 3)
+    [m] and linear (N, 3) [m/s] in hill."""
+
+    t: np.ndarray
+    position: np.ndarray
+    linear: np.ndarray
+
+
+class TargetTruth(NamedTuple):
+    """Truth of the target (/sim/target/odom): t (N,), orientation_xyzw (N, 4) q_hill_from_body, angular
+    (N, 3) inertial body rate in body axes [rad/s]."""
+
+    t: np.ndarray
+    orientation_xyzw: np.ndarray
+    angular: np.ndarray
+
+
+class ThrustTruth(NamedTuple):
+    """Applied thrust (/sim/chaser/thrust): t (N,), force (N, 3) [N] in hill, the mean over the step ending at t."""
+
+    t: np.ndarray
+    force: np.ndarray
+
+
+def outcome_of(end_reason, phases, collided=False, refused=False):
+    """Outcome (DESIGN §10) from how the run ended, the phases it went through, whether the truth shows
+    a collision before any capture and whether the plan was refused before anything was flown."""
+    if collided:
+        return c.OUTCOME_COLLISION
     if end_reason == 'interrupted':
-        return 'INTERRUPTED'
+        return c.OUTCOME_INTERRUPTED
     if end_reason is None or end_reason.startswith('error'):
-        return 'ERROR'
+        return c.OUTCOME_ERROR
     if c.PHASE_ABORTED in phases:
-        return 'ABORTED'
+        return c.OUTCOME_ABORTED
+    if refused and c.PHASE_TERMINAL_APPROACH not in phases:
+        return c.OUTCOME_NO_SAFE_PLAN
     if c.PHASE_CAPTURE in phases:
-        return 'CAPTURE'
+        return c.OUTCOME_CAPTURE
     if c.PHASE_ESCAPE in phases:
-        return 'ESCAPE'
-    return 'TIME_LIMIT'
+        return c.OUTCOME_ESCAPE
+    return c.OUTCOME_TIME_LIMIT
+
+
+def no_safe_plan_reason(events):
+    """The supervisor's reason for ending in NO_SAFE_PLAN (its PLANNING -> COMPLETE event), or None."""
+    for e in events:
+        if e['name'] == 'phase_changed' and e['values'].get('no_safe_plan') == 'true':
+            return e['message'].split(': ', 1)[-1]
+    return None
 
 
 def thrust_figures(t, force_hill, r_hill, mass0_kg, isp_s, sphere_radius_m):
@@ -94,41 +139,60 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
     phase_msgs = data.get(c.absolute(c.MISSION_PHASE))
     events = data.get(c.absolute(c.MISSION_EVENTS)) or []
     phases = list(phase_msgs.data) if phase_msgs is not None else []
+    summary = summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase, wall_time_s)
+    summary.update(node_exit_codes=node_exit_codes or {}, nodes_killed=list(nodes_killed), bag_repair=bag_repair)
+    return summary
+
+
+def summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase=None,
+              wall_time_s=float('nan')):
+    """The summary dict of a run from its truth (ChaserTruth, TargetTruth, ThrustTruth or the bag's series
+    with the same fields, any of them None), the phases in order and the events (dicts with t, level,
+    name, message, values (text), hardware_id)."""
     if final_phase is None and phases:
         final_phase = phases[-1]
-
-    sim_time_s = float(chaser.t[-1]) if chaser is not None and len(chaser.t) else 0.0
+    has_chaser = chaser is not None and len(chaser.t)
+    has_target = target is not None and len(target.t)
+    sim_time_s = float(chaser.t[-1]) if has_chaser else 0.0
     sphere_m = scenario.planner.restriction_sphere_radius_m
     delta_v = fuel = 0.0
     thrust_inside = False
-    if thrust is not None and chaser is not None and len(thrust.t):
+    if thrust is not None and has_chaser and len(thrust.t):
         r_at_thrust = chaser.position[np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)]
         delta_v, fuel, thrust_inside = thrust_figures(
             thrust.t, thrust.force, r_at_thrust, scenario.chaser.mass_kg,
             scenario.chaser.thrusters.isp_s, sphere_m)
 
+    t_g = grasp_time(events)
     min_clearance = t_min_clearance = None
-    if chaser is not None and target is not None and len(chaser.t) and len(target.t):
+    collided = False
+    e_pos = e_vel = None
+    if has_chaser and has_target:
         t_common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
         boxes = [(b.center_m, b.size_m) for b in scenario.target.geometry]
         gaps = clearance(chaser.position[i_c], target.orientation_xyzw[i_t], boxes,
                          scenario.chaser.envelope_radius_m)
         k = int(np.argmin(gaps))
         min_clearance, t_min_clearance = float(gaps[k]), float(t_common[k])
-
-    t_g = grasp_time(events)
-    e_pos = e_vel = None
-    if chaser is not None and target is not None and len(chaser.t) and len(target.t):
+        # A collision is contact before a capture (afterwards the chaser holds the target, DESIGN §10).
+        free = t_common <= t_g if c.PHASE_CAPTURE in phases and t_g is not None else np.ones(len(gaps), bool)
+        collided = bool(np.any(gaps[free] < 0.0))
         e_pos, e_vel = capture_errors(t_g, chaser, target, np.array(scenario.target.grasp_point_body_m),
                                       scenario.planner.offset_m, scenario.mean_motion_rad_s)
+
+    refused = no_safe_plan_reason(events)
+    outcome = outcome_of(end_reason, phases, collided, refused is not None)
+    if outcome == c.OUTCOME_NO_SAFE_PLAN:
+        end_reason = NO_SAFE_PLAN_PREFIX + refused
 
     def count(name):
         return sum(1 for e in events if e['name'] == name)
 
     return {
-        'outcome': outcome_of(end_reason, phases),
+        'outcome': outcome,
         'final_phase': final_phase,
         'end_reason': end_reason,
+        'phase_sequence': list(phases),
         'scenario': scenario.name,
         'seed': scenario.seed,
         't_grasp_s': t_g,
@@ -146,9 +210,6 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
         'sim_time_s': sim_time_s,
         'wall_time_s': wall_time_s,
         'real_time_factor': sim_time_s / wall_time_s if wall_time_s > 0 else None,
-        'node_exit_codes': node_exit_codes or {},
-        'nodes_killed': list(nodes_killed),
-        'bag_repair': bag_repair,
     }
 
 

@@ -6,7 +6,8 @@ observable condition and carries its reason:
 
     ESTIMATION        -> PLANNING           target estimate converged and min_observation_s of data
     PLANNING          -> TERMINAL_APPROACH  the planner selected a plan
-    PLANNING          -> ABORTED            the planner refused (no safe fly-by; the chaser stays put)
+    PLANNING          -> COMPLETE           the planner refused: no safe plan (outcome NO_SAFE_PLAN, DESIGN
+                                            §10; the chaser never left its safe state, nothing is fired)
     TERMINAL_APPROACH -> TRAJECTORY_ADJUST  an estimate at or after the injection time t_i
     TRAJECTORY_ADJUST -> FLYBY              guidance ended thrusting, or the chaser is inside the sphere
     FLYBY             -> CAPTURE | ESCAPE   at the grasp time, from the estimated relative state
@@ -14,6 +15,10 @@ observable condition and carries its reason:
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
                                             fault (ERROR event) reported by a watched node
+
+``SupervisorCore`` adds what the node observes and decides around the phase machine (the estimates
+by stamp, the capture decision from them, the avoidance burn after an abort); the supervisor node and
+the headless driver (flyby_guidance.closed_loop) both run it.
 """
 
 import dataclasses
@@ -21,12 +26,23 @@ import math
 
 import numpy as np
 
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate, q_eci_from_body
 from flyby_msgs_py import contract as c
+from flyby_msgs_py.stamped import StampedBuffer
+from flyby_msgs_py.wire import Event
+from flyby_planner.grasp import flyby_target_point, grasp_from_attitude
+from flyby_planner.keepout import swept_region
+from flyby_planner.plan import avoidance_burn, planner_config_from_scenario
+from flyby_sim.dynamics.orbital import cw_coast
 
+# Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
                  c.PHASE_FLYBY)
-# Phases in which a silent or faulty node aborts the mission (after FLYBY nothing is left to command).
-WATCHED_PHASES = ACTIVE_PHASES
+# Nodes whose silence or ERROR events abort the mission: they estimate and command.
+WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
+# The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
+NO_SAFE_PLAN_PREFIX = 'no safe plan: '
+_LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN'}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -39,10 +55,10 @@ class SupervisorConfig:
     capture_hold_s: float
     escape_observation_s: float
     watchdog_s: float
-    watched_nodes: tuple = ('flyby_estimator', 'flyby_guidance')
+    watched_nodes: tuple = WATCHED_NODES
 
 
-def supervisor_config_from_scenario(scenario, watched_nodes=('flyby_estimator', 'flyby_guidance')):
+def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
     m, s = scenario.chaser.manipulator, scenario.supervisor
     return SupervisorConfig(
         min_observation_s=scenario.planner.min_observation_s,
@@ -148,13 +164,14 @@ class PhaseMachine:
                                                           f'injection at {self.t_i:.2f} s',
                             {'t_grasp_s': self.t_grasp, 't_i_s': self.t_i})
         if name == 'plan_refused' and self.phase == c.PHASE_PLANNING:
-            return self._go(t, c.PHASE_ABORTED, f'no fly-by: {values.get("reason", "the planner refused")}')
+            return self._go(t, c.PHASE_COMPLETE, NO_SAFE_PLAN_PREFIX + values.get('reason', 'the planner refused'),
+                            {'no_safe_plan': True})
         if name == 'target_refined' and 't_grasp_s' in values:
             self.t_grasp = float(values['t_grasp_s'])
             return []
         if name == 'thrusting_ended' and self.phase == c.PHASE_TRAJECTORY_ADJUST:
             return self._go(t, c.PHASE_FLYBY, 'guidance ended thrusting: passive fly-by')
-        if level == 'ERROR' and source in self.config.watched_nodes and self.phase in WATCHED_PHASES:
+        if level == 'ERROR' and source in self.config.watched_nodes and self.phase in ACTIVE_PHASES:
             return self._go(t, c.PHASE_ABORTED, f'fault reported by {source}: {name}',
                             {'source': source, 'event': name})
         return []
@@ -184,7 +201,7 @@ class PhaseMachine:
 
     def clock(self, t):
         """Timers: the watchdog in the active phases, the holds before COMPLETE."""
-        if self.phase in WATCHED_PHASES:
+        if self.phase in ACTIVE_PHASES:
             for node in self.config.watched_nodes:
                 last = self.progress.get(node, 0.0)
                 if t - last > self.config.watchdog_s:
@@ -200,3 +217,141 @@ class PhaseMachine:
         if not self.active:
             return []
         return self._go(t, c.PHASE_ABORTED, why)
+
+
+class SupervisorCore:
+    """What the supervisor node does, without ROS: the phase machine fed with the stamped estimates,
+    events, progress and clock, the capture decision at the grasp time and the avoidance burn after
+    an abort (module doc). Every input method returns the outputs to publish, in order: Transition
+    (mission/phase), Event (mission/events) and guidance.Maneuver-like (t, dv_hill) commands
+    (``AvoidanceBurn``, on guidance/maneuver)."""
+
+    def __init__(self, scenario, watched_nodes=WATCHED_NODES, name='flyby_supervisor'):
+        self.scenario = scenario
+        self.name = name
+        self.machine = PhaseMachine(supervisor_config_from_scenario(scenario, watched_nodes))
+        self.planner_config = planner_config_from_scenario(scenario)
+        self.dynamics = ErrorStateDynamics(scenario.target_inertia)
+        self.n = scenario.mean_motion_rad_s
+        self.targets = StampedBuffer()  # (t, q_hill_from_body, omega_body) of the target estimates
+        self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
+        self.decision_at = None  # the chaser estimate the capture decision waits to be made at
+        self.t_clock = 0.0
+
+    @property
+    def phase(self):
+        return self.machine.phase
+
+    def start(self):
+        """The outputs at start: the first phase and its event."""
+        phase = self.machine.phase
+        return [Transition(0.0, '', phase, f'mission starts in {phase}', {}),
+                self._event(0.0, 'OK', 'phase_changed', f'mission starts in {phase}', {'from': '', 'to': phase})]
+
+    # -- inputs ---------------------------------------------------------------------------------
+    def on_target_estimate(self, t, q_hill_from_body, omega_body):
+        self.targets.add(t, (t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float)))
+        return self._apply(self.machine.target_estimate(t)) + self._try_decision()
+
+    def on_chaser_estimate(self, t, r_hill, v_hill):
+        self.chaser = (t, np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float))
+        out = self._apply(self.machine.chaser_estimate(t, self.chaser[1]))
+        if self.decision_at is None and self.machine.wants_decision(t):
+            self.decision_at = self.chaser
+        return out + self._try_decision()
+
+    def on_event(self, event):
+        """An event of mission/events (wire.Event; values as text); our own are ignored."""
+        if event.source == self.name:
+            return []
+        values = dict(event.values, reason=event.message)
+        return self._apply(self.machine.event(event.t, event.level, event.name, event.source, values))
+
+    def on_progress(self, node, t):
+        self.machine.node_progress(node, t)
+        return []
+
+    def on_clock(self, t):
+        self.t_clock = t
+        return self._apply(self.machine.clock(t))
+
+    def abort(self, why):
+        """(aborted, outputs) for an abort request at the current clock."""
+        transitions = self.machine.abort(self.t_clock, why)
+        return bool(transitions), self._apply(transitions)
+
+    # -- decisions ------------------------------------------------------------------------------
+    def _try_decision(self):
+        """Decide at the first chaser estimate at or after t_g, with the target estimate of its stamp."""
+        if self.decision_at is None or not self.machine.wants_decision(self.decision_at[0]):
+            return []
+        target = self.targets.first_at_or_after(self.decision_at[0])
+        if target is None:
+            return []
+        decision = decide_capture(self.decision_at, target[1], self.machine.t_grasp, self.dynamics, self.n,
+                                  self.planner_config.x_grasp_body_m, self.scenario.planner.offset_m,
+                                  self.machine.config)
+        return self._apply(self.machine.decide(self.decision_at[0], decision))
+
+    def _escape_burn(self, t):
+        """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast is unsafe."""
+        latest = self.targets.latest
+        if self.chaser is None or latest is None:
+            return []
+        sc = self.scenario
+        t_c, r, v = self.chaser
+        t_burn = max(t, t_c) + sc.guidance.command_lead_s
+        state = cw_coast(r, v, t_burn - t_c, self.n)
+        if np.linalg.norm(state[:3]) < sc.planner.restriction_sphere_radius_m + sc.guidance.sphere_margin_m:
+            return [self._event(t, 'WARN', 'no_avoidance_burn', 'inside the restriction sphere: coasting, never '
+                                                                 'thrusting', {})]
+        t_t, q_hb, omega_body = latest[1]
+        region = swept_region(sc.boxes, sc.target_inertia, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
+        dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, self.planner_config,
+                                           sc.supervisor.avoidance_delta_v_mps)
+        if dv is None:
+            return [self._event(t, 'OK', 'no_avoidance_burn',
+                                f'the coast is passively safe (least clearance {before:.2f} m)', {'clearance_m': before})]
+        return [AvoidanceBurn(t_burn, dv),
+                self._event(t, 'WARN', 'avoidance_burn',
+                            f'coast would come {before:.2f} m from the keep-out region; burn of '
+                            f'{np.linalg.norm(dv):.3f} m/s at t = {t_burn:.2f} s keeps {after:.2f} m',
+                            {'dv_hill_mps': [float(x) for x in dv]})]
+
+    # -- outputs --------------------------------------------------------------------------------
+    def _apply(self, transitions):
+        out = []
+        for tr in transitions:
+            out.append(tr)
+            out.append(self._event(tr.t, _LEVEL_OF.get(tr.phase_to, 'OK'), 'phase_changed',
+                                   f'{tr.phase_from} -> {tr.phase_to}: {tr.reason}',
+                                   {'from': tr.phase_from, 'to': tr.phase_to, **tr.values}))
+            if tr.phase_to == c.PHASE_ABORTED and tr.phase_from in (
+                    c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST):
+                out += self._escape_burn(tr.t)
+        return out
+
+    def _event(self, t, level, name, message, values):
+        return Event(t, level, name, message, values, self.name)
+
+
+@dataclasses.dataclass(frozen=True)
+class AvoidanceBurn:
+    """The collision-avoidance impulse of an abort: start time t [s], dv_hill [m/s] (guidance/maneuver)."""
+
+    t: float
+    dv_hill: np.ndarray
+
+
+def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, offset_m, config):
+    """The capture decision at the grasp time t_grasp from a chaser estimate (t, r_hill, v_hill) and a
+    target estimate (t, q_hill_from_body, omega_body), both carried to t_g: the chaser along CW (eq 22),
+    the target by its torque-free motion (eq 4); the fly-by target point from eq 8-9, 20-21."""
+    t_c, r, v = chaser
+    state = cw_coast(r, v, t_grasp - t_c, n)
+    t_t, q_hb, omega_body = target
+    t_at = max(t_grasp, t_t)  # the estimate may be a little newer than t_g: then its own time
+    s = prediction_from_estimate(dynamics, n, t_t, q_hb, omega_body, t_at).state(t_at)
+    x_g, v_g = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_grasp_body, n)
+    x_ft, v_ft = flyby_target_point(x_g, v_g, offset_m)
+    return capture_decision(state[:3], state[3:], x_g, x_ft, v_ft, config)

@@ -9,11 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
-from flyby_msgs_py.scenario import load_scenario
 from flyby_planner.keepout import swept_region
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import eci_vector_in_hill, quat_eci_from_hill
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_rotate
+from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER = load_scenario(SCENARIOS / 'paper_flyby.yaml')

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import yaml
 
-from flyby_msgs_py.scenario import load_scenario, scenario_from_dict
 from flyby_planner.plan import avoidance_burn, plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import cw_transition_matrix, nonlinear_relative_accel, rk4_step
+from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER_DICT = yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())

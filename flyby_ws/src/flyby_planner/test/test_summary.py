@@ -1,10 +1,15 @@
 """Summary figures from truth thrust samples, checked against the rocket equation by hand."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from flyby_planner.summary import outcome_of, thrust_figures
+from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, outcome_of, summarize, thrust_figures
+from flyby_sim.scenario import load_scenario
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2 as G0_MPS2
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 
 
 def test_constant_burn_delta_v_and_fuel():
@@ -28,3 +33,42 @@ def test_outcomes():
     assert outcome_of('phase COMPLETE', ['FLYBY', 'ESCAPE', 'COMPLETE']) == 'ESCAPE'
     assert outcome_of('phase ABORTED', ['FLYBY', 'ABORTED']) == 'ABORTED'
     assert outcome_of('time_limit', []) == 'TIME_LIMIT'
+
+
+def test_outcomes_of_design_section_10():
+    assert outcome_of('phase COMPLETE', ['ESTIMATION', 'PLANNING', 'COMPLETE'], refused=True) == 'NO_SAFE_PLAN'
+    # A refusal of a later replan, after a plan was flown, is not NO_SAFE_PLAN.
+    assert outcome_of('phase COMPLETE', ['PLANNING', 'TERMINAL_APPROACH', 'FLYBY', 'ESCAPE', 'COMPLETE'],
+                      refused=True) == 'ESCAPE'
+    assert outcome_of('phase COMPLETE', ['FLYBY', 'CAPTURE', 'COMPLETE'], collided=True) == 'COLLISION'
+    assert outcome_of('interrupted', ['FLYBY'], collided=True) == 'COLLISION'
+
+
+def _truth_through(x_hill_m, capture_at=None):
+    """Truth of a chaser moving along hill x at 0.1 m/s past a target at rest in hill (identity attitude)."""
+    t = np.arange(0.0, 100.0 + 1e-9, 0.05)
+    position = np.column_stack((x_hill_m(t), np.zeros_like(t), np.zeros_like(t)))
+    chaser = ChaserTruth(t, position, np.gradient(position, t, axis=0))
+    target = TargetTruth(t, np.tile((0.0, 0.0, 0.0, 1.0), (len(t), 1)), np.zeros((len(t), 3)))
+    thrust = ThrustTruth(t, np.zeros((len(t), 3)))
+    phases = ['ESTIMATION', 'PLANNING', 'TERMINAL_APPROACH', 'TRAJECTORY_ADJUST', 'FLYBY']
+    events = []
+    if capture_at is not None:
+        phases += ['CAPTURE', 'COMPLETE']
+        events = [{'t': capture_at, 'level': 'OK', 'name': 'phase_changed', 'message': 'FLYBY -> CAPTURE: capture',
+                   'values': {'from': 'FLYBY', 'to': 'CAPTURE', 't_grasp_s': repr(capture_at)}, 'hardware_id': ''}]
+    return chaser, target, thrust, phases, events
+
+
+def test_collision_is_contact_in_the_truth_before_any_capture():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')  # a 3 m box about the centre of mass, envelope 0.5 m
+    through = _truth_through(lambda t: 10.0 - 0.1 * t)  # from 10 m to 0 m: through the box
+    s = summarize(*through, sc, 'phase COMPLETE')
+    assert s['outcome'] == 'COLLISION' and s['min_clearance_m'] < 0.0
+    past = _truth_through(lambda t: 10.0 - 0.05 * t)  # stops 5 m out: 3 m of clearance
+    assert summarize(*past, sc, 'time_limit')['outcome'] == 'TIME_LIMIT'
+    # Held after a capture at 30 s, the chaser may touch the body it holds: not a collision.
+    held = _truth_through(lambda t: np.maximum(10.0 - 0.1 * t, 1.9), capture_at=30.0)
+    s = summarize(*held, sc, 'phase COMPLETE')
+    assert s['outcome'] == 'CAPTURE' and s['min_clearance_m'] < 0.0
+    assert s['phase_sequence'][-2:] == ['CAPTURE', 'COMPLETE']

@@ -1,10 +1,23 @@
-"""Tests of flyby_planner.supervisor: the phase machine's transitions and reasons, the capture decision."""
+"""Tests of flyby_planner.supervisor: the phase machine's transitions and reasons, the capture decision
+from estimates carried to the grasp time, and the core the node and the headless driver run."""
+
+from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
+from flyby_estimation.target_motion import ErrorStateDynamics, q_eci_from_body, q_hill_from_body
 from flyby_msgs_py import contract as c
-from flyby_planner.supervisor import PhaseMachine, SupervisorConfig, capture_decision
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.supervisor import (AvoidanceBurn, PhaseMachine, SupervisorConfig, SupervisorCore, Transition,
+                                      capture_decision, decide_capture)
+from flyby_sim.dynamics.attitude import AttitudePropagator
+from flyby_sim.dynamics.orbital import cw_accel
+from flyby_sim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 
 CONFIG = SupervisorConfig(min_observation_s=60.0, restriction_sphere_radius_m=15.0, reach_m=1.5,
                           position_tolerance_m=0.10, velocity_tolerance_mps=0.01, capture_hold_s=10.0,
@@ -60,11 +73,13 @@ def test_planning_waits_for_both_convergence_and_observation():
     assert m.target_estimate(60.1)[0].phase_to == c.PHASE_PLANNING
 
 
-def test_refused_plan_aborts_with_the_planners_reason():
+def test_refused_plan_ends_in_no_safe_plan_with_the_planners_reason():
+    """DESIGN §10: a refused plan is NO_SAFE_PLAN, not ABORTED; the mission is over, nothing was flown."""
     m = PhaseMachine(CONFIG)
     m.phase = c.PHASE_PLANNING
     out = m.event(60.3, 'ERROR', 'plan_refused', 'flyby_planner', {'reason': 'condition (a): too fast'})
-    assert out[0].phase_to == c.PHASE_ABORTED and 'condition (a)' in out[0].reason
+    assert out[0].phase_to == c.PHASE_COMPLETE and out[0].reason == 'no safe plan: condition (a): too fast'
+    assert out[0].values == {'no_safe_plan': True}
 
 
 def test_escape_then_complete_after_the_observation():
@@ -100,3 +115,88 @@ def test_capture_decision_against_each_tolerance():
     assert not slow.capture and 'velocity error 11.0 mm/s > 10 mm/s' in slow.reason
     far_grasp = capture_decision(X_FT, V_FT, X_G * 0.0 - X_FT, X_FT, V_FT, CONFIG)
     assert not far_grasp.capture and 'reach' in far_grasp.reason
+
+
+def test_decide_capture_carries_both_estimates_to_the_grasp_time():
+    """The chaser estimate is coasted along CW and the target estimate propagated torque-free to t_g;
+    checked against numerical integration of eq 2 and an independent attitude integration."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    inertia = sc.target_inertia
+    t_c, r_c, v_c = 812.95, np.array((1.2, 0.3, 2.4)), np.array((0.01, -0.002, 0.12))
+    t_t, t_g = 812.9, 813.0041
+    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, inertia)
+    q_t, w_t = truth.state_at(t_t)
+    decision = decide_capture((t_c, r_c, v_c), (t_t, q_hill_from_body(t_t, n, q_t), w_t), t_g,
+                              ErrorStateDynamics(inertia), n, np.array(sc.target.grasp_point_body_m),
+                              sc.planner.offset_m, CONFIG)
+    coast = solve_ivp(lambda _t, y: np.concatenate((y[3:], cw_accel(y[:3], y[3:], n))), (t_c, t_g),
+                      np.concatenate((r_c, v_c)), rtol=1e-12, atol=1e-12).y[:, -1]
+    q_g, w_g = truth.state_at(t_g)
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(t_g, n, q_g), w_g, sc.target.grasp_point_body_m,
+                                            sc.planner.offset_m, n)
+    assert decision.values['position_error_m'] == pytest.approx(np.linalg.norm(coast[:3] - x_ft), abs=1e-9)
+    assert decision.values['velocity_error_mps'] == pytest.approx(np.linalg.norm(coast[3:] - v_ft), abs=1e-9)
+
+
+def _core_in_flyby(scenario):
+    """A SupervisorCore driven to FLYBY with a plan grasping at 813.0 s (watched nodes alive)."""
+    core = SupervisorCore(scenario)
+    start = core.start()
+    assert isinstance(start[0], Transition) and start[0].phase_to == c.PHASE_ESTIMATION
+    for node in core.machine.config.watched_nodes:
+        core.on_progress(node, 800.0)
+    core.machine.phase, core.machine.t_grasp = c.PHASE_FLYBY, 813.0
+    return core
+
+
+def test_core_decides_at_the_first_chaser_estimate_after_the_grasp_with_the_target_of_its_stamp():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    core = _core_in_flyby(sc)
+    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
+    q, w = truth.state_at(813.1)
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(813.1, n, q), w, sc.target.grasp_point_body_m,
+                                            sc.planner.offset_m, n)
+    assert core.on_chaser_estimate(812.9, x_ft, v_ft) == []  # before t_g: no decision
+    assert core.on_chaser_estimate(813.1, x_ft, v_ft) == []  # waits for the target estimate of its stamp
+    out = core.on_target_estimate(813.1, q_hill_from_body(813.1, n, q), w)
+    assert [o.phase_to for o in out if isinstance(o, Transition)] == [c.PHASE_CAPTURE]
+    changed = [o for o in out if isinstance(o, Event)]
+    assert changed[0].name == 'phase_changed' and changed[0].source == 'flyby_supervisor'
+    assert changed[0].values['t_grasp_s'] == 813.0
+
+
+def test_core_ignores_its_own_events_and_reads_values_as_text():
+    core = SupervisorCore(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+    core.machine.phase = c.PHASE_PLANNING
+    own = wire_event(Event(70.0, 'OK', 'plan_selected', '', {'t_i_s': 513.0, 't_grasp_s': 813.0}, 'flyby_supervisor'))
+    assert core.on_event(own) == []
+    out = core.on_event(own._replace(source='flyby_planner'))
+    assert out[0].phase_to == c.PHASE_TERMINAL_APPROACH and core.machine.t_i == 513.0
+
+
+def test_core_abort_outside_the_sphere_fires_an_avoidance_burn_only_if_the_coast_is_unsafe():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    q0 = sc.q_hill_from_body0
+    # Far and drifting along V-bar: passively safe, no burn.
+    core = SupervisorCore(sc)
+    core.machine.phase, core.machine.t_i = c.PHASE_TERMINAL_APPROACH, 500.0
+    core.on_target_estimate(100.0, q0, sc.omega_body0_rad_s)
+    core.on_chaser_estimate(100.0, np.array((50.0, 0.0, 0.0)), np.zeros(3))
+    _alive(core.machine, 100.0)
+    core.on_clock(100.0)
+    aborted, out = core.abort('test')
+    assert aborted and not any(isinstance(o, AvoidanceBurn) for o in out)
+    assert [o.name for o in out if isinstance(o, Event)] == ['phase_changed', 'no_avoidance_burn']
+    # 20 m out and heading straight at the target: a burn, stamped a command lead ahead.
+    core = SupervisorCore(sc)
+    core.machine.phase, core.machine.t_i = c.PHASE_TERMINAL_APPROACH, 500.0
+    core.on_target_estimate(100.0, q0, sc.omega_body0_rad_s)
+    core.on_chaser_estimate(100.0, np.array((20.0, 0.0, 0.0)), np.array((-0.2, 0.0, 0.0)))
+    _alive(core.machine, 100.0)
+    core.on_clock(100.0)
+    aborted, out = core.abort('test')
+    burns = [o for o in out if isinstance(o, AvoidanceBurn)]
+    assert aborted and len(burns) == 1 and burns[0].t == 100.0 + sc.guidance.command_lead_s
+    assert burns[0].dv_hill[0] > 0.0  # it turns the chaser away from the target

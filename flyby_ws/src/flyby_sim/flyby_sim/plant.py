@@ -22,12 +22,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flyby_sim.dynamics.attitude import AttitudePropagator, validated_inertia
+from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import (cw_accel, mean_motion_rad_s, nonlinear_relative_accel,
                                quat_eci_from_hill, rk4_step)
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_msgs_py.wire import Event
 from flyby_sim.sensors import SensorModel, is_sample_step
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
 from flyby_sim.thrusters import ThrusterModel
@@ -120,25 +121,6 @@ class Measurement(NamedTuple):
     value: np.ndarray
 
 
-class Event(NamedTuple):
-    """A decision, warning or fault for /mission/events; values maps key -> str."""
-
-    level: str  # 'OK', 'WARN' or 'ERROR'
-    name: str
-    message: str
-    values: dict
-
-
-def _fmt(value):
-    if isinstance(value, (tuple, list, np.ndarray)):
-        return '[' + ', '.join(f'{float(c):.9g}' for c in value) + ']'
-    return f'{value:.9g}' if isinstance(value, float) else str(value)
-
-
-def _values(**kwargs):
-    return {key: _fmt(value) for key, value in kwargs.items()}
-
-
 class Plant:
     """Truth simulation of one chaser and its target, advanced in fixed steps of config.step_s.
 
@@ -194,8 +176,8 @@ class Plant:
                 raise ManeuverRejected(f'the chaser is attached to the target; maneuver stamped {t_stamp} s dropped')
             return self._thrusters.schedule(t_stamp, dv_hill, self.t, self._mass_kg)
         except ManeuverRejected as exc:
-            self._events.append(Event('ERROR', 'maneuver_rejected', exc.reason,
-                                      _values(t_now=self.t, t_stamp=t_stamp, dv_hill=str(dv_hill))))
+            self._events.append(Event(self.t, 'ERROR', 'maneuver_rejected', exc.reason,
+                                      dict(t_now=self.t, t_stamp=t_stamp, dv_hill=str(dv_hill))))
             raise
 
     def measurements(self):
@@ -225,8 +207,8 @@ class Plant:
         c_hill_from_body = quat_to_matrix(self._last.q_hill_from_body)
         self._r_body_captured = c_hill_from_body.T @ self._y[:3]
         self._thrusters.cancel_all()
-        self._events.append(Event('OK', 'captured', f'chaser attached to the target at t = {self.t:.3f} s',
-                                  _values(t=self.t, r_hill=self._y[:3], r_body=self._r_body_captured)))
+        self._events.append(Event(self.t, 'OK', 'captured', f'chaser attached to the target at t = {self.t:.3f} s',
+                                  dict(t=self.t, r_hill=self._y[:3], r_body=self._r_body_captured)))
 
     def step(self):
         """Advance exactly one step_s; returns the TruthSample at the new time."""
@@ -274,10 +256,9 @@ class Plant:
         t = self.t
         q_eci_from_body, omega_body = self._attitude.state_at(t)
         q_hill_from_body = quat_multiply(quat_conjugate(quat_eci_from_hill(t, self.mean_motion_rad_s)), q_eci_from_body)
-        c = quat_to_matrix(q_hill_from_body)
-        r_hill = c @ self._r_body_captured
-        omega_rel_hill = c @ np.asarray(omega_body) - np.array((0.0, -self.mean_motion_rad_s, 0.0))
-        self._y = np.concatenate((r_hill, np.cross(omega_rel_hill, r_hill)))  # eq 8-9 of a body-fixed point
+        r_hill, v_hill = body_point_state(quat_to_matrix(q_hill_from_body), omega_body, self._r_body_captured,
+                                          self.mean_motion_rad_s)  # eq 8-9 of a body-fixed point
+        self._y = np.concatenate((r_hill, v_hill))
         self._last = self._truth(t, np.zeros(3), False)
         self._sample(self._last)
         return self._last
@@ -301,23 +282,23 @@ class Plant:
 
         self._burn_rhs = burn_rhs
         self._restriction_reported = False
-        self._events.append(Event('OK', 'burn_started', f'burn {burn.seq} started at t = {t:.3f} s',
-                                  _values(seq=burn.seq, t_cmd=burn.t_cmd_s, t_start=burn.start_s,
+        self._events.append(Event(self.t, 'OK', 'burn_started', f'burn {burn.seq} started at t = {t:.3f} s',
+                                  dict(seq=burn.seq, t_cmd=burn.t_cmd_s, t_start=burn.start_s,
                                           t_end=burn.end_s, dv_cmd_hill=burn.dv_cmd_hill,
                                           dv_hill=burn.dv_hill, mass_kg=burn.mass_start_kg)))
         if burn.late:
             lateness = burn.start_s - burn.t_cmd_s
-            self._events.append(Event('WARN', 'late_maneuver',
+            self._events.append(Event(self.t, 'WARN', 'late_maneuver',
                                       f'burn {burn.seq} stamped {burn.t_cmd_s:.3f} s started {lateness:.3f} s late',
-                                      _values(seq=burn.seq, t_cmd=burn.t_cmd_s, t_start=burn.start_s,
+                                      dict(seq=burn.seq, t_cmd=burn.t_cmd_s, t_start=burn.start_s,
                                               lateness_s=lateness)))
         return burn
 
     def _end_burn(self, t):
         burn = self._thrusters.finish_active()
         self._burn_rhs = None
-        self._events.append(Event('OK', 'burn_ended', f'burn {burn.seq} ended at t = {t:.3f} s',
-                                  _values(seq=burn.seq, t_end=t, dv_hill=burn.dv_hill, fuel_kg=burn.fuel_kg,
+        self._events.append(Event(self.t, 'OK', 'burn_ended', f'burn {burn.seq} ended at t = {t:.3f} s',
+                                  dict(seq=burn.seq, t_end=t, dv_hill=burn.dv_hill, fuel_kg=burn.fuel_kg,
                                           mass_kg=burn.mass_end_kg)))
 
     def _check_restriction(self, burn, t, y):
@@ -327,10 +308,10 @@ class Plant:
         radius_m = self.config.restriction_sphere_radius_m
         if range_m < radius_m and not self._restriction_reported:
             self._restriction_reported = True
-            self._events.append(Event('ERROR', 'thrust_inside_restriction_sphere',
+            self._events.append(Event(self.t, 'ERROR', 'thrust_inside_restriction_sphere',
                                       f'burn {burn.seq} thrusts at {range_m:.3f} m, inside the '
                                       f'{radius_m:.3f} m restriction sphere',
-                                      _values(seq=burn.seq, t=t, range_m=range_m,
+                                      dict(seq=burn.seq, t=t, range_m=range_m,
                                               restriction_sphere_radius_m=radius_m)))
 
     def _truth(self, t, force_hill, firing):
@@ -354,7 +335,7 @@ class Plant:
 
 
 def plant_config_from_scenario(scenario):
-    """The plant configuration of a validated scenario (``flyby_msgs_py.scenario.Scenario``)."""
+    """The plant configuration of a validated scenario (``flyby_sim.scenario.Scenario``)."""
     sc = scenario
     th = sc.chaser.thrusters
     return PlantConfig(

@@ -20,8 +20,12 @@ from std_msgs.msg import Header, String
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py import convert
-from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event, scenario_of
-from flyby_sim.plant import ManeuverRejected, Plant, plant_config_from_scenario
+from flyby_msgs_py.markers import marker_array, target_box_markers
+from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event
+from flyby_msgs_py.wire import Event
+from flyby_sim.dynamics.propulsion import ManeuverRejected
+from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.scenario import scenario_of
 
 STARTUP_TIMEOUT_S = 30.0
 SLOW_NODE_WARNING_S = 5.0
@@ -153,8 +157,7 @@ class SimNode(Node):
         self.publish_truth(sample)
         for m in self.plant.measurements():
             self.publish_measurement(m)
-        for level, name, message, values in self.plant.drain_events():
-            self.emit(level, name, message, values)
+        self.publish_plant_events()
         if sample.t >= self.duration_s - 0.5 * self.step_s:
             self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
                       {'t': repr(sample.t)})
@@ -198,8 +201,9 @@ class SimNode(Node):
         self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
             s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
         if self.steps % max(1, round(1.0 / self.step_s)) == 0:
-            self.pubs[c.MARKERS].publish(convert.target_markers(
-                s.t, c.FRAME_HILL, s.q_hill_from_body, self.scenario.target.geometry))
+            boxes = self.scenario.boxes
+            self.pubs[c.MARKERS].publish(marker_array(target_box_markers(
+                s.t, s.q_hill_from_body, boxes.centers_hill_m(s.q_hill_from_body), boxes.size_m, boxes.names)))
 
     def publish_measurement(self, m):
         if m.kind == 'relative_position':
@@ -210,15 +214,18 @@ class SimNode(Node):
                 convert.quaternion_stamped(m.t, c.FRAME_HILL, m.value))
 
     def emit(self, level, name, message, values):
-        publish_event(self, self.pubs[c.MISSION_EVENTS], self.plant.t, level, name, message, values, log_ok=True)
+        publish_event(self, self.pubs[c.MISSION_EVENTS], Event(self.plant.t, level, name, message, values), log_ok=True)
+
+    def publish_plant_events(self):
+        for event in self.plant.drain_events():
+            publish_event(self, self.pubs[c.MISSION_EVENTS], event, log_ok=True)
 
     # -- commands -------------------------------------------------------------------------
     def on_phase(self, msg):
         """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
         if convert.string_to_str(msg) == c.PHASE_CAPTURE:
             self.plant.capture()
-            for level, name, message, values in self.plant.drain_events():
-                self.emit(level, name, message, values)
+            self.publish_plant_events()
 
     def on_maneuver(self, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)
@@ -226,8 +233,7 @@ class SimNode(Node):
             self.plant.command_maneuver(t_stamp, dv_hill)
         except ManeuverRejected:
             pass  # the plant recorded why; reported below, never applied
-        for level, name, message, values in self.plant.drain_events():
-            self.emit(level, name, message, values)
+        self.publish_plant_events()
 
 
 def main(args=None):

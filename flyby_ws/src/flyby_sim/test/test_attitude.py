@@ -9,9 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from flyby_sim.dynamics.attitude import (AttitudePropagator, angular_momentum_inertial, euler_rate,
+from flyby_sim.dynamics.attitude import (AttitudePropagator, angular_momentum_inertial, body_point_state, euler_rate,
                                 kinetic_energy, quaternion_rate)
-from flyby_sim.dynamics.rotation import quat_normalize
+from flyby_sim.dynamics.orbital import hill_axes_in_eci
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_normalize, quat_to_matrix
 
 STABLE_SPIN = (np.diag([1200.0, 1000.0, 2000.0]), [0.0, 0.0, math.radians(5.0)])  # seed 000 section 5
 SEED001_TUMBLER = (np.diag([4069.0, 12030.0, 11029.0]), [0.3, 0.2, 0.1])  # seed 001 Table 1
@@ -99,6 +100,43 @@ def test_seed001_eq3_euler_rate_with_torque():
     expected = np.linalg.solve(inertia, torque - np.cross(omega, inertia @ omega))
     np.testing.assert_allclose(euler_rate(omega, inertia, np.linalg.inv(inertia), torque), expected,
                                rtol=1e-13)
+
+
+def test_seed000_eq8_9_body_point_velocity_is_the_derivative_of_its_position():
+    """body_point_state's v^H against central differences of eq 8's x^H(t) = C_hill_from_eci(t) C_eci_from_body(t) x_B.
+
+    The body turns at a constant body rate (q(t) = q0 exp(omega t)); the orbit rate is exaggerated so that
+    eq 9's orbital-rate term, and its sign, are far above the difference error.
+    """
+    n_fast = 0.05  # [rad/s]
+    q0 = quat_normalize([0.1, -0.2, 0.3, 0.9])
+    omega_body = np.array((0.3, 0.2, -0.1))
+    x_body = np.array((1.5, 0.0, 1.5))
+
+    def c_hill_from_body(t):
+        q_eci_from_body = quat_multiply(q0, quat_from_rotation_vector(omega_body * t))
+        return hill_axes_in_eci(t, n_fast).T @ quat_to_matrix(q_eci_from_body)
+
+    h = 1e-4
+    for t in (3.0, 17.5, 40.0):
+        r, v = body_point_state(c_hill_from_body(t), omega_body, x_body, n_fast)
+        np.testing.assert_allclose(r, c_hill_from_body(t) @ x_body, atol=1e-15)  # eq 8
+        numeric = (c_hill_from_body(t + h) @ x_body - c_hill_from_body(t - h) @ x_body) / (2 * h)
+        np.testing.assert_allclose(v, numeric, atol=1e-8)
+        assert np.linalg.norm(np.cross((0.0, -n_fast, 0.0), r)) > 1e4 * np.linalg.norm(v - numeric)
+
+
+def test_body_point_state_of_a_stack_equals_one_at_a_time():
+    rng = np.random.default_rng(8)
+    c = np.array([quat_to_matrix(quat_normalize(q)) for q in rng.normal(size=(5, 4))])
+    omega_body = rng.normal(size=(5, 3)) * 0.2
+    x_body = np.array((1.0, -0.5, 2.0))
+    r, v = body_point_state(c, omega_body, x_body, 1e-3)
+    assert r.shape == v.shape == (5, 3)
+    for k in range(5):
+        r_k, v_k = body_point_state(c[k], omega_body[k], x_body, 1e-3)
+        np.testing.assert_array_equal(r[k], r_k)
+        np.testing.assert_array_equal(v[k], v_k)
 
 
 def test_state_at_rejects_going_back_and_bad_inputs():

@@ -10,7 +10,8 @@ from scipy.spatial.transform import Rotation
 
 from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_axis_angle, quat_from_matrix,
                                 quat_from_rotation_vector, quat_multiply, quat_normalize, quat_rotate,
-                                quat_to_matrix, random_small_rotation, rotation_vector_from_quat)
+                                quat_rotate_many, quat_to_matrix, quat_to_matrix_many, random_small_rotation,
+                                rotation_vector_from_quat)
 
 RNG = np.random.default_rng(20240601)
 QUATS = Rotation.random(200, random_state=RNG).as_quat()
@@ -40,6 +41,16 @@ def test_matrix_conversions_match_scipy():
 def test_rotate_matches_scipy():
     for q, v in zip(QUATS, VECTORS):
         np.testing.assert_allclose(quat_rotate(q, v), Rotation.from_quat(q).apply(v), atol=1e-14)
+
+
+def test_vectorized_forms_match_scipy():
+    """quat_to_matrix_many (quaternions not unit, as a filter's are before renormalizing) and quat_rotate_many."""
+    scaled = QUATS * RNG.uniform(0.5, 2.0, size=(len(QUATS), 1))
+    np.testing.assert_allclose(quat_to_matrix_many(scaled), Rotation.from_quat(QUATS).as_matrix(), atol=1e-14)
+    assert quat_to_matrix_many(QUATS[0]).shape == (1, 3, 3)
+    np.testing.assert_allclose(quat_rotate_many(QUATS, VECTORS), Rotation.from_quat(QUATS).apply(VECTORS), atol=1e-14)
+    np.testing.assert_allclose(quat_rotate_many(QUATS[0], VECTORS), Rotation.from_quat(QUATS[0]).apply(VECTORS),
+                               atol=1e-14)
 
 
 def test_rotation_vector_maps_match_scipy():

@@ -56,10 +56,13 @@ def body_point_state(c_hill_from_body, omega_body, x_body, n):
     d/dt(C x_B) = C (omega_B x x_B) - Omega^H x x^H with Omega^H = [0, -n, 0] (seed 000 eq 11).
     test_target_motion.py::test_seed000_eq9_sign_by_numerical_derivative settles it.
 
+    One state, or N at once: a stack c_hill_from_body (N, 3, 3) with omega_body (N, 3) gives (N, 3)
+    positions and velocities (x_body (3,) shared, or one per state (N, 3)).
+
     Args:
-        c_hill_from_body: rotation matrix of q_hill_from_body.
-        omega_body: inertial angular velocity, body axes [rad/s].
-        x_body: the point in body axes [m].
+        c_hill_from_body: rotation matrix of q_hill_from_body, (3, 3) or (N, 3, 3).
+        omega_body: inertial angular velocity, body axes [rad/s], (3,) or (N, 3).
+        x_body: the point in body axes [m], (3,) or (N, 3).
         n: orbital mean motion [rad/s].
 
     Returns:
@@ -67,9 +70,16 @@ def body_point_state(c_hill_from_body, omega_body, x_body, n):
     """
     c = np.asarray(c_hill_from_body, dtype=float)
     x_b = np.asarray(x_body, dtype=float)
-    r_hill = c @ x_b  # eq 8
-    v_hill = c @ np.cross(np.asarray(omega_body, dtype=float), x_b) - skew((0.0, -n, 0.0)) @ r_hill  # eq 9
+    r_hill = _matrix_times_vector(c, x_b)  # eq 8
+    omega_x_b = np.cross(np.asarray(omega_body, dtype=float), x_b)
+    big_omega_x = skew((0.0, -n, 0.0))  # [Omega^H x]
+    v_hill = _matrix_times_vector(c, omega_x_b) - r_hill @ big_omega_x.T  # eq 9, sign settled above
     return r_hill, v_hill
+
+
+def _matrix_times_vector(c, v):
+    """c @ v for one matrix and vector or stacks of them ((N, 3, 3) with (3,) or (N, 3))."""
+    return (c @ v[..., None])[..., 0]
 
 
 def kinetic_energy(omega_body, inertia):

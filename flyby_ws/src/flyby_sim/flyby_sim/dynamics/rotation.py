@@ -59,6 +59,15 @@ def quat_to_matrix(q):
     ))
 
 
+def quat_to_matrix_many(q):
+    """Rotation matrices (N, 3, 3) of N quaternions q (N, 4), none need be exactly unit.
+
+    The vectorized ``quat_to_matrix``: its arithmetic is element-wise, so it takes the four components
+    as (N,) columns and returns (3, 3, N).
+    """
+    return np.moveaxis(quat_to_matrix(np.atleast_2d(np.asarray(q, dtype=float)).T), -1, 0)
+
+
 def quat_from_matrix(c_a_from_b):
     """Unit quaternion q_a_from_b (w >= 0) of a rotation matrix, by Shepperd's method."""
     c = np.asarray(c_a_from_b, dtype=float)

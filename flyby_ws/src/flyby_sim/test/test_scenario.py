@@ -1,4 +1,5 @@
-"""Scenario loading: the two shipped files, derived values, one test per error class, seed override."""
+"""Scenario loading: the two shipped files, derived values, target boxes in hill, one test per error class,
+seed override."""
 
 import copy
 import math
@@ -10,8 +11,10 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flyby_msgs_py.scenario import (EARTH_RADIUS_M, SCHEMA, Scenario, ScenarioError, load_scenario,
-                                    scenario_from_dict, schema_markdown)
+from flyby_msgs_py.markers import marker_array, target_box_markers
+from flyby_msgs_py.schema import ScenarioError
+from flyby_sim.dynamics.constants import EARTH_RADIUS_M
+from flyby_sim.scenario import SCHEMA, Boxes, Scenario, load_scenario, scenario_from_dict, schema_markdown
 
 REPO = Path(__file__).resolve().parents[4]
 PAPER = REPO / 'scenarios' / 'paper_flyby.yaml'
@@ -137,7 +140,7 @@ def test_scenario_is_read_only():
     with pytest.raises(ValueError):
         sc.chaser.initial_position_hill_m[0] = 1.0
     with pytest.raises(AttributeError, match="chaser has no key 'mass'"):
-        sc.chaser.mass
+        sc.chaser.mass  # noqa: B018 - reading the key is what raises
     sc.raw['seed'] = 99  # a copy
     assert sc.raw['seed'] == 1
     sc.q_hill_from_body0[0] = 5.0  # a fresh array
@@ -165,6 +168,29 @@ def test_integer_accepted_for_float_and_yaml12_exponent(tmp_path):
 def test_null_section_means_all_defaults(tmp_path):
     text = PAPER.read_text().replace('guidance:\n  adjust_interval_s: 20.0\n', 'guidance:\n')
     assert load_scenario(write(tmp_path, text)).guidance.adjust_interval_s == 20.0
+
+
+# ------------------------------------------------------------------------------------------------
+# Target boxes in hill (markers)
+
+def test_box_centers_in_hill_follow_the_attitude():
+    # Body z along hill x: a quarter turn about hill y. q = (0, sin 45, 0, cos 45); target CoM at hill [0, 0, 1].
+    s = math.sqrt(0.5)
+    boxes = Boxes(('bus', 'panel_plus_y', 'antenna'), np.array([[0.0, 0.0, 0.0], [0.0, 4.5, 0.0], [0.0, 0.0, 2.0]]),
+                  np.ones((3, 3)))
+    centers = boxes.centers_hill_m([0.0, s, 0.0, s], r_com_hill_m=[0.0, 0.0, 1.0])
+    np.testing.assert_allclose(centers, [[0.0, 0.0, 1.0], [0.0, 4.5, 1.0], [2.0, 0.0, 1.0]], atol=1e-15)
+
+
+def test_target_markers_from_the_scenario_geometry():
+    sc = load_scenario(PAPER)
+    q = sc.q_hill_from_body0
+    boxes = sc.boxes
+    arr = marker_array(target_box_markers(0.0, q, boxes.centers_hill_m(q), boxes.size_m, boxes.names))
+    assert [m.id for m in arr.markers] == [0, 1, 2]
+    p = arr.markers[1].pose.position  # panel_plus_y at body [0, 4.5, 0]
+    np.testing.assert_allclose([p.x, p.y, p.z], sc.rotation_hill_from_body0.apply([0.0, 4.5, 0.0]), atol=1e-12)
+    assert arr.markers[1].color.b > arr.markers[1].color.r
 
 
 # ------------------------------------------------------------------------------------------------
@@ -392,9 +418,11 @@ def test_seed_override():
     sc = load_scenario(PAPER, seed=42)
     assert sc.seed == 42 and sc.to_dict()['seed'] == 42 and sc.raw['seed'] == 1
     assert load_scenario(PAPER, seed=np.int64(3)).seed == 3
-    with pytest.raises(ScenarioError, match=r'paper_flyby.yaml: seed: must be >= 0, got -1 \(from the seed argument\)$'):
+    with pytest.raises(ScenarioError,
+                       match=r'paper_flyby.yaml: seed: must be >= 0, got -1 \(from the seed argument\)$'):
         load_scenario(PAPER, seed=-1)
-    with pytest.raises(ScenarioError, match=r': seed: must be an integer, got true \(bool\) \(from the seed argument\)$'):
+    with pytest.raises(ScenarioError,
+                       match=r': seed: must be an integer, got true \(bool\) \(from the seed argument\)$'):
         load_scenario(PAPER, seed=True)
     with pytest.raises(ScenarioError, match=r': seed: must be an integer, got 2.0'):
         load_scenario(PAPER, seed=2.0)
@@ -418,7 +446,7 @@ def test_docs_page_holds_the_generated_key_table():
     assert begin in text and end in text
     table = text.split(begin, 1)[1].split(end, 1)[0]
     assert table == schema_markdown(), \
-        'regenerate with: .venv/bin/python -m flyby_msgs_py.scenario --schema-markdown'
+        'regenerate with: .venv/bin/python -m flyby_sim.scenario --schema-markdown'
 
 
 def test_every_schema_key_has_a_description():

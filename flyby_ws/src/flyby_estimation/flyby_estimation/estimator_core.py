@@ -1,0 +1,163 @@
+"""What the estimator node does, without ROS: both filters fed with the measurements and commands,
+and the estimates and events they give (seed 000 §2.2 (1)).
+
+Each vision attitude updates the target filter and gives a ``TargetEstimate``, then the convergence
+of the target estimate (with, at the first, the batch maximum-likelihood check of the filter,
+``batch``) and, once converged, its motion category (seed 000 §2.1) every CLASSIFY_PERIOD_S; each
+relative position updates the navigation filter and gives a ``ChaserEstimate``; each commanded
+maneuver becomes a known input of the navigation filter. A rejected measurement is an event with the
+running count of its kind. After the capture the chaser moves with the target, so its free-flight
+navigation stops.
+
+The estimator node and the headless driver (flyby_guidance.closed_loop) both run ``EstimatorCore``;
+every input method returns the outputs to publish, in order.
+"""
+
+import collections
+import dataclasses
+import math
+
+import numpy as np
+
+from flyby_estimation.filters import filters_from_scenario
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.wire import Event
+from flyby_sim.dynamics.propulsion import ManeuverRejected
+
+# The category is re-evaluated this often once converged (it scans the attitude history) [s].
+CLASSIFY_PERIOD_S = 10.0
+
+
+@dataclasses.dataclass(frozen=True)
+class TargetEstimate:
+    """estimation/target/odom: attitude q_hill_from_body, inertial body rate omega_body [rad/s] (with any
+    injected fault), the attitude covariance about hill axes [rad^2] and the rate covariance in body
+    axes [rad^2/s^2] (3x3 each)."""
+
+    t: float
+    q_hill_from_body: np.ndarray
+    omega_body: np.ndarray
+    attitude_covariance_hill: np.ndarray
+    rate_covariance_body: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class ChaserEstimate:
+    """estimation/chaser/odom: r_hill [m], v_hill [m/s] (relative to hill) and the 6x6 covariance of [r; v]."""
+
+    t: float
+    r_hill: np.ndarray
+    v_hill: np.ndarray
+    covariance: np.ndarray
+
+
+class EstimatorCore:
+    """The estimator's rules (module doc)."""
+
+    def __init__(self, scenario, name='flyby_estimator'):
+        self.scenario = scenario
+        self.name = name
+        self.target, self.nav, self.convergence, self.motion = filters_from_scenario(scenario)
+        self.converged = False
+        self.checked = False  # the batch check runs at the first convergence
+        self.category = None
+        self.t_classified = -math.inf
+        self.rejected = collections.Counter()
+        # A fault to inject (tests of the escape): the published rate is off, the filter itself is not.
+        self.rate_error = np.radians(scenario.estimation.injected_rate_error_deg_s)
+        self.attached = False  # captured: the free-flyer navigation model no longer holds
+
+    # -- inputs ---------------------------------------------------------------------------------
+    def on_phase(self, phase):
+        if phase != c.PHASE_CAPTURE or self.attached:
+            return []
+        self.attached = True
+        t = self.nav.t if self.nav.initialized else 0.0
+        return [self._event(t, 'OK', 'navigation_suspended',
+                            'captured: the chaser moves with the target, its free-flight navigation filter stops', {})]
+
+    def on_attitude(self, t, q_hill_from_body):
+        """A vision attitude measurement at t."""
+        result = self.target.update(t, q_hill_from_body)
+        if not result.accepted:
+            return self._reject(t, 'target_attitude', result.kind, result.reason)
+        s = self.target.state()
+        out = [TargetEstimate(s.t, s.q_hill_from_body, s.omega_body + self.rate_error, s.covariance_hill[:3, :3],
+                              s.covariance[3:, 3:])]
+        return out + self._check_convergence(s.t)
+
+    def on_position(self, t, r_hill):
+        """A relative-position measurement at t."""
+        if self.attached:
+            return []
+        result = self.nav.update(t, r_hill)
+        if not result.accepted:
+            return self._reject(t, 'relative_position', result.kind, result.reason)
+        s = self.nav.state()
+        return [ChaserEstimate(s.t, s.r_hill, s.v_hill, s.covariance)]
+
+    def on_maneuver(self, t, dv_hill):
+        """A commanded maneuver (stamp t, dv_hill): a known input of the navigation filter."""
+        try:
+            self.nav.add_maneuver(t, dv_hill)
+        except (ManeuverRejected, ValueError) as err:
+            # The simulator rejects it too; the filter must not expect it.
+            return [self._event(t, 'WARN', 'maneuver_ignored',
+                                f'not a known input of the navigation filter: {err}', {'t_stamp': t})]
+        return []
+
+    # -- target convergence and category --------------------------------------------------------
+    def _check_convergence(self, t):
+        out = []
+        converged = self.target.convergence(self.convergence)
+        attitude_3s, rate_3s = self.target.three_sigma()
+        bounds = {'attitude_3sigma_deg': f'{math.degrees(attitude_3s):.4g}',
+                  'rate_3sigma_deg_s': f'{math.degrees(rate_3s):.4g}'}
+        if converged != self.converged:
+            self.converged = converged
+            if converged and not self.checked:
+                self.checked = True
+                figures, out = self._batch_check(t)
+                bounds.update(figures)
+            out.append(self._event(t, 'OK' if converged else 'WARN',
+                                   'target_converged' if converged else 'target_diverged',
+                                   f'target estimate {"within" if converged else "outside"} the convergence bounds',
+                                   bounds))
+        if converged and t >= self.t_classified + CLASSIFY_PERIOD_S:
+            self.t_classified = t
+            motion = self.target.classify_motion(self.motion)
+            if motion.category != self.category:
+                self.category = motion.category
+                out.append(self._event(t, 'OK', 'target_category', motion.reason,
+                                       {'category': motion.category,
+                                        'inertial_rate_deg_s': f'{math.degrees(motion.inertial_rate_rad_s):.4g}',
+                                        'hill_relative_rate_deg_s':
+                                            f'{math.degrees(motion.hill_relative_rate_rad_s):.4g}'}))
+        return out
+
+    def _batch_check(self, t):
+        """The filter against the batch maximum-likelihood fit of its measurements (batch.FilterCheck):
+        (its figures for the converged event, a WARN target_filter_check if they disagree)."""
+        try:
+            check = self.target.batch_check()
+        except (RuntimeError, ValueError) as err:
+            return {}, [self._event(t, 'WARN', 'target_filter_check', f'batch check not done: {err}', {})]
+        values = {'ml_gap_sigma': f'{check.gap_sigma:.3g}', 'crb_ratio_min': f'{check.ratio_min:.3g}',
+                  'crb_ratio_max': f'{check.ratio_max:.3g}', 'chi2_per_dof': f'{check.chi2_per_dof:.4g}',
+                  'window_samples': str(check.fit.samples)}
+        if check.consistent:
+            return values, []
+        return values, [self._event(t, 'WARN', 'target_filter_check',
+                                    'the filter differs from the batch maximum-likelihood fit of its measurements '
+                                    f'(gap {check.gap_sigma:.3g} sigma, covariance {check.ratio_min:.3g}-'
+                                    f'{check.ratio_max:.3g} x the Cramer-Rao bound)', values)]
+
+    # -- events ---------------------------------------------------------------------------------
+    def _reject(self, t, sensor, kind, reason):
+        self.rejected[(sensor, kind)] += 1
+        return [self._event(t, 'WARN', 'measurement_rejected', reason,
+                            {'sensor': sensor, 'kind': kind, 'count': str(self.rejected[(sensor, kind)]),
+                             'total': str(sum(self.rejected.values()))})]
+
+    def _event(self, t, level, name, message, values):
+        return Event(t, level, name, message, values, self.name)

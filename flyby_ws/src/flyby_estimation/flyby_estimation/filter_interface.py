@@ -1,0 +1,99 @@
+"""What the two estimation filters have in common: the outcome of a measurement and the verbs (no ROS).
+
+``relative_nav.RelativeNavFilter`` (chaser position) and ``target_filter.TargetAttitudeFilter``
+(target attitude) both follow ``EstimationFilter``:
+
+- ``update(t, z)`` processes one measurement and returns an ``UpdateResult``; it does not raise for a
+  bad measurement. Every outcome is counted by kind in ``counts``.
+- ``propagate_to(t)`` is the time update: the filter moves to t (later measurements stamped before t
+  are then 'stale').
+- ``predict(t)`` returns the state predicted to t and leaves the filter unchanged.
+- ``state()`` returns the state at the filter time ``t``.
+
+Outcome kinds: 'initialized' (the first measurement set the state), 'accepted' (fused), 'reset'
+(lost: the ``max_consecutive_outliers``-th consecutive outlier restarts the filter from that
+measurement), or a rejection, which leaves the state unchanged: 'non_finite' (not a finite stamp
+and the right number of finite values), 'non_unit' (a quaternion far from unit norm), 'stale'
+(stamped before the filter time), 'outlier' (normalized innovation squared above the chi-square
+gate; the filter has then been propagated to the stamp).
+"""
+
+import dataclasses
+import math
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+REJECTION_KINDS = ('non_finite', 'non_unit', 'stale', 'outlier')
+STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
+UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
+
+__all__ = ['EstimationFilter', 'REJECTION_KINDS', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
+           'new_counts']
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class UpdateResult:
+    """The outcome of one measurement (module doc).
+
+    Attributes:
+        kind: one of UPDATE_KINDS.
+        t: the measurement stamp [s] (as given, also when rejected).
+        nis: normalized innovation squared y' S^-1 y (nan when not computed).
+        reason: one line naming the value behind a rejection or reset ('' when accepted).
+        innovation: y = z - h(x) in the filter's measurement units and axes, or None where none was
+            computed (initialized, non_finite, non_unit, stale).
+
+    Compared by identity (it may hold an array).
+    """
+
+    kind: str
+    t: float
+    nis: float = math.nan
+    reason: str = ''
+    innovation: np.ndarray = None
+
+    def __post_init__(self):
+        if self.kind not in UPDATE_KINDS:
+            raise ValueError(f'UpdateResult kind {self.kind!r} is not one of {UPDATE_KINDS}')
+
+    @property
+    def accepted(self):
+        """True if the measurement changed the state (initialized, accepted, reset)."""
+        return self.kind in STATE_CHANGING_KINDS
+
+
+def new_counts():
+    """A count of 0 for every kind of UPDATE_KINDS, the ``counts`` dict of a filter."""
+    return dict.fromkeys(UPDATE_KINDS, 0)
+
+
+@runtime_checkable
+class EstimationFilter(Protocol):
+    """The verbs both estimation filters share (module doc)."""
+
+    counts: dict
+
+    @property
+    def initialized(self):
+        """True once a measurement (or an explicit initialization) has set the state."""
+
+    @property
+    def t(self):
+        """Filter time [s], None before initialization."""
+
+    @property
+    def gate_threshold(self):
+        """Normalized innovation squared above which a measurement is an outlier."""
+
+    def update(self, t, z):
+        """Process the measurement z stamped t [s]; returns an UpdateResult."""
+
+    def propagate_to(self, t):
+        """Time update to t >= the filter time [s], in place."""
+
+    def predict(self, t):
+        """The state predicted to t >= the filter time [s]; the filter is unchanged."""
+
+    def state(self):
+        """The state at the filter time."""

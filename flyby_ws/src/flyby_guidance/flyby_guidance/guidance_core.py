@@ -1,0 +1,143 @@
+"""What the guidance node does, without ROS: which plan it flies, when it steps, when it re-aims.
+
+A new plan (the fly-by initial point X_Fi at t_i, the fly-by target point X_Ft at t_f, and the path
+whose stamp is the plan time) starts ``FlybyGuidance`` (flyby_guidance.guidance) with its first burn
+``planner.maneuver_lead_s`` after the plan time, as the planner assumed (t_Ti). Each chaser estimate
+steps it, in order; the maneuvers it returns are commanded ahead of their start. Before each
+adjusting burn the grasp is re-solved from the target estimate of the deciding chaser estimate's
+stamp and the burn aims at it (seed 000 §4.6): a chaser estimate that re-aims waits for that target
+estimate, so the aim is the same at any pace of the run. In the phases CAPTURE, ESCAPE, COMPLETE
+and ABORTED nothing is commanded.
+
+The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
+every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver)
+and ``wire.Event`` (mission/events).
+"""
+
+import collections
+
+import numpy as np
+
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.stamped import StampedBuffer
+from flyby_msgs_py.wire import Event
+from flyby_planner.grasp import flyby_target_point, refine_grasp
+
+QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
+# The re-solved grasp is searched in a prediction this far past the planned grasp time [s].
+_REFINE_HORIZON_S = 60.0
+
+
+def flyby_target_of_plan(t_plan, t_i, x_fi, v_fi, t_f, x_ft, v_ft, maneuver_lead_s):
+    """The FlybyTarget of a published plan: the first burn t_Ti is maneuver_lead_s after the plan time,
+    as the planner assumed when it chose the transfer (plan.plan_capture)."""
+    return FlybyTarget(t_ti=t_plan + maneuver_lead_s, t_i=t_i, x_fi=np.asarray(x_fi, dtype=float),
+                       v_fi=np.asarray(v_fi, dtype=float), t_f=t_f, x_ft=np.asarray(x_ft, dtype=float),
+                       v_ft=np.asarray(v_ft, dtype=float))
+
+
+class GuidanceCore:
+    """The guidance's rules (module doc)."""
+
+    def __init__(self, scenario, name='flyby_guidance'):
+        self.scenario = scenario
+        self.name = name
+        self.guidance = FlybyGuidance(guidance_config_from_scenario(scenario))
+        self.dynamics = ErrorStateDynamics(scenario.target_inertia)
+        self.n = scenario.mean_motion_rad_s
+        self.x_grasp_body = np.array(scenario.target.grasp_point_body_m)
+        self.phase = None
+        self.flyby_initial = self.flyby_target = None  # (t, x, v) as last published
+        self.plan_stamp = None  # the plan time of the plan being flown
+        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) of the target estimates
+        self.waiting = collections.deque()  # (t, r_hill, v_hill) chaser estimates not yet stepped, in order
+
+    # -- the plan -------------------------------------------------------------------------------
+    def on_flyby_initial(self, t_i, x_fi, v_fi):
+        self.flyby_initial = (t_i, x_fi, v_fi)
+        return []
+
+    def on_flyby_target(self, t_f, x_ft, v_ft):
+        self.flyby_target = (t_f, x_ft, v_ft)
+        return []
+
+    def on_path(self, t_plan):
+        """The planner publishes the path last: a new plan is complete."""
+        if self.flyby_initial is None or self.flyby_target is None or t_plan == self.plan_stamp:
+            return []
+        self.plan_stamp = t_plan
+        target = flyby_target_of_plan(t_plan, *self.flyby_initial, *self.flyby_target,
+                                      self.scenario.planner.maneuver_lead_s)
+        self.guidance.set_target(target)
+        return [self._event(t_plan, 'OK', 'guidance_started',
+                            f'flying the plan of t = {t_plan:.2f} s: transfer at {target.t_ti:.2f} s, injection '
+                            f'at {target.t_i:.2f} s, fly-by target at {target.t_f:.2f} s', {'t_plan_s': t_plan})]
+
+    def on_phase(self, phase):
+        self.phase = phase
+        return []
+
+    def on_target_estimate(self, t, q_hill_from_body, omega_body):
+        self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float)))
+        return self._step_waiting()
+
+    def on_chaser_estimate(self, t, r_hill, v_hill):
+        self.waiting.append((t, np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)))
+        return self._step_waiting()
+
+    # -- stepping -------------------------------------------------------------------------------
+    def _step_waiting(self):
+        """Step with the chaser estimates in order; one that re-aims waits for the target estimate of
+        its own stamp."""
+        g = self.guidance
+        out = []
+        while self.waiting:
+            t, r_hill, v_hill = self.waiting[0]
+            if g.next_burn_time is None or self.phase in QUIET_PHASES:
+                self.waiting.clear()
+                break
+            if self.scenario.guidance.refine_target and g.wants_refined_target(t):
+                target = self.targets.first_at_or_after(t)
+                if target is None:
+                    break
+                out += self._refine(t, target)
+            self.waiting.popleft()
+            out += self._step(t, r_hill, v_hill)
+        return out
+
+    def _step(self, t, r_hill, v_hill):
+        maneuvers, events = self.guidance.step(t, r_hill, v_hill)
+        out = []
+        for mv in maneuvers:
+            out.append(mv)
+            out.append(self._event(t, 'OK', 'maneuver_commanded',
+                                   f'{mv.kind} burn of {np.linalg.norm(mv.dv_hill) * 1e3:.2f} mm/s at t = {mv.t:.2f} s',
+                                   {'kind': mv.kind, 't_burn_s': mv.t, 'dv_hill_mps': [float(x) for x in mv.dv_hill],
+                                    **mv.values}))
+        return out + [e._replace(source=self.name) for e in events]
+
+    def _refine(self, t, target):
+        """Re-aim at the grasp re-solved from the target estimate (stamp, (q, omega)), seed 000 §4.6."""
+        t_est, (q_hb, omega_body) = target
+        t_f = self.guidance.target.t_f
+        if t_f <= t_est:
+            return []
+        prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body, t_f + _REFINE_HORIZON_S)
+        g = refine_grasp(prediction, self.x_grasp_body, t_f, self.n)
+        if g is None:
+            return [self._event(t, 'WARN', 'target_refined', 'no convex grasp near the planned one; keeping the aim',
+                                {})]
+        x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, self.scenario.planner.offset_m)  # eq 20-21
+        shift = float(np.linalg.norm(x_ft - self.guidance.target.x_ft))
+        self.guidance.retarget(g.t_grasp, x_ft, v_ft)
+        at_grasp = prediction.state(g.t_grasp)
+        return [self._event(t, 'OK', 'target_refined',
+                            f'grasp re-solved at t = {g.t_grasp:.3f} s, aim moved {shift * 1e3:.1f} mm',
+                            {'t_grasp_s': g.t_grasp, 'shift_m': shift, 'x_g_hill_m': g.x_g, 'v_g_hill_mps': g.v_g,
+                             'x_ft_hill_m': x_ft, 'v_ft_hill_mps': v_ft,
+                             'q_hill_from_body': at_grasp.q_hill_from_body, 'omega_body_rad_s': at_grasp.omega_body})]
+
+    def _event(self, t, level, name, message, values):
+        return Event(t, level, name, message, values, self.name)

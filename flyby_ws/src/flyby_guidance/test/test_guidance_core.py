@@ -1,0 +1,52 @@
+"""GuidanceCore: the plan's first burn t_Ti, stepping on the chaser estimates, silence after the fly-by."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flyby_guidance.guidance import Maneuver
+from flyby_guidance.guidance_core import GuidanceCore
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.wire import Event
+from flyby_planner.transfer import terminal_impulses
+from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+X_FI, V_FI = np.array((-20.0, 0.0, 30.0)), np.array((0.05, 0.0, -0.1))
+X_FT, V_FT = np.array((0.5, 2.9, 0.1)), np.array((0.0, 0.01, 0.19))
+
+
+def _started(sc, t_plan=60.0):
+    core = GuidanceCore(sc)
+    assert core.on_flyby_target(813.0, X_FT, V_FT) == [] and core.on_flyby_initial(513.0, X_FI, V_FI) == []
+    (started,) = core.on_path(t_plan)
+    assert isinstance(started, Event) and started.name == 'guidance_started'
+    return core
+
+
+def test_first_burn_is_the_maneuver_lead_after_the_plan_time():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    core = _started(sc)
+    t_ti = 60.0 + sc.planner.maneuver_lead_s
+    assert core.guidance.target.t_ti == t_ti
+    assert core.on_path(60.0) == []  # the same plan again starts nothing
+    r, v = np.array((50.0, 0.0, 0.0)), np.zeros(3)
+    lead = sc.guidance.command_lead_s
+    assert core.on_chaser_estimate(t_ti - lead - 0.1, r, v) == []
+    out = core.on_chaser_estimate(t_ti - lead, r, v)
+    (burn,) = [o for o in out if isinstance(o, Maneuver)]
+    assert burn.kind == 'transfer' and burn.t == t_ti
+    # Eq 28 from the estimate carried to t_Ti (CW, eq 22), to X_Fi at t_i.
+    state = cw_transition_matrix(sc.mean_motion_rad_s, lead) @ np.concatenate((r, v))
+    dv, _ = terminal_impulses(state[:3], state[3:], X_FI, V_FI, 513.0 - t_ti, sc.mean_motion_rad_s)
+    assert burn.dv_hill == pytest.approx(dv, abs=1e-12)
+    assert [o.name for o in out if isinstance(o, Event)] == ['maneuver_commanded']
+
+
+def test_nothing_is_commanded_after_the_fly_by():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    core = _started(sc)
+    core.on_phase(c.PHASE_ESCAPE)
+    assert core.on_chaser_estimate(70.0, np.array((50.0, 0.0, 0.0)), np.zeros(3)) == []

@@ -1,0 +1,66 @@
+"""PlannerCore: plans at the first target estimate at or after the request, from the chaser estimate
+carried to that stamp along CW, and publishes the grasp guidance re-aims at."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.plan import plan_capture
+from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished
+from flyby_sim.dynamics.orbital import cw_accel
+from flyby_sim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+
+
+def _planning_event(t):
+    return wire_event(Event(t, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING: converged',
+                            {'from': c.PHASE_ESTIMATION, 'to': c.PHASE_PLANNING}, 'flyby_supervisor'))
+
+
+def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_chaser():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    core = PlannerCore(sc)
+    q0, w0 = sc.q_hill_from_body0, sc.omega_body0_rad_s
+    r_c, v_c = np.array((50.0, 0.1, -0.2)), np.array((0.001, 0.0, -0.002))
+    assert core.on_chaser_estimate(59.9, r_c, v_c) == []
+    assert core.on_target_estimate(59.9, q0, w0) == []
+    assert core.on_event(_planning_event(59.95)) == []  # no target estimate at or after the request yet
+    assert core.on_target_estimate(60.0, q0, w0) == []  # the chaser estimates up to 60.0 s are not in
+    out = core.on_chaser_estimate(60.05, r_c, v_c)
+    published = [o for o in out if isinstance(o, PlanPublished)]
+    names = [o.name for o in out if isinstance(o, Event)]
+    assert len(published) == 1 and names[-1] == 'plan_selected' and 'plan_candidate' in names
+    plan = published[0]
+    assert plan.t_plan == 60.0
+    # The same plan from the chaser state integrated (eq 2) from 59.9 s to the plan time.
+    y = solve_ivp(lambda _t, s: np.concatenate((s[3:], cw_accel(s[:3], s[3:], n))), (59.9, 60.0),
+                  np.concatenate((r_c, v_c)), rtol=1e-12, atol=1e-12).y[:, -1]
+    prediction = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, 60.0, q0, w0,
+                                          60.0 + core.config.search_window[1])
+    expected = plan_capture(prediction, y[:3], y[3:], 60.0, core.config).selected
+    assert plan.t_f == pytest.approx(expected.t_grasp, abs=1e-6)
+    assert plan.x_fi == pytest.approx(expected.x_fi, abs=1e-6)
+    assert plan.grasp.x_g == pytest.approx(expected.x_g, abs=1e-9)
+    selected = [o for o in out if isinstance(o, Event) and o.name == 'plan_selected'][0]
+    assert selected.values['t_grasp_s'] == plan.t_f and selected.values['t_i_s'] == plan.t_i
+
+
+def test_a_re_aimed_grasp_is_published_again():
+    core = PlannerCore(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+    refined = wire_event(Event(733.0, 'OK', 'target_refined', 'grasp re-solved', {
+        't_grasp_s': 813.004, 'shift_m': 0.002, 'x_g_hill_m': np.array((0.3, 2.0, 0.1)),
+        'v_g_hill_mps': np.array((0.0, 0.01, 0.13)), 'x_ft_hill_m': np.array((0.45, 3.0, 0.15)),
+        'v_ft_hill_mps': np.array((0.0, 0.015, 0.19)), 'q_hill_from_body': np.array((0.0, 0.0, 0.0, 1.0)),
+        'omega_body_rad_s': np.array((0.0, 0.0, 0.087))}, 'flyby_guidance'))
+    (aim,) = core.on_event(refined)
+    assert isinstance(aim, AimUpdate) and aim.grasp.t == 813.004
+    assert aim.x_ft == pytest.approx((0.45, 3.0, 0.15)) and aim.grasp.omega_body[2] == 0.087
+    # Guidance keeping its aim (no convex grasp found) publishes nothing new.
+    assert core.on_event(refined._replace(values={})) == []

@@ -1,0 +1,505 @@
+"""Scenario files (DESIGN §6): the flyby schema, a validating loader and a read-only Scenario.
+
+A scenario is one YAML file. ``SCHEMA`` below names every key with its type, default (or
+REQUIRED), validated range and a one-line description (the engine is ``flyby_msgs_py.schema``);
+``docs/scenario.md`` embeds the table that ``schema_markdown()`` renders from it (a test keeps the
+two identical). Adding a key is one line in ``SCHEMA``.
+
+    sc = load_scenario('scenarios/paper_flyby.yaml')
+    sc.chaser.thrusters.isp_s          # 220.0, defaults filled in, read-only
+    sc.q_hill_from_body0               # unit quaternion (x, y, z, w), scalar last
+    sc.omega_body0_rad_s               # inertial angular velocity of the target in body axes
+
+Every problem raises ``flyby_msgs_py.schema.ScenarioError`` (a ``ValueError``) whose message is one
+line naming the file, the dotted key path and the problem, e.g.
+``scenarios/x.yaml: chaser.mass_kg: must be > 0, got -5.0``.
+
+Quaternion convention: (x, y, z, w), scalar last, as ``flyby_sim.dynamics.rotation``.
+``q_hill_from_body`` rotates body components into hill components: ``v_hill = R(q_hill_from_body) @ v_body``.
+"""
+
+import copy
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation
+
+from flyby_msgs_py import schema
+from flyby_msgs_py.schema import (
+    BOOL,
+    ENUM,
+    FLOAT,
+    INT,
+    MAT3,
+    QUAT,
+    REQUIRED,
+    STR,
+    VEC3,
+    Field,
+    Invalid,
+    ListOf,
+    Namespace,
+    ScenarioError,
+    Section,
+    check_nonempty,
+    check_nonzero,
+    format_floats,
+    load_yaml_mapping,
+    validate,
+    validate_field,
+)
+from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
+from flyby_sim.dynamics.orbital import mean_motion_rad_s
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate, quat_rotate_many, quat_shortest_arc
+
+MAX_STEP_S = 0.05  # truth is published every step and must reach >= 20 Hz (DESIGN §4)
+
+
+# --------------------------------------------------------------------------------------------------
+# Checks that a range cannot express
+
+def _check_inertia(m):
+    a = np.asarray(m, dtype=float)
+    scale = np.max(np.abs(a))
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        if abs(a[i, j] - a[j, i]) > 1e-9 * scale:
+            return f'must be symmetric, got [{i}][{j}] = {a[i, j]!r} but [{j}][{i}] = {a[j, i]!r}'
+    moments = np.linalg.eigvalsh(0.5 * (a + a.T))
+    if moments[0] <= 0.0:
+        return f'must be positive definite, got principal moments {format_floats(moments)}'
+    if moments[0] + moments[1] < moments[2] * (1.0 - 1e-12):
+        return (f'principal moments {format_floats(moments)} violate the triangle inequality '
+                f'(I1 + I2 >= I3 for any rigid body)')
+    return None
+
+
+def _check_unique_names(items):
+    seen = {}
+    for i, item in enumerate(items):
+        if item['name'] in seen:
+            return i, 'name', f'duplicate box name {item["name"]!r} (also at index {seen[item["name"]]})'
+        seen[item['name']] = i
+    return None
+
+
+# --------------------------------------------------------------------------------------------------
+# THE SCHEMA. One line per key.
+
+_VEC0 = (0.0, 0.0, 0.0)
+
+SCHEMA = Section(desc='A flyby scenario', fields={
+    'name': Field(STR, REQUIRED, desc='Short identifier of the scenario.', check=check_nonempty),
+    'description': Field(STR, '', desc='Free text.'),
+    'seed': Field(INT, REQUIRED, '>= 0', 'Seed of every random generator of the run.'),
+
+    'orbit': Section(desc='Circular orbit of the target', one_of=(('radius_m', 'altitude_m'),), fields={
+        'radius_m': Field(FLOAT, REQUIRED, '> 0', 'Orbit radius (give this or altitude_m).'),
+        'altitude_m': Field(FLOAT, REQUIRED, '> 0',
+                            f'Altitude above the equatorial radius {EARTH_RADIUS_M} m (give this or radius_m).'),
+        'mu_m3_s2': Field(FLOAT, MU_EARTH_M3_S2, '> 0', 'Gravitational parameter of the central body.'),
+    }),
+
+    'target': Section(desc='The tumbling satellite', fields={
+        'mass_kg': Field(FLOAT, REQUIRED, '> 0', 'Target mass.'),
+        'inertia_kg_m2': Field(MAT3, REQUIRED, None,
+                               'Inertia about the CoM in body axes; symmetric positive definite, '
+                               'principal moments satisfy the triangle inequality.',
+                               check=_check_inertia),
+        'initial_attitude': Section(
+            desc='Attitude of target_body in hill at t = 0',
+            one_of=(('q_hill_from_body', 'rpy_rad', 'body_axis_along_hill'),), fields={
+                'q_hill_from_body': Field(QUAT, REQUIRED, None,
+                                          'Quaternion [x, y, z, w] taking body to hill components; '
+                                          'normalized on load, must be nonzero.', check=check_nonzero),
+                'rpy_rad': Field(VEC3, REQUIRED, None,
+                                 '[roll, pitch, yaw]: R_hill_from_body = Rz(yaw) Ry(pitch) Rx(roll).'),
+                'body_axis_along_hill': Section(
+                    desc='The minimal rotation taking the body axis onto the hill direction', fields={
+                        'body': Field(VEC3, REQUIRED, None, 'A body-frame direction (nonzero).',
+                                      check=check_nonzero),
+                        'hill': Field(VEC3, REQUIRED, None, 'The hill-frame direction it points along (nonzero).',
+                                      check=check_nonzero),
+                    }),
+            }),
+        'initial_rate': Section(
+            desc='Inertial angular velocity of the target at t = 0, in body or in hill axes',
+            one_of=(('omega_body_deg_s', 'omega_body_rad_s', 'omega_hill_deg_s', 'omega_hill_rad_s'),),
+            fields={
+                'omega_body_deg_s': Field(VEC3, REQUIRED, None, 'In target_body axes.'),
+                'omega_body_rad_s': Field(VEC3, REQUIRED, None, 'In target_body axes.'),
+                'omega_hill_deg_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
+                'omega_hill_rad_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
+            }),
+        'geometry': ListOf(
+            desc='Body-frame boxes making up the target shape (keep-out, markers)',
+            check=_check_unique_names,
+            item=Section(desc='One box', fields={
+                'name': Field(STR, REQUIRED, None, 'Unique box name (marker namespace).', check=check_nonempty),
+                'center_m': Field(VEC3, REQUIRED, None, 'Box centre in target_body.'),
+                'size_m': Field(VEC3, REQUIRED, '> 0', 'Edge lengths along body x, y, z.'),
+            })),
+        'grasp_point_body_m': Field(VEC3, REQUIRED, None, 'Grasp point in target_body.'),
+    }),
+
+    'chaser': Section(desc='The servicing robot', fields={
+        'mass_kg': Field(FLOAT, REQUIRED, '> 0', 'Chaser wet mass at t = 0.'),
+        'envelope_radius_m': Field(FLOAT, REQUIRED, '> 0', 'Radius of the sphere enclosing the chaser.'),
+        'initial_position_hill_m': Field(VEC3, REQUIRED, None, 'Chaser CoM in hill at t = 0.'),
+        'initial_velocity_hill_mps': Field(VEC3, _VEC0, None,
+                                           'Chaser velocity relative to the rotating hill frame at t = 0.'),
+        'thrusters': Section(desc='Impulsive thrusters', fields={
+            'max_thrust_n': Field(FLOAT, REQUIRED, '> 0', 'Maximum thrust along any direction.'),
+            'isp_s': Field(FLOAT, REQUIRED, '> 0', 'Specific impulse (fuel use).'),
+            'min_impulse_bit_ns': Field(FLOAT, 0.0, '>= 0', 'Smallest impulse the thrusters can give.'),
+            'max_delta_v_per_maneuver_mps': Field(FLOAT, REQUIRED, '> 0', 'Largest single delta-v.'),
+            'magnitude_error_sigma': Field(FLOAT, 0.0, '[0, 0.5]', 'Relative 1-sigma error of the delta-v magnitude.'),
+            'direction_error_sigma_deg': Field(FLOAT, 0.0, '[0, 30]', '1-sigma pointing error of the delta-v.'),
+        }),
+        'manipulator': Section(desc='Capture arm', fields={
+            'reach_m': Field(FLOAT, REQUIRED, '> 0', 'Reach from the chaser CoM.'),
+            'position_tolerance_m': Field(FLOAT, REQUIRED, '> 0', 'Largest grasp position error that captures.'),
+            'velocity_tolerance_mps': Field(FLOAT, REQUIRED, '> 0', 'Largest grasp velocity error that captures.'),
+        }),
+    }),
+
+    'sensors': Section(desc='Measurement models', fields={
+        'relative_position': Section(desc='Chaser position in hill', fields={
+            'rate_hz': Field(FLOAT, 10.0, '(0, 1000]', 'Sample rate (<= 1/simulation.step_s).'),
+            'noise_sigma_m': Field(FLOAT, 0.01, '>= 0', '1-sigma white noise per axis.'),
+        }),
+        'target_attitude': Section(desc='Vision attitude of the target', fields={
+            'rate_hz': Field(FLOAT, 10.0, '(0, 1000]', 'Sample rate (<= 1/simulation.step_s).'),
+            'noise_sigma_deg': Field(FLOAT, 1.0, '[0, 180]', '1-sigma rotation-angle noise per axis.'),
+        }),
+    }),
+
+    'estimation': Section(desc='Target motion estimation and chaser relative navigation', fields={
+        'gate_probability': Field(FLOAT, 0.9999, '(0, 1)',
+                                  'Chi-square(3) probability of the innovation gate of both filters.'),
+        'convergence_attitude_3sigma_deg': Field(FLOAT, 1.0, '> 0',
+                                                 'Target estimate converged when its 3-sigma attitude bound '
+                                                 'is below this.'),
+        'convergence_rate_3sigma_deg_s': Field(FLOAT, 0.05, '> 0', '... and its 3-sigma rate bound below this.'),
+        'spin_rate_deg_s': Field(FLOAT, 18.0, '> 0',
+                                 'Category IV (spinning) at and above this inertial rate (20 s period).'),
+        'hill_fixed_rate_deg_s': Field(FLOAT, 0.1, '> 0',
+                                       'Rate relative to hill below which the attitude counts as held '
+                                       'in hill (I, II).'),
+        'inertial_hold_rate_deg_s': Field(FLOAT, 0.01, '> 0',
+                                          'Inertial rate below which the target counts as held in inertial space (I).'),
+        'controlled_rate_deg_s': Field(FLOAT, 0.01, '> 0',
+                                       'Hill-relative rate below which a hill-held target is three-axis controlled '
+                                       '(I), not librating (II).'),
+        'controlled_excursion_deg': Field(FLOAT, 2.0, '> 0', 'Largest attitude excursion in hill for category I.'),
+        'initial_rate_sigma_deg_s': Field(FLOAT, 20.0, '> 0', 'Prior 1-sigma per axis of the unknown target rate.'),
+        'torque_psd_n2m2s': Field(FLOAT, 1e-10, '>= 0',
+                                  'Torque-noise spectral density of the target filter per body axis.'),
+        'accel_psd_m2_s3': Field(FLOAT, 1e-9, '>= 0',
+                                 'White-acceleration spectral density of the chaser navigation filter.'),
+        'initial_velocity_sigma_mps': Field(FLOAT, 0.1, '> 0', 'Prior 1-sigma per axis of the chaser velocity.'),
+        'injected_rate_error_deg_s': Field(VEC3, _VEC0, None,
+                                           'Fault injection: added to the published target body rate (body axes).'),
+    }),
+
+    'planner': Section(
+        desc='Capture planning (seed 000 section 4); condition (a) uses estimation.spin_rate_deg_s', fields={
+        'offset_m': Field(FLOAT, 1.0, '> 0', 'Offset delta r of the fly-by target point from the grasp point.'),
+        'flyby_duration_s': Field(FLOAT, 300.0, '> 0', 'Time from the fly-by initial point to the grasp.'),
+        'restriction_sphere_radius_m': Field(FLOAT, 15.0, '> 0', 'No thrusting inside this sphere about the target.'),
+        'clearance_margin_m': Field(FLOAT, 0.1, '>= 0',
+                                    'Least gap between the chaser envelope and the swept keep-out region on the '
+                                    'passive path.'),
+        'escape_check_orbits': Field(FLOAT, 1.0, '>= 1',
+                                     'Length of the passive escape checked after the grasp, in orbits.'),
+        'min_spin_axis_angle_from_orbit_normal_deg': Field(FLOAT, 10.0, '[0, 90)',
+                                                           'Condition (b): spin axis at least this far from hill y '
+                                                           '(no pure out-of-plane motion).'),
+        'sun_direction_hill': Field(VEC3, None, None,
+                                    'Condition (c): sun direction in hill at t = 0 (inertially fixed); omitted: '
+                                    'lighting not checked.', check=check_nonzero),
+        'max_sun_angle_from_grasp_velocity_deg': Field(FLOAT, 100.0, '(0, 180]',
+                                                       'Condition (c): angle between the grasp velocity and the '
+                                                       'sun at most this.'),
+        'min_observation_s': Field(FLOAT, 60.0, '>= 0',
+                                   'Plan no earlier than this after the first target measurement '
+                                   '(and with a converged estimate).'),
+        'maneuver_lead_s': Field(FLOAT, 10.0, '> 0', 'Time from the plan to the first terminal-approach burn.'),
+        'transfer_min_s': Field(FLOAT, 150.0, '> 0',
+                                'Shortest terminal transfer (first burn to the fly-by initial point).'),
+        'transfer_max_s': Field(FLOAT, 450.0, '> 0',
+                                'Longest terminal transfer; with transfer_min_s it sets the grasp-time search window.'),
+        'delta_v_tie_mps': Field(FLOAT, 0.001, '>= 0',
+                                 'Plans within this total delta-v of the cheapest tie; the larger clearance wins.'),
+    }),
+
+    'guidance': Section(desc='Terminal approach and trajectory adjusting', fields={
+        'adjust_interval_s': Field(FLOAT, 20.0, '> 0', 'Cadence of trajectory-adjusting maneuvers.'),
+        'midcourse_corrections': Field(INT, 1, '>= 0',
+                                       'CW re-solves (eq 28) spread evenly over the terminal transfer.'),
+        'command_lead_s': Field(FLOAT, 5.0, '> 0',
+                                'A burn is computed from the latest estimate and sent this long before it starts.'),
+        'deadband_mps': Field(FLOAT, 0.0002, '>= 0',
+                              'Adjusting burns smaller than this (or the minimum impulse bit) are skipped.'),
+        'adjust_position_tolerance_m': Field(FLOAT, 0.005, '> 0',
+                                             'Predicted miss at the fly-by target point small enough to '
+                                             'stop adjusting ...'),
+        'adjust_velocity_tolerance_mps': Field(FLOAT, 0.0005, '> 0', '... together with this velocity miss.'),
+        'sphere_margin_m': Field(FLOAT, 1.0, '>= 0',
+                                 'No burn whose predicted arc comes within this of the restriction sphere.'),
+        'refine_target': Field(BOOL, True, None,
+                               'Re-aim each adjusting burn at the grasp re-solved from the latest target estimate.'),
+    }),
+
+    'supervisor': Section(desc='Mission phases, capture decision, watchdog and abort', fields={
+        'capture_hold_s': Field(FLOAT, 10.0, '>= 0', 'Time attached to the target before COMPLETE.'),
+        'watchdog_s': Field(FLOAT, 5.0, '> 0',
+                            'Abort and escape when the estimator or guidance has been silent this long (sim time).'),
+        'abort_observation_s': Field(FLOAT, 60.0, '>= 0',
+                                     'The run goes on this long after ABORTED, to record the escape.'),
+        'avoidance_delta_v_mps': Field(FLOAT, 0.05, '> 0',
+                                       'Size of the collision-avoidance burn an abort outside the restriction sphere '
+                                       'may fire.'),
+    }),
+
+    'simulation': Section(desc='Plant integration', fields={
+        'dynamics': Field(ENUM, 'nonlinear', None, 'Relative orbital dynamics: nonlinear two-body or linear CW.',
+                          choices=('cw', 'nonlinear')),
+        'step_s': Field(FLOAT, MAX_STEP_S, f'(0, {MAX_STEP_S}]',
+                        'Fixed integration step; truth is published every step.',
+                        why=f'truth is published every step and must reach >= {1 / MAX_STEP_S:g} Hz, DESIGN §4'),
+        'duration_s': Field(FLOAT, REQUIRED, '> 0', 'Simulated time after which the run stops.'),
+    }),
+})
+
+
+def _cross_checks(d):
+    """Checks across keys, on the resolved dict; raise Invalid."""
+    step = d['simulation']['step_s']
+    for sensor in ('relative_position', 'target_attitude'):
+        rate = d['sensors'][sensor]['rate_hz']
+        if rate * step > 1.0 + 1e-9:
+            raise Invalid(f'sensors.{sensor}.rate_hz',
+                          f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
+                          f'once per step), got {rate!r}')
+    planner = d['planner']
+    if planner['transfer_max_s'] < planner['transfer_min_s']:
+        raise Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
+                                                f"got {planner['transfer_max_s']!r}")
+
+
+
+def _resolve(data, seed):
+    """The resolved dict of a scenario mapping (defaults filled in, ``seed`` overriding the file's),
+    checked across keys; raises Invalid."""
+    resolved = validate(SCHEMA, data)
+    if seed is not None:
+        try:
+            resolved['seed'] = validate_field(SCHEMA.fields['seed'], seed, 'seed')
+        except Invalid as e:
+            raise Invalid('seed', f'{e.problem} (from the seed argument)') from None
+    _cross_checks(resolved)
+    return resolved
+
+
+# --------------------------------------------------------------------------------------------------
+# The read-only result
+
+class Boxes:
+    """The target geometry as arrays: ``names`` (tuple of str), ``center_body_m`` (N, 3), ``size_m`` (N, 3)."""
+
+    __slots__ = ('names', 'center_body_m', 'size_m')
+
+    def __init__(self, names, center_body_m, size_m):
+        self.names = names
+        self.center_body_m = center_body_m
+        self.size_m = size_m
+
+    def __len__(self):
+        return len(self.names)
+
+    def __repr__(self):
+        return f'Boxes({list(self.names)})'
+
+    def centers_hill_m(self, q_hill_from_body, r_com_hill_m=(0.0, 0.0, 0.0)):
+        """Box centres (N, 3) in hill for the target attitude ``q_hill_from_body`` and its CoM at
+        ``r_com_hill_m``: r_com_hill + R(q_hill_from_body) center_body (each box keeps the body's
+        orientation)."""
+        return np.asarray(r_com_hill_m, dtype=float) + quat_rotate_many(q_hill_from_body, self.center_body_m)
+
+
+class Scenario:
+    """A validated scenario: read-only sections by attribute (``sc.chaser.thrusters.isp_s``) plus
+    derived numpy values. Build it with ``load_scenario`` or ``scenario_from_dict``."""
+
+    def __init__(self, resolved, raw, path=None):
+        object.__setattr__(self, '_root', Namespace(resolved, SCHEMA))
+        object.__setattr__(self, '_raw', raw)
+        object.__setattr__(self, 'path', Path(path) if path is not None else None)
+        object.__setattr__(self, '_derived', self._derive())
+
+    # -- access -----------------------------------------------------------------------------------
+    def __getattr__(self, name):
+        return getattr(object.__getattribute__(self, '_root'), name)
+
+    def __setattr__(self, name, value):
+        raise AttributeError('a Scenario is read-only')
+
+    def __getitem__(self, name):
+        return self._root[name]
+
+    def __eq__(self, other):
+        return isinstance(other, Scenario) and self.to_dict() == other.to_dict()
+
+    def __reduce__(self):  # pickle / deepcopy (Monte Carlo workers)
+        return Scenario, (self.to_dict(), self._raw, self.path)
+
+    __hash__ = None
+
+    def __repr__(self):
+        return f'Scenario({self.name!r}, seed={self.seed}, path={str(self.path) if self.path else None!r})'
+
+    @property
+    def raw(self):
+        """The parsed YAML mapping exactly as given (a copy)."""
+        return copy.deepcopy(self._raw)
+
+    def to_dict(self):
+        """Resolved values including defaults, plain Python (YAML-dumpable, loads to an equal Scenario)."""
+        return self._root.to_dict()
+
+    def to_yaml(self):
+        """``to_dict()`` as YAML text."""
+        return yaml.safe_dump(self.to_dict(), sort_keys=False, default_flow_style=None, width=100)
+
+    # -- derived ----------------------------------------------------------------------------------
+    def _derive(self):
+        t = self._root.target
+        att = t.initial_attitude
+        if att.q_hill_from_body is not None:
+            q = quat_normalize(att.q_hill_from_body)
+        elif att.rpy_rad is not None:
+            q = Rotation.from_euler('xyz', att.rpy_rad).as_quat()  # extrinsic x-y-z = Rz(yaw) Ry(pitch) Rx(roll)
+        else:
+            q = quat_shortest_arc(att.body_axis_along_hill.body, att.body_axis_along_hill.hill)
+        q = -q if q[3] < 0.0 else q  # q and -q are the same attitude: report w >= 0
+        rate = t.initial_rate
+        if rate.omega_body_rad_s is not None:
+            omega_body = np.array(rate.omega_body_rad_s)
+        elif rate.omega_body_deg_s is not None:
+            omega_body = np.radians(rate.omega_body_deg_s)
+        else:
+            omega_hill = (rate.omega_hill_rad_s if rate.omega_hill_rad_s is not None
+                          else np.radians(rate.omega_hill_deg_s))
+            omega_body = quat_rotate(quat_conjugate(q), omega_hill)  # omega_B = R_BH omega_H
+        orbit = self._root.orbit
+        radius = orbit.radius_m if orbit.radius_m is not None else EARTH_RADIUS_M + orbit.altitude_m
+        return {
+            'q': q,
+            'omega_body': np.asarray(omega_body, dtype=float),
+            'radius': float(radius),
+            'n': mean_motion_rad_s(radius, orbit.mu_m3_s2),
+        }
+
+    @property
+    def orbit_radius_m(self):
+        """Circular orbit radius [m]: radius_m, or EARTH_RADIUS_M + altitude_m."""
+        return self._derived['radius']
+
+    @property
+    def mean_motion_rad_s(self):
+        """Orbit rate Omega_t = sqrt(mu / r^3) [rad/s]."""
+        return self._derived['n']
+
+    @property
+    def orbit_period_s(self):
+        """2 pi / mean motion [s]."""
+        return 2.0 * math.pi / self._derived['n']
+
+    @property
+    def target_inertia(self):
+        """Target inertia [kg m^2] in body axes, a fresh (3, 3) array."""
+        return np.array(self._root.target.inertia_kg_m2)
+
+    @property
+    def rotation_hill_from_body0(self):
+        """scipy Rotation taking target_body components to hill components at t = 0."""
+        return Rotation.from_quat(self._derived['q'])
+
+    @property
+    def q_hill_from_body0(self):
+        """Unit quaternion (x, y, z, w) of target_body in hill at t = 0, w >= 0; a fresh array."""
+        return self._derived['q'].copy()
+
+    @property
+    def omega_body0_rad_s(self):
+        """Inertial angular velocity of the target in target_body axes at t = 0 [rad/s]; a fresh array."""
+        return self._derived['omega_body'].copy()
+
+    @property
+    def boxes(self):
+        """Target geometry as arrays (``Boxes``: names, center_body_m (N, 3), size_m (N, 3))."""
+        g = self._root.target.geometry
+        return Boxes(tuple(b.name for b in g), np.array([b.center_m for b in g]), np.array([b.size_m for b in g]))
+
+
+# --------------------------------------------------------------------------------------------------
+# Entry points
+
+def scenario_from_dict(data, name='<dict>', seed=None, path=None):
+    """Validate a scenario mapping (as parsed from YAML) into a Scenario; ``name`` labels errors."""
+    try:
+        resolved = _resolve(data, seed)
+    except Invalid as e:
+        raise ScenarioError(name, e.key, e.problem) from None
+    return Scenario(resolved, copy.deepcopy(data), path)
+
+
+def load_scenario(path, seed=None):
+    """Load and validate a scenario YAML file; ``seed`` (int >= 0) overrides the file's seed.
+
+    Raises ScenarioError with a one-line message ``<path>: <key.path>: <problem>``.
+    """
+    return scenario_from_dict(load_yaml_mapping(path), name=str(path), seed=seed, path=path)
+
+
+def scenario_of(node):
+    """Declare the node's ``scenario_file`` and ``seed`` parameters and load the scenario (seed < 0: the file's)."""
+    node.declare_parameter('scenario_file', '')
+    node.declare_parameter('seed', -1)
+    seed = node.get_parameter('seed').value
+    return load_scenario(node.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
+
+
+def schema_markdown():
+    """The key table of docs/scenario.md, rendered from SCHEMA."""
+    return schema.schema_markdown(SCHEMA)
+
+
+def main(argv=None):
+    """``python -m flyby_sim.scenario FILE [--seed N]`` prints the resolved scenario or the error;
+    ``--schema-markdown`` prints the key table of docs/scenario.md."""
+    import argparse
+    import sys
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument('file', nargs='?')
+    parser.add_argument('--seed', type=int)
+    parser.add_argument('--schema-markdown', action='store_true')
+    args = parser.parse_args(argv)
+    if args.schema_markdown:
+        sys.stdout.write(schema_markdown())
+        return 0
+    if not args.file:
+        parser.error('a scenario file is required')
+    try:
+        sc = load_scenario(args.file, seed=args.seed)
+    except ScenarioError as e:
+        print(e, file=sys.stderr)
+        return 2
+    sys.stdout.write(sc.to_yaml())
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
