@@ -8,7 +8,7 @@ PACKAGES := $(wildcard flyby_ws/src/*/setup.py)
 OUT ?= runs/paper_flyby
 PYTEST_ARGS ?=
 
-.PHONY: mission test venv benchmark clean-runs
+.PHONY: mission test lint venv benchmark clean-runs
 
 $(STAMP): requirements.txt $(PACKAGES)
 	$(PYTHON_BOOT) -m venv $(VENV)
@@ -26,6 +26,10 @@ mission: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+# ruff over the whole tree (rules and line length in ruff.toml).
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
 
 benchmark: $(STAMP)
 	$(PY) scripts/benchmark_sim.py

@@ -54,7 +54,7 @@ def box_clearance(r_hill, q_hill_from_body, centers_body_m, sizes_m, envelope_ra
     """Gap (N,) between the envelope sphere and the nearest box, by the closest point of each box."""
     p_body = Rotation.from_quat(q_hill_from_body).inv().apply(r_hill)
     gaps = []
-    for center, size in zip(centers_body_m, sizes_m):
+    for center, size in zip(centers_body_m, sizes_m, strict=True):
         lo, hi = np.asarray(center) - 0.5 * np.asarray(size), np.asarray(center) + 0.5 * np.asarray(size)
         outside = np.linalg.norm(p_body - np.clip(p_body, lo, hi), axis=1)
         depth = np.minimum(p_body - lo, hi - p_body).min(axis=1)  # > 0 inside: distance to the nearest face

@@ -99,7 +99,8 @@ def main(argv=None):
     ap.add_argument('--out', help='one run: write scenario.yaml and summary.json here')
     ap.add_argument('--runs', type=int, help='many runs: how many (seeds first-seed, first-seed + 1, ...)')
     ap.add_argument('--first-seed', type=int, default=1)
-    ap.add_argument('--nav-noise-scale', type=float, default=1.0, help='many runs: multiply the relative-position noise')
+    ap.add_argument('--nav-noise-scale', type=float, default=1.0,
+                    help='many runs: multiply the relative-position noise')
     ap.add_argument('--jobs', type=int, default=2)
     ap.add_argument('--json', help='many runs: write every run as JSON here')
     args = ap.parse_args(argv)

@@ -34,13 +34,13 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_estimation.target_motion import q_eci_from_body
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import BagError, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.keepout import swept_region
 from flyby_planner.summary import grasp_time
 from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.orbital import q_eci_from_body
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_multiply,

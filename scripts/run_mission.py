@@ -5,8 +5,9 @@
                    [--rtf X] [--in-process] [--force] [--wall-timeout S]
 
 Leaves in OUT: scenario.yaml (the exact input), bag/ (rosbag2, MCAP), summary.json, logs/ and
-params/ (one file per node), run.json (ROS domain and process ids, written at start). Every node runs as its own process on a ROS domain no other run on
-this machine holds; ``--in-process`` runs them all in this process on one executor instead.
+params/ (one file per node), run.json (ROS domain and process ids, written at start). Every node runs
+as its own process on a ROS domain no other run on this machine holds; ``--in-process`` runs them
+all in this process on one executor instead.
 Exit code: 0 capture, 3 no capture but safe (escape, no safe plan, abort, time limit), 5 collision,
 130 interrupted, 1 error.
 """
@@ -182,8 +183,8 @@ class Monitor:
     """
 
     def __init__(self, context, abort_hold_s, executor=None, faults=None):
-        from rclpy.node import Node
         from rclpy.experimental import EventsExecutor
+        from rclpy.node import Node
         from std_srvs.srv import Trigger
 
         self.node = Node('flyby_launcher', context=context)

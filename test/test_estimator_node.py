@@ -10,13 +10,11 @@ from scipy.spatial.transform import Rotation
 
 from flyby_estimation.estimator_node import EstimatorNode
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario
-from flyby_testing import (SCENARIOS, collect, read_summary, run_mission, spin_until,
-                           with_duration, write_scenario)
+from flyby_testing import SCENARIOS, collect, read_summary, run_mission, spin_until, with_duration, write_scenario
 
 
 def test_estimates_from_a_recorded_run_meet_the_accuracy(tmp_path):

@@ -6,8 +6,7 @@ from rclpy.parameter import Parameter
 
 from flyby_guidance.guidance_node import GuidanceNode
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast

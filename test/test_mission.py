@@ -76,7 +76,8 @@ def _odometry_follows_the_nav_msgs_rule(out, summary):
     # The target's rate in hill: from the attitude's own change, plus the hill frame's rate [0, -n, 0].
     q = target.orientation_xyzw
     n = load_scenario(ROOT / 'scenarios' / 'paper_flyby.yaml').mean_motion_rad_s
-    turns = np.array([rotation_vector_from_quat(quat_multiply(q1, quat_conjugate(q0))) for q0, q1 in zip(q[:-1], q[1:])])
+    turns = np.array([rotation_vector_from_quat(quat_multiply(q1, quat_conjugate(q0)))
+                      for q0, q1 in zip(q[:-1], q[1:], strict=True)])
     omega_hill = turns / np.diff(target.t)[:, None] + (0.0, -n, 0.0)
     assert np.abs(omega_hill - in_hill(target, 'angular')[:-1]).max() < 1e-3
     estimate = data['/estimation/target/odom']
@@ -84,10 +85,15 @@ def _odometry_follows_the_nav_msgs_rule(out, summary):
     truth = in_hill(target, 'angular')[np.searchsorted(target.t, estimate.t[late])]
     assert np.degrees(np.abs(in_hill(estimate, 'angular')[late] - truth)).max() < 0.05
     nav = data['/estimation/chaser/odom']
-    assert np.abs(in_hill(nav, 'linear') - chaser.linear[np.searchsorted(chaser.t, nav.t)]).max() < 0.01
+    # Converged (the first seconds are a finite difference of 1 cm noise), and free: once attached, the
+    # free-flight navigation is left behind until it stops.
+    free = (nav.t > 60.0) & (nav.t < summary['t_grasp_s'])
+    error = in_hill(nav, 'linear')[free] - chaser.linear[np.searchsorted(chaser.t, nav.t[free])]
+    assert np.abs(error).max() < 0.01
     # The planner's points: the velocities of its plan and of every re-aim (events), to the bit.
     events = data['/mission/events']
-    aims = [e['values'] for e in events if e['name'] in ('plan_selected', 'target_refined') and 'v_g_hill_mps' in e['values']]
+    aims = [e['values'] for e in events
+            if e['name'] in ('plan_selected', 'target_refined') and 'v_g_hill_mps' in e['values']]
     grasp, flyby_target = data['/planner/grasp'], data['/planner/flyby_target']
     assert len(grasp.t) == len(flyby_target.t) == len(aims) >= 2
     for k, v in enumerate(aims):

@@ -7,8 +7,7 @@ from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
 from flyby_planner.planner_node import PlannerNode
 from flyby_sim.dynamics.orbital import cw_coast
@@ -65,7 +64,8 @@ class EstimateProbe(Node):
 
 
 def _start(ros_context, executor, scenario_path):
-    planner = PlannerNode(context=ros_context, parameter_overrides=[Parameter('scenario_file', value=str(scenario_path))])
+    planner = PlannerNode(context=ros_context,
+                          parameter_overrides=[Parameter('scenario_file', value=str(scenario_path))])
     probe = EstimateProbe(ros_context, load_scenario(scenario_path))
     executor.add_node(planner)
     executor.add_node(probe)

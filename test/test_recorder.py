@@ -12,8 +12,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.domain import lease_domain
 from flyby_msgs_py.runtime import FASTDDS_PROFILES

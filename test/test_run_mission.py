@@ -13,8 +13,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario
-from flyby_testing import (analyze_bag, launch_and_wait, read_summary, run_mission, with_duration,
-                           write_scenario)
+from flyby_testing import analyze_bag, launch_and_wait, read_summary, run_mission, with_duration, write_scenario
 
 SIM_TOPICS = {c.absolute(t): c.TOPIC_TYPES[t] for t in (
     c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,

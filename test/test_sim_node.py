@@ -8,13 +8,12 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import bag_topics
+from flyby_msgs_py.runtime import announce_ready, run_loop
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario
 from flyby_sim.sim_node import SimNode
-from flyby_msgs_py.runtime import announce_ready, run_loop
 from flyby_testing import collect, run_mission, spin_until, with_duration, write_scenario
 
 G0 = 9.80665

@@ -32,9 +32,13 @@ from scipy.optimize import least_squares
 
 from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_from_rotation_vector, quat_multiply, rotation_vector_from_quat
-
-from flyby_estimation.target_motion import q_eci_from_body
+from flyby_sim.dynamics.orbital import q_eci_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    rotation_vector_from_quat,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,7 +89,7 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
     i = validated_inertia(inertia)
     inertia_t = tuple(map(tuple, i.tolist()))
     inertia_inv_t = tuple(map(tuple, np.linalg.inv(i).tolist()))
-    q_meas_eci = [q_eci_from_body(tk, n, zk / np.linalg.norm(zk)) for tk, zk in zip(t, z)]
+    q_meas_eci = [q_eci_from_body(tk, n, zk / np.linalg.norm(zk)) for tk, zk in zip(t, z, strict=True)]
     guess = (np.asarray(q_eci_from_body_guess, dtype=float), np.asarray(omega_body_guess, dtype=float))
     t_epoch = float(t[-1])
     backward = t[::-1]
@@ -106,7 +110,8 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
         if not sol.success:
             raise RuntimeError(f'attitude integration failed over the window: {sol.message}')
         q_model = sol.y[:4, ::-1].T
-        r = [rotation_vector_from_quat(quat_multiply(quat_conjugate(qm), qz)) for qm, qz in zip(q_model, q_meas_eci)]
+        r = [rotation_vector_from_quat(quat_multiply(quat_conjugate(qm), qz))
+             for qm, qz in zip(q_model, q_meas_eci, strict=True)]
         return np.concatenate(r) / attitude_sigma_rad
 
     # Scales: about a measurement sigma in attitude, and that over the window length in rate.
@@ -122,7 +127,7 @@ def fit_attitude_motion(times_s, q_hill_from_body_meas, n, inertia, attitude_sig
     # one-sided difference about the guess, and zero when the guess is already the optimum).
     fitted = (q, w)
     jac = np.column_stack([(residuals(step, fitted) - residuals(-step, fitted)) / (2.0 * h)
-                           for h, step in zip(1e-4 * scale, np.diag(1e-4 * scale))])
+                           for h, step in zip(1e-4 * scale, np.diag(1e-4 * scale), strict=True)])
     covariance = np.linalg.inv(jac.T @ jac)  # inverse Fisher information of the whitened problem
     return BatchFit(t=t_epoch, q_eci_from_body=np.asarray(q), omega_body=np.asarray(w),
                     covariance=0.5 * (covariance + covariance.T), chi2=float(2.0 * result.cost),

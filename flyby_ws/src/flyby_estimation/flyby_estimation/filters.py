@@ -3,8 +3,11 @@
 import math
 
 from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
-from flyby_estimation.target_filter import (ConvergenceThresholds, TargetAttitudeFilter,
-                                            target_filter_config_from_scenario)
+from flyby_estimation.target_filter import (
+    ConvergenceThresholds,
+    TargetAttitudeFilter,
+    target_filter_config_from_scenario,
+)
 from flyby_estimation.target_motion import MotionThresholds
 
 

@@ -69,8 +69,15 @@ from scipy.stats import chi2
 from flyby_estimation.filter_interface import UpdateResult, new_counts
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast, cw_transition_matrix, nonlinear_relative_accel, rk4_step
-from flyby_sim.dynamics.propulsion import (BurnRequest, ManeuverRejected, ThrusterConfig, chain_burns, check_delta_v,
-                                           fuel_for_delta_v_kg, insert_request)
+from flyby_sim.dynamics.propulsion import (
+    BurnRequest,
+    ManeuverRejected,
+    ThrusterConfig,
+    chain_burns,
+    check_delta_v,
+    fuel_for_delta_v_kg,
+    insert_request,
+)
 
 DYNAMICS = ('cw', 'nonlinear')
 DEFAULT_ACCEL_PSD_M2_S3 = 1.0e-9

@@ -43,17 +43,29 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
-from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import quat_eci_from_hill
-from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
-                                         rotation_vector_from_quat, skew)
-
 from flyby_estimation.batch import check_filter, fit_attitude_motion
 from flyby_estimation.filter_interface import UpdateResult, new_counts
-from flyby_estimation.target_motion import (ErrorStateDynamics, MotionPrediction, MotionThresholds,
-                                            classify_motion, make_state, point_prediction, q_hill_from_body)
+from flyby_estimation.target_motion import (
+    ErrorStateDynamics,
+    MotionPrediction,
+    MotionThresholds,
+    classify_motion,
+    make_state,
+    point_prediction,
+)
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_normalize,
+    rotation_vector_from_quat,
+    skew,
+)
 
 _H = np.hstack((np.eye(3), np.zeros((3, 3))))  # the measurement sees the attitude error only
+DEFAULT_MOTION_THRESHOLDS = MotionThresholds()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -215,7 +227,7 @@ class TargetAttitudeFilter:
             return self._outcome('non_unit', t, reason=f'measurement at t = {t} s has norm {norm:.6g}, not within '
                                                        f'{self.config.norm_tolerance} of 1')
         z = z / norm
-        q_eci_meas = quat_multiply(quat_eci_from_hill(t, self._n), z)
+        q_eci_meas = q_eci_from_body(t, self._n, z)
         if not self.initialized:
             self._initialize(t, q_eci_meas, z)
             return self._outcome('initialized', t)
@@ -301,7 +313,7 @@ class TargetAttitudeFilter:
                                f'last initialization: the check window was dropped')
         if self._window[-1][0] != self._t:
             raise RuntimeError(f'the filter time {self._t} s is past its last measurement {self._window[-1][0]} s')
-        times, measurements = zip(*self._window)
+        times, measurements = zip(*self._window, strict=True)
         s = self.state()
         fit = fit_attitude_motion(times, measurements, self._n, self.config.inertia,
                                   self.config.attitude_sigma_rad, s.q_eci_from_body, s.omega_body)
@@ -332,7 +344,7 @@ class TargetAttitudeFilter:
         return max(float(np.linalg.norm(rotation_vector_from_quat(quat_multiply(q_now_inv, q))))
                    for _, q in self._history)
 
-    def classify_motion(self, thresholds=MotionThresholds()):
+    def classify_motion(self, thresholds=DEFAULT_MOTION_THRESHOLDS):
         """target_motion.MotionCategory (seed 000 section 2.1) from the estimated rate and attitude excursion.
 
         Meaningful once converged; the excursion covers the time since initialization, up to

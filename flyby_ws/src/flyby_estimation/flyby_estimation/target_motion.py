@@ -31,9 +31,13 @@ from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import eci_vector_in_hill, quat_eci_from_hill, rk4_step
-from flyby_sim.dynamics.rotation import (quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix,
-                                         quat_to_matrix_many, skew)
+from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body, rk4_step
+from flyby_sim.dynamics.rotation import (
+    quat_normalize,
+    quat_to_matrix,
+    quat_to_matrix_many,
+    skew,
+)
 
 _I3 = np.eye(3)
 _STATE = 7  # q (4) + omega (3)
@@ -117,16 +121,6 @@ class ErrorStateDynamics:
                 y = rk4_step(self.augmented_rate, 0.0, y, h)
         return (quat_normalize(y[:4].tolist()), y[4:7].copy(), y[_PHI].reshape(6, 6).copy(),
                 y[_QD].reshape(6, 6).copy())
-
-
-def q_hill_from_body(t, n, q_eci_from_body):
-    """q_hill_from_body = q_hill_from_eci(t) * q_eci_from_body (the plant's convention)."""
-    return quat_multiply(quat_conjugate(quat_eci_from_hill(t, n)), q_eci_from_body)
-
-
-def q_eci_from_body(t, n, q_hill_from_body_):
-    """Inverse of q_hill_from_body: q_eci_from_hill(t) * q_hill_from_body."""
-    return quat_multiply(quat_eci_from_hill(t, n), q_hill_from_body_)
 
 
 def orbit_rate_hill(n):

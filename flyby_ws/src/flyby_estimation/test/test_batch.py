@@ -7,8 +7,8 @@ import pytest
 from scipy.stats import chi2
 
 from flyby_estimation.batch import error_between, fit_attitude_motion
-from flyby_estimation.target_motion import q_hill_from_body
 from flyby_sim.dynamics.attitude import AttitudePropagator
+from flyby_sim.dynamics.orbital import q_hill_from_body
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize
 
 DEG = math.radians(1.0)
@@ -21,7 +21,7 @@ def tumble(times, q0=(0.1, -0.3, 0.2, 0.9), omega0=(0.05, 0.2, -0.1)):
     matching noise-free q_hill_from_body measurements."""
     prop = AttitudePropagator(quat_normalize(q0), omega0, INERTIA)
     states = [prop.state_at(t) for t in times]
-    return states, np.array([q_hill_from_body(t, N_RAD_S, q) for t, (q, _) in zip(times, states)])
+    return states, np.array([q_hill_from_body(t, N_RAD_S, q) for t, (q, _) in zip(times, states, strict=True)])
 
 
 def test_noise_free_tumble_is_recovered_from_a_distant_start():
@@ -49,7 +49,7 @@ def test_fit_errors_over_seeds_have_the_spread_of_the_bound():
     for seed in range(40):
         rng = np.random.default_rng(seed)
         noisy = [quat_multiply(q, quat_from_axis_angle(v, np.linalg.norm(v)))
-                 for q, v in zip(z, sigma * rng.standard_normal((times.size, 3)))]
+                 for q, v in zip(z, sigma * rng.standard_normal((times.size, 3)), strict=True)]
         fit = fit_attitude_motion(times, noisy, N_RAD_S, INERTIA, sigma, q_end, omega_end)
         errors.append(error_between(fit.q_eci_from_body, fit.omega_body, q_end, omega_end))
         bound = fit.covariance

@@ -16,8 +16,13 @@ from hypothesis import strategies as st
 from scipy.integrate import quad_vec
 
 from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
-from flyby_estimation.relative_nav import (DEFAULT_ACCEL_PSD_M2_S3, ManeuverRejected, RelativeNavConfig,
-                                           RelativeNavFilter, relative_nav_config_from_scenario)
+from flyby_estimation.relative_nav import (
+    DEFAULT_ACCEL_PSD_M2_S3,
+    ManeuverRejected,
+    RelativeNavConfig,
+    RelativeNavFilter,
+    relative_nav_config_from_scenario,
+)
 from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario, scenario_from_dict
@@ -251,7 +256,8 @@ def test_a_burn_begun_before_initialization_belongs_to_the_initial_state():
     late.initialize(5.5, mid.r_hill, mid.v_hill, mid.covariance)
     assert [b.start_s for b in late.burns] == [5.0]
     a, b = late.predict(20.0), ref.predict(20.0)
-    assert np.allclose(a.r_hill, b.r_hill, atol=1e-9, rtol=0.0) and np.allclose(a.v_hill, b.v_hill, atol=1e-11, rtol=0.0)
+    assert np.allclose(a.r_hill, b.r_hill, atol=1e-9, rtol=0.0)
+    assert np.allclose(a.v_hill, b.v_hill, atol=1e-11, rtol=0.0)
     assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=0.0)
 
 

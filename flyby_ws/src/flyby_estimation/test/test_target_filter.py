@@ -12,12 +12,22 @@ from scipy.stats import chi2
 
 from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
 from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
-from flyby_estimation.target_filter import (ConvergenceThresholds, TargetAttitudeFilter, TargetFilterConfig,
-                                            target_filter_config_from_scenario)
+from flyby_estimation.target_filter import (
+    ConvergenceThresholds,
+    TargetAttitudeFilter,
+    TargetFilterConfig,
+    target_filter_config_from_scenario,
+)
 from flyby_sim.dynamics.orbital import quat_eci_from_hill
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_multiply,
+    quat_normalize,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_axis_angle, quat_multiply, quat_normalize,
-                                         quat_to_matrix, rotation_vector_from_quat)
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -161,7 +171,7 @@ def test_filter_equals_the_batch_maximum_likelihood_fit_and_its_cramer_rao_bound
     """
     run = request.getfixturevalue(name)
     s = run.state60
-    times, measurements = zip(*run.window60)
+    times, measurements = zip(*run.window60, strict=True)
     q_guess = quat_multiply(s.q_eci_from_body, quat_from_axis_angle([1.0, -1.0, 1.0], 2.0 * DEG))
     omega_guess = s.omega_body + 0.05 * DEG * np.array([0.6, 0.0, -0.8])
     fit = fit_attitude_motion(times, measurements, run.plant.mean_motion_rad_s, run.scenario.target_inertia,
@@ -249,7 +259,7 @@ def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement(p
     turn = quat_from_axis_angle([1.0, 1.0, 0.0], 30 * DEG)  # the body seen 30 deg away: an unmodelled event
     times = [f.t + 0.1 * (k + 1) for k in range(n_outliers + 1)]
     jumped = [quat_multiply(truth.predict(t).q_hill_from_body, turn) for t in times]
-    results = [f.update(t, q) for t, q in zip(times, jumped)]
+    results = [f.update(t, q) for t, q in zip(times, jumped, strict=True)]
     assert [r.kind for r in results] == ['outlier'] * (n_outliers - 1) + ['reset', 'accepted']
     assert not any(r.accepted for r in results[:-2]) and results[-2].accepted
     assert results[-2].nis > f.gate_threshold and f'{n_outliers} consecutive outliers' in results[-2].reason

@@ -7,13 +7,26 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flyby_estimation.target_motion import (ErrorStateDynamics, MotionPrediction, MotionThresholds,
-                                            body_point_in_hill, classify_motion, covariance_in_hill, make_state,
-                                            orbit_rate_hill, q_hill_from_body)
+from flyby_estimation.target_motion import (
+    ErrorStateDynamics,
+    MotionPrediction,
+    MotionThresholds,
+    body_point_in_hill,
+    classify_motion,
+    covariance_in_hill,
+    make_state,
+    orbit_rate_hill,
+)
 from flyby_sim.dynamics.attitude import AttitudePropagator
-from flyby_sim.dynamics.orbital import mean_motion_rad_s
-from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_rotation_vector, quat_multiply, quat_normalize,
-                                quat_to_matrix, rotation_vector_from_quat)
+from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_normalize,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
 
 N = mean_motion_rad_s(7.0e6)
 # Seed 001 Table 1: the tumbler, and seed 000 section 5: the stable spinner.

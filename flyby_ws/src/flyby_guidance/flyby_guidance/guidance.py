@@ -30,11 +30,10 @@ import math
 import numpy as np
 
 from flyby_msgs_py.wire import Event
-from flyby_planner.grasp import flyby_target_point, refine_grasp
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix
 from flyby_sim.dynamics.propulsion import fuel_for_delta_v_kg
 
 # Points checked along a predicted burn arc.
@@ -143,17 +142,6 @@ def burn_arc(r_hill, v_hill, dv_hill, mass_kg, max_thrust_n, n):
     return np.array([cw_coast(r_hill, v_hill, tau, n)[:3] + 0.5 * accel * tau * tau for tau in taus])
 
 
-def refined_flyby_target(prediction, x_grasp_body, t_f, offset_m, n):
-    """(t_f, X_Ft, V_Ft) of the grasp re-solved near t_f from a newer target prediction, or None.
-
-    The re-aiming of seed 000 section 4.6 (grasp.refine_grasp, eq 13-15, then eq 20-21).
-    """
-    g = refine_grasp(prediction, x_grasp_body, t_f, n)
-    if g is None:
-        return None
-    return (g.t_grasp, *flyby_target_point(g.x_g, g.v_g, offset_m))
-
-
 class FlybyGuidance:
     """Guidance of one fly-by (module doc). ``set_target`` starts it, ``step`` is called with each estimate.
 
@@ -235,7 +223,8 @@ class FlybyGuidance:
             self.thrust_ended = f'{kind} burn at t = {t_burn:.1f} s would thrust {closest:.2f} m from the target'
             return [], [Event(t_burn, 'OK' if kind == 'adjust' else 'ERROR', 'thrusting_ended',
                                       f'{self.thrust_ended} (< sphere {cfg.restriction_sphere_radius_m:g} m + margin '
-                                      f'{cfg.sphere_margin_m:g} m); coasting from here', {'closest_m': closest, **values})]
+                                      f'{cfg.sphere_margin_m:g} m); coasting from here',
+                                      {'closest_m': closest, **values})]
         if kind == 'adjust':
             small = (values['miss_position_m'] < cfg.adjust_position_tolerance_m
                      and values['miss_velocity_mps'] < cfg.adjust_velocity_tolerance_mps)

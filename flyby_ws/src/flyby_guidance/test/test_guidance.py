@@ -10,8 +10,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_guidance.closed_loop import run_headless, scaled_navigation_noise
-from flyby_guidance.guidance import (FlybyGuidance, FlybyTarget, GuidanceConfig, adjusting_delta_v, burn_arc,
-                                     predicted_miss)
+from flyby_guidance.guidance import (
+    FlybyGuidance,
+    FlybyTarget,
+    GuidanceConfig,
+    adjusting_delta_v,
+    burn_arc,
+    predicted_miss,
+)
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
 from flyby_sim.scenario import load_scenario
@@ -45,8 +51,8 @@ def test_eq26_removes_an_exactly_correctable_miss():
 
 
 def _config(**kw):
-    return GuidanceConfig(mean_motion_rad_s=N, restriction_sphere_radius_m=15.0, max_thrust_n=10.0, chaser_mass_kg=100.0,
-                          exhaust_velocity_mps=2157.0, **kw)
+    return GuidanceConfig(mean_motion_rad_s=N, restriction_sphere_radius_m=15.0, max_thrust_n=10.0,
+                          chaser_mass_kg=100.0, exhaust_velocity_mps=2157.0, **kw)
 
 
 def _target():

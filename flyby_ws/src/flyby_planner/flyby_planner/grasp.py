@@ -119,7 +119,8 @@ def grasp_point_closed_form(omega_hill, x_norm_m, xi_rad, phi_sign):
 
     With phi = +pi/2 this is eq 18a / 19a, with phi = -pi/2 eq 18b / 19b:
 
-    .. math:: x_{gt} = |x_g| [\\sin\\theta\\cos(\\psi \\pm \\xi), \\sin(\\psi \\pm \\xi), \\cos\\theta\\cos(\\psi \\pm \\xi)]
+    .. math:: x_{gt} = |x_g| [\\sin\\theta\\cos(\\psi \\pm \\xi), \\sin(\\psi \\pm \\xi),
+              \\cos\\theta\\cos(\\psi \\pm \\xi)]
 
     .. math:: v_{gt} = \\omega \\times x_{gt} = \\pm|\\omega||x_g|\\sin\\xi [-\\cos\\theta, 0, \\sin\\theta]
 

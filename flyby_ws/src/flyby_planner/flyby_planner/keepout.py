@@ -73,7 +73,7 @@ class SweptRegion:
         p = np.stack((axial, radial), axis=1)
         # In the (axial, radial) half-plane a cylinder is the box [a_min, a_max] x [-r_max, r_max].
         per_box = [signed_distance_to_box(p, (0.5 * (lo + hi), 0.0), (hi - lo, 2.0 * rad))
-                   for lo, hi, rad in zip(self.axial_min_m, self.axial_max_m, self.radius_m)]
+                   for lo, hi, rad in zip(self.axial_min_m, self.axial_max_m, self.radius_m, strict=True)]
         return np.min(per_box, axis=0)
 
     def clearance(self, r_hill, t, n, envelope_radius_m):
@@ -105,14 +105,14 @@ def swept_region(boxes, inertia, q_eci_from_body, omega_body):
     if not np.all(np.isfinite(h_norm) & (h_norm > 0.0)):
         raise ValueError('the target has no angular momentum (omega_body zero or not finite): no spin axis')
     axis_body = h_body / h_norm[:, None]
-    axis_eci_samples = np.array([quat_to_matrix(qi) @ ai for qi, ai in zip(q, axis_body)])
+    axis_eci_samples = np.array([quat_to_matrix(qi) @ ai for qi, ai in zip(q, axis_body, strict=True)])
     axis_eci = axis_eci_samples[0]
     spread = np.degrees(np.arccos(np.clip(axis_eci_samples @ axis_eci, -1.0, 1.0))).max()
     if spread > 1.0:
         raise ValueError(f'angular momentum direction varies by {spread:.3g} deg over the samples; '
                          'they are not one torque-free motion')
     names, lo, hi, rad = [], [], [], []
-    for name, center, size in zip(boxes.names, boxes.center_body_m, boxes.size_m):
+    for name, center, size in zip(boxes.names, boxes.center_body_m, boxes.size_m, strict=True):
         corners = np.asarray(center, dtype=float) + 0.5 * _CORNER_SIGNS * np.asarray(size, dtype=float)
         axial = axis_body @ corners.T  # (M, 8)
         radial2 = np.sum(corners * corners, axis=1)[None, :] - axial * axial

@@ -25,18 +25,23 @@ Steps (seed 000 section 4.4: "multiple candidates ... over a period of rotations
 
 import dataclasses
 import math
-from typing import Optional
 
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction, q_eci_from_body
+from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
 from flyby_planner.grasp import flyby_initial_point, flyby_target_point, grasp_candidates
 from flyby_planner.keepout import swept_region
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import cw_coast, eci_vector_in_hill, hill_axes_in_eci, nonlinear_relative_accel
+from flyby_sim.dynamics.orbital import (
+    cw_coast,
+    eci_vector_in_hill,
+    hill_axes_in_eci,
+    nonlinear_relative_accel,
+    q_eci_from_body,
+)
 
 # Samples of the target motion for the swept region (a tumbler's polhode) and of the passive path.
 _REGION_SAMPLES = 64
@@ -67,7 +72,7 @@ class PlannerConfig:
     escape_check_orbits: float = 1.0
     max_rate_rad_s: float = math.radians(18.0)
     min_spin_axis_angle_from_orbit_normal_rad: float = math.radians(10.0)
-    sun_direction_eci: Optional[np.ndarray] = None
+    sun_direction_eci: np.ndarray | None = None
     max_sun_angle_from_grasp_velocity_rad: float = math.radians(100.0)
     maneuver_lead_s: float = 10.0
     transfer_min_s: float = 150.0
@@ -154,10 +159,10 @@ class Candidate:
     dv_tf: np.ndarray
     reasons: list
     status: str = 'rejected'
-    clearance_approach_m: Optional[float] = None
-    clearance_escape_m: Optional[float] = None
-    t_min_clearance: Optional[float] = None
-    t_sphere_entry: Optional[float] = None
+    clearance_approach_m: float | None = None
+    clearance_escape_m: float | None = None
+    t_min_clearance: float | None = None
+    t_sphere_entry: float | None = None
 
     @property
     def dv_total_mps(self):
@@ -203,7 +208,7 @@ class CapturePlan:
     ok: bool
     reason: str
     t_plan: float
-    selected: Optional[Candidate]
+    selected: Candidate | None
     candidates: list
     region: object = None
     path_t: np.ndarray = None
@@ -219,7 +224,7 @@ class CapturePlan:
                 'cylinders': [{'name': nm, 'axial_m': [round(float(lo), 6), round(float(hi), 6)],
                                'radius_m': round(float(r), 6)}
                               for nm, lo, hi, r in zip(self.region.names, self.region.axial_min_m,
-                                                       self.region.axial_max_m, self.region.radius_m)]}
+                                                       self.region.axial_max_m, self.region.radius_m, strict=True)]}
         return out
 
 
@@ -432,7 +437,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     if chosen is None:
         rejected = '; '.join(f't_g {c.t_grasp:.1f} s: {c.reasons[0]}' for c in candidates)
         return _refused(f'no safe plan among {len(candidates)} candidates ({rejected})', t_now, candidates, region)
-    j = checked.index(chosen)
+    j = next(k for k, c in enumerate(checked) if c is chosen)  # by identity: dataclass == compares arrays
     path_t, path_r = _path(chosen, r_now, v_now, t_now, lambda tau: dense(tau)[:3, j, :], config)
     return CapturePlan(ok=True, reason='', t_plan=t_now, selected=chosen, candidates=candidates, region=region,
                        path_t=path_t, path_r_hill=path_r)

@@ -104,7 +104,7 @@ def plan_markers(plan, config):
         region = plan.region
         axis = region.axis_hill(chosen.t_grasp if chosen else plan.t_plan, n)
         cylinders = [(0.5 * (lo + hi) * axis, axis, radius, hi - lo)
-                     for lo, hi, radius in zip(region.axial_min_m, region.axial_max_m, region.radius_m)]
+                     for lo, hi, radius in zip(region.axial_min_m, region.axial_max_m, region.radius_m, strict=True)]
     if chosen is None:
         return PlanMarkers(config.restriction_sphere_radius_m, tuple(cylinders))
     return PlanMarkers(config.restriction_sphere_radius_m, tuple(cylinders), chosen.x_g, (chosen.x_ft, chosen.x_fi),

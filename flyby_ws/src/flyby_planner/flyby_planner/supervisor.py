@@ -26,14 +26,14 @@ import math
 
 import numpy as np
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate, q_eci_from_body
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.grasp import flyby_target_point, grasp_from_attitude
 from flyby_planner.keepout import swept_region
 from flyby_planner.plan import avoidance_burn, planner_config_from_scenario
-from flyby_sim.dynamics.orbital import cw_coast
+from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
 # Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
@@ -310,8 +310,8 @@ class SupervisorCore:
         dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, self.planner_config,
                                            sc.supervisor.avoidance_delta_v_mps)
         if dv is None:
-            return [self._event(t, 'OK', 'no_avoidance_burn',
-                                f'the coast is passively safe (least clearance {before:.2f} m)', {'clearance_m': before})]
+            return [self._event(t, 'OK', 'no_avoidance_burn', f'the coast is passively safe (least clearance '
+                                                              f'{before:.2f} m)', {'clearance_m': before})]
         return [AvoidanceBurn(t_burn, dv),
                 self._event(t, 'WARN', 'avoidance_burn',
                             f'coast would come {before:.2f} m from the keep-out region; burn of '

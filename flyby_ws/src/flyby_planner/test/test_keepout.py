@@ -19,7 +19,7 @@ SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER = load_scenario(SCENARIOS / 'paper_flyby.yaml')
 N = PAPER.mean_motion_rad_s
 BOXES = PAPER.boxes
-BOX_PAIRS = list(zip(BOXES.center_body_m, BOXES.size_m))
+BOX_PAIRS = list(zip(BOXES.center_body_m, BOXES.size_m, strict=True))
 Q_HB0 = PAPER.q_hill_from_body0
 Q_EB0 = quat_multiply(quat_eci_from_hill(0.0, N), Q_HB0)
 SPIN_AXIS_HILL0 = quat_rotate(Q_HB0, (0.0, 0.0, 1.0))

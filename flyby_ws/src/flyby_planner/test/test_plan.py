@@ -88,7 +88,7 @@ def test_passive_path_clears_the_real_target_independently(paper_plan):
     truth = truth_prediction(sc, c.t_i + span)
     y = np.concatenate((c.x_fi, c.v_fi))
     f = lambda _, s: np.concatenate((s[3:], nonlinear_relative_accel(s[:3], s[3:], n, radius)))  # noqa: E731
-    boxes = list(zip(sc.boxes.center_body_m, sc.boxes.size_m))
+    boxes = list(zip(sc.boxes.center_body_m, sc.boxes.size_m, strict=True))
     h = 0.25
     least = math.inf
     for k in range(int(span / h)):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, outcome_of, summarize, thrust_figures
-from flyby_sim.scenario import load_scenario
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2 as G0_MPS2
+from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 

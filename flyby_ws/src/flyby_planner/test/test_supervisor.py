@@ -7,14 +7,21 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from flyby_estimation.target_motion import ErrorStateDynamics, q_eci_from_body, q_hill_from_body
+from flyby_estimation.target_motion import ErrorStateDynamics
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
 from flyby_planner.grasp import flyby_target_from_attitude
-from flyby_planner.supervisor import (AvoidanceBurn, PhaseMachine, SupervisorConfig, SupervisorCore, Transition,
-                                      capture_decision, decide_capture)
+from flyby_planner.supervisor import (
+    AvoidanceBurn,
+    PhaseMachine,
+    SupervisorConfig,
+    SupervisorCore,
+    Transition,
+    capture_decision,
+    decide_capture,
+)
 from flyby_sim.dynamics.attitude import AttitudePropagator
-from flyby_sim.dynamics.orbital import cw_accel
+from flyby_sim.dynamics.orbital import cw_accel, q_eci_from_body, q_hill_from_body
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'

@@ -22,15 +22,15 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flyby_msgs_py.wire import Event
 from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
-from flyby_sim.dynamics.orbital import (cw_accel, mean_motion_rad_s, nonlinear_relative_accel,
-                               quat_eci_from_hill, rk4_step)
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_to_matrix
-from flyby_msgs_py.wire import Event
-from flyby_sim.sensors import SensorModel, is_sample_step
+from flyby_sim.dynamics.orbital import cw_accel, mean_motion_rad_s, nonlinear_relative_accel, q_eci_from_body, rk4_step
+from flyby_sim.dynamics.orbital import q_hill_from_body as q_hill_from_body_of
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
+from flyby_sim.dynamics.rotation import quat_normalize, quat_to_matrix
+from flyby_sim.sensors import SensorModel, is_sample_step
 from flyby_sim.thrusters import ThrusterModel
 
 DYNAMICS = ('nonlinear', 'cw')
@@ -143,7 +143,7 @@ class Plant:
         self._thrusters = ThrusterModel(config.thrusters, np.random.default_rng(thruster_seed))
         self._sensors = SensorModel(np.random.default_rng(sensor_seed), config.position_sigma_m,
                                     config.attitude_sigma_rad)
-        q_eci_from_body0 = quat_multiply(quat_eci_from_hill(0.0, n), quat_normalize(config.q_hill_from_body0))
+        q_eci_from_body0 = q_eci_from_body(0.0, n, quat_normalize(config.q_hill_from_body0))
         self._attitude = AttitudePropagator(q_eci_from_body0, config.omega_body0, config.target_inertia)
         self._step_index = 0
         self._y = np.array(config.r0_hill + config.v0_hill)
@@ -255,7 +255,7 @@ class Plant:
         self._step_index += 1
         t = self.t
         q_eci_from_body, omega_body = self._attitude.state_at(t)
-        q_hill_from_body = quat_multiply(quat_conjugate(quat_eci_from_hill(t, self.mean_motion_rad_s)), q_eci_from_body)
+        q_hill_from_body = q_hill_from_body_of(t, self.mean_motion_rad_s, q_eci_from_body)
         r_hill, v_hill = body_point_state(quat_to_matrix(q_hill_from_body), omega_body, self._r_body_captured,
                                           self.mean_motion_rad_s)  # eq 8-9 of a body-fixed point
         self._y = np.concatenate((r_hill, v_hill))
@@ -317,7 +317,7 @@ class Plant:
     def _truth(self, t, force_hill, firing):
         n = self.mean_motion_rad_s
         q_eci_from_body, omega_body = self._attitude.state_at(t)
-        q_hill_from_body = quat_multiply(quat_conjugate(quat_eci_from_hill(t, n)), q_eci_from_body)
+        q_hill_from_body = q_hill_from_body_of(t, n, q_eci_from_body)
         return TruthSample(t=t, r_hill=self._y[:3].copy(), v_hill=self._y[3:].copy(),
                            q_hill_from_body=q_hill_from_body, omega_body=omega_body, force_hill=force_hill,
                            mass_kg=self._mass_kg, fuel_used_kg=self.config.chaser_mass_kg - self._mass_kg,

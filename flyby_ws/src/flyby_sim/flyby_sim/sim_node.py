@@ -2,7 +2,8 @@
 
 It advances the plant (``flyby_sim.plant``) in fixed steps, publishes ``/clock``, the truth topics,
 the sensor samples and the target markers, and executes the time-tagged maneuvers it receives on
-``guidance/maneuver``; when ``mission/phase`` turns to CAPTURE the chaser is attached to the target. The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
+``guidance/maneuver``; when ``mission/phase`` turns to CAPTURE the chaser is attached to the target.
+The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
 ``flow_control_period_s`` of simulated time it waits until each node named in ``keep_up_with`` has
 reported (``flyby_msgs_py.runtime.ProgressReporter``) that it handled everything up to one such
 period ago, so no node (the recorder, the estimator) is outrun; and it ends only once they all
@@ -18,8 +19,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.markers import marker_array, target_box_markers
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event
 from flyby_msgs_py.wire import Event

@@ -9,8 +9,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from flyby_sim.dynamics.attitude import (AttitudePropagator, angular_momentum_inertial, body_point_state, euler_rate,
-                                kinetic_energy, quaternion_rate)
+from flyby_sim.dynamics.attitude import (
+    AttitudePropagator,
+    angular_momentum_inertial,
+    body_point_state,
+    euler_rate,
+    kinetic_energy,
+    quaternion_rate,
+)
 from flyby_sim.dynamics.orbital import hill_axes_in_eci
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_normalize, quat_to_matrix
 

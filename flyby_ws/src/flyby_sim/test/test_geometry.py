@@ -34,13 +34,13 @@ def test_hand_computed_distances():
 def test_clearance_matches_brute_force_sampling_of_the_solids(point, seed):
     lows = [np.subtract(c, np.divide(s, 2)) for c, s in PAPER_BOXES]
     highs = [np.add(c, np.divide(s, 2)) for c, s in PAPER_BOXES]
-    assume(not any(np.all((lo <= point) & (point <= hi)) for lo, hi in zip(lows, highs)))
+    assume(not any(np.all((lo <= point) & (point <= hi)) for lo, hi in zip(lows, highs, strict=True)))
     q = Rotation.random(random_state=seed).as_quat()
     r_hill = Rotation.from_quat(q).apply(point)
     gap = clearance([r_hill], [q], PAPER_BOXES, 0.5)[0]
     nearest = np.inf
-    for lo, hi in zip(lows, highs):
-        axes = [np.linspace(a, b, 41) for a, b in zip(lo, hi)]
+    for lo, hi in zip(lows, highs, strict=True):
+        axes = [np.linspace(a, b, 41) for a, b in zip(lo, hi, strict=True)]
         grid = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3)
         nearest = min(nearest, np.min(np.linalg.norm(grid - point, axis=1)))
     # The exact distance is never above the sampled one, and below it by at most half a cell diagonal.

@@ -9,9 +9,19 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
-from flyby_sim.dynamics.orbital import (cw_accel, cw_transition_matrix, eci_from_relative, eci_vector_in_hill,
-                               hill_axes_in_eci, mean_motion_rad_s, nonlinear_relative_accel,
-                               quat_eci_from_hill, relative_from_eci, rk4_step, target_eci_state)
+from flyby_sim.dynamics.orbital import (
+    cw_accel,
+    cw_transition_matrix,
+    eci_from_relative,
+    eci_vector_in_hill,
+    hill_axes_in_eci,
+    mean_motion_rad_s,
+    nonlinear_relative_accel,
+    quat_eci_from_hill,
+    relative_from_eci,
+    rk4_step,
+    target_eci_state,
+)
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
 RADIUS_M = 7.0e6

@@ -10,13 +10,18 @@ import numpy as np
 import pytest
 from scipy.integrate import quad_vec, solve_ivp
 
-from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
-from flyby_sim.dynamics.orbital import (cw_transition_matrix, eci_from_relative, hill_axes_in_eci,
-                               mean_motion_rad_s, relative_from_eci, target_eci_state)
-from flyby_sim.plant import Plant, PlantConfig, plant_config_from_scenario
-from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
-from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.constants import MU_EARTH_M3_S2, STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.orbital import (
+    cw_transition_matrix,
+    eci_from_relative,
+    hill_axes_in_eci,
+    mean_motion_rad_s,
+    relative_from_eci,
+    target_eci_state,
+)
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
+from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
+from flyby_sim.plant import Plant, PlantConfig, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario
 
 RADIUS_M = 7.0e6
@@ -74,8 +79,8 @@ def test_seed000_eq1_nonlinear_plant_matches_eci_two_body_over_one_orbit(r0, v0,
     plant = Plant(coarse(step_s, r0_hill=r0, v0_hill=v0, omega_body0=(0.0, 0.0, 0.0)))
     samples = run(plant, math.ceil(PERIOD_S / step_s) * step_s)[::int(round(50.0 / step_s))]
     reference = two_body_reference(r0, v0, np.array([s.t for s in samples]))
-    position_err = max(np.linalg.norm(s.r_hill - r) for s, (r, _) in zip(samples, reference))
-    velocity_err = max(np.linalg.norm(s.v_hill - v) for s, (_, v) in zip(samples, reference))
+    position_err = max(np.linalg.norm(s.r_hill - r) for s, (r, _) in zip(samples, reference, strict=True))
+    velocity_err = max(np.linalg.norm(s.v_hill - v) for s, (_, v) in zip(samples, reference, strict=True))
     print(f'max error over one orbit: position {position_err:.2e} m, velocity {velocity_err:.2e} m/s')
     assert position_err < 1e-3
     assert velocity_err < 1e-6

@@ -8,10 +8,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from flyby_sim.dynamics.rotation import (quat_conjugate, quat_from_axis_angle, quat_from_matrix,
-                                quat_from_rotation_vector, quat_multiply, quat_normalize, quat_rotate,
-                                quat_rotate_many, quat_to_matrix, quat_to_matrix_many, random_small_rotation,
-                                rotation_vector_from_quat)
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_axis_angle,
+    quat_from_matrix,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    quat_rotate_many,
+    quat_to_matrix,
+    quat_to_matrix_many,
+    random_small_rotation,
+    rotation_vector_from_quat,
+)
 
 RNG = np.random.default_rng(20240601)
 QUATS = Rotation.random(200, random_state=RNG).as_quat()
@@ -23,7 +33,7 @@ def same_rotation(q1, q2, tol=1e-12):
 
 
 def test_multiply_and_conjugate_match_scipy():
-    for qa, qb in zip(QUATS[:-1], QUATS[1:]):
+    for qa, qb in zip(QUATS[:-1], QUATS[1:], strict=True):
         expected = (Rotation.from_quat(qa) * Rotation.from_quat(qb)).as_quat()
         assert same_rotation(quat_multiply(qa, qb), expected)
         assert same_rotation(quat_conjugate(qa), Rotation.from_quat(qa).inv().as_quat())
@@ -39,7 +49,7 @@ def test_matrix_conversions_match_scipy():
 
 
 def test_rotate_matches_scipy():
-    for q, v in zip(QUATS, VECTORS):
+    for q, v in zip(QUATS, VECTORS, strict=True):
         np.testing.assert_allclose(quat_rotate(q, v), Rotation.from_quat(q).apply(v), atol=1e-14)
 
 

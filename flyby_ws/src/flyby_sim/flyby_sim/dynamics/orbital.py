@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
-from flyby_sim.dynamics.rotation import quat_from_matrix, quat_multiply
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_from_matrix, quat_multiply
 
 
 def mean_motion_rad_s(radius_m, mu=MU_EARTH_M3_S2):
@@ -148,6 +148,16 @@ def quat_eci_from_hill(t, n):
     """q_eci_from_hill at time t [s]: the t = 0 attitude turned by n t about ECI +z."""
     half = 0.5 * n * t
     return quat_multiply((0.0, 0.0, math.sin(half), math.cos(half)), _Q_ECI_FROM_HILL0)
+
+
+def q_hill_from_body(t, n, q_eci_from_body):
+    """A body's attitude in hill at time t [s] from its attitude in ECI: q_hill_from_eci(t) * q_eci_from_body."""
+    return quat_multiply(quat_conjugate(quat_eci_from_hill(t, n)), q_eci_from_body)
+
+
+def q_eci_from_body(t, n, q_hill_from_body_):
+    """Inverse of q_hill_from_body: q_eci_from_hill(t) * q_hill_from_body."""
+    return quat_multiply(quat_eci_from_hill(t, n), q_hill_from_body_)
 
 
 def target_eci_state(t, radius_m, n):
