@@ -456,8 +456,8 @@ def main(argv=None):
             repair = repair_bag(bag_dir)
         summary = compute_summary(
             bag_dir, scenario, end_reason=reason, final_phase=phase, wall_time_s=wall_time_s,
-            node_exit_codes=exit_codes, nodes_killed=killed, bag_repair=repair)
-        summary['faults_injected'] = {'abort_at_s': faults.abort_at_s, 'kill': args.kill}
+            node_exit_codes=exit_codes, nodes_killed=killed, bag_repair=repair,
+            faults_injected={'abort_at_s': faults.abort_at_s, 'kill': args.kill})
         (run_dir / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     finally:
         for sig, handler in previous_handlers.items():

@@ -114,6 +114,7 @@ def _headless_agrees(tmp_path, graph):
                           capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     headless = read_summary(out)
+    assert set(headless) == set(graph)  # the same keys (DESIGN §10)
     for key in ('outcome', 'final_phase', 'phase_sequence', 'seed', 't_grasp_s', 'capture_position_error_m',
                 'capture_velocity_error_mps', 'maneuvers_executed', 'late_maneuvers', 'rejected_maneuvers',
                 'thrust_inside_restriction_sphere'):

@@ -12,11 +12,11 @@ representable in Odometry).
 """
 
 import numpy as np
-from rclpy.node import Node
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, qos
+from flyby_msgs_py import convert
+from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
 from flyby_sim.scenario import scenario_of
 
@@ -30,25 +30,19 @@ def _block_diag_6(a3, b3):
     return cov
 
 
-class EstimatorNode(Node):
+class EstimatorNode(CoreNode):
     """Target and chaser estimation; see the module docstring."""
 
     def __init__(self, **kwargs):
         super().__init__('flyby_estimator', **kwargs)
         self.core = EstimatorCore(scenario_of(self), self.get_name())
-
-        def pub(topic):
-            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
         self.pub_target, self.pub_chaser, self.pub_events = (
-            pub(c.EST_TARGET_ODOM), pub(c.EST_CHASER_ODOM), pub(c.MISSION_EVENTS))
+            self.publisher(c.EST_TARGET_ODOM), self.publisher(c.EST_CHASER_ODOM), self.publisher(c.MISSION_EVENTS))
         for topic, callback in ((c.SENSOR_TARGET_ATTITUDE, self.on_attitude),
                                 (c.SENSOR_RELATIVE_POSITION, self.on_position),
-                                (c.GUIDANCE_MANEUVER, self.on_maneuver),
-                                (c.MISSION_PHASE, self.on_phase)):
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos.qos_for(topic))
-
-    def on_phase(self, msg):
-        self.publish(self.core.on_phase(convert.string_to_str(msg)))
+                                (c.GUIDANCE_MANEUVER, self.on_maneuver)):
+            self.subscribe(topic, callback)
+        self.subscribe_phase()
 
     def on_attitude(self, msg):
         self.publish(self.core.on_attitude(*convert.quaternion_stamped_to_numpy(msg)))

@@ -23,12 +23,13 @@ import math
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from scipy.stats import chi2
 
 REJECTION_KINDS = ('non_finite', 'non_unit', 'stale', 'outlier')
 STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
 UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
 
-__all__ = ['EstimationFilter', 'REJECTION_KINDS', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
+__all__ = ['EstimationFilter', 'FilterBase', 'REJECTION_KINDS', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
            'new_counts']
 
 
@@ -66,6 +67,41 @@ class UpdateResult:
 def new_counts():
     """A count of 0 for every kind of UPDATE_KINDS, the ``counts`` dict of a filter."""
     return dict.fromkeys(UPDATE_KINDS, 0)
+
+
+class FilterBase:
+    """What both filters keep the same way: the filter time, the chi-square(3) innovation gate of
+    gate_probability on the normalized innovation squared, and the count of every outcome kind."""
+
+    def __init__(self, gate_probability, max_consecutive_outliers):
+        self._t = None
+        self._gate = float(chi2.ppf(gate_probability, df=3))
+        self._max_outliers = max_consecutive_outliers
+        self._consecutive_outliers = 0
+        self.counts = new_counts()
+
+    def _gate_verdict(self, nis):
+        """The one rejection rule: 'pass' inside the gate, else 'outlier', or 'reset' at the
+        max_consecutive_outliers-th consecutive outlier (module doc)."""
+        if nis <= self._gate:
+            self._consecutive_outliers = 0
+            return 'pass'
+        self._consecutive_outliers += 1
+        return 'reset' if self._consecutive_outliers >= self._max_outliers else 'outlier'
+
+    @property
+    def initialized(self):
+        return self._t is not None
+
+    @property
+    def t(self):
+        """Filter time [s] (None before initialization)."""
+        return self._t
+
+    @property
+    def gate_threshold(self):
+        """Normalized innovation squared above which a measurement is an outlier."""
+        return self._gate
 
 
 @runtime_checkable

@@ -64,9 +64,8 @@ from typing import NamedTuple
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
-from scipy.stats import chi2
 
-from flyby_estimation.filter_interface import UpdateResult, new_counts
+from flyby_estimation.filter_interface import FilterBase, UpdateResult
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast, cw_transition_matrix, nonlinear_relative_accel, rk4_step
 from flyby_sim.dynamics.propulsion import (
@@ -198,7 +197,7 @@ def _white_accel_q(q, dt):
     return np.block([[q11 * _I3, q12 * _I3], [q12 * _I3, q22 * _I3]])
 
 
-class RelativeNavFilter:
+class RelativeNavFilter(FilterBase):
     """Kalman filter for the chaser's relative state (module doc); a ``filter_interface.EstimationFilter``.
 
     Not thread-safe.
@@ -207,39 +206,22 @@ class RelativeNavFilter:
     def __init__(self, config):
         if not isinstance(config, RelativeNavConfig):
             raise ValueError(f'config must be a RelativeNavConfig, got {config!r}')
+        super().__init__(config.gate_probability, config.max_consecutive_outliers)
         self.config = config
         self._n = config.mean_motion_rad_s
         kf = KalmanFilter(dim_x=6, dim_z=3)
         kf.H = np.hstack((_I3, np.zeros((3, 3))))
         kf.R = config.position_sigma_m**2 * _I3
         self._kf = kf
-        self._gate = float(chi2.ppf(config.gate_probability, df=3))
-        self._t = None
         self._requests = []  # propulsion.BurnRequest of the maneuvers not started, in burn order
         self._fixed_duration_s = {}  # seq -> the burn_duration_s given to add_maneuver (absent: the plant's burn)
         self._pending = []  # ScheduledBurn of each request, chained after the last started burn
         self._active = None  # the started burn, until the filter time passes its end
         self._chain_end = (-math.inf, config.chaser_mass_kg)  # end time and mass after the last started burn
         self._seq = 0
-        self._consecutive_outliers = 0
-        self.counts = new_counts()
 
     # ---------------------------------------------------------------------------------------------
     # State
-
-    @property
-    def initialized(self):
-        return self._t is not None
-
-    @property
-    def t(self):
-        """Filter time [s] (None before initialization)."""
-        return self._t
-
-    @property
-    def gate_threshold(self):
-        """NIS above which a measurement is an outlier (chi2(3) quantile of gate_probability)."""
-        return self._gate
 
     def initialize(self, t, r_hill, v_hill=(0.0, 0.0, 0.0), covariance=None):
         """Set the state at time t; covariance defaults to diag(sigma_pos^2 I, sigma_v0^2 I).
@@ -399,16 +381,15 @@ class RelativeNavFilter:
         y = z - kf.x[:3, 0]  # y = z - H x
         s = kf.P[:3, :3] + kf.R  # S = H P H' + R
         nis = float(y @ np.linalg.solve(s, y))  # NIS = y' S^-1 y
-        if nis > self._gate:
-            self._consecutive_outliers += 1
-            if self._consecutive_outliers >= self.config.max_consecutive_outliers:
+        verdict = self._gate_verdict(nis)
+        if verdict != 'pass':
+            if verdict == 'reset':
                 self._reset(z)
                 return self._outcome('reset', t, nis, f'{self.config.max_consecutive_outliers} consecutive '
                                                       f'outliers, the last NIS {nis:.4g} > gate {self._gate:.4g}: '
                                                       f'position reset to the measurement', y)
             return self._outcome('outlier', t, nis, f'NIS {nis:.4g} > gate {self._gate:.4g} (|y| = '
                                                     f'{float(np.linalg.norm(y)):.4g} m)', y)
-        self._consecutive_outliers = 0
         # K = P H' inv(S); x = x + K y; P = (I - K H) P (I - K H)' + K R K' (Joseph form: stays
         # symmetric positive semi-definite whatever the rounding in K).
         kf.update(z)

@@ -41,10 +41,9 @@ import math
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
-from scipy.stats import chi2
 
 from flyby_estimation.batch import check_filter, fit_attitude_motion
-from flyby_estimation.filter_interface import UpdateResult, new_counts
+from flyby_estimation.filter_interface import FilterBase, UpdateResult
 from flyby_estimation.target_motion import (
     ErrorStateDynamics,
     MotionPrediction,
@@ -138,7 +137,7 @@ class ConvergenceThresholds:
     rate_3sigma_rad_s: float = math.radians(0.05)
 
 
-class TargetAttitudeFilter:
+class TargetAttitudeFilter(FilterBase):
     """Multiplicative EKF of the target attitude and inertial angular velocity (module doc); a
     ``filter_interface.EstimationFilter``.
 
@@ -153,37 +152,20 @@ class TargetAttitudeFilter:
     """
 
     def __init__(self, config):
+        super().__init__(config.gate_probability, config.max_consecutive_outliers)
         self.config = config
         self.dynamics = ErrorStateDynamics(config.inertia, config.torque_psd)
         self._n = config.mean_motion_rad_s
         self._r = config.attitude_sigma_rad ** 2 * np.eye(3)
-        self._gate = float(chi2.ppf(config.gate_probability, 3))
         self._kf = KalmanFilter(dim_x=6, dim_z=3)
         self._kf.H = _H
         self._kf.R = self._r
-        self._t = None  # filter time [s]; None until initialized
         self._q = None  # reference q_eci_from_body
         self._omega = None  # reference omega_body [rad/s]
-        self.counts = new_counts()
-        self._consecutive_outliers = 0
         self._history = collections.deque()  # (t, q_hill_from_body) at ~1 Hz for classify_motion
         self._window = []  # (t, q_hill_from_body) fused since the last initialization, for batch_check
 
     # -- state ------------------------------------------------------------------------------------
-    @property
-    def initialized(self):
-        return self._t is not None
-
-    @property
-    def t(self):
-        """Filter time [s] (None before initialization)."""
-        return self._t
-
-    @property
-    def gate_threshold(self):
-        """d2 above which a measurement is an outlier (chi2(3) quantile of gate_probability)."""
-        return self._gate
-
     @property
     def covariance(self):
         """6x6 error-state covariance [dtheta_body, domega_body] at the filter time (a copy)."""
@@ -240,17 +222,16 @@ class TargetAttitudeFilter:
         nu = rotation_vector_from_quat(quat_multiply(quat_conjugate(self._q), q_eci_meas))
         s = kf.P[:3, :3] + self._r  # S = H P H' + R
         d2 = float(nu @ np.linalg.solve(s, nu))  # nu' S^-1 nu
-        if d2 > self._gate:
-            self._consecutive_outliers += 1
+        verdict = self._gate_verdict(d2)
+        if verdict != 'pass':
             innovation_deg = math.degrees(float(np.linalg.norm(nu)))
-            if self._consecutive_outliers >= self.config.max_consecutive_outliers:
+            if verdict == 'reset':
                 self._initialize(t, q_eci_meas, z)
                 return self._outcome('reset', t, d2, f'{self.config.max_consecutive_outliers} consecutive outliers, '
                                                      f'the last {innovation_deg:.3g} deg at t = {t} s (d2 = {d2:.4g} '
                                                      f'> gate {self._gate:.4g}): re-initialized from it', nu)
             return self._outcome('outlier', t, d2, f'innovation {innovation_deg:.3g} deg at t = {t} s: d2 = {d2:.4g} '
                                                    f'> gate {self._gate:.4g}', nu)
-        self._consecutive_outliers = 0
         # filterpy: K = P H' inv(S); x = x + K nu; P = (I-KH) P (I-KH)' + K R K' (Joseph form). The
         # Joseph form keeps P symmetric positive definite under rounding, which matters here because
         # the rate variance falls by ~10 orders of magnitude from the 20 deg/s prior.

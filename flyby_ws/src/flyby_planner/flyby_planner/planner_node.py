@@ -12,14 +12,13 @@ whenever guidance re-aims. On ``mission/events``: the candidate table, then ``pl
 ``plan_refused`` with the reason.
 """
 
-from rclpy.node import Node
 from std_srvs.srv import Trigger
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, qos
+from flyby_msgs_py import convert
 from flyby_msgs_py.markers import cylinder_marker, line_strip_marker, marker_array, point_marker, sphere_marker
+from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
-from flyby_msgs_py.wire import Event
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_shortest_arc
 from flyby_sim.scenario import scenario_of
@@ -53,41 +52,24 @@ def plan_marker_array(t, m):
     return marker_array(markers)
 
 
-class PlannerNode(Node):
+class PlannerNode(CoreNode):
     """Fly-by capture planner; see the module docstring."""
 
     def __init__(self, **kwargs):
         super().__init__('flyby_planner', **kwargs)
         self.core = PlannerCore(scenario_of(self), self.get_name())
-
-        def pub(topic):
-            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
-        self.pubs = {topic: pub(topic) for topic in (
+        self.pubs = {topic: self.publisher(topic) for topic in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,
             c.MISSION_EVENTS)}
-        for topic, callback in ((c.EST_TARGET_ODOM, self.on_target), (c.EST_CHASER_ODOM, self.on_chaser),
-                                (c.MISSION_EVENTS, self.on_event)):
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos.qos_for(topic))
+        self.subscribe_estimates()
+        self.subscribe_events()
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
-
-    def on_event(self, msg):
-        for e in convert.events_from_msg(msg):
-            self.publish(self.core.on_event(Event(e['t'], e['level'], e['name'], e['message'], e['values'],
-                                                  e['source'])))
 
     def on_replan(self, _request, response):
         self.publish(self.core.on_replan())
         response.success = True
         response.message = 'planning at the next target estimate'
         return response
-
-    def on_chaser(self, msg):
-        o = convert.odometry_to_numpy(msg)
-        self.publish(self.core.on_chaser_estimate(o.t, o.position, o.linear))
-
-    def on_target(self, msg):
-        o = convert.odometry_to_numpy(msg)
-        self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular))
 
     def publish(self, outputs):
         pubs = self.pubs

@@ -129,9 +129,9 @@ def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
     return float(np.linalg.norm(r - x_ft)), float(np.linalg.norm(v - v_ft))
 
 
-def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'),
-                    node_exit_codes=None, nodes_killed=(), bag_repair=None):
-    """The summary dict of a run from its bag; robust to a bag cut short by an interruption."""
+def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'), **launcher):
+    """The summary dict of a run from its bag; robust to a bag cut short by an interruption. ``launcher``:
+    what only the launcher knows (summarize's node_exit_codes, nodes_killed, bag_repair, faults_injected)."""
     data = read_bag(bag_dir, topics=TRUTH_TOPICS)
     chaser = data.get(c.absolute(c.SIM_CHASER_ODOM))
     target = data.get(c.absolute(c.SIM_TARGET_ODOM))
@@ -139,16 +139,16 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
     phase_msgs = data.get(c.absolute(c.MISSION_PHASE))
     events = data.get(c.absolute(c.MISSION_EVENTS)) or []
     phases = list(phase_msgs.data) if phase_msgs is not None else []
-    summary = summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase, wall_time_s)
-    summary.update(node_exit_codes=node_exit_codes or {}, nodes_killed=list(nodes_killed), bag_repair=bag_repair)
-    return summary
+    return summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase, wall_time_s,
+                     **launcher)
 
 
 def summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase=None,
-              wall_time_s=float('nan')):
+              wall_time_s=float('nan'), node_exit_codes=None, nodes_killed=(), bag_repair=None, faults_injected=None):
     """The summary dict of a run from its truth (ChaserTruth, TargetTruth, ThrustTruth or the bag's series
     with the same fields, any of them None), the phases in order and the events (dicts with t, level,
-    name, message, values (text), hardware_id)."""
+    name, message, values (text), hardware_id). The last four are the launcher's: the nodes' exit codes,
+    the nodes it killed, its repair of the bag and the faults it injected (none for the headless driver)."""
     if final_phase is None and phases:
         final_phase = phases[-1]
     has_chaser = chaser is not None and len(chaser.t)
@@ -210,6 +210,10 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'sim_time_s': sim_time_s,
         'wall_time_s': wall_time_s,
         'real_time_factor': sim_time_s / wall_time_s if wall_time_s > 0 else None,
+        'node_exit_codes': node_exit_codes or {},
+        'nodes_killed': list(nodes_killed),
+        'bag_repair': bag_repair,
+        'faults_injected': faults_injected or {'abort_at_s': None, 'kill': None},
     }
 
 

@@ -8,19 +8,18 @@ reason, and after an abort outside the restriction sphere at most one collision-
 ``guidance/maneuver``. ``mission/abort`` (std_srvs/Trigger) aborts.
 """
 
-from rclpy.node import Node
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
+from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, main_for, publish_event
-from flyby_msgs_py.wire import Event
 from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_sim.scenario import scenario_of
 
 
-class SupervisorNode(Node):
+class SupervisorNode(CoreNode):
     """Mission phase supervisor; see the module docstring."""
 
     def __init__(self, **kwargs):
@@ -28,31 +27,14 @@ class SupervisorNode(Node):
         self.declare_parameter('watched_nodes', list(WATCHED_NODES))
         watched = tuple(w for w in self.get_parameter('watched_nodes').value if w)
         self.core = SupervisorCore(scenario_of(self), watched, self.get_name())
-
-        def pub(topic):
-            return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
         self.pub_phase, self.pub_events, self.pub_maneuver = (
-            pub(c.MISSION_PHASE), pub(c.MISSION_EVENTS), pub(c.GUIDANCE_MANEUVER))
-        for topic, callback in ((c.EST_TARGET_ODOM, self.on_target), (c.EST_CHASER_ODOM, self.on_chaser),
-                                (c.MISSION_EVENTS, self.on_event)):
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos.qos_for(topic))
+            self.publisher(c.MISSION_PHASE), self.publisher(c.MISSION_EVENTS), self.publisher(c.GUIDANCE_MANEUVER))
+        self.subscribe_estimates()
+        self.subscribe_events()
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock', self.on_clock, qos.QOS_STREAM)
         self.create_service(Trigger, c.MISSION_ABORT_SERVICE, self.on_abort)
         self.publish(self.core.start())
-
-    def on_target(self, msg):
-        o = convert.odometry_to_numpy(msg)
-        self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular))
-
-    def on_chaser(self, msg):
-        o = convert.odometry_to_numpy(msg)
-        self.publish(self.core.on_chaser_estimate(o.t, o.position, o.linear))
-
-    def on_event(self, msg):
-        for e in convert.events_from_msg(msg):
-            self.publish(self.core.on_event(Event(e['t'], e['level'], e['name'], e['message'], e['values'],
-                                                  e['source'])))
 
     def on_progress(self, msg):
         self.core.on_progress(msg.frame_id, convert.stamp_to_sec(msg.stamp))

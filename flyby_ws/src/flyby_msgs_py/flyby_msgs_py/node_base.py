@@ -1,0 +1,57 @@
+"""The shell every flyby node is: a core without ROS inside, messages converted at the border.
+
+A node subclasses ``CoreNode``, builds its core (``self.core``), creates its publishers and
+subscriptions with ``publisher`` / ``subscribe`` (contract type and QoS by topic name, relative to
+the node's namespace) and implements ``publish(outputs)``, which turns the core's outputs into
+messages. The inputs several cores share are converted here once: the estimates
+(``on_target_estimate(t, q_hill_from_body, omega_body)``, ``on_chaser_estimate(t, r_hill, v_hill)``),
+the mission phase (``on_phase(phase)``) and the events of ``mission/events`` (``on_event(wire.Event)``).
+"""
+
+from rclpy.node import Node
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import convert, qos
+from flyby_msgs_py.wire import Event
+
+
+class CoreNode(Node):
+    """A node around a core (module doc)."""
+
+    core = None
+
+    def publish(self, outputs):
+        raise NotImplementedError(f'{type(self).__name__} must turn its core outputs into messages')
+
+    def publisher(self, topic):
+        """A publisher of a contract topic with its type and QoS."""
+        return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
+
+    def subscribe(self, topic, callback):
+        """A subscription of a contract topic with its type and QoS."""
+        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos.qos_for(topic))
+
+    def subscribe_odometry(self, topic, core_input, *fields):
+        """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays)."""
+        def callback(msg):
+            o = convert.odometry_to_numpy(msg)
+            self.publish(core_input(o.t, *(getattr(o, f) for f in fields)))
+        return self.subscribe(topic, callback)
+
+    def subscribe_estimates(self):
+        """estimation/target/odom and estimation/chaser/odom into the core."""
+        self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
+        self.subscribe_odometry(c.EST_CHASER_ODOM, self.core.on_chaser_estimate, 'position', 'linear')
+
+    def subscribe_phase(self):
+        """mission/phase into the core's on_phase(phase)."""
+        self.subscribe(c.MISSION_PHASE, lambda msg: self.publish(self.core.on_phase(convert.string_to_str(msg))))
+
+    def subscribe_events(self):
+        """mission/events into the core, one wire.Event per status."""
+        self.subscribe(c.MISSION_EVENTS, self._on_events)
+
+    def _on_events(self, msg):
+        for e in convert.events_from_msg(msg):
+            self.publish(self.core.on_event(Event(e['t'], e['level'], e['name'], e['message'], e['values'],
+                                                  e['source'])))
