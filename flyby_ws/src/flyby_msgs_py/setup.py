@@ -15,7 +15,8 @@ setup(
     zip_safe=True,
     maintainer='flyby developers',
     maintainer_email='flyby@example.org',
-    description='The flyby interface contract: topic names, QoS, frames, conversions, scenario loading, bag I/O.',
+    description=('The flyby interface contract and node infrastructure: topic names, QoS, frames, conversions, '
+                 'markers, scenario schema engine, bag I/O, node runtime, recorder.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
