@@ -436,7 +436,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     chosen = _select(candidates, config)
     if chosen is None:
         rejected = '; '.join(f't_g {c.t_grasp:.1f} s: {c.reasons[0]}' for c in candidates)
-        return _refused(f'no safe plan among {len(candidates)} candidates ({rejected})', t_now, candidates, region)
+        return _refused(f'all {len(candidates)} candidates rejected ({rejected})', t_now, candidates, region)
     j = next(k for k, c in enumerate(checked) if c is chosen)  # by identity: dataclass == compares arrays
     path_t, path_r = _path(chosen, r_now, v_now, t_now, lambda tau: dense(tau)[:3, j, :], config)
     return CapturePlan(ok=True, reason='', t_plan=t_now, selected=chosen, candidates=candidates, region=region,

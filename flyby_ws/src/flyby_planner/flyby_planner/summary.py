@@ -18,7 +18,6 @@ from scipy.spatial.transform import Rotation, Slerp
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.grasp import flyby_target_from_attitude
-from flyby_planner.supervisor import NO_SAFE_PLAN_PREFIX
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.geometry import clearance
 
@@ -75,7 +74,8 @@ def outcome_of(end_reason, phases, collided=False, refused=False):
 
 
 def no_safe_plan_reason(events):
-    """The supervisor's reason for ending in NO_SAFE_PLAN (its PLANNING -> COMPLETE event), or None."""
+    """The supervisor's reason for ending in NO_SAFE_PLAN ('no safe plan: ...', from its PLANNING -> COMPLETE
+    event), or None."""
     for e in events:
         if e['name'] == 'phase_changed' and e['values'].get('no_safe_plan') == 'true':
             return e['message'].split(': ', 1)[-1]
@@ -183,7 +183,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
     if outcome == c.OUTCOME_NO_SAFE_PLAN:
-        end_reason = NO_SAFE_PLAN_PREFIX + refused
+        end_reason = refused
 
     def count(name):
         return sum(1 for e in events if e['name'] == name)

@@ -1,0 +1,209 @@
+"""The statistics and report of a Monte Carlo campaign (issue 12 part 2): campaign.json, report.md, plots.
+
+Rates are binomial proportions with exact (Clopper-Pearson) two-sided 95 % bounds from the beta
+distribution: for k successes in n runs, lower = Beta(alpha/2; k, n - k + 1), upper = Beta(1 - alpha/2;
+k + 1, n - k) (Clopper and Pearson 1934; the same as scipy.stats.binomtest(k, n).proportion_ci('exact')).
+The zero-failure statement is the order-statistics one: N runs without failure give a success
+probability >= 0.1**(1/N) at 90 % confidence (the p at which N successes in a row have probability
+0.1), i.e. a failure probability <= 1 - 0.1**(1/N); 22 clean runs give >= 90 %.
+
+Flown runs are those that reached an outcome of the mission (all but ERROR and INTERRUPTED: those are
+failures of the software or of the operator, counted and listed but not flight statistics).
+"""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import scipy.stats
+
+from flyby_msgs_py import contract as c
+from flyby_sim.scenario import load_scenario
+
+NOT_FLOWN = (c.OUTCOME_ERROR, c.OUTCOME_INTERRUPTED)
+# Figures whose large tail is the worst (percentiles 50/95/99/max).
+UPPER_TAIL = ('capture_position_error_m', 'capture_velocity_error_mps', 'delta_v_total_mps', 'fuel_used_kg')
+MAX_LISTED = 20
+WORST_LISTED = 5
+# Keys whose dispersion moves the spin axis or rate: then the outcome map is drawn.
+SPIN_KEYS = ('target.initial_rate.', 'target.initial_attitude.')
+
+
+def clopper_pearson(k, n, confidence=0.95):
+    """Exact two-sided bounds (lower, upper) of a binomial proportion with k successes in n trials."""
+    alpha = 1.0 - confidence
+    lower = 0.0 if k == 0 else float(scipy.stats.beta.ppf(alpha / 2.0, k, n - k + 1))
+    upper = 1.0 if k == n else float(scipy.stats.beta.ppf(1.0 - alpha / 2.0, k + 1, n - k))
+    return lower, upper
+
+
+def zero_failure_lower_bound(n, confidence=0.9):
+    """Least success probability that n runs without failure support at ``confidence``: (1 - confidence)**(1/n)."""
+    return (1.0 - confidence) ** (1.0 / n)
+
+
+def _number(cell):
+    return float(cell) if cell not in ('', None) else None
+
+
+def _rate(name, k, n):
+    if n == 0:
+        return {'rate': None, 'successes': 0, 'runs': 0}
+    lower, upper = clopper_pearson(k, n)
+    out = {'rate': k / n, 'successes': k, 'runs': n, 'ci95_clopper_pearson': [lower, upper]}
+    if k == n:
+        bound = zero_failure_lower_bound(n)
+        out['zero_failure_90'] = (f'{n} flown runs without a {name} failure: success probability >= '
+                                  f'{bound:.4f} (1 - 0.1**(1/{n}) = {1.0 - bound:.4f} at most failing) '
+                                  f'at 90 % confidence')
+    return out
+
+
+def _percentiles(values, tail):
+    a = np.array([v for v in values if v is not None], dtype=float)
+    if a.size == 0:
+        return {'n': 0}
+    if tail == 'upper':
+        return {'n': int(a.size), 'p50': float(np.percentile(a, 50)), 'p95': float(np.percentile(a, 95)),
+                'p99': float(np.percentile(a, 99)), 'max': float(a.max())}
+    return {'n': int(a.size), 'p50': float(np.percentile(a, 50)), 'p5': float(np.percentile(a, 5)),
+            'p1': float(np.percentile(a, 1)), 'min': float(a.min())}
+
+
+def statistics(rows):
+    """campaign.json's statistics of the rows of results.csv ({run: row of text cells})."""
+    outcomes = [r['outcome'] for r in rows.values()]
+    counts = {o: outcomes.count(o) for o in c.OUTCOMES if o in outcomes}
+    counts.update({o: outcomes.count(o) for o in sorted(set(outcomes) - set(c.OUTCOMES))})
+    flown = [r for r in rows.values() if r['outcome'] not in NOT_FLOWN]
+    n = len(flown)
+    captured = sum(r['outcome'] == c.OUTCOME_CAPTURE for r in flown)
+    safe = sum(r['outcome'] != c.OUTCOME_COLLISION for r in flown)
+    figures = {key: _percentiles([_number(r[key]) for r in flown], 'upper') for key in UPPER_TAIL}
+    figures['min_clearance_m'] = _percentiles([_number(r['min_clearance_m']) for r in flown], 'lower')
+    return {
+        'runs': len(rows), 'flown': n, 'outcome_counts': counts,
+        'capture_rate': _rate('capture', captured, n),
+        'safe_rate': _rate('collision', safe, n),
+        'percentiles': figures,
+    }
+
+
+def _replay(out_dir, run):
+    return (f'.venv/bin/python scripts/run_mission.py --scenario {out_dir}/runs/{run}/scenario.yaml '
+            f'--out runs/replay_{run}')
+
+
+def worst_runs(rows):
+    """(title, [(run, figure text)]) of the runs worth replaying: largest capture error, least clearance,
+    every run that did not capture (up to MAX_LISTED)."""
+    def by(key, reverse):
+        have = [(r, _number(row[key])) for r, row in rows.items() if _number(row[key]) is not None]
+        return sorted(have, key=lambda x: x[1], reverse=reverse)[:WORST_LISTED]
+    return [
+        ('largest capture position error', [(r, f'{v:.4g} m') for r, v in by('capture_position_error_m', True)]),
+        ('least clearance', [(r, f'{v:.4g} m') for r, v in by('min_clearance_m', False)]),
+        ('every run that did not capture',
+         [(r, f'{row["outcome"]}: {row["end_reason"][:160]}') for r, row in sorted(rows.items())
+          if row['outcome'] != c.OUTCOME_CAPTURE][:MAX_LISTED]),
+    ]
+
+
+def _spin_axes(out_dir, rows):
+    """{run: (angle of the spin axis from hill y [deg], longitude about hill y [deg], rate [deg/s])} at t = 0."""
+    out = {}
+    for r in rows:
+        sc = load_scenario(Path(out_dir) / 'runs' / str(r) / 'scenario.yaml')
+        omega_hill = sc.rotation_hill_from_body0.apply(sc.omega_body0_rad_s)
+        rate = float(np.linalg.norm(omega_hill))
+        u = omega_hill / rate if rate > 0 else np.array([0.0, 1.0, 0.0])
+        out[r] = (math.degrees(math.acos(np.clip(u[1], -1.0, 1.0))), math.degrees(math.atan2(u[2], u[0])),
+                  math.degrees(rate))
+    return out
+
+
+def plots(out_dir, rows, keys):
+    """Write outcome_counts.png and, when the spin was dispersed, outcome_map.png; the file names written."""
+    import matplotlib
+    matplotlib.use('Agg')  # files only, no display
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    written = []
+    counts = statistics(rows)['outcome_counts']
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    ax.bar(list(counts), list(counts.values()), color='tab:blue')
+    ax.set_ylabel('runs')
+    ax.set_title(f'Outcomes of {len(rows)} runs')
+    fig.tight_layout()
+    fig.savefig(out / 'outcome_counts.png', dpi=100)
+    plt.close(fig)
+    written.append('outcome_counts.png')
+    if any(k.startswith(SPIN_KEYS) for k in keys):
+        axes = _spin_axes(out, rows)
+        fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
+        for outcome in sorted({row['outcome'] for row in rows.values()}):
+            runs = [r for r, row in rows.items() if row['outcome'] == outcome]
+            a = np.array([axes[r] for r in runs])
+            left.scatter(a[:, 1], 90.0 - a[:, 0], label=outcome, s=18)
+            right.scatter(a[:, 0], a[:, 2], label=outcome, s=18)
+        left.set_xlabel('spin axis longitude about hill y, from hill x toward z [deg]')
+        left.set_ylabel('spin axis latitude toward hill y [deg]')
+        right.set_xlabel('spin axis angle from hill y [deg]')
+        right.set_ylabel('inertial spin rate [deg/s]')
+        right.legend(fontsize=8)
+        fig.suptitle('Outcome over the spin axis (hill, t = 0) and rate')
+        fig.tight_layout()
+        fig.savefig(out / 'outcome_map.png', dpi=100)
+        plt.close(fig)
+        written.append('outcome_map.png')
+    return written
+
+
+def _fmt(x):
+    return '-' if x is None else f'{x:.4g}'
+
+
+def report_markdown(out_dir, header, stats, rows, images):
+    """The text of report.md."""
+    lines = [f'# Campaign {header["name"]}', '',
+             f'Campaign file `{header["campaign_file"]}` (sha256 {header["sha256"][:12]}), campaign seed '
+             f'{header["campaign_seed"]}, base scenario `{header["base_scenario"]}`; dispersed: '
+             + ', '.join(f'`{k}`' for k in header['dispersed_keys']) + '.', '',
+             f'{stats["runs"]} runs, {stats["flown"]} flown (all but ERROR and INTERRUPTED).', '',
+             '| outcome | runs |', '|---|---|']
+    lines += [f'| {o} | {n} |' for o, n in stats['outcome_counts'].items()]
+    lines += ['', '| rate | value | 95 % Clopper-Pearson |', '|---|---|---|']
+    for name in ('capture_rate', 'safe_rate'):
+        r = stats[name]
+        if r['runs']:
+            lo, hi = r['ci95_clopper_pearson']
+            lines.append(f'| {name} | {r["successes"]}/{r["runs"]} = {r["rate"]:.3f} | [{lo:.3f}, {hi:.3f}] |')
+    lines += [''] + [stats[n]['zero_failure_90'] + '.' for n in ('capture_rate', 'safe_rate')
+                     if 'zero_failure_90' in stats[n]]
+    lines += ['', '| figure (flown runs) | n | p50 | p95 | p99 | max |', '|---|---|---|---|---|---|']
+    for key in UPPER_TAIL:
+        p = stats['percentiles'][key]
+        lines.append(f'| {key} | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p95', 'p99', 'max'))
+                     + ' |')
+    p = stats['percentiles']['min_clearance_m']
+    lines += ['', '| least clearance (flown runs) | n | p50 | p5 | p1 | min |', '|---|---|---|---|---|---|',
+              f'| min_clearance_m | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p5', 'p1', 'min'))
+              + ' |', '']
+    lines += [f'![{name}]({name})' for name in images] + ['']
+    for title, runs in worst_runs(rows):
+        lines += [f'## Worst runs: {title}', '']
+        lines += [f'- run {r}: {text}\n  `{_replay(out_dir, r)}`' for r, text in runs] or ['(none)']
+        lines.append('')
+    return '\n'.join(lines)
+
+
+def write_report(out_dir, header, rows):
+    """Write campaign.json (header and statistics), the plots and report.md; return the statistics."""
+    out = Path(out_dir)
+    stats = statistics(rows)
+    (out / 'campaign.json').write_text(json.dumps({'header': header, 'statistics': stats}, indent=1) + '\n')
+    images = plots(out, rows, header['dispersed_keys'])
+    (out / 'report.md').write_text(report_markdown(out_dir, header, stats, rows, images))
+    return stats

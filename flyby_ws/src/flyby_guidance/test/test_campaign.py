@@ -1,0 +1,111 @@
+"""Campaigns on Dask (flyby_guidance.campaign) and their statistics (campaign_report).
+
+The campaign is campaign_short.yaml beside this file: paper_flyby cut to 40 s of simulated time
+(every run ends TIME_LIMIT in well under a second), so 20 runs on a LocalCluster of 2 workers take
+seconds; what is tested is the machinery, not the outcomes.
+"""
+
+import csv
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.stats
+import yaml
+
+from flyby_guidance.campaign import CampaignMismatch, columns, fly, read_results, run_campaign
+from flyby_guidance.campaign_report import clopper_pearson, zero_failure_lower_bound
+from flyby_sim.dispersions import load_campaign
+from flyby_sim.scenario import load_scenario
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[3]
+RUNS = 20
+TIMING_COLUMNS = ('wall_time_s',)
+
+
+@pytest.fixture(scope='module')
+def campaign_file(tmp_path_factory):
+    data = yaml.safe_load((HERE / 'campaign_short.yaml').read_text())
+    data['base_scenario'] = str(ROOT / 'scenarios' / 'paper_flyby.yaml')
+    data['dispersions']['simulation.duration_s']['values'] = [40.0]
+    path = tmp_path_factory.mktemp('campaign') / 'short.yaml'
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+@pytest.fixture(scope='module')
+def flown(campaign_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp('out') / 'c'
+    rows, stats, _ = run_campaign(campaign_file, out, runs=RUNS, workers=2, progress=False)
+    return out, rows, stats
+
+
+def _rows_by_run(out, campaign):
+    with (out / 'results.csv').open(newline='') as f:
+        rows = list(csv.DictReader(f))
+    assert tuple(rows[0]) == columns(campaign)
+    return {int(r['run']): r for r in rows}, len(rows)
+
+
+def test_every_run_is_written_once_with_its_drawn_parameters(campaign_file, flown):
+    out, _, stats = flown
+    campaign = load_campaign(campaign_file)
+    rows, n = _rows_by_run(out, campaign)
+    assert n == RUNS and sorted(rows) == list(range(RUNS))
+    for i, row in rows.items():
+        scenario, values = campaign.draw(i)  # each run redrawn alone
+        for key, value in values.items():
+            assert json.loads(row[key]) == value, (i, key)
+        assert int(row['seed']) == scenario.seed
+        assert load_scenario(out / 'runs' / str(i) / 'scenario.yaml') == scenario
+        summary = json.loads((out / 'runs' / str(i) / 'summary.json').read_text())
+        assert summary['outcome'] == row['outcome'] and summary['seed'] == scenario.seed
+    assert sum(stats['outcome_counts'].values()) == RUNS
+    header = json.loads((out / 'campaign.json').read_text())
+    assert header['header']['sha256'] == campaign.sha256 and header['statistics']['runs'] == RUNS
+    assert (out / 'report.md').read_text().count('scripts/run_mission.py --scenario') >= 1
+    assert (out / 'outcome_counts.png').exists() and (out / 'outcome_map.png').exists()
+
+
+def test_resume_flies_only_the_missing_runs_and_gives_the_same_rows(campaign_file, flown, tmp_path):
+    out, _, _ = flown
+    campaign = load_campaign(campaign_file)
+    before, _ = _rows_by_run(out, campaign)
+    resumed = tmp_path / 'c'
+    shutil.copytree(out, resumed)
+    # Keep the even runs, and the odd run 1 cut off mid-row (a killed campaign): 11 runs left to fly.
+    text = (resumed / 'results.csv').read_text().splitlines(keepends=True)
+    kept = [text[0]] + [line for line in text[1:] if int(line.split(',')[0]) % 2 == 0]
+    cut = next(line for line in text[1:] if line.startswith('1,'))
+    (resumed / 'results.csv').write_text(''.join(kept) + cut[:40])
+    assert len(read_results(resumed, columns(campaign))) == RUNS // 2
+    rows, stats, _ = run_campaign(campaign_file, resumed, runs=RUNS, workers=2, progress=False)
+    after, n = _rows_by_run(resumed, campaign)
+    assert n == RUNS and sorted(after) == list(range(RUNS)) and stats['runs'] == RUNS
+    for i in range(RUNS):
+        assert {k: v for k, v in after[i].items() if k not in TIMING_COLUMNS} == \
+               {k: v for k, v in before[i].items() if k not in TIMING_COLUMNS}, i
+    with pytest.raises(CampaignMismatch, match=r'campaign\.json: header\.runs: the number of runs changed'):
+        run_campaign(campaign_file, resumed, runs=RUNS + 1, workers=2, progress=False)
+
+
+def test_a_run_that_raises_is_an_error_row():
+    summary = fly(3, {'name': 'broken', 'seed': 5})
+    assert summary['outcome'] == 'ERROR' and summary['seed'] == 5
+    assert summary['end_reason'].startswith('ScenarioError: run 3: ') and '\n' not in summary['end_reason']
+
+
+@pytest.mark.parametrize('k, n', [(0, 1), (0, 20), (3, 20), (17, 20), (20, 20), (1, 1), (512, 1000)])
+def test_clopper_pearson_against_scipy_binomtest(k, n):
+    expected = scipy.stats.binomtest(k, n).proportion_ci(confidence_level=0.95, method='exact')
+    np.testing.assert_allclose(clopper_pearson(k, n), (expected.low, expected.high), rtol=1e-10, atol=1e-14)
+
+
+@pytest.mark.parametrize('n', [1, 10, 22, 59, 299])
+def test_zero_failure_bound_is_the_one_sided_clopper_pearson_bound(n):
+    # n successes in n runs: the 90 % one-sided lower bound Beta(0.1; n, 1) solves p**n = 0.1.
+    assert zero_failure_lower_bound(n) == pytest.approx(scipy.stats.beta.ppf(0.1, n, 1), rel=1e-12)
+    assert zero_failure_lower_bound(n) ** n == pytest.approx(0.1, rel=1e-12)
