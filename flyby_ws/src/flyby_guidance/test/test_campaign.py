@@ -8,8 +8,15 @@ seconds; what is tested is the machinery, not the outcomes.
 import csv
 import json
 import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
 from pathlib import Path
 
+import distributed
 import numpy as np
 import pytest
 import scipy.stats
@@ -109,3 +116,55 @@ def test_zero_failure_bound_is_the_one_sided_clopper_pearson_bound(n):
     # n successes in n runs: the 90 % one-sided lower bound Beta(0.1; n, 1) solves p**n = 0.1.
     assert zero_failure_lower_bound(n) == pytest.approx(scipy.stats.beta.ppf(0.1, n, 1), rel=1e-12)
     assert zero_failure_lower_bound(n) ** n == pytest.approx(0.1, rel=1e-12)
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def test_a_scheduler_and_workers_as_processes_give_the_same_rows_even_when_a_worker_dies(campaign_file, flown,
+                                                                                        tmp_path):
+    """`dask scheduler` and two `dask worker` processes on this machine (as on a cluster): the same rows as
+    the LocalCluster's, apart from wall times, although one worker is killed (SIGKILL) mid-campaign: its
+    runs in flight are re-run on the other, and each run is written once."""
+    out_local, _, _ = flown
+    campaign = load_campaign(campaign_file)
+    local, _ = _rows_by_run(out_local, campaign)
+    address = f'tcp://127.0.0.1:{_free_port()}'
+    dask = str(Path(sys.executable).parent / 'dask')
+    procs = [subprocess.Popen([dask, 'scheduler', '--host', '127.0.0.1', '--port', address.rsplit(':', 1)[1],
+                               '--dashboard-address', ':0'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs += [subprocess.Popen([dask, 'worker', address, '--nworkers', '1', '--nthreads', '1', '--no-nanny',
+                                '--dashboard-address', ':0'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+              for _ in range(2)]
+    out = tmp_path / 'c'
+    killed = []
+
+    def kill_one_worker_after_three_rows():
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline and not killed:
+            results = out / 'results.csv'
+            if results.exists() and len(results.read_text().splitlines()) > 3:
+                procs[1].send_signal(signal.SIGKILL)
+                killed.append(time.monotonic())
+            time.sleep(0.01)
+
+    try:
+        with distributed.Client(address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=30)
+        killer = threading.Thread(target=kill_one_worker_after_three_rows)
+        killer.start()
+        run_campaign(campaign_file, out, runs=RUNS, scheduler=address, progress=False)
+        killer.join()
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait()
+    assert killed, 'the worker was not killed mid-campaign'
+    remote, n = _rows_by_run(out, campaign)
+    assert n == RUNS and sorted(remote) == list(range(RUNS))
+    for i in range(RUNS):
+        assert {k: v for k, v in remote[i].items() if k not in TIMING_COLUMNS} == \
+               {k: v for k, v in local[i].items() if k not in TIMING_COLUMNS}, i
