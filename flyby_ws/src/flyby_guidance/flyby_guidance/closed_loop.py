@@ -137,8 +137,10 @@ class HeadlessGraph:
             args = (wire_time(out.t), out.r_hill, out.v_hill)
             self._queue.extend(self.supervisor.on_chaser_estimate(*args) + self.planner.on_chaser_estimate(*args)
                                + self.guidance.on_chaser_estimate(*args))
-        elif isinstance(out, (Maneuver, AvoidanceBurn)):  # guidance/maneuver
-            self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), getattr(out, 'kind', 'avoidance'))
+        elif isinstance(out, Maneuver):  # guidance/maneuver, from guidance
+            self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), out.kind)
+        elif isinstance(out, AvoidanceBurn):  # guidance/maneuver, from the supervisor after an abort
+            self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), 'avoidance')
         elif isinstance(out, PlanPublished):  # planner/flyby_target, planner/flyby_initial, planner/path
             self._queue.extend(self.guidance.on_flyby_target(wire_time(out.t_f), out.x_ft, out.v_ft)
                                + self.guidance.on_flyby_initial(wire_time(out.t_i), out.x_fi, out.v_fi)

@@ -4,41 +4,23 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from flyby_msgs_py.contract import LATCHED_TOPICS, MISSION_EVENTS
 
+
+def _reliable(depth, durability):
+    """Every flyby profile is reliable keep-last; they differ in depth and durability."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=durability)
+
+
 # Streams (truth, sensors, estimates, commands): reliable so that nothing is lost on the way to
 # the recorder; the depth covers the burst between two flow-control points of the simulator.
-QOS_STREAM = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=200,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+QOS_STREAM = _reliable(200, DurabilityPolicy.VOLATILE)
 # Latched state: late joiners get the last value (mission phase, the plan, markers).
-QOS_LATCHED = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
+QOS_LATCHED = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
 # Events: a late joiner gets the recent history.
-QOS_EVENTS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
+QOS_EVENTS = _reliable(100, DurabilityPolicy.TRANSIENT_LOCAL)
 # The recorder subscribes deeper than any publisher keeps, so a slow callback never drops a sample.
-QOS_RECORDER = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=5000,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-QOS_RECORDER_LATCHED = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
+QOS_RECORDER = _reliable(5000, DurabilityPolicy.VOLATILE)
+QOS_RECORDER_LATCHED = _reliable(100, DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def qos_for(topic):
