@@ -11,7 +11,9 @@ different route than flyby_planner.summary takes, from truth alone:
 * delta-v and fuel: the total impulse of /sim/chaser/thrust gives the fuel, the rocket equation over
   the whole run the delta-v (the summary sums it per step);
 * grasp time: the stamp of the last planner/grasp published before the supervisor's decision (the
-  grasp the mission aimed at; the summary reads the supervisor's decision event);
+  grasp the mission aimed at; the summary reads the supervisor's decision event); the fly-by offset
+  delta r from the last planner/flyby_target, |X_Ft| - |x_g| (eq 20; the summary reads the planner's
+  plan_selected event);
 * capture errors: the chaser at t_g by cubic Hermite interpolation of truth position and velocity,
   the target attitude by propagating the nearest truth sample with its body rate (the summary
   interpolates linearly and by slerp). Shared with the summary: the fly-by target point of a given
@@ -43,7 +45,7 @@ from flyby_sim.scenario import load_scenario
 
 # figure -> tolerance of the agreement (its unit)
 TOLERANCES = {
-    't_grasp_s': 1e-3, 'capture_position_error_m': 1e-3, 'capture_velocity_error_mps': 1e-4,
+    't_grasp_s': 1e-3, 'flyby_offset_m': 1e-6, 'capture_position_error_m': 1e-3, 'capture_velocity_error_mps': 1e-4,
     'delta_v_total_mps': 1e-4, 'fuel_used_kg': 1e-6, 'min_clearance_m': 1e-3, 't_min_clearance_s': 1e-3,
     'sim_time_s': 1e-3, 'thrust_inside_restriction_sphere': 0, 'maneuvers_executed': 0, 'late_maneuvers': 0,
     'rejected_maneuvers': 0,
@@ -62,23 +64,38 @@ def box_clearance(r_hill, q_hill_from_body, centers_body_m, sizes_m, envelope_ra
     return np.min(gaps, axis=0) - envelope_radius_m
 
 
-def aimed_grasp_time(events, grasp):
-    """The stamp of the last planner/grasp sent before the supervisor decided capture or escape, or None."""
+def _last_sent_before_decision(events, series):
+    """Index of the last message of series received before the supervisor decided capture or escape, or None."""
     decided = [e['t'] for e in events if e['name'] == 'phase_changed'
                and e['values'].get('to') in (c.PHASE_CAPTURE, c.PHASE_ESCAPE)]
-    if not decided or grasp is None or not len(grasp.t):
+    if not decided or series is None or not len(series.t):
         return None
-    sent = grasp.t[grasp.t_received <= decided[0]]
-    return float(sent[-1]) if len(sent) else None
+    sent = np.flatnonzero(series.t_received <= decided[0])
+    return int(sent[-1]) if len(sent) else None
+
+
+def aimed_grasp_time(events, grasp):
+    """The stamp of the last planner/grasp sent before the supervisor decided capture or escape, or None."""
+    k = _last_sent_before_decision(events, grasp)
+    return None if k is None else float(grasp.t[k])
+
+
+def aimed_offset(flyby_target, x_grasp_body):
+    """Delta r of the last planner/flyby_target: |X_Ft| - |x_g| (eq 20; every re-aim keeps the plan's), or None."""
+    if flyby_target is None or not len(flyby_target.t):
+        return None
+    return float(np.linalg.norm(flyby_target.position[-1]) - np.linalg.norm(x_grasp_body))
 
 
 def recompute(bag_dir, scenario):
     """Every figure of TOLERANCES from the truth topics of the bag."""
     topics = [c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_EVENTS,
-                                      c.PLANNER_GRASP)]
+                                      c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET)]
     data = read_bag(bag_dir, topics=topics)
     chaser, target = data.get(topics[0]), data.get(topics[1])
     thrust, events, grasp = data.get(topics[2]), data.get(topics[3]) or [], data.get(topics[4])
+    x_grasp_body = np.array(scenario.target.grasp_point_body_m)
+    offset_m = aimed_offset(data.get(topics[5]), x_grasp_body)
     out = {k: None for k in TOLERANCES}
     sim_events = [e for e in events if e.get('hardware_id') == 'flyby_sim']
     for key, name in (('maneuvers_executed', 'burn_started'), ('late_maneuvers', 'late_maneuver'),
@@ -110,6 +127,7 @@ def recompute(bag_dir, scenario):
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
         t_g = aimed_grasp_time(events, grasp)
         out['t_grasp_s'] = t_g
+        out['flyby_offset_m'] = offset_m
         if t_g is not None and chaser.t[0] <= t_g <= chaser.t[-1]:
             spline = CubicHermiteSpline(chaser.t, chaser.position, chaser.linear)
             r, v = spline(t_g), np.array([np.interp(t_g, chaser.t, chaser.linear[:, j]) for j in range(3)])
@@ -121,8 +139,7 @@ def recompute(bag_dir, scenario):
             dt = t_g - target.t[j]
             q = (Rotation.from_rotvec((0.0, n * dt, 0.0)) * Rotation.from_quat(target.orientation_xyzw[j])
                  * Rotation.from_rotvec(w_body * dt)).as_quat()
-            x_ft, v_ft = flyby_target_from_attitude(q, w_body, np.array(scenario.target.grasp_point_body_m),
-                                                    scenario.planner.offset_m, n)
+            x_ft, v_ft = flyby_target_from_attitude(q, w_body, x_grasp_body, offset_m, n)
             out['capture_position_error_m'] = float(np.linalg.norm(r - x_ft))
             out['capture_velocity_error_mps'] = float(np.linalg.norm(v - v_ft))
     return out

@@ -59,7 +59,7 @@ def timed_plan(scenario, t_plan_s):
     config = planner_config_from_scenario(scenario)
     r_hill, v_hill = chaser_state_at(scenario, t_plan_s)
     t0 = time.perf_counter()
-    prediction = truth_prediction(scenario, t_plan_s + config.search_window[1])
+    prediction = truth_prediction(scenario, t_plan_s + config.prediction_span_s(scenario.omega_body0_rad_s))
     t1 = time.perf_counter()
     plan = plan_capture(prediction, r_hill, v_hill, t_plan_s, config)
     return plan, config, t1 - t0, time.perf_counter() - t1

@@ -25,8 +25,8 @@ class PlanProbe(Node):
         self.scenario = load_scenario(SCENARIO)
         cfg = planner_config_from_scenario(self.scenario)
         x = self.chaser_state(T_PLAN)
-        self.plan = plan_capture(truth_prediction(self.scenario, T_PLAN + cfg.search_window[1]), x[:3], x[3:], T_PLAN,
-                                 cfg)
+        truth = truth_prediction(self.scenario, T_PLAN + cfg.prediction_span_s(self.scenario.omega_body0_rad_s))
+        self.plan = plan_capture(truth, x[:3], x[3:], T_PLAN, cfg)
         self.pubs = {t: self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, qos.qos_for(t))
                      for t in (c.PLANNER_FLYBY_INITIAL, c.PLANNER_FLYBY_TARGET, c.PLANNER_PATH, c.EST_CHASER_ODOM,
                                c.MISSION_PHASE)}

@@ -90,7 +90,8 @@ def test_plans_on_planning_phase_and_on_replan_like_the_core(ros_context, execut
     sc = load_scenario(scenario_path)
     cfg = planner_config_from_scenario(sc)
     x = probe.chaser_state(t_plan)
-    core = plan_capture(truth_prediction(sc, t_plan + cfg.search_window[1]), x[:3], x[3:], t_plan, cfg)
+    truth = truth_prediction(sc, t_plan + cfg.prediction_span_s(sc.omega_body0_rad_s))
+    core = plan_capture(truth, x[:3], x[3:], t_plan, cfg)
     chosen = core.selected
     assert selected['values']['request'] == 'phase PLANNING'
     assert float(selected['values']['t_grasp_s']) == pytest.approx(chosen.t_grasp, abs=1e-3)

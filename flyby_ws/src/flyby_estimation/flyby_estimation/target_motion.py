@@ -314,13 +314,24 @@ class MotionPrediction:
         if t.size and not (self.t0 <= t.min() and t.max() <= self.t_end):
             raise ValueError(f'times [{t.min()}, {t.max()}] s leave the predicted interval [{self.t0}, {self.t_end}] s')
         y = self._dense(t)
-        body_axes_eci = np.swapaxes(quat_to_matrix_many(y[:4].T), 1, 2)  # row k: body axis k in ECI
-        # C_hill_from_body = C_hill_from_eci(t) C_eci_from_body: the body axes seen in hill at their time.
-        c_hill_from_body = np.swapaxes(eci_vector_in_hill(body_axes_eci, t[:, None], self._n), 1, 2)
+        c_hill_from_body = self._c_hill_from_body(t, y)
         w_body = y[4:7].T
         r_hill, v_hill = body_point_state(c_hill_from_body, w_body, x_body, self._n)  # eq 8-9
         omega_hill = np.einsum('nij,nj->ni', c_hill_from_body, w_body)  # eq 6
         return PointTrack(t=t, r_hill=r_hill, v_hill=v_hill, omega_hill=omega_hill)
+
+
+    def c_hill_from_body(self, times):
+        """(N, 3, 3) rotation matrices hill <- body at the times (N,) [s] in the predicted interval."""
+        t = np.atleast_1d(np.asarray(times, dtype=float))
+        if t.size and not (self.t0 <= t.min() and t.max() <= self.t_end):
+            raise ValueError(f'times [{t.min()}, {t.max()}] s leave the predicted interval [{self.t0}, {self.t_end}] s')
+        return self._c_hill_from_body(t, self._dense(t))
+
+    def _c_hill_from_body(self, t, y):
+        body_axes_eci = np.swapaxes(quat_to_matrix_many(y[:4].T), 1, 2)  # row k: body axis k in ECI
+        # C_hill_from_body = C_hill_from_eci(t) C_eci_from_body: the body axes seen in hill at their time.
+        return np.swapaxes(eci_vector_in_hill(body_axes_eci, t[:, None], self._n), 1, 2)
 
 
 def prediction_from_estimate(dynamics, n, t, q_hill_from_body_, omega_body, t_end):

@@ -33,12 +33,15 @@ from flyby_msgs_py import contract as c
 from flyby_sim.dispersions import CampaignError, load_campaign
 from flyby_sim.scenario import scenario_from_dict
 
-# The summary.json figures of a row, under their summary.json names (wall_time_s last, after them).
+# The summary.json figures of a row, under their summary.json names (the wall times last, after them).
 SUMMARY_COLUMNS = (
-    'outcome', 'final_phase', 'end_reason', 'phase_sequence', 'seed', 't_grasp_s', 'capture_position_error_m',
+    'outcome', 'final_phase', 'end_reason', 'phase_sequence', 'seed', 't_grasp_s', 'flyby_offset_m',
+    'flyby_duration_s', 'capture_position_error_m',
     'capture_velocity_error_mps', 'delta_v_total_mps', 'fuel_used_kg', 'min_clearance_m', 't_min_clearance_s',
     'thrust_inside_restriction_sphere', 'maneuvers_executed', 'late_maneuvers', 'rejected_maneuvers', 'sim_time_s',
 )
+# Wall-clock figures: the only cells that differ between two runs of the same campaign.
+TIMING_COLUMNS = ('planning_time_s', 'wall_time_s')
 RESULTS = 'results.csv'
 HEADER = 'campaign.json'
 
@@ -48,8 +51,8 @@ class CampaignMismatch(ValueError):
 
 
 def columns(campaign):
-    """The columns of results.csv: run, the dispersed keys in file order, the summary figures, wall_time_s."""
-    return ('run', *campaign.keys, *SUMMARY_COLUMNS, 'wall_time_s')
+    """The columns of results.csv: run, the dispersed keys in file order, the summary figures, the wall times."""
+    return ('run', *campaign.keys, *SUMMARY_COLUMNS, *TIMING_COLUMNS)
 
 
 def fly(run, scenario_dict):
@@ -86,7 +89,7 @@ def row_of(run, values, summary):
     row = {'run': str(run)}
     row.update({key: _cell(v) for key, v in values.items()})
     row.update({key: _cell(summary.get(key)) for key in SUMMARY_COLUMNS})
-    row['wall_time_s'] = _cell(summary.get('wall_time_s'))
+    row.update({key: _cell(summary.get(key)) for key in TIMING_COLUMNS})
     return row
 
 

@@ -23,7 +23,7 @@ from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
-from flyby_planner.grasp import flyby_target_point, refine_grasp
+from flyby_planner.grasp import flyby_target_point, offset_of_flyby_target, refine_grasp
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 # The re-solved grasp is searched in a prediction this far past the planned grasp time [s].
@@ -129,7 +129,8 @@ class GuidanceCore:
         if g is None:
             return [self._event(t, 'WARN', 'target_refined', 'no convex grasp near the planned one; keeping the aim',
                                 {})]
-        x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, self.scenario.planner.offset_m)  # eq 20-21
+        x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, offset_of_flyby_target(self.guidance.target.x_ft,
+                                                                           self.x_grasp_body))  # eq 20-21
         shift = float(np.linalg.norm(x_ft - self.guidance.target.x_ft))
         self.guidance.retarget(g.t_grasp, x_ft, v_ft)
         at_grasp = prediction.state(g.t_grasp)

@@ -22,7 +22,7 @@ import pytest
 import scipy.stats
 import yaml
 
-from flyby_guidance.campaign import CampaignMismatch, columns, fly, read_results, run_campaign
+from flyby_guidance.campaign import TIMING_COLUMNS, CampaignMismatch, columns, fly, read_results, run_campaign
 from flyby_guidance.campaign_report import clopper_pearson, zero_failure_lower_bound
 from flyby_sim.dispersions import load_campaign
 from flyby_sim.scenario import load_scenario
@@ -30,7 +30,6 @@ from flyby_sim.scenario import load_scenario
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[3]
 RUNS = 20
-TIMING_COLUMNS = ('wall_time_s',)
 
 
 @pytest.fixture(scope='module')

@@ -314,6 +314,15 @@ def flyby_target_point(x_g, v_g, offset_m):
     return k * x, k * v  # eq 20, eq 21
 
 
+def offset_of_flyby_target(x_ft, x_grasp_body):
+    """The offset delta r [m] of a fly-by target point X_Ft of the grasp point x_grasp_body (body axes).
+
+    Eq 20 inverted: X_Ft = (1 + delta r / |x_g|) x_g gives |X_Ft| = |x_g| + delta r, and |x_g| is the
+    body-frame |x_grasp_body| at any attitude.
+    """
+    return float(np.linalg.norm(x_ft)) - float(np.linalg.norm(x_grasp_body))
+
+
 def flyby_initial_point(x_ft, v_ft, duration_s, n):
     """Fly-by approach initial point X_Fi, V_Fi, seed 000 eq 23.
 

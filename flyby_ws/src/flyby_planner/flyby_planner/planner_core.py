@@ -17,6 +17,7 @@ every input method returns the outputs to publish, in order.
 
 import dataclasses
 import json
+import time
 
 import numpy as np
 
@@ -29,10 +30,10 @@ from flyby_sim.dynamics.orbital import cw_coast
 
 # Values of the selected candidate put on its plan_selected event.
 _SELECTED_KEYS = ('t_grasp_s', 't_i_s', 't_ti_s', 'dv_total_mps', 'clearance_approach_m', 'clearance_escape_m',
-                  't_sphere_entry_s', 'x_g_hill_m', 'v_g_hill_mps', 'x_ft_hill_m', 'v_ft_hill_mps', 'x_fi_hill_m',
-                  'v_fi_hill_mps')
-_CANDIDATE_KEYS = ('t_grasp_s', 'status', 'dv_total_mps', 'clearance_approach_m', 'clearance_escape_m', 't_i_s',
-                   'convex_value_m2_s2')
+                  'closest', 't_sphere_entry_s', 'x_g_hill_m', 'v_g_hill_mps', 'x_ft_hill_m', 'v_ft_hill_mps',
+                  'x_fi_hill_m', 'v_fi_hill_mps')
+_CANDIDATE_KEYS = ('t_grasp_s', 'status', 'offset_m', 'flyby_duration_s', 'dv_total_mps', 'clearance_approach_m',
+                   'clearance_escape_m', 'closest', 't_i_s', 'convex_value_m2_s2')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -174,8 +175,10 @@ class PlannerCore:
         t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
         chaser_now = cw_coast(r_c, v_c, t - t_c, n)  # eq 22
         prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body,
-                                              t + cfg.search_window[1])
+                                              t + cfg.prediction_span_s(omega_body))
+        started = time.perf_counter()  # measured for the record only; nothing here acts on it
         plan = plan_capture(prediction, chaser_now[:3], chaser_now[3:], t, cfg)
+        planning_time_s = time.perf_counter() - started
         self.plans += 1
         out = []
         for cand in plan.candidates:
@@ -185,7 +188,8 @@ class PlannerCore:
                                                          'passes every check'),
                                    {k: d[k] for k in _CANDIDATE_KEYS}))
         if not plan.ok:
-            out.append(self._event(t, 'ERROR', 'plan_refused', plan.reason, {'request': why, 'plan': str(self.plans)}))
+            out.append(self._event(t, 'ERROR', 'plan_refused', plan.reason, {'request': why, 'plan': str(self.plans),
+                                                                              'planning_time_s': planning_time_s}))
             out.append(PlanRefused(t, plan_markers(plan, cfg)))
             return out
         chosen = plan.selected
@@ -195,11 +199,14 @@ class PlannerCore:
                                  chosen.v_fi, plan.path_t, plan.path_r_hill, plan_markers(plan, cfg)))
         d = chosen.to_dict()
         out.append(self._event(t, 'OK', 'plan_selected',
-                               f'grasp at t = {chosen.t_grasp:.2f} s, transfer delta-v {chosen.dv_total_mps:.4f} m/s, '
-                               f'least clearance {chosen.clearance_min_m:.3f} m',
+                               f'grasp at t = {chosen.t_grasp:.2f} s, offset {chosen.offset_m:g} m, fly-by '
+                               f'{chosen.flyby_duration_s:g} s, transfer delta-v {chosen.dv_total_mps:.4f} m/s, '
+                               f'least clearance {chosen.clearance_min_m:.3f} m ({chosen.closest})',
                                {'request': why, 'plan': str(self.plans), **{k: d[k] for k in _SELECTED_KEYS},
-                                # exact, not the rounded table values: the supervisor times the phases by them
-                                't_grasp_s': chosen.t_grasp, 't_i_s': chosen.t_i}))
+                                # exact, not the rounded table values: the supervisor times the phases and
+                                # places the fly-by target point by them
+                                't_grasp_s': chosen.t_grasp, 't_i_s': chosen.t_i, 'offset_m': chosen.offset_m,
+                                'flyby_duration_s': chosen.flyby_duration_s, 'planning_time_s': planning_time_s}))
         return out
 
     def _event(self, t, level, name, message, values):

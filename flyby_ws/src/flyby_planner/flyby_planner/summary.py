@@ -110,6 +110,14 @@ def grasp_time(events):
     return None
 
 
+def planned_flyby(events):
+    """(offset delta r [m], fly-by duration [s]) of the last plan selected, or (None, None)."""
+    selected = [e['values'] for e in events if e['name'] == 'plan_selected' and 'offset_m' in e['values']]
+    if not selected:
+        return None, None
+    return float(selected[-1]['offset_m']), float(selected[-1]['flyby_duration_s'])
+
+
 def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
     """Truth chaser at t_g against X_Ft, V_Ft recomputed from the true target attitude at t_g (DESIGN §7).
 
@@ -164,6 +172,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
             scenario.chaser.thrusters.isp_s, sphere_m)
 
     t_g = grasp_time(events)
+    offset_m, flyby_duration_s = planned_flyby(events)
     min_clearance = t_min_clearance = None
     collided = False
     e_pos = e_vel = None
@@ -178,7 +187,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         free = t_common <= t_g if c.PHASE_CAPTURE in phases and t_g is not None else np.ones(len(gaps), bool)
         collided = bool(np.any(gaps[free] < 0.0))
         e_pos, e_vel = capture_errors(t_g, chaser, target, np.array(scenario.target.grasp_point_body_m),
-                                      scenario.planner.offset_m, scenario.mean_motion_rad_s)
+                                      offset_m or scenario.planner.offset_m, scenario.mean_motion_rad_s)
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
@@ -196,6 +205,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'scenario': scenario.name,
         'seed': scenario.seed,
         't_grasp_s': t_g,
+        'flyby_offset_m': offset_m,
+        'flyby_duration_s': flyby_duration_s,
         'capture_position_error_m': e_pos,
         'capture_velocity_error_mps': e_vel,
         'delta_v_total_mps': delta_v,
@@ -208,6 +219,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'late_maneuvers': count('late_maneuver'),
         'rejected_maneuvers': count('maneuver_rejected'),
         'sim_time_s': sim_time_s,
+        'planning_time_s': sum(float(e['values'].get('planning_time_s', 0.0)) for e in events
+                               if e['name'] in ('plan_selected', 'plan_refused')),
         'wall_time_s': wall_time_s,
         'real_time_factor': sim_time_s / wall_time_s if wall_time_s > 0 else None,
         'node_exit_codes': node_exit_codes or {},

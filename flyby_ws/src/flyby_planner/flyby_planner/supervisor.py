@@ -119,6 +119,7 @@ class PhaseMachine:
         self.converged = False
         self.t_i = None
         self.t_grasp = None
+        self.offset_m = None  # the plan's fly-by offset delta r [m]
         self.t_entered = 0.0
         self.progress = {}  # watched node -> sim time it last reported
         self.decision = None
@@ -160,6 +161,7 @@ class PhaseMachine:
         if name == 'plan_selected' and self.phase == c.PHASE_PLANNING:
             self.t_i = float(values['t_i_s'])
             self.t_grasp = float(values['t_grasp_s'])
+            self.offset_m = float(values['offset_m']) if 'offset_m' in values else None
             return self._go(t, c.PHASE_TERMINAL_APPROACH, f'plan selected: grasp at t = {self.t_grasp:.2f} s, '
                                                           f'injection at {self.t_i:.2f} s',
                             {'t_grasp_s': self.t_grasp, 't_i_s': self.t_i})
@@ -289,7 +291,8 @@ class SupervisorCore:
         if target is None:
             return []
         decision = decide_capture(self.decision_at, target[1], self.machine.t_grasp, self.dynamics, self.n,
-                                  self.planner_config.x_grasp_body_m, self.scenario.planner.offset_m,
+                                  self.planner_config.x_grasp_body_m,
+                                  self.machine.offset_m or self.scenario.planner.offset_m,
                                   self.machine.config)
         return self._apply(self.machine.decide(self.decision_at[0], decision))
 

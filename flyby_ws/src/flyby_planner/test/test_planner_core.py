@@ -43,7 +43,7 @@ def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_ch
     y = solve_ivp(lambda _t, s: np.concatenate((s[3:], cw_accel(s[:3], s[3:], n))), (59.9, 60.0),
                   np.concatenate((r_c, v_c)), rtol=1e-12, atol=1e-12).y[:, -1]
     prediction = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, 60.0, q0, w0,
-                                          60.0 + core.config.search_window[1])
+                                          60.0 + core.config.prediction_span_s(w0))
     expected = plan_capture(prediction, y[:3], y[3:], 60.0, core.config).selected
     assert plan.t_f == pytest.approx(expected.t_grasp, abs=1e-6)
     assert plan.x_fi == pytest.approx(expected.x_fi, abs=1e-6)

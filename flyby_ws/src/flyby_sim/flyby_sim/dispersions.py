@@ -5,6 +5,7 @@ key by dotted path (list items by index: ``target.geometry.0.size_m``), drawn in
 
     name: smoke
     base_scenario: ../scenarios/paper_flyby.yaml   # relative to the campaign file
+    overrides: {planner.sun_direction_hill: null}  # fixed values applied to the base (optional)
     seed: 2026                                      # campaign seed
     runs: 20                                        # default number of runs
     dispersions:
@@ -51,7 +52,7 @@ _PARAMS = {
     'choice': (('values',), ('weights',)),
     'scale': (('factor',), ()),
 }
-_CAMPAIGN_KEYS = {'name', 'description', 'base_scenario', 'seed', 'runs', 'dispersions'}
+_CAMPAIGN_KEYS = {'name', 'description', 'base_scenario', 'overrides', 'seed', 'runs', 'dispersions'}
 # Keys the campaign itself sets: the seed comes from the run's stream, the name labels the campaign.
 _RESERVED_KEYS = ('seed', 'name')
 SCENARIO_SEED_BOUND = 2**31  # run seeds are drawn in [0, 2**31)
@@ -284,12 +285,12 @@ def _parent_and_leaf(d, path):
     return node, int(leaf) if isinstance(node, list) else leaf
 
 
-def _check_key(file, key, base):
+def _check_key(file, key, base, section='dispersions'):
     """The base value at ``key`` (None when absent: a one-of alternative or an optional key); raises
-    CampaignError when the key is not a key of the scenario."""
-    where = f'dispersions.{key}'
+    CampaignError (naming ``section``.key) when the key is not a key of the scenario."""
+    where = f'{section}.{key}'
     if key in _RESERVED_KEYS:
-        raise CampaignError(file, where, f'{key!r} is set by the campaign, not dispersed')
+        raise CampaignError(file, where, f'{key!r} is set by the campaign, not {section}')
     nodes = _schema_node(key)
     if nodes is None:
         raise CampaignError(file, where, 'not a key of the scenario (docs/scenario.md)')
@@ -399,6 +400,18 @@ def load_campaign(path, checked_draws=CHECKED_DRAWS):
         base = load_scenario(base_path)
     except ScenarioError as e:
         raise CampaignError(file, 'base_scenario', str(e)) from None
+    overrides = data.get('overrides') or {}
+    if not isinstance(overrides, dict):
+        raise CampaignError(file, 'overrides', f'must be a mapping of scenario keys to values, got {overrides!r}')
+    if overrides:
+        base_dict = base.to_dict()
+        for key, value in overrides.items():
+            _check_key(file, str(key), base_dict, 'overrides')
+            _set(base_dict, str(key), value)
+        try:
+            base = scenario_from_dict(base_dict, name=base.name, path=base_path)
+        except ScenarioError as e:
+            raise CampaignError(file, f'overrides.{e.key}', e.problem) from None
     dispersions = data['dispersions'] or {}
     if not isinstance(dispersions, dict):
         raise CampaignError(file, 'dispersions', f'must be a mapping of scenario keys, got {dispersions!r}')

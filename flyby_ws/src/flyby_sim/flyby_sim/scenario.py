@@ -205,14 +205,27 @@ SCHEMA = Section(desc='A flyby scenario', fields={
 
     'planner': Section(
         desc='Capture planning (seed 000 section 4); condition (a) uses estimation.spin_rate_deg_s', fields={
-        'offset_m': Field(FLOAT, 1.0, '> 0', 'Offset delta r of the fly-by target point from the grasp point.'),
-        'flyby_duration_s': Field(FLOAT, 300.0, '> 0', 'Time from the fly-by initial point to the grasp.'),
+        'offset_m': Field(FLOAT, 1.0, '> 0', 'Preferred offset delta r of the fly-by target point from the grasp '
+                                              'point (<= chaser reach less its position tolerance).'),
+        'offset_min_m': Field(FLOAT, 0.6, '> 0', 'Least offset searched (offset_m if that is less).'),
+        'offset_max_m': Field(FLOAT, None, '> 0', 'Largest offset searched; omitted: the manipulator reach less its '
+                                                  'position tolerance.'),
+        'flyby_duration_s': Field(FLOAT, 300.0, '> 0', 'Preferred time from the fly-by initial point to the grasp.'),
+        'flyby_duration_max_s': Field(FLOAT, 900.0, '> 0',
+                                      'Longest fly-by searched (1, 1.5, 2 and 3 times flyby_duration_s up to this).'),
         'restriction_sphere_radius_m': Field(FLOAT, 15.0, '> 0', 'No thrusting inside this sphere about the target.'),
         'clearance_margin_m': Field(FLOAT, 0.1, '>= 0',
                                     'Least gap between the chaser envelope and the swept keep-out region on the '
                                     'passive path.'),
         'escape_check_orbits': Field(FLOAT, 1.0, '>= 1',
                                      'Length of the passive escape checked after the grasp, in orbits.'),
+        'geometry_window_s': Field(FLOAT, 300.0, '>= 0',
+                                   'Within this of the grasp the passive path is checked against the predicted '
+                                   'target geometry (elsewhere the swept region).'),
+        'geometry_attitude_margin_deg': Field(FLOAT, 2.0, '>= 0',
+                                              'Attitude uncertainty of the predicted geometry at the grasp.'),
+        'geometry_rate_margin_deg_s': Field(FLOAT, 0.02, '>= 0',
+                                            '... growing by this rate uncertainty away from the grasp.'),
         'min_spin_axis_angle_from_orbit_normal_deg': Field(FLOAT, 10.0, '[0, 90)',
                                                            'Condition (b): spin axis at least this far from hill y '
                                                            '(no pure out-of-plane motion).'),
@@ -284,6 +297,16 @@ def _cross_checks(d):
                           f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
                           f'once per step), got {rate!r}')
     planner = d['planner']
+    arm = d['chaser']['manipulator']
+    usable = arm['reach_m'] - arm['position_tolerance_m']
+    for key in ('offset_m', 'offset_max_m'):
+        if planner[key] is not None and planner[key] > usable + 1e-12:
+            raise Invalid(f'planner.{key}', f'must be <= chaser.manipulator.reach_m - position_tolerance_m = '
+                                            f'{usable!r} (the grasp point out of reach at the fly-by target point), '
+                                            f'got {planner[key]!r}')
+    if planner['offset_max_m'] is not None and planner['offset_max_m'] < planner['offset_m']:
+        raise Invalid('planner.offset_max_m', f"must be >= planner.offset_m = {planner['offset_m']!r}, "
+                                              f"got {planner['offset_max_m']!r}")
     if planner['transfer_max_s'] < planner['transfer_min_s']:
         raise Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
                                                 f"got {planner['transfer_max_s']!r}")
@@ -436,6 +459,13 @@ class Scenario:
     def omega_body0_rad_s(self):
         """Inertial angular velocity of the target in target_body axes at t = 0 [rad/s]; a fresh array."""
         return self._derived['omega_body'].copy()
+
+    @property
+    def offset_max_m(self):
+        """Largest fly-by offset delta r the planner searches [m] (planner.offset_max_m or the reach less
+        the position tolerance)."""
+        p, arm = self.planner, self.chaser.manipulator
+        return p.offset_max_m if p.offset_max_m is not None else arm.reach_m - arm.position_tolerance_m
 
     @property
     def boxes(self):

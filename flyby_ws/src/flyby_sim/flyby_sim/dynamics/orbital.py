@@ -93,21 +93,24 @@ def cw_transition_matrix(n, t):
 
     Args:
         n: mean motion Omega_f [rad/s].
-        t: elapsed time [s], may be negative.
+        t: elapsed time [s], may be negative; a scalar gives (6, 6), an array (M,) gives (M, 6, 6).
     """
-    nt = n * t
-    s = math.sin(nt)
-    c = math.cos(nt)
-    return np.array((
+    nt = n * np.asarray(t, dtype=float)
+    s = np.sin(nt)
+    c = np.cos(nt)
+    zero, one = np.zeros_like(nt), np.ones_like(nt)
+    rows = (
         # Phi11 | Phi12
-        (1.0, 0.0, 6.0 * (nt - s), (4.0 * s - 3.0 * nt) / n, 0.0, 2.0 * (1.0 - c) / n),
-        (0.0, c, 0.0, 0.0, s / n, 0.0),
-        (0.0, 0.0, 4.0 - 3.0 * c, -2.0 * (1.0 - c) / n, 0.0, s / n),
+        (one, zero, 6.0 * (nt - s), (4.0 * s - 3.0 * nt) / n, zero, 2.0 * (1.0 - c) / n),
+        (zero, c, zero, zero, s / n, zero),
+        (zero, zero, 4.0 - 3.0 * c, -2.0 * (1.0 - c) / n, zero, s / n),
         # Phi21 | Phi22
-        (0.0, 0.0, 6.0 * n * (1.0 - c), 4.0 * c - 3.0, 0.0, 2.0 * s),
-        (0.0, -n * s, 0.0, 0.0, c, 0.0),
-        (0.0, 0.0, 3.0 * n * s, -2.0 * s, 0.0, c),
-    ))
+        (zero, zero, 6.0 * n * (1.0 - c), 4.0 * c - 3.0, zero, 2.0 * s),
+        (zero, -n * s, zero, zero, c, zero),
+        (zero, zero, 3.0 * n * s, -2.0 * s, zero, c),
+    )
+    phi = np.array(rows)  # (6, 6) or (6, 6, M)
+    return phi if phi.ndim == 2 else np.moveaxis(phi, -1, 0)
 
 
 def cw_coast(r_hill, v_hill, dt_s, n):
