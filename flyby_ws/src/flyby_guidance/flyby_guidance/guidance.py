@@ -12,11 +12,23 @@ Sequence for a plan (t_Ti < t_i < t_f):
    in (t_Ti, t_i).
 2. Injection at t_i (eq 29): the arrival impulse V_Fi - v(t_i), with the estimated arrival velocity
    in place of eq 29's predicted one.
-3. Trajectory adjusting every ``adjust_interval_s`` after t_i (eq 24-26): the least-squares impulse
-   that cancels the predicted position and velocity miss at the fly-by target point, skipped inside
-   the deadband / below the minimum impulse bit / when the predicted miss is within tolerance.
-   The aim point is whatever ``retarget`` last set (the grasp re-solved from the latest target
-   estimate), which is how timing and attitude-estimation errors are absorbed.
+3. Trajectory adjusting every ``adjust_interval_s`` after t_i, skipped inside the deadband / below the
+   minimum impulse bit / when the predicted miss at the fly-by target point (eq 24) is within
+   tolerance. The aim point is whatever ``retarget`` last set (the grasp re-solved from the latest
+   target estimate), which is how timing and attitude-estimation errors are absorbed. Two laws
+   (``adjust_law``):
+
+   * ``eq26``: seed 000's least-squares impulse against the predicted position and velocity miss
+     (eq 24-26). One impulse changes a coast's position miss by ~T dV and its velocity miss by dV,
+     so it cannot remove the combination dX - T dV; with m and m/s weighed alike the position
+     wins and a velocity miss stays (10-20 mm/s after a re-aim on a tumbler, beyond the
+     manipulator's 10 mm/s).
+   * ``arc`` (default): the passive arc through the aim point (X_Ft, V_Ft at t_f, coasted back by
+     eq 22-23) is the path to be on. Each adjusting burn is eq 28 to the arc's position at the last
+     adjusting burn that will still be outside the sphere, and that last burn is eq 28 to X_Ft at
+     t_f itself, which puts the chaser on the arc with its velocity: a two-impulse transfer onto
+     the arc (eq 28-29 applied to it), re-solved at every burn as the aim moves. Position and
+     velocity at the grasp are both met to the navigation and execution error.
 4. The first adjusting burn whose predicted arc would come within ``sphere_margin_m`` of the
    restriction sphere ends all thrusting: from there the chaser coasts (fly-by, then escape).
 
@@ -38,6 +50,10 @@ from flyby_sim.dynamics.propulsion import fuel_for_delta_v_kg
 
 # Points checked along a predicted burn arc.
 _ARC_SAMPLES = 9
+ADJUST_LAWS = ('arc', 'eq26')
+# The arc law counts on an adjusting burn only where the arc is this much beyond sphere + margin: the
+# burn that puts the chaser on the arc must happen, or the arc's velocity is never supplied [m].
+_NEXT_BURN_SLACK_M = 2.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,8 +74,11 @@ class GuidanceConfig:
     adjust_position_tolerance_m: float = 0.005
     adjust_velocity_tolerance_mps: float = 0.0005
     sphere_margin_m: float = 1.0
+    adjust_law: str = 'arc'
 
     def __post_init__(self):
+        if self.adjust_law not in ADJUST_LAWS:
+            raise ValueError(f'adjust_law must be one of {ADJUST_LAWS}, got {self.adjust_law!r}')
         for name in ('mean_motion_rad_s', 'restriction_sphere_radius_m', 'max_thrust_n', 'chaser_mass_kg',
                      'exhaust_velocity_mps',
                      'adjust_interval_s', 'command_lead_s', 'adjust_position_tolerance_m',
@@ -80,7 +99,8 @@ def guidance_config_from_scenario(scenario):
         max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps, adjust_interval_s=g.adjust_interval_s,
         midcourse_corrections=g.midcourse_corrections, command_lead_s=g.command_lead_s, deadband_mps=g.deadband_mps,
         adjust_position_tolerance_m=g.adjust_position_tolerance_m,
-        adjust_velocity_tolerance_mps=g.adjust_velocity_tolerance_mps, sphere_margin_m=g.sphere_margin_m)
+        adjust_velocity_tolerance_mps=g.adjust_velocity_tolerance_mps, sphere_margin_m=g.sphere_margin_m,
+        adjust_law=g.adjust_law)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -210,10 +230,16 @@ class FlybyGuidance:
         elif kind == 'injection':
             dv = tg.v_fi - v  # eq 29 with the estimated arrival velocity
             self._schedule_adjust(t_burn + cfg.adjust_interval_s)
-        else:
+        elif cfg.adjust_law == 'eq26':
             dv, miss = adjusting_delta_v(r, v, tg.x_ft, tg.v_ft, tg.t_f - t_burn, n)  # eq 24-26
             values = {'miss_position_m': float(np.linalg.norm(miss[:3])),
                       'miss_velocity_mps': float(np.linalg.norm(miss[3:]))}
+        else:
+            miss = predicted_miss(r, v, tg.x_ft, tg.v_ft, tg.t_f - t_burn, n)  # eq 24
+            t_aim, x_aim, v_aim = self._arc_aim(t_burn)
+            dv, _ = terminal_impulses(r, v, x_aim, v_aim, t_aim - t_burn, n)  # eq 28 onto the arc
+            values = {'miss_position_m': float(np.linalg.norm(miss[:3])),
+                      'miss_velocity_mps': float(np.linalg.norm(miss[3:])), 'aim_time_s': t_aim}
         arc = burn_arc(r, v, dv, mass_kg, cfg.max_thrust_n, n)
         closest = float(np.linalg.norm(arc, axis=1).min())
         limit = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m
@@ -239,6 +265,25 @@ class FlybyGuidance:
             dv = dv * (cfg.max_delta_v_per_maneuver_mps / size)
             values['clipped_from_mps'] = size
         return [Maneuver(t_burn, dv, kind, {**values, 'closest_m': closest})], []
+
+    def _arc_aim(self, t_burn):
+        """(time, position, velocity) the ``arc`` law aims an adjusting burn at: the passive arc's state at
+        the last adjusting burn that will still be outside the sphere, or X_Ft, V_Ft at t_f when this
+        burn is that last one (a two-impulse transfer onto the arc, re-solved at every burn)."""
+        cfg, tg = self.config, self.target
+        n = cfg.mean_motion_rad_s
+        outside = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m + _NEXT_BURN_SLACK_M
+        t_last, arc_last = None, None
+        t_k = t_burn + cfg.adjust_interval_s
+        while t_k < tg.t_f:
+            arc = cw_coast(tg.x_ft, tg.v_ft, t_k - tg.t_f, n)  # eq 23
+            if np.linalg.norm(arc[:3]) <= outside:
+                break
+            t_last, arc_last = t_k, arc
+            t_k += cfg.adjust_interval_s
+        if t_last is None:
+            return tg.t_f, tg.x_ft, tg.v_ft
+        return t_last, arc_last[:3], arc_last[3:]
 
     def _schedule_adjust(self, t_next):
         if self.target is not None and t_next < self.target.t_f:

@@ -127,6 +127,32 @@ def test_adjusting_aims_at_a_retargeted_point_and_stops_before_the_sphere():
     assert np.linalg.norm(final[:3] - moved) < 0.005
 
 
+@pytest.mark.parametrize('law', ['arc', 'eq26'])
+def test_a_re_aim_that_changes_the_grasp_velocity_is_met_by_the_arc_law_only(law):
+    """A re-aim 0.4 s later at a grasp whose velocity changed by 12 mm/s (a tumbler's grasp point
+    accelerates): the arc law meets X_Ft and V_Ft exactly (perfect CW execution); eq 26's least squares
+    meets the position and leaves most of the velocity change (one impulse cannot remove dX - T dV)."""
+    target = _target()
+    guidance = FlybyGuidance(_config(deadband_mps=0.0, adjust_law=law))
+    guidance.set_target(target)
+    state, _ = _fly(guidance, np.array((50.0, 0.0, 0.0)), np.zeros(3), target.t_i + 5.0)
+    t_f, moved, v_moved = target.t_f + 0.4, target.x_ft + (0.05, -0.03, 0.02), target.v_ft + (0.008, 0.0, -0.009)
+    guidance.retarget(t_f, moved, v_moved)
+    t = target.t_i + 5.0
+    while t < t_f - 1.0:
+        maneuvers, _ = guidance.step(t, state[:3], state[3:])
+        for mv in maneuvers:
+            state = _with_impulse(state, t, mv)
+        state = cw_transition_matrix(N, 1.0) @ state
+        t += 1.0
+    final = cw_transition_matrix(N, t_f - t) @ state
+    position_miss, velocity_miss = np.linalg.norm(final[:3] - moved), np.linalg.norm(final[3:] - v_moved)
+    if law == 'arc':
+        assert position_miss < 1e-6 and velocity_miss < 1e-8
+    else:
+        assert position_miss < 0.005 and velocity_miss > 0.008
+
+
 def test_burn_arc_follows_the_thrust():
     arc = burn_arc(np.array((20.0, 0.0, 0.0)), np.zeros(3), np.array((-1.0, 0.0, 0.0)), 100.0, 10.0, N)
     assert arc.shape == (9, 3)

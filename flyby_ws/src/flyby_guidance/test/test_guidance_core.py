@@ -50,3 +50,25 @@ def test_nothing_is_commanded_after_the_fly_by():
     core = _started(sc)
     core.on_phase(c.PHASE_ESCAPE)
     assert core.on_chaser_estimate(70.0, np.array((50.0, 0.0, 0.0)), np.zeros(3)) == []
+
+
+def test_a_re_aim_keeps_the_offset_of_the_plan():
+    """The plan flies delta r = 1.3 m (|X_Ft| - |x_g|, eq 20); the grasp re-solved from a newer estimate is
+    offset by the same 1.3 m, not by the scenario's preferred planner.offset_m."""
+    from flyby_planner.grasp import flyby_target_from_attitude
+    from flyby_sim.dynamics.attitude import AttitudePropagator
+    from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
+    q, w = truth.state_at(400.0)
+    q_g, w_g = truth.state_at(741.0)
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(741.0, n, q_g), w_g, sc.target.grasp_point_body_m, 1.3, n)
+    core = GuidanceCore(sc)
+    core.on_flyby_target(741.0, x_ft, v_ft)
+    core.on_flyby_initial(441.0, X_FI, V_FI)
+    core.on_path(60.0)
+    (refined,) = core._refine(400.0, (400.0, (q_hill_from_body(400.0, n, q), w)))
+    assert refined.name == 'target_refined'
+    offset = np.linalg.norm(refined.values['x_ft_hill_m']) - np.linalg.norm(refined.values['x_g_hill_m'])
+    assert offset == pytest.approx(1.3, abs=1e-9) and refined.values['shift_m'] < 1e-6

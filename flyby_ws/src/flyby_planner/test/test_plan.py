@@ -186,7 +186,8 @@ def test_a_blocked_grasp_point_is_refused_at_every_offset():
     """Only delta r = 0.2 m: the fly-by target point is in the bus's reach at any grasp time: refused at once."""
     sc = _scenario(lambda d: d['planner'].update(offset_m=0.2, offset_min_m=0.2, offset_max_m=0.2))
     plan, _ = _plan(sc)
-    assert not plan.ok and plan.reason.startswith('no offset reaches the grasp point') and 'the bus blocks' in plan.reason
+    assert not plan.ok and plan.reason.startswith('no offset reaches the grasp point')
+    assert 'the bus blocks' in plan.reason
 
 
 def test_a_grasp_point_under_a_panel_is_refused_naming_the_panel():

@@ -207,3 +207,27 @@ def test_core_abort_outside_the_sphere_fires_an_avoidance_burn_only_if_the_coast
     burns = [o for o in out if isinstance(o, AvoidanceBurn)]
     assert aborted and len(burns) == 1 and burns[0].t == 100.0 + sc.guidance.command_lead_s
     assert burns[0].dv_hill[0] > 0.0  # it turns the chaser away from the target
+
+
+def test_core_decides_against_the_offset_of_the_plan_selected():
+    """A plan at delta r = 1.3 m: the decision compares the chaser with that plan's X_Ft (eq 20), not the
+    scenario's preferred 1 m, and reports the grasp point 1.3 m away."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    core = SupervisorCore(sc)
+    core.machine.phase = c.PHASE_PLANNING
+    core.on_event(wire_event(Event(70.0, 'OK', 'plan_selected', '', {'t_i_s': 513.0, 't_grasp_s': 813.0,
+                                                                     'offset_m': 1.3, 'flyby_duration_s': 300.0},
+                                   'flyby_planner')))
+    assert core.machine.offset_m == 1.3
+    for node in core.machine.config.watched_nodes:
+        core.on_progress(node, 800.0)
+    core.machine.phase = c.PHASE_FLYBY
+    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
+    q, w = truth.state_at(813.0)
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(813.0, n, q), w, sc.target.grasp_point_body_m, 1.3, n)
+    core.on_chaser_estimate(813.0, x_ft, v_ft)
+    out = core.on_target_estimate(813.0, q_hill_from_body(813.0, n, q), w)
+    (decided,) = [o for o in out if isinstance(o, Transition)]
+    assert decided.phase_to == c.PHASE_CAPTURE
+    assert decided.values['position_error_m'] < 1e-9 and decided.values['grasp_distance_m'] == pytest.approx(1.3)

@@ -261,6 +261,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'adjust_velocity_tolerance_mps': Field(FLOAT, 0.0005, '> 0', '... together with this velocity miss.'),
         'sphere_margin_m': Field(FLOAT, 1.0, '>= 0',
                                  'No burn whose predicted arc comes within this of the restriction sphere.'),
+        'adjust_law': Field(ENUM, 'arc', None, 'Trajectory adjusting: onto the passive arc through the fly-by target '
+                                               'point (arc), or seed 000 eq 24-26 least squares (eq26).',
+                            choices=('arc', 'eq26')),
         'refine_target': Field(BOOL, True, None,
                                'Re-aim each adjusting burn at the grasp re-solved from the latest target estimate.'),
     }),

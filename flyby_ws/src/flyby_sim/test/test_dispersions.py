@@ -215,3 +215,31 @@ def test_the_smoke_campaign_loads():
         assert abs(axis[1]) < np.cos(np.radians(10.0))
         assert 3.0 <= values['target.initial_rate.omega_body_deg_s'][2] <= 8.0
         assert 40.0 <= values['chaser.initial_position_hill_m'][0] <= 60.0
+
+
+def test_overrides_fix_values_of_the_base_before_the_draws(tmp_path):
+    path = _campaign(tmp_path, {'chaser.mass_kg': {'kind': 'scale', 'factor': 2.0}},
+                     overrides={'planner.sun_direction_hill': None, 'chaser.mass_kg': 150.0})
+    campaign = load_campaign(path)
+    assert campaign.base.planner.sun_direction_hill is None
+    scenario, values = campaign.draw(3)
+    assert scenario.planner.sun_direction_hill is None
+    assert values['chaser.mass_kg'] == scenario.chaser.mass_kg == 300.0  # scaled from the overridden base
+
+
+@pytest.mark.parametrize('overrides, key, problem', [
+    ({'planner.sun_direction': [1.0, 0.0, 0.0]}, 'overrides.planner.sun_direction', 'not a key of the scenario'),
+    ({'chaser.mass_kg': -3.0}, 'overrides.chaser.mass_kg', 'must be > 0'),
+    ({'planner.offset_m': 1.45}, 'overrides.planner.offset_m', 'reach_m - position_tolerance_m'),
+])
+def test_refusals_of_overrides_name_the_key(tmp_path, overrides, key, problem):
+    path = _campaign(tmp_path, {}, overrides=overrides)
+    with pytest.raises(CampaignError) as err:
+        load_campaign(path)
+    message = str(err.value)
+    assert message.startswith(f'{path}: {key}: ') and problem in message, message
+
+
+def test_the_envelope_campaign_flies_without_the_lighting_condition():
+    campaign = load_campaign(ROOT / 'campaigns' / 'flyby_envelope.yaml')
+    assert campaign.runs == 1000 and campaign.base.planner.sun_direction_hill is None

@@ -457,3 +457,15 @@ def test_every_schema_key_has_a_description():
             if hasattr(inner, 'fields'):
                 walk(inner, f'{prefix}{k}.')
     walk(SCHEMA, '')
+
+
+def test_the_fly_by_offsets_stay_within_the_manipulator_reach(tmp_path):
+    _, msg = error_of(tmp_path, lambda d: d['planner'].update(offset_m=1.45))
+    assert msg.endswith(': planner.offset_m: must be <= chaser.manipulator.reach_m - position_tolerance_m = 1.4 '
+                        '(the grasp point out of reach at the fly-by target point), got 1.45')
+    _, msg = error_of(tmp_path, lambda d: d['planner'].update(offset_max_m=0.9))
+    assert msg.endswith(': planner.offset_max_m: must be >= planner.offset_m = 1.0, got 0.9')
+    d = paper_dict()
+    d['chaser']['manipulator']['reach_m'] = 2.0
+    assert scenario_from_dict(d).offset_max_m == pytest.approx(1.9)
+    assert load_scenario(REPO / 'scenarios' / 'paper_flyby.yaml').offset_max_m == pytest.approx(1.4)
