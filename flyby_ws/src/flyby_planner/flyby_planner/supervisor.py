@@ -284,12 +284,14 @@ class SupervisorCore:
 
     # -- decisions ------------------------------------------------------------------------------
     def _try_decision(self):
-        """Decide at the first chaser estimate at or after t_g, with the target estimate of its stamp."""
+        """Decide at the first chaser estimate at or after t_g, once the target estimates up to its stamp are
+        in, with the last target estimate stamped at or before t_g (carried forward to t_g)."""
         if self.decision_at is None or not self.machine.wants_decision(self.decision_at[0]):
             return []
-        target = self.targets.first_at_or_after(self.decision_at[0])
-        if target is None:
+        if self.targets.first_at_or_after(self.decision_at[0]) is None:
             return []
+        target = self.targets.last_at_or_before(self.machine.t_grasp) or self.targets.first_at_or_after(
+            self.machine.t_grasp)
         decision = decide_capture(self.decision_at, target[1], self.machine.t_grasp, self.dynamics, self.n,
                                   self.planner_config.x_grasp_body_m,
                                   self.machine.offset_m or self.scenario.planner.offset_m,
@@ -353,7 +355,7 @@ def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, offset_m,
     t_c, r, v = chaser
     state = cw_coast(r, v, t_grasp - t_c, n)
     t_t, q_hb, omega_body = target
-    t_at = max(t_grasp, t_t)  # the estimate may be a little newer than t_g: then its own time
+    t_at = max(t_grasp, t_t)  # an estimate newer than t_g (none older was kept): its own time
     s = prediction_from_estimate(dynamics, n, t_t, q_hb, omega_body, t_at).state(t_at)
     x_g, v_g = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_grasp_body, n)
     x_ft, v_ft = flyby_target_point(x_g, v_g, offset_m)

@@ -21,7 +21,7 @@ from flyby_planner.supervisor import (
     decide_capture,
 )
 from flyby_sim.dynamics.attitude import AttitudePropagator
-from flyby_sim.dynamics.orbital import cw_accel, q_eci_from_body, q_hill_from_body
+from flyby_sim.dynamics.orbital import cw_accel, cw_coast, q_eci_from_body, q_hill_from_body
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -231,3 +231,27 @@ def test_core_decides_against_the_offset_of_the_plan_selected():
     (decided,) = [o for o in out if isinstance(o, Transition)]
     assert decided.phase_to == c.PHASE_CAPTURE
     assert decided.values['position_error_m'] < 1e-9 and decided.values['grasp_distance_m'] == pytest.approx(1.3)
+
+
+def test_core_decides_with_the_target_estimate_of_the_grasp_time_not_a_later_one():
+    """A 15 deg/s spin: the grasp point accelerates by |omega|^2 |x| (0.15 m/s^2), so the target estimate
+    0.1 s after t_g places V_Ft 15 mm/s off. The decision carries the last estimate up to t_g forward to
+    t_g: a chaser exactly at the true X_Ft, V_Ft captures with no error."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    core = _core_in_flyby(sc)
+    omega_body = np.array((0.0, 0.0, np.radians(15.0)))
+    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), omega_body, sc.target_inertia)
+    states = {t: truth.state_at(t) for t in (812.95, 813.0, 813.1)}
+    q, w = states[813.0]
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(813.0, n, q), w, sc.target.grasp_point_body_m,
+                                            sc.planner.offset_m, n)
+    q0, w0 = states[812.95]
+    assert core.on_target_estimate(812.95, q_hill_from_body(812.95, n, q0), w0) == []
+    at = cw_coast(x_ft, v_ft, 0.1, n)
+    assert core.on_chaser_estimate(813.1, at[:3], at[3:]) == []
+    q1, w1 = states[813.1]
+    out = core.on_target_estimate(813.1, q_hill_from_body(813.1, n, q1), w1)
+    (decided,) = [o for o in out if isinstance(o, Transition)]
+    assert decided.phase_to == c.PHASE_CAPTURE
+    assert decided.values['velocity_error_mps'] < 1e-6 and decided.values['position_error_m'] < 1e-6
