@@ -95,10 +95,14 @@ def cw_transition_matrix(n, t):
         n: mean motion Omega_f [rad/s].
         t: elapsed time [s], may be negative; a scalar gives (6, 6), an array (M,) gives (M, 6, 6).
     """
-    nt = n * np.asarray(t, dtype=float)
-    s = np.sin(nt)
-    c = np.cos(nt)
-    zero, one = np.zeros_like(nt), np.ones_like(nt)
+    if np.ndim(t) == 0:  # the common scalar case, without the array bookkeeping
+        nt = n * float(t)
+        s, c = math.sin(nt), math.cos(nt)
+        zero, one = 0.0, 1.0
+    else:
+        nt = n * np.asarray(t, dtype=float)
+        s, c = np.sin(nt), np.cos(nt)
+        zero, one = np.zeros_like(nt), np.ones_like(nt)
     rows = (
         # Phi11 | Phi12
         (one, zero, 6.0 * (nt - s), (4.0 * s - 3.0 * nt) / n, zero, 2.0 * (1.0 - c) / n),
