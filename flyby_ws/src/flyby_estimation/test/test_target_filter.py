@@ -28,7 +28,7 @@ from flyby_sim.dynamics.rotation import (
     rotation_vector_from_quat,
 )
 from flyby_sim.plant import Plant, plant_config_from_scenario
-from flyby_sim.scenario import load_scenario
+from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 DEG = math.radians(1.0)
@@ -395,3 +395,26 @@ def test_nees_of_8_seeded_runs_is_inside_the_95_percent_band():
     mean = total.mean() / runs
     lo, hi = chi2.ppf([0.025, 0.975], 6 * runs) / runs
     assert lo <= mean <= hi, (lo, mean, hi)
+
+
+def test_fast_tumbler_with_2_8_deg_noise_rate_bound_is_the_cramer_rao_bound():
+    """Campaign flyby_envelope run 24 (paper_flyby's target tumbling at 14.8 deg/s about a general body
+    direction, 2.77 deg vision noise) never converged in 1500 s. After 240 s the filter is the batch
+    maximum-likelihood fit with the Cramer-Rao bound as covariance and its error is inside its bounds,
+    and that bound on the body rate is itself still above the 0.05 deg/s convergence threshold: the
+    data, not the filter, set the convergence time (docs/estimation.md, fast tumblers)."""
+    data = load_scenario(SCENARIOS / 'paper_flyby.yaml').to_dict()
+    data['target']['initial_rate']['omega_body_deg_s'] = [7.852876346135618, 6.288400804050372, -10.861550009047196]
+    data['sensors']['target_attitude']['noise_sigma_deg'] = 2.7694087079499203
+    data['seed'] = 1896534077
+    sc = scenario_from_dict(data, name='flyby_envelope run 24 (test)')
+    plant = Plant(plant_config_from_scenario(sc))
+    f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+    rejected = feed(plant, f, 240.0)
+    assert not rejected  # the gate passes every genuine measurement
+    e, s = error_state(f, plant)
+    assert nees(e, s.covariance) < chi2.ppf(0.999, 6)
+    check = f.batch_check()
+    assert check.gap_sigma < 0.2 and 0.8 < check.ratio_min and check.ratio_max < 1.25, check
+    crb_rate_3sigma = 3.0 * math.sqrt(np.linalg.eigvalsh(check.fit.covariance[3:, 3:])[-1])
+    assert crb_rate_3sigma > ConvergenceThresholds().rate_3sigma_rad_s and not f.convergence()

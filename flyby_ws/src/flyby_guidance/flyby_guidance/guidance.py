@@ -42,6 +42,7 @@ import math
 import numpy as np
 
 from flyby_msgs_py.wire import Event
+from flyby_planner.plan import LAST_BURN_SLACK_M
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
@@ -51,9 +52,6 @@ from flyby_sim.dynamics.propulsion import fuel_for_delta_v_kg
 # Points checked along a predicted burn arc.
 _ARC_SAMPLES = 9
 ADJUST_LAWS = ('arc', 'eq26')
-# The arc law counts on an adjusting burn only where the arc is this much beyond sphere + margin: the
-# burn that puts the chaser on the arc must happen, or the arc's velocity is never supplied [m].
-_NEXT_BURN_SLACK_M = 2.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -272,7 +270,7 @@ class FlybyGuidance:
         burn is that last one (a two-impulse transfer onto the arc, re-solved at every burn)."""
         cfg, tg = self.config, self.target
         n = cfg.mean_motion_rad_s
-        outside = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m + _NEXT_BURN_SLACK_M
+        outside = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m + LAST_BURN_SLACK_M
         t_last, arc_last = None, None
         t_k = t_burn + cfg.adjust_interval_s
         while t_k < tg.t_f:

@@ -75,6 +75,11 @@ _TRANSFER_CAP_ORBITS = 0.4
 _FINE_STEP_M = 0.02
 # Candidates checked for passive safety at once, in order of delta-v.
 _BATCH = 12
+# Guidance's last adjusting burn is where the passive arc is still this far beyond the restriction
+# sphere and its burn margin [m] (flyby_guidance.guidance, arc law); from there the chaser coasts.
+LAST_BURN_SLACK_M = 2.0
+# Points of the terminal transfer checked against the restriction sphere.
+_TRANSFER_SAMPLES = 60
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,6 +103,8 @@ class PlannerConfig:
     flyby_duration_s: float = 300.0
     flyby_duration_max_s: float | None = None
     restriction_sphere_radius_m: float = 15.0
+    sphere_margin_m: float = 1.0
+    max_unguided_coast_s: float = math.inf
     clearance_margin_m: float = 0.1
     escape_check_orbits: float = 1.0
     geometry_window_s: float = 300.0
@@ -195,7 +202,8 @@ def planner_config_from_scenario(scenario):
         inertia_kg_m2=scenario.target_inertia, envelope_radius_m=scenario.chaser.envelope_radius_m,
         offset_m=p.offset_m, offset_min_m=min(p.offset_min_m, p.offset_m), offset_max_m=scenario.offset_max_m,
         flyby_duration_s=p.flyby_duration_s, flyby_duration_max_s=max(p.flyby_duration_max_s, p.flyby_duration_s),
-        restriction_sphere_radius_m=p.restriction_sphere_radius_m, clearance_margin_m=p.clearance_margin_m,
+        restriction_sphere_radius_m=p.restriction_sphere_radius_m, sphere_margin_m=scenario.guidance.sphere_margin_m,
+        max_unguided_coast_s=p.max_unguided_coast_s, clearance_margin_m=p.clearance_margin_m,
         escape_check_orbits=p.escape_check_orbits, geometry_window_s=p.geometry_window_s,
         geometry_attitude_margin_rad=math.radians(p.geometry_attitude_margin_deg),
         geometry_rate_margin_rad_s=math.radians(p.geometry_rate_margin_deg_s),
@@ -254,6 +262,7 @@ class Candidate:
     closest: str | None = None
     t_min_clearance: float | None = None
     t_sphere_entry: float | None = None
+    unguided_coast_s: float | None = None
 
     @property
     def dv_total_mps(self):
@@ -281,7 +290,7 @@ class Candidate:
             'clearance_approach_m': _rounded(self.clearance_approach_m),
             'clearance_escape_m': _rounded(self.clearance_escape_m), 'closest': self.closest,
             't_min_clearance_s': _rounded(self.t_min_clearance),
-            't_sphere_entry_s': _rounded(self.t_sphere_entry),
+            't_sphere_entry_s': _rounded(self.t_sphere_entry), 'unguided_coast_s': _rounded(self.unguided_coast_s),
         }
 
 
@@ -485,6 +494,12 @@ def _check_passive_safety(batch, passages, prediction, region, config):
         c.t_min_clearance = float(c.t_grasp + tau[i])
         entered = np.flatnonzero((ps.r_tau >= -c.flyby_duration_s) & (ps.radius <= config.restriction_sphere_radius_m))
         c.t_sphere_entry = float(c.t_grasp + ps.r_tau[entered[0]]) if entered.size else None
+        burnable = np.flatnonzero((ps.r_tau <= 0.0) & (ps.radius > config.restriction_sphere_radius_m
+                                                          + config.sphere_margin_m + LAST_BURN_SLACK_M))
+        c.unguided_coast_s = float(-ps.r_tau[burnable[-1]]) if burnable.size else c.flyby_duration_s
+        if c.unguided_coast_s > config.max_unguided_coast_s:
+            c.reasons.append(f'unguided coast {c.unguided_coast_s:.0f} s from the last burn to the grasp is longer '
+                             f'than {config.max_unguided_coast_s:g} s (navigation error grows unchecked)')
         if gap[i] < config.clearance_margin_m:
             part = 'approach' if tau[i] <= 0.0 else 'escape'
             c.reasons.append(f'passive {part} clearance {gap[i]:.3f} m from the {c.closest} at t = '
@@ -528,6 +543,8 @@ _REASON_CLASSES = (
     ('condition (a)', 'condition (a), rate'), ('condition (b)', 'condition (b), spin axis near hill y'),
     ('not convex', 'not convex (eq 15)'), ('condition (c)', 'condition (c), lighting'),
     ('X_Fi', 'X_Fi inside the restriction sphere'), ('transfer impulse', 'transfer impulse above the limit'),
+    ('transfer passes', 'transfer through the restriction sphere'),
+    ('unguided coast', 'unguided coast too long'),
     ('passive', 'passive clearance below the margin'),
 )
 
@@ -612,6 +629,17 @@ def _candidate(g, offset_m, duration_s, t_ti, chaser_at_ti, reasons, config):
     if not reasons and largest > config.max_delta_v_per_maneuver_mps:
         reasons.append(f'transfer impulse {largest:.3f} m/s exceeds the per-maneuver limit '
                        f'{config.max_delta_v_per_maneuver_mps:g} m/s')
+    if not reasons:
+        # The transfer and its corrections thrust along the way: it must keep out of the sphere and the
+        # guidance's burn margin (a midcourse burn there would end the mission).
+        taus = np.linspace(0.0, t_i - t_ti, _TRANSFER_SAMPLES)
+        start = np.concatenate((chaser_at_ti[:3], chaser_at_ti[3:] + dv_ti))
+        closest = float(np.linalg.norm(np.einsum('mij,j->mi', cw_transition_matrix(n, taus), start)[:, :3],
+                                       axis=1).min())
+        limit = config.restriction_sphere_radius_m + config.sphere_margin_m
+        if closest < limit:
+            reasons.append(f'transfer passes {closest:.2f} m from the target, inside the restriction sphere and '
+                           f'burn margin ({limit:g} m)')
     return Candidate(t_grasp=g.t_grasp, x_g=g.x_g, v_g=g.v_g, omega_hill=g.omega_hill, convex_value=g.convex_value,
                      offset_m=offset_m, flyby_duration_s=duration_s, x_ft=x_ft, v_ft=v_ft, t_i=t_i, x_fi=x_fi,
                      v_fi=v_fi, t_ti=t_ti, dv_ti=dv_ti, dv_tf=dv_tf, reasons=reasons)
