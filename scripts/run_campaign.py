@@ -40,10 +40,14 @@ def main(argv=None):
         print(f'throughput: {runs_per_hour:.0f} runs/h')
     print('outcomes: ' + ', '.join(f'{o} {n}' for o, n in stats['outcome_counts'].items())
           + f' ({stats["runs"]} runs)')
-    rate = stats['capture_rate']
-    if rate['runs']:
-        lo, hi = rate['ci95_clopper_pearson']
-        print(f'capture rate {rate["successes"]}/{rate["runs"]} = {rate["rate"]:.3f}, 95 % [{lo:.3f}, {hi:.3f}]')
+    for name, what in (('capture_rate', 'capture rate'),
+                       ('capture_rate_of_plans_flown', 'capture rate of plans flown')):
+        rate = stats[name]
+        if rate['runs']:
+            lo, hi = rate['ci95_clopper_pearson']
+            print(f'{what} {rate["successes"]}/{rate["runs"]} = {rate["rate"]:.4f}, 95 % [{lo:.4f}, {hi:.4f}]')
+    if stats['refusals_by_class']:
+        print('NO_SAFE_PLAN by class: ' + ', '.join(f'{k} {n}' for k, n in stats['refusals_by_class'].items()))
     print(f'report: {args.out}/report.md')
     return 1 if stats['outcome_counts'].get('ERROR') else 0
 

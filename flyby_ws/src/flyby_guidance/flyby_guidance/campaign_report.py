@@ -8,9 +8,13 @@ probability >= 0.1**(1/N) at 90 % confidence (the p at which N successes in a ro
 0.1), i.e. a failure probability <= 1 - 0.1**(1/N); 22 clean runs give >= 90 %.
 
 Flown runs are those that reached an outcome of the mission (all but ERROR and INTERRUPTED: those are
-failures of the software or of the operator, counted and listed but not flight statistics).
+failures of the software or of the operator, counted and listed but not flight statistics). Runs that
+flew a plan are those whose phases reached TERMINAL_APPROACH: the capture rate of a method is taken
+over them (a NO_SAFE_PLAN run is safe and counted with its reason, not a failed capture). Refusals are
+counted by class: the planner's one-line reason names the binding class first.
 """
 
+import collections
 import json
 import math
 from pathlib import Path
@@ -71,6 +75,18 @@ def _percentiles(values, tail):
             'p1': float(np.percentile(a, 1)), 'min': float(a.min())}
 
 
+def refusal_class(end_reason):
+    """The class of a NO_SAFE_PLAN reason: what bound the refusal (the first class the planner names)."""
+    reason = end_reason.removeprefix('no safe plan: ')
+    if reason.startswith('all ') and ': ' in reason:  # 'all N candidates rejected: K <class>; ...'
+        return reason.split(': ', 1)[1].split(';')[0].split(' ', 1)[1]
+    return reason.split(':')[0]
+
+
+def _flew_plan(row):
+    return c.PHASE_TERMINAL_APPROACH in json.loads(row.get('phase_sequence') or '[]')
+
+
 def statistics(rows):
     """campaign.json's statistics of the rows of results.csv ({run: row of text cells})."""
     outcomes = [r['outcome'] for r in rows.values()]
@@ -82,9 +98,15 @@ def statistics(rows):
     safe = sum(r['outcome'] != c.OUTCOME_COLLISION for r in flown)
     figures = {key: _percentiles([_number(r[key]) for r in flown], 'upper') for key in UPPER_TAIL}
     figures['min_clearance_m'] = _percentiles([_number(r['min_clearance_m']) for r in flown], 'lower')
+    planned = [r for r in flown if _flew_plan(r)]
+    refused = collections.Counter(refusal_class(r['end_reason']) for r in rows.values()
+                                  if r['outcome'] == c.OUTCOME_NO_SAFE_PLAN)
     return {
-        'runs': len(rows), 'flown': n, 'outcome_counts': counts,
+        'runs': len(rows), 'flown': n, 'flew_a_plan': len(planned), 'outcome_counts': counts,
         'capture_rate': _rate('capture', captured, n),
+        'capture_rate_of_plans_flown': _rate('capture', sum(r['outcome'] == c.OUTCOME_CAPTURE for r in planned),
+                                             len(planned)),
+        'refusals_by_class': dict(refused.most_common()),
         'safe_rate': _rate('collision', safe, n),
         'percentiles': figures,
     }
@@ -171,16 +193,20 @@ def report_markdown(out_dir, header, stats, rows, images):
              f'Campaign file `{header["campaign_file"]}` (sha256 {header["sha256"][:12]}), campaign seed '
              f'{header["campaign_seed"]}, base scenario `{header["base_scenario"]}`; dispersed: '
              + ', '.join(f'`{k}`' for k in header['dispersed_keys']) + '.', '',
-             f'{stats["runs"]} runs, {stats["flown"]} flown (all but ERROR and INTERRUPTED).', '',
+             f'{stats["runs"]} runs, {stats["flown"]} flown (all but ERROR and INTERRUPTED), '
+             f'{stats["flew_a_plan"]} of them flew a plan.', '',
              '| outcome | runs |', '|---|---|']
     lines += [f'| {o} | {n} |' for o, n in stats['outcome_counts'].items()]
+    if stats['refusals_by_class']:
+        lines += ['', '| NO_SAFE_PLAN, by what bound it | runs |', '|---|---|']
+        lines += [f'| {k} | {n} |' for k, n in stats['refusals_by_class'].items()]
     lines += ['', '| rate | value | 95 % Clopper-Pearson |', '|---|---|---|']
-    for name in ('capture_rate', 'safe_rate'):
+    for name in ('capture_rate', 'capture_rate_of_plans_flown', 'safe_rate'):
         r = stats[name]
         if r['runs']:
             lo, hi = r['ci95_clopper_pearson']
             lines.append(f'| {name} | {r["successes"]}/{r["runs"]} = {r["rate"]:.3f} | [{lo:.3f}, {hi:.3f}] |')
-    lines += [''] + [stats[n]['zero_failure_90'] + '.' for n in ('capture_rate', 'safe_rate')
+    lines += [''] + [stats[n]['zero_failure_90'] + '.' for n in ('capture_rate_of_plans_flown', 'safe_rate')
                      if 'zero_failure_90' in stats[n]]
     lines += ['', '| figure (flown runs) | n | p50 | p95 | p99 | max |', '|---|---|---|---|---|---|']
     for key in UPPER_TAIL:
