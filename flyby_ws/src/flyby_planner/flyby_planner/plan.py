@@ -564,10 +564,13 @@ def _refusal_reason(candidates, region, config):
         parts.append(f'best passive clearance {best.clearance_min_m:.3f} m (from the {best.closest}, offset '
                      f'{best.offset_m:g} m, fly-by {best.flyby_duration_s:g} s)')
         g = checked[0]
+        boxes = config.boxes
+        own = boxes.names[int(np.argmin([signed_distance_to_box(config.x_grasp_body_m, center, size)[0]
+                                         for center, size in zip(boxes.center_body_m, boxes.size_m, strict=True)]))]
         axial, radial = region.axial_radial(g.x_g[None, :], np.array([g.t_grasp]), config.mean_motion_rad_s)
         sweeping = [name for name, lo, hi, rad in zip(region.names, region.axial_min_m, region.axial_max_m,
                                                       region.radius_m, strict=True)
-                    if lo <= axial[0] <= hi and radial[0] <= rad and name != config.boxes.names[0]]
+                    if lo <= axial[0] <= hi and radial[0] <= rad and name != own]
         if sweeping:
             parts.append('the grasp point lies in the region ' + ' and '.join(sweeping) + ' sweep'
                          + ('s' if len(sweeping) == 1 else ''))
