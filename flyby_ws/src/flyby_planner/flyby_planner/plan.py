@@ -404,18 +404,22 @@ def _runs(mask):
     return list(zip(edges[::2], edges[1::2], strict=True))
 
 
+def _nearest_box(p_body, boxes):
+    """Signed distance (N,) [m] from body points (N, 3) to the nearest target box, and that box's name (N,)."""
+    dist = np.array([signed_distance_to_box(p_body, center, size)
+                     for center, size in zip(boxes.center_body_m, boxes.size_m, strict=True)])
+    nearest = np.argmin(dist, axis=0)
+    return dist[nearest, np.arange(dist.shape[1])], np.asarray(boxes.names)[nearest]
+
+
 def _predicted_gaps(prediction, r_hill, t, t_grasp, config):
     """Gap [m] of the chaser envelope from the target's predicted geometry at each (r_hill (M, 3), t (M,)),
     less the prediction's uncertainty (module doc, step 4), and the nearest box's name per sample."""
     c_hb = prediction.c_hill_from_body(t)
-    p_body = np.einsum('mji,mj->mi', c_hb, r_hill)  # C_hill_from_body' r
-    boxes = config.boxes
-    dist = np.array([signed_distance_to_box(p_body, center, size)
-                     for center, size in zip(boxes.center_body_m, boxes.size_m, strict=True)])
-    nearest = np.argmin(dist, axis=0)
+    dist, names = _nearest_box(np.einsum('mji,mj->mi', c_hb, r_hill), config.boxes)  # C_hill_from_body' r
     uncertainty = np.linalg.norm(r_hill, axis=1) * (config.geometry_attitude_margin_rad
                                                     + config.geometry_rate_margin_rad_s * np.abs(t - t_grasp))
-    return dist[nearest, np.arange(len(t))] - config.envelope_radius_m - uncertainty, np.asarray(boxes.names)[nearest]
+    return dist - config.envelope_radius_m - uncertainty, names
 
 
 def _passages(keys, states_at_grasp, prediction, region, config):
@@ -564,9 +568,7 @@ def _refusal_reason(candidates, region, config):
         parts.append(f'best passive clearance {best.clearance_min_m:.3f} m (from the {best.closest}, offset '
                      f'{best.offset_m:g} m, fly-by {best.flyby_duration_s:g} s)')
         g = checked[0]
-        boxes = config.boxes
-        own = boxes.names[int(np.argmin([signed_distance_to_box(config.x_grasp_body_m, center, size)[0]
-                                         for center, size in zip(boxes.center_body_m, boxes.size_m, strict=True)]))]
+        own = _nearest_box(np.atleast_2d(config.x_grasp_body_m), config.boxes)[1][0]
         axial, radial = region.axial_radial(g.x_g[None, :], np.array([g.t_grasp]), config.mean_motion_rad_s)
         sweeping = [name for name, lo, hi, rad in zip(region.names, region.axial_min_m, region.axial_max_m,
                                                       region.radius_m, strict=True)
@@ -586,13 +588,9 @@ def _offset_gaps(config):
     x_g = np.asarray(config.x_grasp_body_m, dtype=float)
     radius = float(np.linalg.norm(x_g))
     points = np.array([(1.0 + dr / radius) * x_g for dr in config.offsets_m])
-    boxes = config.boxes
-    dist = np.array([signed_distance_to_box(points, center, size)
-                     for center, size in zip(boxes.center_body_m, boxes.size_m, strict=True)])
-    nearest = np.argmin(dist, axis=0)
-    gaps = (dist[nearest, np.arange(len(points))] - config.envelope_radius_m
-            - np.linalg.norm(points, axis=1) * config.geometry_attitude_margin_rad)
-    return {dr: (float(gap), boxes.names[k]) for dr, gap, k in zip(config.offsets_m, gaps, nearest, strict=True)}
+    dist, names = _nearest_box(points, config.boxes)
+    gaps = dist - config.envelope_radius_m - np.linalg.norm(points, axis=1) * config.geometry_attitude_margin_rad
+    return {dr: (float(gap), str(name)) for dr, gap, name in zip(config.offsets_m, gaps, names, strict=True)}
 
 
 def _grasp_reasons(g, config):
