@@ -38,13 +38,14 @@ SIM_NODE = 'flyby_sim'
 @dataclasses.dataclass
 class HeadlessRun:
     """One headless mission: ``summary`` (the summary.json dict) and what only this driver sees: the
-    delta-v commanded, the ideal one (eq 28-29 of the planned transfer from the TRUE chaser state) and
-    every commanded burn."""
+    delta-v commanded, the ideal one (eq 28-29 of the planned transfer from the TRUE chaser state),
+    every commanded burn and every event of mission/events (dicts as read from a bag)."""
 
     summary: dict
     dv_commanded_mps: float = 0.0
     dv_ideal_mps: float = None
     burns: list = dataclasses.field(default_factory=list)
+    events: list = dataclasses.field(default_factory=list)
 
 
 class _Truth:
@@ -78,9 +79,9 @@ class HeadlessGraph:
         self.guidance = GuidanceCore(scenario)
         self.supervisor = SupervisorCore(scenario, WATCHED_NODES)
         self.phases = []
-        self.events = []  # as read from the bag: dicts of t, level, name, message, values, hardware_id
         self.truth = _Truth()
         self.run = HeadlessRun(summary={})
+        self.events = self.run.events  # as read from the bag: dicts of t, level, name, message, values, hardware_id
         self._queue = collections.deque()
 
     @property

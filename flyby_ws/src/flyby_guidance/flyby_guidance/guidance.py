@@ -192,6 +192,11 @@ class FlybyGuidance:
             self.target = dataclasses.replace(self.target, t_f=float(t_f), x_ft=np.asarray(x_ft, dtype=float),
                                               v_ft=np.asarray(v_ft, dtype=float))
 
+    def stop(self, why):
+        """No more burns for this plan (a fault: the supervisor decides what follows)."""
+        self.schedule = []
+        self.thrust_ended = why
+
     def wants_refined_target(self, t):
         """True when the next burn is an adjusting one due within command_lead_s of t: re-aim first."""
         return bool(self.schedule) and self.schedule[0][1] == 'adjust' \

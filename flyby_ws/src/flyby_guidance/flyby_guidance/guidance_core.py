@@ -24,6 +24,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.grasp import flyby_target_point, offset_of_flyby_target, refine_grasp
+from flyby_planner.plan import check_passage, planner_config_from_scenario
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 # The re-solved grasp is searched in a prediction this far past the planned grasp time [s].
@@ -46,6 +47,7 @@ class GuidanceCore:
         self.name = name
         self.guidance = FlybyGuidance(guidance_config_from_scenario(scenario))
         self.dynamics = ErrorStateDynamics(scenario.target_inertia)
+        self.planner_config = planner_config_from_scenario(scenario)
         self.n = scenario.mean_motion_rad_s
         self.x_grasp_body = np.array(scenario.target.grasp_point_body_m)
         self.phase = None
@@ -119,26 +121,45 @@ class GuidanceCore:
         return out + [e._replace(source=self.name) for e in events]
 
     def _refine(self, t, target):
-        """Re-aim at the grasp re-solved from the target estimate (stamp, (q, omega)), seed 000 §4.6."""
+        """Re-aim at the grasp re-solved from the target estimate (stamp, (q, omega)), seed 000 §4.6, if the
+        passive arc through it is safe by that estimate (plan.check_passage, the planner's step 4);
+        otherwise keep the aim if its arc still is, or stop thrusting and report the fault (the
+        supervisor aborts and escapes): a re-aim never flies the chaser onto an unsafe arc."""
         t_est, (q_hb, omega_body) = target
-        t_f = self.guidance.target.t_f
-        if t_f <= t_est:
+        aim = self.guidance.target
+        if aim.t_f <= t_est:
             return []
-        prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body, t_f + _REFINE_HORIZON_S)
-        g = refine_grasp(prediction, self.x_grasp_body, t_f, self.n)
-        if g is None:
-            return [self._event(t, 'WARN', 'target_refined', 'no convex grasp near the planned one; keeping the aim',
-                                {})]
-        x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, offset_of_flyby_target(self.guidance.target.x_ft,
-                                                                           self.x_grasp_body))  # eq 20-21
-        shift = float(np.linalg.norm(x_ft - self.guidance.target.x_ft))
-        self.guidance.retarget(g.t_grasp, x_ft, v_ft)
-        at_grasp = prediction.state(g.t_grasp)
-        return [self._event(t, 'OK', 'target_refined',
-                            f'grasp re-solved at t = {g.t_grasp:.3f} s, aim moved {shift * 1e3:.1f} mm',
-                            {'t_grasp_s': g.t_grasp, 'shift_m': shift, 'x_g_hill_m': g.x_g, 'v_g_hill_mps': g.v_g,
-                             'x_ft_hill_m': x_ft, 'v_ft_hill_mps': v_ft,
-                             'q_hill_from_body': at_grasp.q_hill_from_body, 'omega_body_rad_s': at_grasp.omega_body})]
+        cfg = self.planner_config
+        prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body,
+                                              aim.t_f + max(_REFINE_HORIZON_S, cfg.geometry_window_s))
+        g = refine_grasp(prediction, self.x_grasp_body, aim.t_f, self.n, t_latest=aim.t_f + _REFINE_HORIZON_S)
+        if g is not None:
+            offset_m = offset_of_flyby_target(aim.x_ft, self.x_grasp_body)
+            x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, offset_m)  # eq 20-21
+            check = check_passage(prediction, x_ft, v_ft, g.t_grasp, t, cfg)
+            if check.safe:
+                shift = float(np.linalg.norm(x_ft - aim.x_ft))
+                self.guidance.retarget(g.t_grasp, x_ft, v_ft)
+                at_grasp = prediction.state(g.t_grasp)
+                return [self._event(t, 'OK', 'target_refined',
+                                    f'grasp re-solved at t = {g.t_grasp:.3f} s, aim moved {shift * 1e3:.1f} mm',
+                                    {'t_grasp_s': g.t_grasp, 'shift_m': shift, 'x_g_hill_m': g.x_g,
+                                     'v_g_hill_mps': g.v_g, 'x_ft_hill_m': x_ft, 'v_ft_hill_mps': v_ft,
+                                     'q_hill_from_body': at_grasp.q_hill_from_body,
+                                     'omega_body_rad_s': at_grasp.omega_body, 'passage_gap_m': check.gap_m})]
+            why = (f'the arc through the grasp re-solved at t = {g.t_grasp:.3f} s would come {check.gap_m:.3f} m '
+                   f'from the {check.closest} at t = {check.t_min_gap:.1f} s (margin {check.margin_m:g} m)')
+        else:
+            why = 'no convex grasp near the planned one'
+        kept = check_passage(prediction, aim.x_ft, aim.v_ft, aim.t_f, t, cfg)
+        if kept.safe:
+            return [self._event(t, 'WARN', 'target_refined', f'{why}; keeping the aim, whose arc keeps '
+                                                             f'{kept.gap_m:.3f} m', {'passage_gap_m': kept.gap_m})]
+        self.guidance.stop(f'no safe arc at t = {t:.1f} s')
+        return [self._event(t, 'ERROR', 'passage_unsafe',
+                            f'{why}, and the arc flown now would come {kept.gap_m:.3f} m from the {kept.closest} at '
+                            f't = {kept.t_min_gap:.1f} s: no thrust onto either, escape',
+                            {'passage_gap_m': kept.gap_m, 'closest': kept.closest, 't_min_gap_s': kept.t_min_gap})]
 
     def _event(self, t, level, name, message, values):
         return Event(t, level, name, message, values, self.name)

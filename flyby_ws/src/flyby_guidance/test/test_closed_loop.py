@@ -20,3 +20,34 @@ def test_a_refused_plan_ends_in_no_safe_plan_with_its_reason():
     assert s['end_reason'].count('no safe plan') == 1
     assert run.burns == [] and s['delta_v_total_mps'] == 0.0 and s['maneuvers_executed'] == 0
     assert s['sim_time_s'] < 120.0  # the run ends at the refusal
+
+
+def test_an_unsafe_reaimed_arc_is_never_flown():
+    """Run 569 of the envelope campaign (campaigns/flyby_envelope.yaml, campaign seed 2026): an 8.2 deg/s spin
+    about the intermediate principal axis, an unstable tumble. The plan, from the estimate at 125 s, passes
+    0.136 m from the +y panel; the estimates of the adjusting phase show the real passage through that
+    panel. Guidance used to re-aim onto it (COLLISION, 0.35 m deep, 25 s before the grasp); now its gate
+    (plan.check_passage on every re-aimed arc) refuses the arc, the supervisor aborts outside the sphere and
+    the avoidance burn carries the chaser clear."""
+    d = load_scenario(SCENARIOS / 'paper_flyby.yaml').to_dict()
+    d['seed'] = 2056802005
+    d['planner']['sun_direction_hill'] = None
+    d['simulation']['duration_s'] = 1200.0
+    d['target']['initial_rate'] = {'omega_body_deg_s': [-8.175128388491231, -0.636680740332563, -0.15726095827891964]}
+    d['target']['initial_attitude']['body_axis_along_hill']['hill'] = [0.2727377174418644, -0.7387481216378883,
+                                                                       -0.6163321752603003]
+    d['target']['grasp_point_body_m'] = [-1.3307346145151664, 1.5, 0.46957523398567913]
+    d['target']['geometry'][1]['size_m'] = [2.010558977059335, 5.712148812400723, 0.05]
+    d['target']['geometry'][2]['size_m'] = [1.7481567402253142, 6.084190090071806, 0.05]
+    d['chaser']['initial_position_hill_m'] = [36.03019711630237, -26.076948318751352, -78.41055905044796]
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.016113209381107767
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.7537225542714447
+    d['chaser']['thrusters']['magnitude_error_sigma'] = 0.005757055901678327
+    d['chaser']['thrusters']['direction_error_sigma_deg'] = 0.7593258264653564
+    run = run_headless(scenario_from_dict(d, name='envelope run 569'))
+    s = run.summary
+    unsafe = [e for e in run.events if e['name'] == 'passage_unsafe']
+    assert unsafe and unsafe[0]['level'] == 'ERROR', s['end_reason']
+    assert s['outcome'] == 'ABORTED' and s['min_clearance_m'] > 0.1
+    assert [b['kind'] for b in run.burns if b['t'] >= unsafe[0]['t']] == ['avoidance']
+    assert not s['thrust_inside_restriction_sphere']

@@ -345,8 +345,9 @@ def flyby_initial_point(x_ft, v_ft, duration_s, n):
     return state_i[:3], state_i[3:]
 
 
-def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n):
-    """The convex grasp instant nearest t_grasp_prev according to a newer prediction, or None.
+def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n, t_latest=None):
+    """The convex grasp instant nearest t_grasp_prev according to a newer prediction, or None; not
+    later than t_latest (default: the prediction's end).
 
     Re-aiming during the trajectory-adjusting phase (seed 000 section 4.6: the adjusting maneuvers
     absorb "timing errors due to ... motion estimation"): the same turn's convex root (eq 13-15),
@@ -358,7 +359,8 @@ def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n):
     if not rate_rel > 0.0:
         return None
     half = 0.4 * 2.0 * math.pi / rate_rel
-    lo, hi = max(t_grasp_prev - half, prediction.t0), min(t_grasp_prev + half, prediction.t_end)
+    t_end = prediction.t_end if t_latest is None else min(t_latest, prediction.t_end)
+    lo, hi = max(t_grasp_prev - half, prediction.t0), min(t_grasp_prev + half, t_end)
     if not hi > lo:
         return None
     convex = [c for c in grasp_candidates(prediction, x_grasp_body, lo, hi, n) if c.convex]

@@ -119,6 +119,8 @@ class PlannerConfig:
     transfer_max_s: float = 450.0
     delta_v_tie_mps: float = 0.001
     max_delta_v_per_maneuver_mps: float = math.inf
+    impulse_error_sigma: float = 0.0
+    midcourse_corrections: int = 1
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
@@ -126,6 +128,9 @@ class PlannerConfig:
                      'transfer_min_s', 'transfer_max_s'):
             require_positive(name, getattr(self, name))
         require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
+        require_positive('impulse_error_sigma', self.impulse_error_sigma, allow_zero=True)
+        if self.midcourse_corrections < 0:
+            raise ValueError(f'midcourse_corrections must be >= 0, got {self.midcourse_corrections}')
         if self.transfer_max_s < self.transfer_min_s:
             raise ValueError(f'transfer_max_s {self.transfer_max_s} s < transfer_min_s {self.transfer_min_s} s')
         lo, hi = self.offsets_range_m
@@ -213,7 +218,10 @@ def planner_config_from_scenario(scenario):
         max_sun_angle_from_grasp_velocity_rad=math.radians(p.max_sun_angle_from_grasp_velocity_deg),
         maneuver_lead_s=p.maneuver_lead_s, transfer_min_s=p.transfer_min_s, transfer_max_s=p.transfer_max_s,
         delta_v_tie_mps=p.delta_v_tie_mps,
-        max_delta_v_per_maneuver_mps=scenario.chaser.thrusters.max_delta_v_per_maneuver_mps)
+        max_delta_v_per_maneuver_mps=scenario.chaser.thrusters.max_delta_v_per_maneuver_mps,
+        impulse_error_sigma=math.hypot(scenario.chaser.thrusters.magnitude_error_sigma,
+                                       math.radians(scenario.chaser.thrusters.direction_error_sigma_deg)),
+        midcourse_corrections=scenario.guidance.midcourse_corrections)
 
 
 def truth_prediction(scenario, t_end):
@@ -422,10 +430,12 @@ def _predicted_gaps(prediction, r_hill, t, t_grasp, config):
     return dist - config.envelope_radius_m - uncertainty, names
 
 
-def _passages(keys, states_at_grasp, prediction, region, config):
-    """_Passage of each (t_grasp, offset) key from its hill state (6,) at the grasp (module doc, step 4)."""
+def _passages(keys, states_at_grasp, prediction, region, config, back_s=None):
+    """_Passage of each (t_grasp, offset) key from its hill state (6,) at the grasp (module doc, step 4),
+    from back_s before the grasp (default: the longest fly-by) over the escape."""
     n = config.mean_motion_rad_s
-    back, escape = max(config.flyby_durations_s), config.escape_duration_s
+    back = max(config.flyby_durations_s) if back_s is None else back_s
+    escape = config.escape_duration_s
     x0 = np.array(states_at_grasp)
     dense_back = _propagate_passive(x0, -back, config)
     dense_on = _propagate_passive(x0, escape, config)
@@ -508,6 +518,44 @@ def _check_passive_safety(batch, passages, prediction, region, config):
             part = 'approach' if tau[i] <= 0.0 else 'escape'
             c.reasons.append(f'passive {part} clearance {gap[i]:.3f} m from the {c.closest} at t = '
                              f'{c.t_grasp + tau[i]:.1f} s is below the margin {config.clearance_margin_m:g} m')
+
+
+def _predicted_region(prediction, t_from, config):
+    """The swept region (keepout.SweptRegion) of the predicted motion from t_from to the prediction's end."""
+    samples = [prediction.state(t) for t in np.linspace(t_from, prediction.t_end, _REGION_SAMPLES)]
+    return swept_region(config.boxes, config.inertia_kg_m2, [s.q_eci_from_body for s in samples],
+                        [s.omega_body for s in samples])
+
+
+@dataclasses.dataclass(frozen=True)
+class PassageCheck:
+    """Step 4 for one passive arc: its least gap [m] from the target, what that gap is to (a box of the
+    predicted geometry or 'swept region') and when [s]; safe when the gap keeps clearance_margin_m."""
+
+    gap_m: float
+    closest: str
+    t_min_gap: float
+    margin_m: float
+
+    @property
+    def safe(self):
+        return self.gap_m >= self.margin_m
+
+
+def check_passage(prediction, x_ft, v_ft, t_grasp, t_from, config):
+    """The passive-safety check of step 4 for the arc through X_Ft, V_Ft at t_grasp (hill, velocity
+    relative to hill), coasted from t_from over the grasp and the escape: the predicted geometry less
+    its uncertainty near the grasp, the swept region elsewhere. Guidance runs it on every re-aimed
+    arc before it flies onto it (flyby_guidance.guidance_core); ``prediction`` covers [t_from,
+    t_grasp + geometry_window_s] for the predicted geometry to count over the whole passage."""
+    region = _predicted_region(prediction, max(t_from, prediction.t0), config)
+    key = (float(t_grasp), 0.0)
+    ps = _passages([key], [np.concatenate((x_ft, v_ft))], prediction, region, config,
+                   back_s=max(float(t_grasp) - t_from, 0.0))[key]
+    later = ps.tau >= t_from - t_grasp
+    i = int(np.argmin(np.where(later, ps.gap, np.inf)))
+    return PassageCheck(gap_m=float(ps.gap[i]), closest=str(ps.closest[i]), t_min_gap=float(t_grasp + ps.tau[i]),
+                        margin_m=config.clearance_margin_m)
 
 
 def _select(candidates, config):
@@ -632,18 +680,39 @@ def _candidate(g, offset_m, duration_s, t_ti, chaser_at_ti, reasons, config):
                        f'{config.max_delta_v_per_maneuver_mps:g} m/s')
     if not reasons:
         # The transfer and its corrections thrust along the way: it must keep out of the sphere and the
-        # guidance's burn margin (a midcourse burn there would end the mission).
-        taus = np.linspace(0.0, t_i - t_ti, _TRANSFER_SAMPLES)
+        # guidance's burn margin (a midcourse burn there would end the mission), the first impulse's
+        # execution error included.
+        span = t_i - t_ti
+        taus = np.linspace(0.0, span, _TRANSFER_SAMPLES)
+        stm = cw_transition_matrix(n, taus)
         start = np.concatenate((chaser_at_ti[:3], chaser_at_ti[3:] + dv_ti))
-        closest = float(np.linalg.norm(np.einsum('mij,j->mi', cw_transition_matrix(n, taus), start)[:, :3],
-                                       axis=1).min())
+        distance = np.linalg.norm(np.einsum('mij,j->mi', stm, start)[:, :3], axis=1)
+        spread = _transfer_spread_m(taus, stm, span, float(np.linalg.norm(dv_ti)), config)
+        k = int(np.argmin(distance - spread))
         limit = config.restriction_sphere_radius_m + config.sphere_margin_m
-        if closest < limit:
-            reasons.append(f'transfer passes {closest:.2f} m from the target, inside the restriction sphere and '
-                           f'burn margin ({limit:g} m)')
+        if distance[k] - spread[k] < limit:
+            reasons.append(f'transfer passes {distance[k]:.2f} m from the target at t = {t_ti + taus[k]:.1f} s, less '
+                           f'{spread[k]:.2f} m of 3-sigma execution error: inside the restriction sphere and burn '
+                           f'margin ({limit:g} m)')
     return Candidate(t_grasp=g.t_grasp, x_g=g.x_g, v_g=g.v_g, omega_hill=g.omega_hill, convex_value=g.convex_value,
                      offset_m=offset_m, flyby_duration_s=duration_s, x_ft=x_ft, v_ft=v_ft, t_i=t_i, x_fi=x_fi,
                      v_fi=v_fi, t_ti=t_ti, dv_ti=dv_ti, dv_tf=dv_tf, reasons=reasons)
+
+
+def _transfer_spread_m(taus, stm, span_s, dv_mps, config):
+    """3-sigma position spread [m] of the flown transfer about the planned one at the times taus (M,) after
+    its first impulse dv_mps [m/s], with the CW transition matrices stm (M, 6, 6) (seed 000 eq 22).
+
+    The impulse's execution error (config.impulse_error_sigma, relative, magnitude and pointing
+    together) grows as |Phi_rv(tau)| up to the first midcourse correction, which re-solves eq 28 from
+    where the chaser is: from there the spread shrinks to nothing at X_Fi (linearly, the re-solved
+    transfer's own error being second order)."""
+    growth = 3.0 * config.impulse_error_sigma * dv_mps * np.linalg.norm(stm[:, :3, 3:], ord=2, axis=(1, 2))
+    t_mid = span_s / (config.midcourse_corrections + 1)
+    if config.midcourse_corrections == 0:
+        return growth
+    at_mid = np.interp(t_mid, taus, growth)
+    return np.where(taus <= t_mid, growth, at_mid * (span_s - taus) / (span_s - t_mid))
 
 
 def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
@@ -697,9 +766,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                         f'{config.clearance_margin_m:g} m, attitude uncertainty included), at any grasp time: the '
                         f'{box} blocks the grasp point', t_now)
 
-    samples = [prediction.state(t) for t in np.linspace(t_now, prediction.t_end, _REGION_SAMPLES)]
-    region = swept_region(config.boxes, config.inertia_kg_m2, [s.q_eci_from_body for s in samples],
-                          [s.omega_body for s in samples])
+    region = _predicted_region(prediction, t_now, config)
 
     found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n)
     if not found:

@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 import yaml
 
-from flyby_planner.plan import avoidance_burn, plan_capture, planner_config_from_scenario, truth_prediction
+from flyby_planner.plan import (
+    _transfer_spread_m,
+    avoidance_burn,
+    check_passage,
+    plan_capture,
+    planner_config_from_scenario,
+    truth_prediction,
+)
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import cw_transition_matrix, nonlinear_relative_accel, rk4_step
 from flyby_sim.scenario import load_scenario, scenario_from_dict
@@ -278,3 +285,44 @@ def test_avoidance_burn_only_when_the_coast_is_unsafe(paper_plan):
     dv, before, after = avoidance_burn(20.0 * axis, -0.2 * axis, c.t_i, plan.region, cfg, 0.05)
     assert dv is not None and before < 0.0 and after >= cfg.clearance_margin_m
     np.testing.assert_allclose(dv, 0.25 * axis, atol=1e-12)  # the retreat: stop the 0.2 m/s fall, 0.05 m/s away
+
+
+def test_check_passage_passes_the_planned_arc_and_fails_one_through_the_bus(paper_plan):
+    """Guidance's gate on a re-aimed arc (plan.check_passage) is the planner's step 4: the selected arc
+    keeps the clearance the plan found, the same arc aimed 1.5 m closer (through the bus) does not."""
+    plan, cfg = paper_plan
+    c = plan.selected
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    pred = truth_prediction(sc, c.t_grasp + cfg.geometry_window_s)
+    ok = check_passage(pred, c.x_ft, c.v_ft, c.t_grasp, c.t_i, cfg)
+    assert ok.safe and ok.gap_m == pytest.approx(c.clearance_min_m, abs=0.02)
+    inside = c.x_g * (1.0 - 0.5 / np.linalg.norm(c.x_g))  # 0.5 m under the grasp point: in the bus
+    hit = check_passage(pred, inside, c.v_ft, c.t_grasp, c.t_i, cfg)
+    assert not hit.safe and hit.gap_m < 0.0
+    assert abs(hit.t_min_gap - c.t_grasp) < 5.0
+
+
+def test_transfer_spread_bounds_dispersed_impulses():
+    """The planner's 3-sigma spread of a transfer (plan._transfer_spread_m) against 4000 impulses drawn with
+    the thrusters' magnitude and pointing errors and coasted by the CW transition matrix: before the
+    midcourse correction fewer than 1 % leave it (the 3-sigma norm of a 3-D error), and it grows with
+    the impulse and the error."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    cfg = type(planner_config_from_scenario(sc))(**{**planner_config_from_scenario(sc).__dict__,
+                                                    'impulse_error_sigma': math.hypot(0.03, math.radians(1.5))})
+    n, span = cfg.mean_motion_rad_s, 400.0
+    taus = np.linspace(0.0, span, 41)
+    stm = cw_transition_matrix(n, taus)
+    dv = np.array([0.15, -0.05, 0.1])
+    spread = _transfer_spread_m(taus, stm, span, float(np.linalg.norm(dv)), cfg)
+    rng = np.random.default_rng(12)
+    size = 1.0 + 0.03 * rng.standard_normal(4000)
+    tilt = np.radians(1.5) * rng.standard_normal((4000, 3))
+    tilt -= np.outer(tilt @ dv, dv) / (dv @ dv)  # pointing error: a small rotation about an axis across dv
+    executed = size[:, None] * (dv + np.cross(tilt, dv))
+    error = executed - dv
+    deviation = np.linalg.norm(np.einsum('mij,kj->kmi', stm[:, :3, 3:], error), axis=2)  # (4000, M)
+    before_mid = taus <= span / 2.0
+    assert np.mean(deviation[:, before_mid] > spread[before_mid]) < 0.01
+    assert spread[0] == 0.0 and spread[-1] == pytest.approx(0.0, abs=1e-12)
+    assert np.argmax(spread) == np.flatnonzero(before_mid)[-1]
