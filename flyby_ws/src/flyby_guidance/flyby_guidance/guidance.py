@@ -24,11 +24,15 @@ Sequence for a plan (t_Ti < t_i < t_f):
      wins and a velocity miss stays (10-20 mm/s after a re-aim on a tumbler, beyond the
      manipulator's 10 mm/s).
    * ``arc`` (default): the passive arc through the aim point (X_Ft, V_Ft at t_f, coasted back by
-     eq 22-23) is the path to be on. Each adjusting burn is eq 28 to the arc's position at the last
-     adjusting burn that will still be outside the sphere, and that last burn is eq 28 to X_Ft at
-     t_f itself, which puts the chaser on the arc with its velocity: a two-impulse transfer onto
-     the arc (eq 28-29 applied to it), re-solved at every burn as the aim moves. Position and
-     velocity at the grasp are both met to the navigation and execution error.
+     eq 22-23) is the path to be on. Each adjusting burn is eq 28 to the arc's position at the
+     adjusting burn ``arc_rendezvous_s`` later (at the latest the last one still outside the
+     sphere), where the next burn matches the arc's velocity: a two-impulse transfer onto the arc
+     (eq 28-29 applied to it), re-solved at every burn as the aim moves. The last burn outside the
+     sphere is eq 28 to X_Ft at t_f itself. Back on the arc early, the chaser only trims residuals
+     after that, so the last burn before the unguided coast is small and so is its execution error
+     (aiming every burn at the last one, as before, left the whole velocity mismatch after the
+     injection, 40 mm/s on a fast tumbler, to that burn). Position and velocity at the grasp are
+     both met to the navigation and execution error.
 4. The first adjusting burn whose predicted arc would come within ``sphere_margin_m`` of the
    restriction sphere ends all thrusting: from there the chaser coasts (fly-by, then escape).
 
@@ -73,6 +77,7 @@ class GuidanceConfig:
     adjust_velocity_tolerance_mps: float = 0.0005
     sphere_margin_m: float = 1.0
     adjust_law: str = 'arc'
+    arc_rendezvous_s: float = 40.0
 
     def __post_init__(self):
         if self.adjust_law not in ADJUST_LAWS:
@@ -80,7 +85,7 @@ class GuidanceConfig:
         for name in ('mean_motion_rad_s', 'restriction_sphere_radius_m', 'max_thrust_n', 'chaser_mass_kg',
                      'exhaust_velocity_mps',
                      'adjust_interval_s', 'command_lead_s', 'adjust_position_tolerance_m',
-                     'adjust_velocity_tolerance_mps'):
+                     'adjust_velocity_tolerance_mps', 'arc_rendezvous_s'):
             require_positive(name, getattr(self, name))
         require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
         if self.midcourse_corrections < 0:
@@ -98,7 +103,7 @@ def guidance_config_from_scenario(scenario):
         midcourse_corrections=g.midcourse_corrections, command_lead_s=g.command_lead_s, deadband_mps=g.deadband_mps,
         adjust_position_tolerance_m=g.adjust_position_tolerance_m,
         adjust_velocity_tolerance_mps=g.adjust_velocity_tolerance_mps, sphere_margin_m=g.sphere_margin_m,
-        adjust_law=g.adjust_law)
+        adjust_law=g.adjust_law, arc_rendezvous_s=g.arc_rendezvous_s)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -271,8 +276,9 @@ class FlybyGuidance:
 
     def _arc_aim(self, t_burn):
         """(time, position, velocity) the ``arc`` law aims an adjusting burn at: the passive arc's state at
-        the last adjusting burn that will still be outside the sphere, or X_Ft, V_Ft at t_f when this
-        burn is that last one (a two-impulse transfer onto the arc, re-solved at every burn)."""
+        the first later adjusting burn at least arc_rendezvous_s away, or at the last one that will still
+        be outside the sphere if that comes sooner, or X_Ft, V_Ft at t_f when this burn is that last one
+        (a two-impulse transfer onto the arc, re-solved at every burn)."""
         cfg, tg = self.config, self.target
         n = cfg.mean_motion_rad_s
         outside = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m + LAST_BURN_SLACK_M
@@ -283,6 +289,8 @@ class FlybyGuidance:
             if np.linalg.norm(arc[:3]) <= outside:
                 break
             t_last, arc_last = t_k, arc
+            if t_k >= t_burn + cfg.arc_rendezvous_s:
+                break
             t_k += cfg.adjust_interval_s
         if t_last is None:
             return tg.t_f, tg.x_ft, tg.v_ft
