@@ -25,14 +25,14 @@ Sequence for a plan (t_Ti < t_i < t_f):
      manipulator's 10 mm/s).
    * ``arc`` (default): the passive arc through the aim point (X_Ft, V_Ft at t_f, coasted back by
      eq 22-23) is the path to be on. Each adjusting burn is eq 28 to the arc's position at the
-     adjusting burn ``arc_rendezvous_s`` later (at the latest the last one still outside the
-     sphere), where the next burn matches the arc's velocity: a two-impulse transfer onto the arc
-     (eq 28-29 applied to it), re-solved at every burn as the aim moves. The last burn outside the
-     sphere is eq 28 to X_Ft at t_f itself. Back on the arc early, the chaser only trims residuals
-     after that, so the last burn before the unguided coast is small and so is its execution error
-     (aiming every burn at the last one, as before, left the whole velocity mismatch after the
-     injection, 40 mm/s on a fast tumbler, to that burn). Position and velocity at the grasp are
-     both met to the navigation and execution error.
+     rendezvous: the adjusting burn ``arc_rendezvous_lead_s`` before the last one still outside the
+     sphere, where that burn matches the arc's velocity: a two-impulse transfer onto the arc
+     (eq 28-29 applied to it), re-solved at every burn as the aim moves. The burns after the
+     rendezvous only trim, aimed at the arc at the last burn, and that last burn is eq 28 to X_Ft
+     at t_f itself. So the last burn before the unguided coast is small and so is its execution
+     error (a rendezvous at the last burn itself, as before, left it the whole velocity mismatch of
+     the injection, 41 mm/s on a fast tumbler, whose execution error missed by 9 cm). Position and
+     velocity at the grasp are both met to the navigation and execution error.
 4. The first adjusting burn whose predicted arc would come within ``sphere_margin_m`` of the
    restriction sphere ends all thrusting: from there the chaser coasts (fly-by, then escape).
 
@@ -77,7 +77,7 @@ class GuidanceConfig:
     adjust_velocity_tolerance_mps: float = 0.0005
     sphere_margin_m: float = 1.0
     adjust_law: str = 'arc'
-    arc_rendezvous_s: float = 40.0
+    arc_rendezvous_lead_s: float = 40.0
 
     def __post_init__(self):
         if self.adjust_law not in ADJUST_LAWS:
@@ -85,8 +85,9 @@ class GuidanceConfig:
         for name in ('mean_motion_rad_s', 'restriction_sphere_radius_m', 'max_thrust_n', 'chaser_mass_kg',
                      'exhaust_velocity_mps',
                      'adjust_interval_s', 'command_lead_s', 'adjust_position_tolerance_m',
-                     'adjust_velocity_tolerance_mps', 'arc_rendezvous_s'):
+                     'adjust_velocity_tolerance_mps'):
             require_positive(name, getattr(self, name))
+        require_positive('arc_rendezvous_lead_s', self.arc_rendezvous_lead_s, allow_zero=True)
         require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
         if self.midcourse_corrections < 0:
             raise ValueError(f'midcourse_corrections must be >= 0, got {self.midcourse_corrections}')
@@ -103,7 +104,7 @@ def guidance_config_from_scenario(scenario):
         midcourse_corrections=g.midcourse_corrections, command_lead_s=g.command_lead_s, deadband_mps=g.deadband_mps,
         adjust_position_tolerance_m=g.adjust_position_tolerance_m,
         adjust_velocity_tolerance_mps=g.adjust_velocity_tolerance_mps, sphere_margin_m=g.sphere_margin_m,
-        adjust_law=g.adjust_law, arc_rendezvous_s=g.arc_rendezvous_s)
+        adjust_law=g.adjust_law, arc_rendezvous_lead_s=g.arc_rendezvous_lead_s)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -276,25 +277,26 @@ class FlybyGuidance:
 
     def _arc_aim(self, t_burn):
         """(time, position, velocity) the ``arc`` law aims an adjusting burn at: the passive arc's state at
-        the first later adjusting burn at least arc_rendezvous_s away, or at the last one that will still
-        be outside the sphere if that comes sooner, or X_Ft, V_Ft at t_f when this burn is that last one
-        (a two-impulse transfer onto the arc, re-solved at every burn)."""
+        the latest later adjusting burn at least arc_rendezvous_lead_s before the last one that will still
+        be outside the sphere, or, once that is past, at that last one; X_Ft, V_Ft at t_f when this burn
+        is the last one (a two-impulse transfer onto the arc, re-solved at every burn)."""
         cfg, tg = self.config, self.target
         n = cfg.mean_motion_rad_s
         outside = cfg.restriction_sphere_radius_m + cfg.sphere_margin_m + LAST_BURN_SLACK_M
-        t_last, arc_last = None, None
+        ahead = []  # (t, arc state) at the later adjusting burns still outside the sphere
         t_k = t_burn + cfg.adjust_interval_s
         while t_k < tg.t_f:
             arc = cw_coast(tg.x_ft, tg.v_ft, t_k - tg.t_f, n)  # eq 23
             if np.linalg.norm(arc[:3]) <= outside:
                 break
-            t_last, arc_last = t_k, arc
-            if t_k >= t_burn + cfg.arc_rendezvous_s:
-                break
+            ahead.append((t_k, arc))
             t_k += cfg.adjust_interval_s
-        if t_last is None:
+        if not ahead:
             return tg.t_f, tg.x_ft, tg.v_ft
-        return t_last, arc_last[:3], arc_last[3:]
+        t_last = ahead[-1][0]
+        t_aim, arc = max((a for a in ahead if a[0] <= t_last - cfg.arc_rendezvous_lead_s + 1e-6),
+                         key=lambda a: a[0], default=ahead[-1])
+        return t_aim, arc[:3], arc[3:]
 
     def _schedule_adjust(self, t_next):
         if self.target is not None and t_next < self.target.t_f:

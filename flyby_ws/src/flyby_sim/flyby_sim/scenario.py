@@ -267,10 +267,10 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'adjust_law': Field(ENUM, 'arc', None, 'Trajectory adjusting: onto the passive arc through the fly-by target '
                                                'point (arc), or seed 000 eq 24-26 least squares (eq26).',
                             choices=('arc', 'eq26')),
-        'arc_rendezvous_s': Field(FLOAT, 40.0, '> 0',
-                                  'The arc law aims each adjusting burn at the arc\'s state at the adjusting burn '
-                                  'this much later (or the last one outside the sphere), where it matches the '
-                                  'arc\'s velocity.'),
+        'arc_rendezvous_lead_s': Field(FLOAT, 40.0, '>= 0',
+                                       'The arc law puts the chaser back on the passive arc (position and velocity) '
+                                       'this long before its last burn outside the sphere; the burns after only '
+                                       'trim.'),
         'refine_target': Field(BOOL, True, None,
                                'Re-aim each adjusting burn at the grasp re-solved from the latest target estimate.'),
     }),
