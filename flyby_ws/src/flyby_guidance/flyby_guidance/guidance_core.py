@@ -29,6 +29,10 @@ from flyby_planner.plan import check_passage, planner_config_from_scenario
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 # The re-solved grasp is searched in a prediction this far past the planned grasp time [s].
 _REFINE_HORIZON_S = 60.0
+# A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
+# uncertainty [m]: the planner's clearance_margin_m is a planning margin, this is the floor (a plan
+# 0.137 m clear re-aimed 0.096 m clear is no reason to give up a capture).
+_GATE_MARGIN_M = 0.0
 
 
 def flyby_target_of_plan(t_plan, t_i, x_fi, v_fi, t_f, x_ft, v_ft, maneuver_lead_s):
@@ -122,7 +126,8 @@ class GuidanceCore:
 
     def _refine(self, t, target):
         """Re-aim at the grasp re-solved from the target estimate (stamp, (q, omega)), seed 000 §4.6, if the
-        passive arc through it is safe by that estimate (plan.check_passage, the planner's step 4);
+        passive arc through it keeps off the target by that estimate (plan.check_passage, the planner's
+        step 4, with the floor _GATE_MARGIN_M);
         otherwise keep the aim if its arc still is, or stop thrusting and report the fault (the
         supervisor aborts and escapes): a re-aim never flies the chaser onto an unsafe arc."""
         t_est, (q_hb, omega_body) = target
@@ -136,7 +141,7 @@ class GuidanceCore:
         if g is not None:
             offset_m = offset_of_flyby_target(aim.x_ft, self.x_grasp_body)
             x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, offset_m)  # eq 20-21
-            check = check_passage(prediction, x_ft, v_ft, g.t_grasp, t, cfg)
+            check = check_passage(prediction, x_ft, v_ft, g.t_grasp, t, cfg, _GATE_MARGIN_M)
             if check.safe:
                 shift = float(np.linalg.norm(x_ft - aim.x_ft))
                 self.guidance.retarget(g.t_grasp, x_ft, v_ft)
@@ -151,7 +156,7 @@ class GuidanceCore:
                    f'from the {check.closest} at t = {check.t_min_gap:.1f} s (margin {check.margin_m:g} m)')
         else:
             why = 'no convex grasp near the planned one'
-        kept = check_passage(prediction, aim.x_ft, aim.v_ft, aim.t_f, t, cfg)
+        kept = check_passage(prediction, aim.x_ft, aim.v_ft, aim.t_f, t, cfg, _GATE_MARGIN_M)
         if kept.safe:
             return [self._event(t, 'WARN', 'target_refined', f'{why}; keeping the aim, whose arc keeps '
                                                              f'{kept.gap_m:.3f} m', {'passage_gap_m': kept.gap_m})]

@@ -542,11 +542,12 @@ class PassageCheck:
         return self.gap_m >= self.margin_m
 
 
-def check_passage(prediction, x_ft, v_ft, t_grasp, t_from, config):
+def check_passage(prediction, x_ft, v_ft, t_grasp, t_from, config, margin_m=None):
     """The passive-safety check of step 4 for the arc through X_Ft, V_Ft at t_grasp (hill, velocity
     relative to hill), coasted from t_from over the grasp and the escape: the predicted geometry less
-    its uncertainty near the grasp, the swept region elsewhere. Guidance runs it on every re-aimed
-    arc before it flies onto it (flyby_guidance.guidance_core); ``prediction`` covers [t_from,
+    its uncertainty near the grasp, the swept region elsewhere; safe when the least gap keeps margin_m
+    (default: the planning margin, clearance_margin_m). Guidance runs it on every re-aimed arc before
+    it flies onto it (flyby_guidance.guidance_core); ``prediction`` covers [t_from,
     t_grasp + geometry_window_s] for the predicted geometry to count over the whole passage."""
     region = _predicted_region(prediction, max(t_from, prediction.t0), config)
     key = (float(t_grasp), 0.0)
@@ -555,7 +556,7 @@ def check_passage(prediction, x_ft, v_ft, t_grasp, t_from, config):
     later = ps.tau >= t_from - t_grasp
     i = int(np.argmin(np.where(later, ps.gap, np.inf)))
     return PassageCheck(gap_m=float(ps.gap[i]), closest=str(ps.closest[i]), t_min_gap=float(t_grasp + ps.tau[i]),
-                        margin_m=config.clearance_margin_m)
+                        margin_m=config.clearance_margin_m if margin_m is None else margin_m)
 
 
 def _select(candidates, config):
