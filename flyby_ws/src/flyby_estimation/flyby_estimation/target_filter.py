@@ -13,8 +13,8 @@ The filter (the EKF of seed 004 section 2.2 in the multiplicative form of its re
 Markley and Shuster 1982):
 
 - time update: the reference (q, omega) follows the torque-free Euler equation with the known inertia
-  (seed 000 eq 4, seed 001 eq 3), RK4 substeps; P <- Phi P Phi' + Qd with Phi and Qd integrated
-  alongside (target_motion.ErrorStateDynamics), done by filterpy's KalmanFilter.predict.
+  (seed 000 eq 4, seed 001 eq 3), RK4 substeps; P <- Phi P Phi' + Qd with Phi and Qd of each substep
+  in closed form (target_motion.ErrorStateDynamics.propagate), done by filterpy's KalmanFilter.predict.
 - measurement: z = q_hill_from_body at stamp t, taken to inertial with quat_eci_from_hill(t, n);
   the innovation is the body-frame rotation vector nu = log(q_ref^-1 * q_meas), so H = [I 0] and
   R = sigma^2 I per body axis (the plant's sensor model: a Gaussian body-frame rotation error).
@@ -85,7 +85,7 @@ class TargetFilterConfig:
         norm_tolerance: measurements with |norm - 1| above this are rejected as 'non_unit'.
         max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that
             measurement (a wrong initial measurement would otherwise lock it out); N >= 1.
-        max_step_angle_rad: RK4 substep limit, as a rotation angle (target_motion.propagate_rk4).
+        max_step_angle_rad: substep limit, as a rotation angle (target_motion.ErrorStateDynamics.propagate).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
         check_window_max_samples: fused measurements kept for batch_check (default 36000: one hour at
             10 Hz); past that the window is dropped and batch_check refuses.
@@ -185,8 +185,7 @@ class TargetAttitudeFilter(FilterBase):
             raise ValueError(f'propagate_to: t = {t} s is before the filter time {self._t} s (or not finite)')
         if t == self._t:
             return
-        q, omega, phi, qd = self.dynamics.propagate_rk4(self._q, self._omega, t - self._t,
-                                                        self.config.max_step_angle_rad)
+        q, omega, phi, qd = self.dynamics.propagate(self._q, self._omega, t - self._t, self.config.max_step_angle_rad)
         # x = Phi x (x = 0 after every reset); P = Phi P Phi' + Qd
         self._kf.predict(F=phi, Q=qd)
         self._kf.P = 0.5 * (self._kf.P + self._kf.P.T)  # exactly symmetric despite rounding

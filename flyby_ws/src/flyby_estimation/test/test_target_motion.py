@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -18,7 +19,7 @@ from flyby_estimation.target_motion import (
     orbit_rate_hill,
 )
 from flyby_sim.dynamics.attitude import AttitudePropagator
-from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body
+from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body, rk4_step
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_from_rotation_vector,
@@ -49,7 +50,7 @@ def test_transition_matrix_matches_finite_differences_of_the_nonlinear_flow():
     """Phi from dPhi/dt = F Phi (analytic Jacobian of seed 000 eq 4) against perturbed integrations."""
     dyn = ErrorStateDynamics(INERTIA_TUMBLER)
     dt = 5.0
-    q1, w1, phi, _ = dyn.propagate_rk4(Q0, OMEGA_TUMBLER, dt, max_step_angle_rad=0.002)
+    q1, w1, phi, _ = dyn.propagate(Q0, OMEGA_TUMBLER, dt, max_step_angle_rad=0.002)
     eps = 1e-6
     numeric = np.empty((6, 6))
     for k in range(6):
@@ -58,7 +59,7 @@ def test_transition_matrix_matches_finite_differences_of_the_nonlinear_flow():
             dx = np.zeros(6)
             dx[k] = sign * eps
             q, w = perturbed(Q0, OMEGA_TUMBLER, dx)
-            qk, wk, _, _ = dyn.propagate_rk4(q, w, dt, max_step_angle_rad=0.002)
+            qk, wk, _, _ = dyn.propagate(q, w, dt, max_step_angle_rad=0.002)
             columns.append(error_between(q1, w1, qk, wk))
         numeric[:, k] = (columns[0] - columns[1]) / (2 * eps)
     np.testing.assert_allclose(phi, numeric, atol=2e-6 * np.abs(phi).max())
@@ -69,18 +70,18 @@ def test_process_noise_matches_integral_of_phi_g_qc_g_phi():
     dyn = ErrorStateDynamics(INERTIA_PAPER, torque_psd=1e-4)
     omega = np.array([0.01, -0.02, math.radians(5.0)])
     dt, steps = 2.0, 200
-    _, _, _, qd = dyn.propagate_rk4(Q0, omega, dt, max_step_angle_rad=1e-3)
+    _, _, _, qd = dyn.propagate(Q0, omega, dt, max_step_angle_rad=1e-3)
     h = dt / steps
     # Riemann sum with Phi(dt, s) from integrating from s to dt along the same reference
     states = [(Q0, omega)]
     for _ in range(steps):
-        q, w, _, _ = dyn.propagate_rk4(*states[-1], h)
+        q, w, _, _ = dyn.propagate(*states[-1], h)
         states.append((q, w))
     total = np.zeros((6, 6))
     for k in range(steps):
         s_mid = (k + 0.5) * h
-        q, w, _, _ = dyn.propagate_rk4(*states[k], 0.5 * h)
-        _, _, phi, _ = dyn.propagate_rk4(q, w, dt - s_mid, max_step_angle_rad=1e-3)
+        q, w, _, _ = dyn.propagate(*states[k], 0.5 * h)
+        _, _, phi, _ = dyn.propagate(q, w, dt - s_mid, max_step_angle_rad=1e-3)
         total += phi @ dyn.noise_density @ phi.T * h
     np.testing.assert_allclose(qd, total, rtol=1e-3, atol=1e-6 * np.abs(total).max())
 
@@ -121,10 +122,58 @@ def test_track_and_reference_only_prediction_agree_with_the_full_one():
     np.testing.assert_allclose(still.track(x_b, (10.0,)).r_hill[0], still.body_point_in_hill(x_b, 10.0).r_hill)
 
 
+def rk4_of_augmented_state(dyn, q, omega, dt, steps):
+    """(q, omega, Phi, Qd) by RK4 of all 79 states of augmented_rate (the filter's time update before the
+    closed form): the route ErrorStateDynamics.propagate must agree with."""
+    y = np.concatenate((q, omega, np.eye(6).ravel(), np.zeros(36)))
+    for _ in range(steps):
+        y = rk4_step(dyn.augmented_rate, 0.0, y, dt / steps)
+    return quat_normalize(y[:4]), y[4:7], y[7:43].reshape(6, 6), y[43:].reshape(6, 6)
+
+
+@pytest.mark.parametrize('inertia, omega_deg_s', [(INERTIA_PAPER, (0.0, 0.0, 5.0)), (INERTIA_PAPER, (3.0, -12.0, 8.0)),
+                                                  (INERTIA_TUMBLER, np.degrees(OMEGA_TUMBLER))])
+def test_closed_form_time_update_matches_rk4_of_phi_and_qd(inertia, omega_deg_s):
+    """propagate's Magnus Phi and series Qd against RK4 of dPhi/dt = F Phi, dQd/dt = F Qd + Qd F' + GQcG'
+    on the same substeps (the 0.1 s filter step; one and two substeps, the 21 deg/s tumbler three):
+    the reference state to the bit, Phi to 1e-10 (both are fourth order: their difference is the size
+    of either's error against a 100x finer RK4), Qd to 2e-5 of its largest entry (its series stops at h^4)."""
+    dyn = ErrorStateDynamics(inertia, torque_psd=1e-6)
+    omega = np.radians(omega_deg_s)
+    steps = max(1, math.ceil(np.linalg.norm(omega) * 0.1 / 0.02))
+    q, w, phi, qd = dyn.propagate(Q0, omega, 0.1)
+    q_rk4, w_rk4, phi_rk4, qd_rk4 = rk4_of_augmented_state(dyn, Q0, omega, 0.1, steps)
+    np.testing.assert_array_equal(q, q_rk4)
+    np.testing.assert_array_equal(w, w_rk4)
+    np.testing.assert_allclose(phi, phi_rk4, rtol=0.0, atol=1e-10)
+    np.testing.assert_allclose(qd, qd_rk4, rtol=0.0, atol=2e-5 * np.abs(qd_rk4).max())
+    _, _, phi_fine, _ = rk4_of_augmented_state(dyn, Q0, omega, 0.1, 100 * steps)
+    assert np.abs(phi - phi_fine).max() < 2.0 * np.abs(phi_rk4 - phi_fine).max() + 1e-13
+
+
+def test_closed_form_time_update_is_the_exponential_for_a_steady_spin():
+    """About a principal axis omega is constant, so Phi = expm(F dt) and Qd is Van Loan's
+    (Van Loan 1978: expm([[-F, GQcG'], [0, F']] dt) = [[., Phi^-1 Qd], [0, Phi']])."""
+    dyn = ErrorStateDynamics(INERTIA_PAPER, torque_psd=1e-6)
+    omega = np.radians((0.0, 0.0, 15.0))
+    f = dyn.jacobian(omega)
+    for dt in (0.05, 0.1):
+        q, w, phi, qd = dyn.propagate(Q0, omega, dt)
+        block = np.zeros((12, 12))
+        block[:6, :6], block[:6, 6:], block[6:, 6:] = -f, dyn.noise_density, f.T
+        van_loan = scipy.linalg.expm(block * dt)
+        phi_exact = van_loan[6:, 6:].T
+        np.testing.assert_array_equal(w, omega)
+        np.testing.assert_allclose(phi, scipy.linalg.expm(f * dt), rtol=0.0, atol=3e-11)
+        np.testing.assert_allclose(phi_exact, scipy.linalg.expm(f * dt), rtol=0.0, atol=1e-14)
+        np.testing.assert_allclose(qd, phi_exact @ van_loan[:6, 6:], rtol=1e-5, atol=1e-5 * np.abs(qd).max())
+        np.testing.assert_allclose(qd[:3, :3], (phi_exact @ van_loan[:6, 6:])[:3, :3], rtol=5e-5)
+
+
 def test_rk4_time_update_matches_dense_prediction():
     dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
     p0 = np.diag([1e-4, 2e-4, 3e-4, 1e-6, 2e-6, 3e-6])
-    q, w, phi, qd = dyn.propagate_rk4(Q0, OMEGA_TUMBLER, 3.0)
+    q, w, phi, qd = dyn.propagate(Q0, OMEGA_TUMBLER, 3.0)
     s = MotionPrediction(dyn, N, 0.0, Q0, OMEGA_TUMBLER, p0, 3.0).state(3.0)
     assert np.linalg.norm(error_between(s.q_eci_from_body, s.omega_body, q, w)) < 1e-9
     np.testing.assert_allclose(phi @ p0 @ phi.T + qd, s.covariance, rtol=1e-7, atol=1e-15)
@@ -135,9 +184,9 @@ def test_rk4_time_update_matches_dense_prediction():
 def test_property_transition_matrix_composes(dt1, dt2, omega):
     """Phi(t0 + dt1 + dt2, t0) = Phi(t0 + dt1 + dt2, t0 + dt1) Phi(t0 + dt1, t0) along one reference."""
     dyn = ErrorStateDynamics(INERTIA_TUMBLER)
-    q1, w1, phi1, _ = dyn.propagate_rk4(Q0, np.array(omega), dt1)
-    _, _, phi2, _ = dyn.propagate_rk4(q1, w1, dt2)
-    _, _, phi12, _ = dyn.propagate_rk4(Q0, np.array(omega), dt1 + dt2)
+    q1, w1, phi1, _ = dyn.propagate(Q0, np.array(omega), dt1)
+    _, _, phi2, _ = dyn.propagate(q1, w1, dt2)
+    _, _, phi12, _ = dyn.propagate(Q0, np.array(omega), dt1 + dt2)
     np.testing.assert_allclose(phi2 @ phi1, phi12, atol=1e-6 * max(1.0, np.abs(phi12).max()))
 
 
