@@ -109,12 +109,12 @@ class EstimatorCore:
     # -- target convergence and category --------------------------------------------------------
     def _check_convergence(self, t):
         out = []
-        converged = self.target.convergence(self.convergence)
         attitude_3s, rate_3s = self.target.three_sigma()
-        bounds = {'attitude_3sigma_deg': f'{math.degrees(attitude_3s):.4g}',
-                  'rate_3sigma_deg_s': f'{math.degrees(rate_3s):.4g}'}
+        converged = self.convergence.met_by(attitude_3s, rate_3s)  # target.convergence, from the bounds at hand
         if converged != self.converged:
             self.converged = converged
+            bounds = {'attitude_3sigma_deg': f'{math.degrees(attitude_3s):.4g}',
+                      'rate_3sigma_deg_s': f'{math.degrees(rate_3s):.4g}'}
             if converged and not self.checked:
                 self.checked = True
                 figures, out = self._batch_check(t)

@@ -59,6 +59,7 @@ from flyby_sim.dynamics.rotation import (
     quat_from_rotation_vector,
     quat_multiply,
     quat_normalize,
+    rotation_angle_many,
     rotation_vector_from_quat,
     skew,
 )
@@ -135,6 +136,10 @@ class ConvergenceThresholds:
 
     attitude_3sigma_rad: float = math.radians(1.0)
     rate_3sigma_rad_s: float = math.radians(0.05)
+
+    def met_by(self, attitude_3sigma_rad, rate_3sigma_rad_s):
+        """True when both 3-sigma bounds (TargetAttitudeFilter.three_sigma) are below the thresholds."""
+        return attitude_3sigma_rad < self.attitude_3sigma_rad and rate_3sigma_rad_s < self.rate_3sigma_rad_s
 
 
 class TargetAttitudeFilter(FilterBase):
@@ -306,23 +311,21 @@ class TargetAttitudeFilter(FilterBase):
     # -- convergence and category -------------------------------------------------------------------
     def three_sigma(self):
         """(attitude, rate) 3-sigma bounds [rad, rad/s] in the worst direction of each 3x3 block."""
-        p = self.covariance
-        return (3.0 * math.sqrt(max(np.linalg.eigvalsh(p[:3, :3])[-1], 0.0)),
-                3.0 * math.sqrt(max(np.linalg.eigvalsh(p[3:, 3:])[-1], 0.0)))
+        self._require_initialized()
+        p = self._kf.P
+        largest = np.linalg.eigvalsh(np.array((p[:3, :3], p[3:, 3:])))[:, -1]  # both blocks in one call
+        return 3.0 * math.sqrt(max(largest[0], 0.0)), 3.0 * math.sqrt(max(largest[1], 0.0))
 
     def convergence(self, thresholds=ConvergenceThresholds()):
         """True when both 3-sigma bounds (three_sigma) are below the thresholds."""
-        if not self.initialized:
-            return False
-        attitude, rate = self.three_sigma()
-        return attitude < thresholds.attitude_3sigma_rad and rate < thresholds.rate_3sigma_rad_s
+        return self.initialized and thresholds.met_by(*self.three_sigma())
 
     def attitude_excursion_rad(self):
         """Largest rotation between the current estimated hill attitude and any in the window [rad]."""
         self._require_initialized()
         q_now_inv = quat_conjugate(q_hill_from_body(self._t, self._n, self._q))
-        return max(float(np.linalg.norm(rotation_vector_from_quat(quat_multiply(q_now_inv, q))))
-                   for _, q in self._history)
+        q_hill_from_body_then = np.array([q for _, q in self._history])
+        return float(rotation_angle_many(quat_multiply(q_now_inv, q_hill_from_body_then.T).T).max())
 
     def classify_motion(self, thresholds=DEFAULT_MOTION_THRESHOLDS):
         """target_motion.MotionCategory (seed 000 section 2.1) from the estimated rate and attitude excursion.

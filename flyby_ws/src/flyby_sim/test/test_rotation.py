@@ -20,6 +20,7 @@ from flyby_sim.dynamics.rotation import (
     quat_to_matrix,
     quat_to_matrix_many,
     random_small_rotation,
+    rotation_angle_many,
     rotation_vector_from_quat,
 )
 
@@ -61,6 +62,15 @@ def test_vectorized_forms_match_scipy():
     np.testing.assert_allclose(quat_rotate_many(QUATS, VECTORS), Rotation.from_quat(QUATS).apply(VECTORS), atol=1e-14)
     np.testing.assert_allclose(quat_rotate_many(QUATS[0], VECTORS), Rotation.from_quat(QUATS[0]).apply(VECTORS),
                                atol=1e-14)
+
+
+def test_rotation_angle_many_is_the_norm_of_the_rotation_vector():
+    """Quaternions not unit, either sign, and angles down to 1e-9 rad (the small-angle branch of the log map)."""
+    small = np.array([quat_from_rotation_vector(v) for v in RNG.normal(size=(20, 3)) * 1e-9])
+    quats = np.vstack((QUATS, -QUATS[:50], small)) * RNG.uniform(0.5, 2.0, size=(270, 1))
+    expected = [np.linalg.norm(rotation_vector_from_quat(q)) for q in quats]
+    np.testing.assert_allclose(rotation_angle_many(quats), expected, rtol=1e-13, atol=0.0)
+    assert rotation_angle_many(QUATS[0]).shape == (1,)
 
 
 def test_rotation_vector_maps_match_scipy():

@@ -182,6 +182,15 @@ def rotation_vector_from_quat(q):
     return np.array((k * x, k * y, k * z))
 
 
+def rotation_angle_many(q):
+    """Rotation angles [rad] in [0, pi] of quaternions q (N, 4), none need be exactly unit.
+
+    The angle of ``rotation_vector_from_quat`` for arrays: 2 atan2(|(x, y, z)|, |w|).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    return 2.0 * np.arctan2(np.sqrt(np.einsum('ij,ij->i', q[:, :3], q[:, :3])), np.abs(q[:, 3]))
+
+
 def random_small_rotation(rng, sigma_rad):
     """Unit quaternion whose rotation vector is Gaussian, N(0, sigma_rad^2) per axis.
 
