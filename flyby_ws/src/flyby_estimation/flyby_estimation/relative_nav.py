@@ -194,7 +194,12 @@ class ScheduledBurn:
 def _white_accel_q(q, dt):
     """Discrete process noise of white acceleration with density q over dt (double-integrator form)."""
     q11, q12, q22 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
-    return np.block([[q11 * _I3, q12 * _I3], [q12 * _I3, q22 * _I3]])
+    return np.array(((q11, 0.0, 0.0, q12, 0.0, 0.0),  # [[q11 I, q12 I], [q12 I, q22 I]] in one call
+                     (0.0, q11, 0.0, 0.0, q12, 0.0),
+                     (0.0, 0.0, q11, 0.0, 0.0, q12),
+                     (q12, 0.0, 0.0, q22, 0.0, 0.0),
+                     (0.0, q12, 0.0, 0.0, q22, 0.0),
+                     (0.0, 0.0, q12, 0.0, 0.0, q22)))
 
 
 class RelativeNavFilter(FilterBase):

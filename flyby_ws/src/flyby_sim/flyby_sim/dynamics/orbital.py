@@ -58,7 +58,8 @@ def nonlinear_relative_accel(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0
     vx, vy, vz = v_hill
     ax, ay, az = accel_ext_hill
     q = ((x * x + y * y + z * z) / radius_m - 2.0 * z) / radius_m  # |r_chaser|^2 / R^2 - 1
-    if not np.all(q > -1.0):
+    # np.all costs more than the rest for one state (the plant's RK4 asks 4 times a step)
+    if not (q > -1.0 if isinstance(q, float) else np.all(q > -1.0)):
         raise ValueError(f'r_hill {np.asarray(r_hill).tolist()} is at or beyond Earth centre (radius_m {radius_m})')
     f = np.expm1(-1.5 * np.log1p(q))  # (R / |r_chaser|)^3 - 1
     n2 = n * n
