@@ -30,7 +30,7 @@ STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
 UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
 
 __all__ = ['EstimationFilter', 'FilterBase', 'REJECTION_KINDS', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
-           'new_counts']
+           'new_counts', 'kalman_update_first_three']
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -62,6 +62,28 @@ class UpdateResult:
     def accepted(self):
         """True if the measurement changed the state (initialized, accepted, reset)."""
         return self.kind in STATE_CHANGING_KINDS
+
+
+def kalman_update_first_three(x, p, y, r):
+    """The gate's figure and the Kalman update for a measurement of the first three states, H = [I 0].
+
+    S = H P H' + R = P[:3, :3] + R is inverted once for both: NIS = y' S^-1 y, K = P H' S^-1,
+    x + K y and the Joseph form P = (I - K H) P (I - K H)' + K R K', which stays symmetric positive
+    semi-definite whatever the rounding in K. The same arithmetic as filterpy's KalmanFilter.update,
+    without its bookkeeping (a third of a filter cycle).
+
+    Args:
+        x: state (6, 1); p: its covariance (6, 6); y: innovation z - H x (3,); r: measurement covariance (3, 3).
+
+    Returns:
+        (NIS, x + K y (6, 1), P after the update). Both filters gate on the NIS before taking the rest.
+    """
+    s_inv = np.linalg.inv(p[:3, :3] + r)
+    nis = float(y @ s_inv @ y)
+    k = p[:, :3] @ s_inv
+    i_kh = np.eye(6)
+    i_kh[:, :3] -= k
+    return nis, x + k @ y[:, None], i_kh @ p @ i_kh.T + k @ r @ k.T
 
 
 def new_counts():

@@ -46,8 +46,9 @@ squared NIS = y' S^-1 y (y = z - H x, S = H P H' + R) is gated against the chi-s
 finite stamp and 3 finite numbers), 'stale' (t before the filter time), 'outlier' (NIS above the
 gate), counted in ``counts``. The ``max_consecutive_outliers``-th outlier in a row makes the filter
 assume it is lost and restart from that measurement: the position is set to it, the velocity kept
-with at least its prior spread (kind 'reset'). The covariance update is Joseph form (filterpy's),
-followed by explicit symmetrization.
+with at least its prior spread (kind 'reset'). The covariance update is Joseph form (filterpy's
+arithmetic for H = [I 0], ``filter_interface.kalman_update_first_three``), followed by explicit
+symmetrization.
 
 Initialization: from the first finite measurement, r = z, P_r = sigma^2 I, v = 0 with
 P_v = initial_velocity_sigma_mps^2 I (default 0.1 m/s: the chaser holds station before the approach),
@@ -65,7 +66,7 @@ from typing import NamedTuple
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from flyby_estimation.filter_interface import FilterBase, UpdateResult
+from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast, cw_transition_matrix, nonlinear_relative_accel, rk4_step
 from flyby_sim.dynamics.propulsion import (
@@ -214,10 +215,8 @@ class RelativeNavFilter(FilterBase):
         super().__init__(config.gate_probability, config.max_consecutive_outliers)
         self.config = config
         self._n = config.mean_motion_rad_s
-        kf = KalmanFilter(dim_x=6, dim_z=3)
-        kf.H = np.hstack((_I3, np.zeros((3, 3))))
-        kf.R = config.position_sigma_m**2 * _I3
-        self._kf = kf
+        self._kf = KalmanFilter(dim_x=6, dim_z=3)  # x and P, and predict; H = [I 0] in the update
+        self._r = config.position_sigma_m**2 * _I3
         self._requests = []  # propulsion.BurnRequest of the maneuvers not started, in burn order
         self._fixed_duration_s = {}  # seq -> the burn_duration_s given to add_maneuver (absent: the plant's burn)
         self._pending = []  # ScheduledBurn of each request, chained after the last started burn
@@ -384,8 +383,9 @@ class RelativeNavFilter(FilterBase):
         self._advance(float(t))
         kf = self._kf
         y = z - kf.x[:3, 0]  # y = z - H x
-        s = kf.P[:3, :3] + kf.R  # S = H P H' + R
-        nis = float(y @ np.linalg.solve(s, y))  # NIS = y' S^-1 y
+        # NIS = y' S^-1 y, S = H P H' + R; K = P H' S^-1; x = x + K y; P = (I - K H) P (I - K H)' + K R K'
+        # (Joseph form: stays symmetric positive semi-definite whatever the rounding in K).
+        nis, x, p = kalman_update_first_three(kf.x, kf.P, y, self._r)
         verdict = self._gate_verdict(nis)
         if verdict != 'pass':
             if verdict == 'reset':
@@ -395,10 +395,8 @@ class RelativeNavFilter(FilterBase):
                                                       f'position reset to the measurement', y)
             return self._outcome('outlier', t, nis, f'NIS {nis:.4g} > gate {self._gate:.4g} (|y| = '
                                                     f'{float(np.linalg.norm(y)):.4g} m)', y)
-        # K = P H' inv(S); x = x + K y; P = (I - K H) P (I - K H)' + K R K' (Joseph form: stays
-        # symmetric positive semi-definite whatever the rounding in K).
-        kf.update(z)
-        kf.P = 0.5 * (kf.P + kf.P.T)
+        kf.x = x
+        kf.P = 0.5 * (p + p.T)
         return self._outcome('accepted', t, nis, '', y)
 
     def _outcome(self, kind, t, nis=math.nan, reason='', innovation=None):

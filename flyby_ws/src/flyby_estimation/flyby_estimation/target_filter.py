@@ -17,7 +17,8 @@ Markley and Shuster 1982):
   in closed form (target_motion.ErrorStateDynamics.propagate), done by filterpy's KalmanFilter.predict.
 - measurement: z = q_hill_from_body at stamp t, taken to inertial with quat_eci_from_hill(t, n);
   the innovation is the body-frame rotation vector nu = log(q_ref^-1 * q_meas), so H = [I 0] and
-  R = sigma^2 I per body axis (the plant's sensor model: a Gaussian body-frame rotation error).
+  R = sigma^2 I per body axis (the plant's sensor model: a Gaussian body-frame rotation error); the
+  update is filterpy's arithmetic for that H (filter_interface.kalman_update_first_three).
 - gating: the normalized innovation squared d2 = nu' S^-1 nu against chi2(3) at gate_probability;
   rejected measurements are not fused. The ``max_consecutive_outliers``-th outlier in a row restarts
   the filter from that measurement (a wrong first measurement would otherwise lock it out).
@@ -43,7 +44,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from flyby_estimation.batch import check_filter, fit_attitude_motion
-from flyby_estimation.filter_interface import FilterBase, UpdateResult
+from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
 from flyby_estimation.target_motion import (
     ErrorStateDynamics,
     MotionPrediction,
@@ -64,7 +65,7 @@ from flyby_sim.dynamics.rotation import (
     skew,
 )
 
-_H = np.hstack((np.eye(3), np.zeros((3, 3))))  # the measurement sees the attitude error only
+_ZERO_STATE = np.zeros((6, 1))  # the error state between updates (reset after each)
 DEFAULT_MOTION_THRESHOLDS = MotionThresholds()
 
 
@@ -162,9 +163,7 @@ class TargetAttitudeFilter(FilterBase):
         self.dynamics = ErrorStateDynamics(config.inertia, config.torque_psd)
         self._n = config.mean_motion_rad_s
         self._r = config.attitude_sigma_rad ** 2 * np.eye(3)
-        self._kf = KalmanFilter(dim_x=6, dim_z=3)
-        self._kf.H = _H
-        self._kf.R = self._r
+        self._kf = KalmanFilter(dim_x=6, dim_z=3)  # x and P, and predict; H = [I 0] in the update
         self._q = None  # reference q_eci_from_body
         self._omega = None  # reference omega_body [rad/s]
         self._history = collections.deque()  # (t, q_hill_from_body) at ~1 Hz for classify_motion
@@ -224,8 +223,11 @@ class TargetAttitudeFilter(FilterBase):
         kf = self._kf
         # nu = log(q_ref^-1 * q_meas): the measured body-frame attitude error
         nu = rotation_vector_from_quat(quat_multiply(quat_conjugate(self._q), q_eci_meas))
-        s = kf.P[:3, :3] + self._r  # S = H P H' + R
-        d2 = float(nu @ np.linalg.solve(s, nu))  # nu' S^-1 nu
+        # d2 = nu' S^-1 nu, S = H P H' + R; K = P H' S^-1; dx = K nu (x = 0 after every reset);
+        # P = (I-KH) P (I-KH)' + K R K' (Joseph form). The Joseph form keeps P symmetric positive
+        # definite under rounding, which matters here because the rate variance falls by ~10 orders
+        # of magnitude from the 20 deg/s prior.
+        d2, dx, p = kalman_update_first_three(_ZERO_STATE, kf.P, nu, self._r)
         verdict = self._gate_verdict(d2)
         if verdict != 'pass':
             innovation_deg = math.degrees(float(np.linalg.norm(nu)))
@@ -236,22 +238,15 @@ class TargetAttitudeFilter(FilterBase):
                                                      f'> gate {self._gate:.4g}): re-initialized from it', nu)
             return self._outcome('outlier', t, d2, f'innovation {innovation_deg:.3g} deg at t = {t} s: d2 = {d2:.4g} '
                                                    f'> gate {self._gate:.4g}', nu)
-        # filterpy: K = P H' inv(S); x = x + K nu; P = (I-KH) P (I-KH)' + K R K' (Joseph form). The
-        # Joseph form keeps P symmetric positive definite under rounding, which matters here because
-        # the rate variance falls by ~10 orders of magnitude from the 20 deg/s prior.
-        kf.x = np.zeros((6, 1))
-        kf.update(nu.reshape(3, 1))
-        dx = kf.x[:, 0]
         # Reset: fold the error into the reference and zero it. The attitude block is turned by the
         # reset Jacobian G = I - 1/2 [dtheta x] (Markley), dtheta' = G (dtheta - dtheta_hat).
-        dtheta = dx[:3]
+        dtheta = dx[:3, 0]
         self._q = quat_normalize(quat_multiply(self._q, quat_from_rotation_vector(dtheta)))
-        self._omega = self._omega + dx[3:]
+        self._omega = self._omega + dx[3:, 0]
         g = np.eye(6)
         g[:3, :3] -= 0.5 * skew(dtheta)
-        p = g @ kf.P @ g.T  # P = G P G'
+        p = g @ p @ g.T  # P = G P G'
         kf.P = 0.5 * (p + p.T)
-        kf.x = np.zeros((6, 1))
         self._accept(t, z)
         return self._outcome('accepted', t, d2, '', nu)
 

@@ -1,0 +1,26 @@
+"""filter_interface.kalman_update_first_three against filterpy's KalmanFilter.update with H = [I 0]."""
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+from flyby_estimation.filter_interface import kalman_update_first_three
+
+
+def test_update_of_the_first_three_states_is_filterpys():
+    """The same state and Joseph-form covariance as filterpy (what both filters used before), and the NIS."""
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        a = rng.normal(size=(6, 6))
+        p = a @ a.T + 1e-3 * np.eye(6)
+        b = rng.normal(size=(3, 3))
+        r = b @ b.T + 1e-2 * np.eye(3)
+        x = rng.normal(size=(6, 1))
+        z = rng.normal(size=3)
+        kf = KalmanFilter(dim_x=6, dim_z=3)
+        kf.x, kf.P, kf.R, kf.H = x.copy(), p.copy(), r, np.hstack((np.eye(3), np.zeros((3, 3))))
+        kf.update(z)
+        y = z - x[:3, 0]
+        nis, x_new, p_new = kalman_update_first_three(x, p, y, r)
+        np.testing.assert_array_equal(x_new, kf.x)  # to the bit: the same products in the same order
+        np.testing.assert_array_equal(p_new, kf.P)
+        assert np.isclose(nis, y @ np.linalg.solve(p[:3, :3] + r, y), rtol=1e-12)
