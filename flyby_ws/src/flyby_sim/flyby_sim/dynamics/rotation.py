@@ -18,10 +18,17 @@ import numpy as np
 _SMALL_ANGLE_RAD = 1e-6
 
 
+def _floats(v):
+    """The components of one numpy vector as Python floats (the same IEEE arithmetic, several times
+    cheaper per operation than numpy scalars); anything else as given (sequences, or the (4, N)
+    columns of a vectorized call)."""
+    return v.tolist() if type(v) is np.ndarray and v.ndim == 1 else v
+
+
 def quat_multiply(q1, q2):
     """Hamilton product q1 * q2 of two (x, y, z, w) quaternions."""
-    x1, y1, z1, w1 = q1
-    x2, y2, z2, w2 = q2
+    x1, y1, z1, w1 = _floats(q1)
+    x2, y2, z2, w2 = _floats(q2)
     return np.array((
         w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
@@ -32,13 +39,13 @@ def quat_multiply(q1, q2):
 
 def quat_conjugate(q):
     """Conjugate (the inverse of a unit quaternion): q_b_from_a from q_a_from_b."""
-    x, y, z, w = q
+    x, y, z, w = _floats(q)
     return np.array((-x, -y, -z, w))
 
 
 def quat_normalize(q):
     """Unit quaternion along q; raises ValueError for a zero or non-finite q."""
-    x, y, z, w = q
+    x, y, z, w = _floats(q)
     norm = math.sqrt(x * x + y * y + z * z + w * w)
     if not math.isfinite(norm) or norm == 0.0:
         raise ValueError(f'quaternion {list(q)} cannot be normalized (norm {norm})')
@@ -47,7 +54,7 @@ def quat_normalize(q):
 
 def quat_to_matrix(q):
     """Rotation matrix C_a_from_b of q_a_from_b (q need not be exactly unit)."""
-    x, y, z, w = q
+    x, y, z, w = _floats(q)
     s = 2.0 / (x * x + y * y + z * z + w * w)
     xx, yy, zz = s * x * x, s * y * y, s * z * z
     xy, xz, yz = s * x * y, s * x * z, s * y * z
@@ -94,8 +101,8 @@ def quat_from_matrix(c_a_from_b):
 
 def quat_rotate(q, v):
     """v_a = q_a_from_b applied to v_b, for a unit quaternion q."""
-    x, y, z, w = q
-    vx, vy, vz = v
+    x, y, z, w = _floats(q)
+    vx, vy, vz = _floats(v)
     # t = 2 (u x v); v' = v + w t + u x t
     tx = 2.0 * (y * vz - z * vy)
     ty = 2.0 * (z * vx - x * vz)
@@ -122,7 +129,7 @@ def quat_rotate_many(q, v):
 
 def skew(v):
     """[v x], the 3x3 matrix with skew(v) @ u = cross(v, u)."""
-    x, y, z = v
+    x, y, z = _floats(v)
     return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
 
 
@@ -150,7 +157,7 @@ def quat_shortest_arc(u_from, u_to):
 
 def quat_from_rotation_vector(rotvec):
     """Unit quaternion of the rotation by |rotvec| [rad] about rotvec (the exponential map)."""
-    rx, ry, rz = rotvec
+    rx, ry, rz = _floats(rotvec)
     angle = math.sqrt(rx * rx + ry * ry + rz * rz)
     if not math.isfinite(angle):
         raise ValueError(f'rotation vector {list(rotvec)} is not finite')
@@ -163,7 +170,7 @@ def quat_from_rotation_vector(rotvec):
 
 def quat_from_axis_angle(axis, angle_rad):
     """Unit quaternion of a rotation by angle_rad about axis (any nonzero length)."""
-    ax, ay, az = axis
+    ax, ay, az = _floats(axis)
     norm = math.sqrt(ax * ax + ay * ay + az * az)
     if not math.isfinite(norm) or norm == 0.0:
         raise ValueError(f'rotation axis {list(axis)} must be finite and nonzero')
@@ -173,7 +180,7 @@ def quat_from_axis_angle(axis, angle_rad):
 
 def rotation_vector_from_quat(q):
     """Rotation vector [rad] of q (the logarithmic map), angle in [0, pi]."""
-    x, y, z, w = quat_normalize(q)
+    x, y, z, w = quat_normalize(q).tolist()
     if w < 0.0:  # q and -q are the same rotation; take the short way round
         x, y, z, w = -x, -y, -z, -w
     sin_half = math.sqrt(x * x + y * y + z * z)
