@@ -17,7 +17,8 @@ def filters_from_scenario(scenario):
     rad = math.radians
     target = TargetAttitudeFilter(target_filter_config_from_scenario(
         scenario, gate_probability=est.gate_probability,
-        rate_sigma0_rad_s=rad(est.initial_rate_sigma_deg_s), torque_psd=est.torque_psd_n2m2s))
+        rate_sigma0_rad_s=rad(est.initial_rate_sigma_deg_s), torque_psd=est.torque_psd_n2m2s,
+        check_window_max_samples=est.batch_check_max_samples))
     nav = RelativeNavFilter(relative_nav_config_from_scenario(
         scenario, gate_probability=est.gate_probability, accel_psd_m2_s3=est.accel_psd_m2_s3,
         initial_velocity_sigma_mps=est.initial_velocity_sigma_mps))

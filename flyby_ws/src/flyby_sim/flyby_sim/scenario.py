@@ -194,6 +194,10 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                        '(I), not librating (II).'),
         'controlled_excursion_deg': Field(FLOAT, 2.0, '> 0', 'Largest attitude excursion in hill for category I.'),
         'initial_rate_sigma_deg_s': Field(FLOAT, 20.0, '> 0', 'Prior 1-sigma per axis of the unknown target rate.'),
+        'batch_check_max_samples': Field(INT, 2000, '>= 3',
+                                         'The estimator checks the target filter against the batch maximum-'
+                                         'likelihood fit of its measurements at convergence if there are at most '
+                                         'this many (the fit costs about 10 ms a sample on a fast tumbler).'),
         'torque_psd_n2m2s': Field(FLOAT, 1e-10, '>= 0',
                                   'Torque-noise spectral density of the target filter per body axis.'),
         'accel_psd_m2_s3': Field(FLOAT, 1e-9, '>= 0',
