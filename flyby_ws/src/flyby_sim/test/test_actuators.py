@@ -1,0 +1,161 @@
+"""actuators.py: thruster layout authority, wrench allocation (exact or saturated), execution errors and fuel."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+from flyby_sim.dynamics.actuators import (
+    ThrusterLayout,
+    allocate_wrench,
+    default_thruster_layout,
+    draw_thruster_errors,
+    fire,
+    is_positively_spanning,
+)
+from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
+from flyby_sim.dynamics.propulsion import delta_v_for_fuel_mps
+
+LAYOUT = default_thruster_layout()
+B = LAYOUT.wrench_matrix
+LEVER_M = float(np.mean(np.linalg.norm(B[3:], axis=0)))
+WEIGHT = np.concatenate((np.ones(3), np.full(3, 1.0 / LEVER_M)))  # allocate_wrench's residual weights
+
+thrust_vectors = st.lists(st.floats(0.0, 10.0), min_size=12, max_size=12).map(np.array)
+
+
+def test_default_layout_is_full_rank_and_positively_spanning():
+    assert B.shape == (6, 12)
+    assert np.linalg.matrix_rank(B) == 6
+    assert is_positively_spanning(B)
+    # Every wrench direction has non-negative thrusts: the unit wrenches and their negatives.
+    for w in np.vstack((np.eye(6), -np.eye(6))):
+        assert not allocate_wrench(LAYOUT, w[:3], w[3:]).saturated
+    # Each thruster is needed: without any one of them some wrench direction is lost.
+    for i in range(12):
+        assert not is_positively_spanning(np.delete(B, i, axis=1))
+    assert np.all(np.linalg.norm(LAYOUT.positions_body_m, axis=1) < 0.5)  # inside the 0.5 m envelope
+
+
+def test_positive_spanning_is_more_than_rank():
+    """Six thrusters pushing along +x, +y, +z from two points: rank 6, yet no thrust pushes along -x."""
+    positions = [[0.0, 0.3, 0.0], [0.0, -0.3, 0.3], [0.3, 0.0, -0.3], [0.0, 0.0, 0.3], [0.3, 0.0, 0.0],
+                 [0.0, 0.3, 0.3]]
+    directions = [[1, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]]
+    b = ThrusterLayout(positions, directions, 1.0, 200.0, 0.0).wrench_matrix
+    assert np.linalg.matrix_rank(b) == 6
+    assert not is_positively_spanning(b)
+
+
+@settings(max_examples=60, deadline=None)
+@given(thrust_vectors)
+def test_allocation_reproduces_every_achievable_wrench_to_1e_9(thrusts_drawn):
+    """w = B f for f within bounds: the allocation delivers w to 1e-9 (N, N m) with no more total thrust."""
+    w = B @ thrusts_drawn
+    allocation = allocate_wrench(LAYOUT, w[:3], w[3:])
+    assert not allocation.saturated
+    assert np.max(np.abs(allocation.wrench_delivered_body - w)) < 1e-9
+    assert np.array_equal(allocation.wrench_undelivered_body, w - allocation.wrench_delivered_body)
+    assert np.all(allocation.thrusts_n >= 0.0) and np.all(allocation.thrusts_n <= 10.0)
+    assert allocation.total_thrust_n <= thrusts_drawn.sum() + 1e-9  # least total thrust (the LP's objective)
+
+
+@settings(max_examples=30, deadline=None)
+@given(thrust_vectors, st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)).filter(
+    lambda u: np.linalg.norm(u) > 0.1))
+def test_allocation_reports_the_saturated_part_of_an_unachievable_wrench(thrusts_drawn, direction):
+    """A force of 200 N more than the twelve 10 N thrusters' sum: saturated, delivered + undelivered =
+    commanded, thrusts in bounds, and no worse (weighted 1-norm) than the thrusts it was built from."""
+    extra = 200.0 * np.asarray(direction) / np.linalg.norm(direction)
+    w = B @ thrusts_drawn + np.concatenate((extra, np.zeros(3)))
+    allocation = allocate_wrench(LAYOUT, w[:3], w[3:])
+    assert allocation.saturated
+    assert np.allclose(allocation.wrench_delivered_body + allocation.wrench_undelivered_body, w, rtol=0.0, atol=1e-12)
+    assert np.allclose(allocation.wrench_delivered_body, B @ allocation.thrusts_n, rtol=0.0, atol=1e-12)
+    assert np.all(allocation.thrusts_n >= 0.0) and np.all(allocation.thrusts_n <= 10.0)
+    residual = np.abs(WEIGHT * allocation.wrench_undelivered_body).sum()
+    assert residual <= np.abs(WEIGHT * (w - B @ thrusts_drawn)).sum() + 1e-8
+
+
+def test_saturated_pure_force_delivers_the_two_thrusters_along_it():
+    """100 N along +x: the two +x thrusters at full thrust (20 N, no torque), 80 N reported undelivered."""
+    allocation = allocate_wrench(LAYOUT, [100.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    assert allocation.saturated
+    assert np.allclose(allocation.wrench_delivered_body, [20.0, 0, 0, 0, 0, 0], rtol=0.0, atol=1e-9)
+    assert np.allclose(allocation.wrench_undelivered_body, [80.0, 0, 0, 0, 0, 0], rtol=0.0, atol=1e-9)
+    assert np.allclose(allocation.thrusts_n, [10.0, 10.0] + [0.0] * 10, rtol=0.0, atol=1e-9)
+
+
+def test_pure_torque_fires_a_couple_with_the_least_thrust():
+    """1 N m about z from the x thrusters (lever arm 0.25 m): 2 N each on one crosswise pair, no force."""
+    allocation = allocate_wrench(LAYOUT, [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    assert allocation.total_thrust_n == pytest.approx(4.0, abs=1e-9)
+    assert np.allclose(allocation.wrench_delivered_body, [0, 0, 0, 0, 0, 1.0], rtol=0.0, atol=1e-12)
+
+
+def test_execution_errors_come_from_the_generator_passed_in():
+    """4 draws per thruster, the same for the same seed, none from the global state; zero sigma: nominal."""
+    errors = draw_thruster_errors(LAYOUT, np.random.default_rng(7), 0.01, math.radians(0.5))
+    again = draw_thruster_errors(LAYOUT, np.random.default_rng(7), 0.01, math.radians(0.5))
+    assert np.array_equal(errors.magnitude_factors, again.magnitude_factors)
+    assert np.array_equal(errors.force_directions_body, again.force_directions_body)
+    rng = np.random.default_rng(7)
+    draw_thruster_errors(LAYOUT, rng, 0.0, 0.0)
+    reference = np.random.default_rng(7)
+    reference.standard_normal(4 * LAYOUT.count)
+    assert rng.standard_normal() == reference.standard_normal()
+    nominal = draw_thruster_errors(LAYOUT, np.random.default_rng(7), 0.0, 0.0)
+    assert np.array_equal(nominal.magnitude_factors, np.ones(12))
+    assert np.allclose(nominal.force_directions_body, LAYOUT.force_directions_body, rtol=0.0, atol=0.0)
+    # The misaligned directions stay unit vectors, a few tenths of a degree off.
+    assert np.allclose(np.linalg.norm(errors.force_directions_body, axis=1), 1.0, rtol=0.0, atol=1e-15)
+    angles = np.arccos(np.clip(np.sum(errors.force_directions_body * LAYOUT.force_directions_body, axis=1), -1, 1))
+    assert 0.0 < angles.max() < math.radians(0.5 * 6)
+
+
+def test_fire_applies_errors_and_the_minimum_impulse_bit():
+    thrusts = np.zeros(12)
+    thrusts[0], thrusts[5] = 4.0, 0.05  # 0.05 N for 0.1 s = 0.005 N s, below the 0.01 N s bit
+    errors = draw_thruster_errors(LAYOUT, np.random.default_rng(1), 0.02, math.radians(1.0))
+    firing = fire(LAYOUT, thrusts, 0.1, errors)
+    assert firing.below_minimum_impulse.tolist() == [i == 5 for i in range(12)]
+    assert firing.thrusts_n[5] == 0.0 and firing.thrusts_n[0] == 4.0 * errors.magnitude_factors[0]
+    d, r = errors.force_directions_body[0], LAYOUT.positions_body_m[0]
+    assert np.allclose(firing.force_body_n, firing.thrusts_n[0] * d, rtol=0.0, atol=1e-15)
+    assert np.allclose(firing.torque_body_n_m, np.cross(r, firing.thrusts_n[0] * d), rtol=0.0, atol=1e-15)
+    assert firing.impulses_n_s[0] == pytest.approx(0.4 * errors.magnitude_factors[0], rel=1e-15)
+
+
+def test_fuel_from_impulse_agrees_with_the_rocket_equation():
+    """One 10 N thruster for 60 s from 100 kg: fuel = impulse / (Isp g0); integrating m_dot = -F/(Isp g0),
+    v_dot = F/m independently gives the rocket equation's delta-v for that fuel (propulsion)."""
+    thrusts = np.zeros(12)
+    thrusts[0] = 10.0
+    firing = fire(LAYOUT, thrusts, 60.0)
+    ve = 220.0 * STANDARD_GRAVITY_M_S2
+    assert firing.fuel_kg == pytest.approx(600.0 / ve, rel=1e-15)
+    end = solve_ivp(lambda _t, y: [-10.0 / ve, 10.0 / y[0]], (0.0, 60.0), [100.0, 0.0], rtol=1e-12, atol=1e-12).y[:, -1]
+    assert 100.0 - end[0] == pytest.approx(firing.fuel_kg, rel=1e-10)
+    assert end[1] == pytest.approx(delta_v_for_fuel_mps(100.0, firing.fuel_kg, ve), rel=1e-10)
+
+
+def test_bad_inputs_name_themselves():
+    with pytest.raises(ValueError, match='force_body_n'):
+        allocate_wrench(LAYOUT, [1.0, math.inf, 0.0], [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match='torque_body_n_m'):
+        allocate_wrench(LAYOUT, [1.0, 0.0, 0.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match='outside'):
+        fire(LAYOUT, np.full(12, 11.0), 0.1)
+    with pytest.raises(ValueError, match='period_s'):
+        fire(LAYOUT, np.zeros(12), 0.0)
+    with pytest.raises(ValueError, match='zero direction'):
+        ThrusterLayout([[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]], 1.0, 200.0, 0.0)
+    with pytest.raises(ValueError, match='max_thrust_n'):
+        ThrusterLayout([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [1.0, 2.0], 200.0, 0.0)
+    with pytest.raises(ValueError, match='isp_s'):
+        default_thruster_layout(isp_s=0.0)
+    with pytest.raises(ValueError, match='misalignment_sigma_rad'):
+        draw_thruster_errors(LAYOUT, np.random.default_rng(0), 0.0, -1.0)
