@@ -165,18 +165,19 @@ class GyrostatPropagator:
         breaks = sorted({min(max(t, 0.0), dt_s) for t in t_limit[momentum_limited].tolist()} | {dt_s})
         y = np.concatenate((np.asarray(state.q_inertial_from_body, dtype=float),
                             _finite_vector('omega_body', state.omega_body, 3), h0))
-        t, impulse = 0.0, np.zeros(n)
+        t = 0.0
         for t_end in breaks:
             active = np.where(t_limit > t, u, 0.0)
             if t_end > t:
                 y = self._integrate(y, t_end - t, torque_ext.tolist(), active.tolist())
-                impulse += active * (t_end - t)
             # A wheel that reached its limit now sits exactly on it (no round-off past it).
             reached = np.flatnonzero(momentum_limited & (t_limit <= t_end))
             y[7 + reached] = np.sign(u[reached]) * h_max[reached]
             t = t_end
         new_state = ChaserAttitudeState(quat_normalize(y[:4].tolist()), y[4:7].copy(), y[7:].copy())
-        return WheelStep(new_state, impulse / dt_s, torque_limited, momentum_limited)
+        # Each wheel pushes with u until it reaches its limit (exactly u for one that never does).
+        applied = u * (np.clip(t_limit, 0.0, dt_s) / dt_s)
+        return WheelStep(new_state, applied, torque_limited, momentum_limited)
 
     def _integrate(self, y0, duration_s, torque_ext, wheel_torque):
         """y after duration_s of DOP853 with constant inputs (y = q, omega, h)."""
