@@ -358,6 +358,21 @@ class MotionPrediction:
             p = phi @ self._p0 @ phi.T + y[_QD].reshape(6, 6)  # P(t) = Phi P0 Phi' + Qd
         return make_state(t, self._n, quat_normalize(y[:4].tolist()), y[4:7], p)
 
+    @property
+    def has_covariance(self):
+        return self._p0 is not None
+
+    def attitude_sigma_rad(self, times):
+        """(N,) 1-sigma attitude error [rad] at the times (N,) [s]: the square root of the largest eigenvalue of
+        the attitude block of P(t) = Phi P0 Phi' + Qd. Needs a prediction with covariance."""
+        if self._p0 is None:
+            raise ValueError('this prediction carries no covariance')
+        t = np.atleast_1d(np.asarray(times, dtype=float))
+        y = self._dense(t)
+        phi = y[_PHI].T.reshape(-1, 6, 6)[:, :3, :]  # attitude rows of Phi
+        p = np.einsum('mij,jk,mlk->mil', phi, self._p0, phi) + y[_QD].T.reshape(-1, 6, 6)[:, :3, :3]
+        return np.sqrt(np.maximum(np.linalg.eigvalsh(0.5 * (p + np.swapaxes(p, 1, 2)))[:, -1], 0.0))
+
     def body_point_in_hill(self, x_body, t):
         """BodyPointPrediction of the body point x_body [m] at t [s] (seed 000 eq 8-9)."""
         return point_prediction(self.state(t), x_body, self._n)
@@ -392,10 +407,23 @@ class MotionPrediction:
         return np.swapaxes(eci_vector_in_hill(body_axes_eci, t[:, None], self._n), 1, 2)
 
 
-def prediction_from_estimate(dynamics, n, t, q_hill_from_body_, omega_body, t_end):
-    """MotionPrediction (without covariance) from a published estimate: attitude in hill and body rate at t."""
-    return MotionPrediction(dynamics, n, t, q_eci_from_body(t, n, q_hill_from_body_), omega_body, None, t_end,
-                            with_covariance=False)
+def prediction_from_estimate(dynamics, n, t, q_hill_from_body_, omega_body, t_end, covariance_body=None):
+    """MotionPrediction from a published estimate: attitude in hill and body rate at t, and, if given, the
+    6x6 error covariance of [dtheta_body, domega_body] (covariance_from_published); without it, none."""
+    return MotionPrediction(dynamics, n, t, q_eci_from_body(t, n, q_hill_from_body_), omega_body, covariance_body,
+                            t_end, with_covariance=covariance_body is not None)
+
+
+def covariance_from_published(q_hill_from_body_, attitude_covariance_hill, rate_covariance_body):
+    """The error covariance of [dtheta_body, domega_body] from the blocks an estimate publishes
+    (estimation/target/odom: pose orientation covariance about hill axes, twist angular covariance in
+    body axes; covariance_in_hill's dtheta_hill = C dtheta_body inverted). The attitude-rate
+    cross-covariance is not published and is taken as zero."""
+    c = quat_to_matrix(q_hill_from_body_)
+    p = np.zeros((6, 6))
+    p[:3, :3] = c.T @ np.asarray(attitude_covariance_hill, dtype=float) @ c
+    p[3:, 3:] = np.asarray(rate_covariance_body, dtype=float)
+    return 0.5 * (p + p.T)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -14,9 +14,11 @@ from flyby_estimation.target_motion import (
     MotionThresholds,
     body_point_in_hill,
     classify_motion,
+    covariance_from_published,
     covariance_in_hill,
     make_state,
     orbit_rate_hill,
+    prediction_from_estimate,
 )
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body, rk4_step
@@ -295,3 +297,30 @@ def test_classify_rejects_bad_input():
         classify_motion([math.nan, 0.0, 0.0], N)
     with pytest.raises(ValueError, match='spin_rate_rad_s'):
         MotionThresholds(spin_rate_rad_s=-1.0)
+
+
+def test_published_covariance_blocks_round_trip_and_propagate():
+    """covariance_from_published inverts covariance_in_hill's attitude block (the rate block is published in
+    body axes), and MotionPrediction.attitude_sigma_rad is the largest attitude sigma of state(t).covariance
+    (P = Phi P0 Phi' + Qd), growing from the rate error."""
+    rng = np.random.default_rng(4)
+    a = rng.standard_normal((6, 6))
+    p_body = a @ a.T * 1e-6
+    p_body[:3, 3:] = p_body[3:, :3] = 0.0  # the cross block is not published
+    q = np.array([0.2, -0.4, 0.1, 0.88])
+    q /= np.linalg.norm(q)
+    omega_body = np.radians([1.0, -2.0, 6.0])
+    c = quat_to_matrix(q)
+    p_hill = covariance_in_hill(c, omega_body, p_body)
+    np.testing.assert_allclose(covariance_from_published(q, p_hill[:3, :3], p_body[3:, 3:]), p_body, atol=1e-18)
+    n = mean_motion_rad_s(7.0e6)
+    dynamics = ErrorStateDynamics(np.diag([1200.0, 1000.0, 2000.0]), 1e-10)
+    pred = prediction_from_estimate(dynamics, n, 10.0, q, omega_body, 400.0, p_body)
+    times = np.array([10.0, 50.0, 200.0, 400.0])
+    sigma = pred.attitude_sigma_rad(times)
+    expected = [math.sqrt(np.linalg.eigvalsh(pred.state(t).covariance[:3, :3])[-1]) for t in times]
+    np.testing.assert_allclose(sigma, expected, rtol=1e-9)
+    assert sigma[0] == pytest.approx(math.sqrt(np.linalg.eigvalsh(p_body[:3, :3])[-1]), rel=1e-9)
+    assert sigma[-1] > sigma[0]
+    with pytest.raises(ValueError, match='no covariance'):
+        prediction_from_estimate(dynamics, n, 10.0, q, omega_body, 400.0).attitude_sigma_rad(times)

@@ -133,7 +133,8 @@ class HeadlessGraph:
         elif isinstance(out, TargetEstimate):  # estimation/target/odom
             args = (wire_time(out.t), out.q_hill_from_body, out.omega_body)
             self._queue.extend(self.supervisor.on_target_estimate(*args) + self.planner.on_target_estimate(*args)
-                               + self.guidance.on_target_estimate(*args))
+                               + self.guidance.on_target_estimate(*args, out.attitude_covariance_hill,
+                                                                  out.rate_covariance_body))
         elif isinstance(out, ChaserEstimate):  # estimation/chaser/odom
             args = (wire_time(out.t), out.r_hill, out.v_hill)
             self._queue.extend(self.supervisor.on_chaser_estimate(*args) + self.planner.on_chaser_estimate(*args)

@@ -18,7 +18,7 @@ import collections
 
 import numpy as np
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
@@ -50,14 +50,15 @@ class GuidanceCore:
         self.scenario = scenario
         self.name = name
         self.guidance = FlybyGuidance(guidance_config_from_scenario(scenario))
-        self.dynamics = ErrorStateDynamics(scenario.target_inertia)
+        # The estimator's torque noise: the gate propagates the estimate's covariance as the filter would.
+        self.dynamics = ErrorStateDynamics(scenario.target_inertia, scenario.estimation.torque_psd_n2m2s)
         self.planner_config = planner_config_from_scenario(scenario)
         self.n = scenario.mean_motion_rad_s
         self.x_grasp_body = np.array(scenario.target.grasp_point_body_m)
         self.phase = None
         self.flyby_initial = self.flyby_target = None  # (t, x, v) as last published
         self.plan_stamp = None  # the plan time of the plan being flown
-        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) of the target estimates
+        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body, body error covariance or None)
         self.waiting = collections.deque()  # (t, r_hill, v_hill) chaser estimates not yet stepped, in order
 
     # -- the plan -------------------------------------------------------------------------------
@@ -85,8 +86,15 @@ class GuidanceCore:
         self.phase = phase
         return []
 
-    def on_target_estimate(self, t, q_hill_from_body, omega_body):
-        self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float)))
+    def on_target_estimate(self, t, q_hill_from_body, omega_body, attitude_covariance_hill=None,
+                           rate_covariance_body=None):
+        """A target estimate (estimation/target/odom) with, if published, its attitude covariance about hill
+        axes and rate covariance in body axes (3x3 each): with them the gate weighs the estimate's own
+        uncertainty, without them the planner's model."""
+        q = np.asarray(q_hill_from_body, dtype=float)
+        covariance = (None if attitude_covariance_hill is None or rate_covariance_body is None else
+                      covariance_from_published(q, attitude_covariance_hill, rate_covariance_body))
+        self.targets.add(t, (q, np.asarray(omega_body, dtype=float), covariance))
         return self._step_waiting()
 
     def on_chaser_estimate(self, t, r_hill, v_hill):
@@ -130,13 +138,13 @@ class GuidanceCore:
         step 4, with the floor _GATE_MARGIN_M);
         otherwise keep the aim if its arc still is, or stop thrusting and report the fault (the
         supervisor aborts and escapes): a re-aim never flies the chaser onto an unsafe arc."""
-        t_est, (q_hb, omega_body) = target
+        t_est, (q_hb, omega_body, covariance) = target
         aim = self.guidance.target
         if aim.t_f <= t_est:
             return []
         cfg = self.planner_config
         prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body,
-                                              aim.t_f + max(_REFINE_HORIZON_S, cfg.geometry_window_s))
+                                              aim.t_f + max(_REFINE_HORIZON_S, cfg.geometry_window_s), covariance)
         g = refine_grasp(prediction, self.x_grasp_body, aim.t_f, self.n, t_latest=aim.t_f + _REFINE_HORIZON_S)
         if g is not None:
             offset_m = offset_of_flyby_target(aim.x_ft, self.x_grasp_body)

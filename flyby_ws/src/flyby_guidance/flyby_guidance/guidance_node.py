@@ -31,7 +31,7 @@ class GuidanceNode(CoreNode):
         self.subscribe_odometry(c.PLANNER_FLYBY_TARGET, self.core.on_flyby_target, 'position', 'linear')
         self.subscribe(c.PLANNER_PATH, self.on_path)
         self.subscribe_phase()
-        self.subscribe_estimates()
+        self.subscribe_estimates(target_covariance=True)  # the gate weighs the estimate's uncertainty
 
     def on_path(self, msg):
         self.publish(self.core.on_path(convert.stamp_to_sec(msg.header.stamp)))

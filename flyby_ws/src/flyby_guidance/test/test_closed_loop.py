@@ -22,13 +22,8 @@ def test_a_refused_plan_ends_in_no_safe_plan_with_its_reason():
     assert s['sim_time_s'] < 120.0  # the run ends at the refusal
 
 
-def test_an_unsafe_reaimed_arc_is_never_flown():
-    """Run 569 of the envelope campaign (campaigns/flyby_envelope.yaml, campaign seed 2026): an 8.2 deg/s spin
-    about the intermediate principal axis, an unstable tumble. The plan, from the estimate at 125 s, passes
-    0.136 m from the +y panel; the estimates of the adjusting phase show the real passage through that
-    panel. Guidance used to re-aim onto it (COLLISION, 0.35 m deep, 25 s before the grasp); now its gate
-    (plan.check_passage on every re-aimed arc) refuses the arc, the supervisor aborts outside the sphere and
-    the avoidance burn carries the chaser clear."""
+def _envelope_run_569():
+    """Run 569 of the envelope campaign (campaigns/flyby_envelope.yaml, campaign seed 2026), drawn values."""
     d = load_scenario(SCENARIOS / 'paper_flyby.yaml').to_dict()
     d['seed'] = 2056802005
     d['planner']['sun_direction_hill'] = None
@@ -44,10 +39,37 @@ def test_an_unsafe_reaimed_arc_is_never_flown():
     d['sensors']['target_attitude']['noise_sigma_deg'] = 1.7537225542714447
     d['chaser']['thrusters']['magnitude_error_sigma'] = 0.005757055901678327
     d['chaser']['thrusters']['direction_error_sigma_deg'] = 0.7593258264653564
+    return d
+
+
+def test_an_unsafe_reaimed_arc_is_never_flown():
+    """Envelope run 569: an 8.2 deg/s spin about the intermediate principal axis, an unstable tumble. The plan, from
+    the estimate at 125 s, passes 0.136 m from the +y panel; the estimates of the adjusting phase show the real
+    passage through that panel. Guidance used to re-aim onto it (COLLISION, 0.35 m deep, 25 s before the grasp);
+    now its gate (plan.check_passage on every re-aimed arc, 3 sigma of each estimate's own covariance) refuses
+    that arc at every re-aim and keeps the planned one, which it still finds clear: the chaser coasts past the
+    panel and, the grasp point elsewhere, escapes."""
+    d = _envelope_run_569()
     run = run_headless(scenario_from_dict(d, name='envelope run 569'))
+    s = run.summary
+    refused = [e for e in run.events if e['name'] == 'target_refined' and e['level'] == 'WARN']
+    assert refused and all('panel_plus_y' in e['message'] and 'keeping the aim' in e['message'] for e in refused)
+    assert not any(e['name'] == 'target_refined' and e['level'] == 'OK' for e in run.events)
+    assert s['outcome'] == 'ESCAPE' and s['min_clearance_m'] > 0.0, s
+    assert not s['thrust_inside_restriction_sphere']
+
+
+def test_without_a_safe_arc_guidance_stops_and_the_supervisor_escapes():
+    """The same run with a filter that admits unmodelled torques of 1e-6 N^2 m^2 s: the estimates' own
+    uncertainty, propagated to the passage, vouches for neither the re-aimed arc nor the planned one, so
+    guidance stops thrusting (passage_unsafe, ERROR), the supervisor aborts outside the sphere and its
+    avoidance burn carries the chaser clear."""
+    d = _envelope_run_569()
+    d['estimation']['torque_psd_n2m2s'] = 1e-6
+    run = run_headless(scenario_from_dict(d, name='envelope run 569, torque noise 1e-6'))
     s = run.summary
     unsafe = [e for e in run.events if e['name'] == 'passage_unsafe']
     assert unsafe and unsafe[0]['level'] == 'ERROR', s['end_reason']
-    assert s['outcome'] == 'ABORTED' and s['min_clearance_m'] > 0.1
+    assert s['outcome'] == 'ABORTED' and s['min_clearance_m'] > 10.0
     assert [b['kind'] for b in run.burns if b['t'] >= unsafe[0]['t']] == ['avoidance']
     assert not s['thrust_inside_restriction_sphere']

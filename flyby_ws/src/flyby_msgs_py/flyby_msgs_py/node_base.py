@@ -38,9 +38,18 @@ class CoreNode(Node):
             self.publish(core_input(o.t, *(getattr(o, f) for f in fields)))
         return self.subscribe(topic, callback)
 
-    def subscribe_estimates(self):
-        """estimation/target/odom and estimation/chaser/odom into the core."""
-        self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
+    def subscribe_estimates(self, target_covariance=False):
+        """estimation/target/odom and estimation/chaser/odom into the core; with target_covariance the
+        target's attitude covariance about hill axes and rate covariance in body axes (the 3x3 angular
+        blocks of the pose and twist covariances) follow the rate."""
+        if target_covariance:
+            def on_target(msg):
+                o = convert.odometry_to_numpy(msg)
+                self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular,
+                                                          o.pose_covariance[3:, 3:], o.twist_covariance[3:, 3:]))
+            self.subscribe(c.EST_TARGET_ODOM, on_target)
+        else:
+            self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
         self.subscribe_odometry(c.EST_CHASER_ODOM, self.core.on_chaser_estimate, 'position', 'linear')
 
     def subscribe_phase(self):

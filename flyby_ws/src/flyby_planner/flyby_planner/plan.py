@@ -78,6 +78,8 @@ _BATCH = 12
 # Guidance's last adjusting burn is where the passive arc is still this far beyond the restriction
 # sphere and its burn margin [m] (flyby_guidance.guidance, arc law); from there the chaser coasts.
 LAST_BURN_SLACK_M = 2.0
+# A prediction's attitude uncertainty, where it carries its covariance, counts at this many sigma.
+UNCERTAINTY_SIGMAS = 3.0
 # Points of the terminal transfer checked against the restriction sphere.
 _TRANSFER_SAMPLES = 60
 
@@ -422,12 +424,19 @@ def _nearest_box(p_body, boxes):
 
 def _predicted_gaps(prediction, r_hill, t, t_grasp, config):
     """Gap [m] of the chaser envelope from the target's predicted geometry at each (r_hill (M, 3), t (M,)),
-    less the prediction's uncertainty (module doc, step 4), and the nearest box's name per sample."""
+    less the prediction's uncertainty, and the nearest box's name per sample.
+
+    The uncertainty is |r| times an attitude error: for a prediction that carries the estimate's
+    covariance (guidance's gate), UNCERTAINTY_SIGMAS times its own propagated 1-sigma attitude error;
+    otherwise (the planner, which plans from the estimate alone, long before the re-aims) the model of
+    module doc step 4, geometry_attitude_margin + geometry_rate_margin |t - t_g|."""
     c_hb = prediction.c_hill_from_body(t)
     dist, names = _nearest_box(np.einsum('mji,mj->mi', c_hb, r_hill), config.boxes)  # C_hill_from_body' r
-    uncertainty = np.linalg.norm(r_hill, axis=1) * (config.geometry_attitude_margin_rad
-                                                    + config.geometry_rate_margin_rad_s * np.abs(t - t_grasp))
-    return dist - config.envelope_radius_m - uncertainty, names
+    if getattr(prediction, 'has_covariance', False):
+        angle = UNCERTAINTY_SIGMAS * prediction.attitude_sigma_rad(t)
+    else:
+        angle = config.geometry_attitude_margin_rad + config.geometry_rate_margin_rad_s * np.abs(t - t_grasp)
+    return dist - config.envelope_radius_m - np.linalg.norm(r_hill, axis=1) * angle, names
 
 
 def _passages(keys, states_at_grasp, prediction, region, config, back_s=None):
@@ -545,8 +554,9 @@ class PassageCheck:
 def check_passage(prediction, x_ft, v_ft, t_grasp, t_from, config, margin_m=None):
     """The passive-safety check of step 4 for the arc through X_Ft, V_Ft at t_grasp (hill, velocity
     relative to hill), coasted from t_from over the grasp and the escape: the predicted geometry less
-    its uncertainty near the grasp, the swept region elsewhere; safe when the least gap keeps margin_m
-    (default: the planning margin, clearance_margin_m). Guidance runs it on every re-aimed arc before
+    its uncertainty near the grasp (3 sigma of the prediction's own covariance if it carries one), the
+    swept region elsewhere; safe when the least gap keeps margin_m (default: the planning margin,
+    clearance_margin_m). Guidance runs it on every re-aimed arc before
     it flies onto it (flyby_guidance.guidance_core); ``prediction`` covers [t_from,
     t_grasp + geometry_window_s] for the predicted geometry to count over the whole passage."""
     region = _predicted_region(prediction, max(t_from, prediction.t0), config)

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 import yaml
 
+from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
 from flyby_planner.plan import (
+    _predicted_gaps,
     _transfer_spread_m,
     avoidance_burn,
     check_passage,
@@ -299,6 +301,19 @@ def test_check_passage_passes_the_planned_arc_and_fails_one_through_the_bus(pape
     inside = c.x_g * (1.0 - 0.5 / np.linalg.norm(c.x_g))  # 0.5 m under the grasp point: in the bus
     hit = check_passage(pred, inside, c.v_ft, c.t_grasp, c.t_i, cfg)
     assert not hit.safe and hit.gap_m < 0.0
+    # With the estimate's own covariance (guidance's gate) the allowance is 3 sigma of it, here 0.05 deg
+    # and 0.0005 deg/s against the planner's 2 deg + 0.02 deg/s: the same arc keeps more.
+    s0 = pred.state(c.t_i)
+    p0 = np.diag([np.radians(0.05) ** 2] * 3 + [np.radians(0.0005) ** 2] * 3)
+    tight = MotionPrediction(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, c.t_i, s0.q_eci_from_body,
+                             s0.omega_body, p0, pred.t_end)
+    gated = check_passage(tight, c.x_ft, c.v_ft, c.t_grasp, c.t_i, cfg, 0.0)
+    assert gated.safe and gated.gap_m >= ok.gap_m
+    at_grasp = (c.x_ft[None, :], np.array([c.t_grasp]), c.t_grasp, cfg)
+    planner_gap, gate_gap = _predicted_gaps(pred, *at_grasp)[0][0], _predicted_gaps(tight, *at_grasp)[0][0]
+    sigma = tight.attitude_sigma_rad([c.t_grasp])[0]
+    assert gate_gap - planner_gap == pytest.approx(np.linalg.norm(c.x_ft) * (cfg.geometry_attitude_margin_rad
+                                                                             - 3.0 * sigma), rel=1e-9)
     assert abs(hit.t_min_gap - c.t_grasp) < 5.0
 
 
