@@ -68,7 +68,7 @@ def test_a_re_aim_keeps_the_offset_of_the_plan():
     core.on_flyby_target(741.0, x_ft, v_ft)
     core.on_flyby_initial(441.0, X_FI, V_FI)
     core.on_path(60.0)
-    (refined,) = core._refine(400.0, (400.0, (q_hill_from_body(400.0, n, q), w)))
+    (refined,) = core._refine(400.0, (400.0, (q_hill_from_body(400.0, n, q), w, None)))
     assert refined.name == 'target_refined'
     offset = np.linalg.norm(refined.values['x_ft_hill_m']) - np.linalg.norm(refined.values['x_g_hill_m'])
     assert offset == pytest.approx(1.3, abs=1e-9) and refined.values['shift_m'] < 1e-6
