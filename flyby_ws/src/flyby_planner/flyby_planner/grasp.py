@@ -46,6 +46,8 @@ from flyby_sim.dynamics.orbital import cw_accel, cw_coast
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
 _E_Y = np.array((0.0, 1.0, 0.0))
+# A re-solved root this close to the planned grasp time [turns relative to hill] is the planned root.
+_FOLLOW_TURNS = 0.1
 
 
 @dataclasses.dataclass(frozen=True)
@@ -353,6 +355,12 @@ def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n, t_latest=None):
     absorb "timing errors due to ... motion estimation"): the same turn's convex root (eq 13-15),
     searched within 0.4 of a turn (relative to hill) either side of the previous grasp time and
     inside the prediction's interval. Convex roots are a turn apart, so the window holds one.
+
+    Without a convex root there, the planned root itself is followed (the root within
+    _FOLLOW_TURNS of a turn of t_grasp_prev): the planner found it convex, and a newer estimate can
+    flip the sign of eq 15 where its value is near zero (envelope run 515: -3.4e-6 m^2/s^2 at every
+    re-aim, never re-aimed, a 0.18 m miss). The arc through it is checked for passive safety before
+    it is flown (plan.check_passage in flyby_guidance.guidance_core), as every re-aimed arc is.
     """
     omega = prediction.state(min(max(t_grasp_prev, prediction.t0), prediction.t_end)).omega_hill
     rate_rel = float(np.linalg.norm(np.asarray(omega) - np.array((0.0, -n, 0.0))))
@@ -363,8 +371,10 @@ def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n, t_latest=None):
     lo, hi = max(t_grasp_prev - half, prediction.t0), min(t_grasp_prev + half, t_end)
     if not hi > lo:
         return None
-    convex = [c for c in grasp_candidates(prediction, x_grasp_body, lo, hi, n) if c.convex]
-    return min(convex, key=lambda c: abs(c.t_grasp - t_grasp_prev)) if convex else None
+    roots = grasp_candidates(prediction, x_grasp_body, lo, hi, n)
+    nearest = [c for c in roots if c.convex] or [
+        c for c in roots if abs(c.t_grasp - t_grasp_prev) <= _FOLLOW_TURNS * 2.0 * math.pi / rate_rel]
+    return min(nearest, key=lambda c: abs(c.t_grasp - t_grasp_prev)) if nearest else None
 
 
 def grasp_from_attitude(q_hill_from_body, omega_body, x_grasp_body, n):

@@ -17,6 +17,7 @@ from flyby_planner.grasp import (
     flyby_target_point,
     grasp_candidates,
     grasp_point_closed_form,
+    refine_grasp,
 )
 from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s, quat_eci_from_hill
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_from_matrix, quat_multiply, quat_rotate
@@ -257,3 +258,23 @@ def test_spin_along_y_gives_no_candidates():
     axis = np.array((0.0, 1.0, 0.0))
     source = _constant_spin_in_hill(axis, OMEGA_T, _x0_on_cone(axis, X_NORM, XI))
     assert grasp_candidates(source, None, 0.0, PERIOD_S, N_PAPER) == []
+
+
+def test_refine_grasp_prefers_the_convex_root_and_else_follows_the_planned_one():
+    """refine_grasp: a convex root within 0.4 turn wins; without one, the root within 0.1 turn of the
+    planned grasp time is followed even though eq 15 calls it not convex (envelope run 515)."""
+    prediction = _axisymmetric_prediction(N_PAPER, 400.0)
+    roots = grasp_candidates(prediction, X_GRASP_BODY, 50.0, 300.0, N_PAPER)
+    convex = next(c for c in roots if c.convex)
+    other = next(c for c in roots if not c.convex)
+    turn_s = 2.0 * math.pi / float(np.linalg.norm(other.omega_hill - np.array((0.0, -N_PAPER, 0.0))))
+    # Roots of eq 13 alternate half a turn apart: around a non-convex root the window holds no convex one.
+    assert not any(c.convex for c in roots if abs(c.t_grasp - other.t_grasp) < 0.4 * turn_s)
+    followed = refine_grasp(prediction, X_GRASP_BODY, other.t_grasp + 0.05 * turn_s, N_PAPER)
+    assert followed is not None and followed.t_grasp == pytest.approx(other.t_grasp, abs=1e-6)
+    assert not followed.convex
+    kept = refine_grasp(prediction, X_GRASP_BODY, convex.t_grasp + 0.3 * turn_s, N_PAPER)
+    assert kept.convex and kept.t_grasp == pytest.approx(convex.t_grasp, abs=1e-6)
+    # A non-convex root 0.2 turn from the planned time is another root, not the planned one.
+    assert refine_grasp(prediction, X_GRASP_BODY, other.t_grasp + 0.2 * turn_s, N_PAPER,
+                        t_latest=other.t_grasp + 0.25 * turn_s) is None
