@@ -58,7 +58,8 @@ class GuidanceCore:
         self.phase = None
         self.flyby_initial = self.flyby_target = None  # (t, x, v) as last published
         self.plan_stamp = None  # the plan time of the plan being flown
-        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body, body error covariance or None)
+        # (q_hill_from_body, omega_body, published covariance blocks (attitude in hill, rate in body) or None)
+        self.targets = StampedBuffer()
         self.waiting = collections.deque()  # (t, r_hill, v_hill) chaser estimates not yet stepped, in order
 
     # -- the plan -------------------------------------------------------------------------------
@@ -91,10 +92,10 @@ class GuidanceCore:
         """A target estimate (estimation/target/odom) with, if published, its attitude covariance about hill
         axes and rate covariance in body axes (3x3 each): with them the gate weighs the estimate's own
         uncertainty, without them the planner's model."""
-        q = np.asarray(q_hill_from_body, dtype=float)
-        covariance = (None if attitude_covariance_hill is None or rate_covariance_body is None else
-                      covariance_from_published(q, attitude_covariance_hill, rate_covariance_body))
-        self.targets.add(t, (q, np.asarray(omega_body, dtype=float), covariance))
+        # The blocks are kept as published and converted only for a re-aim (a few of thousands of estimates).
+        blocks = (None if attitude_covariance_hill is None or rate_covariance_body is None else
+                  (attitude_covariance_hill, rate_covariance_body))
+        self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float), blocks))
         return self._step_waiting()
 
     def on_chaser_estimate(self, t, r_hill, v_hill):
@@ -138,10 +139,11 @@ class GuidanceCore:
         step 4, with the floor _GATE_MARGIN_M);
         otherwise keep the aim if its arc still is, or stop thrusting and report the fault (the
         supervisor aborts and escapes): a re-aim never flies the chaser onto an unsafe arc."""
-        t_est, (q_hb, omega_body, covariance) = target
+        t_est, (q_hb, omega_body, blocks) = target
         aim = self.guidance.target
         if aim.t_f <= t_est:
             return []
+        covariance = None if blocks is None else covariance_from_published(q_hb, *blocks)
         cfg = self.planner_config
         prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body,
                                               aim.t_f + max(_REFINE_HORIZON_S, cfg.geometry_window_s), covariance)
