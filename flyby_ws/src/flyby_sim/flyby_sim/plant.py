@@ -14,6 +14,11 @@ fixed by the command stamps (thrusters module); the attitude integrator is never
 random draw comes from seed-derived streams, one per consumer (thrusters, each sensor). Truth thus
 depends only on the configuration and the commands (stamps, values, order), not on when before
 its stamp a command arrived.
+
+Cost: Monte Carlo steps the plant some 10^4 times a run, so the chaser is integrated on Python floats
+(``rk4_step_floats``, the same arithmetic as the numpy RK4) and the target attitude, which the
+commands never change, is evaluated ahead for a chunk of steps at a time (``AttitudePropagator.states_at``,
+``q_hill_from_body_many``); both give the same numbers to the bit as one step at a time.
 """
 
 import dataclasses
@@ -26,15 +31,22 @@ from flyby_msgs_py.wire import Event
 from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
-from flyby_sim.dynamics.orbital import cw_accel, mean_motion_rad_s, nonlinear_relative_accel, q_eci_from_body, rk4_step
-from flyby_sim.dynamics.orbital import q_hill_from_body as q_hill_from_body_of
+from flyby_sim.dynamics.orbital import (
+    cw_accel_floats,
+    mean_motion_rad_s,
+    nonlinear_relative_accel_floats,
+    q_eci_from_body,
+    q_hill_from_body_many,
+    rk4_step_floats,
+)
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
 from flyby_sim.dynamics.rotation import quat_normalize, quat_to_matrix
-from flyby_sim.sensors import SensorModel, is_sample_step
+from flyby_sim.sensors import SampleSchedule, SensorModel
 from flyby_sim.thrusters import ThrusterModel
 
 DYNAMICS = ('nonlinear', 'cw')
 _ZERO3 = (0.0, 0.0, 0.0)
+ATTITUDE_CHUNK_STEPS = 100  # steps of target attitude evaluated at once (5 s at 20 Hz)
 
 
 def _finite_vector(name, value, size):
@@ -136,17 +148,20 @@ class Plant:
         self.mean_motion_rad_s = n
         if config.dynamics == 'nonlinear':
             radius_m = config.radius_m
-            self._accel = lambda r, v, a: nonlinear_relative_accel(r, v, n, radius_m, a)
+            self._accel = lambda r, v, a: nonlinear_relative_accel_floats(r, v, n, radius_m, a)
         else:
-            self._accel = lambda r, v, a: cw_accel(r, v, n, a)
+            self._accel = lambda r, v, a: cw_accel_floats(r, v, n, a)
         thruster_seed, sensor_seed = np.random.SeedSequence(config.seed).spawn(2)
         self._thrusters = ThrusterModel(config.thrusters, np.random.default_rng(thruster_seed))
         self._sensors = SensorModel(np.random.default_rng(sensor_seed), config.position_sigma_m,
                                     config.attitude_sigma_rad)
         q_eci_from_body0 = q_eci_from_body(0.0, n, quat_normalize(config.q_hill_from_body0))
         self._attitude = AttitudePropagator(q_eci_from_body0, config.omega_body0, config.target_inertia)
+        self._attitude_chunk = (0, [], [])  # first step index, q_hill_from_body rows, omega_body rows
+        self._position_schedule = SampleSchedule(config.position_rate_hz, config.step_s)
+        self._attitude_schedule = SampleSchedule(config.attitude_rate_hz, config.step_s)
         self._step_index = 0
-        self._y = np.array(config.r0_hill + config.v0_hill)
+        self._y = list(config.r0_hill + config.v0_hill)  # [r_hill; v_hill] as floats
         self._mass_kg = config.chaser_mass_kg
         self._dv_total_mps = 0.0
         self._burn_rhs = None
@@ -154,7 +169,7 @@ class Plant:
         self._r_body_captured = None
         self._events = []
         self._measurements = []
-        self._last = self._truth(0.0, np.zeros(3), False)
+        self._last = self._truth(np.zeros(3), False)
 
     @property
     def t(self):
@@ -205,10 +220,10 @@ class Plant:
         if self.captured:
             return
         c_hill_from_body = quat_to_matrix(self._last.q_hill_from_body)
-        self._r_body_captured = c_hill_from_body.T @ self._y[:3]
+        self._r_body_captured = c_hill_from_body.T @ np.array(self._y[:3])
         self._thrusters.cancel_all()
         self._events.append(Event(self.t, 'OK', 'captured', f'chaser attached to the target at t = {self.t:.3f} s',
-                                  dict(t=self.t, r_hill=self._y[:3], r_body=self._r_body_captured)))
+                                  dict(t=self.t, r_hill=np.array(self._y[:3]), r_body=self._r_body_captured)))
 
     def step(self):
         """Advance exactly one step_s; returns the TruthSample at the new time."""
@@ -227,13 +242,13 @@ class Plant:
                 upcoming = thrusters.next_burn
                 if upcoming is None or upcoming.start_s > t:
                     t_end = t1 if upcoming is None else min(t1, upcoming.start_s)
-                    y = rk4_step(self._coast_rhs, t, y, t_end - t)
+                    y = rk4_step_floats(self._coast_rhs, t, y, t_end - t)
                     t = t_end
                     continue
                 burn = self._start_burn(t)
             t_end = min(t1, burn.end_s)
             self._check_restriction(burn, t, y)
-            y = rk4_step(self._burn_rhs, t, y, t_end - t)
+            y = rk4_step_floats(self._burn_rhs, t, y, t_end - t)
             mass_end = burn.mass_end_kg if t_end == burn.end_s else self._burn_mass(burn, t_end)
             self._dv_total_mps += thrusters.exhaust_velocity_mps * math.log(self._mass_kg / mass_end)
             force = self.config.thrusters.max_thrust_n * (t_end - t)
@@ -247,25 +262,22 @@ class Plant:
                 self._end_burn(t)
         self._y = y
         step_s = self.config.step_s
-        self._last = self._truth(t1, np.array(impulse) / step_s, firing)
+        self._last = self._truth(np.array(impulse) / step_s, firing)
         self._sample(self._last)
         return self._last
 
     def _step_attached(self):
         self._step_index += 1
-        t = self.t
-        q_eci_from_body, omega_body = self._attitude.state_at(t)
-        q_hill_from_body = q_hill_from_body_of(t, self.mean_motion_rad_s, q_eci_from_body)
+        q_hill_from_body, omega_body = self._target_attitude()
         r_hill, v_hill = body_point_state(quat_to_matrix(q_hill_from_body), omega_body, self._r_body_captured,
                                           self.mean_motion_rad_s)  # eq 8-9 of a body-fixed point
-        self._y = np.concatenate((r_hill, v_hill))
-        self._last = self._truth(t, np.zeros(3), False)
+        self._y = r_hill.tolist() + v_hill.tolist()
+        self._last = self._truth(np.zeros(3), False)
         self._sample(self._last)
         return self._last
 
     def _coast_rhs(self, t, y):
-        state = y.tolist()  # plain floats: several times faster than numpy scalars here
-        return np.concatenate((y[3:], self._accel(state[:3], state[3:], _ZERO3)))
+        return (y[3], y[4], y[5], *self._accel(y[:3], y[3:], _ZERO3))
 
     def _burn_mass(self, burn, t):
         return burn.mass_start_kg - self._thrusters.mass_flow_kg_s * (t - burn.start_s)
@@ -277,8 +289,7 @@ class Plant:
 
         def burn_rhs(tau, y):
             k = thrust_n / self._burn_mass(burn, tau)  # F / m(t), mass falling linearly
-            state = y.tolist()
-            return np.concatenate((y[3:], self._accel(state[:3], state[3:], (k * ux, k * uy, k * uz))))
+            return (y[3], y[4], y[5], *self._accel(y[:3], y[3:], (k * ux, k * uy, k * uz)))
 
         self._burn_rhs = burn_rhs
         self._restriction_reported = False
@@ -303,7 +314,7 @@ class Plant:
 
     def _check_restriction(self, burn, t, y):
         """Record (once per burn) thrust applied inside the thruster-restriction sphere."""
-        x, yy, z = y[:3].tolist()
+        x, yy, z = y[:3]
         range_m = math.sqrt(x * x + yy * yy + z * z)
         radius_m = self.config.restriction_sphere_radius_m
         if range_m < radius_m and not self._restriction_reported:
@@ -314,22 +325,35 @@ class Plant:
                                       dict(seq=burn.seq, t=t, range_m=range_m,
                                               restriction_sphere_radius_m=radius_m)))
 
-    def _truth(self, t, force_hill, firing):
-        n = self.mean_motion_rad_s
-        q_eci_from_body, omega_body = self._attitude.state_at(t)
-        q_hill_from_body = q_hill_from_body_of(t, n, q_eci_from_body)
-        return TruthSample(t=t, r_hill=self._y[:3].copy(), v_hill=self._y[3:].copy(),
+    def _target_attitude(self):
+        """(q_hill_from_body, omega_body) at the current step, from the chunk of steps evaluated at once."""
+        first, q_rows, omega_rows = self._attitude_chunk
+        i = self._step_index - first
+        if i >= len(q_rows):
+            step_s = self.config.step_s
+            first = self._step_index
+            t_s = [k * step_s for k in range(first, first + ATTITUDE_CHUNK_STEPS)]  # as self.t, to the bit
+            q_eci_from_body, omega_body = self._attitude.states_at(t_s)
+            q_rows = list(q_hill_from_body_many(t_s, self.mean_motion_rad_s, q_eci_from_body))
+            omega_rows = list(omega_body)
+            self._attitude_chunk = (first, q_rows, omega_rows)
+            i = 0
+        return q_rows[i], omega_rows[i]
+
+    def _truth(self, force_hill, firing):
+        q_hill_from_body, omega_body = self._target_attitude()
+        y = self._y
+        return TruthSample(t=self.t, r_hill=np.array(y[:3]), v_hill=np.array(y[3:]),
                            q_hill_from_body=q_hill_from_body, omega_body=omega_body, force_hill=force_hill,
                            mass_kg=self._mass_kg, fuel_used_kg=self.config.chaser_mass_kg - self._mass_kg,
                            dv_applied_total_mps=self._dv_total_mps, firing=firing)
 
     def _sample(self, truth):
-        config = self.config
         self._measurements = []
-        if is_sample_step(self._step_index, config.position_rate_hz, config.step_s):
+        if self._position_schedule.is_sample_step(self._step_index):
             self._measurements.append(Measurement('relative_position', truth.t,
                                                   self._sensors.relative_position(truth.r_hill)))
-        if is_sample_step(self._step_index, config.attitude_rate_hz, config.step_s):
+        if self._attitude_schedule.is_sample_step(self._step_index):
             self._measurements.append(Measurement('target_attitude', truth.t,
                                                   self._sensors.target_attitude(truth.q_hill_from_body)))
 

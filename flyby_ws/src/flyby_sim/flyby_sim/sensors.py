@@ -44,10 +44,22 @@ def is_sample_step(step_index, rate_hz, step_s):
     Deterministic and stateless. Requires rate_hz * step_s <= 1 (at most one sample per step), so each
     sample time k / rate_hz maps to its own step.
     """
-    if not (math.isfinite(rate_hz) and rate_hz > 0.0):
-        raise ValueError(f'rate_hz must be finite and > 0, got {rate_hz}')
-    samples_per_step = rate_hz * step_s
-    if not (math.isfinite(samples_per_step) and 0.0 < samples_per_step <= 1.0):
-        raise ValueError(f'rate_hz {rate_hz} with step_s {step_s} gives more than one sample per step')
-    k = math.floor(step_index * samples_per_step + 0.5)  # the only sample that can round to this step
-    return math.floor(k / samples_per_step + 0.5) == step_index
+    return SampleSchedule(rate_hz, step_s).is_sample_step(step_index)
+
+
+class SampleSchedule:
+    """``is_sample_step`` for one rate and step, validated once (the plant asks every step)."""
+
+    def __init__(self, rate_hz, step_s):
+        if not (math.isfinite(rate_hz) and rate_hz > 0.0):
+            raise ValueError(f'rate_hz must be finite and > 0, got {rate_hz}')
+        samples_per_step = rate_hz * step_s
+        if not (math.isfinite(samples_per_step) and 0.0 < samples_per_step <= 1.0):
+            raise ValueError(f'rate_hz {rate_hz} with step_s {step_s} gives more than one sample per step')
+        self._samples_per_step = samples_per_step
+
+    def is_sample_step(self, step_index):
+        """True if step step_index is the step nearest some sample time (``is_sample_step``)."""
+        samples_per_step = self._samples_per_step
+        k = math.floor(step_index * samples_per_step + 0.5)  # the only sample that can round to this step
+        return math.floor(k / samples_per_step + 0.5) == step_index

@@ -156,6 +156,38 @@ def test_state_at_rejects_going_back_and_bad_inputs():
         AttitudePropagator([0, 0, 0, 1], [math.nan, 0.0, 0.0], np.eye(3))
 
 
+def test_states_at_equals_state_at_to_the_bit():
+    # Times on a 50 ms grid as the plant asks them, in batches that end inside, at and past integrator
+    # steps; the first batch starts at t0, where the answer is the initial state itself.
+    inertia, omega0 = SEED001_TUMBLER
+    one_at_a_time = AttitudePropagator([0.3, -0.1, 0.5, 0.8], omega0, inertia)
+    batched = AttitudePropagator([0.3, -0.1, 0.5, 0.8], omega0, inertia)
+    k = 0
+    for size in (1, 7, 100, 3, 250, 1, 40):
+        t_s = [i * 0.05 for i in range(k, k + size)]
+        q, omega = batched.states_at(t_s)
+        for i, t in enumerate(t_s):
+            q_i, omega_i = one_at_a_time.state_at(t)
+            assert q[i].tolist() == q_i.tolist() and omega[i].tolist() == omega_i.tolist()
+        k += size
+    # A time equal to an integrator step's end gives that step's state, as state_at does.
+    t_end = float(batched._solver.t)
+    q, omega = batched.states_at([t_end, t_end])
+    q_ref, omega_ref = one_at_a_time.state_at(t_end)
+    assert q[1].tolist() == q[0].tolist() == q_ref.tolist() and omega[0].tolist() == omega_ref.tolist()
+
+
+def test_states_at_rejects_going_back_and_unsorted_times():
+    propagator = AttitudePropagator([0, 0, 0, 1], [0.1, 0.0, 0.0], np.eye(3))
+    propagator.states_at([1.0, 2.0])
+    with pytest.raises(ValueError, match='precedes'):
+        propagator.states_at([1.5, 3.0])
+    with pytest.raises(ValueError, match='non-decreasing'):
+        propagator.states_at([3.0, 2.5])
+    with pytest.raises(ValueError, match='non-decreasing'):
+        propagator.states_at([])
+
+
 moments = st.floats(100.0, 20000.0)
 rates = st.floats(-0.5, 0.5)
 

@@ -11,18 +11,23 @@ from scipy.integrate import solve_ivp
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import (
     cw_accel,
+    cw_accel_floats,
     cw_transition_matrix,
     eci_from_relative,
     eci_vector_in_hill,
     hill_axes_in_eci,
     mean_motion_rad_s,
     nonlinear_relative_accel,
+    nonlinear_relative_accel_floats,
+    q_hill_from_body,
+    q_hill_from_body_many,
     quat_eci_from_hill,
     relative_from_eci,
     rk4_step,
+    rk4_step_floats,
     target_eci_state,
 )
-from flyby_sim.dynamics.rotation import quat_to_matrix
+from flyby_sim.dynamics.rotation import quat_normalize, quat_to_matrix
 
 RADIUS_M = 7.0e6
 N = mean_motion_rad_s(RADIUS_M)
@@ -193,3 +198,34 @@ def test_rk4_step_is_fourth_order():
             y = rk4_step(f, k * h, y, h)
         errors.append(abs(y[0] - math.exp(-1.0)))
     assert errors[0] / errors[1] == pytest.approx(16.0, rel=0.05)
+
+
+def test_float_accelerations_and_rk4_equal_the_numpy_ones_to_the_bit():
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        y = rng.normal(0.0, [60.0, 60.0, 60.0, 0.1, 0.1, 0.1])
+        a_ext = tuple(rng.normal(0.0, 1e-3, 3).tolist())
+        h = float(rng.uniform(1e-3, 0.05))
+        state = y.tolist()
+        assert nonlinear_relative_accel_floats(state[:3], state[3:], N, RADIUS_M, a_ext) == tuple(
+            nonlinear_relative_accel(state[:3], state[3:], N, RADIUS_M, a_ext).tolist())
+        assert cw_accel_floats(state[:3], state[3:], N, a_ext) == tuple(
+            cw_accel(state[:3], state[3:], N, a_ext).tolist())
+
+        def rhs_numpy(t, s, a_ext=a_ext):
+            return np.concatenate((s[3:], nonlinear_relative_accel(s[:3].tolist(), s[3:].tolist(), N, RADIUS_M, a_ext)))
+
+        def rhs_floats(t, s, a_ext=a_ext):
+            return (*s[3:], *nonlinear_relative_accel_floats(s[:3], s[3:], N, RADIUS_M, a_ext))
+
+        assert rk4_step_floats(rhs_floats, 3.0, state, h) == rk4_step(rhs_numpy, 3.0, y, h).tolist()
+
+
+def test_q_hill_from_body_many_equals_one_at_a_time_to_the_bit():
+    rng = np.random.default_rng(5)
+    t_s = [k * 0.05 for k in range(0, 4000, 37)]
+    q_eci_from_body = np.array([quat_normalize(q) for q in rng.normal(size=(len(t_s), 4))])
+    together = q_hill_from_body_many(t_s, N, q_eci_from_body)
+    assert together.shape == (len(t_s), 4)
+    for k, t in enumerate(t_s):
+        assert together[k].tolist() == q_hill_from_body(t, N, q_eci_from_body[k]).tolist()

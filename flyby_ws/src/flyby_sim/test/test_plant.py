@@ -10,13 +10,18 @@ import numpy as np
 import pytest
 from scipy.integrate import quad_vec, solve_ivp
 
+from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2, STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.orbital import (
     cw_transition_matrix,
     eci_from_relative,
     hill_axes_in_eci,
     mean_motion_rad_s,
+    nonlinear_relative_accel,
+    q_eci_from_body,
+    q_hill_from_body,
     relative_from_eci,
+    rk4_step,
     target_eci_state,
 )
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
@@ -309,6 +314,29 @@ def test_determinism_does_not_depend_on_command_arrival_time():
 def test_config_errors_name_the_field(field, value, pattern):
     with pytest.raises(ValueError, match=pattern):
         dataclasses.replace(PAPER, **{field: value})
+
+
+def test_truth_equals_one_step_at_a_time_numpy_integration_to_the_bit():
+    """The plant's float RK4 and its attitude evaluated a chunk of steps at once give the numbers of the
+    plain formulation: numpy RK4 of eq 1 and the attitude's dense output asked step by step."""
+    config = dataclasses.replace(PAPER, r0_hill=(-30.0, 8.0, 12.0), v0_hill=(0.05, -0.02, 0.03),
+                                 target_inertia=np.diag([4069.0, 12030.0, 11029.0]), omega_body0=(0.3, 0.2, 0.1))
+    plant = Plant(config)
+    attitude = AttitudePropagator(q_eci_from_body(0.0, N, quat_normalize(config.q_hill_from_body0)),
+                                  config.omega_body0, config.target_inertia)
+
+    def rhs(t, y):
+        return np.concatenate((y[3:], nonlinear_relative_accel(y[:3].tolist(), y[3:].tolist(), N, RADIUS_M)))
+
+    y = np.array(config.r0_hill + config.v0_hill)
+    for k in range(1, 260):  # across chunk boundaries
+        sample = plant.step()
+        y = rk4_step(rhs, (k - 1) * config.step_s, y, k * config.step_s - (k - 1) * config.step_s)
+        q_eci, omega_body = attitude.state_at(k * config.step_s)
+        assert sample.t == k * config.step_s
+        assert sample.r_hill.tolist() == y[:3].tolist() and sample.v_hill.tolist() == y[3:].tolist()
+        assert sample.q_hill_from_body.tolist() == q_hill_from_body(sample.t, N, q_eci).tolist()
+        assert sample.omega_body.tolist() == omega_body.tolist()
 
 
 def test_coasting_step_cost():

@@ -111,7 +111,9 @@ class AttitudePropagator:
 
     state_at(t) answers from the integrator's dense output (renormalized quaternion) for
     non-decreasing t, stepping the integrator on as needed. It is never restarted by outside events,
-    so the answer depends only on t and the initial state.
+    so the answer depends only on t and the initial state. states_at answers many times at once with
+    the same numbers to the bit: the dense output's arithmetic is element-wise, so evaluating it on
+    an array of times repeats the scalar evaluation's operations per time.
     """
 
     def __init__(self, q_inertial_from_body0, omega_body0, inertia, t0=0.0, rtol=1e-12, atol=1e-14):
@@ -147,3 +149,38 @@ class AttitudePropagator:
             self._dense = solver.dense_output()
         y = solver.y if t == solver.t else self._dense(t)
         return quat_normalize(y[:4].tolist()), y[4:].copy()
+
+    def states_at(self, t_s):
+        """state_at at each of the non-decreasing times t_s (N,) [s]: (q_inertial_from_body (N, 4), omega_body (N, 3)).
+
+        Each time takes the dense output of the integrator step that state_at would use (the first
+        step ending at or after it; its end state where it ends there), evaluated once per step for
+        all its times, and the quaternion is normalized component-wise as quat_normalize does.
+        """
+        t = np.asarray(t_s, dtype=float)
+        if t.ndim != 1 or t.size == 0 or not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0.0):
+            raise ValueError(f'times must be a non-empty, finite, non-decreasing sequence [s], got {t_s!r}')
+        if not t[0] >= self._t_last:
+            raise ValueError(f't = {t[0]} s precedes the last requested time {self._t_last} s')
+        self._t_last = float(t[-1])
+        solver = self._solver
+        y = np.empty((t.size, 7))
+        i = 0
+        while i < t.size:
+            while solver.t < t[i]:
+                message = solver.step()
+                if solver.status == 'failed':
+                    raise RuntimeError(f'attitude integration failed at t = {solver.t} s: {message}')
+                self._dense = solver.dense_output()
+            inside = int(np.searchsorted(t, solver.t, side='left'))  # t[i:inside] < solver.t
+            if inside > i:
+                y[i:inside] = self._dense(t[i:inside]).T
+            end = int(np.searchsorted(t, solver.t, side='right'))  # t[inside:end] == solver.t
+            y[inside:end] = solver.y
+            i = end
+        x, yy, z, w = y[:, :4].T
+        norm = np.sqrt(x * x + yy * yy + z * z + w * w)  # as quat_normalize, term by term
+        bad = np.flatnonzero(~(np.isfinite(norm) & (norm > 0.0)))
+        if bad.size:
+            raise ValueError(f'attitude quaternion {y[bad[0], :4].tolist()} at t = {t[bad[0]]} s cannot be normalized')
+        return y[:, :4] / norm[:, None], y[:, 4:]

@@ -54,6 +54,17 @@ def nonlinear_relative_accel(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0
     Returns:
         the acceleration, shaped as r_hill.
     """
+    return np.array(_nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill))
+
+
+def nonlinear_relative_accel_floats(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0.0, 0.0)):
+    """``nonlinear_relative_accel`` of one state as a tuple of 3 Python floats (the same arithmetic, hence
+    the same bits), for RK4 on floats (``rk4_step_floats``); r_hill, v_hill are 3 floats each."""
+    return _nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill)
+
+
+def _nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill):
+    """The three components of ``nonlinear_relative_accel``: floats for one state, arrays for N."""
     x, y, z = r_hill
     vx, vy, vz = v_hill
     ax, ay, az = accel_ext_hill
@@ -62,25 +73,32 @@ def nonlinear_relative_accel(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0
     if not (q > -1.0 if isinstance(q, float) else np.all(q > -1.0)):
         raise ValueError(f'r_hill {np.asarray(r_hill).tolist()} is at or beyond Earth centre (radius_m {radius_m})')
     f = np.expm1(-1.5 * np.log1p(q))  # (R / |r_chaser|)^3 - 1
+    if isinstance(q, float):
+        f = float(f)  # the same value; Python float arithmetic costs a third of numpy scalars'
     n2 = n * n
-    return np.array((
+    return (
         2.0 * n * vz - n2 * f * x + ax,
         -n2 * (1.0 + f) * y + ay,
         -2.0 * n * vx + n2 * f * (radius_m - z) + az,
-    ))
+    )
 
 
 def cw_accel(r_hill, v_hill, n, accel_ext_hill=(0.0, 0.0, 0.0)):
     """Linearized (Hill / Clohessy-Wiltshire) relative acceleration [m/s^2], seed 000 eq 2a-2c."""
+    return np.array(cw_accel_floats(r_hill, v_hill, n, accel_ext_hill))
+
+
+def cw_accel_floats(r_hill, v_hill, n, accel_ext_hill=(0.0, 0.0, 0.0)):
+    """``cw_accel`` as a tuple of its 3 components (Python floats for float input: the same bits)."""
     x, y, z = r_hill
     vx, vy, vz = v_hill
     ax, ay, az = accel_ext_hill
     n2 = n * n
-    return np.array((
+    return (
         2.0 * n * vz + ax,  # eq 2a
         -n2 * y + ay,  # eq 2b
         -2.0 * n * vx + 3.0 * n2 * z + az,  # eq 2c
-    ))
+    )
 
 
 def cw_transition_matrix(n, t):
@@ -163,6 +181,19 @@ def q_hill_from_body(t, n, q_eci_from_body):
     return quat_multiply(quat_conjugate(quat_eci_from_hill(t, n)), q_eci_from_body)
 
 
+def q_hill_from_body_many(t_s, n, q_eci_from_body_):
+    """q_hill_from_body at each of the times t_s (N,) [s] for the attitudes q_eci_from_body_ (N, 4); (N, 4).
+
+    Equal to the bit to q_hill_from_body at each time: the same math.sin / math.cos per time and the
+    same products and sums, element-wise on the columns.
+    """
+    half = [0.5 * n * t for t in np.asarray(t_s, dtype=float).tolist()]
+    q_eci_from_hill = quat_multiply((0.0, 0.0, np.array([math.sin(a) for a in half]),
+                                     np.array([math.cos(a) for a in half])), _Q_ECI_FROM_HILL0)
+    q = quat_multiply(quat_conjugate(q_eci_from_hill), np.asarray(q_eci_from_body_, dtype=float).T)
+    return np.ascontiguousarray(q.T)
+
+
 def q_eci_from_body(t, n, q_hill_from_body_):
     """Inverse of q_hill_from_body: q_eci_from_hill(t) * q_hill_from_body."""
     return quat_multiply(quat_eci_from_hill(t, n), q_hill_from_body_)
@@ -222,3 +253,19 @@ def rk4_step(f, t, y, h):
     k3 = f(t + half, y + half * k2)
     k4 = f(t + h, y + h * k3)
     return y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+
+
+def rk4_step_floats(f, t, y, h):
+    """``rk4_step`` on a state of Python floats: the same operations in the same order, component by
+    component, hence the same bits, without numpy's per-call cost on a 6-vector.
+
+    f(t, y) takes and returns a sequence of floats; returns the new state as a list.
+    """
+    half = 0.5 * h
+    k1 = f(t, y)
+    k2 = f(t + half, [a + half * b for a, b in zip(y, k1, strict=True)])
+    k3 = f(t + half, [a + half * b for a, b in zip(y, k2, strict=True)])
+    k4 = f(t + h, [a + h * b for a, b in zip(y, k3, strict=True)])
+    sixth = h / 6.0
+    return [a + sixth * (b1 + 2.0 * (b2 + b3) + b4)
+            for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True)]
