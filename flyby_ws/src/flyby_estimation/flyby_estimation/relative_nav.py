@@ -82,6 +82,7 @@ from flyby_sim.dynamics.propulsion import (
 DYNAMICS = ('cw', 'nonlinear')
 DEFAULT_ACCEL_PSD_M2_S3 = 1.0e-9
 _I3 = np.eye(3)
+_MAX_TRANSITIONS = 64  # cached (Phi, Q) pairs, one per time step seen
 
 __all__ = ['DEFAULT_ACCEL_PSD_M2_S3', 'DYNAMICS', 'ManeuverRejected', 'NavState', 'RelativeNavConfig',
            'RelativeNavFilter', 'ScheduledBurn', 'relative_nav_config_from_scenario']
@@ -223,6 +224,8 @@ class RelativeNavFilter(FilterBase):
         self._active = None  # the started burn, until the filter time passes its end
         self._chain_end = (-math.inf, config.chaser_mass_kg)  # end time and mass after the last started burn
         self._seq = 0
+        # dt [s] -> (Phi, Q): the measurement interval takes a few values (the stamps' rounding), so few entries
+        self._transitions = {}
 
     # ---------------------------------------------------------------------------------------------
     # State
@@ -372,7 +375,7 @@ class RelativeNavFilter(FilterBase):
     def update(self, t, r_hill):
         """Propagate to t and update with the measured r_hill [m]; returns an UpdateResult (module doc)."""
         z = np.asarray(r_hill, dtype=float)
-        if not (math.isfinite(t) and z.shape == (3,) and np.all(np.isfinite(z))):
+        if not (math.isfinite(t) and z.shape == (3,) and all(map(math.isfinite, z.tolist()))):
             return self._outcome('non_finite', t, reason=f'measurement t = {t!r} s, r_hill = {r_hill!r} is not a '
                                                          f'finite stamp and 3 finite numbers')
         if not self.initialized:
@@ -441,14 +444,25 @@ class RelativeNavFilter(FilterBase):
 
     def _propagate(self, dt, burn):
         kf = self._kf
-        phi = cw_transition_matrix(self._n, dt)  # seed 000 eq 22
+        phi, q = self._transition(dt)
         if burn is None and self.config.dynamics == 'cw':
-            kf.predict(F=phi, Q=_white_accel_q(self.config.accel_psd_m2_s3, dt))  # x = Phi x; P = Phi P Phi' + Q
+            kf.predict(F=phi, Q=q)  # x = Phi x; P = Phi P Phi' + Q
         else:
             x_new = self._integrate(kf.x[:, 0], self._t, dt, burn)
-            kf.predict(F=phi, Q=_white_accel_q(self.config.accel_psd_m2_s3, dt))  # P = Phi P Phi' + Q
+            kf.predict(F=phi, Q=q)  # P = Phi P Phi' + Q
             kf.x = x_new.reshape(6, 1)
         kf.P = 0.5 * (kf.P + kf.P.T)
+
+    def _transition(self, dt):
+        """(Phi(dt), Q(dt)) of the time update, kept for the later calls with the same dt (read only)."""
+        phi_q = self._transitions.get(dt)
+        if phi_q is None:
+            if len(self._transitions) >= _MAX_TRANSITIONS:
+                self._transitions.clear()
+            phi_q = (cw_transition_matrix(self._n, dt),  # seed 000 eq 22
+                     _white_accel_q(self.config.accel_psd_m2_s3, dt))
+            self._transitions[dt] = phi_q
+        return phi_q
 
     def _accel_fn(self, linear):
         n = self._n

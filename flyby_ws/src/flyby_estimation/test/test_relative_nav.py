@@ -273,6 +273,25 @@ def test_process_noise_is_the_white_acceleration_integral():
     assert np.allclose(nav.predict(dt).covariance, exact, rtol=0.0, atol=2.0 * n * dt * np.abs(exact).max())
 
 
+def test_time_updates_reusing_a_step_length_equal_fresh_ones_to_the_bit():
+    """The (Phi, Q) kept per step length give the numbers computed afresh. Stamps k * 0.05 s as the
+    plant's, every 0.1 s: dt takes a few values around 0.1 s, one per rounding."""
+    config = relative_nav_config_from_scenario(scenario(1))
+    cached, fresh = RelativeNavFilter(config), RelativeNavFilter(config)
+    for nav in (cached, fresh):
+        nav.add_maneuver(30.0, (0.0, 0.05, -0.02))
+    rng = np.random.default_rng(4)
+    for k in range(0, 2400, 2):
+        t = k * 0.05
+        z = np.array((50.0 - 0.01 * t, 0.0, 0.0)) + rng.normal(0.0, 0.01, 3)
+        fresh._transitions.clear()  # every time update computes Phi and Q
+        assert cached.update(t, z).kind == fresh.update(t, z).kind
+    a, b = cached.state(), fresh.state()
+    assert a.r_hill.tolist() == b.r_hill.tolist() and a.v_hill.tolist() == b.v_hill.tolist()
+    assert a.covariance.tolist() == b.covariance.tolist()
+    assert len(cached._transitions) < 20
+
+
 # --------------------------------------------------------------------------------------------------
 # Rejections
 
