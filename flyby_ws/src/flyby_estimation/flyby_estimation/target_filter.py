@@ -1,4 +1,4 @@
-"""Target attitude-motion filter: a multiplicative extended Kalman filter on filterpy (no ROS).
+"""Target attitude-motion filter: a multiplicative extended Kalman filter with filterpy's arithmetic (no ROS).
 
 Estimates the attitude and inertial angular velocity of the tumbling target from vision attitude
 measurements q_hill_from_body at 10 Hz (seed 001 section 2), with the target's inertia known
@@ -14,7 +14,8 @@ Markley and Shuster 1982):
 
 - time update: the reference (q, omega) follows the torque-free Euler equation with the known inertia
   (seed 000 eq 4, seed 001 eq 3), RK4 substeps; P <- Phi P Phi' + Qd with Phi and Qd of each substep
-  in closed form (target_motion.ErrorStateDynamics.propagate), done by filterpy's KalmanFilter.predict.
+  in closed form (target_motion.ErrorStateDynamics.propagate), filterpy's KalmanFilter.predict arithmetic
+  without its bookkeeping.
 - measurement: z = q_hill_from_body at stamp t, taken to inertial with quat_eci_from_hill(t, n);
   the innovation is the body-frame rotation vector nu = log(q_ref^-1 * q_meas), so H = [I 0] and
   R = sigma^2 I per body axis (the plant's sensor model: a Gaussian body-frame rotation error); the
@@ -41,7 +42,6 @@ import dataclasses
 import math
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 from flyby_estimation.batch import check_filter, fit_attitude_motion
 from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
@@ -163,7 +163,7 @@ class TargetAttitudeFilter(FilterBase):
         self.dynamics = ErrorStateDynamics(config.inertia, config.torque_psd)
         self._n = config.mean_motion_rad_s
         self._r = config.attitude_sigma_rad ** 2 * np.eye(3)
-        self._kf = KalmanFilter(dim_x=6, dim_z=3)  # x and P, and predict; H = [I 0] in the update
+        self._p = None  # 6x6 covariance of the error state, which is 0 between updates (reset after each)
         self._q = None  # reference q_eci_from_body
         self._omega = None  # reference omega_body [rad/s]
         self._history = collections.deque()  # (t, q_hill_from_body) at ~1 Hz for classify_motion
@@ -174,12 +174,12 @@ class TargetAttitudeFilter(FilterBase):
     def covariance(self):
         """6x6 error-state covariance [dtheta_body, domega_body] at the filter time (a copy)."""
         self._require_initialized()
-        return self._kf.P.copy()
+        return self._p.copy()
 
     def state(self):
         """target_motion.PredictedState at the filter time t (last measurement or propagate_to)."""
         self._require_initialized()
-        return make_state(self._t, self._n, self._q, self._omega, self._kf.P)
+        return make_state(self._t, self._n, self._q, self._omega, self._p)
 
     # -- time and measurement updates ---------------------------------------------------------------
     def propagate_to(self, t):
@@ -190,9 +190,10 @@ class TargetAttitudeFilter(FilterBase):
         if t == self._t:
             return
         q, omega, phi, qd = self.dynamics.propagate(self._q, self._omega, t - self._t, self.config.max_step_angle_rad)
-        # x = Phi x (x = 0 after every reset); P = Phi P Phi' + Qd
-        self._kf.predict(F=phi, Q=qd)
-        self._kf.P = 0.5 * (self._kf.P + self._kf.P.T)  # exactly symmetric despite rounding
+        # P = Phi P Phi' + Qd: filterpy's predict arithmetic without its bookkeeping (x = Phi x stays 0:
+        # x = 0 after every reset)
+        p = phi @ self._p @ phi.T + qd
+        self._p = 0.5 * (p + p.T)  # exactly symmetric despite rounding
         self._q, self._omega, self._t = q, omega, float(t)
 
     def update(self, t, q_hill_from_body_meas):
@@ -220,14 +221,13 @@ class TargetAttitudeFilter(FilterBase):
             return self._outcome('stale', t, reason=f'measurement stamped t = {t} s is before the filter time '
                                                     f'{self._t} s')
         self.propagate_to(t)
-        kf = self._kf
         # nu = log(q_ref^-1 * q_meas): the measured body-frame attitude error
         nu = rotation_vector_from_quat(quat_multiply(quat_conjugate(self._q), q_eci_meas))
         # d2 = nu' S^-1 nu, S = H P H' + R; K = P H' S^-1; dx = K nu (x = 0 after every reset);
         # P = (I-KH) P (I-KH)' + K R K' (Joseph form). The Joseph form keeps P symmetric positive
         # definite under rounding, which matters here because the rate variance falls by ~10 orders
         # of magnitude from the 20 deg/s prior.
-        d2, dx, p = kalman_update_first_three(_ZERO_STATE, kf.P, nu, self._r)
+        d2, dx, p = kalman_update_first_three(_ZERO_STATE, self._p, nu, self._r)
         verdict = self._gate_verdict(d2)
         if verdict != 'pass':
             innovation_deg = math.degrees(float(np.linalg.norm(nu)))
@@ -246,7 +246,7 @@ class TargetAttitudeFilter(FilterBase):
         g = np.eye(6)
         g[:3, :3] -= 0.5 * skew(dtheta)
         p = g @ p @ g.T  # P = G P G'
-        kf.P = 0.5 * (p + p.T)
+        self._p = 0.5 * (p + p.T)
         self._accept(t, z)
         return self._outcome('accepted', t, d2, '', nu)
 
@@ -259,8 +259,7 @@ class TargetAttitudeFilter(FilterBase):
         self._t = float(t)
         self._q = q_eci_meas
         self._omega = np.zeros(3)
-        self._kf.x = np.zeros((6, 1))
-        self._kf.P = np.diag([self.config.attitude_sigma_rad ** 2] * 3 + [sigma_w ** 2] * 3)
+        self._p = np.diag([self.config.attitude_sigma_rad ** 2] * 3 + [sigma_w ** 2] * 3)
         self._consecutive_outliers = 0
         self._history.clear()
         self._window = []
@@ -307,7 +306,7 @@ class TargetAttitudeFilter(FilterBase):
     def three_sigma(self):
         """(attitude, rate) 3-sigma bounds [rad, rad/s] in the worst direction of each 3x3 block."""
         self._require_initialized()
-        p = self._kf.P
+        p = self._p
         largest = np.linalg.eigvalsh(np.array((p[:3, :3], p[3:, 3:])))[:, -1]  # both blocks in one call
         return 3.0 * math.sqrt(max(largest[0], 0.0)), 3.0 * math.sqrt(max(largest[1], 0.0))
 
@@ -338,7 +337,7 @@ class TargetAttitudeFilter(FilterBase):
         with_covariance=False predicts the motion alone (about 6x faster, no covariance).
         """
         self._require_initialized()
-        return MotionPrediction(self.dynamics, self._n, self._t, self._q, self._omega, self._kf.P, t_end,
+        return MotionPrediction(self.dynamics, self._n, self._t, self._q, self._omega, self._p, t_end,
                                 with_covariance=with_covariance)
 
     def predict(self, t_future):

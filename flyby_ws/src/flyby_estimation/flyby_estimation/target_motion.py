@@ -33,7 +33,7 @@ from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body, rk4_step
+from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import (
     quat_normalize,
     quat_to_matrix,
@@ -115,8 +115,8 @@ class ErrorStateDynamics:
 
         The interval is cut into equal substeps no longer than max_step_s (give or take 1e-9 s) that
         turn the body by at most max_step_angle_rad. The reference (q, omega) takes one RK4 step per
-        substep; its local error is ~(angle)^5 / 120, below 1e-10 rad for the default, far under any
-        measurement noise. The quaternion is renormalized at the end.
+        substep (``reference_rk4_step``); its local error is ~(angle)^5 / 120, below 1e-10 rad for the
+        default, far under any measurement noise. The quaternion is renormalized at the end.
 
         Phi and Qd of each substep come in closed form from the reference rates at its ends
         (``substep_transition``) instead of integrating the 72 extra states of ``augmented_rate``
@@ -124,22 +124,40 @@ class ErrorStateDynamics:
         """
         if not dt >= 0.0:
             raise ValueError(f'dt must be >= 0, got {dt}')
-        y = np.concatenate((q_eci_from_body, omega_body), dtype=float)
-        phi, qd = _I6, _ZERO6
-        if dt > 0.0:
-            rate = float(np.linalg.norm(omega_body))
-            # Stamps 0.1 s apart differ by 0.1 s and a few ulp: that excess must not double the steps.
-            steps = max(1, math.ceil(dt / max_step_s - 1e-9), math.ceil(rate * dt / max_step_angle_rad))
-            h = dt / steps
-            for k in range(steps):
-                y_next = rk4_step(self.reference_rate, 0.0, y, h)
-                phi_k, qd_k = self.substep_transition(y[4:7].tolist(), y_next[4:7].tolist(), h)
-                if k == 0:
-                    phi, qd = phi_k, qd_k
-                else:
-                    phi, qd = phi_k @ phi, phi_k @ qd @ phi_k.T + qd_k
-                y = y_next
-        return quat_normalize(y[:4].tolist()), y[4:7].copy(), phi.copy(), qd.copy()
+        y = np.concatenate((q_eci_from_body, omega_body), dtype=float).tolist()
+        if not dt > 0.0:
+            return quat_normalize(y[:4]), np.array(y[4:]), _I6.copy(), _ZERO6.copy()
+        rate = float(np.linalg.norm(omega_body))
+        # Stamps 0.1 s apart differ by 0.1 s and a few ulp: that excess must not double the steps.
+        steps = max(1, math.ceil(dt / max_step_s - 1e-9), math.ceil(rate * dt / max_step_angle_rad))
+        h = dt / steps
+        for k in range(steps):
+            y_next = self.reference_rk4_step(y, h)
+            phi_k, qd_k = self.substep_transition(y[4:], y_next[4:], h)
+            if k == 0:
+                phi, qd = phi_k, qd_k
+            else:
+                phi, qd = phi_k @ phi, phi_k @ qd @ phi_k.T + qd_k
+            y = y_next
+        return quat_normalize(y[:4]), np.array(y[4:]), phi, qd
+
+    def reference_rk4_step(self, y, h):
+        """One RK4 step of ``reference_rate`` (flyby_sim.dynamics.orbital.rk4_step) from the 7 floats
+        y = [q_eci_from_body, omega_body] (a list), as a list: the same IEEE operations in the same order
+        as rk4_step on the numpy vector, so the same result to the bit, without numpy's cost per call
+        on seven numbers (test_float_rk4_step_is_rk4_step_to_the_bit)."""
+        inertia, inertia_inv = self._inertia_t, self._inertia_inv_t
+
+        def rate(v):
+            return quaternion_rate(v[:4], v[4:]).tolist() + euler_rate(v[4:], inertia, inertia_inv).tolist()
+
+        half = 0.5 * h
+        k1 = rate(y)
+        k2 = rate([a + half * b for a, b in zip(y, k1, strict=True)])
+        k3 = rate([a + half * b for a, b in zip(y, k2, strict=True)])
+        k4 = rate([a + h * b for a, b in zip(y, k3, strict=True)])
+        sixth = h / 6.0
+        return [a + sixth * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True)]
 
     def substep_transition(self, omega_body0, omega_body1, h):
         """(Phi, Qd) of the error state over a short step h [s] of the reference motion whose body

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from filterpy.kalman import KalmanFilter
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import chi2
@@ -231,6 +232,21 @@ def test_predict_leaves_the_filter_unchanged_and_propagate_to_moves_it(paper):
                                atol=1e-6 * np.abs(ahead.covariance).max())
     with pytest.raises(ValueError, match='before the filter time'):
         f.propagate_to(before.t)
+
+
+def test_time_update_is_filterpys_predict_to_the_bit(paper):
+    """propagate_to's P = Phi P Phi' + Qd is filterpy's KalmanFilter.predict (what the filter called before),
+    symmetrized: the same covariance to the bit, for one substep and for three (a 1 s gap)."""
+    f = copy.deepcopy(paper.filter60)
+    for dt in (0.1, 1.0):
+        p0, t = f.covariance, f.t + dt
+        _, _, phi, qd = f.dynamics.propagate(f.state().q_eci_from_body, f.state().omega_body, t - f.t,
+                                             f.config.max_step_angle_rad)
+        kf = KalmanFilter(dim_x=6, dim_z=3)
+        kf.P = p0
+        kf.predict(F=phi, Q=qd)
+        f.propagate_to(t)
+        np.testing.assert_array_equal(f.covariance, 0.5 * (kf.P + kf.P.T))
 
 
 def converged_filter(paper):

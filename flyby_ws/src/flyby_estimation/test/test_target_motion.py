@@ -218,6 +218,17 @@ def test_lazy_covariance_matches_dop853_of_the_augmented_state():
     np.testing.assert_allclose(still.attitude_sigma_rad([10.0, 10.0]), np.sqrt(np.linalg.eigvalsh(p0[:3, :3])[-1]))
 
 
+@settings(max_examples=50, deadline=None)
+@given(st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: np.linalg.norm(q) > 0.1),
+       st.tuples(*[st.floats(-0.5, 0.5)] * 3), st.floats(1e-3, 0.5))
+def test_float_rk4_step_is_rk4_step_to_the_bit(q, omega, h):
+    """reference_rk4_step on Python floats is flyby_sim's rk4_step of reference_rate on the numpy vector, to the bit."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER)
+    y = np.concatenate((quat_normalize(q), omega))
+    expected = rk4_step(dyn.reference_rate, 0.0, y, h)
+    np.testing.assert_array_equal(np.array(dyn.reference_rk4_step(y.tolist(), h)), expected)
+
+
 @settings(max_examples=20, deadline=None)
 @given(st.floats(0.1, 20.0), st.floats(0.1, 20.0), st.tuples(*[st.floats(-0.4, 0.4)] * 3))
 def test_property_transition_matrix_composes(dt1, dt2, omega):
