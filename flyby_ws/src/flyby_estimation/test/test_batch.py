@@ -6,10 +6,15 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from flyby_estimation.batch import error_between, fit_attitude_motion
+from flyby_estimation.batch import _rotation_vectors, error_between, fit_attitude_motion
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import q_hill_from_body
-from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize
+from flyby_sim.dynamics.rotation import (
+    quat_from_axis_angle,
+    quat_multiply,
+    quat_normalize,
+    rotation_vector_from_quat,
+)
 
 DEG = math.radians(1.0)
 N_RAD_S = 1.1e-3
@@ -70,3 +75,14 @@ def test_malformed_window_is_refused_naming_the_argument(times, z, match):
         fit_attitude_motion(times, z, N_RAD_S, INERTIA, DEG, [0, 0, 0, 1], [0, 0, 0.1])
     with pytest.raises(ValueError, match='attitude_sigma_rad'):
         fit_attitude_motion([0.0, 0.1, 0.2], [[0, 0, 0, 1]] * 3, N_RAD_S, INERTIA, 0.0, [0, 0, 0, 1], [0, 0, 0.1])
+
+
+def test_vectorized_log_map_is_rotation_vector_from_quat():
+    """The residuals' log map on stacked quaternions equals flyby_sim's one-at-a-time map: non-unit
+    quaternions, negative w (the short way round), angles under its 1e-6 rad series threshold, and pi."""
+    rng = np.random.default_rng(11)
+    q = list(rng.standard_normal((20, 4)) * 1.7)
+    q += [quat_from_axis_angle([1.0, 2.0, -1.0], angle) for angle in (0.0, 3e-7, 2e-6, 0.1, math.pi)]
+    q += [-quat_from_axis_angle([0.3, -1.0, 0.2], 1e-7), [0.0, 0.0, 1.0, 0.0]]
+    expected = np.array([rotation_vector_from_quat(qk) for qk in q])
+    np.testing.assert_allclose(_rotation_vectors(np.array(q).T).T, expected, rtol=1e-14, atol=1e-22)
