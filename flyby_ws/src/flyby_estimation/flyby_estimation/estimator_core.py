@@ -109,10 +109,10 @@ class EstimatorCore:
     # -- target convergence and category --------------------------------------------------------
     def _check_convergence(self, t):
         out = []
-        attitude_3s, rate_3s = self.target.three_sigma()
-        converged = self.convergence.met_by(attitude_3s, rate_3s)  # target.convergence, from the bounds at hand
+        converged = self.target.convergence(self.convergence)
         if converged != self.converged:
             self.converged = converged
+            attitude_3s, rate_3s = self.target.three_sigma()
             bounds = {'attitude_3sigma_deg': f'{math.degrees(attitude_3s):.4g}',
                       'rate_3sigma_deg_s': f'{math.degrees(rate_3s):.4g}'}
             if converged and not self.checked:

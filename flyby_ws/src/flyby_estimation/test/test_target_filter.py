@@ -346,6 +346,31 @@ def test_convergence_flag_and_three_sigma(paper):
     assert attitude == pytest.approx(3 * DEG) and rate == pytest.approx(3 * f.config.rate_sigma0_rad_s)
 
 
+def test_convergence_from_traces_is_that_of_three_sigma(paper):
+    """convergence() decides mostly from the blocks' traces; its verdict is met_by(three_sigma()) at every
+    update of the paper run's first 60 s and for covariances whose largest 3 sigma sits at, just under or
+    just over a threshold (isotropic, where the trace bound is tight, and one-directional)."""
+    thresholds = ConvergenceThresholds()
+    f = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario))
+    for t, q in paper.window60:
+        f.update(t, q)
+        assert f.convergence(thresholds) == thresholds.met_by(*f.three_sigma())
+    rng = np.random.default_rng(2)
+    limits = np.array([thresholds.attitude_3sigma_rad, thresholds.rate_3sigma_rad_s]) / 3.0
+    for _ in range(300):
+        blocks = []
+        for limit in limits:
+            u, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+            shape = rng.choice([np.ones(3), np.array([1.0, 1e-3, 1e-6]), rng.uniform(0.0, 1.0, 3)])
+            largest = limit ** 2 * rng.choice([1.0, 1.0 - 1e-15, 1.0 + 1e-15, 1.0 - 1e-9, 1.0 + 1e-9,
+                                              rng.uniform(0.2, 5.0)])
+            blocks.append(u @ np.diag(largest * shape / shape.max()) @ u.T)
+        f._p = np.zeros((6, 6))
+        f._p[:3, :3], f._p[3:, 3:] = blocks
+        f._p = 0.5 * (f._p + f._p.T)
+        assert f.convergence(thresholds) == thresholds.met_by(*f.three_sigma())
+
+
 def test_state_outputs_are_consistent(paper):
     s = paper.filter60.state()
     c = quat_to_matrix(s.q_hill_from_body)
