@@ -32,9 +32,9 @@ from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, va
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import (
-    cw_accel_floats,
+    cw_accel_components,
     mean_motion_rad_s,
-    nonlinear_relative_accel_floats,
+    nonlinear_relative_accel_components,
     q_eci_from_body,
     q_hill_from_body_many,
     rk4_step_floats,
@@ -148,9 +148,9 @@ class Plant:
         self.mean_motion_rad_s = n
         if config.dynamics == 'nonlinear':
             radius_m = config.radius_m
-            self._accel = lambda r, v, a: nonlinear_relative_accel_floats(r, v, n, radius_m, a)
+            self._accel = lambda r, v, a: nonlinear_relative_accel_components(r, v, n, radius_m, a)
         else:
-            self._accel = lambda r, v, a: cw_accel_floats(r, v, n, a)
+            self._accel = lambda r, v, a: cw_accel_components(r, v, n, a)
         thruster_seed, sensor_seed = np.random.SeedSequence(config.seed).spawn(2)
         self._thrusters = ThrusterModel(config.thrusters, np.random.default_rng(thruster_seed))
         self._sensors = SensorModel(np.random.default_rng(sensor_seed), config.position_sigma_m,

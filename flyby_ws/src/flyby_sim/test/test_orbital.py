@@ -11,14 +11,14 @@ from scipy.integrate import solve_ivp
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import (
     cw_accel,
-    cw_accel_floats,
+    cw_accel_components,
     cw_transition_matrix,
     eci_from_relative,
     eci_vector_in_hill,
     hill_axes_in_eci,
     mean_motion_rad_s,
     nonlinear_relative_accel,
-    nonlinear_relative_accel_floats,
+    nonlinear_relative_accel_components,
     q_hill_from_body,
     q_hill_from_body_many,
     quat_eci_from_hill,
@@ -207,16 +207,16 @@ def test_float_accelerations_and_rk4_equal_the_numpy_ones_to_the_bit():
         a_ext = tuple(rng.normal(0.0, 1e-3, 3).tolist())
         h = float(rng.uniform(1e-3, 0.05))
         state = y.tolist()
-        assert nonlinear_relative_accel_floats(state[:3], state[3:], N, RADIUS_M, a_ext) == tuple(
+        assert nonlinear_relative_accel_components(state[:3], state[3:], N, RADIUS_M, a_ext) == tuple(
             nonlinear_relative_accel(state[:3], state[3:], N, RADIUS_M, a_ext).tolist())
-        assert cw_accel_floats(state[:3], state[3:], N, a_ext) == tuple(
+        assert cw_accel_components(state[:3], state[3:], N, a_ext) == tuple(
             cw_accel(state[:3], state[3:], N, a_ext).tolist())
 
         def rhs_numpy(t, s, a_ext=a_ext):
             return np.concatenate((s[3:], nonlinear_relative_accel(s[:3].tolist(), s[3:].tolist(), N, RADIUS_M, a_ext)))
 
         def rhs_floats(t, s, a_ext=a_ext):
-            return (*s[3:], *nonlinear_relative_accel_floats(s[:3], s[3:], N, RADIUS_M, a_ext))
+            return (*s[3:], *nonlinear_relative_accel_components(s[:3], s[3:], N, RADIUS_M, a_ext))
 
         assert rk4_step_floats(rhs_floats, 3.0, state, h) == rk4_step(rhs_numpy, 3.0, y, h).tolist()
 

@@ -54,17 +54,13 @@ def nonlinear_relative_accel(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0
     Returns:
         the acceleration, shaped as r_hill.
     """
-    return np.array(_nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill))
+    return np.array(nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill))
 
 
-def nonlinear_relative_accel_floats(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0.0, 0.0)):
-    """``nonlinear_relative_accel`` of one state as a tuple of 3 Python floats (the same arithmetic, hence
-    the same bits), for RK4 on floats (``rk4_step_floats``); r_hill, v_hill are 3 floats each."""
-    return _nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill)
-
-
-def _nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill):
-    """The three components of ``nonlinear_relative_accel``: floats for one state, arrays for N."""
+def nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_hill=(0.0, 0.0, 0.0)):
+    """``nonlinear_relative_accel`` as a tuple of its 3 components: Python floats for one state given as
+    floats (the same arithmetic, hence the same bits, for RK4 on floats: ``rk4_step_floats``), arrays
+    for N states."""
     x, y, z = r_hill
     vx, vy, vz = v_hill
     ax, ay, az = accel_ext_hill
@@ -85,10 +81,10 @@ def _nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_
 
 def cw_accel(r_hill, v_hill, n, accel_ext_hill=(0.0, 0.0, 0.0)):
     """Linearized (Hill / Clohessy-Wiltshire) relative acceleration [m/s^2], seed 000 eq 2a-2c."""
-    return np.array(cw_accel_floats(r_hill, v_hill, n, accel_ext_hill))
+    return np.array(cw_accel_components(r_hill, v_hill, n, accel_ext_hill))
 
 
-def cw_accel_floats(r_hill, v_hill, n, accel_ext_hill=(0.0, 0.0, 0.0)):
+def cw_accel_components(r_hill, v_hill, n, accel_ext_hill=(0.0, 0.0, 0.0)):
     """``cw_accel`` as a tuple of its 3 components (Python floats for float input: the same bits)."""
     x, y, z = r_hill
     vx, vy, vz = v_hill
