@@ -349,7 +349,8 @@ class TargetAttitudeFilter(FilterBase):
     def prediction(self, t_end, with_covariance=True):
         """target_motion.MotionPrediction from the filter time to t_end [s]: ask it at many times.
 
-        with_covariance=False predicts the motion alone (about 6x faster, no covariance).
+        with_covariance=False gives states without covariance (the same motion; the covariance costs
+        nothing until first asked for).
         """
         self._require_initialized()
         return MotionPrediction(self.dynamics, self._n, self._t, self._q, self._omega, self._p, t_end,
