@@ -4,7 +4,8 @@
     benchmark_estimation.py [--scenario scenarios/paper_flyby.yaml] [--updates 3000]
 
 Measurements are recorded from the pure Plant first, so only the filter is timed. Also prints the cost
-of a 600 s prediction of the grasp point (one DOP853 integration of state, Phi and Qd).
+of a 600 s prediction of the grasp point (DOP853 of the reference motion; Phi and Qd by closed-form Magnus
+substeps at first use, target_motion.MotionPrediction).
 """
 
 import argparse
