@@ -33,7 +33,7 @@ from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body
+from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body, rk4_step_floats
 from flyby_sim.dynamics.rotation import (
     quat_normalize,
     quat_to_matrix,
@@ -142,22 +142,16 @@ class ErrorStateDynamics:
         return quat_normalize(y[:4]), np.array(y[4:]), phi, qd
 
     def reference_rk4_step(self, y, h):
-        """One RK4 step of ``reference_rate`` (flyby_sim.dynamics.orbital.rk4_step) from the 7 floats
-        y = [q_eci_from_body, omega_body] (a list), as a list: the same IEEE operations in the same order
-        as rk4_step on the numpy vector, so the same result to the bit, without numpy's cost per call
-        on seven numbers (test_float_rk4_step_is_rk4_step_to_the_bit)."""
+        """One RK4 step of ``reference_rate`` from the 7 floats y = [q_eci_from_body, omega_body] (a list),
+        as a list, by ``orbital.rk4_step_floats``: the same IEEE operations in the same order as rk4_step
+        on the numpy vector, so the same result to the bit, without numpy's cost per call on seven
+        numbers (test_float_rk4_step_is_rk4_step_to_the_bit)."""
         inertia, inertia_inv = self._inertia_t, self._inertia_inv_t
 
         def rate(v):
             return quaternion_rate(v[:4], v[4:]).tolist() + euler_rate(v[4:], inertia, inertia_inv).tolist()
 
-        half = 0.5 * h
-        k1 = rate(y)
-        k2 = rate([a + half * b for a, b in zip(y, k1, strict=True)])
-        k3 = rate([a + half * b for a, b in zip(y, k2, strict=True)])
-        k4 = rate([a + h * b for a, b in zip(y, k3, strict=True)])
-        sixth = h / 6.0
-        return [a + sixth * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True)]
+        return rk4_step_floats(lambda _, v: rate(v), 0.0, y, h)
 
     def substep_transition(self, omega_body0, omega_body1, h):
         """(Phi, Qd) of the error state over a short step h [s] of the reference motion whose body
