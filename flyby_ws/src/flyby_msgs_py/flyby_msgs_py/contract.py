@@ -17,6 +17,8 @@ CLOCK = 'clock'
 SIM_CHASER_ODOM = 'sim/chaser/odom'
 SIM_TARGET_ODOM = 'sim/target/odom'
 SIM_CHASER_THRUST = 'sim/chaser/thrust'
+SIM_CHASER_WHEELS = 'sim/chaser/wheels'
+SENSOR_CHASER_IMU = 'sensors/chaser/imu'
 SENSOR_RELATIVE_POSITION = 'sensors/chaser/relative_position'
 SENSOR_TARGET_ATTITUDE = 'sensors/target/attitude'
 EST_TARGET_ODOM = 'estimation/target/odom'
@@ -26,6 +28,8 @@ PLANNER_FLYBY_TARGET = 'planner/flyby_target'
 PLANNER_FLYBY_INITIAL = 'planner/flyby_initial'
 PLANNER_PATH = 'planner/path'
 GUIDANCE_MANEUVER = 'guidance/maneuver'
+GUIDANCE_WRENCH = 'guidance/wrench'
+GUIDANCE_WHEELS = 'guidance/wheels'
 MISSION_PHASE = 'mission/phase'
 MISSION_EVENTS = 'mission/events'
 MARKERS = 'visualization/markers'
@@ -38,6 +42,8 @@ TOPIC_TYPES = {
     SIM_CHASER_ODOM: 'nav_msgs/msg/Odometry',
     SIM_TARGET_ODOM: 'nav_msgs/msg/Odometry',
     SIM_CHASER_THRUST: 'geometry_msgs/msg/WrenchStamped',
+    SIM_CHASER_WHEELS: 'sensor_msgs/msg/JointState',
+    SENSOR_CHASER_IMU: 'sensor_msgs/msg/Imu',
     SENSOR_RELATIVE_POSITION: 'geometry_msgs/msg/PointStamped',
     SENSOR_TARGET_ATTITUDE: 'geometry_msgs/msg/QuaternionStamped',
     EST_TARGET_ODOM: 'nav_msgs/msg/Odometry',
@@ -47,6 +53,8 @@ TOPIC_TYPES = {
     PLANNER_FLYBY_INITIAL: 'nav_msgs/msg/Odometry',
     PLANNER_PATH: 'nav_msgs/msg/Path',
     GUIDANCE_MANEUVER: 'geometry_msgs/msg/Vector3Stamped',
+    GUIDANCE_WRENCH: 'geometry_msgs/msg/WrenchStamped',
+    GUIDANCE_WHEELS: 'sensor_msgs/msg/JointState',
     MISSION_PHASE: 'std_msgs/msg/String',
     MISSION_EVENTS: 'diagnostic_msgs/msg/DiagnosticArray',
     MARKERS: 'visualization_msgs/msg/MarkerArray',

@@ -25,6 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped, PoseStamped, QuaternionStamped, Vector3Stamped, WrenchStamped
 from nav_msgs.msg import Odometry, Path
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import String
 
 from flyby_msgs_py.wire import value_text
@@ -340,6 +341,84 @@ def wrench_stamped(t, frame_id, force, torque=(0.0, 0.0, 0.0), out=None):
 def wrench_stamped_to_numpy(msg):
     f, tq = msg.wrench.force, msg.wrench.torque
     return WrenchArrays(stamp_to_sec(msg.header.stamp), np.array((f.x, f.y, f.z)), np.array((tq.x, tq.y, tq.z)))
+
+
+def _cov3(c, field):
+    a = np.asarray(c, dtype=float)
+    if a.shape not in ((3, 3), (9,)) or not np.isfinite(a).all():
+        raise ValueError(f'{field}: must be a finite 3x3 (or flat 9) covariance, got {_describe(c)}')
+    return a.reshape(9)
+
+
+class ImuArrays(NamedTuple):
+    t: float
+    orientation_xyzw: np.ndarray   # (4,) frame_id (body) in hill, or None when the message has none
+    angular_velocity: np.ndarray   # (3,) [rad/s], body axes
+    linear_acceleration: np.ndarray  # (3,) [m/s^2], body axes
+    orientation_covariance: np.ndarray  # (3, 3), or None with the orientation
+    angular_velocity_covariance: np.ndarray  # (3, 3)
+    linear_acceleration_covariance: np.ndarray  # (3, 3)
+    frame_id: str
+
+
+def imu(t, frame_id, orientation_xyzw, angular_velocity, linear_acceleration, orientation_covariance,
+        angular_velocity_covariance, linear_acceleration_covariance):
+    """sensor_msgs/Imu: orientation of frame_id (the sensor's body) in hill, gyro rate and specific force
+    in frame_id axes, each with its covariance. ``orientation_xyzw`` None: a sample without an attitude,
+    marked as sensor_msgs says (orientation_covariance[0] = -1, orientation zero)."""
+    msg = _with_header(Imu(), t, frame_id)
+    if orientation_xyzw is None:
+        msg.orientation.x = msg.orientation.y = msg.orientation.z = msg.orientation.w = 0.0
+        msg.orientation_covariance = np.array([-1.0] + [0.0] * 8)
+    else:
+        _set_xyzw(msg.orientation, _quat(orientation_xyzw, 'orientation_xyzw'))
+        msg.orientation_covariance = _cov3(orientation_covariance, 'orientation_covariance')
+    _set_xyz(msg.angular_velocity, _vec3(angular_velocity, 'angular_velocity'))
+    _set_xyz(msg.linear_acceleration, _vec3(linear_acceleration, 'linear_acceleration'))
+    msg.angular_velocity_covariance = _cov3(angular_velocity_covariance, 'angular_velocity_covariance')
+    msg.linear_acceleration_covariance = _cov3(linear_acceleration_covariance, 'linear_acceleration_covariance')
+    return msg
+
+
+def imu_to_numpy(msg):
+    o, w, a = msg.orientation, msg.angular_velocity, msg.linear_acceleration
+    has_orientation = msg.orientation_covariance[0] != -1.0
+    return ImuArrays(stamp_to_sec(msg.header.stamp),
+                     np.array((o.x, o.y, o.z, o.w)) if has_orientation else None,
+                     np.array((w.x, w.y, w.z)), np.array((a.x, a.y, a.z)),
+                     np.array(msg.orientation_covariance, dtype=float).reshape(3, 3) if has_orientation else None,
+                     np.array(msg.angular_velocity_covariance, dtype=float).reshape(3, 3),
+                     np.array(msg.linear_acceleration_covariance, dtype=float).reshape(3, 3),
+                     msg.header.frame_id)
+
+
+class JointArrays(NamedTuple):
+    t: float
+    names: list
+    position: np.ndarray  # (N,) or empty
+    velocity: np.ndarray  # (N,) or empty
+    effort: np.ndarray    # (N,) or empty
+
+
+def joint_state(t, frame_id, names, velocity=(), effort=()):
+    """sensor_msgs/JointState: e.g. the reaction wheels (velocity = wheel speed relative to the body
+    [rad/s], effort = motor torque [N m]), one entry per name; an empty list leaves a field out."""
+    names = list(names)
+    if not all(type(n) is str and n for n in names):
+        raise ValueError(f'names: must be non-empty strings, got {names!r}')
+    msg = _with_header(JointState(), t, frame_id)
+    msg.name = names
+    for field, values in (('velocity', velocity), ('effort', effort)):
+        values = list(values.tolist() if isinstance(values, np.ndarray) else values)
+        if values and len(values) != len(names):
+            raise ValueError(f'{field}: must have one value per name ({len(names)}), got {len(values)}')
+        setattr(msg, field, [_scalar(v, f'{field}[{i}]') for i, v in enumerate(values)])
+    return msg
+
+
+def joint_state_to_numpy(msg):
+    return JointArrays(stamp_to_sec(msg.header.stamp), list(msg.name), np.array(msg.position, dtype=float),
+                       np.array(msg.velocity, dtype=float), np.array(msg.effort, dtype=float))
 
 
 def string(data):

@@ -184,6 +184,37 @@ def test_wrench_round_trip_through_cdr():
     np.testing.assert_array_equal(cv.wrench_stamped_to_numpy(cv.wrench_stamped(0.0, FRAME_HILL, f)).torque, 0.0)
 
 
+def test_imu_round_trip_through_cdr_with_and_without_attitude():
+    q, w, a = unit_quat(), RNG.normal(size=3), RNG.normal(size=3)
+    cov_q, cov_w, cov_a = (np.diag(RNG.uniform(1e-12, 1e-6, 3)) for _ in range(3))
+    out = cv.imu_to_numpy(cdr(cv.imu(1.5, FRAME_CHASER_BODY, q, w, a, cov_q, cov_w, cov_a)))
+    assert out.t == 1.5 and out.frame_id == FRAME_CHASER_BODY
+    np.testing.assert_allclose(out.orientation_xyzw, q, rtol=0, atol=1e-15)
+    for got, want in ((out.angular_velocity, w), (out.linear_acceleration, a), (out.orientation_covariance, cov_q),
+                      (out.angular_velocity_covariance, cov_w), (out.linear_acceleration_covariance, cov_a)):
+        np.testing.assert_array_equal(got, want)
+    bare = cdr(cv.imu(1.6, FRAME_CHASER_BODY, None, w, a, None, cov_w, cov_a))
+    assert bare.orientation_covariance[0] == -1.0  # sensor_msgs: no orientation in this sample
+    out = cv.imu_to_numpy(bare)
+    assert out.orientation_xyzw is None and out.orientation_covariance is None
+    with pytest.raises(ValueError, match='^angular_velocity: must be finite'):
+        cv.imu(0.0, FRAME_CHASER_BODY, q, [0.0, math.nan, 0.0], a, cov_q, cov_w, cov_a)
+    with pytest.raises(ValueError, match='^orientation_covariance: must be a finite 3x3'):
+        cv.imu(0.0, FRAME_CHASER_BODY, q, w, a, np.eye(2), cov_w, cov_a)
+
+
+def test_joint_state_round_trip_through_cdr():
+    speed, torque = RNG.normal(size=3), RNG.normal(size=3)
+    out = cv.joint_state_to_numpy(cdr(cv.joint_state(2.0, FRAME_CHASER_BODY, ['w0', 'w1', 'w2'], speed, torque)))
+    assert out.t == 2.0 and out.names == ['w0', 'w1', 'w2'] and out.position.size == 0
+    np.testing.assert_array_equal(out.velocity, speed)
+    np.testing.assert_array_equal(out.effort, torque)
+    with pytest.raises(ValueError, match=r'^effort: must have one value per name \(3\), got 2'):
+        cv.joint_state(0.0, FRAME_CHASER_BODY, ['w0', 'w1', 'w2'], speed, torque[:2])
+    with pytest.raises(ValueError, match=r'^velocity\[1\]: must be finite'):
+        cv.joint_state(0.0, FRAME_CHASER_BODY, ['w0', 'w1', 'w2'], [0.0, math.inf, 0.0])
+
+
 def test_string_round_trip_through_cdr():
     assert cv.string_to_str(cdr(cv.string('TERMINAL_APPROACH'))) == 'TERMINAL_APPROACH'
     with pytest.raises(ValueError, match='^data: must be a string'):
