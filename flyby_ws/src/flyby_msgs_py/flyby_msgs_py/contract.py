@@ -18,6 +18,7 @@ SIM_CHASER_ODOM = 'sim/chaser/odom'
 SIM_TARGET_ODOM = 'sim/target/odom'
 SIM_CHASER_THRUST = 'sim/chaser/thrust'
 SIM_CHASER_WHEELS = 'sim/chaser/wheels'
+SIM_CHASER_THRUSTERS = 'sim/chaser/thrusters'
 SENSOR_CHASER_IMU = 'sensors/chaser/imu'
 SENSOR_RELATIVE_POSITION = 'sensors/chaser/relative_position'
 SENSOR_TARGET_ATTITUDE = 'sensors/target/attitude'
@@ -43,6 +44,7 @@ TOPIC_TYPES = {
     SIM_TARGET_ODOM: 'nav_msgs/msg/Odometry',
     SIM_CHASER_THRUST: 'geometry_msgs/msg/WrenchStamped',
     SIM_CHASER_WHEELS: 'sensor_msgs/msg/JointState',
+    SIM_CHASER_THRUSTERS: 'sensor_msgs/msg/JointState',
     SENSOR_CHASER_IMU: 'sensor_msgs/msg/Imu',
     SENSOR_RELATIVE_POSITION: 'geometry_msgs/msg/PointStamped',
     SENSOR_TARGET_ATTITUDE: 'geometry_msgs/msg/QuaternionStamped',
