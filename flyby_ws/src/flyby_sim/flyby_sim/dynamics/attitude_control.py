@@ -1,24 +1,44 @@
-"""Wheel-only attitude control of the chaser: rate-limited quaternion feedback with gyroscopic compensation.
+"""Wheel-only attitude control of the chaser: rate-limited quaternion feedback with gyroscopic compensation,
+for a fixed goal (a slew, a hold) or a moving one (tracking, with feed-forward of the goal's rate and
+acceleration).
 
-Quaternions are (x, y, z, w), scalar last (``rotation``); ``q_inertial_from_body`` is the chaser's attitude,
-``q_inertial_from_goal`` the commanded one (fixed in inertial space). The error rotation
-q_goal_from_body = conj(q_inertial_from_goal) * q_inertial_from_body has the rotation vector e (its axis has
-the same components in both frames); e_dot = omega_body for a small error.
+Quaternions are (x, y, z, w), scalar last (``rotation``). The law needs the body and the goal attitude in one
+reference frame R, any frame (inertial for a slew, ``hill`` for the fly-by's pointing): ``q_ref_from_body``
+and ``q_ref_from_goal``. The error rotation q_goal_from_body = conj(q_ref_from_goal) * q_ref_from_body, with
+rotation vector e (its axis has the same components in body and goal axes), does not depend on R. Angular
+velocities are always INERTIAL: ``omega_body`` the chaser's in body axes, ``omega_goal`` the goal frame's in
+goal axes, ``omega_dot_goal`` its inertial derivative in goal axes (the inertial and the goal-frame
+derivative of the goal's own angular velocity coincide, since omega x omega = 0).
 
 The law, after Wie and Lu (J. Guidance 18(6), 1995: u = -K sat(P q) - C omega with K = k I, C = c I) with
-the rotation vector e in place of the quaternion's vector part, so that the rate limit holds exactly:
+the rotation vector e in place of the quaternion's vector part, so that the rate limit holds exactly, and the
+tracking feed-forward of Wen and Kreutz-Delgado (The Attitude Control Problem, IEEE Trans. Automatic Control
+36(10), 1991: the reference's rate and acceleration carried into body axes, the body-frame derivative of the
+reference rate fed forward; the same law in Markley and Crassidis, Fundamentals of Spacecraft Attitude
+Determination and Control, Springer 2014, ch. 7):
 
 .. math::
 
-    \\omega_{ref} = -\\mathrm{sat}_{\\omega_{max}}\\big(\\tfrac{k_p}{k_d} e\\big), \\qquad
-    \\tau = k_d I (\\omega_{ref} - \\omega) + \\omega \\times (I \\omega + A h)
+    \\omega_g^b = C_{bg} \\omega_g, \\qquad
+    \\omega_{ref} = \\omega_g^b - \\mathrm{sat}_{\\omega_{max}}\\big(\\tfrac{k_p}{k_d} e\\big), \\qquad
+    \\tau = I (C_{bg} \\dot\\omega_g - \\omega \\times \\omega_g^b) + k_d I (\\omega_{ref} - \\omega)
+           + \\omega \\times (I \\omega + A h)
 
-sat scales the vector down to norm omega_max (the direction, an eigenaxis, kept). With the gyroscopic term
-cancelling omega x H in seed 001 eq 3 (``rigid_body``), the unsaturated loop is e'' + k_d e' + k_p e = 0,
-k_p = omega_n^2, k_d = 2 zeta omega_n: far from the goal the chaser turns about the eigenaxis at omega_max,
-within |e| = omega_max k_d / k_p it settles as a second-order system. The wheels deliver the body torque
-tau with motor torques u = -A^+ tau (body torque -A u); when u exceeds a wheel's torque limit the whole
-command is scaled down, keeping tau's direction.
+sat scales the vector down to norm omega_max (the direction, an eigenaxis, kept): the rate limit bounds the
+body's rate RELATIVE to the goal (for a fixed goal, its rate). I (C_bg omega_dot_g - omega x omega_g^b) is
+I times the body-frame derivative of omega_g^b (C_bg' = -[(omega - omega_g^b) x] C_bg), so with the
+gyroscopic term cancelling omega x H in seed 001 eq 3 (``rigid_body``) the unsaturated loop is
+I (dw' + k_d dw + k_p e) = 0 with dw = omega - omega_g^b = e' for a small error: e'' + k_d e' + k_p e = 0,
+k_p = omega_n^2, k_d = 2 zeta omega_n, whatever the goal's motion (no lag behind a turning goal). For a fixed
+goal (omega_g = omega_dot_g = 0) it is the slew law: far from the goal the chaser turns about the eigenaxis at
+omega_max, within |e| = omega_max k_d / k_p it settles as a second-order system.
+
+The wheels deliver the body torque: the body feels -A u from the wheels plus any thruster torque tau_thr
+(momentum dumping), so u = -A^+ (tau - tau_thr); when u exceeds a wheel's torque limit the whole command is
+scaled down, keeping its direction.
+
+``pointing_error_rad`` is the mission's figure: the angle between the chaser's +x axis (camera and
+manipulator, DESIGN section 3) and the line of sight to the target's centre of mass (the hill origin).
 """
 
 import math
@@ -28,7 +48,14 @@ import numpy as np
 
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, total_angular_momentum_inertial
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, rotation_vector_from_quat
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    quat_to_matrix_many,
+    rotation_vector_from_quat,
+)
 
 
 class QuaternionFeedbackController:
@@ -51,26 +78,82 @@ class QuaternionFeedbackController:
         self._axes_pinv = np.linalg.pinv(axes)
 
     def wheel_torque(self, state, q_inertial_from_goal):
-        """Wheel motor torques [N m] (N,) for a ChaserAttitudeState and the commanded attitude (module doc)."""
-        e = attitude_error_rotation_vector(state.q_inertial_from_body, q_inertial_from_goal)
+        """Wheel motor torques [N m] (N,) for a ChaserAttitudeState and a fixed commanded attitude (module doc)."""
+        torque_body = self.body_torque(state.q_inertial_from_body, state.omega_body, state.h_wheels_n_m_s,
+                                       q_inertial_from_goal)
+        return self.wheel_torque_for(torque_body)
+
+    def body_torque(self, q_ref_from_body, omega_body, h_wheels_n_m_s, q_ref_from_goal, omega_goal=None,
+                    omega_dot_goal=None):
+        """The body torque tau [N m] (3,), body axes, the law asks for (module doc).
+
+        q_ref_from_body, q_ref_from_goal: the body's and the goal's attitude in one frame R; omega_body
+        [rad/s]: the body's inertial angular velocity, body axes; h_wheels_n_m_s (N,): the wheels' momenta;
+        omega_goal [rad/s] and omega_dot_goal [rad/s^2]: the goal frame's inertial angular velocity and its
+        derivative, goal axes (None: a fixed goal).
+        """
+        e = attitude_error_rotation_vector(q_ref_from_body, q_ref_from_goal)
         omega_ref = -(self.k_p / self.k_d) * e
         norm = math.sqrt(float(omega_ref @ omega_ref))
         if norm > self.max_rate_rad_s:
-            omega_ref *= self.max_rate_rad_s / norm  # eigenaxis rate limit
-        omega = state.omega_body
-        h_body = self.inertia @ omega + self._axes @ state.h_wheels_n_m_s
-        torque_body = self.k_d * (self.inertia @ (omega_ref - omega)) + np.cross(omega, h_body)
-        u = -self._axes_pinv @ torque_body  # body torque -A u = tau
+            omega_ref *= self.max_rate_rad_s / norm  # eigenaxis rate limit, relative to the goal
+        omega = np.asarray(omega_body, dtype=float)
+        h_body = self.inertia @ omega + self._axes @ np.asarray(h_wheels_n_m_s, dtype=float)
+        if omega_goal is None and omega_dot_goal is None:
+            return self.k_d * (self.inertia @ (omega_ref - omega)) + np.cross(omega, h_body)
+        q_body_from_goal = quat_multiply(quat_conjugate(q_ref_from_body), q_ref_from_goal)
+        omega_goal_body = quat_rotate(q_body_from_goal, (0.0, 0.0, 0.0) if omega_goal is None else omega_goal)
+        omega_dot_goal_body = quat_rotate(q_body_from_goal,
+                                          (0.0, 0.0, 0.0) if omega_dot_goal is None else omega_dot_goal)
+        omega_ref = omega_goal_body + omega_ref
+        # I d/dt(omega_g^b), body-frame derivative: the feed-forward that removes the tracking lag
+        feed_forward = self.inertia @ (omega_dot_goal_body - np.cross(omega, omega_goal_body))
+        return feed_forward + self.k_d * (self.inertia @ (omega_ref - omega)) + np.cross(omega, h_body)
+
+    def wheel_torque_for(self, torque_body_n_m, thruster_torque_body_n_m=None):
+        """Wheel motor torques u [N m] (N,) giving the body torque torque_body_n_m together with a thruster
+        torque (body axes, None: none): u = -A^+ (tau - tau_thr), scaled down as a whole to the torque limits."""
+        torque = np.asarray(torque_body_n_m, dtype=float)
+        if thruster_torque_body_n_m is not None:
+            torque = torque - np.asarray(thruster_torque_body_n_m, dtype=float)
+        u = -self._axes_pinv @ torque  # body torque -A u (+ tau_thr) = tau
         limit = self.wheels.max_torque_n_m
         excess = float(np.max(np.abs(u) / limit))
         if excess <= 1.0:
             return u
         return np.clip(u / excess, -limit, limit)  # the clip only removes the division's round-off
 
+    @property
+    def axes_pinv(self):
+        """A^+ (N, 3): wheel torques from a body torque (u = -A^+ tau)."""
+        return self._axes_pinv
 
-def attitude_error_rotation_vector(q_inertial_from_body, q_inertial_from_goal):
-    """Rotation vector [rad] of q_goal_from_body, the short way round (angle in [0, pi])."""
-    return rotation_vector_from_quat(quat_multiply(quat_conjugate(q_inertial_from_goal), q_inertial_from_body))
+
+def attitude_error_rotation_vector(q_ref_from_body, q_ref_from_goal):
+    """Rotation vector [rad] of q_goal_from_body, the short way round (angle in [0, pi]); both attitudes in
+    one frame R (any)."""
+    return rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref_from_goal), q_ref_from_body))
+
+
+def pointing_error_rad(q_hill_from_body, r_hill):
+    """Angle [rad] between the chaser's body +x axis and its line of sight to the hill origin (the target's
+    centre of mass while it flies free, DESIGN section 3): acos(x_body . (-r / |r|)), computed as
+    atan2(|a x b|, a . b) so that small angles keep their precision.
+
+    One attitude (4,) with one position r_hill (3,) [m] gives a float; N of each, (N, 4) and (N, 3), give (N,).
+    """
+    q = np.asarray(q_hill_from_body, dtype=float)
+    r = np.asarray(r_hill, dtype=float)
+    if q.shape[-1:] != (4,) or r.shape[-1:] != (3,) or q.shape[:-1] != r.shape[:-1]:
+        raise ValueError(f'q_hill_from_body {q.shape} and r_hill {r.shape} must be (4,) and (3,) or (N, 4) and (N, 3)')
+    x_body_hill = quat_to_matrix_many(q.reshape(-1, 4))[:, :, 0]  # body +x in hill: C_hill_from_body's 1st column
+    los = -r.reshape(-1, 3)
+    sin_part = np.linalg.norm(np.cross(x_body_hill, los), axis=1) / np.linalg.norm(x_body_hill, axis=1)
+    cos_part = np.einsum('ij,ij->i', x_body_hill, los) / np.linalg.norm(x_body_hill, axis=1)
+    angle = np.arctan2(sin_part, cos_part)
+    if not np.all(np.isfinite(angle)) or np.any(np.linalg.norm(los, axis=1) == 0.0):
+        raise ValueError('r_hill must be finite and nonzero (the chaser at the target centre has no line of sight)')
+    return float(angle[0]) if q.ndim == 1 else angle
 
 
 class SlewResult(NamedTuple):
