@@ -53,6 +53,7 @@ from flyby_sim.dynamics.rotation import (
     quat_multiply,
     quat_normalize,
     quat_rotate,
+    quat_to_matrix,
     quat_to_matrix_many,
     rotation_vector_from_quat,
 )
@@ -100,15 +101,15 @@ class QuaternionFeedbackController:
         omega = np.asarray(omega_body, dtype=float)
         h_body = self.inertia @ omega + self._axes @ np.asarray(h_wheels_n_m_s, dtype=float)
         if omega_goal is None and omega_dot_goal is None:
-            return self.k_d * (self.inertia @ (omega_ref - omega)) + np.cross(omega, h_body)
+            return self.k_d * (self.inertia @ (omega_ref - omega)) + cross3(omega, h_body)
         q_body_from_goal = quat_multiply(quat_conjugate(q_ref_from_body), q_ref_from_goal)
         omega_goal_body = quat_rotate(q_body_from_goal, (0.0, 0.0, 0.0) if omega_goal is None else omega_goal)
         omega_dot_goal_body = quat_rotate(q_body_from_goal,
                                           (0.0, 0.0, 0.0) if omega_dot_goal is None else omega_dot_goal)
         omega_ref = omega_goal_body + omega_ref
         # I d/dt(omega_g^b), body-frame derivative: the feed-forward that removes the tracking lag
-        feed_forward = self.inertia @ (omega_dot_goal_body - np.cross(omega, omega_goal_body))
-        return feed_forward + self.k_d * (self.inertia @ (omega_ref - omega)) + np.cross(omega, h_body)
+        feed_forward = self.inertia @ (omega_dot_goal_body - cross3(omega, omega_goal_body))
+        return feed_forward + self.k_d * (self.inertia @ (omega_ref - omega)) + cross3(omega, h_body)
 
     def wheel_torque_for(self, torque_body_n_m, thruster_torque_body_n_m=None):
         """Wheel motor torques u [N m] (N,) giving the body torque torque_body_n_m together with a thruster
@@ -135,25 +136,32 @@ def attitude_error_rotation_vector(q_ref_from_body, q_ref_from_goal):
     return rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref_from_goal), q_ref_from_body))
 
 
+def cross3(a, b):
+    """a x b of two 3-vectors as a numpy array, computed on Python floats: the same IEEE products and
+    differences as np.cross, at a tenth of its cost for one pair (the controller runs every control period)."""
+    ax, ay, az = a.tolist() if type(a) is np.ndarray else a
+    bx, by, bz = b.tolist() if type(b) is np.ndarray else b
+    return np.array((ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx))
+
+
 def pointing_error_rad(q_hill_from_body, r_hill):
     """Angle [rad] between the chaser's body +x axis and its line of sight to the hill origin (the target's
     centre of mass while it flies free, DESIGN section 3): acos(x_body . (-r / |r|)), computed as
-    atan2(|a x b|, a . b) so that small angles keep their precision.
+    atan2(|x_body x los|, x_body . los) so that small angles keep their precision.
 
     One attitude (4,) with one position r_hill (3,) [m] gives a float; N of each, (N, 4) and (N, 3), give (N,).
     """
     q = np.asarray(q_hill_from_body, dtype=float)
     r = np.asarray(r_hill, dtype=float)
-    if q.shape[-1:] != (4,) or r.shape[-1:] != (3,) or q.shape[:-1] != r.shape[:-1]:
+    if q.shape[-1:] != (4,) or r.shape[-1:] != (3,) or q.shape[:-1] != r.shape[:-1] or q.ndim > 2:
         raise ValueError(f'q_hill_from_body {q.shape} and r_hill {r.shape} must be (4,) and (3,) or (N, 4) and (N, 3)')
-    x_body_hill = quat_to_matrix_many(q.reshape(-1, 4))[:, :, 0]  # body +x in hill: C_hill_from_body's 1st column
-    los = -r.reshape(-1, 3)
-    sin_part = np.linalg.norm(np.cross(x_body_hill, los), axis=1) / np.linalg.norm(x_body_hill, axis=1)
-    cos_part = np.einsum('ij,ij->i', x_body_hill, los) / np.linalg.norm(x_body_hill, axis=1)
-    angle = np.arctan2(sin_part, cos_part)
-    if not np.all(np.isfinite(angle)) or np.any(np.linalg.norm(los, axis=1) == 0.0):
+    if not np.all(np.isfinite(r)) or np.any(np.all(r == 0.0, axis=-1)):
         raise ValueError('r_hill must be finite and nonzero (the chaser at the target centre has no line of sight)')
-    return float(angle[0]) if q.ndim == 1 else angle
+    if q.ndim == 1:
+        x_body_hill = quat_to_matrix(q)[:, 0]  # body +x in hill: C_hill_from_body's first column (unit)
+        return math.atan2(math.sqrt(float(np.sum(cross3(x_body_hill, -r) ** 2))), -float(x_body_hill @ r))
+    x_body_hill = quat_to_matrix_many(q)[:, :, 0]
+    return np.arctan2(np.linalg.norm(np.cross(x_body_hill, -r), axis=1), -np.einsum('ij,ij->i', x_body_hill, r))
 
 
 class SlewResult(NamedTuple):
