@@ -396,7 +396,7 @@ def gravity_gradient_torque(q_hill_from_body, inertia_kg_m2, n):
 def simulate_pointing(guidance, propagator, path, t0_s, t1_s, n, rng=None, attitude_sigma_rad=0.0,
                       rate_sigma_rad_s=0.0, delay_periods=1, restriction_sphere_radius_m=0.0,
                       gravity_gradient=True, q_hill_from_body0=None, h_wheels0_n_m_s=None,
-                      external_torque_body_n_m=None):
+                      external_torque_body_n_m=None, estimate=None):
     """Closed-loop pointing along a given relative path: the guidance's commands held over each control period
     (zero-order hold) through a GyrostatPropagator, applied ``delay_periods`` after the estimates they were
     computed from (DESIGN section 10: one period), the thruster torque applied exactly as commanded.
@@ -404,15 +404,16 @@ def simulate_pointing(guidance, propagator, path, t0_s, t1_s, n, rng=None, attit
     Args:
         guidance: AttitudeGuidance (its control period is the step).
         propagator: GyrostatPropagator of the true chaser.
-        path: callable t -> (r_hill, v_hill), the true relative motion (also what the guidance is given).
+        path: callable t -> (r_hill, v_hill), the true relative motion.
         t0_s, t1_s: start and end [s]. n: mean motion [rad/s] (inertial frame: ECI of ``orbital``).
         rng: numpy Generator for the estimation errors (None: none): the attitude estimate is the truth turned
             by a rotation of attitude_sigma_rad per axis, the rate the truth plus rate_sigma_rad_s per axis.
-        restriction_sphere_radius_m: inside this range the guidance is told no thruster may fire.
+        restriction_sphere_radius_m: inside this (estimated) range the guidance is told no thruster may fire.
         gravity_gradient: add the gravity-gradient torque (held over each period).
         q_hill_from_body0: initial attitude (None: the goal's, at the goal's rate); h_wheels0_n_m_s: initial
             wheel momenta (None: zero).
         external_torque_body_n_m: a further constant body torque [N m] (None: none).
+        estimate: callable t -> (r_hill, v_hill), the relative state the guidance is given (None: path's).
     """
     period = guidance.config.control_period_s
     inertia = propagator.inertia
@@ -448,8 +449,9 @@ def simulate_pointing(guidance, propagator, path, t0_s, t1_s, n, rng=None, attit
         if rng is not None:
             q_est = quat_multiply(q_hill, random_small_rotation(rng, attitude_sigma_rad))
             omega_est = state.omega_body + rate_sigma_rad_s * rng.standard_normal(3)
-        inside = float(np.linalg.norm(r)) < restriction_sphere_radius_m
-        pending.append(guidance.command(t, q_est, omega_est, state.h_wheels_n_m_s, r, v, n, inside))
+        r_est, v_est = (r, v) if estimate is None else estimate(t)
+        inside = float(np.linalg.norm(r_est)) < restriction_sphere_radius_m  # guidance knows the estimate only
+        pending.append(guidance.command(t, q_est, omega_est, state.h_wheels_n_m_s, r_est, v_est, n, inside))
         saturated += guidance.saturated
         applied = pending.pop(0)
         torque_ext = applied.thruster_torque_body_n_m + extra

@@ -1,0 +1,173 @@
+#!/usr/bin/env python3
+"""Benchmark of the chaser's pointing of body +x at the target's centre of mass on the reaction wheels.
+
+    benchmark_pointing.py [--periods 0.1 0.5 1.0] [--mission scenarios/paper_flyby.yaml]
+
+Seed 001's servicer (inertia diag(13, 38, 35) kg m^2, Table 1) on three orthogonal wheels (0.1 N m, 4 N m s,
+spin inertia 0.01 kg m^2), ``AttitudeGuidance`` with its defaults (omega_n 0.2 rad/s, zeta 1, omega_max
+0.05 rad/s), closed loop through ``GyrostatPropagator`` (``attitude_guidance.simulate_pointing``): each
+command held for one control period and applied one period after the estimates it was computed from, the
+attitude and rate estimates the truth plus 0.01 deg and 1e-5 rad/s per axis (seeded), gravity gradient on,
+restriction sphere 15 m (no thruster inside). Prints the pointing error percentiles (true body +x against the
+true line of sight), the peak wheel momentum and torque, and the cost of one guidance command, for:
+
+* the fly-by of test_attitude_guidance.py: CW coast from 150 s before to 150 s after a closest approach of
+  5 m at 0.2 m/s (passing 11 deg from R-bar, where the roll rule is singular; line of sight up to 2.3 deg/s);
+* the same at 3 m (3.8 deg/s, the wheels' torque limit reached);
+* with ``--mission``: the scenario flown headless (today's point-mass chaser, flyby_guidance.closed_loop), its
+  true relative path and its estimator's relative estimates replayed from the first terminal burn to the grasp
+  (the issue's window), the chaser on its goal at the first burn.
+
+docs/guidance.md ("The chaser's attitude") quotes these figures.
+"""
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from flyby_guidance.attitude_guidance import (
+    AttitudeGuidance,
+    AttitudeGuidanceConfig,
+    LineOfSightGoal,
+    simulate_pointing,
+)
+from flyby_sim.dynamics.orbital import cw_coast, mean_motion_rad_s
+from flyby_sim.dynamics.rigid_body import GyrostatPropagator, ReactionWheels
+
+SEED001_SERVICER = np.diag([13.0, 38.0, 35.0])
+WHEELS = ReactionWheels.orthogonal(max_torque_n_m=0.1, max_momentum_n_m_s=4.0, spin_inertia_kg_m2=0.01)
+N = mean_motion_rad_s(7.0e6)
+SPHERE_M = 15.0
+ATTITUDE_SIGMA_RAD = math.radians(0.01)
+RATE_SIGMA_RAD_S = 1e-5
+
+
+def flyby_path(closest_m, speed_mps, t_closest_s):
+    r_closest = closest_m * np.array([0.0, 1.0, -5.0]) / math.sqrt(26.0)
+    v_closest = np.array([speed_mps, 0.0, 0.0])
+
+    def path(t):
+        state = cw_coast(r_closest, v_closest, t - t_closest_s, N)
+        return state[:3], state[3:]
+    return path
+
+
+def report(label, run, start_s=-math.inf, end_s=math.inf):
+    window = (run.t_s >= start_s) & (run.t_s <= end_s)
+    err = np.degrees(run.pointing_error_rad[window])
+    h_peak = np.abs(run.h_wheels_n_m_s).max(axis=0)
+    u_peak = np.abs(run.wheel_torque_n_m).max(axis=0)
+    fired = np.abs(run.thruster_torque_body_n_m).max()
+    print(f'{label}: pointing error p50 {np.percentile(err, 50):.4f}, p95 {np.percentile(err, 95):.4f}, '
+          f'max {err.max():.4f} deg; peak line-of-sight rate {math.degrees(run.los_rate_rad_s[window].max()):.2f} '
+          f'deg/s; peak wheel momentum {h_peak.max():.3f} N m s (per wheel {np.round(h_peak, 3).tolist()}); '
+          f'peak wheel torque {u_peak.max():.4f} N m (per wheel {np.round(u_peak, 4).tolist()}); '
+          f'saturated periods {run.saturated_steps}, momentum-limited {run.momentum_limited_steps}; '
+          f'largest thruster torque {fired:.3f} N m')
+
+
+def synthetic(periods):
+    for closest_m in (5.0, 3.0):
+        path = flyby_path(closest_m, 0.2, 150.0)
+        for period in periods:
+            for noisy in (True, False):
+                if not noisy and (closest_m != 5.0 or period != periods[0]):
+                    continue
+                guidance = AttitudeGuidance(AttitudeGuidanceConfig(control_period_s=period), SEED001_SERVICER,
+                                            WHEELS)
+                t0 = time.perf_counter()
+                run = simulate_pointing(guidance, GyrostatPropagator(SEED001_SERVICER, WHEELS), path, 0.0, 300.0, N,
+                                        rng=np.random.default_rng(13) if noisy else None,
+                                        attitude_sigma_rad=ATTITUDE_SIGMA_RAD, rate_sigma_rad_s=RATE_SIGMA_RAD_S,
+                                        restriction_sphere_radius_m=SPHERE_M)
+                wall = time.perf_counter() - t0
+                errors = 'estimation errors' if noisy else 'perfect estimates'
+                report(f'fly-by {closest_m:g} m at 0.2 m/s, period {period:g} s, {errors} ({wall:.1f} s wall)', run)
+
+
+def command_cost():
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, WHEELS)
+    path = flyby_path(5.0, 0.2, 150.0)
+    r, v = path(100.0)
+    q = LineOfSightGoal().update(0.0, r, v, N).q_hill_from_goal
+    h = np.array([0.1, -0.2, 0.3])
+    calls = 2000
+    t0 = time.perf_counter()
+    for k in range(calls):
+        t = 100.0 + 0.1 * k
+        r, v = path(t)
+        guidance.command(t, q, np.zeros(3), h, r, v, N, False)
+    print(f'AttitudeGuidance.command: {(time.perf_counter() - t0) / calls * 1e6:.0f} us a call')
+
+
+def mission(scenario_path, periods):
+    # imported here: the headless mission needs every package, the synthetic cases only the cores
+    import flyby_guidance.closed_loop as closed_loop
+    from flyby_estimation.estimator_core import ChaserEstimate
+    from flyby_sim.scenario import load_scenario
+
+    scenario = load_scenario(scenario_path)
+    estimates = []
+    graphs = []
+    deliver = closed_loop.HeadlessGraph._deliver
+
+    def recording_deliver(graph, out):
+        if not graphs:
+            graphs.append(graph)
+        if isinstance(out, ChaserEstimate):
+            estimates.append((out.t, *out.r_hill, *out.v_hill))
+        return deliver(graph, out)
+
+    closed_loop.HeadlessGraph._deliver = recording_deliver
+    try:
+        t0 = time.perf_counter()
+        run = closed_loop.run_headless(scenario)
+    finally:
+        closed_loop.HeadlessGraph._deliver = deliver
+    summary = run.summary
+    truth = graphs[0].truth
+    t_truth = np.array(truth.t, dtype=float)
+    r_truth, v_truth = np.array(truth.r), np.array(truth.v)
+    est = np.array(estimates)
+    t_first = min(b['t'] for b in run.burns)
+    t_grasp = summary['t_grasp_s']
+    print(f'{scenario.name} headless: {summary["outcome"]} in {time.perf_counter() - t0:.1f} s wall; first terminal '
+          f'burn {t_first:.1f} s, grasp {t_grasp:.2f} s, range at the grasp '
+          f'{np.linalg.norm(np.array([np.interp(t_grasp, t_truth, r_truth[:, i]) for i in range(3)])):.2f} m')
+    n = scenario.mean_motion_rad_s
+
+    def path(t):
+        return (np.array([np.interp(t, t_truth, r_truth[:, i]) for i in range(3)]),
+                np.array([np.interp(t, t_truth, v_truth[:, i]) for i in range(3)]))
+
+    def estimate(t):
+        k = max(int(np.searchsorted(est[:, 0], t + 1e-9)) - 1, 0)  # the latest estimate stamped at or before t
+        return est[k, 1:4], est[k, 4:7]
+
+    for period in periods:
+        guidance = AttitudeGuidance(AttitudeGuidanceConfig(control_period_s=period), SEED001_SERVICER, WHEELS)
+        result = simulate_pointing(guidance, GyrostatPropagator(SEED001_SERVICER, WHEELS), path, t_first,
+                                   t_grasp, n, rng=np.random.default_rng(13), attitude_sigma_rad=ATTITUDE_SIGMA_RAD,
+                                   rate_sigma_rad_s=RATE_SIGMA_RAD_S,
+                                   restriction_sphere_radius_m=scenario.planner.restriction_sphere_radius_m,
+                                   estimate=estimate)
+        report(f'{scenario.name}, first terminal burn to grasp, period {period:g} s', result)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--periods', type=float, nargs='+', default=[0.1, 0.5, 1.0],
+                        help='control periods [s] to measure (default 0.1 0.5 1.0)')
+    parser.add_argument('--mission', help='also replay the headless fly-by of this scenario (e.g. '
+                        'scenarios/paper_flyby.yaml)')
+    args = parser.parse_args()
+    synthetic(args.periods)
+    command_cost()
+    if args.mission:
+        mission(args.mission, args.periods)
+
+
+if __name__ == '__main__':
+    main()
