@@ -1,7 +1,9 @@
 """A declarative schema for YAML configuration files: validation, strict loading, a read-only view, docs.
 
 A schema is a tree of ``Section`` (a mapping of keys), ``ListOf`` (a non-empty list of mappings) and
-``Field`` (one leaf: kind, default or REQUIRED, range text, one-line description). The engine knows
+``Field`` (one leaf: kind, default or REQUIRED, range text, one-line description). A Section or ListOf
+marked ``optional`` may be left out (or written as null): it then resolves to None, and the code that
+reads it supplies what its absence means. The engine knows
 no particular key; the flyby scenario schema that uses it is ``flyby_sim.scenario.SCHEMA``.
 
     data = load_yaml_mapping('scenarios/x.yaml')   # strict YAML, one-line ScenarioError on any problem
@@ -96,15 +98,18 @@ class Range:
         return self.text if self.text[0] in '<>' else f'in {self.text}'
 
 
-# Field kinds.
-FLOAT, INT, STR, BOOL, VEC3, QUAT, MAT3, ENUM = (
-    'float', 'int', 'str', 'bool', '3-vector', 'quaternion', '3x3 matrix', 'enum')
-KINDS = (FLOAT, INT, STR, BOOL, VEC3, QUAT, MAT3, ENUM)
+# Field kinds. VEC3_LIST: a non-empty list of 3-vectors (e.g. N wheel axes); FLOAT_LIST: a non-empty list
+# of numbers (e.g. one value per wheel).
+FLOAT, INT, STR, BOOL, VEC3, QUAT, MAT3, ENUM, VEC3_LIST, FLOAT_LIST = (
+    'float', 'int', 'str', 'bool', '3-vector', 'quaternion', '3x3 matrix', 'enum', 'list of 3-vectors',
+    'list of numbers')
+KINDS = (FLOAT, INT, STR, BOOL, VEC3, QUAT, MAT3, ENUM, VEC3_LIST, FLOAT_LIST)
 
 # Units derived from the key's suffix (units live in the names, STYLE.md); longest suffix first.
 _UNIT_SUFFIXES = (
-    ('_m3_s2', 'm^3/s^2'), ('_kg_m2', 'kg m^2'), ('_deg_s', 'deg/s'), ('_rad_s', 'rad/s'),
-    ('_mps', 'm/s'), ('_deg', 'deg'), ('_rad', 'rad'), ('_kg', 'kg'), ('_hz', 'Hz'),
+    ('_rad_s_sqrt_s', 'rad/s/sqrt(s)'), ('_m3_s2', 'm^3/s^2'), ('_n_m_s', 'N m s'), ('_kg_m2', 'kg m^2'),
+    ('_deg_s', 'deg/s'), ('_rad_s', 'rad/s'), ('_mps2', 'm/s^2'), ('_n_m', 'N m'), ('_mps', 'm/s'),
+    ('_deg', 'deg'), ('_rad', 'rad'), ('_kg', 'kg'), ('_hz', 'Hz'),
     ('_ns', 'N s'), ('_n', 'N'), ('_s', 's'), ('_m', 'm'),
 )
 
@@ -139,11 +144,13 @@ class Field:
 @dataclasses.dataclass(frozen=True)
 class Section:
     """A mapping of keys. Each tuple in ``one_of`` names keys of which exactly one must be given;
-    those keys are neither required nor defaulted individually."""
+    those keys are neither required nor defaulted individually. ``optional``: the whole section may be
+    left out (or null) and then resolves to None (its one_of and required keys apply only when given)."""
 
     fields: dict
     desc: str = ''
     one_of: tuple = ()
+    optional: bool = False
 
     @property
     def alternatives(self):
@@ -151,6 +158,8 @@ class Section:
 
     @property
     def required(self):
+        if self.optional:
+            return False
         if self.one_of:
             return True
         alt = self.alternatives
@@ -159,12 +168,14 @@ class Section:
 
 @dataclasses.dataclass(frozen=True)
 class ListOf:
-    """A non-empty list of mappings (``item``); ``check(list)`` returns (index, key, problem) or None."""
+    """A non-empty list of mappings (``item``); ``check(list)`` returns (index, key, problem) or None.
+    ``optional``: the list may be left out (or null) and then resolves to None."""
 
     item: Section
     desc: str = ''
     min_len: int = 1
     check: object = None
+    optional: bool = False
 
 
 def _is_required(node):
@@ -172,7 +183,7 @@ def _is_required(node):
         return node.default is REQUIRED
     if isinstance(node, Section):
         return node.required
-    return True  # ListOf
+    return not node.optional  # ListOf
 
 
 # --------------------------------------------------------------------------------------------------
@@ -277,6 +288,17 @@ def validate_field(field, v, key):
         out = _vector(v, 3, key, field, 'a 3-vector [x, y, z]')
     elif kind == QUAT:
         out = _vector(v, 4, key, field, 'a quaternion [x, y, z, w]')
+    elif kind == VEC3_LIST:
+        rows = _sequence(v)
+        what = 'a non-empty list of 3-vectors [[x, y, z], ...]'
+        if not rows:
+            raise Invalid(key, f'must be {what}, got {describe(v)}')
+        out = [_vector(row, 3, f'{key}[{i}]', field, 'a 3-vector [x, y, z]') for i, row in enumerate(rows)]
+    elif kind == FLOAT_LIST:
+        seq = _sequence(v)
+        if not seq:
+            raise Invalid(key, f'must be a non-empty list of numbers, got {describe(v)}')
+        out = [_number(x, f'{key}[{i}]', field) for i, x in enumerate(seq)]
     else:  # MAT3 (Field checks its kind)
         rows = _sequence(v)
         what = 'a 3x3 matrix (a list of 3 rows of 3 numbers)'
@@ -321,18 +343,30 @@ def _section(section, v, prefix):
         if k not in v:
             if k in alternatives:
                 continue
+            if getattr(node, 'optional', False):
+                out[k] = None
+                continue
             if isinstance(node, Section) and not node.required:
                 out[k] = _section(node, {}, key)
                 continue
             if _is_required(node):
                 raise Invalid(key, 'missing required key')
-            out[k] = copy.deepcopy(list(node.default) if isinstance(node.default, tuple) else node.default)
+            out[k] = _plain(node.default)
             continue
         out[k] = _node(node, v[k], key)
     return out
 
 
+def _plain(default):
+    """A field's default as a fresh plain value (tuples, nested too, as lists)."""
+    if isinstance(default, tuple):
+        return [_plain(x) for x in default]
+    return copy.deepcopy(default)
+
+
 def _node(node, v, key):
+    if v is None and getattr(node, 'optional', False):  # an optional section or list written out as null
+        return None
     if isinstance(node, Section):
         return _section(node, v, key)
     if isinstance(node, ListOf):
@@ -495,6 +529,8 @@ class Namespace:
 
 def _freeze(v, node, key):
     """A resolved value as the view holds it: node is its schema node."""
+    if v is None:
+        return None  # an optional value left out
     if isinstance(node, Section):
         return Namespace(v, node, key)
     if isinstance(node, ListOf):
@@ -526,11 +562,15 @@ def _fmt_default(node, alternative):
         d = node.default
         if d is REQUIRED:
             return '**required**'
+        if isinstance(d, tuple) and d and isinstance(d[0], tuple):
+            return '[' + ', '.join('[' + ', '.join(f'{x:g}' for x in row) + ']' for row in d) + ']'
         if isinstance(d, tuple):
             return '[' + ', '.join(f'{x:g}' for x in d) + ']'
         if isinstance(d, str):
             return f"'{d}'"
         return f'{d:.10g}' if isinstance(d, float) else str(d)
+    if getattr(node, 'optional', False):
+        return '(optional)'
     return '**required**' if _is_required(node) else '(defaults)'
 
 
@@ -550,9 +590,9 @@ def _schema_rows(section, prefix):
         key = _join(prefix, k)
         if isinstance(node, Field):
             rng = node._range.describe() if node._range is not None else ''
-            if node.kind in (VEC3, QUAT, MAT3) and not rng:
+            if node.kind in (VEC3, QUAT, MAT3, VEC3_LIST, FLOAT_LIST) and not rng:
                 rng = 'finite'
-            elif node.kind in (VEC3, QUAT) and rng:
+            elif node.kind in (VEC3, QUAT, VEC3_LIST, FLOAT_LIST) and rng:
                 rng = f'each {rng}'
             yield key, _fmt_type(node), _unit_of(k), _fmt_default(node, k in alt), rng, node.desc
         else:

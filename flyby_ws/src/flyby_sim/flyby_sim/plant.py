@@ -1,5 +1,11 @@
 """The plant: chaser relative translation with finite burns, target attitude, sensors, events.
 
+The chaser is a point mass (the default) or, when the configuration has a ``chaser_body``
+(``RigidChaserConfig``, scenario ``chaser.model: rigid_body``), the six-degree-of-freedom chaser of
+``flyby_sim.chaser_body``: attitude, reaction wheels, body-fixed thrusters, wrench and wheel commands and an
+IMU (docs/chaser_6dof.md). The point-mass chaser's truth, measurements and events do not depend on anything
+the rigid-body chaser adds.
+
 Pure numpy/scipy, no ROS: the simulator node wraps it, Monte Carlo drives it directly.
 
 Frames and conventions are those of ``flyby_sim.dynamics.orbital`` (hill, ECI) with quaternions (x, y, z, w),
@@ -28,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_msgs_py.wire import Event
+from flyby_sim.chaser_body import ImuConfig, RigidChaserConfig, SixDofChaser
 from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
@@ -40,8 +47,8 @@ from flyby_sim.dynamics.orbital import (
     rk4_step_floats,
 )
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
-from flyby_sim.dynamics.rotation import quat_normalize, quat_to_matrix
-from flyby_sim.sensors import SampleSchedule, SensorModel
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_rotate, quat_to_matrix
+from flyby_sim.sensors import ImuModel, SampleSchedule, SensorModel
 from flyby_sim.thrusters import ThrusterModel
 
 DYNAMICS = ('nonlinear', 'cw')
@@ -80,6 +87,7 @@ class PlantConfig:
     attitude_rate_hz: float = 10.0
     restriction_sphere_radius_m: float = 0.0
     seed: int = 0
+    chaser_body: RigidChaserConfig = None  # None: the point-mass chaser
 
     def __post_init__(self):
         for name in ('radius_m', 'chaser_mass_kg', 'mu', 'step_s', 'position_rate_hz', 'attitude_rate_hz'):
@@ -107,6 +115,17 @@ class PlantConfig:
                                  f'(step_s = {self.step_s})')
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise ValueError(f'seed must be a non-negative integer, got {self.seed!r}')
+        if self.chaser_body is not None:
+            if not isinstance(self.chaser_body, RigidChaserConfig):
+                raise ValueError(f'chaser_body must be a RigidChaserConfig or None, got {self.chaser_body!r}')
+            if self.chaser_body.imu.rate_hz * self.step_s > 1.0:
+                raise ValueError(f'chaser_body.imu.rate_hz = {self.chaser_body.imu.rate_hz} exceeds one sample per '
+                                 f'step (step_s = {self.step_s})')
+
+    @property
+    def rigid_body(self):
+        """True for the six-degree-of-freedom chaser."""
+        return self.chaser_body is not None
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -123,10 +142,22 @@ class TruthSample:
     fuel_used_kg: float  # since t = 0
     dv_applied_total_mps: float  # sum of |delta-v| delivered by the thrusters since t = 0
     firing: bool  # thrust was on during some part of the step
+    # The six-degree-of-freedom chaser only (None for the point mass); means are over the step.
+    q_hill_from_chaser_body: np.ndarray = None  # chaser attitude (x, y, z, w)
+    omega_chaser_body: np.ndarray = None  # chaser inertial angular velocity, chaser_body axes [rad/s]
+    wheel_momentum_n_m_s: np.ndarray = None  # (N,) each wheel's axial angular momentum
+    wheel_speed_rad_s: np.ndarray = None  # (N,) each wheel's spin rate relative to the body
+    wheel_torque_n_m: np.ndarray = None  # (N,) mean motor torque applied (limits included)
+    force_body_n: np.ndarray = None  # mean thrust force, chaser_body axes [N]
+    torque_body_n_m: np.ndarray = None  # mean thrust torque about the CoM, chaser_body axes [N m]
+    torque_hill_n_m: np.ndarray = None  # the same torque in hill axes (angular impulse / step_s) [N m]
+    thruster_thrust_n: np.ndarray = None  # (M,) mean thrust of each thruster, errors included [N]
+    gyro_bias_rad_s: np.ndarray = None  # the IMU gyro's bias (as of its latest sample) [rad/s]
 
 
 class Measurement(NamedTuple):
-    """One sensor sample: kind 'relative_position' (value r_hill [m]) or 'target_attitude' (q_hill_from_body)."""
+    """One sensor sample: kind 'relative_position' (value r_hill [m]), 'target_attitude' (q_hill_from_body) or,
+    for the six-degree-of-freedom chaser, 'chaser_imu' (a sensors.ImuSample)."""
 
     kind: str
     t: float
@@ -139,7 +170,11 @@ class Plant:
     Events (drain_events): 'burn_started' and 'burn_ended' (OK), 'late_maneuver' (WARN, when a burn
     starts after its stamp), 'maneuver_rejected' (ERROR, with the ManeuverRejected reason) and
     'thrust_inside_restriction_sphere' (ERROR, once per burn, checked at both ends of every thrusting
-    sub-step).
+    sub-step). The six-degree-of-freedom chaser adds 'late_command' (WARN, a wrench or wheel command stamped
+    before the current time, applied at once), 'wrench_undelivered' (WARN, once per wrench command the
+    thrusters cannot give in full), 'wrench_limited_by_burn' (WARN), 'wheel_torque_limited' and
+    'wheel_momentum_limited' (WARN, once per wheel command), 'command_ignored' (WARN, after a capture), and
+    reports 'thrust_inside_restriction_sphere' for any firing (once per burn and per wrench command).
     """
 
     def __init__(self, config):
@@ -151,10 +186,11 @@ class Plant:
             self._accel = lambda r, v, a: nonlinear_relative_accel_components(r, v, n, radius_m, a)
         else:
             self._accel = lambda r, v, a: cw_accel_components(r, v, n, a)
-        thruster_seed, sensor_seed = np.random.SeedSequence(config.seed).spawn(2)
+        root_seed = np.random.SeedSequence(config.seed)
+        thruster_seed, sensor_seed = root_seed.spawn(2)
         self._thrusters = ThrusterModel(config.thrusters, np.random.default_rng(thruster_seed))
-        self._sensors = SensorModel(np.random.default_rng(sensor_seed), config.position_sigma_m,
-                                    config.attitude_sigma_rad)
+        sensor_rng = np.random.default_rng(sensor_seed)
+        self._sensors = SensorModel(sensor_rng, config.position_sigma_m, config.attitude_sigma_rad)
         q_eci_from_body0 = q_eci_from_body(0.0, n, quat_normalize(config.q_hill_from_body0))
         self._attitude = AttitudePropagator(q_eci_from_body0, config.omega_body0, config.target_inertia)
         self._attitude_chunk = (0, [], [])  # first step index, q_hill_from_body rows, omega_body rows
@@ -169,7 +205,37 @@ class Plant:
         self._r_body_captured = None
         self._events = []
         self._measurements = []
-        self._last = self._truth(np.zeros(3), False)
+        self._chaser = self._imu = None
+        if config.chaser_body is not None:
+            self._init_rigid_body(root_seed, sensor_rng)
+            self._last = self._truth_rigid(self._chaser.totals)
+        else:
+            self._last = self._truth(np.zeros(3), False)
+
+    def _init_rigid_body(self, root_seed, sensor_rng):
+        """The six-degree-of-freedom chaser and its IMU, from streams spawned after the point-mass ones (a third
+        child of the root seed for the thruster errors, a third of the sensor generator for the IMU), so the
+        other sensors' draws are unchanged."""
+        config = self.config
+        body = config.chaser_body
+        self._chaser = SixDofChaser(body, config.thrusters, config.r0_hill, config.v0_hill, config.chaser_mass_kg,
+                                    self.mean_motion_rad_s, self._accel, config.step_s,
+                                    config.restriction_sphere_radius_m,
+                                    np.random.default_rng(root_seed.spawn(1)[0]), self._events_append)
+        imu = body.imu
+        self._imu = ImuModel(sensor_rng.spawn(1)[0], imu.star_tracker_sigma_rad, imu.gyro_noise_sigma_rad_s,
+                             imu.gyro_bias_sigma_rad_s, imu.gyro_bias_walk_rad_s_sqrt_s, imu.accel_noise_sigma_mps2)
+        self._imu_schedule = SampleSchedule(imu.rate_hz, config.step_s)
+        self._star_tracker_every = imu.star_tracker_every
+        self._q_target_from_chaser = None
+
+    def _events_append(self, event):
+        self._events.append(event)
+
+    @property
+    def chaser(self):
+        """The six-degree-of-freedom chaser (``chaser_body.SixDofChaser``: layout, wheels, errors), or None."""
+        return self._chaser
 
     @property
     def t(self):
@@ -183,17 +249,57 @@ class Plant:
     def command_maneuver(self, t_stamp, dv_hill):
         """Schedule an impulsive delta-v dv_hill [m/s] to start at sim time t_stamp [s].
 
-        Returns the thrusters.Burn as scheduled now (start_s, end_s, late, dv_hill to be delivered).
+        Returns the thrusters.Burn as scheduled now (start_s, end_s, late, dv_hill to be delivered); for the
+        six-degree-of-freedom chaser a chaser_body.ManeuverRequest (the burn's direction and duration are fixed
+        when it starts, at the attitude then: the burn_started event).
         Raises ManeuverRejected (and records an ERROR event) for an unexecutable command.
         """
         try:
             if self.captured:
                 raise ManeuverRejected(f'the chaser is attached to the target; maneuver stamped {t_stamp} s dropped')
+            if self._chaser is not None:
+                return self._chaser.command_maneuver(self.t, t_stamp, dv_hill)
             return self._thrusters.schedule(t_stamp, dv_hill, self.t, self._mass_kg)
         except ManeuverRejected as exc:
             self._events.append(Event(self.t, 'ERROR', 'maneuver_rejected', exc.reason,
                                       dict(t_now=self.t, t_stamp=t_stamp, dv_hill=str(dv_hill))))
             raise
+
+    def command_wrench(self, t_stamp, force_body_n, torque_body_n_m):
+        """Hold the thrusters' body force [N] and torque about the CoM [N m] (chaser_body axes) from sim time
+        t_stamp [s] until the next wrench command (zero-order hold; DESIGN §10 /guidance/wrench).
+
+        Allocated once (least fuel, ``actuators.allocate_wrench``); what the thrusters cannot give is reported
+        (``wrench_undelivered``). Stamped before now: applied at once and reported (``late_command``). Returns
+        the chaser_body.WrenchCommand, or None after a capture (``command_ignored``). Raises ValueError for a
+        point-mass chaser or a non-finite command.
+        """
+        chaser = self._rigid_chaser('command_wrench')
+        if self.captured:
+            return self._ignored('wrench', t_stamp)
+        return chaser.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m)
+
+    def command_wheels(self, t_stamp, torque_n_m):
+        """Hold the reaction wheels' motor torques [N m] (one per wheel) from sim time t_stamp [s] until the next
+        wheel command; limits as ``GyrostatPropagator`` (``wheel_torque_limited``, ``wheel_momentum_limited``).
+        Stamped before now: applied at once (``late_command``). Returns the chaser_body.WheelCommand, or None
+        after a capture. Raises ValueError for a point-mass chaser or a non-finite command.
+        """
+        chaser = self._rigid_chaser('command_wheels')
+        if self.captured:
+            return self._ignored('wheels', t_stamp)
+        return chaser.command_wheels(self.t, t_stamp, torque_n_m)
+
+    def _rigid_chaser(self, what):
+        if self._chaser is None:
+            raise ValueError(f'{what}: the point-mass chaser has no attitude, thrusters or wheels '
+                             f'(chaser.model: rigid_body)')
+        return self._chaser
+
+    def _ignored(self, kind, t_stamp):
+        self._events.append(Event(self.t, 'WARN', 'command_ignored',
+                                  f'{kind} command stamped {t_stamp} s ignored: the chaser is attached to the target',
+                                  dict(command=kind, t_stamp=t_stamp)))
 
     def measurements(self):
         """Sensor samples due at the last step (list of Measurement)."""
@@ -222,6 +328,10 @@ class Plant:
         c_hill_from_body = quat_to_matrix(self._last.q_hill_from_body)
         self._r_body_captured = c_hill_from_body.T @ np.array(self._y[:3])
         self._thrusters.cancel_all()
+        if self._chaser is not None:
+            self._chaser.cancel_all()
+            self._q_target_from_chaser = quat_multiply(quat_conjugate(self._last.q_hill_from_body),
+                                                       self._last.q_hill_from_chaser_body)
         self._events.append(Event(self.t, 'OK', 'captured', f'chaser attached to the target at t = {self.t:.3f} s',
                                   dict(t=self.t, r_hill=np.array(self._y[:3]), r_body=self._r_body_captured)))
 
@@ -229,6 +339,8 @@ class Plant:
         """Advance exactly one step_s; returns the TruthSample at the new time."""
         if self.captured:
             return self._step_attached()
+        if self._chaser is not None:
+            return self._step_rigid()
         thrusters = self._thrusters
         t = self.t
         self._step_index += 1
@@ -272,9 +384,65 @@ class Plant:
         r_hill, v_hill = body_point_state(quat_to_matrix(q_hill_from_body), omega_body, self._r_body_captured,
                                           self.mean_motion_rad_s)  # eq 8-9 of a body-fixed point
         self._y = r_hill.tolist() + v_hill.tolist()
+        if self._chaser is not None:  # the chaser turns with the target; its wheels keep their momentum
+            chaser = self._chaser
+            q_hill_from_chaser = quat_multiply(q_hill_from_body, self._q_target_from_chaser)
+            chaser.set_attitude(q_eci_from_body(self.t, self.mean_motion_rad_s, q_hill_from_chaser),
+                                quat_rotate(quat_conjugate(self._q_target_from_chaser), omega_body))
+            chaser.set_translation(self._y, self.t)
+            chaser.advance_idle()
+            imu = self._imu_measurement()
+            self._last = self._truth_rigid(chaser.totals)
+            self._sample(self._last)
+            if imu is not None:
+                self._measurements.append(imu)
+            return self._last
         self._last = self._truth(np.zeros(3), False)
         self._sample(self._last)
         return self._last
+
+    def _step_rigid(self):
+        chaser = self._chaser
+        t = self.t
+        self._step_index += 1
+        chaser.advance(t, self.t)
+        self._y = chaser.y_translation
+        self._mass_kg = chaser.mass_kg
+        self._dv_total_mps = chaser.dv_total_mps
+        imu = self._imu_measurement()  # before the truth, which holds the gyro bias of this sample
+        self._last = self._truth_rigid(chaser.totals)
+        self._sample(self._last)
+        if imu is not None:
+            self._measurements.append(imu)
+        return self._last
+
+    def _imu_measurement(self):
+        """The chaser IMU's Measurement at the current step, or None between its samples."""
+        k = self._imu_schedule.sample_index(self._step_index)
+        if k is None:
+            return None
+        chaser, t = self._chaser, self.t
+        specific_force = chaser.totals.force_body_n / chaser.mass_kg
+        return Measurement('chaser_imu', t, self._imu.sample(t, k % self._star_tracker_every == 0,
+                                                             chaser.q_hill_from_body(t), chaser.omega_body,
+                                                             specific_force))
+
+    def _truth_rigid(self, totals):
+        """The TruthSample of the six-degree-of-freedom chaser at the current time."""
+        q_hill_from_body, omega_body = self._target_attitude()
+        chaser = self._chaser
+        y = self._y
+        omega_chaser = chaser.omega_body
+        h = chaser.h_wheels_n_m_s
+        return TruthSample(t=self.t, r_hill=np.array(y[:3]), v_hill=np.array(y[3:]),
+                           q_hill_from_body=q_hill_from_body, omega_body=omega_body, force_hill=totals.force_hill,
+                           mass_kg=self._mass_kg, fuel_used_kg=self.config.chaser_mass_kg - self._mass_kg,
+                           dv_applied_total_mps=self._dv_total_mps, firing=totals.firing,
+                           q_hill_from_chaser_body=chaser.q_hill_from_body(self.t), omega_chaser_body=omega_chaser,
+                           wheel_momentum_n_m_s=h, wheel_speed_rad_s=chaser.wheel_speeds_rad_s(),
+                           wheel_torque_n_m=totals.wheel_torque_n_m, force_body_n=totals.force_body_n,
+                           torque_body_n_m=totals.torque_body_n_m, torque_hill_n_m=totals.torque_hill_n_m,
+                           thruster_thrust_n=totals.thruster_thrust_n, gyro_bias_rad_s=self._imu.gyro_bias_rad_s)
 
     def _coast_rhs(self, t, y):
         return (y[3], y[4], y[5], *self._accel(y[:3], y[3:], _ZERO3))
@@ -385,4 +553,33 @@ def plant_config_from_scenario(scenario):
         attitude_rate_hz=sc.sensors.target_attitude.rate_hz,
         restriction_sphere_radius_m=sc.planner.restriction_sphere_radius_m,
         seed=sc.seed,
+        chaser_body=rigid_chaser_config_from_scenario(sc) if sc.chaser.model == 'rigid_body' else None,
+    )
+
+
+def rigid_chaser_config_from_scenario(scenario):
+    """The RigidChaserConfig of a validated scenario's chaser (its rigid-body keys, whatever chaser.model says)."""
+    sc = scenario
+    chaser = sc.chaser
+    layout = chaser.thrusters.layout
+    wheels = chaser.wheels
+    imu = sc.sensors.chaser_imu
+    return RigidChaserConfig(
+        inertia=tuple(map(tuple, sc.chaser_inertia.tolist())),
+        q_hill_from_body0=tuple(sc.q_hill_from_chaser_body0.tolist()),
+        omega_body0=tuple(sc.omega_chaser_body0_rad_s.tolist()),
+        thruster_positions_body_m=None if layout is None else tuple(tuple(x.position_m.tolist()) for x in layout),
+        thruster_directions_body=None if layout is None else tuple(tuple(x.direction.tolist()) for x in layout),
+        wheel_axes_body=tuple(map(tuple, wheels.axes.tolist())),
+        wheel_max_torque_n_m=wheels.max_torque_n_m,
+        wheel_max_momentum_n_m_s=wheels.max_momentum_n_m_s,
+        wheel_spin_inertia_kg_m2=wheels.spin_inertia_kg_m2,
+        wheel_momentum0_n_m_s=None if wheels.initial_momentum_n_m_s is None else tuple(
+            wheels.initial_momentum_n_m_s.tolist()),
+        imu=ImuConfig(rate_hz=imu.rate_hz, star_tracker_rate_hz=imu.star_tracker_rate_hz,
+                      star_tracker_sigma_rad=math.radians(imu.star_tracker_sigma_deg),
+                      gyro_noise_sigma_rad_s=imu.gyro_noise_sigma_rad_s,
+                      gyro_bias_sigma_rad_s=imu.gyro_bias_sigma_rad_s,
+                      gyro_bias_walk_rad_s_sqrt_s=imu.gyro_bias_walk_rad_s_sqrt_s,
+                      accel_noise_sigma_mps2=imu.accel_noise_sigma_mps2),
     )

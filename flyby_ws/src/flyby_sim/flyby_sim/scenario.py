@@ -31,12 +31,14 @@ from flyby_msgs_py.schema import (
     BOOL,
     ENUM,
     FLOAT,
+    FLOAT_LIST,
     INT,
     MAT3,
     QUAT,
     REQUIRED,
     STR,
     VEC3,
+    VEC3_LIST,
     Field,
     Invalid,
     ListOf,
@@ -50,6 +52,7 @@ from flyby_msgs_py.schema import (
     validate,
     validate_field,
 )
+from flyby_sim.dynamics.actuators import ThrusterLayout, is_positively_spanning
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate, quat_rotate_many, quat_shortest_arc
@@ -84,10 +87,50 @@ def _check_unique_names(items):
     return None
 
 
+def _check_nonzero_rows(rows):
+    for i, row in enumerate(rows):
+        if not any(row):
+            return f'row {i} must be nonzero, got {row}'
+    return None
+
+
 # --------------------------------------------------------------------------------------------------
 # THE SCHEMA. One line per key.
 
 _VEC0 = (0.0, 0.0, 0.0)
+
+
+def _initial_attitude(body, desc, optional=False):
+    """The initial attitude of a body frame in hill, in one of three forms (the target's and the chaser's)."""
+    return Section(
+        desc=desc, optional=optional,
+        one_of=(('q_hill_from_body', 'rpy_rad', 'body_axis_along_hill'),), fields={
+            'q_hill_from_body': Field(QUAT, REQUIRED, None,
+                                      'Quaternion [x, y, z, w] taking body to hill components; '
+                                      'normalized on load, must be nonzero.', check=check_nonzero),
+            'rpy_rad': Field(VEC3, REQUIRED, None,
+                             '[roll, pitch, yaw]: R_hill_from_body = Rz(yaw) Ry(pitch) Rx(roll).'),
+            'body_axis_along_hill': Section(
+                desc='The minimal rotation taking the body axis onto the hill direction', fields={
+                    'body': Field(VEC3, REQUIRED, None, 'A body-frame direction (nonzero).',
+                                  check=check_nonzero),
+                    'hill': Field(VEC3, REQUIRED, None, 'The hill-frame direction it points along (nonzero).',
+                                  check=check_nonzero),
+                }),
+        })
+
+
+def _initial_rate(body, desc, optional=False):
+    """The initial inertial angular velocity of a body, in its own or in hill axes (target and chaser)."""
+    return Section(
+        desc=desc, optional=optional,
+        one_of=(('omega_body_deg_s', 'omega_body_rad_s', 'omega_hill_deg_s', 'omega_hill_rad_s'),),
+        fields={
+            'omega_body_deg_s': Field(VEC3, REQUIRED, None, f'In {body} axes.'),
+            'omega_body_rad_s': Field(VEC3, REQUIRED, None, f'In {body} axes.'),
+            'omega_hill_deg_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
+            'omega_hill_rad_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
+        })
 
 SCHEMA = Section(desc='A flyby scenario', fields={
     'name': Field(STR, REQUIRED, desc='Short identifier of the scenario.', check=check_nonempty),
@@ -107,31 +150,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                'Inertia about the CoM in body axes; symmetric positive definite, '
                                'principal moments satisfy the triangle inequality.',
                                check=_check_inertia),
-        'initial_attitude': Section(
-            desc='Attitude of target_body in hill at t = 0',
-            one_of=(('q_hill_from_body', 'rpy_rad', 'body_axis_along_hill'),), fields={
-                'q_hill_from_body': Field(QUAT, REQUIRED, None,
-                                          'Quaternion [x, y, z, w] taking body to hill components; '
-                                          'normalized on load, must be nonzero.', check=check_nonzero),
-                'rpy_rad': Field(VEC3, REQUIRED, None,
-                                 '[roll, pitch, yaw]: R_hill_from_body = Rz(yaw) Ry(pitch) Rx(roll).'),
-                'body_axis_along_hill': Section(
-                    desc='The minimal rotation taking the body axis onto the hill direction', fields={
-                        'body': Field(VEC3, REQUIRED, None, 'A body-frame direction (nonzero).',
-                                      check=check_nonzero),
-                        'hill': Field(VEC3, REQUIRED, None, 'The hill-frame direction it points along (nonzero).',
-                                      check=check_nonzero),
-                    }),
-            }),
-        'initial_rate': Section(
-            desc='Inertial angular velocity of the target at t = 0, in body or in hill axes',
-            one_of=(('omega_body_deg_s', 'omega_body_rad_s', 'omega_hill_deg_s', 'omega_hill_rad_s'),),
-            fields={
-                'omega_body_deg_s': Field(VEC3, REQUIRED, None, 'In target_body axes.'),
-                'omega_body_rad_s': Field(VEC3, REQUIRED, None, 'In target_body axes.'),
-                'omega_hill_deg_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
-                'omega_hill_rad_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
-            }),
+        'initial_attitude': _initial_attitude('target_body', 'Attitude of target_body in hill at t = 0'),
+        'initial_rate': _initial_rate('target_body',
+                                      'Inertial angular velocity of the target at t = 0, in body or in hill axes'),
         'geometry': ListOf(
             desc='Body-frame boxes making up the target shape (keep-out, markers)',
             check=_check_unique_names,
@@ -149,13 +170,58 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'initial_position_hill_m': Field(VEC3, REQUIRED, None, 'Chaser CoM in hill at t = 0.'),
         'initial_velocity_hill_mps': Field(VEC3, _VEC0, None,
                                            'Chaser velocity relative to the rotating hill frame at t = 0.'),
-        'thrusters': Section(desc='Impulsive thrusters', fields={
-            'max_thrust_n': Field(FLOAT, REQUIRED, '> 0', 'Maximum thrust along any direction.'),
+        'model': Field(ENUM, 'point_mass', None,
+                       'point_mass: a point receiving impulses along any direction; rigid_body: attitude, '
+                       'body-fixed thrusters and reaction wheels (docs/chaser_6dof.md). The keys marked '
+                       '(rigid_body) are validated in both and used only by rigid_body.',
+                       choices=('point_mass', 'rigid_body')),
+        'inertia_kg_m2': Field(MAT3, None, None,
+                               '(rigid_body) Inertia about the CoM in chaser_body axes, wheels\' spin-axis inertia '
+                               'left out; as target.inertia_kg_m2. Omitted: a uniform sphere filling the envelope, '
+                               '0.4 mass_kg envelope_radius_m^2 per axis (10 kg m^2 for 100 kg, 0.5 m).',
+                               check=_check_inertia),
+        'initial_attitude': _initial_attitude(
+            'chaser_body', '(rigid_body) Attitude of chaser_body in hill at t = 0, as target.initial_attitude; '
+                           'omitted: body +x at the target CoM (body_axis_along_hill, body [1, 0, 0], hill '
+                           '-initial_position_hill_m)', optional=True),
+        'initial_rate': _initial_rate(
+            'chaser_body', '(rigid_body) Inertial angular velocity of the chaser at t = 0, as target.initial_rate; '
+                           'omitted: zero (at rest in inertial space)', optional=True),
+        'thrusters': Section(desc='Thrusters', fields={
+            'max_thrust_n': Field(FLOAT, REQUIRED, '> 0',
+                                  'Maximum thrust along any direction (point_mass); of each thruster (rigid_body).'),
             'isp_s': Field(FLOAT, REQUIRED, '> 0', 'Specific impulse (fuel use).'),
             'min_impulse_bit_ns': Field(FLOAT, 0.0, '>= 0', 'Smallest impulse the thrusters can give.'),
             'max_delta_v_per_maneuver_mps': Field(FLOAT, REQUIRED, '> 0', 'Largest single delta-v.'),
-            'magnitude_error_sigma': Field(FLOAT, 0.0, '[0, 0.5]', 'Relative 1-sigma error of the delta-v magnitude.'),
-            'direction_error_sigma_deg': Field(FLOAT, 0.0, '[0, 30]', '1-sigma pointing error of the delta-v.'),
+            'magnitude_error_sigma': Field(FLOAT, 0.0, '[0, 0.5]',
+                                           'Relative 1-sigma error of the delta-v magnitude (point_mass, per '
+                                           'maneuver); of each thruster\'s thrust (rigid_body, per run).'),
+            'direction_error_sigma_deg': Field(FLOAT, 0.0, '[0, 30]',
+                                               '1-sigma pointing error of the delta-v (point_mass, per maneuver); '
+                                               'misalignment of each thruster about each axis (rigid_body, per '
+                                               'run).'),
+            'layout': ListOf(
+                desc='(rigid_body) Body-fixed thrusters, each of max_thrust_n; must span every force and torque '
+                     'positively; omitted: the default 12-thruster layout of docs/chaser_6dof.md',
+                optional=True,
+                item=Section(desc='One thruster', fields={
+                    'position_m': Field(VEC3, REQUIRED, None, 'Position in chaser_body from the CoM.'),
+                    'direction': Field(VEC3, REQUIRED, None,
+                                       'Direction it pushes the chaser, chaser_body (nonzero; normalized on load).',
+                                       check=check_nonzero),
+                })),
+        }),
+        'wheels': Section(desc='(rigid_body) Reaction-wheel assembly', fields={
+            'axes': Field(VEC3_LIST, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), None,
+                          'Spin axis of each wheel in chaser_body (nonzero; normalized on load).',
+                          check=_check_nonzero_rows),
+            'max_torque_n_m': Field(FLOAT, 0.1, '> 0', 'Motor torque limit of each wheel.'),
+            'max_momentum_n_m_s': Field(FLOAT, 4.0, '> 0', 'Axial angular momentum limit of each wheel (its speed '
+                                                           'limit).'),
+            'spin_inertia_kg_m2': Field(FLOAT, 0.01, '> 0', 'Spin-axis inertia of each wheel.'),
+            'initial_momentum_n_m_s': Field(FLOAT_LIST, None, None,
+                                            'Axial angular momentum of each wheel at t = 0 (one per axis, within '
+                                            'max_momentum_n_m_s); omitted: zero.'),
         }),
         'manipulator': Section(desc='Capture arm', fields={
             'reach_m': Field(FLOAT, REQUIRED, '> 0', 'Reach from the chaser CoM.'),
@@ -172,6 +238,20 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'target_attitude': Section(desc='Vision attitude of the target', fields={
             'rate_hz': Field(FLOAT, 10.0, '(0, 1000]', 'Sample rate (<= 1/simulation.step_s).'),
             'noise_sigma_deg': Field(FLOAT, 1.0, '[0, 180]', '1-sigma rotation-angle noise per axis.'),
+        }),
+        'chaser_imu': Section(desc='(rigid_body) Star tracker, gyro and accelerometer of the chaser '
+                                   '(docs/chaser_6dof.md)', fields={
+            'rate_hz': Field(FLOAT, 10.0, '(0, 1000]', 'Gyro and accelerometer sample rate (<= 1/simulation.step_s).'),
+            'star_tracker_rate_hz': Field(FLOAT, 2.0, '(0, 1000]',
+                                          'Star-tracker sample rate; rate_hz must be a whole multiple of it.'),
+            'star_tracker_sigma_deg': Field(FLOAT, 0.01, '[0, 180]',
+                                            '1-sigma attitude error per body axis (body-frame rotation vector).'),
+            'gyro_noise_sigma_rad_s': Field(FLOAT, 1e-5, '>= 0', '1-sigma white rate noise per axis and sample.'),
+            'gyro_bias_sigma_rad_s': Field(FLOAT, 1e-4, '>= 0', '1-sigma of the initial gyro bias per axis.'),
+            'gyro_bias_walk_rad_s_sqrt_s': Field(FLOAT, 1e-7, '>= 0',
+                                                 'Bias random walk: sigma sqrt(dt) per axis between samples.'),
+            'accel_noise_sigma_mps2': Field(FLOAT, 1e-4, '>= 0',
+                                            '1-sigma white specific-force noise per axis and sample.'),
         }),
     }),
 
@@ -310,6 +390,17 @@ def _cross_checks(d):
             raise Invalid(f'sensors.{sensor}.rate_hz',
                           f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
                           f'once per step), got {rate!r}')
+    imu = d['sensors']['chaser_imu']
+    if imu['rate_hz'] * step > 1.0 + 1e-9:
+        raise Invalid('sensors.chaser_imu.rate_hz',
+                      f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
+                      f'once per step), got {imu["rate_hz"]!r}')
+    ratio = imu['rate_hz'] / imu['star_tracker_rate_hz']
+    if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
+        raise Invalid('sensors.chaser_imu.star_tracker_rate_hz',
+                      f'must divide sensors.chaser_imu.rate_hz = {imu["rate_hz"]!r} a whole number of times (each '
+                      f'star-tracker sample falls on a gyro sample), got {imu["star_tracker_rate_hz"]!r}')
+    _check_chaser_body(d['chaser'])
     planner = d['planner']
     arm = d['chaser']['manipulator']
     usable = arm['reach_m'] - arm['position_tolerance_m']
@@ -325,6 +416,30 @@ def _cross_checks(d):
         raise Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
                                                 f"got {planner['transfer_max_s']!r}")
 
+
+
+def _check_chaser_body(chaser):
+    """Checks of the rigid-body chaser's keys across keys (validated whatever chaser.model says)."""
+    layout = chaser['thrusters']['layout']
+    if layout is not None:
+        th = chaser['thrusters']
+        b = ThrusterLayout([x['position_m'] for x in layout], [x['direction'] for x in layout], th['max_thrust_n'],
+                           th['isp_s'], th['min_impulse_bit_ns']).wrench_matrix
+        if not is_positively_spanning(b):
+            raise Invalid('chaser.thrusters.layout',
+                          f'the {len(layout)} thrusters must give every body force and torque (rank 6 and '
+                          f'positively spanning), got rank {np.linalg.matrix_rank(b)}'
+                          + ('' if np.linalg.matrix_rank(b) < 6 else ' but not positively spanning'))
+    wheels = chaser['wheels']
+    h0 = wheels['initial_momentum_n_m_s']
+    if h0 is not None:
+        if len(h0) != len(wheels['axes']):
+            raise Invalid('chaser.wheels.initial_momentum_n_m_s',
+                          f'must give one value per wheel axis ({len(wheels["axes"])}), got {len(h0)}')
+        for i, h in enumerate(h0):
+            if abs(h) > wheels['max_momentum_n_m_s']:
+                raise Invalid(f'chaser.wheels.initial_momentum_n_m_s[{i}]',
+                              f'must be within +-max_momentum_n_m_s = {wheels["max_momentum_n_m_s"]!r}, got {h!r}')
 
 
 def _resolve(data, seed):
@@ -413,28 +528,26 @@ class Scenario:
     # -- derived ----------------------------------------------------------------------------------
     def _derive(self):
         t = self._root.target
-        att = t.initial_attitude
-        if att.q_hill_from_body is not None:
-            q = quat_normalize(att.q_hill_from_body)
-        elif att.rpy_rad is not None:
-            q = Rotation.from_euler('xyz', att.rpy_rad).as_quat()  # extrinsic x-y-z = Rz(yaw) Ry(pitch) Rx(roll)
-        else:
-            q = quat_shortest_arc(att.body_axis_along_hill.body, att.body_axis_along_hill.hill)
-        q = -q if q[3] < 0.0 else q  # q and -q are the same attitude: report w >= 0
-        rate = t.initial_rate
-        if rate.omega_body_rad_s is not None:
-            omega_body = np.array(rate.omega_body_rad_s)
-        elif rate.omega_body_deg_s is not None:
-            omega_body = np.radians(rate.omega_body_deg_s)
-        else:
-            omega_hill = (rate.omega_hill_rad_s if rate.omega_hill_rad_s is not None
-                          else np.radians(rate.omega_hill_deg_s))
-            omega_body = quat_rotate(quat_conjugate(q), omega_hill)  # omega_B = R_BH omega_H
+        q = _q_hill_from_body(t.initial_attitude)
+        chaser = self._root.chaser
+        if chaser.initial_attitude is not None:
+            q_chaser = _q_hill_from_body(chaser.initial_attitude)
+        else:  # body +x at the target's CoM
+            r0 = chaser.initial_position_hill_m
+            q_chaser = _positive_w(quat_shortest_arc((1.0, 0.0, 0.0), -r0)) if any(r0) else np.array((0., 0., 0., 1.))
+        if chaser.inertia_kg_m2 is not None:
+            chaser_inertia = np.array(chaser.inertia_kg_m2)
+        else:  # a uniform sphere filling the envelope: 2/5 m r^2
+            chaser_inertia = 0.4 * chaser.mass_kg * chaser.envelope_radius_m ** 2 * np.eye(3)
         orbit = self._root.orbit
         radius = orbit.radius_m if orbit.radius_m is not None else EARTH_RADIUS_M + orbit.altitude_m
         return {
             'q': q,
-            'omega_body': np.asarray(omega_body, dtype=float),
+            'omega_body': _omega_body(t.initial_rate, q),
+            'q_chaser': q_chaser,
+            'omega_chaser_body': np.zeros(3) if chaser.initial_rate is None else _omega_body(chaser.initial_rate,
+                                                                                              q_chaser),
+            'chaser_inertia': chaser_inertia,
             'radius': float(radius),
             'n': mean_motion_rad_s(radius, orbit.mu_m3_s2),
         }
@@ -475,6 +588,23 @@ class Scenario:
         return self._derived['omega_body'].copy()
 
     @property
+    def chaser_inertia(self):
+        """Chaser inertia [kg m^2] in chaser_body axes (chaser.inertia_kg_m2, or the envelope sphere's); a fresh
+        (3, 3) array."""
+        return self._derived['chaser_inertia'].copy()
+
+    @property
+    def q_hill_from_chaser_body0(self):
+        """Unit quaternion (x, y, z, w) of chaser_body in hill at t = 0, w >= 0 (chaser.initial_attitude, or body
+        +x at the target's CoM); a fresh array."""
+        return self._derived['q_chaser'].copy()
+
+    @property
+    def omega_chaser_body0_rad_s(self):
+        """Inertial angular velocity of the chaser in chaser_body axes at t = 0 [rad/s] (zero if omitted)."""
+        return self._derived['omega_chaser_body'].copy()
+
+    @property
     def offset_max_m(self):
         """Largest fly-by offset delta r the planner searches [m] (planner.offset_max_m or the reach less
         the position tolerance)."""
@@ -486,6 +616,35 @@ class Scenario:
         """Target geometry as arrays (``Boxes``: names, center_body_m (N, 3), size_m (N, 3))."""
         g = self._root.target.geometry
         return Boxes(tuple(b.name for b in g), np.array([b.center_m for b in g]), np.array([b.size_m for b in g]))
+
+
+def _positive_w(q):
+    """q or -q, whichever has w >= 0 (the same attitude)."""
+    return -q if q[3] < 0.0 else q
+
+
+def _q_hill_from_body(att):
+    """The unit quaternion (w >= 0) of an initial_attitude section (any of its three forms)."""
+    if att.q_hill_from_body is not None:
+        q = quat_normalize(att.q_hill_from_body)
+    elif att.rpy_rad is not None:
+        q = Rotation.from_euler('xyz', att.rpy_rad).as_quat()  # extrinsic x-y-z = Rz(yaw) Ry(pitch) Rx(roll)
+    else:
+        q = quat_shortest_arc(att.body_axis_along_hill.body, att.body_axis_along_hill.hill)
+    return _positive_w(q)  # q and -q are the same attitude: report w >= 0
+
+
+def _omega_body(rate, q_hill_from_body):
+    """The inertial angular velocity in body axes [rad/s] of an initial_rate section, given in body or hill axes."""
+    if rate.omega_body_rad_s is not None:
+        omega_body = np.array(rate.omega_body_rad_s)
+    elif rate.omega_body_deg_s is not None:
+        omega_body = np.radians(rate.omega_body_deg_s)
+    else:
+        omega_hill = (rate.omega_hill_rad_s if rate.omega_hill_rad_s is not None
+                      else np.radians(rate.omega_hill_deg_s))
+        omega_body = quat_rotate(quat_conjugate(q_hill_from_body), omega_hill)  # omega_B = R_BH omega_H
+    return np.asarray(omega_body, dtype=float)
 
 
 # --------------------------------------------------------------------------------------------------

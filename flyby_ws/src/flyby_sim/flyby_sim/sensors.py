@@ -1,14 +1,25 @@
-"""Noisy measurements of the relative position and the target attitude, and their schedule.
+"""Noisy measurements of the relative position, the target attitude and the chaser's IMU, and their schedule.
 
 Quaternions are (x, y, z, w), scalar last. The attitude measurement is
 q_meas = q_hill_from_body * dq, where dq's rotation vector is Gaussian with attitude_sigma_rad per
 body axis (a body-frame error, as a camera fixed to the chaser sees the target's markers).
+
+The chaser's IMU (``ImuModel``, six-degree-of-freedom chaser only; docs/chaser_6dof.md), at each sample:
+
+- star tracker (on star-tracker samples only): q_meas = q_hill_from_chaser_body * dq, dq =
+  ``random_small_rotation(rng, star_tracker_sigma_rad)`` (a body-frame error, the target sensor's model);
+- gyro: omega_meas = omega_body + b + sigma_g n, n ~ N(0, I3); the bias starts at b(0) ~ N(0, sigma_b0^2 I3)
+  and walks at every sample before it is read: b_k = b_(k-1) + sigma_bw sqrt(dt) m_k, m_k ~ N(0, I3), dt the
+  time since the previous sample (since t = 0 for the first);
+- accelerometer: the specific force in chaser_body, the thrust force over the mass (gravity and the
+  relative-orbit terms are not sensed), plus sigma_a n.
 
 Each sensor draws from its own child stream of the generator given (Generator.spawn), so adding a
 sensor, or sampling one at another rate, leaves the others' draws unchanged.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -38,6 +49,70 @@ class SensorModel:
         return quat_normalize(quat_multiply(q_hill_from_body, dq))
 
 
+class ImuSample(NamedTuple):
+    """One sample of the chaser's IMU (plain arrays; the estimator takes it without the sensor model).
+
+    q_hill_from_body is the star tracker's attitude of chaser_body in hill (x, y, z, w), None between its
+    samples; omega_body_meas the gyro's inertial rate in chaser_body [rad/s]; specific_force_body the
+    accelerometer's specific force in chaser_body [m/s^2].
+    """
+
+    t: float
+    q_hill_from_body: object  # np.ndarray (4,) or None
+    omega_body_meas: np.ndarray
+    specific_force_body: np.ndarray
+
+
+class ImuModel:
+    """Star tracker, gyro with a random-walk bias and accelerometer of the chaser (module doc)."""
+
+    def __init__(self, rng, star_tracker_sigma_rad, gyro_noise_sigma_rad_s, gyro_bias_sigma_rad_s,
+                 gyro_bias_walk_rad_s_sqrt_s, accel_noise_sigma_mps2):
+        """rng: numpy.random.Generator (three child streams: star tracker, gyro, accelerometer); the sigmas as
+        in the module doc, finite and >= 0. Draws the initial gyro bias b(0) here."""
+        for name, value in (('star_tracker_sigma_rad', star_tracker_sigma_rad),
+                            ('gyro_noise_sigma_rad_s', gyro_noise_sigma_rad_s),
+                            ('gyro_bias_sigma_rad_s', gyro_bias_sigma_rad_s),
+                            ('gyro_bias_walk_rad_s_sqrt_s', gyro_bias_walk_rad_s_sqrt_s),
+                            ('accel_noise_sigma_mps2', accel_noise_sigma_mps2)):
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f'{name} must be finite and >= 0, got {value}')
+        self.star_tracker_sigma_rad = star_tracker_sigma_rad
+        self.gyro_noise_sigma_rad_s = gyro_noise_sigma_rad_s
+        self.gyro_bias_walk_rad_s_sqrt_s = gyro_bias_walk_rad_s_sqrt_s
+        self.accel_noise_sigma_mps2 = accel_noise_sigma_mps2
+        self._rng_star, self._rng_gyro, self._rng_accel = rng.spawn(3)
+        self._bias = gyro_bias_sigma_rad_s * self._rng_gyro.standard_normal(3)  # b(0)
+        self._t_last = 0.0
+
+    @property
+    def gyro_bias_rad_s(self):
+        """The gyro bias now (after the latest sample's walk) [rad/s], a fresh array."""
+        return self._bias.copy()
+
+    def sample(self, t, star_tracker, q_hill_from_body, omega_body, specific_force_body):
+        """The ImuSample at time t [s] (after the previous sample) of the true attitude, inertial rate in body
+        axes [rad/s] and specific force in body axes [m/s^2]; star_tracker: this sample includes one.
+
+        Draws per sample: gyro 3 (walk) + 3 (noise), accelerometer 3, star tracker 3 when it samples.
+        """
+        dt = t - self._t_last
+        if not dt >= 0.0:
+            raise ValueError(f'IMU sample at t = {t} s precedes the previous one at {self._t_last} s')
+        self._t_last = t
+        rng = self._rng_gyro
+        self._bias = self._bias + (self.gyro_bias_walk_rad_s_sqrt_s * math.sqrt(dt)) * rng.standard_normal(3)
+        omega_meas = np.asarray(omega_body, dtype=float) + self._bias + \
+            self.gyro_noise_sigma_rad_s * rng.standard_normal(3)
+        force_meas = np.asarray(specific_force_body, dtype=float) + \
+            self.accel_noise_sigma_mps2 * self._rng_accel.standard_normal(3)
+        q_meas = None
+        if star_tracker:
+            dq = random_small_rotation(self._rng_star, self.star_tracker_sigma_rad)
+            q_meas = quat_normalize(quat_multiply(q_hill_from_body, dq))
+        return ImuSample(t, q_meas, omega_meas, force_meas)
+
+
 def is_sample_step(step_index, rate_hz, step_s):
     """True if step step_index (at t = step_index * step_s) is the step nearest some t = k / rate_hz.
 
@@ -63,3 +138,9 @@ class SampleSchedule:
         samples_per_step = self._samples_per_step
         k = math.floor(step_index * samples_per_step + 0.5)  # the only sample that can round to this step
         return math.floor(k / samples_per_step + 0.5) == step_index
+
+    def sample_index(self, step_index):
+        """k if step step_index is the step nearest the sample time k / rate_hz, else None."""
+        samples_per_step = self._samples_per_step
+        k = math.floor(step_index * samples_per_step + 0.5)
+        return k if math.floor(k / samples_per_step + 0.5) == step_index else None

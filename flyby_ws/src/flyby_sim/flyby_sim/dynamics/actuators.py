@@ -258,3 +258,85 @@ def fire(layout, thrusts_n, period_s, errors=None):
     impulses = f * period_s
     return Firing(f, wrench[:3], wrench[3:], impulses, float(impulses.sum()) / layout.exhaust_velocity_mps,
                   too_short)
+
+
+class DirectionAllocation(NamedTuple):
+    """Thrusts giving the largest force along a body direction with no torque and nothing across it."""
+
+    thrusts_n: np.ndarray  # (N,), 0 <= f <= max_thrust_n
+    force_n: float  # the force delivered along the direction [N]
+    force_body_n: np.ndarray  # (3,) B f's force (force_n times the unit direction, to the LP's tolerance)
+    torque_body_n_m: np.ndarray  # (3,) B f's torque (zero to the LP's tolerance)
+
+    @property
+    def total_thrust_n(self):
+        """Sum of the thrusts [N]: the propellant flow is total_thrust_n / (Isp g0)."""
+        return float(self.thrusts_n.sum())
+
+
+def allocate_max_force(layout, direction_body):
+    """The largest pure force the thrusters give along a body direction, with the least total thrust.
+
+    How an impulsive delta-v is executed at whatever attitude the chaser holds: its direction in chaser_body
+    is pushed along as hard as the layout allows while the torque and the force across it stay zero. Two
+    linear programs (scipy.optimize.linprog, HiGHS), u the unit direction:
+
+    1. max s  s.t.  B f = s [u; 0],  0 <= f <= f_max,  s >= 0   (the force along u; bounded since f is)
+    2. min sum f  s.t.  B f = s* (1 - 1e-9) [u; 0],  0 <= f <= f_max   (the least propellant flow for it; the
+       first program's vertex may fire opposing thrusters where it costs nothing, e.g. with a redundant
+       layout; the 1e-9 keeps it feasible after round-off, else the first program's thrusts are kept)
+
+    A positively spanning layout gives s* > 0 along every direction.
+
+    Args:
+        layout: ThrusterLayout.
+        direction_body: the force direction in chaser_body (any nonzero length).
+    """
+    u = np.asarray(direction_body, dtype=float)
+    norm = float(np.linalg.norm(u)) if u.shape == (3,) else math.nan
+    if not (math.isfinite(norm) and norm > 0.0):
+        raise ValueError(f'direction_body must be a finite nonzero 3-vector, got {direction_body!r}')
+    u = u / norm
+    b = layout.wrench_matrix
+    n = layout.count
+    wrench_u = np.concatenate((u, np.zeros(3)))
+    bounds = [(0.0, f_max) for f_max in layout.max_thrust_n.tolist()]
+    largest = linprog(np.concatenate((np.zeros(n), [-1.0])), A_eq=np.hstack((b, -wrench_u[:, None])),
+                      b_eq=np.zeros(6), bounds=bounds + [(0.0, None)], method='highs', options=_HIGHS_OPTIONS)
+    if largest.status != 0 or -largest.fun <= 0.0:
+        raise ValueError(f'the thrusters give no pure force along {u.tolist()} (layout not positively spanning): '
+                         f'{largest.message}')
+    thrusts = largest.x[:n]
+    least = linprog(np.ones(n), A_eq=b, b_eq=(-largest.fun * (1.0 - 1e-9)) * wrench_u, bounds=bounds,
+                    method='highs', options=_HIGHS_OPTIONS)
+    if least.status == 0:
+        thrusts = least.x
+    thrusts = np.clip(thrusts, 0.0, layout.max_thrust_n)
+    wrench = b @ thrusts
+    return DirectionAllocation(thrusts, float(wrench[:3] @ u), wrench[:3], wrench[3:])
+
+
+class BurnPlan(NamedTuple):
+    """A delta-v executed by the thrusters of a DirectionAllocation at full thrust (nominal, no errors)."""
+
+    allocation: DirectionAllocation
+    duration_s: float
+    fuel_kg: float
+    mass_flow_kg_s: float  # total_thrust_n / (Isp g0)
+
+
+def plan_burn(layout, direction_body, dv_mps, mass_kg):
+    """The finite burn delivering a delta-v of dv_mps [m/s] along direction_body from mass mass_kg [kg].
+
+    The force F along the direction comes with a propellant flow mdot = sum f / (Isp g0) (sum f >= F when
+    thrusters not along the direction fire), so integral F / m dt = (F / mdot) ln(m0 / m1): the rocket equation
+    with the effective exhaust velocity ve F / sum f. Fuel m0 (1 - exp(-dv sum f / (F ve))), duration
+    fuel / mdot (``propulsion.fuel_for_delta_v_kg``).
+    """
+    require_positive('dv_mps', dv_mps)
+    require_positive('mass_kg', mass_kg)
+    allocation = allocate_max_force(layout, direction_body)
+    mass_flow = allocation.total_thrust_n / layout.exhaust_velocity_mps
+    effective_exhaust_velocity = allocation.force_n / mass_flow
+    fuel = -mass_kg * math.expm1(-dv_mps / effective_exhaust_velocity)
+    return BurnPlan(allocation, fuel / mass_flow, fuel, mass_flow)

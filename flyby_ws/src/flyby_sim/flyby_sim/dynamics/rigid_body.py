@@ -118,6 +118,52 @@ def gyrostat_rates(q_inertial_from_body, omega_body, h_wheels_n_m_s, inertia, in
     return quaternion_rate(q_inertial_from_body, omega_body), omega_dot, np.array(wheel_torque_n_m, dtype=float)
 
 
+def gyrostat_rates_floats(q_inertial_from_body, omega_body, h_wheels_n_m_s, inertia, inertia_inv, axes_body,
+                          torque_ext_body_n_m, wheel_torque_n_m):
+    """``gyrostat_rates`` as one list of Python floats [q_dot (4), omega_dot (3), h_dot (N)]: the same operations
+    in the same order (the wheel terms, then ``attitude.euler_rate`` and ``attitude.quaternion_rate`` written
+    out), hence the same bits, without numpy's per-call cost (the plant asks four times per RK4 substep).
+    Seed 001 eq 3 / seed 000 eq 4 with the wheels: I omega_dot = M_ext - omega x (I omega + A h) - A u, h_dot = u.
+    """
+    wx, wy, wz = omega_body
+    mx, my, mz = torque_ext_body_n_m
+    for (ax, ay, az), h, u in zip(axes_body, h_wheels_n_m_s, wheel_torque_n_m, strict=True):
+        mx -= (wy * az - wz * ay) * h + ax * u
+        my -= (wz * ax - wx * az) * h + ay * u
+        mz -= (wx * ay - wy * ax) * h + az * u
+    (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = inertia
+    hx = i00 * wx + i01 * wy + i02 * wz
+    hy = i10 * wx + i11 * wy + i12 * wz
+    hz = i20 * wx + i21 * wy + i22 * wz
+    bx = mx - (wy * hz - wz * hy)  # M - omega x (I omega), seed 001 eq 3
+    by = my - (wz * hx - wx * hz)
+    bz = mz - (wx * hy - wy * hx)
+    (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = inertia_inv
+    x, y, z, w = q_inertial_from_body
+    return [0.5 * (w * wx + y * wz - z * wy),  # q_dot = 1/2 q * (omega, 0), seed 000 eq 4
+            0.5 * (w * wy + z * wx - x * wz),
+            0.5 * (w * wz + x * wy - y * wx),
+            -0.5 * (x * wx + y * wy + z * wz),
+            j00 * bx + j01 * by + j02 * bz,
+            j10 * bx + j11 * by + j12 * bz,
+            j20 * bx + j21 * by + j22 * bz,
+            *(float(u) for u in wheel_torque_n_m)]
+
+
+def substep_count(omega_body, h_body_n_m_s, inertia_min_kg_m2, dt_s, max_angle_rad):
+    """Substeps of a fixed-step integrator over dt_s [s] so that no substep turns the body, or its rate vector,
+    by more than max_angle_rad: ceil(s dt / max_angle) with s = max(|omega|, |I omega + A h| / I_min) [rad/s].
+
+    |omega| bounds the attitude's turn; omega_dot = -I^-1 (omega x H) turns omega in the body at most
+    |H| / I_min (the nutation, or a wheel's gyroscopic coupling at rest), H = I omega + A h the body's total
+    momentum in body axes (h_body_n_m_s).
+    """
+    wx, wy, wz = omega_body
+    hx, hy, hz = h_body_n_m_s
+    rate = max(math.sqrt(wx * wx + wy * wy + wz * wz), math.sqrt(hx * hx + hy * hy + hz * hz) / inertia_min_kg_m2)
+    return max(1, math.ceil(rate * dt_s / max_angle_rad))
+
+
 def total_angular_momentum_inertial(state, inertia, wheels):
     """H = C_inertial_from_body (I omega + A h) [N m s], inertial axes: body plus wheels."""
     h_body = np.asarray(inertia, dtype=float) @ state.omega_body + wheels.axis_matrix @ state.h_wheels_n_m_s
