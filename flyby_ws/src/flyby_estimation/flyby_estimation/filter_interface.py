@@ -16,6 +16,13 @@ measurement), or a rejection, which leaves the state unchanged: 'non_finite' (no
 and the right number of finite values), 'non_unit' (a quaternion far from unit norm), 'stale'
 (stamped before the filter time), 'outlier' (normalized innovation squared above the chi-square
 gate; the filter has then been propagated to the stamp).
+
+Helpers the filters share: ``kalman_update_first_three`` (the gated Joseph-form update for H = [I 0]);
+``FilterBase`` (filter time, gate, outcome counts, and the checks of a measurement's stamp and
+values that name the rejection); for the multiplicative attitude filters, whose error state starts
+with the body-frame rotation vector dtheta (q_true = q_ref * exp(dtheta), quaternions (x, y, z, w)),
+``attitude_innovation`` and ``fold_attitude_error`` (the reset of the estimated error into the
+reference, Markley's reset Jacobian).
 """
 
 import dataclasses
@@ -25,12 +32,21 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from scipy.stats import chi2
 
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_normalize,
+    rotation_vector_from_quat,
+    skew,
+)
+
 REJECTION_KINDS = ('non_finite', 'non_unit', 'stale', 'outlier')
 STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
 UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
 
 __all__ = ['EstimationFilter', 'FilterBase', 'REJECTION_KINDS', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
-           'new_counts', 'kalman_update_first_three']
+           'attitude_innovation', 'fold_attitude_error', 'new_counts', 'kalman_update_first_three']
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -86,6 +102,33 @@ def kalman_update_first_three(x, p, y, r):
     return nis, x + k @ y[:, None], i_kh @ p @ i_kh.T + k @ r @ k.T
 
 
+def attitude_innovation(q_ref, q_meas):
+    """nu = log(q_ref^-1 * q_meas) [rad]: the measured attitude error as a rotation vector in the reference's
+    body axes (q_meas = q_ref * exp(nu)); both quaternions (x, y, z, w) of the body in the same frame.
+    With q_true = q_ref * exp(dtheta) and a body-frame measurement error, H = [I 0] for dtheta."""
+    return rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_meas))
+
+
+def fold_attitude_error(q_ref, dtheta, p):
+    """The reset of a multiplicative filter after an update (Markley): the estimated body-frame error
+    dtheta [rad] folded into the reference, q <- q * exp(dtheta), and the covariance of the new error
+    dtheta' = G (dtheta - dtheta_hat), G = I - 1/2 [dtheta_hat x] on the attitude block, P <- G P G'.
+
+    Args:
+        q_ref: reference quaternion (x, y, z, w); dtheta: (3,) the update's attitude correction; p: the
+            covariance after the update (n, n), the first three states the attitude error.
+
+    Returns:
+        (unit q_ref * exp(dtheta), G P G' made exactly symmetric). The other states' corrections are the
+        caller's to add (they are additive).
+    """
+    q = quat_normalize(quat_multiply(q_ref, quat_from_rotation_vector(dtheta)))
+    g = np.eye(p.shape[0])
+    g[:3, :3] -= 0.5 * skew(dtheta)
+    p = g @ p @ g.T  # P = G P G'
+    return q, 0.5 * (p + p.T)
+
+
 def new_counts():
     """A count of 0 for every kind of UPDATE_KINDS, the ``counts`` dict of a filter."""
     return dict.fromkeys(UPDATE_KINDS, 0)
@@ -111,6 +154,43 @@ class FilterBase:
         self._consecutive_outliers += 1
         return 'reset' if self._consecutive_outliers >= self._max_outliers else 'outlier'
 
+    def _outcome(self, kind, t, nis=math.nan, reason='', innovation=None, counts=None):
+        """The UpdateResult of one measurement, counted by kind in ``counts`` (default self.counts)."""
+        (self.counts if counts is None else counts)[kind] += 1
+        return UpdateResult(kind, float(t), nis, reason, innovation)
+
+    def _finite_measurement(self, t, value, size, what='measurement', counts=None):
+        """(value as a float array (size,), None), or (None, the counted 'non_finite' UpdateResult) when t
+        is not a finite number or value is not ``size`` finite numbers (also when either is not numeric)."""
+        t_s = _float_or_nan(t)
+        try:
+            z = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            z = None
+        if not (math.isfinite(t_s) and z is not None and z.shape == (size,) and all(map(math.isfinite, z.tolist()))):
+            return None, self._outcome('non_finite', t_s, reason=f'{what} at t = {t!r} s is not a finite stamp and '
+                                                                 f'{size} finite numbers: {value!r}', counts=counts)
+        return z, None
+
+    def _unit_quaternion_measurement(self, t, q, norm_tolerance, what='measurement', counts=None):
+        """(q scaled to unit norm, None), or (None, the counted rejection): 'non_finite' as
+        _finite_measurement, 'non_unit' when |norm - 1| > norm_tolerance."""
+        z, rejected = self._finite_measurement(t, q, 4, what, counts)
+        if rejected is not None:
+            return None, rejected
+        norm = float(np.linalg.norm(z))
+        if abs(norm - 1.0) > norm_tolerance:
+            return None, self._outcome('non_unit', t, reason=f'{what} at t = {t} s has norm {norm:.6g}, not within '
+                                                             f'{norm_tolerance} of 1', counts=counts)
+        return z / norm, None
+
+    def _stale_measurement(self, t, t_filter, what='measurement', counts=None):
+        """The counted 'stale' UpdateResult if the stamp t is before t_filter (equal is not stale), else None."""
+        if t_filter is not None and t < t_filter:
+            return self._outcome('stale', t, reason=f'{what} stamped t = {t} s is before the filter time '
+                                                    f'{t_filter} s', counts=counts)
+        return None
+
     @property
     def initialized(self):
         return self._t is not None
@@ -124,6 +204,14 @@ class FilterBase:
     def gate_threshold(self):
         """Normalized innovation squared above which a measurement is an outlier."""
         return self._gate
+
+
+def _float_or_nan(t):
+    """t as a float, nan when it is not a number."""
+    try:
+        return float(t)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 @runtime_checkable
