@@ -35,8 +35,10 @@ with a the relative acceleration: Clohessy-Wiltshire coasting (seed 000 eq 2) un
   alone cannot be continuous (no continuous tangent field on the sphere: hill z's projection flips as the
   line of sight crosses R-bar, where a fly-by past the target often looks); w fades the rule out at that
   singularity, where the roll is simply carried along;
-* the first goal (or the first after a gap in the calls of more than ``max_gap_s``) is the rule's attitude
-  (hill x if the line of sight lies along hill z).
+* the first goal (or the first after a gap in the calls of more than ``max_gap_s``) is the chaser's own
+  estimated attitude carried onto the line of sight by the smallest rotation (``AttitudeGuidance``: no roll
+  slew at acquisition; the relaxation then turns the roll slowly to the rule), or the rule's attitude where no
+  attitude is given (``LineOfSightGoal.update``).
 
 The goal's inertial angular velocity and acceleration (hill axes, then turned into goal axes), the
 inertial derivative of Omega + omega_rel being d/dt|hill omega_rel + Omega x omega_rel (Omega constant):
@@ -163,14 +165,15 @@ def line_of_sight(r_hill, v_hill, n, a_hill=None):
 
 
 def roll_rule_attitude(u_hill, reference_hill=_HILL_Z):
-    """q_hill_from_goal with goal x along u_hill and goal z as close as possible to reference_hill (hill x
-    instead when u_hill lies along the reference)."""
+    """q_hill_from_goal with goal x along u_hill and goal z as close as possible to reference_hill (to the hill
+    axis least along u_hill when u_hill lies along the reference)."""
     x = np.asarray(u_hill, dtype=float)
     x = x / np.linalg.norm(x)
     ref = np.asarray(reference_hill, dtype=float)
     z = ref - (ref @ x) * x
-    if np.linalg.norm(z) < 1e-6 * np.linalg.norm(ref):
-        z = np.array((1.0, 0.0, 0.0)) - x[0] * x
+    if np.linalg.norm(z) < 1e-6 * np.linalg.norm(ref):  # along the reference: the hill axis least along u
+        axis = np.eye(3)[int(np.argmin(np.abs(x)))]
+        z = axis - (axis @ x) * x
     z /= np.linalg.norm(z)
     return quat_from_matrix(np.column_stack((x, cross3(z, x), z)))
 
@@ -211,24 +214,29 @@ class LineOfSightGoal:
         self.reset()
 
     def reset(self, q_hill_from_goal=None):
-        """Forget the carried goal: the next update starts from the rule, or, given q_hill_from_goal (e.g. the
-        chaser's attitude, to spare a roll slew at acquisition), from that attitude carried onto the line of
-        sight by the smallest rotation."""
+        """Forget the carried goal: the next update starts afresh (``update``), from q_hill_from_goal if given."""
         self._t = self._u = None
         self._q = None if q_hill_from_goal is None else quat_normalize(q_hill_from_goal)
         self._roll_rate = 0.0
 
-    def update(self, t, r_hill, v_hill, n, a_hill=None):
-        """PointingGoal at time t [s] for the chaser at r_hill, v_hill (a_hill: module doc)."""
+    def update(self, t, r_hill, v_hill, n, a_hill=None, q_hill_from_start=None):
+        """PointingGoal at time t [s] for the chaser at r_hill, v_hill (a_hill: module doc).
+
+        A fresh start (the first update, or after a gap of more than max_gap_s or a step back in time) takes
+        q_hill_from_start (e.g. the chaser's own attitude, to spare a roll slew at acquisition), else the
+        attitude given to ``reset``, else the rule's attitude, carried onto the line of sight by the smallest
+        rotation.
+        """
         los = line_of_sight(r_hill, v_hill, n, a_hill)
         u = los.u_hill
         dt = None if self._t is None else t - self._t
         if dt is None or not (0.0 <= dt <= self.max_gap_s):
-            if dt is None and self._q is not None:  # reset to a given attitude: carry its +x onto u
-                q = quat_normalize(quat_multiply(quat_shortest_arc(quat_rotate(self._q, (1.0, 0.0, 0.0)), u),
-                                                 self._q))
-            else:
+            start = q_hill_from_start if q_hill_from_start is not None else self._q if dt is None else None
+            if start is None:
                 q = roll_rule_attitude(u, self.reference_hill)
+            else:
+                start = quat_normalize(start)
+                q = quat_normalize(quat_multiply(quat_shortest_arc(quat_rotate(start, (1.0, 0.0, 0.0)), u), start))
         else:
             # the smallest rotation from the last line of sight to this one, then the roll commanded then
             q = quat_multiply(quat_shortest_arc(self._u, u), self._q)
@@ -308,12 +316,12 @@ class AttitudeGuidance:
             inside_restriction_sphere: True where no thruster may fire (then the thruster torque is exactly 0).
             a_hill: the chaser's relative acceleration [m/s^2] if known (a burn), else CW coasting.
         """
-        goal = self.goal_tracker.update(t, r_hill, v_hill, n, a_hill)
+        goal = self.goal_tracker.update(t, r_hill, v_hill, n, a_hill, q_hill_from_start=q_hill_from_body)
         return self.track(goal, q_hill_from_body, omega_body, h_wheels_n_m_s, inside_restriction_sphere)
 
     def hold(self, q_hill_from_goal, q_hill_from_body, omega_body, h_wheels_n_m_s, n, inside_restriction_sphere):
-        """AttitudeCommand holding an attitude fixed in hill (``hold_goal``); the pointing goal restarts from
-        the rule at the next ``command``."""
+        """AttitudeCommand holding an attitude fixed in hill (``hold_goal``); the next ``command`` starts its
+        pointing goal from the chaser's attitude then."""
         self.goal_tracker.reset()
         return self.track(hold_goal(q_hill_from_goal, n), q_hill_from_body, omega_body, h_wheels_n_m_s,
                           inside_restriction_sphere)

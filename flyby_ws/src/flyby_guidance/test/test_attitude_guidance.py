@@ -133,6 +133,22 @@ def test_roll_relaxes_to_the_rule():
     assert roll_relaxation_rate(rule, (0.0, 0.0, 1.0), 100.0, 0.005) == 0.0
 
 
+def test_acquisition_starts_from_the_chaser_attitude_without_a_roll():
+    """The first goal is the chaser's attitude turned by the smallest rotation onto the line of sight: the error
+    axis is perpendicular to both body +x and the line of sight, its angle the pointing error (30 deg)."""
+    r, v = FLYBY(0.0)
+    u = -r / np.linalg.norm(r)
+    q_body = quat_multiply(roll_rule_attitude(u), quat_from_axis_angle([0.0, 0.6, 0.8], math.radians(30.0)))
+    q_body = quat_multiply(q_body, quat_from_axis_angle([1.0, 0.0, 0.0], 2.0))  # any roll of the chaser
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, WHEELS)
+    guidance.command(0.0, q_body, np.zeros(3), np.zeros(3), r, v, N, inside_restriction_sphere=False)
+    error = rotation_vector_from_quat(quat_multiply(quat_conjugate(guidance.goal.q_hill_from_goal), q_body))
+    x_body = quat_to_matrix(q_body)[:, 0]
+    error_hill = quat_rotate(q_body, error)
+    assert np.linalg.norm(error) == pytest.approx(math.radians(30.0), abs=1e-12)
+    assert abs(error_hill @ u) < 1e-12 and abs(error_hill @ x_body) < 1e-12
+
+
 def test_hold_goal_turns_with_hill():
     q = quat_from_axis_angle([0.2, -1.0, 0.4], 0.7)
     goal = hold_goal(q, N)
