@@ -93,7 +93,7 @@ from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply
 
 GYRO_INTERPOLATIONS = ('linear', 'hold')
 _ZERO_STATE = np.zeros((6, 1))  # the error state between updates (reset after each)
-_SMALL_ANGLE_RAD = 1e-4  # below it the coefficients of Phi by their Taylor series (relative error < 1e-17)
+_SMALL_ANGLE_RAD = 1e-2  # below it the coefficients of Phi by their Taylor series (truncation < 1e-23)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,7 +110,8 @@ class ChaserAttitudeFilterConfig:
         star_tracker_rate_hz: star-tracker rate [Hz] (``star_tracker_rate_hz``); used only by
             ``steady_state`` (the filter fuses a sample whenever one comes).
         star_tracker_sigma_rad: star-tracker noise, 1 sigma per body axis [rad]
-            (``star_tracker_sigma_deg``, default 0.01 deg).
+            (``star_tracker_sigma_deg``, default 0.01 deg); > 0 (the scenario allows a perfect star
+            tracker, 0, which the filter cannot weigh: give it a floor as an override).
         gyro_noise_sigma_rad_s: gyro white noise per sample [rad/s] (``gyro_noise_sigma_rad_s``, 1e-5).
         gyro_bias_sigma_rad_s: 1 sigma per axis of the initial bias [rad/s] (``gyro_bias_sigma_rad_s``, 1e-4).
         gyro_bias_walk_rad_s_sqrt_s: bias random walk [rad/s/sqrt(s)] (``gyro_bias_walk_rad_s_sqrt_s``, 1e-7).
@@ -138,9 +139,9 @@ class ChaserAttitudeFilterConfig:
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'rate_hz', 'star_tracker_rate_hz', 'star_tracker_sigma_rad',
-                     'gyro_bias_sigma_rad_s', 'norm_tolerance'):
+                     'norm_tolerance'):
             require_positive(name, getattr(self, name))
-        for name in ('gyro_noise_sigma_rad_s', 'gyro_bias_walk_rad_s_sqrt_s'):
+        for name in ('gyro_noise_sigma_rad_s', 'gyro_bias_sigma_rad_s', 'gyro_bias_walk_rad_s_sqrt_s'):
             require_positive(name, getattr(self, name), allow_zero=True)
         if self.initial_attitude_sigma_rad is not None:
             require_positive('initial_attitude_sigma_rad', self.initial_attitude_sigma_rad)
@@ -237,11 +238,15 @@ def error_transition(theta, h):
     """
     tx, ty, tz = theta
     a2 = tx * tx + ty * ty + tz * tz
-    if a2 < _SMALL_ANGLE_RAD ** 2:  # Taylor series of sin(a)/a, (1 - cos a)/a^2, (a - sin a)/a^3
-        s1, c1, c2 = 1.0 - a2 / 6.0, 0.5 - a2 / 24.0, 1.0 / 6.0 - a2 / 120.0
+    if a2 < _SMALL_ANGLE_RAD ** 2:  # Taylor series of sin(a)/a, (1 - cos a)/a^2, (a - sin a)/a^3 to a^6
+        a4 = a2 * a2
+        s1 = 1.0 - a2 / 6.0 + a4 / 120.0 - a4 * a2 / 5040.0
+        c1 = 0.5 - a2 / 24.0 + a4 / 720.0 - a4 * a2 / 40320.0
+        c2 = 1.0 / 6.0 - a2 / 120.0 + a4 / 5040.0 - a4 * a2 / 362880.0
     else:
         a = math.sqrt(a2)
-        s1, c1, c2 = math.sin(a) / a, (1.0 - math.cos(a)) / a2, (a - math.sin(a)) / (a2 * a)
+        sin_half = math.sin(0.5 * a)
+        s1, c1, c2 = math.sin(a) / a, 2.0 * sin_half * sin_half / a2, (a - math.sin(a)) / (a2 * a)
     # Phi_11 = I - s1 [theta x] + c1 [theta x]^2;  Phi_12 = h (c1 [theta x] - I - c2 [theta x]^2)
     d11 = 1.0 - c1 * a2
     d12 = h * (c2 * a2 - 1.0)

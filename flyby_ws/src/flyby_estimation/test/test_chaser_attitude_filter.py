@@ -10,10 +10,11 @@ scripts/benchmark_chaser_attitude.py imports ``simulate_imu``, ``run_filter`` an
 import dataclasses
 import math
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
@@ -43,7 +44,9 @@ from flyby_sim.dynamics.rotation import (
     rotation_vector_from_quat,
     skew,
 )
+from flyby_sim.scenario import load_scenario
 
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 SERVICER_INERTIA = np.diag([13.0, 38.0, 35.0])  # seed 001 Table 1 [kg m^2]
 N_RAD_S = mean_motion_rad_s(7.0e6)  # paper_flyby's orbit (radius 7000 km)
 CONFIG = ChaserAttitudeFilterConfig(mean_motion_rad_s=N_RAD_S)  # issue 13's sensor defaults
@@ -248,6 +251,9 @@ def test_step_rotation_vector_is_the_integral_of_a_linear_rate():
 
 @given(st.lists(st.floats(-0.5, 0.5), min_size=3, max_size=3), st.floats(0.01, 2.0))
 @settings(max_examples=25)
+@example([0.0, 0.0, 1e-4], 1.0)  # the largest angle that once lost 1e-8 relative to 1 - cos a
+@example([0.0, 0.006, 0.008], 1.0)  # the switch to the Taylor series at 0.01 rad
+@example([0.0, 0.0, 0.0], 0.1)
 def test_error_transition_is_the_matrix_exponential_and_composes(theta, h):
     """Phi = expm(F h) with F = [[-[w x], -I], [0, 0]], w = theta / h (M&C §6.2), and at a constant rate
     Phi(h) = Phi(h/2) Phi(h/2)."""
@@ -492,6 +498,10 @@ def test_first_star_tracker_sample_initializes_and_the_interface_is_the_filters(
 
 
 def test_config_from_scenario_keys_and_validation():
+    """The scenario's sensors.chaser_imu keys (degrees converted) and gate; paper_flyby's defaults are the
+    config's; a bad value raises naming the field."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    assert chaser_attitude_filter_config_from_scenario(sc) == ChaserAttitudeFilterConfig(sc.mean_motion_rad_s)
     imu = types.SimpleNamespace(rate_hz=20.0, star_tracker_rate_hz=4.0, star_tracker_sigma_deg=0.02,  # the plant's keys
                                 gyro_noise_sigma_rad_s=2e-5, gyro_bias_sigma_rad_s=3e-4,
                                 gyro_bias_walk_rad_s_sqrt_s=5e-7)
