@@ -14,6 +14,9 @@ true line of sight), the peak wheel momentum and torque, and the cost of one gui
 * the fly-by of test_attitude_guidance.py: CW coast from 150 s before to 150 s after a closest approach of
   5 m at 0.2 m/s (passing 11 deg from R-bar, where the roll rule is singular; line of sight up to 2.3 deg/s);
 * the same at 3 m (3.8 deg/s, the wheels' torque limit reached);
+* momentum dumping: the chaser held pointing from 30 m on V-bar (outside the sphere) with wheel momenta
+  (1.5, -1.2, 0.8) N m s: how long until every axis is within 0.2 N m s, the pointing error meanwhile, and the
+  thrusters' impulse and fuel (the dump torques allocated to the default layout and fired, ``actuators``);
 * with ``--mission``: the scenario flown headless (today's point-mass chaser, flyby_guidance.closed_loop), its
   true relative path and its estimator's relative estimates replayed from the first terminal burn to the grasp
   (the issue's window), the chaser on its goal at the first burn.
@@ -33,6 +36,7 @@ from flyby_guidance.attitude_guidance import (
     LineOfSightGoal,
     simulate_pointing,
 )
+from flyby_sim.dynamics.actuators import allocate_wrench, default_thruster_layout, fire
 from flyby_sim.dynamics.orbital import cw_coast, mean_motion_rad_s
 from flyby_sim.dynamics.rigid_body import GyrostatPropagator, ReactionWheels
 
@@ -85,6 +89,35 @@ def synthetic(periods):
                 wall = time.perf_counter() - t0
                 errors = 'estimation errors' if noisy else 'perfect estimates'
                 report(f'fly-by {closest_m:g} m at 0.2 m/s, period {period:g} s, {errors} ({wall:.1f} s wall)', run)
+
+
+def dumping():
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, WHEELS)
+    h0 = np.array([1.5, -1.2, 0.8])
+
+    def at_rest(_t):
+        return np.array([30.0, 0.0, 0.0]), np.zeros(3)
+    run = simulate_pointing(guidance, GyrostatPropagator(SEED001_SERVICER, WHEELS), at_rest, 0.0, 60.0, N,
+                            rng=np.random.default_rng(13), attitude_sigma_rad=ATTITUDE_SIGMA_RAD,
+                            rate_sigma_rad_s=RATE_SIGMA_RAD_S, restriction_sphere_radius_m=SPHERE_M,
+                            h_wheels0_n_m_s=h0)
+    fired = np.any(run.thruster_torque_body_n_m != 0.0, axis=1)
+    end = int(np.flatnonzero(fired)[-1]) + 1
+    layout = default_thruster_layout()
+    firings = {}
+    impulse_n_s = fuel_kg = 0.0
+    for torque in run.thruster_torque_body_n_m[fired]:
+        key = tuple(torque.tolist())
+        if key not in firings:
+            firings[key] = fire(layout, allocate_wrench(layout, np.zeros(3), torque).thrusts_n,
+                                guidance.config.control_period_s)
+        impulse_n_s += float(firings[key].impulses_n_s.sum())
+        fuel_kg += firings[key].fuel_kg
+    print(f'dumping (1.5, -1.2, 0.8) N m s from 30 m: every axis within 0.2 N m s after {run.t_s[end]:.1f} s '
+          f'(h {np.round(run.h_wheels_n_m_s[end], 3).tolist()} N m s), {int(fired.sum())} periods firing at '
+          f'{np.abs(run.thruster_torque_body_n_m).max():.3f} N m per axis; pointing error max '
+          f'{math.degrees(run.pointing_error_rad.max()):.4f} deg; thruster impulse {impulse_n_s:.2f} N s, fuel '
+          f'{fuel_kg * 1e3:.2f} g')
 
 
 def command_cost():
@@ -164,6 +197,7 @@ def main():
                         'scenarios/paper_flyby.yaml)')
     args = parser.parse_args()
     synthetic(args.periods)
+    dumping()
     command_cost()
     if args.mission:
         mission(args.mission, args.periods)

@@ -58,10 +58,9 @@ sight is followed without lag.
 
 **Momentum dumping** (the classic unloading law, e.g. Markley and Crassidis 2014, ch. 7; Wie, Space Vehicle
 Dynamics and Control, AIAA: an external torque against the wheels' stored momentum while the wheels hold the
-attitude). With H_w = A h, the
-wheels' momentum in body axes: outside the restriction sphere, from the moment |H_w| exceeds
-``dump_start_n_m_s`` until every body axis is within ``dump_stop_n_m_s``, each axis i with
-|H_w,i| > dump_stop gets the thruster torque
+attitude). With H_w = A h, the wheels' momentum in body axes: outside the restriction sphere, from the
+moment |H_w| exceeds ``dump_start_n_m_s`` until every body axis is within ``dump_stop_n_m_s``, each axis i
+with |H_w,i| > dump_stop gets the thruster torque
 
 .. math::
 
@@ -70,7 +69,9 @@ wheels' momentum in body axes: outside the restriction sphere, from the moment |
 and the wheels take tau - tau_thr (u = -A^+ (tau - tau_thr), so the body still feels the control torque tau
 and h' = u = ... - k A^+ H_w drains the wheels). tau_min: a thruster fires only an impulse above its minimum
 impulse bit (``actuators.fire``), so a smaller torque would be commanded, compensated by the wheels, and never
-delivered; the default 0.025 N m is the default layout's 0.01 N s x 0.25 m lever over a 0.1 s period. The
+delivered; the default layout makes a pure couple with two thrusters at 0.25 m (0.25 N m per newton each),
+each of which must give 0.01 N s in the 0.1 s period: tau_min = 2 x 0.25 m x 0.01 N s / 0.1 s = 0.05 N m,
+also the default tau_max (half the default wheels' 0.1 N m), so at this period the dump is bang-bang. The
 dumping only uses the wheels' torque headroom: if the control torque plus the dump's share would exceed a
 wheel's limit, the dump is scaled down (and an axis below tau_min dropped), pointing first. Inside the
 restriction sphere the thruster torque is exactly zero and dumping stops (no thruster fires there,
@@ -124,7 +125,7 @@ class AttitudeGuidanceConfig:
     dump_start_n_m_s: float = 1.0  # |A h| above which dumping starts
     dump_stop_n_m_s: float = 0.2  # each body axis dumps down to this
     dump_gain_per_s: float = 0.05  # k_dump
-    dump_min_torque_n_m: float = 0.025  # tau_min: minimum impulse bit x lever arm / control period
+    dump_min_torque_n_m: float = 0.05  # tau_min: 2 x lever arm x minimum impulse bit / control period
     dump_max_torque_n_m: float = 0.05  # tau_max per axis (half the default wheels' 0.1 N m)
 
     def __post_init__(self):
