@@ -118,11 +118,11 @@ class AttitudeGuidanceConfig:
     natural_frequency_rad_s: float = 0.2  # omega_n; k_p = omega_n^2, k_d = 2 zeta omega_n
     damping_ratio: float = 1.0  # zeta
     max_rate_rad_s: float = 0.05  # rate limit relative to the goal
-    control_period_s: float = 0.1  # commands held this long (zero-order hold)
-    roll_time_constant_s: float = 100.0  # tau_roll: the goal's roll relaxes toward the rule
-    max_roll_rate_rad_s: float = 0.005  # omega_roll_max
-    max_gap_s: float = 10.0  # calls further apart than this restart the goal from the rule
-    dump_start_n_m_s: float = 1.0  # |A h| above which dumping starts
+    control_period_s: float = 0.1  # [s] commands held this long (zero-order hold), applied one period late
+    roll_time_constant_s: float = 100.0  # [s] tau_roll: the goal's roll relaxes toward the rule
+    max_roll_rate_rad_s: float = 0.005  # omega_roll_max (0: roll carried, never relaxed)
+    max_gap_s: float = 10.0  # [s] calls further apart restart the goal (from the chaser's attitude)
+    dump_start_n_m_s: float = 1.0  # |A h| above which dumping starts (outside the sphere)
     dump_stop_n_m_s: float = 0.2  # each body axis dumps down to this
     dump_gain_per_s: float = 0.05  # k_dump
     dump_min_torque_n_m: float = 0.05  # tau_min: 2 x lever arm x minimum impulse bit / control period
