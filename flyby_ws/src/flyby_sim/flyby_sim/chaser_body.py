@@ -139,7 +139,7 @@ class RigidChaserConfig:
     wheel_max_torque_n_m: float = 0.1
     wheel_max_momentum_n_m_s: float = 4.0
     wheel_spin_inertia_kg_m2: float = 0.01
-    wheel_momentum0_n_m_s: tuple = None  # one per wheel; None: zero
+    wheel_momentum0_n_m_s: tuple = None  # one per wheel; None: zero (stored as zeros)
     imu: ImuConfig = ImuConfig()
     max_substep_angle_rad: float = MAX_SUBSTEP_ANGLE_RAD
 
@@ -171,12 +171,12 @@ class RigidChaserConfig:
                                  'spanning)')
         object.__setattr__(self, 'wheel_axes_body', _rows('wheel_axes_body', self.wheel_axes_body))
         wheels = self.wheels()  # validates the axes and limits
-        if self.wheel_momentum0_n_m_s is not None:
-            h0 = _vector('wheel_momentum0_n_m_s', self.wheel_momentum0_n_m_s, wheels.count)
-            if any(abs(h) > h_max for h, h_max in zip(h0, wheels.max_momentum_n_m_s.tolist(), strict=True)):
-                raise ValueError(f'wheel_momentum0_n_m_s {h0} exceeds wheel_max_momentum_n_m_s '
-                                 f'{self.wheel_max_momentum_n_m_s}')
-            object.__setattr__(self, 'wheel_momentum0_n_m_s', h0)
+        h0 = (0.0,) * wheels.count if self.wheel_momentum0_n_m_s is None else \
+            _vector('wheel_momentum0_n_m_s', self.wheel_momentum0_n_m_s, wheels.count)
+        if any(abs(h) > h_max for h, h_max in zip(h0, wheels.max_momentum_n_m_s.tolist(), strict=True)):
+            raise ValueError(f'wheel_momentum0_n_m_s {h0} exceeds wheel_max_momentum_n_m_s '
+                             f'{self.wheel_max_momentum_n_m_s}')
+        object.__setattr__(self, 'wheel_momentum0_n_m_s', h0)
         if not isinstance(self.imu, ImuConfig):
             raise ValueError(f'imu must be an ImuConfig, got {self.imu!r}')
         require_positive('max_substep_angle_rad', self.max_substep_angle_rad)
@@ -297,7 +297,7 @@ class SixDofChaser:
         self._y = list(r0_hill) + list(v0_hill)
         self._t_trans = 0.0
         q_eci0 = q_eci_from_body(0.0, mean_motion_rad_s, quat_normalize(config.q_hill_from_body0))
-        h0 = config.wheel_momentum0_n_m_s or (0.0,) * nw
+        h0 = config.wheel_momentum0_n_m_s
         self._att = q_eci0.tolist() + list(config.omega_body0) + [float(h) for h in h0]
         self.mass_kg = mass_kg
         self.dv_total_mps = 0.0
@@ -313,6 +313,7 @@ class SixDofChaser:
         self._burn_share = (0.0,) * self.layout.count
         self._wrench_share = (0.0,) * self.layout.count
         self._reported = set()  # (event name, source...) reported once
+        self._allocated = (None, None, None)  # the last wrench allocated: (force, torque), Allocation, Firing
         self._totals = self._zero_totals()
 
     # -- state ------------------------------------------------------------------------------------
@@ -373,8 +374,11 @@ class SixDofChaser:
         t_apply = self._t_apply('wrench', t_now, t_stamp)
         seq = self._next_seq('wrench')
         if any(force) or any(torque):
-            allocation = allocate_wrench(self.layout, force, torque)
-            held = fire(self.layout, allocation.thrusts_n, self.step_s)  # the minimum impulse bit per step
+            if self._allocated[0] != (force, torque):  # a command repeated (a held dumping torque): no new LP
+                allocation = allocate_wrench(self.layout, force, torque)
+                held = fire(self.layout, allocation.thrusts_n, self.step_s)  # the minimum impulse bit per step
+                self._allocated = ((force, torque), allocation, held)
+            _, allocation, held = self._allocated
             thrusts = held.thrusts_n
             below = held.below_minimum_impulse
         else:
@@ -508,11 +512,22 @@ class SixDofChaser:
         for i, u in enumerate(self._wheel_torques()):
             if u != 0.0:  # h(t) = h + u (t - t0) exactly: the instant it reaches its limit
                 t_limit = t + (math.copysign(self._h_max[i], u) - self._att[7 + i]) / u
-                if t_limit <= t:  # already there to round-off
+                if t_limit <= t:  # there to round-off: on the limit from now
                     self._att[7 + i] = math.copysign(self._h_max[i], u)
                 else:
                     candidates.append(t_limit)
         return min(candidates)
+
+    def _report_wheel_limit(self, i, t, t_event):
+        """Record (once per wheel command and wheel) that wheel i's momentum limit stops its commanded torque."""
+        key = ('wheel_momentum_limited', self._wheel.seq, i)
+        if key in self._reported:
+            return
+        self._reported.add(key)
+        limit = math.copysign(self._h_max[i], self._wheel.torque_n_m[i])
+        self._emit(Event(t_event, 'WARN', 'wheel_momentum_limited',
+                         f'wheel {i} at its momentum limit {limit:.4g} N m s at t = {t:.3f} s stops wheel command '
+                         f'{self._wheel.seq}', dict(seq=self._wheel.seq, wheel=i, t=t, momentum_n_m_s=limit)))
 
     def _wheel_torques(self):
         """The motor torques acting now: the held command, none on a wheel at its momentum limit pushing out."""
@@ -595,6 +610,10 @@ class SixDofChaser:
         dt = t_end - t
         acc = self._acc
         u = self._wheel_torques()
+        if self._wheel is not None:
+            for i, (u_cmd, u_now) in enumerate(zip(self._wheel.torque_n_m, u, strict=True)):
+                if u_cmd != u_now:
+                    self._report_wheel_limit(i, t, t_event)
         att = self._att
         wx, wy, wz = w = att[4:7]
         (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = self._inertia
@@ -668,13 +687,7 @@ class SixDofChaser:
             limit = math.copysign(self._h_max[i], ui)
             if t + (limit - att0[7 + i]) / ui <= t_end:
                 self._att[7 + i] = limit
-                key = ('wheel_momentum_limited', self._wheel.seq, i)
-                if key not in self._reported:
-                    self._reported.add(key)
-                    self._emit(Event(t_event, 'WARN', 'wheel_momentum_limited',
-                                     f'wheel {i} reached its momentum limit {limit:.4g} N m s at t = {t_end:.3f} s '
-                                     f'under wheel command {self._wheel.seq}',
-                                     dict(seq=self._wheel.seq, wheel=i, t=t_end, momentum_n_m_s=limit)))
+                self._report_wheel_limit(i, t_end, t_event)
 
     def _thrusting_rhs(self, t0, m0, mass_flow, force_b, torque_b, u):
         """d/dt of [r, v, q_eci_from_body, omega, h, impulse_hill, angular_impulse_hill, delta-v_hill] with the

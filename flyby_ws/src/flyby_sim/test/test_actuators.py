@@ -10,11 +10,13 @@ from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.actuators import (
     ThrusterLayout,
+    allocate_max_force,
     allocate_wrench,
     default_thruster_layout,
     draw_thruster_errors,
     fire,
     is_positively_spanning,
+    plan_burn,
 )
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.propulsion import delta_v_for_fuel_mps
@@ -159,3 +161,38 @@ def test_bad_inputs_name_themselves():
         default_thruster_layout(isp_s=0.0)
     with pytest.raises(ValueError, match='misalignment_sigma_rad'):
         draw_thruster_errors(LAYOUT, np.random.default_rng(0), 0.0, -1.0)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)).filter(
+    lambda u: np.linalg.norm(u) > 1e-3))
+def test_largest_pure_force_along_a_direction_is_the_default_layouts_closed_form(direction):
+    """Each axis's pair gives at most 20 N along it and nothing else, so the largest pure force along the unit u is
+    20 / max|u_k| N, with no torque and nothing across u, from sum f = 20 sum|u_k| / max|u_k| (no opposing
+    thruster fires)."""
+    u = np.array(direction) / np.linalg.norm(direction)
+    allocation = allocate_max_force(LAYOUT, direction)
+    expected_n = 20.0 / np.abs(u).max()
+    assert allocation.force_n == pytest.approx(expected_n, rel=2e-9)
+    np.testing.assert_allclose(allocation.force_body_n, allocation.force_n * u, atol=1e-8)
+    np.testing.assert_allclose(allocation.torque_body_n_m, 0.0, atol=1e-9)
+    assert allocation.total_thrust_n == pytest.approx(expected_n * np.abs(u).sum(), rel=1e-8)
+
+
+def test_burn_plan_follows_the_rocket_equation_with_the_effective_exhaust_velocity():
+    """A diagonal delta-v of 0.3 m/s from 100 kg: integrating m_dot = -sum f / (Isp g0), v_dot = F / m over the planned
+    duration gives 0.3 m/s and the planned fuel (independent integration, solve_ivp)."""
+    plan = plan_burn(LAYOUT, [1.0, 1.0, 1.0], 0.3, 100.0)
+    ve = 220.0 * STANDARD_GRAVITY_M_S2
+    force, total = plan.allocation.force_n, plan.allocation.total_thrust_n
+    assert force == pytest.approx(20.0 * math.sqrt(3.0), rel=2e-9) and total == pytest.approx(60.0, rel=2e-9)
+    end = solve_ivp(lambda _t, y: [-total / ve, force / y[0]], (0.0, plan.duration_s), [100.0, 0.0], rtol=1e-12,
+                    atol=1e-12).y[:, -1]
+    assert end[1] == pytest.approx(0.3, rel=1e-10)
+    assert 100.0 - end[0] == pytest.approx(plan.fuel_kg, rel=1e-10)
+    assert plan.mass_flow_kg_s == pytest.approx(total / ve, rel=1e-15)
+
+
+def test_max_force_of_a_direction_rejects_a_zero_direction():
+    with pytest.raises(ValueError, match='direction_body'):
+        allocate_max_force(LAYOUT, [0.0, 0.0, 0.0])

@@ -14,6 +14,8 @@ from flyby_sim.dynamics.rigid_body import (
     GyrostatPropagator,
     ReactionWheels,
     gyrostat_rates,
+    gyrostat_rates_floats,
+    substep_count,
     total_angular_momentum_inertial,
 )
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_normalize, quat_to_matrix
@@ -153,3 +155,26 @@ def test_bad_inputs_name_themselves():
         ReactionWheels([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]], 0.1, 4.0, 0.01)
     with pytest.raises(ValueError, match='positive definite'):
         GyrostatPropagator(np.diag([1.0, -1.0, 1.0]), WHEELS)
+
+
+@settings(max_examples=30, deadline=None)
+@given(principal_moments, rotation_vector, st.tuples(rate, rate, rate),
+       st.lists(st.floats(-2.0, 2.0), min_size=4, max_size=4), st.lists(st.floats(-0.1, 0.1), min_size=4, max_size=4),
+       st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)))
+def test_gyrostat_rates_on_floats_are_gyrostat_rates_to_the_bit(moments, rotvec, omega, h, u, torque):
+    """The plant's float version of seed 001 eq 3 with the wheels (the same operations in the same order)."""
+    inertia = inertia_from(moments, rotvec)
+    i = tuple(map(tuple, inertia.tolist()))
+    i_inv = tuple(map(tuple, np.linalg.inv(inertia).tolist()))
+    axes = tuple(map(tuple, PYRAMID.axes_body.tolist()))
+    q = quat_normalize([0.3, -0.1, 0.5, 0.8]).tolist()
+    q_dot, omega_dot, h_dot = gyrostat_rates(q, omega, h, i, i_inv, axes, torque, u)
+    assert gyrostat_rates_floats(q, omega, h, i, i_inv, axes, torque, u) == \
+        q_dot.tolist() + omega_dot.tolist() + h_dot.tolist()
+
+
+def test_substep_count_bounds_the_turn_of_the_body_and_of_its_rate():
+    """|omega| dt or |I omega + A h| / I_min dt, whichever is larger, over the largest angle per substep."""
+    assert substep_count((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 5.0, 0.05, 0.01) == 1
+    assert substep_count((0.3, 0.0, 0.4), (0.0, 0.0, 0.0), 5.0, 0.05, 0.01) == 3  # 0.5 rad/s x 0.05 s / 0.01 rad
+    assert substep_count((0.0, 0.0, 0.0), (0.0, 4.0, 3.0), 5.0, 0.05, 0.01) == 5  # wheels: 5 N m s / 5 kg m^2

@@ -469,3 +469,108 @@ def test_the_fly_by_offsets_stay_within_the_manipulator_reach(tmp_path):
     d['chaser']['manipulator']['reach_m'] = 2.0
     assert scenario_from_dict(d).offset_max_m == pytest.approx(1.9)
     assert load_scenario(REPO / 'scenarios' / 'paper_flyby.yaml').offset_max_m == pytest.approx(1.4)
+
+
+# ------------------------------------------------------------------------------------------------
+# The six-degree-of-freedom chaser's keys (chaser.model rigid_body; docs/chaser_6dof.md)
+
+SIX_DOF = REPO / 'scenarios' / 'paper_flyby_6dof.yaml'
+
+
+def test_chaser_rigid_body_defaults_point_body_x_at_the_target_from_rest():
+    """Omitted: inertia 2/5 m r^2 of the envelope sphere, body +x along -r0 (minimal rotation), zero rate, three
+    orthogonal wheels of 0.1 N m, 4 N m s, 0.01 kg m^2 without momentum, the default thruster layout, the IMU's
+    documented noise; a point-mass scenario resolves to point_mass."""
+    sc = load_scenario(PAPER)
+    assert sc.chaser.model == 'point_mass'
+    np.testing.assert_array_equal(sc.chaser_inertia, 0.4 * 100.0 * 0.5 ** 2 * np.eye(3))
+    np.testing.assert_allclose(quat_matrix(sc.q_hill_from_chaser_body0) @ [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0],
+                               atol=1e-15)
+    assert sc.omega_chaser_body0_rad_s.tolist() == [0.0, 0.0, 0.0]
+    wheels = sc.chaser.wheels
+    assert wheels.axes.tolist() == np.eye(3).tolist() and wheels.initial_momentum_n_m_s is None
+    assert (wheels.max_torque_n_m, wheels.max_momentum_n_m_s, wheels.spin_inertia_kg_m2) == (0.1, 4.0, 0.01)
+    assert sc.chaser.thrusters.layout is None and sc.chaser.initial_attitude is None
+    imu = sc.sensors.chaser_imu
+    assert (imu.rate_hz, imu.star_tracker_rate_hz, imu.star_tracker_sigma_deg, imu.gyro_noise_sigma_rad_s,
+            imu.gyro_bias_sigma_rad_s, imu.gyro_bias_walk_rad_s_sqrt_s, imu.accel_noise_sigma_mps2) == \
+        (10.0, 2.0, 0.01, 1e-5, 1e-4, 1e-7, 1e-4)
+
+
+def test_chaser_attitude_and_rate_take_the_targets_forms(tmp_path):
+    """The chaser's initial_attitude and initial_rate are the target's sections: rpy and a rate in hill axes."""
+    d = paper_dict()
+    d['chaser'].update(model='rigid_body', initial_attitude={'rpy_rad': [0.5, 0.01, 0.2]},
+                       initial_rate={'omega_hill_deg_s': [1.0, -2.0, 0.5]},
+                       inertia_kg_m2=[[13.0, 0.0, 0.0], [0.0, 38.0, 0.0], [0.0, 0.0, 35.0]])
+    sc = load_scenario(write(tmp_path, d))
+    c = quat_matrix(sc.q_hill_from_chaser_body0)
+    np.testing.assert_allclose(c, rz(0.2) @ ry(0.01) @ rx(0.5), atol=1e-15)
+    np.testing.assert_allclose(c @ sc.omega_chaser_body0_rad_s, np.radians([1.0, -2.0, 0.5]), atol=1e-15)
+    assert sc.chaser_inertia.tolist() == [[13.0, 0.0, 0.0], [0.0, 38.0, 0.0], [0.0, 0.0, 35.0]]
+    assert SCHEMA.fields['chaser'].fields['initial_attitude'].fields == \
+        SCHEMA.fields['target'].fields['initial_attitude'].fields
+    again = load_scenario(write(tmp_path, sc.to_yaml(), 'again.yaml'))  # optional sections null in to_dict
+    assert again == sc and load_scenario(write(tmp_path, load_scenario(PAPER).to_yaml(), 'pm.yaml')) == \
+        load_scenario(PAPER)
+
+
+def test_paper_flyby_6dof_is_paper_flyby_with_the_rigid_body_chaser():
+    a, b = load_scenario(PAPER).to_dict(), load_scenario(SIX_DOF).to_dict()
+    assert b['chaser']['model'] == 'rigid_body'
+    for d in (a, b):
+        for key in ('name', 'description'):
+            del d[key]
+        d['chaser']['model'] = 'point_mass'
+    b['chaser'].update(inertia_kg_m2=None, initial_attitude=None, initial_rate=None)
+    b['chaser']['wheels']['initial_momentum_n_m_s'] = None
+    assert a == b
+
+
+def test_error_chaser_rigid_body_keys_name_themselves(tmp_path):
+    cases = [
+        (lambda d: d['chaser'].update(model='rigid'), "chaser.model: must be one of ['point_mass', 'rigid_body']"),
+        (lambda d: d['chaser'].update(wheels={'max_torque_nm': 0.1}),
+         "chaser.wheels.max_torque_nm: unknown key (did you mean 'max_torque_n_m'?)"),
+        (lambda d: d['chaser'].update(wheels={'max_momentum_n_m_s': -1.0}),
+         'chaser.wheels.max_momentum_n_m_s: must be > 0, got -1.0'),
+        (lambda d: d['chaser'].update(wheels={'axes': [[1, 0, 0], [0, 0, 0]]}),
+         'chaser.wheels.axes: row 1 must be nonzero'),
+        (lambda d: d['chaser'].update(wheels={'axes': []}),
+         'chaser.wheels.axes: must be a non-empty list of 3-vectors'),
+        (lambda d: d['chaser'].update(wheels={'initial_momentum_n_m_s': [0.0, 1.0]}),
+         'chaser.wheels.initial_momentum_n_m_s: must give one value per wheel axis (3), got 2'),
+        (lambda d: d['chaser'].update(wheels={'initial_momentum_n_m_s': [0.0, 5.0, 0.0]}),
+         'chaser.wheels.initial_momentum_n_m_s[1]: must be within +-max_momentum_n_m_s = 4.0, got 5.0'),
+        (lambda d: d['chaser'].update(inertia_kg_m2=[[10, 0, 0], [0, 10, 0], [0, 0, 30]]),
+         'chaser.inertia_kg_m2: principal moments'),
+        (lambda d: d['chaser'].update(initial_attitude={'rpy_rad': [0, 0, 0], 'q_hill_from_body': [0, 0, 0, 1]}),
+         "chaser.initial_attitude: exactly one of"),
+        (lambda d: d['chaser']['thrusters'].update(layout=[{'position_m': [0, 0, 0], 'direction': [0, 0, 0]}]),
+         'chaser.thrusters.layout[0].direction: must be nonzero'),
+        (lambda d: d['sensors'].update(chaser_imu={'star_tracker_rate_hz': 3.0}),
+         'sensors.chaser_imu.star_tracker_rate_hz: must divide sensors.chaser_imu.rate_hz = 10.0'),
+        (lambda d: d['sensors'].update(chaser_imu={'rate_hz': 40.0}),
+         'sensors.chaser_imu.rate_hz: must be <= 1/simulation.step_s = 20 Hz'),
+        (lambda d: d['sensors'].update(chaser_imu={'gyro_bias_walk_rad_s_sqrt_s': -1e-7}),
+         'sensors.chaser_imu.gyro_bias_walk_rad_s_sqrt_s: must be >= 0'),
+    ]
+    for mutate, expected in cases:
+        _, msg = error_of(tmp_path, mutate)
+        assert expected in msg, (expected, msg)
+
+
+def test_error_thruster_layout_without_full_authority(tmp_path):
+    """Eleven of the default twelve thrusters: rank 6 but not positively spanning (docs/chaser_6dof.md)."""
+    from flyby_sim.dynamics.actuators import default_thruster_layout
+    layout = default_thruster_layout()
+    items = [{'position_m': p.tolist(), 'direction': u.tolist()}
+             for p, u in zip(layout.positions_body_m, layout.force_directions_body, strict=True)]
+    _, msg = error_of(tmp_path, lambda d: d['chaser']['thrusters'].update(layout=items[1:]))
+    assert msg.endswith(': chaser.thrusters.layout: the 11 thrusters must give every body force and torque (rank 6 '
+                        'and positively spanning), got rank 6 but not positively spanning')
+    _, msg = error_of(tmp_path, lambda d: d['chaser']['thrusters'].update(layout=items[:4]))
+    assert 'got rank 2' in msg
+    d = paper_dict()
+    d['chaser']['thrusters']['layout'] = items
+    assert len(scenario_from_dict(d).chaser.thrusters.layout) == 12
