@@ -156,10 +156,15 @@ def line_of_sight(r_hill, v_hill, n, a_hill=None):
     [m/s^2]: its relative acceleration (None: CW coasting at mean motion n [rad/s], seed 000 eq 2)."""
     r = np.asarray(r_hill, dtype=float)
     v = np.asarray(v_hill, dtype=float)
-    rho2 = float(r @ r)
-    if r.shape != (3,) or v.shape != (3,) or not (math.isfinite(rho2) and rho2 > 0.0) or not np.all(np.isfinite(v)):
+    rho2 = float(r @ r) if r.shape == (3,) else math.nan
+    if v.shape != (3,) or not (math.isfinite(rho2) and rho2 > 0.0) or not np.all(np.isfinite(v)):
         raise ValueError(f'r_hill {r_hill!r} must be finite and nonzero and v_hill {v_hill!r} finite (3 values)')
-    a = np.array(cw_accel_components(r.tolist(), v.tolist(), n)) if a_hill is None else np.asarray(a_hill, float)
+    if a_hill is None:
+        a = np.array(cw_accel_components(r.tolist(), v.tolist(), n))
+    else:
+        a = np.asarray(a_hill, dtype=float)
+        if a.shape != (3,) or not np.all(np.isfinite(a)):
+            raise ValueError(f'a_hill must be 3 finite values [m/s^2], got {a_hill!r}')
     omega = cross3(r, v) / rho2
     omega_dot = cross3(r, a) / rho2 - (2.0 * float(r @ v) / rho2) * omega
     return LineOfSight(-r / math.sqrt(rho2), omega, omega_dot)
