@@ -37,9 +37,10 @@ integrated together (the hill force turns with the body). The quaternion is reno
 Commands (time-tagged, zero-order hold, DESIGN §5 and §10) apply exactly from their stamp; one stamped before
 the current time applies at once and is reported (``late_command``), never dropped. Thrusts: a wrench command
 is allocated once (``actuators.allocate_wrench``, HiGHS, least fuel) and held; a thruster whose thrust would
-give less than the minimum impulse bit in one plant step (the valves' command period) stays off
-(``actuators.fire`` with period step_s); what the thrusters cannot give (saturation and the minimum impulse
-bit) is reported once per command (``wrench_undelivered``). An impulsive delta-v becomes a burn at the
+give less than the minimum impulse bit over the hold the controller announces with the command (its control
+period; one plant step if it announces none) stays off (``actuators.fire`` with that period); what the
+thrusters cannot give (saturation and the minimum impulse bit) is reported once per command
+(``wrench_undelivered``). An impulsive delta-v becomes a burn at the
 attitude the chaser holds when it starts: its body direction is allocated the largest pure force
 (``actuators.plan_burn``) for the rocket equation's duration; a wrench held during a burn is added on top,
 each thruster limited to its maximum (the burn first, ``wrench_limited_by_burn``).
@@ -313,7 +314,7 @@ class SixDofChaser:
         self._burn_share = (0.0,) * self.layout.count
         self._wrench_share = (0.0,) * self.layout.count
         self._reported = set()  # (event name, source...) reported once
-        self._allocated = (None, None, None)  # the last wrench allocated: (force, torque), Allocation, Firing
+        self._allocated = (None, None, None)  # the last wrench allocated: (force, torque, hold), Allocation, Firing
         self._totals = self._zero_totals()
 
     # -- state ------------------------------------------------------------------------------------
@@ -366,18 +367,24 @@ class SixDofChaser:
         return self._totals
 
     # -- commands ---------------------------------------------------------------------------------
-    def command_wrench(self, t_now, t_stamp, force_body_n, torque_body_n_m):
+    def command_wrench(self, t_now, t_stamp, force_body_n, torque_body_n_m, hold_s=None):
         """Accept a body wrench [N, N m about the CoM, chaser_body] held from t_stamp [s]; returns the
-        WrenchCommand. Raises ValueError for a non-finite stamp or wrench."""
+        WrenchCommand. hold_s: how long the controller means to hold it (its control period) [s], the interval
+        over which a thruster must give the minimum impulse bit (default: one plant step). Raises ValueError for
+        a non-finite stamp or wrench, or a hold_s not finite and > 0."""
         force = _vector('force_body_n', force_body_n, 3)
         torque = _vector('torque_body_n_m', torque_body_n_m, 3)
+        hold_s = self.step_s if hold_s is None else float(hold_s)
+        if not (math.isfinite(hold_s) and hold_s > 0.0):
+            raise ValueError(f'hold_s must be finite and > 0, got {hold_s!r}')
         t_apply = self._t_apply('wrench', t_now, t_stamp)
         seq = self._next_seq('wrench')
         if any(force) or any(torque):
-            if self._allocated[0] != (force, torque):  # a command repeated (a held dumping torque): no new LP
+            key = (force, torque, hold_s)
+            if self._allocated[0] != key:  # a command repeated (a held dumping torque): no new LP
                 allocation = allocate_wrench(self.layout, force, torque)
-                held = fire(self.layout, allocation.thrusts_n, self.step_s)  # the minimum impulse bit per step
-                self._allocated = ((force, torque), allocation, held)
+                held = fire(self.layout, allocation.thrusts_n, hold_s)  # the minimum impulse bit over the hold
+                self._allocated = (key, allocation, held)
             _, allocation, held = self._allocated
             thrusts = held.thrusts_n
             below = held.below_minimum_impulse

@@ -265,19 +265,21 @@ class Plant:
                                       dict(t_now=self.t, t_stamp=t_stamp, dv_hill=str(dv_hill))))
             raise
 
-    def command_wrench(self, t_stamp, force_body_n, torque_body_n_m):
+    def command_wrench(self, t_stamp, force_body_n, torque_body_n_m, hold_s=None):
         """Hold the thrusters' body force [N] and torque about the CoM [N m] (chaser_body axes) from sim time
         t_stamp [s] until the next wrench command (zero-order hold; DESIGN §10 /guidance/wrench).
 
-        Allocated once (least fuel, ``actuators.allocate_wrench``); what the thrusters cannot give is reported
-        (``wrench_undelivered``). Stamped before now: applied at once and reported (``late_command``). Returns
-        the chaser_body.WrenchCommand, or None after a capture (``command_ignored``). Raises ValueError for a
-        point-mass chaser or a non-finite command.
+        Allocated once (least fuel, ``actuators.allocate_wrench``); a thruster stays off if its thrust would give
+        less than the minimum impulse bit over hold_s [s], the hold the controller means (its control period;
+        default one plant step); what the thrusters cannot give is reported (``wrench_undelivered``). Stamped
+        before now: applied at once and reported (``late_command``). Returns the chaser_body.WrenchCommand, or
+        None after a capture (``command_ignored``). Raises ValueError for a point-mass chaser or a non-finite
+        command.
         """
         chaser = self._rigid_chaser('command_wrench')
         if self.captured:
             return self._ignored('wrench', t_stamp)
-        return chaser.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m)
+        return chaser.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m, hold_s)
 
     def command_wheels(self, t_stamp, torque_n_m):
         """Hold the reaction wheels' motor torques [N m] (one per wheel) from sim time t_stamp [s] until the next

@@ -235,6 +235,19 @@ def test_minimum_impulse_bit_per_step_is_reported_as_undelivered():
     assert not any(s.firing for s in samples)
 
 
+def test_minimum_impulse_bit_applies_over_the_hold_the_controller_announces():
+    """guidance's 0.05 N m dumping couple: two thrusters at 0.1 N, 0.01 N s over its 0.1 s period (fired), half of
+    that over one 0.05 s plant step (not fired, reported)."""
+    for hold_s, fired in ((0.1, True), (None, False)):
+        plant = Plant(plant_config(thrusters=dataclasses.replace(EXACT, min_impulse_bit_ns=0.01)))
+        plant.command_wrench(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 0.05], hold_s=hold_s)
+        samples, events = step_to(plant, 0.5)
+        assert samples[-1].firing == fired
+        assert [e.name for e in events] == ([] if fired else ['wrench_undelivered'])
+        if fired:
+            np.testing.assert_allclose(samples[-1].torque_body_n_m, [0.0, 0.0, 0.05], atol=1e-12)
+
+
 def test_late_wrench_and_wheel_commands_are_applied_at_once_and_flagged():
     plant = Plant(plant_config())
     step_to(plant, 1.0)
@@ -287,7 +300,8 @@ def test_point_mass_plant_refuses_wrench_and_wheel_commands():
 
 @pytest.mark.parametrize('args, pattern', [((math.nan, [0, 0, 0], [0, 0, 0]), 'stamp'),
                                            ((0.0, [0, 0], [0, 0, 0]), 'force_body_n'),
-                                           ((0.0, [0, 0, 0], [0, math.inf, 0]), 'torque_body_n_m')])
+                                           ((0.0, [0, 0, 0], [0, math.inf, 0]), 'torque_body_n_m'),
+                                           ((0.0, [0, 0, 0], [0, 0, 0], 0.0), 'hold_s')])
 def test_bad_wrench_command_names_itself(args, pattern):
     with pytest.raises(ValueError, match=pattern):
         Plant(plant_config()).command_wrench(*args)
