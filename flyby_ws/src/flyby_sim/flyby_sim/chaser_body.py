@@ -41,8 +41,9 @@ give less than the minimum impulse bit over the hold the controller announces wi
 period; one plant step if it announces none) stays off (``actuators.fire`` with that period); what the
 thrusters cannot give (saturation and the minimum impulse bit) is reported once per command
 (``wrench_undelivered``). An impulsive delta-v becomes a burn at the
-attitude the chaser holds when it starts: its body direction is allocated the largest pure force
-(``actuators.plan_burn``) for the rocket equation's duration; a wrench held during a burn is added on top,
+attitude the chaser holds when it starts: its body direction is allocated a pure force of the point-mass
+chaser's thrust (the navigation filter's burn model; the layout's largest if it gives less,
+``actuators.plan_burn``) for the rocket equation's duration; a wrench held during a burn is added on top,
 each thruster limited to its maximum (the burn first, ``wrench_limited_by_burn``).
 """
 
@@ -569,7 +570,8 @@ class SixDofChaser:
         dv = np.array(request.dv_cmd_hill)
         dv_mps = float(np.linalg.norm(dv))
         direction_body = quat_rotate(quat_conjugate(self.q_hill_from_body(t)), dv / dv_mps)
-        plan = plan_burn(self.layout, direction_body, dv_mps, self.mass_kg)
+        # pushed with the point-mass chaser's thrust, the burn the navigation filter models
+        plan = plan_burn(self.layout, direction_body, dv_mps, self.mass_kg, self.thrusters.max_thrust_n)
         held = fire(self.layout, plan.allocation.thrusts_n, plan.duration_s)  # the minimum impulse bit
         burn = ThrusterBurn(request.seq, request.t_cmd_s, t, t + plan.duration_s, request.dv_cmd_hill,
                             tuple(direction_body.tolist()), tuple(held.thrusts_n.tolist()), plan.allocation.force_n,

@@ -179,6 +179,22 @@ def test_largest_pure_force_along_a_direction_is_the_default_layouts_closed_form
     assert allocation.total_thrust_n == pytest.approx(expected_n * np.abs(u).sum(), rel=1e-8)
 
 
+def test_burn_plan_pushes_with_the_given_force_where_the_layout_gives_more():
+    """Capped at 10 N along the diagonal (34.6 N possible): the same thrusters scaled, so the burn the navigation
+    filter models at the point-mass thrust; above the largest force the cap changes nothing."""
+    full = plan_burn(LAYOUT, [1.0, 1.0, 1.0], 0.3, 100.0)
+    capped = plan_burn(LAYOUT, [1.0, 1.0, 1.0], 0.3, 100.0, max_force_n=10.0)
+    assert capped.allocation.force_n == 10.0
+    np.testing.assert_allclose(capped.allocation.thrusts_n, full.allocation.thrusts_n * 10.0 / full.allocation.force_n,
+                               rtol=1e-15)
+    np.testing.assert_allclose(capped.allocation.torque_body_n_m, 0.0, atol=1e-12)
+    assert capped.fuel_kg == pytest.approx(full.fuel_kg, rel=1e-12)  # same effective exhaust velocity
+    assert capped.duration_s == pytest.approx(full.duration_s * full.allocation.force_n / 10.0, rel=1e-12)
+    above = plan_burn(LAYOUT, [1.0, 0.0, 0.0], 0.3, 100.0, max_force_n=50.0)
+    assert above.allocation.force_n == pytest.approx(20.0, rel=2e-9)
+    assert above.duration_s == plan_burn(LAYOUT, [1.0, 0.0, 0.0], 0.3, 100.0).duration_s
+
+
 def test_burn_plan_follows_the_rocket_equation_with_the_effective_exhaust_velocity():
     """A diagonal delta-v of 0.3 m/s from 100 kg: integrating m_dot = -sum f / (Isp g0), v_dot = F / m over the planned
     duration gives 0.3 m/s and the planned fuel (independent integration, solve_ivp)."""

@@ -329,7 +329,8 @@ def test_impulsive_maneuver_at_an_attitude_90_deg_off_delivers_the_commanded_del
     assert started['t_start'] == 1.0
     np.testing.assert_allclose(started['direction_body'], quat_rotate(quat_conjugate(q0), dv / np.linalg.norm(dv)),
                                atol=1e-15)
-    plan = plan_burn(default_thruster_layout(), started['direction_body'], np.linalg.norm(dv), 100.0)
+    plan = plan_burn(default_thruster_layout(), started['direction_body'], np.linalg.norm(dv), 100.0, 10.0)
+    assert started['force_n'] == pytest.approx(10.0, rel=1e-12)  # the point-mass chaser's thrust
     assert started['t_end'] == pytest.approx(1.0 + plan.duration_s, abs=1e-12)
     assert end.fuel_used_kg == pytest.approx(plan.fuel_kg, rel=1e-12)
     np.testing.assert_allclose(events[1].values['dv_delivered_hill'], dv, atol=1e-6)
@@ -370,8 +371,8 @@ def test_late_and_chained_burns_and_rejections_keep_their_events():
 
 def test_wrench_held_during_a_burn_adds_to_it_limited_per_thruster():
     plant = Plant(plant_config())
-    plant.command_maneuver(0.0, [0.3, 0.0, 0.0])  # from the default attitude: body -x, thrusters 2 and 3 at 10 N
-    plant.command_wrench(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 0.5])  # a couple on thrusters 1 and 2 (or 0 and 3)
+    plant.command_maneuver(0.0, [0.3, 0.0, 0.0])  # from the default attitude: body -x, thrusters 2 and 3 at 5 N
+    plant.command_wrench(0.0, [0.0, 0.0, 0.0], [0.0, 0.0, 4.0])  # a couple of 8 N on thrusters 1 and 2 (or 0 and 3)
     samples, events = step_to(plant, 0.5)
     assert 'wrench_limited_by_burn' in [e.name for e in events]
     assert np.all(samples[-1].thruster_thrust_n <= 10.0 + 1e-12)

@@ -325,8 +325,12 @@ class BurnPlan(NamedTuple):
     mass_flow_kg_s: float  # total_thrust_n / (Isp g0)
 
 
-def plan_burn(layout, direction_body, dv_mps, mass_kg):
+def plan_burn(layout, direction_body, dv_mps, mass_kg, max_force_n=None):
     """The finite burn delivering a delta-v of dv_mps [m/s] along direction_body from mass mass_kg [kg].
+
+    max_force_n: the force to push with, if the layout gives that much along the direction (its largest
+    pure force scaled down, the same thrusters firing); None: the largest. The mission passes the
+    point-mass chaser's thrust, which the navigation filter's burn model assumes (flyby_estimation.relative_nav).
 
     The force F along the direction comes with a propellant flow mdot = sum f / (Isp g0) (sum f >= F when
     thrusters not along the direction fire), so integral F / m dt = (F / mdot) ln(m0 / m1): the rocket equation
@@ -336,6 +340,12 @@ def plan_burn(layout, direction_body, dv_mps, mass_kg):
     require_positive('dv_mps', dv_mps)
     require_positive('mass_kg', mass_kg)
     allocation = allocate_max_force(layout, direction_body)
+    if max_force_n is not None:
+        require_positive('max_force_n', max_force_n)
+        if max_force_n < allocation.force_n:
+            scale = max_force_n / allocation.force_n
+            allocation = DirectionAllocation(allocation.thrusts_n * scale, max_force_n,
+                                             allocation.force_body_n * scale, allocation.torque_body_n_m * scale)
     mass_flow = allocation.total_thrust_n / layout.exhaust_velocity_mps
     effective_exhaust_velocity = allocation.force_n / mass_flow
     fuel = -mass_kg * math.expm1(-dv_mps / effective_exhaust_velocity)
