@@ -5,7 +5,11 @@ Each vision attitude updates the target filter and gives a ``TargetEstimate``, t
 of the target estimate (with, at the first, the batch maximum-likelihood check of the filter,
 ``batch``) and, once converged, its motion category (seed 000 §2.1) every CLASSIFY_PERIOD_S; each
 relative position updates the navigation filter and gives a ``ChaserEstimate``; each commanded
-maneuver becomes a known input of the navigation filter. A rejected measurement is an event with the
+maneuver becomes a known input of the navigation filter. With the six-degree-of-freedom chaser
+(``chaser.model: rigid_body``) the chaser's own attitude filter (``chaser_attitude_filter``) takes each
+IMU sample, and the ``ChaserEstimate`` is given at the IMU's stamps instead, with the attitude and body
+rate: the plant samples the relative position before the IMU at a common stamp, so the navigation state
+of that stamp is in it (the estimator node keeps that order). A rejected measurement is an event with the
 running count of its kind. After the capture the chaser moves with the target, so its free-flight
 navigation stops.
 
@@ -19,6 +23,7 @@ import math
 
 import numpy as np
 
+from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser_attitude_filter_config_from_scenario
 from flyby_estimation.filters import filters_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
@@ -43,12 +48,18 @@ class TargetEstimate:
 
 @dataclasses.dataclass(frozen=True)
 class ChaserEstimate:
-    """estimation/chaser/odom: r_hill [m], v_hill [m/s] (relative to hill) and the 6x6 covariance of [r; v]."""
+    """estimation/chaser/odom: r_hill [m], v_hill [m/s] (relative to hill) and the 6x6 covariance of [r; v];
+    with the rigid-body chaser also its attitude q_hill_from_body, inertial body rate omega_body [rad/s] and
+    their covariances (attitude about hill axes [rad^2], rate in body axes [rad^2/s^2]), else None."""
 
     t: float
     r_hill: np.ndarray
     v_hill: np.ndarray
     covariance: np.ndarray
+    q_hill_from_body: np.ndarray = None
+    omega_body: np.ndarray = None
+    attitude_covariance_hill: np.ndarray = None
+    rate_covariance_body: np.ndarray = None
 
 
 class EstimatorCore:
@@ -58,6 +69,8 @@ class EstimatorCore:
         self.scenario = scenario
         self.name = name
         self.target, self.nav, self.convergence, self.motion = filters_from_scenario(scenario)
+        self.attitude = (ChaserAttitudeFilter(chaser_attitude_filter_config_from_scenario(scenario))
+                         if scenario.chaser.model == 'rigid_body' else None)
         self.converged = False
         self.checked = False  # the batch check runs at the first convergence
         self.category = None
@@ -93,8 +106,26 @@ class EstimatorCore:
         result = self.nav.update(t, r_hill)
         if not result.accepted:
             return self._reject(t, 'relative_position', result.kind, result.reason)
+        if self.attitude is not None:
+            return []  # given with the attitude at the IMU's stamps
         s = self.nav.state()
         return [ChaserEstimate(s.t, s.r_hill, s.v_hill, s.covariance)]
+
+    def on_imu(self, t, q_hill_from_body, omega_body_meas):
+        """An IMU sample at t (rigid-body chaser): star-tracker attitude q_hill_from_body or None, gyro rate."""
+        if self.attached or self.attitude is None:
+            return []
+        out = []
+        for sensor, result in zip(('gyro', 'star_tracker'), self.attitude.on_imu(t, omega_body_meas, q_hill_from_body),
+                                  strict=True):
+            if result is not None and not result.accepted:
+                out += self._reject(t, sensor, result.kind, result.reason)
+        if not (self.attitude.ready and self.nav.initialized):
+            return out
+        a = self.attitude.estimate()
+        s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
+        return out + [ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
+                                     a.attitude_covariance_hill, a.rate_covariance)]
 
     def on_maneuver(self, t, dv_hill):
         """A commanded maneuver (stamp t, dv_hill): a known input of the navigation filter."""

@@ -4,11 +4,12 @@ The plant (flyby_sim.plant) and the cores the nodes run — EstimatorCore, Plann
 SupervisorCore — are wired as the graph wires them: each output goes to the cores that subscribe to
 its topic, in the order it was made, and arrives as the message would deliver it (``flyby_msgs_py.wire``:
 stamps in whole nanoseconds, event values as text). The plant executes the commanded maneuvers with
-its thruster errors and attaches the chaser when the phase turns to CAPTURE; the run ends as the
-launcher ends it (at COMPLETE, abort_observation_s after ABORTED, or at simulation.duration_s), and
-its summary is ``flyby_planner.summary.summarize`` of the plant's truth, stamped as the truth topics
-are: the same keys, outcome classes and figures as the graph's summary.json, so a Monte Carlo row
-is a statement about the graph.
+its thruster errors (with the six-degree-of-freedom chaser also guidance's attitude commands, the wheels'
+torques and the thrusters' torque, each from its stamp) and attaches the chaser when the phase turns to
+CAPTURE; the run ends as the launcher ends it (at COMPLETE, abort_observation_s after ABORTED, or at
+simulation.duration_s), and its summary is ``flyby_planner.summary.summarize`` of the plant's truth,
+stamped as the truth topics are: the same keys, outcome classes and figures as the graph's summary.json,
+so a Monte Carlo row is a statement about the graph.
 """
 
 import collections
@@ -20,7 +21,7 @@ import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
 from flyby_guidance.guidance import Maneuver
-from flyby_guidance.guidance_core import GuidanceCore, flyby_target_of_plan
+from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event, wire_time
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused
@@ -53,6 +54,7 @@ class _Truth:
 
     def __init__(self):
         self.t, self.r, self.v, self.q, self.w, self.f = [], [], [], [], [], []
+        self.q_chaser, self.torque, self.thrusters = [], [], []  # the six-degree-of-freedom chaser's
 
     def add(self, s):
         self.t.append(wire_time(s.t))
@@ -61,11 +63,18 @@ class _Truth:
         self.q.append(s.q_hill_from_body)
         self.w.append(s.omega_body)
         self.f.append(s.force_hill)
+        if s.q_hill_from_chaser_body is not None:
+            self.q_chaser.append(s.q_hill_from_chaser_body)
+            self.torque.append(s.torque_hill_n_m)
+            self.thrusters.append(s.thruster_thrust_n)
 
     def series(self):
         t = np.array(self.t)
-        return (ChaserTruth(t, np.array(self.r), np.array(self.v)),
-                TargetTruth(t, np.array(self.q), np.array(self.w)), ThrustTruth(t, np.array(self.f)))
+        rigid = len(self.q_chaser) == len(t)
+        return (ChaserTruth(t, np.array(self.r), np.array(self.v), np.array(self.q_chaser) if rigid else None),
+                TargetTruth(t, np.array(self.q), np.array(self.w)),
+                ThrustTruth(t, np.array(self.f), np.array(self.torque) if rigid else None,
+                            np.array(self.thrusters) if rigid else None))
 
 
 class HeadlessGraph:
@@ -104,8 +113,10 @@ class HeadlessGraph:
             t_m = wire_time(m.t)
             if m.kind == 'relative_position':
                 self._publish(self.estimator.on_position(t_m, m.value))
-            else:
+            elif m.kind == 'target_attitude':
                 self._publish(self.estimator.on_attitude(t_m, m.value))
+            else:  # chaser_imu
+                self._publish(self.estimator.on_imu(t_m, m.value.q_hill_from_body, m.value.omega_body_meas))
         self._publish_plant_events()
         return s
 
@@ -138,7 +149,12 @@ class HeadlessGraph:
         elif isinstance(out, ChaserEstimate):  # estimation/chaser/odom
             args = (wire_time(out.t), out.r_hill, out.v_hill)
             self._queue.extend(self.supervisor.on_chaser_estimate(*args) + self.planner.on_chaser_estimate(*args)
-                               + self.guidance.on_chaser_estimate(*args))
+                               + self.guidance.on_chaser_estimate(*args, out.q_hill_from_body, out.omega_body))
+        elif isinstance(out, AttitudeCommandStamped):  # guidance/wheels and guidance/wrench
+            t = wire_time(out.t)
+            self.plant.command_wheels(t, out.wheel_torque_n_m)
+            self.plant.command_wrench(t, (0.0, 0.0, 0.0), out.thruster_torque_body_n_m, hold_s=out.hold_s)
+            self._publish_plant_events()
         elif isinstance(out, Maneuver):  # guidance/maneuver, from guidance
             self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), out.kind)
         elif isinstance(out, AvoidanceBurn):  # guidance/maneuver, from the supervisor after an abort

@@ -9,24 +9,42 @@ stamp and the burn aims at it (seed 000 §4.6): a chaser estimate that re-aims w
 estimate, so the aim is the same at any pace of the run. In the phases CAPTURE, ESCAPE, COMPLETE
 and ABORTED nothing is commanded.
 
+With the six-degree-of-freedom chaser (``chaser.model: rigid_body``) every chaser estimate (given at the
+IMU's stamps, with the attitude) also gives an ``AttitudeCommandStamped``: the wheel motor torques
+(guidance/wheels) and the thrusters' body torque (guidance/wrench) of ``attitude_guidance.AttitudeGuidance``
+pointing body +x at the target's centre of mass, stamped one control period (the IMU's sample period) after
+the estimate and held for one period (DESIGN §10: the simulator holds time at that stamp until the command
+is in). The wheels' momentum is the guidance's own account of the torques it commanded (what the wheels
+received, unless a wheel met its momentum limit, which the plant reports). No thruster torque is asked
+within ``RESTRICTION_SPHERE_MARGIN_M`` of the restriction sphere (by the estimate); nothing is commanded from
+CAPTURE on.
+
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
-every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver)
-and ``wire.Event`` (mission/events).
+every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
+``AttitudeCommandStamped`` (guidance/wheels and guidance/wrench) and ``wire.Event`` (mission/events).
 """
 
 import collections
+import dataclasses
 
 import numpy as np
 
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
+from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.grasp import flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.plan import check_passage, planner_config_from_scenario
+from flyby_sim.dynamics.rigid_body import ReactionWheels
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
+# The attitude control stops at the grasp (the combined body's control is a later capability).
+ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
+# Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
+# one control period of motion stay well inside it.
+RESTRICTION_SPHERE_MARGIN_M = 1.0
 # The re-solved grasp is searched in a prediction this far past the planned grasp time [s].
 _REFINE_HORIZON_S = 60.0
 # A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
@@ -41,6 +59,26 @@ def flyby_target_of_plan(t_plan, t_i, x_fi, v_fi, t_f, x_ft, v_ft, maneuver_lead
     return FlybyTarget(t_ti=t_plan + maneuver_lead_s, t_i=t_i, x_fi=np.asarray(x_fi, dtype=float),
                        v_fi=np.asarray(v_fi, dtype=float), t_f=t_f, x_ft=np.asarray(x_ft, dtype=float),
                        v_ft=np.asarray(v_ft, dtype=float))
+
+
+@dataclasses.dataclass(frozen=True)
+class AttitudeCommandStamped:
+    """guidance/wheels and guidance/wrench: from t [s] for hold_s [s], the wheels' motor torques [N m] and the
+    thrusters' torque about the CoM in chaser_body axes [N m] (no force: translation is by maneuvers)."""
+
+    t: float
+    hold_s: float
+    wheel_torque_n_m: np.ndarray
+    thruster_torque_body_n_m: np.ndarray
+
+
+def attitude_guidance_from_scenario(scenario):
+    """(AttitudeGuidance, wheels' initial momenta [N m s]) of a rigid-body chaser scenario."""
+    w = scenario.chaser.wheels
+    wheels = ReactionWheels(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.spin_inertia_kg_m2)
+    config = AttitudeGuidanceConfig(control_period_s=1.0 / scenario.sensors.chaser_imu.rate_hz)
+    h0 = np.zeros(wheels.count) if w.initial_momentum_n_m_s is None else np.array(w.initial_momentum_n_m_s, float)
+    return AttitudeGuidance(config, scenario.chaser_inertia, wheels), h0
 
 
 class GuidanceCore:
@@ -61,6 +99,11 @@ class GuidanceCore:
         # (q_hill_from_body, omega_body, published covariance blocks (attitude in hill, rate in body) or None)
         self.targets = StampedBuffer()
         self.waiting = collections.deque()  # (t, r_hill, v_hill) chaser estimates not yet stepped, in order
+        self.attitude = None
+        if scenario.chaser.model == 'rigid_body':
+            self.attitude, self.h_wheels_n_m_s = attitude_guidance_from_scenario(scenario)
+            self.wheel_commands = collections.deque()  # (t, wheel torques) commanded, not yet in h_wheels
+            self.sphere_radius_m = scenario.planner.restriction_sphere_radius_m + RESTRICTION_SPHERE_MARGIN_M
 
     # -- the plan -------------------------------------------------------------------------------
     def on_flyby_initial(self, t_i, x_fi, v_fi):
@@ -98,9 +141,25 @@ class GuidanceCore:
         self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float), blocks))
         return self._step_waiting()
 
-    def on_chaser_estimate(self, t, r_hill, v_hill):
-        self.waiting.append((t, np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)))
-        return self._step_waiting()
+    def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
+        """A chaser estimate (estimation/chaser/odom), with the rigid-body chaser's attitude and body rate."""
+        r_hill, v_hill = np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)
+        self.waiting.append((t, r_hill, v_hill))
+        out = self._step_waiting()
+        if self.attitude is not None and q_hill_from_body is not None and self.phase not in ATTITUDE_QUIET_PHASES:
+            out.append(self._attitude_command(t, r_hill, v_hill, q_hill_from_body, omega_body))
+        return out
+
+    def _attitude_command(self, t, r_hill, v_hill, q_hill_from_body, omega_body):
+        """The attitude command of the estimate at t, applied one control period later (module doc)."""
+        period_s = self.attitude.config.control_period_s
+        while self.wheel_commands and self.wheel_commands[0][0] + period_s <= t + 1e-9:
+            self.h_wheels_n_m_s = self.h_wheels_n_m_s + period_s * self.wheel_commands.popleft()[1]
+        inside = float(np.linalg.norm(r_hill)) < self.sphere_radius_m
+        cmd = self.attitude.command(t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float),
+                                    self.h_wheels_n_m_s, r_hill, v_hill, self.n, inside)
+        self.wheel_commands.append((t + period_s, cmd.wheel_torque_n_m))
+        return AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m)
 
     # -- stepping -------------------------------------------------------------------------------
     def _step_waiting(self):

@@ -18,6 +18,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.geometry import clearance
 
@@ -30,11 +31,13 @@ TRUTH_TOPICS = [c.absolute(t) for t in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET
 
 class ChaserTruth(NamedTuple):
     """Truth of the chaser (the fields of /sim/chaser/odom the summary reads): t (N,) [s], position (N, 3)
-    [m] and linear (N, 3) [m/s] in hill."""
+    [m] and linear (N, 3) [m/s] in hill; the six-degree-of-freedom chaser's orientation_xyzw (N, 4),
+    q_hill_from_chaser_body (None: a point mass)."""
 
     t: np.ndarray
     position: np.ndarray
     linear: np.ndarray
+    orientation_xyzw: np.ndarray = None
 
 
 class TargetTruth(NamedTuple):
@@ -47,10 +50,14 @@ class TargetTruth(NamedTuple):
 
 
 class ThrustTruth(NamedTuple):
-    """Applied thrust (/sim/chaser/thrust): t (N,), force (N, 3) [N] in hill, the mean over the step ending at t."""
+    """Applied thrust (/sim/chaser/thrust): t (N,), force (N, 3) [N] in hill, the mean over the step ending at t;
+    the six-degree-of-freedom chaser's torque (N, 3) [N m] about its CoM (/sim/chaser/thrust) and each
+    thruster's mean thrust thrusters (N, M) [N] (/sim/chaser/thrusters) on the same stamps (None: a point mass)."""
 
     t: np.ndarray
     force: np.ndarray
+    torque: np.ndarray = None
+    thrusters: np.ndarray = None
 
 
 def outcome_of(end_reason, phases, collided=False, refused=False):
@@ -82,23 +89,52 @@ def no_safe_plan_reason(events):
     return None
 
 
-def thrust_figures(t, force_hill, r_hill, mass0_kg, isp_s, sphere_radius_m):
-    """Delta-v [m/s], fuel [kg] and whether any thrust acted inside the restriction sphere."""
+def thrust_figures(t, force_hill, r_hill, mass0_kg, isp_s, sphere_radius_m, torque=None, thrusters=None):
+    """Delta-v [m/s], fuel [kg] and whether any thrust acted inside the restriction sphere.
+
+    With each thruster's thrust (the six-degree-of-freedom chaser) the fuel is every thruster's impulse over
+    Isp g0, couples and opposing firings included, and a step fires if any thruster does (a pure torque
+    too); the delta-v is the net force's, by the rocket equation with that fuel."""
     if len(t) < 2:
         return 0.0, 0.0, False
     dt = np.diff(t)
     impulse = np.linalg.norm(force_hill[1:], axis=1) * dt
     v_exhaust = isp_s * STANDARD_GRAVITY_M_S2
-    fuel_steps = impulse / v_exhaust
-    mass_before = mass0_kg - np.concatenate(([0.0], np.cumsum(fuel_steps)[:-1]))
-    # Rocket equation per step (thrust magnitude is constant within a step's burn).
-    dv_steps = v_exhaust * np.log(mass_before / (mass_before - fuel_steps))
     firing = impulse > 0.0
+    if thrusters is None:
+        fuel_steps = impulse / v_exhaust
+    else:
+        fuel_steps = np.sum(thrusters[1:], axis=1) * dt / v_exhaust
+        firing |= fuel_steps > 0.0
+    if torque is not None:
+        firing |= np.any(torque[1:] != 0.0, axis=1)
+    mass_before = mass0_kg - np.concatenate(([0.0], np.cumsum(fuel_steps)[:-1]))
+    # Rocket equation per step (thrust magnitude is constant within a step's burn), with the net force's share.
+    share = np.divide(impulse / v_exhaust, fuel_steps, out=np.zeros_like(impulse), where=fuel_steps > 0.0)
+    dv_steps = share * v_exhaust * np.log(mass_before / (mass_before - fuel_steps))
     # A step's force acted between the previous sample and this one: check both ends.
     inside = (np.linalg.norm(r_hill[1:], axis=1) < sphere_radius_m) | \
              (np.linalg.norm(r_hill[:-1], axis=1) < sphere_radius_m)
     return (float(np.sum(dv_steps)), float(np.sum(fuel_steps)),
             bool(np.any(firing & inside)))
+
+
+def pointing_figures(chaser, events, t_g):
+    """The six-degree-of-freedom chaser's pointing error of body +x at the target's CoM (truth), from the first
+    burn's start (the first terminal burn) to the grasp time (or the end of the truth): 95th percentile and
+    largest [deg] (issue 13), or {} for a point mass; None where no burn started."""
+    if chaser.orientation_xyzw is None:
+        return {}
+    starts = [float(e['values']['t_start']) for e in events if e['name'] == 'burn_started' and 't_start' in e['values']]
+    if not starts:
+        return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
+    t_end = t_g if t_g is not None else chaser.t[-1]
+    window = (chaser.t >= min(starts)) & (chaser.t <= t_end)
+    if not np.any(window):
+        return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
+    error_deg = np.degrees(pointing_error_rad(chaser.orientation_xyzw[window], chaser.position[window]))
+    return {'pointing_error_p95_deg': float(np.percentile(error_deg, 95.0)),
+            'pointing_error_max_deg': float(np.max(error_deg))}
 
 
 def grasp_time(events):
@@ -169,7 +205,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         r_at_thrust = chaser.position[np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)]
         delta_v, fuel, thrust_inside = thrust_figures(
             thrust.t, thrust.force, r_at_thrust, scenario.chaser.mass_kg,
-            scenario.chaser.thrusters.isp_s, sphere_m)
+            scenario.chaser.thrusters.isp_s, sphere_m, thrust.torque, thrust.thrusters)
 
     t_g = grasp_time(events)
     offset_m, flyby_duration_s = planned_flyby(events)
@@ -188,6 +224,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         collided = bool(np.any(gaps[free] < 0.0))
         e_pos, e_vel = capture_errors(t_g, chaser, target, np.array(scenario.target.grasp_point_body_m),
                                       offset_m or scenario.planner.offset_m, scenario.mean_motion_rad_s)
+
+    pointing = pointing_figures(chaser, events, t_g) if has_chaser else {}
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
@@ -218,6 +256,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'maneuvers_executed': count('burn_started'),
         'late_maneuvers': count('late_maneuver'),
         'rejected_maneuvers': count('maneuver_rejected'),
+        **pointing,
         'sim_time_s': sim_time_s,
         'planning_time_s': sum(float(e['values'].get('planning_time_s', 0.0)) for e in events
                                if e['name'] in ('plan_selected', 'plan_refused')),
