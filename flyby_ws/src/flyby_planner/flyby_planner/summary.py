@@ -290,6 +290,9 @@ def format_summary(summary):
         ('fuel used', fmt(summary['fuel_used_kg'], 'kg')),
         ('min clearance', fmt(summary['min_clearance_m'], 'm')),
         ('thrust inside sphere', fmt(summary['thrust_inside_restriction_sphere'])),
+        *([('pointing error p95 / max', f"{fmt(summary['pointing_error_p95_deg'], 'deg')} / "
+                                         f"{fmt(summary['pointing_error_max_deg'], 'deg')}")]
+          if 'pointing_error_p95_deg' in summary else []),
         ('late maneuvers', fmt(summary['late_maneuvers'])),
         ('sim time', fmt(summary['sim_time_s'], 's', 6)),
         ('wall time', fmt(summary['wall_time_s'], 's')),
