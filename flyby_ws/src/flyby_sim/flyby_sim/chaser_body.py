@@ -65,7 +65,7 @@ from flyby_sim.dynamics.actuators import (
     wrench_matrix,
 )
 from flyby_sim.dynamics.attitude import validated_inertia
-from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body, rk4_step_floats
 from flyby_sim.dynamics.propulsion import ManeuverRejected, check_delta_v
 from flyby_sim.dynamics.rigid_body import ReactionWheels, gyrostat_rates_floats, substep_count
@@ -75,19 +75,9 @@ MAX_SUBSTEP_ANGLE_RAD = 0.01
 _ZERO3 = (0.0, 0.0, 0.0)
 
 
-def _vector(name, value, size):
-    try:
-        v = tuple(float(c) for c in value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from exc
-    if len(v) != size or not all(math.isfinite(c) for c in v):
-        raise ValueError(f'{name} must be {size} finite numbers, got {value!r}')
-    return v
-
-
 def _rows(name, value, width=3):
     try:
-        rows = tuple(_vector(f'{name}[{i}]', row, width) for i, row in enumerate(value))
+        rows = tuple(finite_vector(f'{name}[{i}]', row, width) for i, row in enumerate(value))
     except TypeError as exc:
         raise ValueError(f'{name} must be a list of {width}-vectors, got {value!r}') from exc
     if not rows:
@@ -151,12 +141,12 @@ class RigidChaserConfig:
         except ValueError as exc:
             raise ValueError(f'inertia: {exc}') from exc
         object.__setattr__(self, 'inertia', tuple(map(tuple, inertia.tolist())))
-        object.__setattr__(self, 'q_hill_from_body0', _vector('q_hill_from_body0', self.q_hill_from_body0, 4))
+        object.__setattr__(self, 'q_hill_from_body0', finite_vector('q_hill_from_body0', self.q_hill_from_body0, 4))
         try:
             quat_normalize(self.q_hill_from_body0)
         except ValueError as exc:
             raise ValueError(f'q_hill_from_body0: {exc}') from exc
-        object.__setattr__(self, 'omega_body0', _vector('omega_body0', self.omega_body0, 3))
+        object.__setattr__(self, 'omega_body0', finite_vector('omega_body0', self.omega_body0, 3))
         if (self.thruster_positions_body_m is None) != (self.thruster_directions_body is None):
             raise ValueError('thruster_positions_body_m and thruster_directions_body must be given together')
         if self.thruster_positions_body_m is not None:
@@ -174,7 +164,7 @@ class RigidChaserConfig:
         object.__setattr__(self, 'wheel_axes_body', _rows('wheel_axes_body', self.wheel_axes_body))
         wheels = self.wheels()  # validates the axes and limits
         h0 = (0.0,) * wheels.count if self.wheel_momentum0_n_m_s is None else \
-            _vector('wheel_momentum0_n_m_s', self.wheel_momentum0_n_m_s, wheels.count)
+            finite_vector('wheel_momentum0_n_m_s', self.wheel_momentum0_n_m_s, wheels.count)
         if any(abs(h) > h_max for h, h_max in zip(h0, wheels.max_momentum_n_m_s.tolist(), strict=True)):
             raise ValueError(f'wheel_momentum0_n_m_s {h0} exceeds wheel_max_momentum_n_m_s '
                              f'{self.wheel_max_momentum_n_m_s}')
@@ -373,8 +363,8 @@ class SixDofChaser:
         WrenchCommand. hold_s: how long the controller means to hold it (its control period) [s], the interval
         over which a thruster must give the minimum impulse bit (default: one plant step). Raises ValueError for
         a non-finite stamp or wrench, or a hold_s not finite and > 0."""
-        force = _vector('force_body_n', force_body_n, 3)
-        torque = _vector('torque_body_n_m', torque_body_n_m, 3)
+        force = finite_vector('force_body_n', force_body_n, 3)
+        torque = finite_vector('torque_body_n_m', torque_body_n_m, 3)
         hold_s = self.step_s if hold_s is None else float(hold_s)
         if not (math.isfinite(hold_s) and hold_s > 0.0):
             raise ValueError(f'hold_s must be finite and > 0, got {hold_s!r}')
@@ -411,7 +401,7 @@ class SixDofChaser:
     def command_wheels(self, t_now, t_stamp, torque_n_m):
         """Accept wheel motor torques [N m], one per wheel, held from t_stamp [s]; returns the WheelCommand
         (torques clipped to the limit, reported). Raises ValueError for a non-finite stamp or torque."""
-        torque = _vector('torque_n_m', torque_n_m, self._nw)
+        torque = finite_vector('torque_n_m', torque_n_m, self._nw)
         t_apply = self._t_apply('wheels', t_now, t_stamp)
         seq = self._next_seq('wheels')
         clipped = tuple(min(max(u, -u_max), u_max) for u, u_max in zip(torque, self._u_max, strict=True))

@@ -36,7 +36,7 @@ import numpy as np
 from flyby_msgs_py.wire import Event
 from flyby_sim.chaser_body import ImuConfig, RigidChaserConfig, SixDofChaser
 from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
-from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import (
     cw_accel_components,
@@ -54,16 +54,6 @@ from flyby_sim.thrusters import ThrusterModel
 DYNAMICS = ('nonlinear', 'cw')
 _ZERO3 = (0.0, 0.0, 0.0)
 ATTITUDE_CHUNK_STEPS = 100  # steps of target attitude evaluated at once (5 s at 20 Hz)
-
-
-def _finite_vector(name, value, size):
-    try:
-        v = tuple(float(c) for c in value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f'{name} must be {size} numbers, got {value!r}') from exc
-    if len(v) != size or not all(math.isfinite(c) for c in v):
-        raise ValueError(f'{name} must be {size} finite numbers, got {value!r}')
-    return v
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,7 +85,7 @@ class PlantConfig:
         for name in ('position_sigma_m', 'attitude_sigma_rad', 'restriction_sphere_radius_m'):
             require_positive(name, getattr(self, name), allow_zero=True)
         for name, size in (('r0_hill', 3), ('v0_hill', 3), ('q_hill_from_body0', 4), ('omega_body0', 3)):
-            object.__setattr__(self, name, _finite_vector(name, getattr(self, name), size))
+            object.__setattr__(self, name, finite_vector(name, getattr(self, name), size))
         try:
             inertia = validated_inertia(self.target_inertia)
         except ValueError as exc:
