@@ -122,9 +122,7 @@ def thrust_figures(t, force_hill, r_hill, mass0_kg, isp_s, sphere_radius_m, torq
 def pointing_figures(chaser, events, t_g):
     """The six-degree-of-freedom chaser's pointing error of body +x at the target's CoM (truth), from the first
     burn's start (the first terminal burn) to the grasp time (or the end of the truth): 95th percentile and
-    largest [deg] (issue 13), or {} for a point mass; None where no burn started."""
-    if chaser.orientation_xyzw is None:
-        return {}
+    largest [deg] (issue 13); None where no burn started."""
     starts = [float(e['values']['t_start']) for e in events if e['name'] == 'burn_started' and 't_start' in e['values']]
     if not starts:
         return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
@@ -205,7 +203,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         r_at_thrust = chaser.position[np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)]
         delta_v, fuel, thrust_inside = thrust_figures(
             thrust.t, thrust.force, r_at_thrust, scenario.chaser.mass_kg,
-            scenario.chaser.thrusters.isp_s, sphere_m, thrust.torque, thrust.thrusters)
+            scenario.chaser.thrusters.isp_s, sphere_m, getattr(thrust, 'torque', None),
+            getattr(thrust, 'thrusters', None))
 
     t_g = grasp_time(events)
     offset_m, flyby_duration_s = planned_flyby(events)
@@ -225,7 +224,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         e_pos, e_vel = capture_errors(t_g, chaser, target, np.array(scenario.target.grasp_point_body_m),
                                       offset_m or scenario.planner.offset_m, scenario.mean_motion_rad_s)
 
-    pointing = pointing_figures(chaser, events, t_g) if has_chaser else {}
+    pointing = pointing_figures(chaser, events, t_g) if has_chaser and scenario.chaser.model == 'rigid_body' else {}
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
