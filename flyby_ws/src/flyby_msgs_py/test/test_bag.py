@@ -31,6 +31,7 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, W
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -99,6 +100,22 @@ def clock(t_ns, rng):
     return Clock(clock=stamp(t_ns))
 
 
+def joints(t_ns, rng):
+    m = JointState()
+    m.header.stamp, m.header.frame_id = stamp(t_ns), 'chaser_body'
+    m.name = ['w0', 'w1', 'w2']  # rosbags 0.11.9 refuses some JointState sizes (names wheel_0..2: 'size mismatch')
+    m.velocity, m.effort = rng.normal(size=3).tolist(), rng.normal(size=3).tolist()
+    return m
+
+
+def imu(t_ns, rng):
+    m = Imu()
+    m.header.stamp, m.header.frame_id = stamp(t_ns), 'chaser_body'
+    m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w = rng.normal(size=4)
+    m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = rng.normal(size=3)
+    return m
+
+
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_FLYBY]
 LEVELS = [DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR]
 
@@ -145,6 +162,8 @@ BUILDERS = {
     'geometry_msgs/msg/QuaternionStamped': quaternion,
     'geometry_msgs/msg/WrenchStamped': wrench,
     'rosgraph_msgs/msg/Clock': clock,
+    'sensor_msgs/msg/JointState': joints,
+    'sensor_msgs/msg/Imu': imu,
     'std_msgs/msg/String': string,
     'diagnostic_msgs/msg/DiagnosticArray': diagnostics,
     'nav_msgs/msg/Path': path,
@@ -246,6 +265,12 @@ def test_round_trip_every_contract_topic_read_bag(tmp_path):
         elif type_name == 'visualization_msgs/msg/MarkerArray':
             assert got.count == len(msgs)
             np.testing.assert_array_equal(got.t_received, t_log)
+        elif type_name == 'sensor_msgs/msg/JointState':  # decoded messages (MessageList)
+            np.testing.assert_array_equal(got.t_received, t_log)
+            assert [list(g.effort) for g in got.messages] == [list(m.effort) for m in msgs]
+        elif type_name == 'sensor_msgs/msg/Imu':
+            np.testing.assert_array_equal(got.t_received, t_log)
+            assert [vec(g.angular_velocity) for g in got.messages] == [vec(m.angular_velocity) for m in msgs]
         else:
             pytest.fail(f'no check for {type_name}')
 
