@@ -11,6 +11,7 @@ import pytest
 import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rigid_body_strategies import inertia_from, principal_moments, rate, rotation_vector
 
 from flyby_sim.chaser_body import ImuConfig, RigidChaserConfig
 from flyby_sim.dynamics.actuators import allocate_wrench, default_thruster_layout, plan_burn
@@ -22,7 +23,6 @@ from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagato
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_from_axis_angle,
-    quat_from_rotation_vector,
     quat_multiply,
     quat_normalize,
     quat_rotate,
@@ -67,18 +67,6 @@ def inertial_momentum(sample, inertia, axes):
     q_eci = q_eci_from_body(sample.t, N, sample.q_hill_from_chaser_body)
     h_body = np.asarray(inertia) @ sample.omega_chaser_body + np.asarray(axes).T @ sample.wheel_momentum_n_m_s
     return quat_rotate(quat_normalize(q_eci), h_body)
-
-
-principal_moments = st.lists(st.floats(5.0, 50.0), min_size=3, max_size=3).filter(
-    lambda m: 2.0 * max(m) < sum(m))  # the triangle inequality of a real body
-rate = st.floats(-0.3, 0.3)
-rotation_vector = st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0), st.floats(-3.0, 3.0))
-
-
-def inertia_from(moments, rotvec):
-    c = quat_to_matrix(quat_from_rotation_vector(rotvec))
-    inertia = c @ np.diag(moments) @ c.T
-    return 0.5 * (inertia + inertia.T)
 
 
 # ------------------------------------------------------------------------------------------------

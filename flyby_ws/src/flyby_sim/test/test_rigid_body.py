@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rigid_body_strategies import inertia_from, principal_moments, rate, rotation_vector
 from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.attitude import euler_rate, kinetic_energy
@@ -18,7 +19,7 @@ from flyby_sim.dynamics.rigid_body import (
     substep_count,
     total_angular_momentum_inertial,
 )
-from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_normalize, quat_to_matrix
+from flyby_sim.dynamics.rotation import quat_normalize
 
 SEED001_SERVICER = np.diag([13.0, 38.0, 35.0])  # seed 001 Table 1, the servicing satellite S_r [kg m^2]
 WHEELS = ReactionWheels.orthogonal(max_torque_n_m=0.1, max_momentum_n_m_s=4.0, spin_inertia_kg_m2=0.01)
@@ -42,19 +43,6 @@ def relative_drifts(propagator, state, t_end_s, dt_s, wheel_torque_n_m=None):
         energy_change = abs(kinetic_energy(state.omega_body, inertia) - energy0)
         worst_energy = max(worst_energy, energy_change / energy0) if energy0 > 0.0 else math.nan
     return worst_h, worst_energy, state
-
-
-principal_moments = st.lists(st.floats(5.0, 50.0), min_size=3, max_size=3).filter(
-    lambda m: 2.0 * max(m) < sum(m))  # the triangle inequality of a real body
-rate = st.floats(-0.3, 0.3)
-rotation_vector = st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0), st.floats(-3.0, 3.0))
-
-
-def inertia_from(moments, rotvec):
-    """A full inertia matrix: principal moments about axes turned by rotvec from the body axes."""
-    c = quat_to_matrix(quat_from_rotation_vector(rotvec))
-    inertia = c @ np.diag(moments) @ c.T
-    return 0.5 * (inertia + inertia.T)  # symmetric to the bit, as validated_inertia requires
 
 
 @settings(max_examples=4, deadline=None)
