@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import DOP853
 
-from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate, validated_inertia
+from flyby_sim.dynamics.attitude import validated_inertia
 from flyby_sim.dynamics.rotation import quat_normalize, quat_rotate
 
 
@@ -102,27 +102,23 @@ class WheelStep(NamedTuple):
 def gyrostat_rates(q_inertial_from_body, omega_body, h_wheels_n_m_s, inertia, inertia_inv, axes_body,
                    torque_ext_body_n_m, wheel_torque_n_m):
     """(q_dot, omega_dot [rad/s^2], h_dot [N m]) of the module's equations of motion (seed 001 eq 3 /
-    seed 000 eq 4 with the wheels): I omega_dot = M_ext - omega x (I omega + A h) - A u, h_dot = u.
+    seed 000 eq 4 with the wheels): I omega_dot = M_ext - omega x (I omega + A h) - A u, h_dot = u;
+    ``gyrostat_rates_floats`` as arrays.
 
     inertia and inertia_inv are 3x3 nested sequences, axes_body the (N, 3) unit axes; every vector may be
-    a sequence of Python floats (the fast path the propagator uses).
+    a sequence of Python floats.
     """
-    wx, wy, wz = omega_body
-    mx, my, mz = torque_ext_body_n_m
-    for (ax, ay, az), h, u in zip(axes_body, h_wheels_n_m_s, wheel_torque_n_m, strict=True):
-        # - omega x (a h) - a u: the wheels' share of the gyroscopic torque and their reaction torque
-        mx -= (wy * az - wz * ay) * h + ax * u
-        my -= (wz * ax - wx * az) * h + ay * u
-        mz -= (wx * ay - wy * ax) * h + az * u
-    omega_dot = euler_rate(omega_body, inertia, inertia_inv, (mx, my, mz))  # seed 001 eq 3 with the rest of M
-    return quaternion_rate(q_inertial_from_body, omega_body), omega_dot, np.array(wheel_torque_n_m, dtype=float)
+    rates = gyrostat_rates_floats(q_inertial_from_body, omega_body, h_wheels_n_m_s, inertia, inertia_inv, axes_body,
+                                  torque_ext_body_n_m, wheel_torque_n_m)
+    return np.array(rates[:4]), np.array(rates[4:7]), np.array(rates[7:], dtype=float)
 
 
 def gyrostat_rates_floats(q_inertial_from_body, omega_body, h_wheels_n_m_s, inertia, inertia_inv, axes_body,
                           torque_ext_body_n_m, wheel_torque_n_m):
     """``gyrostat_rates`` as one list of Python floats [q_dot (4), omega_dot (3), h_dot (N)]: the same operations
-    in the same order (the wheel terms, then ``attitude.euler_rate`` and ``attitude.quaternion_rate`` written
-    out), hence the same bits, without numpy's per-call cost (the plant asks four times per RK4 substep).
+    in the same order as the wheel terms followed by ``attitude.euler_rate`` and ``attitude.quaternion_rate``
+    (the target's equations), hence the same bits, without numpy's per-call cost (the plant asks four times
+    per RK4 substep; the propagator's DOP853 calls it too).
     Seed 001 eq 3 / seed 000 eq 4 with the wheels: I omega_dot = M_ext - omega x (I omega + A h) - A u, h_dot = u.
     """
     wx, wy, wz = omega_body
@@ -233,9 +229,8 @@ class GyrostatPropagator:
 
         def rhs(_t, y):
             values = y.tolist()
-            q_dot, omega_dot, h_dot = gyrostat_rates(values[:4], values[4:7], values[7:], inertia, inertia_inv,
-                                                     axes, torque_ext, wheel_torque)
-            return np.concatenate((q_dot, omega_dot, h_dot))
+            return np.array(gyrostat_rates_floats(values[:4], values[4:7], values[7:], inertia, inertia_inv, axes,
+                                                  torque_ext, wheel_torque))
 
         solver = DOP853(rhs, 0.0, y0, t_bound=duration_s, rtol=self._rtol, atol=self._atol)
         while solver.status == 'running':
