@@ -5,8 +5,8 @@ Conventions, once for the module:
   rounded to the nearest nanosecond. Integer nanoseconds convert exactly both ways; a simulator that
   keeps time as ``k * step_ns`` and passes ``ns / 1e9`` gets exactly ``k * step_ns`` back.
 - Quaternions are (x, y, z, w), scalar last, as in ROS and scipy.
-- Vectors are anything of length 3 (list, tuple, shape-(3,) array); covariances are 6x6 (or flat 36),
-  row-major, order (x, y, z, rot x, rot y, rot z) as in ROS.
+- Vectors are anything of length 3 (list, tuple, shape-(3,) array); covariances are 6x6 (or flat 36;
+  3x3 or flat 9 in sensor_msgs/Imu), row-major, order (x, y, z, rot x, rot y, rot z) as in ROS.
 
 Every builder validates shape and finiteness on the way INTO a message and raises ``ValueError``
 naming the field, so a message with NaN never leaves a node. Every number is stored as a Python
@@ -94,16 +94,17 @@ def _quat(q, field):
     return x, y, z, w
 
 
-def _cov6(c, field):
+def _covariance(c, n, field):
+    """A finite n x n (or flat n^2) numeric covariance as a flat array, or ValueError naming the field."""
     try:
         a = np.asarray(c, dtype=float) if not isinstance(c, np.ndarray) else c
     except (TypeError, ValueError):
-        raise ValueError(f'{field}: must be a 6x6 (or flat 36) numeric covariance') from None
-    if a.shape not in ((6, 6), (36,)) or a.dtype.kind not in 'fiu':
-        raise ValueError(f'{field}: must be a 6x6 (or flat 36) numeric covariance, got shape {a.shape}')
+        raise ValueError(f'{field}: must be a {n}x{n} (or flat {n * n}) numeric covariance') from None
+    if a.shape not in ((n, n), (n * n,)) or a.dtype.kind not in 'fiu':
+        raise ValueError(f'{field}: must be a {n}x{n} (or flat {n * n}) numeric covariance, got shape {a.shape}')
     if not np.isfinite(a).all():
         raise ValueError(f'{field}: must be finite')
-    return a.reshape(36)
+    return a.reshape(n * n)
 
 
 def _frame(frame_id, field='frame_id'):
@@ -244,9 +245,9 @@ def odometry(t, frame_id, child_frame_id, position, orientation_xyzw, linear, an
     _set_xyz(twist.linear, v)
     _set_xyz(twist.angular, w)
     if pose_covariance is not None:
-        msg.pose.covariance = _cov6(pose_covariance, 'pose_covariance')
+        msg.pose.covariance = _covariance(pose_covariance, 6, 'pose_covariance')
     if twist_covariance is not None:
-        msg.twist.covariance = _cov6(twist_covariance, 'twist_covariance')
+        msg.twist.covariance = _covariance(twist_covariance, 6, 'twist_covariance')
     return msg
 
 
@@ -343,13 +344,6 @@ def wrench_stamped_to_numpy(msg):
     return WrenchArrays(stamp_to_sec(msg.header.stamp), np.array((f.x, f.y, f.z)), np.array((tq.x, tq.y, tq.z)))
 
 
-def _cov3(c, field):
-    a = np.asarray(c, dtype=float)
-    if a.shape not in ((3, 3), (9,)) or not np.isfinite(a).all():
-        raise ValueError(f'{field}: must be a finite 3x3 (or flat 9) covariance, got {_describe(c)}')
-    return a.reshape(9)
-
-
 class ImuArrays(NamedTuple):
     t: float
     orientation_xyzw: np.ndarray   # (4,) frame_id (body) in hill, or None when the message has none
@@ -372,11 +366,12 @@ def imu(t, frame_id, orientation_xyzw, angular_velocity, linear_acceleration, or
         msg.orientation_covariance = np.array([-1.0] + [0.0] * 8)
     else:
         _set_xyzw(msg.orientation, _quat(orientation_xyzw, 'orientation_xyzw'))
-        msg.orientation_covariance = _cov3(orientation_covariance, 'orientation_covariance')
+        msg.orientation_covariance = _covariance(orientation_covariance, 3, 'orientation_covariance')
     _set_xyz(msg.angular_velocity, _vec3(angular_velocity, 'angular_velocity'))
     _set_xyz(msg.linear_acceleration, _vec3(linear_acceleration, 'linear_acceleration'))
-    msg.angular_velocity_covariance = _cov3(angular_velocity_covariance, 'angular_velocity_covariance')
-    msg.linear_acceleration_covariance = _cov3(linear_acceleration_covariance, 'linear_acceleration_covariance')
+    msg.angular_velocity_covariance = _covariance(angular_velocity_covariance, 3, 'angular_velocity_covariance')
+    msg.linear_acceleration_covariance = _covariance(linear_acceleration_covariance, 3,
+                                                     'linear_acceleration_covariance')
     return msg
 
 
