@@ -124,10 +124,8 @@ def pointing_figures(chaser, events, t_g):
     burn's start (the first terminal burn) to the grasp time (or the end of the truth): 95th percentile and
     largest [deg] (issue 13); None where no burn started."""
     starts = [float(e['values']['t_start']) for e in events if e['name'] == 'burn_started' and 't_start' in e['values']]
-    if not starts:
-        return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
     t_end = t_g if t_g is not None else chaser.t[-1]
-    window = (chaser.t >= min(starts)) & (chaser.t <= t_end)
+    window = (chaser.t >= min(starts, default=math.inf)) & (chaser.t <= t_end)
     if not np.any(window):
         return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
     error_deg = np.degrees(pointing_error_rad(chaser.orientation_xyzw[window], chaser.position[window]))
@@ -177,7 +175,9 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
     data = read_bag(bag_dir, topics=TRUTH_TOPICS)
     chaser = data.get(c.absolute(c.SIM_CHASER_ODOM))
     target = data.get(c.absolute(c.SIM_TARGET_ODOM))
-    thrust = data.get(c.absolute(c.SIM_CHASER_THRUST))
+    wrench = data.get(c.absolute(c.SIM_CHASER_THRUST))
+    # each thruster's series (/sim/chaser/thrusters) is not read yet: the nodes do not fly the rigid body
+    thrust = None if wrench is None else ThrustTruth(wrench.t, wrench.force, wrench.torque)
     phase_msgs = data.get(c.absolute(c.MISSION_PHASE))
     events = data.get(c.absolute(c.MISSION_EVENTS)) or []
     phases = list(phase_msgs.data) if phase_msgs is not None else []
@@ -203,8 +203,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         r_at_thrust = chaser.position[np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)]
         delta_v, fuel, thrust_inside = thrust_figures(
             thrust.t, thrust.force, r_at_thrust, scenario.chaser.mass_kg,
-            scenario.chaser.thrusters.isp_s, sphere_m, getattr(thrust, 'torque', None),
-            getattr(thrust, 'thrusters', None))
+            scenario.chaser.thrusters.isp_s, sphere_m, thrust.torque, thrust.thrusters)
 
     t_g = grasp_time(events)
     offset_m, flyby_duration_s = planned_flyby(events)
