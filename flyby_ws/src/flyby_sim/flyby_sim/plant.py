@@ -415,7 +415,10 @@ class Plant:
             return None
         chaser, t = self._chaser, self.t
         specific_force = chaser.totals.force_body_n / chaser.mass_kg
-        return Measurement('chaser_imu', t, self._imu.sample(t, k % self._star_tracker_every == 0,
+        # The star tracker reads at samples k = 1, 1 + every, 1 + 2 every, ...: the first IMU sample carries one,
+        # so the estimator gives a chaser estimate from the first IMU stamp on.
+        star_tracker = (k - 1) % self._star_tracker_every == 0
+        return Measurement('chaser_imu', t, self._imu.sample(t, star_tracker,
                                                              chaser.q_hill_from_body(t), chaser.omega_body,
                                                              specific_force))
 

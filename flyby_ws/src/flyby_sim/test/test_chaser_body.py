@@ -402,7 +402,9 @@ def test_attitude_control_firing_inside_the_restriction_sphere_is_reported_once_
 # ------------------------------------------------------------------------------------------------
 # The IMU
 
-def test_imu_samples_at_its_rate_with_the_star_tracker_on_every_fifth():
+def test_imu_samples_at_its_rate_with_the_star_tracker_on_every_fifth_from_the_first():
+    """10 Hz IMU, 2 Hz star tracker on samples 1, 6, 11, ... (t = 0.1, 0.6, 1.1 s, ...): the first sample carries
+    one, so the estimator has an attitude from the first IMU stamp on."""
     plant = Plant(plant_config())
     imu = []
     for _ in range(400):  # 20 s
@@ -413,7 +415,8 @@ def test_imu_samples_at_its_rate_with_the_star_tracker_on_every_fifth():
                 imu.append(m.value)
     assert len(imu) == 200  # 10 Hz
     with_star = [x.t for x in imu if x.q_hill_from_body is not None]
-    assert len(with_star) == 40 and all(abs(t * 2.0 - round(t * 2.0)) < 1e-9 for t in with_star)  # 2 Hz
+    assert len(with_star) == 40 and all(abs((t - 0.1) * 2.0 - round((t - 0.1) * 2.0)) < 1e-9 for t in with_star)
+    assert imu[0].q_hill_from_body is not None and with_star[0] == imu[0].t
 
 
 def test_imu_star_tracker_and_gyro_errors_have_the_configured_statistics():
