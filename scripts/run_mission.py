@@ -390,11 +390,6 @@ def main(argv=None):
     except ScenarioError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1
-    if scenario.chaser.model == 'rigid_body':
-        err = ScenarioError(args.scenario, 'chaser.model', 'rigid_body is flown by the headless loop only '
-                            '(scripts/closed_loop.py); the nodes do not take its topics yet')
-        print(f'error: {err}', file=sys.stderr)
-        return 1
     try:
         faults = faults_from_args(args)
     except ValueError as err:

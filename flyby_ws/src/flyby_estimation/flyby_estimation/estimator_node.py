@@ -9,15 +9,23 @@ Odometry covariances: target pose orientation block = attitude error about hill 
 block = rate error in body axes (the twist is in child_frame_id, target_body); chaser pose position
 block and twist linear block from the navigation filter (the position-velocity cross terms are not
 representable in Odometry).
+
+With the six-degree-of-freedom chaser the IMU (``sensors/chaser/imu``) comes in too, and the chaser estimate is
+published at its samples: pose.orientation = the estimated chaser_body in hill with its attitude covariance
+about hill axes, twist in chaser_body axes (nav_msgs' rule): the velocity (its covariance turned into body
+axes) and the inertial body rate with its covariance. The relative positions and the IMU samples go to the core
+in the plant's order (``measurement_order``), however DDS interleaves the two topics.
 """
 
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
+from flyby_estimation.measurement_order import MeasurementOrder
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_to_matrix
 from flyby_sim.scenario import scenario_of
 
 _ZERO3 = np.zeros((3, 3))
@@ -35,9 +43,16 @@ class EstimatorNode(CoreNode):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_estimator', **kwargs)
-        self.core = EstimatorCore(scenario_of(self), self.get_name())
+        scenario = scenario_of(self)
+        self.core = EstimatorCore(scenario, self.get_name())
         self.pub_target, self.pub_chaser, self.pub_events = (
             self.publisher(c.EST_TARGET_ODOM), self.publisher(c.EST_CHASER_ODOM), self.publisher(c.MISSION_EVENTS))
+        self.order = None
+        if scenario.chaser.model == 'rigid_body':
+            self.order = MeasurementOrder(scenario.simulation.step_s,
+                                          [('position', scenario.sensors.relative_position.rate_hz),
+                                           ('imu', scenario.sensors.chaser_imu.rate_hz)])
+            self.subscribe(c.SENSOR_CHASER_IMU, self.on_imu)
         for topic, callback in ((c.SENSOR_TARGET_ATTITUDE, self.on_attitude),
                                 (c.SENSOR_RELATIVE_POSITION, self.on_position),
                                 (c.GUIDANCE_MANEUVER, self.on_maneuver)):
@@ -48,7 +63,22 @@ class EstimatorNode(CoreNode):
         self.publish(self.core.on_attitude(*convert.quaternion_stamped_to_numpy(msg)))
 
     def on_position(self, msg):
-        self.publish(self.core.on_position(*convert.point_stamped_to_numpy(msg)))
+        t, r_hill = convert.point_stamped_to_numpy(msg)
+        if self.order is None:
+            self.publish(self.core.on_position(t, r_hill))
+        else:
+            self._in_order(self.order.push('position', t, r_hill))
+
+    def on_imu(self, msg):
+        imu = convert.imu_to_numpy(msg)
+        self._in_order(self.order.push('imu', imu.t, imu))
+
+    def _in_order(self, samples):
+        for kind, t, value in samples:
+            if kind == 'position':
+                self.publish(self.core.on_position(t, value))
+            else:
+                self.publish(self.core.on_imu(t, value.orientation_xyzw, value.angular_velocity))
 
     def on_maneuver(self, msg):
         self.publish(self.core.on_maneuver(*convert.vector3_stamped_to_numpy(msg)))
@@ -61,6 +91,14 @@ class EstimatorNode(CoreNode):
                     (0.0, 0.0, 0.0), out.omega_body,
                     pose_covariance=_block_diag_6(_ZERO3, out.attitude_covariance_hill),
                     twist_covariance=_block_diag_6(_ZERO3, out.rate_covariance_body)))
+            elif isinstance(out, ChaserEstimate) and out.q_hill_from_body is not None:
+                c_body_from_hill = quat_to_matrix(quat_conjugate(out.q_hill_from_body))
+                velocity_cov_body = c_body_from_hill @ out.covariance[3:, 3:] @ c_body_from_hill.T
+                self.pub_chaser.publish(convert.odometry(
+                    out.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, out.r_hill, out.q_hill_from_body,
+                    quat_rotate(quat_conjugate(out.q_hill_from_body), out.v_hill), out.omega_body,
+                    pose_covariance=_block_diag_6(out.covariance[:3, :3], out.attitude_covariance_hill),
+                    twist_covariance=_block_diag_6(velocity_cov_body, out.rate_covariance_body)))
             elif isinstance(out, ChaserEstimate):
                 self.pub_chaser.publish(convert.odometry(
                     out.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, out.r_hill, (0.0, 0.0, 0.0, 1.0), out.v_hill,

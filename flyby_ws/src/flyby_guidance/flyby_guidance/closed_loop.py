@@ -9,7 +9,9 @@ torques and the thrusters' torque, each from its stamp) and attaches the chaser 
 CAPTURE; the run ends as the launcher ends it (at COMPLETE, abort_observation_s after ABORTED, or at
 simulation.duration_s), and its summary is ``flyby_planner.summary.summarize`` of the plant's truth,
 stamped as the truth topics are: the same keys, outcome classes and figures as the graph's summary.json,
-so a Monte Carlo row is a statement about the graph.
+so a Monte Carlo row is a statement about the graph. The six-degree-of-freedom chaser's velocities, truth and
+estimate, travel in chaser_body axes as its Odometry twists do (DESIGN §10), turned there and back by the same
+functions as the nodes and the bag's reader turn them.
 """
 
 import collections
@@ -25,11 +27,12 @@ from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, f
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event, wire_time
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused
-from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, summarize
+from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, chaser_truth_from_odometry, summarize
 from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.dynamics.propulsion import ManeuverRejected
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import scenario_from_dict
 
@@ -59,11 +62,13 @@ class _Truth:
     def add(self, s):
         self.t.append(wire_time(s.t))
         self.r.append(s.r_hill)
-        self.v.append(s.v_hill)
         self.q.append(s.q_hill_from_body)
         self.w.append(s.omega_body)
         self.f.append(s.force_hill)
-        if s.q_hill_from_chaser_body is not None:
+        if s.q_hill_from_chaser_body is None:
+            self.v.append(s.v_hill)
+        else:  # the twist of /sim/chaser/odom: chaser_body axes, as the sim node publishes it
+            self.v.append(quat_rotate(quat_conjugate(s.q_hill_from_chaser_body), s.v_hill))
             self.q_chaser.append(s.q_hill_from_chaser_body)
             self.torque.append(s.torque_hill_n_m)
             self.thrusters.append(s.thruster_thrust_n)
@@ -71,7 +76,8 @@ class _Truth:
     def series(self):
         t = np.array(self.t)
         rigid = len(self.q_chaser) == len(t)
-        return (ChaserTruth(t, np.array(self.r), np.array(self.v), np.array(self.q_chaser) if rigid else None),
+        chaser = ChaserTruth(t, np.array(self.r), np.array(self.v), np.array(self.q_chaser) if rigid else None)
+        return (chaser_truth_from_odometry(chaser) if rigid else chaser,
                 TargetTruth(t, np.array(self.q), np.array(self.w)),
                 ThrustTruth(t, np.array(self.f), np.array(self.torque) if rigid else None,
                             np.array(self.thrusters) if rigid else None))
@@ -147,7 +153,10 @@ class HeadlessGraph:
                                + self.guidance.on_target_estimate(*args, out.attitude_covariance_hill,
                                                                   out.rate_covariance_body))
         elif isinstance(out, ChaserEstimate):  # estimation/chaser/odom
-            args = (wire_time(out.t), out.r_hill, out.v_hill)
+            v_hill = out.v_hill
+            if out.q_hill_from_body is not None:  # the twist in chaser_body axes, and back (the nodes' turns)
+                v_hill = quat_rotate(out.q_hill_from_body, quat_rotate(quat_conjugate(out.q_hill_from_body), v_hill))
+            args = (wire_time(out.t), out.r_hill, v_hill)
             self._queue.extend(self.supervisor.on_chaser_estimate(*args) + self.planner.on_chaser_estimate(*args)
                                + self.guidance.on_chaser_estimate(*args, out.q_hill_from_body, out.omega_body))
         elif isinstance(out, AttitudeCommandStamped):  # guidance/wheels and guidance/wrench

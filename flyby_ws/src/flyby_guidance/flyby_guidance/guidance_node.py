@@ -5,17 +5,21 @@ a new plan (``planner/flyby_initial``, ``planner/flyby_target``, then ``planner/
 is the plan time) starts the fly-by guidance, each chaser estimate on ``estimation/chaser/odom`` steps
 it, the target estimates (``estimation/target/odom``) re-aim the adjusting burns, ``mission/phase``
 silences it after the fly-by. Publishes the maneuvers on ``guidance/maneuver``
-(geometry_msgs/Vector3Stamped, stamp = start time, frame hill) ahead of their start, and on
+(geometry_msgs/Vector3Stamped, stamp = start time, frame hill) ahead of their start; with the
+six-degree-of-freedom chaser the attitude commands of every chaser estimate on ``guidance/wheels`` (motor
+torques as efforts) and ``guidance/wrench`` (the thrusters' torque, chaser_body), stamped one control period
+after the estimate (the simulator holds time there until both are in); and on
 ``mission/events`` ``maneuver_commanded`` per burn, ``adjust_skipped``, ``thrusting_ended``,
 ``target_refined``.
 """
 
 from flyby_guidance.guidance import Maneuver
-from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
+from flyby_sim.dynamics.rotation import quat_rotate
 from flyby_sim.scenario import scenario_of
 
 
@@ -24,14 +28,20 @@ class GuidanceNode(CoreNode):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_guidance', **kwargs)
-        self.core = GuidanceCore(scenario_of(self), self.get_name())
+        scenario = scenario_of(self)
+        self.core = GuidanceCore(scenario, self.get_name())
         self.pub_maneuver = self.publisher(c.GUIDANCE_MANEUVER)
+        rigid = scenario.chaser.model == 'rigid_body'
+        if rigid:
+            self.pub_wheels, self.pub_wrench = self.publisher(c.GUIDANCE_WHEELS), self.publisher(c.GUIDANCE_WRENCH)
+            self.wheel_names = c.wheel_names(len(scenario.chaser.wheels.axes))
         self.pub_events = self.publisher(c.MISSION_EVENTS)
         self.subscribe_odometry(c.PLANNER_FLYBY_INITIAL, self.core.on_flyby_initial, 'position', 'linear')
         self.subscribe_odometry(c.PLANNER_FLYBY_TARGET, self.core.on_flyby_target, 'position', 'linear')
         self.subscribe(c.PLANNER_PATH, self.on_path)
         self.subscribe_phase()
-        self.subscribe_estimates(target_covariance=True)  # the gate weighs the estimate's uncertainty
+        # The gate weighs the target estimate's uncertainty; the attitude control takes the chaser's attitude.
+        self.subscribe_estimates(quat_rotate, target_covariance=True, chaser_attitude=rigid)
 
     def on_path(self, msg):
         self.publish(self.core.on_path(convert.stamp_to_sec(msg.header.stamp)))
@@ -40,6 +50,11 @@ class GuidanceNode(CoreNode):
         for out in outputs:
             if isinstance(out, Maneuver):
                 self.pub_maneuver.publish(convert.vector3_stamped(out.t, c.FRAME_HILL, out.dv_hill))
+            elif isinstance(out, AttitudeCommandStamped):
+                self.pub_wheels.publish(convert.joint_state(out.t, c.FRAME_CHASER_BODY, self.wheel_names,
+                                                            effort=out.wheel_torque_n_m))
+                self.pub_wrench.publish(convert.wrench_stamped(out.t, c.FRAME_CHASER_BODY, (0.0, 0.0, 0.0),
+                                                               out.thruster_torque_body_n_m))
             else:
                 publish_event(self, self.pub_events, out)
 

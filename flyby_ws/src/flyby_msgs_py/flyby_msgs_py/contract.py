@@ -37,6 +37,19 @@ MARKERS = 'visualization/markers'
 MISSION_ABORT_SERVICE = 'mission/abort'
 PLANNER_REPLAN_SERVICE = 'planner/replan'
 
+
+
+def wheel_names(count):
+    """Joint names of the reaction wheels on sim/chaser/wheels and guidance/wheels (wheel i = row i of
+    chaser.wheels.axes)."""
+    return [f'w{i}' for i in range(count)]
+
+
+def thruster_names(count):
+    """Joint names of the thrusters on sim/chaser/thrusters (thruster i of the layout)."""
+    return [f't{i}' for i in range(count)]
+
+
 # Every recorded topic with its ROS type name (rosbags spelling).
 TOPIC_TYPES = {
     CLOCK: 'rosgraph_msgs/msg/Clock',

@@ -395,17 +395,23 @@ class JointArrays(NamedTuple):
     effort: np.ndarray    # (N,) or empty
 
 
-def joint_state(t, frame_id, names, velocity=(), effort=()):
+def joint_state(t, frame_id, names, velocity=None, effort=None, position=None):
     """sensor_msgs/JointState: e.g. the reaction wheels (velocity = wheel speed relative to the body
-    [rad/s], effort = motor torque [N m]), one entry per name; an empty list leaves a field out."""
+    [rad/s], effort = motor torque [N m]), one finite entry per name. A field not given is NaN per joint
+    ("not given"): sensor_msgs allows an empty field, but rosbags 0.11.9 misreads a JointState whose empty
+    float64 field ends off an 8-byte boundary (its CDR aligns an empty sequence, Fast DDS does not), so every
+    field is filled and any reader opens our bags."""
     names = list(names)
     if not all(type(n) is str and n for n in names):
         raise ValueError(f'names: must be non-empty strings, got {names!r}')
     msg = _with_header(JointState(), t, frame_id)
     msg.name = names
-    for field, values in (('velocity', velocity), ('effort', effort)):
+    for field, values in (('position', position), ('velocity', velocity), ('effort', effort)):
+        if values is None:
+            setattr(msg, field, [math.nan] * len(names))
+            continue
         values = list(values.tolist() if isinstance(values, np.ndarray) else values)
-        if values and len(values) != len(names):
+        if len(values) != len(names):
             raise ValueError(f'{field}: must have one value per name ({len(names)}), got {len(values)}')
         setattr(msg, field, [_scalar(v, f'{field}[{i}]') for i, v in enumerate(values)])
     return msg

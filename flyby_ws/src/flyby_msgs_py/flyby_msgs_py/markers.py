@@ -20,6 +20,7 @@ NS_RESTRICTION_SPHERE = 'restriction_sphere'
 NS_GRASP_POINT = 'grasp_point'
 NS_PATH = 'path'
 NS_KEEP_OUT = 'keep_out'
+NS_CHASER = 'chaser'
 
 RGBA_TARGET_BUS = (0.75, 0.75, 0.78, 1.0)
 RGBA_SOLAR_PANEL = (0.15, 0.25, 0.65, 1.0)
@@ -27,6 +28,8 @@ RGBA_RESTRICTION_SPHERE = (1.0, 0.55, 0.0, 0.15)
 RGBA_GRASP_POINT = (0.1, 0.9, 0.2, 1.0)
 RGBA_PATH = (0.2, 0.6, 1.0, 1.0)
 RGBA_KEEP_OUT = (0.9, 0.1, 0.1, 0.25)
+RGBA_CHASER_BODY = (0.95, 0.8, 0.2, 0.6)
+RGBA_CHASER_AXIS = (1.0, 0.1, 0.1, 1.0)
 
 
 def _marker(t, frame_id, ns, marker_id, kind, rgba):
@@ -117,6 +120,31 @@ def line_strip_marker(t, positions, width_m=0.05, frame_id=FRAME_HILL, ns=NS_PAT
         _set_xyz(pt, p)
         points.append(pt)
     return m
+
+
+def chaser_markers(t, r_hill, q_hill_from_body, envelope_radius_m, axis_length_m=None, frame_id=FRAME_HILL,
+                   ns=NS_CHASER):
+    """The six-degree-of-freedom chaser: a CUBE inscribed in its envelope sphere, turned with its attitude
+    ``q_hill_from_body`` (id 0), and an ARROW along its body +x (camera and manipulator; id 1), of
+    ``axis_length_m`` (default three envelope radii). An ARROW's shaft runs along its pose's x axis, so it
+    takes the body's orientation too."""
+    r = _vec3(r_hill, 'r_hill')
+    q = _quat(q_hill_from_body, 'q_hill_from_body')
+    radius = _scalar(envelope_radius_m, 'envelope_radius_m')
+    if radius <= 0.0:
+        raise ValueError(f'envelope_radius_m: must be > 0, got {radius!r}')
+    length = 3.0 * radius if axis_length_m is None else _scalar(axis_length_m, 'axis_length_m')
+    if length <= 0.0:
+        raise ValueError(f'axis_length_m: must be > 0, got {length!r}')
+    edge = 2.0 * radius / 3.0 ** 0.5
+    body = _marker(t, frame_id, ns, 0, Marker.CUBE, RGBA_CHASER_BODY)
+    axis = _marker(t, frame_id, ns, 1, Marker.ARROW, RGBA_CHASER_AXIS)
+    for m in (body, axis):
+        _set_xyz(m.pose.position, r)
+        _set_xyzw(m.pose.orientation, q)
+    _set_xyz(body.scale, (edge, edge, edge))
+    _set_xyz(axis.scale, (length, 0.1 * radius, 0.1 * radius))  # ARROW: length, shaft and head width
+    return [body, axis]
 
 
 def delete_all_markers(t, frame_id=FRAME_HILL):

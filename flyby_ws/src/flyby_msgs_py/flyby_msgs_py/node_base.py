@@ -4,7 +4,8 @@ A node subclasses ``CoreNode``, builds its core (``self.core``), creates its pub
 subscriptions with ``publisher`` / ``subscribe`` (contract type and QoS by topic name, relative to
 the node's namespace) and implements ``publish(outputs)``, which turns the core's outputs into
 messages. The inputs several cores share are converted here once: the estimates
-(``on_target_estimate(t, q_hill_from_body, omega_body)``, ``on_chaser_estimate(t, r_hill, v_hill)``),
+(``on_target_estimate(t, q_hill_from_body, omega_body)``, ``on_chaser_estimate(t, r_hill, v_hill)``, with the
+six-degree-of-freedom chaser's attitude and rate when asked),
 the mission phase (``on_phase(phase)``) and the events of ``mission/events`` (``on_event(wire.Event)``).
 """
 
@@ -38,10 +39,15 @@ class CoreNode(Node):
             self.publish(core_input(o.t, *(getattr(o, f) for f in fields)))
         return self.subscribe(topic, callback)
 
-    def subscribe_estimates(self, target_covariance=False):
-        """estimation/target/odom and estimation/chaser/odom into the core; with target_covariance the
-        target's attitude covariance about hill axes and rate covariance in body axes (the 3x3 angular
-        blocks of the pose and twist covariances) follow the rate."""
+    def subscribe_estimates(self, rotate, target_covariance=False, chaser_attitude=False):
+        """estimation/target/odom and estimation/chaser/odom into the core.
+
+        ``rotate(q_hill_from_body, v_body) -> v_hill`` (flyby_sim.dynamics.rotation.quat_rotate, which this
+        package cannot import): the chaser's twist is in chaser_body axes (nav_msgs' rule, DESIGN §10), the
+        cores take its velocity in hill. With target_covariance the target's attitude covariance about hill
+        axes and rate covariance in body axes (the 3x3 angular blocks of the pose and twist covariances)
+        follow the rate; with chaser_attitude the chaser's q_hill_from_body and omega_body follow its
+        velocity."""
         if target_covariance:
             def on_target(msg):
                 o = convert.odometry_to_numpy(msg)
@@ -50,7 +56,13 @@ class CoreNode(Node):
             self.subscribe(c.EST_TARGET_ODOM, on_target)
         else:
             self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
-        self.subscribe_odometry(c.EST_CHASER_ODOM, self.core.on_chaser_estimate, 'position', 'linear')
+
+        def on_chaser(msg):
+            o = convert.odometry_to_numpy(msg)
+            v_hill = rotate(o.orientation_xyzw, o.linear)
+            attitude = (o.orientation_xyzw, o.angular) if chaser_attitude else ()
+            self.publish(self.core.on_chaser_estimate(o.t, o.position, v_hill, *attitude))
+        self.subscribe(c.EST_CHASER_ODOM, on_chaser)
 
     def subscribe_phase(self):
         """mission/phase into the core's on_phase(phase)."""

@@ -103,7 +103,8 @@ def clock(t_ns, rng):
 def joints(t_ns, rng):
     m = JointState()
     m.header.stamp, m.header.frame_id = stamp(t_ns), 'chaser_body'
-    m.name = ['w0', 'w1', 'w2']  # rosbags 0.11.9 refuses some JointState sizes (names wheel_0..2: 'size mismatch')
+    m.name = ['wheel_0', 'wheel_1', 'wheel_2']  # names rosbags 0.11.9 misreads with an empty position field
+    m.position = [float('nan')] * 3  # not given (convert.joint_state fills every field)
     m.velocity, m.effort = rng.normal(size=3).tolist(), rng.normal(size=3).tolist()
     return m
 
@@ -265,9 +266,13 @@ def test_round_trip_every_contract_topic_read_bag(tmp_path):
         elif type_name == 'visualization_msgs/msg/MarkerArray':
             assert got.count == len(msgs)
             np.testing.assert_array_equal(got.t_received, t_log)
-        elif type_name == 'sensor_msgs/msg/JointState':  # decoded messages (MessageList)
+        elif type_name == 'sensor_msgs/msg/JointState':
             np.testing.assert_array_equal(got.t_received, t_log)
-            assert [list(g.effort) for g in got.messages] == [list(m.effort) for m in msgs]
+            np.testing.assert_array_equal(got.t, [stamp_s(r[1]) for r in rows])
+            assert got.names == ['wheel_0', 'wheel_1', 'wheel_2'] and got.frame_id == 'chaser_body'
+            np.testing.assert_array_equal(got.velocity, [m.velocity for m in msgs])
+            np.testing.assert_array_equal(got.effort, [m.effort for m in msgs])
+            assert np.isnan(got.position).all() and got.position.shape == (len(msgs), 3)
         elif type_name == 'sensor_msgs/msg/Imu':
             np.testing.assert_array_equal(got.t_received, t_log)
             assert [vec(g.angular_velocity) for g in got.messages] == [vec(m.angular_velocity) for m in msgs]

@@ -61,7 +61,7 @@ class PlannerNode(CoreNode):
         self.pubs = {topic: self.publisher(topic) for topic in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,
             c.MISSION_EVENTS)}
-        self.subscribe_estimates()
+        self.subscribe_estimates(quat_rotate)
         self.subscribe_events()
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
 

@@ -21,12 +21,15 @@ from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.geometry import clearance
+from flyby_sim.dynamics.rotation import quat_rotate_many
 
 # Process exit code of each outcome: 0 capture, 3 safe without capture, 5 collision, 130 interrupted, 1 error.
 EXIT_CODES = {c.OUTCOME_CAPTURE: 0, c.OUTCOME_ESCAPE: 3, c.OUTCOME_NO_SAFE_PLAN: 3, c.OUTCOME_ABORTED: 3,
               c.OUTCOME_TIME_LIMIT: 3, c.OUTCOME_COLLISION: 5, c.OUTCOME_INTERRUPTED: 130, c.OUTCOME_ERROR: 1}
 TRUTH_TOPICS = [c.absolute(t) for t in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM,
                                         c.SIM_CHASER_THRUST, c.MISSION_PHASE, c.MISSION_EVENTS)]
+# The six-degree-of-freedom chaser's, besides.
+RIGID_TRUTH_TOPICS = [c.absolute(c.SIM_CHASER_THRUSTERS)]
 
 
 class ChaserTruth(NamedTuple):
@@ -58,6 +61,13 @@ class ThrustTruth(NamedTuple):
     force: np.ndarray
     torque: np.ndarray = None
     thrusters: np.ndarray = None
+
+
+def chaser_truth_from_odometry(odom):
+    """The six-degree-of-freedom chaser's ChaserTruth from its /sim/chaser/odom series, whose twist is in
+    chaser_body axes (nav_msgs' rule, DESIGN §10): the velocity turned into hill by the orientation."""
+    return ChaserTruth(odom.t, odom.position, quat_rotate_many(odom.orientation_xyzw, odom.linear),
+                       odom.orientation_xyzw)
 
 
 def outcome_of(end_reason, phases, collided=False, refused=False):
@@ -172,12 +182,23 @@ def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
 def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'), **launcher):
     """The summary dict of a run from its bag; robust to a bag cut short by an interruption. ``launcher``:
     what only the launcher knows (summarize's node_exit_codes, nodes_killed, bag_repair, faults_injected)."""
-    data = read_bag(bag_dir, topics=TRUTH_TOPICS)
+    rigid = scenario.chaser.model == 'rigid_body'
+    data = read_bag(bag_dir, topics=TRUTH_TOPICS + (RIGID_TRUTH_TOPICS if rigid else []))
     chaser = data.get(c.absolute(c.SIM_CHASER_ODOM))
+    if rigid:
+        chaser = chaser_truth_from_odometry(chaser)
     target = data.get(c.absolute(c.SIM_TARGET_ODOM))
     wrench = data.get(c.absolute(c.SIM_CHASER_THRUST))
-    # each thruster's series (/sim/chaser/thrusters) is not read yet: the nodes do not fly the rigid body
-    thrust = None if wrench is None else ThrustTruth(wrench.t, wrench.force, wrench.torque)
+    thrust = None
+    if rigid:
+        # Published together each step; a bag cut short may end one message apart.
+        thrusters = data[c.absolute(c.SIM_CHASER_THRUSTERS)]
+        n = min(len(wrench.t), len(thrusters.t))
+        if not np.array_equal(thrusters.t[:n], wrench.t[:n]):
+            raise ValueError(f'{bag_dir}: /sim/chaser/thrusters and /sim/chaser/thrust have different stamps')
+        thrust = ThrustTruth(wrench.t[:n], wrench.force[:n], wrench.torque[:n], thrusters.effort[:n])
+    elif wrench is not None:
+        thrust = ThrustTruth(wrench.t, wrench.force)
     phase_msgs = data.get(c.absolute(c.MISSION_PHASE))
     events = data.get(c.absolute(c.MISSION_EVENTS)) or []
     phases = list(phase_msgs.data) if phase_msgs is not None else []

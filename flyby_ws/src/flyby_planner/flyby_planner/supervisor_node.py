@@ -16,6 +16,7 @@ from flyby_msgs_py import convert, qos
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, main_for, publish_event
 from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
+from flyby_sim.dynamics.rotation import quat_rotate
 from flyby_sim.scenario import scenario_of
 
 
@@ -29,7 +30,7 @@ class SupervisorNode(CoreNode):
         self.core = SupervisorCore(scenario_of(self), watched, self.get_name())
         self.pub_phase, self.pub_events, self.pub_maneuver = (
             self.publisher(c.MISSION_PHASE), self.publisher(c.MISSION_EVENTS), self.publisher(c.GUIDANCE_MANEUVER))
-        self.subscribe_estimates()
+        self.subscribe_estimates(quat_rotate)
         self.subscribe_events()
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock', self.on_clock, qos.QOS_STREAM)

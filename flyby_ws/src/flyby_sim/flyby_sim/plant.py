@@ -48,7 +48,8 @@ from flyby_sim.dynamics.orbital import (
 )
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_rotate, quat_to_matrix
-from flyby_sim.sensors import ImuModel, SampleSchedule, SensorModel
+from flyby_sim.dynamics.sampling import SampleSchedule
+from flyby_sim.sensors import ImuModel, SensorModel
 from flyby_sim.thrusters import ThrusterModel
 
 DYNAMICS = ('nonlinear', 'cw')

@@ -8,9 +8,22 @@ The pace is bounded by ``rtf`` (0 = as fast as the graph keeps up): every
 reported (``flyby_msgs_py.runtime.ProgressReporter``) that it handled everything up to one such
 period ago, so no node (the recorder, the estimator) is outrun; and it ends only once they all
 have handled the last step. A node that leaves the graph is no longer waited for (and reported).
+
+With the six-degree-of-freedom chaser (``chaser.model: rigid_body``, DESIGN §10) it also publishes the
+chaser's attitude (``sim/chaser/odom``: twist in chaser_body axes), the thrusters' torque
+(``sim/chaser/thrust``), the wheels and the thrusters (``sim/chaser/wheels``, ``sim/chaser/thrusters``,
+sensor_msgs/JointState), the IMU (``sensors/chaser/imu``) and the chaser's markers, and takes guidance's
+continuous commands (``guidance/wheels``, ``guidance/wrench``, zero-order hold). Guidance commands every
+chaser estimate, and the estimator gives one at every IMU sample, one control period (the IMU's sample
+period) after its stamp: so every IMU sample of stamp t announces a command of stamp t + period, and the
+simulator does not step past that stamp before the command is in (on both topics), until the mission
+phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
+That is what makes the truth the same at any pace (DESIGN §5, §10).
 """
 
+import collections
 import json
+import math
 import time
 
 from rclpy.exceptions import ParameterUninitializedException
@@ -20,15 +33,22 @@ from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
-from flyby_msgs_py.markers import marker_array, target_box_markers
+from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event
-from flyby_msgs_py.wire import Event
+from flyby_msgs_py.wire import Event, wire_time
 from flyby_sim.dynamics.propulsion import ManeuverRejected
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import scenario_of
 
 STARTUP_TIMEOUT_S = 30.0
 SLOW_NODE_WARNING_S = 5.0
+# The chain whose commands the simulator waits for (rigid-body chaser): IMU -> estimator -> guidance.
+COMMAND_CHAIN = ('flyby_estimator', 'flyby_guidance')
+# Phases from which guidance commands no attitude (flyby_guidance.guidance_core.ATTITUDE_QUIET_PHASES).
+ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
+# A command stamp this close to the one announced is that command (stamps are whole nanoseconds).
+COMMAND_STAMP_TOLERANCE_NS = 1000
 
 
 class SimNode(Node):
@@ -65,12 +85,32 @@ class SimNode(Node):
             name = '/clock' if topic == c.CLOCK else topic
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name,
                                                 qos.qos_for(topic))
+        self.rigid = self.scenario.chaser.model == 'rigid_body'
+        if self.rigid:
+            for topic in (c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS, c.SENSOR_CHASER_IMU):
+                pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
         self.pubs = pubs
         # Reused for every step (publishing serializes them).
         self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])()
                      for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST)}
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
                                  c.GUIDANCE_MANEUVER, self.on_maneuver, qos.QOS_STREAM)
+        # Continuous commands (rigid-body chaser): announced stamps [ns] not yet passed, and per topic the
+        # latest stamp received [ns] and what it commands.
+        self.announced_ns = collections.deque()
+        self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
+        self.attitude_quiet = False
+        self.waiting_command_since = None
+        if self.rigid:
+            sc = self.scenario
+            self.command_period_s = 1.0 / sc.sensors.chaser_imu.rate_hz
+            self.wheel_names = c.wheel_names(len(sc.chaser.wheels.axes))
+            self.thruster_names = c.thruster_names(len(self.plant.truth().thruster_thrust_n))
+            self.imu_covariances = self._imu_covariances()
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WHEELS]), c.GUIDANCE_WHEELS,
+                                     self.on_wheels, qos.QOS_STREAM)
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WRENCH]), c.GUIDANCE_WRENCH,
+                                     self.on_wrench, qos.QOS_STREAM)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), c.MISSION_PHASE,
                                  self.on_phase, qos.QOS_LATCHED)
 
@@ -108,13 +148,49 @@ class SimNode(Node):
             ahead = due - time.monotonic()
             if ahead > 0.0:
                 return ahead
+            if self.command_due():
+                return 0.002
             self.advance()
             return 0.0
         for _ in range(self.steps_per_tick):
+            if self.command_due():
+                return 0.002
             self.advance()
             if self.ending or self.steps % self.flow_every == 0:
                 break
         return 0.0
+
+    def command_due(self):
+        """True while a command announced for a stamp within the next step has not come in (module doc)."""
+        announced = self.announced_ns
+        if not announced:
+            return False
+        if self.attitude_quiet:
+            announced.clear()
+            return False
+        received_ns = min(self.commanded_ns.values()) + COMMAND_STAMP_TOLERANCE_NS
+        while announced and announced[0] <= received_ns:
+            announced.popleft()
+        if not announced or announced[0] > convert.sec_to_ns(self.plant.t + self.step_s) + COMMAND_STAMP_TOLERANCE_NS:
+            self.waiting_command_since = None
+            return False
+        now = time.monotonic()
+        if self.waiting_command_since is None:
+            self.waiting_command_since = now
+        elif now - self.waiting_command_since > SLOW_NODE_WARNING_S:
+            self.waiting_command_since = now
+            present = {name for name, _ns in self.get_node_names_and_namespaces()}
+            gone = [name for name in COMMAND_CHAIN if name not in present]
+            if gone:
+                self.attitude_quiet = True
+                announced.clear()
+                self.emit('WARN', 'node_lost', f'{", ".join(gone)} left the graph; no longer waiting for '
+                          'attitude commands', {'nodes': ','.join(gone)})
+                return False
+            self.emit('WARN', 'waiting_for_command', f'holding time at {self.plant.t:.2f} s for the attitude '
+                      f'command of t = {announced[0] * 1e-9:.2f} s',
+                      {'t_command_s': repr(announced[0] * 1e-9), 'received_s': repr(received_ns * 1e-9)})
+        return True
 
     def on_ready(self, msg):
         announced = json.loads(msg.data)
@@ -192,26 +268,57 @@ class SimNode(Node):
     def publish_truth(self, s):
         msgs = self.msgs
         self.pubs[c.CLOCK].publish(convert.clock(s.t, out=msgs[c.CLOCK]))
-        self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
-            s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
-            (0.0, 0.0, 0.0), out=msgs[c.SIM_CHASER_ODOM]))
+        if self.rigid:
+            q_chaser = s.q_hill_from_chaser_body
+            self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+                s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, q_chaser,
+                quat_rotate(quat_conjugate(q_chaser), s.v_hill), s.omega_chaser_body, out=msgs[c.SIM_CHASER_ODOM]))
+            self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
+                s.t, c.FRAME_HILL, s.force_hill, s.torque_hill_n_m, out=msgs[c.SIM_CHASER_THRUST]))
+            self.pubs[c.SIM_CHASER_WHEELS].publish(convert.joint_state(
+                s.t, c.FRAME_CHASER_BODY, self.wheel_names, velocity=s.wheel_speed_rad_s, effort=s.wheel_torque_n_m))
+            self.pubs[c.SIM_CHASER_THRUSTERS].publish(convert.joint_state(
+                s.t, c.FRAME_CHASER_BODY, self.thruster_names, effort=s.thruster_thrust_n))
+        else:
+            self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+                s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
+                (0.0, 0.0, 0.0), out=msgs[c.SIM_CHASER_ODOM]))
+            self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
+                s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
         self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry(
             s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
             (0.0, 0.0, 0.0), s.omega_body, out=msgs[c.SIM_TARGET_ODOM]))
-        self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
-            s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
         if self.steps % max(1, round(1.0 / self.step_s)) == 0:
             boxes = self.scenario.boxes
-            self.pubs[c.MARKERS].publish(marker_array(target_box_markers(
-                s.t, s.q_hill_from_body, boxes.centers_hill_m(s.q_hill_from_body), boxes.size_m, boxes.names)))
+            markers = target_box_markers(s.t, s.q_hill_from_body, boxes.centers_hill_m(s.q_hill_from_body),
+                                         boxes.size_m, boxes.names)
+            if self.rigid:
+                markers += chaser_markers(s.t, s.r_hill, s.q_hill_from_chaser_body,
+                                          self.scenario.chaser.envelope_radius_m)
+            self.pubs[c.MARKERS].publish(marker_array(markers))
 
     def publish_measurement(self, m):
         if m.kind == 'relative_position':
             self.pubs[c.SENSOR_RELATIVE_POSITION].publish(
                 convert.point_stamped(m.t, c.FRAME_HILL, m.value))
-        else:
+        elif m.kind == 'target_attitude':
             self.pubs[c.SENSOR_TARGET_ATTITUDE].publish(
                 convert.quaternion_stamped(m.t, c.FRAME_HILL, m.value))
+        else:  # chaser_imu: announces the attitude command of its estimate (module doc)
+            imu = m.value
+            orientation_cov, rate_cov, accel_cov = self.imu_covariances
+            self.pubs[c.SENSOR_CHASER_IMU].publish(convert.imu(
+                m.t, c.FRAME_CHASER_BODY, imu.q_hill_from_body, imu.omega_body_meas, imu.specific_force_body,
+                None if imu.q_hill_from_body is None else orientation_cov, rate_cov, accel_cov))
+            if not self.attitude_quiet:
+                self.announced_ns.append(convert.sec_to_ns(wire_time(m.t) + self.command_period_s))
+
+    def _imu_covariances(self):
+        """The IMU's noise covariances (star-tracker attitude, gyro rate, specific force), diagonal."""
+        imu = self.scenario.sensors.chaser_imu
+        return tuple([[s * s if i == j else 0.0 for j in range(3)] for i in range(3)]
+                     for s in (math.radians(imu.star_tracker_sigma_deg), imu.gyro_noise_sigma_rad_s,
+                               imu.accel_noise_sigma_mps2))
 
     def emit(self, level, name, message, values):
         publish_event(self, self.pubs[c.MISSION_EVENTS], Event(self.plant.t, level, name, message, values), log_ok=True)
@@ -223,9 +330,38 @@ class SimNode(Node):
     # -- commands -------------------------------------------------------------------------
     def on_phase(self, msg):
         """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
-        if convert.string_to_str(msg) == c.PHASE_CAPTURE:
+        phase = convert.string_to_str(msg)
+        if phase in ATTITUDE_QUIET_PHASES:
+            self.attitude_quiet = True
+        if phase == c.PHASE_CAPTURE:
             self.plant.capture()
             self.publish_plant_events()
+
+    def on_wheels(self, msg):
+        t_stamp, torques = self._command_stamp(c.GUIDANCE_WHEELS, msg.header.stamp), list(msg.effort)
+        if len(torques) != len(self.wheel_names):
+            self.emit('ERROR', 'command_rejected', f'guidance/wheels: {len(torques)} efforts for '
+                      f'{len(self.wheel_names)} wheels', {'t_stamp': repr(t_stamp)})
+            return
+        try:
+            self.plant.command_wheels(t_stamp, torques)
+        except ValueError as err:
+            self.emit('ERROR', 'command_rejected', f'guidance/wheels: {err}', {'t_stamp': repr(t_stamp)})
+        self.publish_plant_events()
+
+    def on_wrench(self, msg):
+        w = convert.wrench_stamped_to_numpy(msg)
+        t_stamp = self._command_stamp(c.GUIDANCE_WRENCH, msg.header.stamp)
+        try:
+            self.plant.command_wrench(t_stamp, w.force, w.torque, hold_s=self.command_period_s)
+        except ValueError as err:
+            self.emit('ERROR', 'command_rejected', f'guidance/wrench: {err}', {'t_stamp': repr(t_stamp)})
+        self.publish_plant_events()
+
+    def _command_stamp(self, topic, stamp):
+        ns = convert.stamp_to_ns(stamp)
+        self.commanded_ns[topic] = max(self.commanded_ns[topic], ns)
+        return convert.ns_to_sec(ns)
 
     def on_maneuver(self, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, rotation_vector_from_quat
-from flyby_sim.sensors import ImuModel, SampleSchedule, SensorModel, is_sample_step
+from flyby_sim.dynamics.sampling import SampleSchedule, is_sample_step
+from flyby_sim.sensors import ImuModel, SensorModel
 
 
 def test_position_noise_is_gaussian_per_axis():

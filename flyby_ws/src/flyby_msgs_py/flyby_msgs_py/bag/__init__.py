@@ -22,6 +22,7 @@ from flyby_msgs_py.bag.common import BagError, jazzy_typestore
 from flyby_msgs_py.bag.reader import (
     DIAGNOSTIC_LEVELS,
     ClockSeries,
+    JointSeries,
     MarkerArrayCount,
     MessageList,
     OdometrySeries,
@@ -39,7 +40,8 @@ from flyby_msgs_py.bag.repair import DAMAGED_SUFFIX, MCAP_MAGIC, repair_bag, sal
 from flyby_msgs_py.bag.writer import BagWriter, contract_qos
 
 __all__ = [
-    'DAMAGED_SUFFIX', 'DIAGNOSTIC_LEVELS', 'MCAP_MAGIC', 'BagError', 'BagWriter', 'ClockSeries', 'MarkerArrayCount',
+    'DAMAGED_SUFFIX', 'DIAGNOSTIC_LEVELS', 'MCAP_MAGIC', 'BagError', 'BagWriter', 'ClockSeries', 'JointSeries',
+    'MarkerArrayCount',
     'MessageList', 'OdometrySeries', 'PathLatest', 'PointSeries', 'QuaternionSeries', 'StringSeries', 'Vector3Series',
     'WrenchSeries', 'bag_time_range', 'bag_topics', 'contract_qos', 'jazzy_typestore', 'read_bag', 'repair_bag',
     'salvage_mcap',

@@ -62,6 +62,16 @@ class WrenchSeries(NamedTuple):
     t_received: np.ndarray
 
 
+class JointSeries(NamedTuple):
+    t: np.ndarray
+    names: list                   # of the first message
+    position: np.ndarray          # (N, M); NaN where a field is not given (convert.joint_state)
+    velocity: np.ndarray          # (N, M)
+    effort: np.ndarray            # (N, M)
+    frame_id: str
+    t_received: np.ndarray
+
+
 class ClockSeries(NamedTuple):
     t: np.ndarray                 # (N,) clock value [s]
     t_received: np.ndarray
@@ -192,6 +202,18 @@ def _clock(datas, t_rx, deserialize):
     return ClockSeries(t, t_rx)
 
 
+def _joint_states(datas, t_rx, deserialize):
+    msgs = [deserialize(d) for d in datas]
+    names = list(msgs[0].name) if msgs else []
+    if any(list(m.name) != names for m in msgs):
+        raise BagError(f'JointState: the joint names change within the topic (first {names})')
+    def field(name):
+        return _arr([getattr(m, name) for m in msgs], len(names)) if names else np.zeros((len(msgs), 0))
+    return JointSeries(np.array([_stamp_s(m.header.stamp) for m in msgs], dtype=np.float64), names,
+                       field('position'), field('velocity'), field('effort'),
+                       msgs[0].header.frame_id if msgs else '', t_rx)
+
+
 def _level_name(level):
     if isinstance(level, (bytes, bytearray)):
         level = level[0] if level else 0
@@ -237,6 +259,7 @@ _CONVERTERS = {
         QuaternionSeries, 4, lambda m: _quat(m.quaternion)),
     'geometry_msgs/msg/WrenchStamped': _stamped(
         WrenchSeries, 6, lambda m: _vec(m.wrench.force) + _vec(m.wrench.torque)),
+    'sensor_msgs/msg/JointState': _joint_states,
     'rosgraph_msgs/msg/Clock': _clock,
     'std_msgs/msg/String': _strings,
     'diagnostic_msgs/msg/DiagnosticArray': _events,
@@ -289,7 +312,7 @@ def read_bag(bag_dir, topics=None):
 
     Returns ``{topic: series}``; the series type depends on the message type: ``OdometrySeries``,
     ``Vector3Series``, ``PointSeries``, ``QuaternionSeries``, ``WrenchSeries``, ``ClockSeries``,
-    ``StringSeries``, a list of event dicts (DiagnosticArray: ``t``, ``level`` 'OK'/'WARN'/'ERROR'/
+    ``JointSeries``, ``StringSeries``, a list of event dicts (DiagnosticArray: ``t``, ``level`` 'OK'/'WARN'/'ERROR'/
     'STALE', ``name``, ``message``, ``hardware_id``, ``values``), ``PathLatest`` (the last path),
     ``MarkerArrayCount``, else ``MessageList``. Times in seconds; ``t`` is the header stamp and
     ``t_received`` the bag log time. ``topics`` restricts the result; a topic missing from the
