@@ -21,6 +21,10 @@ different route than flyby_planner.summary takes, from truth alone:
 * clearance: every truth sample against the target boxes by a second implementation (scipy rotation,
   closest point by clamping; the summary uses flyby_sim.dynamics.geometry); thrust inside the sphere:
   every thrusting step's end points; counts from the simulator's own events.
+* the six-degree-of-freedom chaser: its velocity turned from chaser_body axes by scipy's rotation (the
+  summary by flyby_sim.dynamics.rotation); fuel from each thruster's thrust on /sim/chaser/thrusters, a
+  firing being any thruster's (a pure torque too); the pointing error of body +x at the target's CoM as
+  the angle between scipy's rotated axis and the line of sight, from the first burn's start to t_g.
 
 Prints a table and exits 0 when everything agrees (1 mm, 0.1 mm/s, 1e-6 kg, 1 ms), 4 when something
 disagrees, 2 on bad input.
@@ -48,8 +52,9 @@ TOLERANCES = {
     't_grasp_s': 1e-3, 'flyby_offset_m': 1e-6, 'capture_position_error_m': 1e-3, 'capture_velocity_error_mps': 1e-4,
     'delta_v_total_mps': 1e-4, 'fuel_used_kg': 1e-6, 'min_clearance_m': 1e-3, 't_min_clearance_s': 1e-3,
     'sim_time_s': 1e-3, 'thrust_inside_restriction_sphere': 0, 'maneuvers_executed': 0, 'late_maneuvers': 0,
-    'rejected_maneuvers': 0,
+    'rejected_maneuvers': 0, 'pointing_error_p95_deg': 1e-6, 'pointing_error_max_deg': 1e-6,
 }
+RIGID_ONLY = ('pointing_error_p95_deg', 'pointing_error_max_deg')
 
 
 def box_clearance(r_hill, q_hill_from_body, centers_body_m, sizes_m, envelope_radius_m):
@@ -89,14 +94,17 @@ def aimed_offset(flyby_target, x_grasp_body):
 
 def recompute(bag_dir, scenario):
     """Every figure of TOLERANCES from the truth topics of the bag."""
+    rigid = scenario.chaser.model == 'rigid_body'
     topics = [c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_EVENTS,
                                       c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET)]
-    data = read_bag(bag_dir, topics=topics)
+    data = read_bag(bag_dir, topics=topics + ([c.absolute(c.SIM_CHASER_THRUSTERS)] if rigid else []))
     chaser, target = data.get(topics[0]), data.get(topics[1])
+    if rigid and chaser is not None and len(chaser.t):  # twist in chaser_body axes
+        chaser = chaser._replace(linear=Rotation.from_quat(chaser.orientation_xyzw).apply(chaser.linear))
     thrust, events, grasp = data.get(topics[2]), data.get(topics[3]) or [], data.get(topics[4])
     x_grasp_body = np.array(scenario.target.grasp_point_body_m)
     offset_m = aimed_offset(data.get(topics[5]), x_grasp_body)
-    out = {k: None for k in TOLERANCES}
+    out = {k: None for k in TOLERANCES if rigid or k not in RIGID_ONLY}
     sim_events = [e for e in events if e.get('hardware_id') == 'flyby_sim']
     for key, name in (('maneuvers_executed', 'burn_started'), ('late_maneuvers', 'late_maneuver'),
                       ('rejected_maneuvers', 'maneuver_rejected')):
@@ -111,12 +119,21 @@ def recompute(bag_dir, scenario):
     out['delta_v_total_mps'], out['fuel_used_kg'], out['thrust_inside_restriction_sphere'] = 0.0, 0.0, False
     if thrust is not None and len(thrust.t) > 1:
         impulse = np.linalg.norm(thrust.force[1:], axis=1) * np.diff(thrust.t)
-        fuel = float(impulse.sum()) / v_exhaust
+        firing = np.concatenate(([False], impulse > 0.0))
+        if rigid:  # every thruster's impulse; the net force's share of it gives the delta-v
+            thrusters = data[c.absolute(c.SIM_CHASER_THRUSTERS)]
+            n = min(len(thrusters.t), len(thrust.t))
+            each = thrusters.effort[1:n] * np.diff(thrusters.t[:n])[:, None]
+            fuel = float(each.sum()) / v_exhaust
+            share = float(impulse[:n - 1].sum()) / float(each.sum()) if each.sum() > 0.0 else 0.0
+            firing = np.concatenate(([False], (each > 0.0).any(axis=1)))
+            thrust = thrust._replace(t=thrust.t[:n])
+        else:
+            fuel, share = float(impulse.sum()) / v_exhaust, 1.0
         out['fuel_used_kg'] = fuel
-        out['delta_v_total_mps'] = v_exhaust * math.log(m0 / (m0 - fuel))  # rocket equation, whole run
+        out['delta_v_total_mps'] = share * v_exhaust * math.log(m0 / (m0 - fuel))  # rocket equation, whole run
         idx = np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)
         inside = np.linalg.norm(chaser.position[idx], axis=1) < scenario.planner.restriction_sphere_radius_m
-        firing = np.concatenate(([False], impulse > 0.0))
         out['thrust_inside_restriction_sphere'] = bool(np.any(firing & (inside | np.roll(inside, 1))))
 
     if target is not None and len(target.t):
@@ -142,13 +159,31 @@ def recompute(bag_dir, scenario):
             x_ft, v_ft = flyby_target_from_attitude(q, w_body, x_grasp_body, offset_m, n)
             out['capture_position_error_m'] = float(np.linalg.norm(r - x_ft))
             out['capture_velocity_error_mps'] = float(np.linalg.norm(v - v_ft))
+        if rigid:
+            out.update(pointing(chaser, events, t_g))
     return out
+
+
+def pointing(chaser, events, t_g):
+    """Angle between body +x (scipy's rotation of the truth attitude) and the line of sight to the target's
+    CoM, from the first burn's start to t_g (or the end): 95th percentile and largest [deg]."""
+    starts = [float(e['values']['t_start']) for e in events
+              if e['name'] == 'burn_started' and e.get('hardware_id') == 'flyby_sim']
+    if not starts:
+        return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
+    window = (chaser.t >= min(starts)) & (chaser.t <= (chaser.t[-1] if t_g is None else t_g))
+    axis = Rotation.from_quat(chaser.orientation_xyzw[window]).apply((1.0, 0.0, 0.0))
+    sight = -chaser.position[window] / np.linalg.norm(chaser.position[window], axis=1)[:, None]
+    angle = np.degrees(np.arctan2(np.linalg.norm(np.cross(axis, sight), axis=1), np.sum(axis * sight, axis=1)))
+    return {'pointing_error_p95_deg': float(np.percentile(angle, 95.0)), 'pointing_error_max_deg': float(angle.max())}
 
 
 def compare(summary, recomputed):
     """Rows (figure, summary value, recomputed value, agrees)."""
     rows = []
     for key, tol in TOLERANCES.items():
+        if key not in recomputed:  # a figure of the six-degree-of-freedom chaser only
+            continue
         a, b = summary.get(key), recomputed.get(key)
         if a is None or b is None:
             agrees = a is None and b is None
