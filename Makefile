@@ -5,7 +5,8 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 PACKAGES := $(wildcard flyby_ws/src/*/setup.py)
-OUT ?= runs/paper_flyby
+SCENARIO ?= scenarios/paper_flyby_6dof.yaml
+OUT ?= runs/paper_flyby_6dof
 PYTEST_ARGS ?=
 
 .PHONY: mission test lint venv benchmark clean-runs
@@ -21,7 +22,7 @@ venv: $(STAMP)
 
 # Exit code 3 (no capture, but safe: escape, abort, time limit) is an outcome, not a failure of make.
 mission: $(STAMP)
-	$(PY) scripts/run_mission.py --scenario scenarios/paper_flyby.yaml --out $(OUT) --force \
+	$(PY) scripts/run_mission.py --scenario $(SCENARIO) --out $(OUT) --force \
 		|| [ $$? -eq 3 ]
 
 test: $(STAMP)

@@ -18,7 +18,8 @@ chaser estimate, and the estimator gives one at every IMU sample, one control pe
 period) after its stamp: so every IMU sample of stamp t announces a command of stamp t + period, and the
 simulator does not step past that stamp before the command is in (on both topics), until the mission
 phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
-That is what makes the truth the same at any pace (DESIGN §5, §10).
+That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
+``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command).
 """
 
 import collections
@@ -101,6 +102,7 @@ class SimNode(Node):
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
         self.waiting_command_since = None
+        self.commands_expected = self.rigid and all(name in self.progress_s for name in COMMAND_CHAIN)
         if self.rigid:
             sc = self.scenario
             self.command_period_s = 1.0 / sc.sensors.chaser_imu.rate_hz
@@ -230,9 +232,13 @@ class SimNode(Node):
     def advance(self):
         sample = self.plant.step()
         self.steps += 1
-        self.publish_truth(sample)
-        for m in self.plant.measurements():
+        # The measurements first, the target's attitude last: the chaser's estimate (and with the rigid-body
+        # chaser the command chain it starts) is worked on while the rest goes out. (The estimator's outputs
+        # do not depend on the order of the two chains; a node that has handled the clock of t has handled
+        # every measurement of t.)
+        for m in sorted(self.plant.measurements(), key=lambda m: m.kind == 'target_attitude'):
             self.publish_measurement(m)
+        self.publish_truth(sample)
         self.publish_plant_events()
         if sample.t >= self.duration_s - 0.5 * self.step_s:
             self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
@@ -310,7 +316,7 @@ class SimNode(Node):
             self.pubs[c.SENSOR_CHASER_IMU].publish(convert.imu(
                 m.t, c.FRAME_CHASER_BODY, imu.q_hill_from_body, imu.omega_body_meas, imu.specific_force_body,
                 None if imu.q_hill_from_body is None else orientation_cov, rate_cov, accel_cov))
-            if not self.attitude_quiet:
+            if self.commands_expected and not self.attitude_quiet:
                 self.announced_ns.append(convert.sec_to_ns(wire_time(m.t) + self.command_period_s))
 
     def _imu_covariances(self):
