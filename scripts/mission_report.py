@@ -15,6 +15,20 @@ DIR (default RUN_DIR):
 * estimation.png     chaser position / velocity and target attitude / body-rate errors with +-3 sigma
 * clearance.png      gap of the chaser envelope to the target's boxes and to the swept region
 
+and for a six-degree-of-freedom chaser (scenario chaser.model rigid_body; docs/chaser_6dof.md):
+
+* attitude.png       chaser_body in hill (quaternion), truth and estimate; the estimate's attitude error
+                     about hill axes with +-3 sigma; the inertial body rate (chaser_body axes)
+* pointing.png       truth pointing error of body +x at the target's centre of mass, the window from the
+                     first burn to the grasp, the 1 deg requirement and the summary's p95 / max
+* wheels.png         reaction wheel speeds and motor torques with their limits
+* thrusters.png      each thruster's thrust over time and the thrusters' total torque, with the
+                     restriction sphere's entry and exit (no firing inside)
+
+Velocities follow nav_msgs' rule (DESIGN section 10): an Odometry's twist is in child_frame_id axes, so
+twist.linear and its covariance are turned into hill by pose.orientation before use (the rigid-body
+chaser's twist is in chaser_body axes; the point mass publishes the identity, which changes nothing).
+
 An interrupted run works too: a bag without metadata.yaml is repaired first (as analyze_bag.py
 does), and whatever is missing (topics, plan, grasp, burns, scenario) is left out; what was left out
 is said on stderr. A figure whose essential data is missing is not written. Exit code 0, or 1 when a
@@ -32,13 +46,15 @@ import sys
 import traceback
 from pathlib import Path
 
+import matplotlib.colors
 import numpy as np
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import BagError, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.keepout import swept_region
-from flyby_planner.summary import grasp_time
+from flyby_planner.summary import grasp_time, pointing_figures
+from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import q_eci_from_body
 from flyby_sim.dynamics.rotation import (
@@ -46,6 +62,7 @@ from flyby_sim.dynamics.rotation import (
     quat_multiply,
     quat_normalize,
     quat_rotate_many,
+    quat_to_matrix_many,
     rotation_vector_from_quat,
 )
 from flyby_sim.scenario import load_scenario
@@ -69,6 +86,8 @@ PHASE_COLORS = {
 TOPICS = (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.EST_CHASER_ODOM, c.EST_TARGET_ODOM, c.PLANNER_PATH,
           c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.MISSION_PHASE,
           c.MISSION_EVENTS)
+RIGID_BODY_TOPICS = (c.SIM_CHASER_THRUST, c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS)  # read for rigid_body only
+POINTING_REQUIREMENT_DEG = 1.0  # issue 13: p95 of the truth from the first terminal burn to the grasp
 
 
 class Skipped(Exception):
@@ -146,6 +165,34 @@ def match_stamps(t_a, t_b, tolerance_s=STAMP_TOLERANCE_S):
     return np.flatnonzero(ok), nearest[ok]
 
 
+def velocity_hill(odom):
+    """twist.linear of an Odometry series (N, 3) in hill axes: turned by pose.orientation (child frame in
+    hill), as nav_msgs' rule says (DESIGN section 10); the identity of a point mass changes nothing."""
+    return quat_rotate_many(odom.orientation_xyzw, odom.linear)
+
+
+def velocity_covariance_hill(odom):
+    """The twist's linear covariance block (N, 3, 3) in hill axes: C_hill_from_child P C_hill_from_child'."""
+    c_hill_from_child = quat_to_matrix_many(odom.orientation_xyzw)
+    return np.einsum('nij,njk,nlk->nil', c_hill_from_child, odom.twist_covariance[:, :3, :3], c_hill_from_child)
+
+
+def sphere_intervals(t, r_hill, radius_m):
+    """[(t_entry, t_exit)] [s] of the positions r_hill (N, 3) at times t inside the sphere of radius_m
+    about the hill origin, the crossings interpolated linearly in range; an interval still open at the
+    end closes at t[-1] (one that is open at the start begins at t[0])."""
+    r = np.linalg.norm(r_hill, axis=1)
+    inside = r < radius_m
+    if not len(r):
+        return []
+    crossings = []
+    for i in np.flatnonzero(inside[1:] != inside[:-1]):
+        crossings.append(t[i] + (radius_m - r[i]) / (r[i + 1] - r[i]) * (t[i + 1] - t[i]))
+    edges = ([float(t[0])] if inside[0] else []) + [float(x) for x in crossings] + \
+        ([float(t[-1])] if inside[-1] else [])
+    return list(zip(edges[::2], edges[1::2], strict=True))
+
+
 class Run:
     """What the figures draw from: the bag's series (absent or empty topics left out), the scenario,
     the summary, and quantities derived from them once."""
@@ -153,7 +200,9 @@ class Run:
     def __init__(self, run_dir):
         self.run_dir = Path(run_dir)
         present = _open_bag(self.run_dir / 'bag')
-        wanted = [c.absolute(t) for t in TOPICS]
+        self.scenario = self._load_scenario()
+        self.rigid_body = self.scenario is not None and self.scenario.chaser.model == 'rigid_body'
+        wanted = [c.absolute(t) for t in TOPICS + (RIGID_BODY_TOPICS if self.rigid_body else ())]
         data = read_bag(self.run_dir / 'bag', topics=[t for t in wanted if t in present])
         self.series = {t: s for t, s in data.items() if not _is_empty(s)}
         absent = [t for t in wanted if t not in self.series]
@@ -161,7 +210,6 @@ class Run:
             _say(f'not in the bag or empty, left out: {", ".join(absent)}')
         self.events = self.series.get(c.absolute(c.MISSION_EVENTS), [])
         self.burns = _burns(self.events)
-        self.scenario = self._load_scenario()
         summary = self.run_dir / 'summary.json'
         self.summary = json.loads(summary.read_text()) if summary.is_file() else {}
 
@@ -228,6 +276,14 @@ class Run:
         kinds = list(dict.fromkeys(b.kind for b in self.burns))
         palette = ('C3', 'C4', 'C6', 'C5', 'C8', 'C9', 'C7')  # not truth, estimate or start colours
         return {k: palette[i % len(palette)] for i, k in enumerate(kinds)}
+
+    @functools.cached_property
+    def sphere(self):
+        """[(t_entry, t_exit)] of the truth chaser inside the restriction sphere; [] without truth or scenario."""
+        chaser = self.get(c.SIM_CHASER_ODOM)
+        if chaser is None or self.scenario is None:
+            return []
+        return sphere_intervals(chaser.t, chaser.position, self.scenario.planner.restriction_sphere_radius_m)
 
     def truth_at(self, t):
         """Truth chaser position (3,) at time t, interpolated."""
@@ -414,7 +470,7 @@ def fig_trajectory_3d(run, path, half_width_m=20.0):
 
 def _range_and_rate(series):
     r = np.linalg.norm(series.position, axis=1)
-    return r, np.sum(series.position * series.linear, axis=1) / np.maximum(r, 1e-9)
+    return r, np.sum(series.position * velocity_hill(series), axis=1) / np.maximum(r, 1e-9)
 
 
 def fig_range(run, path):
@@ -522,23 +578,24 @@ def estimation_errors(run):
     """The four rows of estimation.png: (quantity, unit, t, error (N, 3), 3 sigma (N, 3)), or
     (quantity, reason) for a row the run has no data for.
 
-    Errors are estimate minus truth at the same stamps. The target attitude error is the rotation
-    vector of q_est q_true^-1, i.e. about hill axes like the pose covariance the estimator publishes
-    (flyby_estimation.target_motion.PredictedState.covariance_hill); the body-rate error and its
-    covariance are in body axes.
+    Errors are estimate minus truth at the same stamps; the chaser velocity and its covariance in hill
+    axes (velocity_hill: the rigid-body chaser's twist is in chaser_body axes). The target attitude
+    error is the rotation vector of q_est q_true^-1, i.e. about hill axes like the pose covariance the
+    estimator publishes (flyby_estimation.target_motion.PredictedState.covariance_hill); the body-rate
+    error and its covariance are in body axes.
     """
     pos, rot = slice(0, 3), slice(3, 6)
     deg = math.degrees(1.0)
     rows = []
     chaser = _matched(run, c.EST_CHASER_ODOM, c.SIM_CHASER_ODOM)
     if isinstance(chaser, str):
-        rows += [('chaser position', chaser), ('chaser velocity', chaser)]
+        rows += [('chaser position', chaser), ('chaser velocity (hill axes)', chaser)]
     else:
         e, tr, i, j = chaser
         rows.append(('chaser position', 'm', e.t[i], e.position[i] - tr.position[j],
                      _sigma3(e.pose_covariance[i], pos)))
-        rows.append(('chaser velocity', 'm/s', e.t[i], e.linear[i] - tr.linear[j],
-                     _sigma3(e.twist_covariance[i], pos)))
+        rows.append(('chaser velocity (hill axes)', 'm/s', e.t[i], velocity_hill(e)[i] - velocity_hill(tr)[j],
+                     _sigma3(velocity_covariance_hill(e)[i], pos)))
     target = _matched(run, c.EST_TARGET_ODOM, c.SIM_TARGET_ODOM)
     if isinstance(target, str):
         rows += [('target attitude', target), ('target body rate', target)]
@@ -553,12 +610,33 @@ def estimation_errors(run):
     return rows
 
 
+def _error_row(ax_row, run, name, unit, t, err, sig3):
+    """Estimate - truth err (N, 3) with its +-3 sigma sig3 (N, 3) at times t, one axis per component."""
+    # Linear up to the decade above the typical 3 sigma of the second half of the run,
+    # logarithmic beyond (the first estimates are far larger).
+    typical = float(np.median(sig3[len(sig3) // 2:]))
+    linthresh = 10.0 ** math.ceil(math.log10(typical)) if typical > 0.0 else 1e-9
+    t_g, label = run.grasp
+    for k, (ax, axis) in enumerate(zip(ax_row, 'xyz', strict=True)):
+        ax.fill_between(t, -sig3[:, k], sig3[:, k], color='C0', alpha=0.2, lw=0, label='$\\pm 3\\sigma$')
+        ax.plot(t, err[:, k], color='C3', lw=0.7, label='estimate - truth')
+        ax.set_yscale('symlog', linthresh=linthresh)
+        ax.axhline(0.0, color='k', lw=0.5)
+        if t_g is not None:
+            ax.axvline(t_g, color='darkred', ls='-.', lw=0.8, label=label)
+        ax.grid(alpha=0.3)
+        ax.set_title(f'{name}, {axis}', fontsize=9)
+        outside = np.mean(np.abs(err[:, k]) > sig3[:, k]) * 100.0
+        ax.text(0.99, 0.03, f'{outside:.1f} % outside 3$\\sigma$', transform=ax.transAxes, ha='right',
+                fontsize=7)
+    ax_row[0].set_ylabel(f'[{unit}] (symlog,\nlinear below {linthresh:.2g})')
+
+
 def fig_estimation(run, path):
     rows = estimation_errors(run)
     if all(len(r) == 2 for r in rows):
         raise Skipped('; '.join(dict.fromkeys(r[1] for r in rows)))
     fig, axes = plt.subplots(len(rows), 3, figsize=(15, 12), sharex=True)
-    t_g, label = run.grasp
     for row, ax_row in zip(rows, axes, strict=True):
         if len(row) == 2:
             _say(f'estimation.png: {row[0]} left out: {row[1]}')
@@ -566,24 +644,7 @@ def fig_estimation(run, path):
                 ax.text(0.5, 0.5, row[1], transform=ax.transAxes, ha='center', fontsize=8)
             ax_row[0].set_ylabel(row[0])
             continue
-        name, unit, t, err, sig3 = row
-        # Linear up to the decade above the typical 3 sigma of the second half of the run,
-        # logarithmic beyond (the first estimates are far larger).
-        typical = float(np.median(sig3[len(sig3) // 2:]))
-        linthresh = 10.0 ** math.ceil(math.log10(typical)) if typical > 0.0 else 1e-9
-        for k, (ax, axis) in enumerate(zip(ax_row, 'xyz', strict=True)):
-            ax.fill_between(t, -sig3[:, k], sig3[:, k], color='C0', alpha=0.2, lw=0, label='$\\pm 3\\sigma$')
-            ax.plot(t, err[:, k], color='C3', lw=0.7, label='estimate - truth')
-            ax.set_yscale('symlog', linthresh=linthresh)
-            ax.axhline(0.0, color='k', lw=0.5)
-            if t_g is not None:
-                ax.axvline(t_g, color='darkred', ls='-.', lw=0.8, label=label)
-            ax.grid(alpha=0.3)
-            ax.set_title(f'{name}, {axis}', fontsize=9)
-            outside = np.mean(np.abs(err[:, k]) > sig3[:, k]) * 100.0
-            ax.text(0.99, 0.03, f'{outside:.1f} % outside 3$\\sigma$', transform=ax.transAxes, ha='right',
-                    fontsize=7)
-        ax_row[0].set_ylabel(f'[{unit}] (symlog,\nlinear below {linthresh:.2g})')
+        _error_row(ax_row, run, *row)
     for ax in axes[-1]:
         ax.set_xlabel('simulation time [s]')
     handles = next((ax.get_legend_handles_labels() for ax in axes[:, 0] if ax.get_legend_handles_labels()[0]),
@@ -640,6 +701,275 @@ def fig_clearance(run, path, window_s=30.0):
     plots.save(fig, path, DPI)
 
 
+# ---------------------------------------------------------------------------------------------
+# The six-degree-of-freedom chaser (chaser.model rigid_body)
+# ---------------------------------------------------------------------------------------------
+
+def continuous_quaternions(q):
+    """Quaternions (N, 4) (x, y, z, w) each multiplied by +-1 so that neighbours agree in sign and the first
+    has w >= 0 (q and -q are one attitude): their components then plot as continuous curves."""
+    q = np.array(q, dtype=float)
+    if not len(q):
+        return q
+    flips = np.concatenate(([q[0, 3] < 0.0], np.einsum('ij,ij->i', q[1:], q[:-1]) < 0.0))
+    return q * np.where(np.cumsum(flips) % 2 == 1, -1.0, 1.0)[:, None]
+
+
+def chaser_attitude_estimate(run):
+    """(estimate, truth, i_est, i_truth): the chaser estimates that carry an attitude (a nonzero orientation
+    covariance) at the truth's stamps, or the reason there are none."""
+    matched = _matched(run, c.EST_CHASER_ODOM, c.SIM_CHASER_ODOM)
+    if isinstance(matched, str):
+        return matched
+    e, tr, i, j = matched
+    keep = np.any(e.pose_covariance[i, 3:, 3:] != 0.0, axis=(1, 2))
+    if not np.any(keep):
+        return f'no {c.absolute(c.EST_CHASER_ODOM)} sample carries an attitude (zero orientation covariance)'
+    return e, tr, i[keep], j[keep]
+
+
+def _sphere_spans(ax, run, label=True):
+    """The restriction sphere's inside (truth range below its radius) shaded, entry and exit as lines."""
+    for k, (t_in, t_out) in enumerate(run.sphere):
+        ax.axvspan(t_in, t_out, facecolor='none', edgecolor='0.35', hatch='///', lw=0, zorder=0.5,
+                   label='inside the restriction sphere' if label and k == 0 else None)
+        for t in (t_in, t_out):
+            ax.axvline(t, color='0.35', ls=':', lw=1.0, zorder=1)
+
+
+def _time_axis(ax, run, xlabel=True):
+    ax.set_xlim(0.0, run.t_end)
+    ax.grid(alpha=0.3)
+    if xlabel:
+        ax.set_xlabel('simulation time [s]')
+
+
+def fig_attitude(run, path):
+    truth = run.need(c.SIM_CHASER_ODOM)
+    deg = math.degrees(1.0)
+    estimate = chaser_attitude_estimate(run)
+    fig = plt.figure(figsize=(15, 12))
+    grid = fig.add_gridspec(3, 3, height_ratios=(1.2, 1.0, 1.0))
+    ax_q = fig.add_subplot(grid[0, :])
+    ax_err = [fig.add_subplot(grid[1, k], sharex=ax_q) for k in range(3)]
+    ax_w = fig.add_subplot(grid[2, :], sharex=ax_q)
+    t_g, label = run.grasp
+    for ax in (ax_q, ax_w):
+        _phase_bands(ax, run, legend=ax is ax_q)
+        _burn_lines(ax, run, labels=ax is ax_q)
+        if t_g is not None:
+            ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label if ax is ax_q else None)
+
+    q_true = continuous_quaternions(truth.orientation_xyzw)
+    for k, name in enumerate('xyzw'):
+        ax_q.plot(truth.t, q_true[:, k], color=f'C{k}', lw=1.4, label=f'$q_{name}$')
+    for k, name in enumerate('xyz'):
+        ax_w.plot(truth.t, truth.angular[:, k] * deg, color=f'C{k}', lw=1.2, label=f'$\\omega_{name}$')
+    if isinstance(estimate, str):
+        _say(f'attitude.png: the estimate left out: {estimate}')
+        for ax in ax_err:
+            ax.text(0.5, 0.5, estimate, transform=ax.transAxes, ha='center', fontsize=8, wrap=True)
+    else:
+        e, tr, i, j = estimate
+        q_est = e.orientation_xyzw[i]
+        q_est = q_est * np.where(np.einsum('ij,ij->i', q_est, q_true[j]) < 0.0, -1.0, 1.0)[:, None]
+        for k in range(4):
+            ax_q.plot(e.t[i], q_est[:, k], color='k', lw=0.6, ls=(0, (4, 4)),
+                      label='estimate (dashed)' if k == 0 else None)
+        for k in range(3):
+            ax_w.plot(e.t[i], e.angular[i, k] * deg, color='k', lw=0.6, ls=(0, (4, 4)),
+                      label='estimate (dashed)' if k == 0 else None)
+        # The attitude error as the rotation vector of q_est q_true^-1: about hill axes, like the
+        # orientation block of the pose covariance (the estimator's attitude_covariance_hill).
+        dtheta = np.array([rotation_vector_from_quat(quat_multiply(a, quat_conjugate(b)))
+                           for a, b in zip(e.orientation_xyzw[i], tr.orientation_xyzw[j], strict=True)])
+        _error_row(ax_err, run, 'chaser attitude error (hill axes)', 'deg', e.t[i], dtheta * deg,
+                   _sigma3(e.pose_covariance[i], slice(3, 6)) * deg)
+        ax_err[1].legend(*ax_err[1].get_legend_handles_labels(), fontsize=8, loc='upper right', ncol=3)
+    ax_q.set(ylabel='$q_{hill \\leftarrow body}$ component\n(sign kept continuous)', ylim=(-1.05, 1.05))
+    ax_q.legend(fontsize=8, ncol=5, loc='lower left', framealpha=0.9)
+    ax_w.set(ylabel='[deg/s]', title='inertial angular velocity in chaser_body axes, truth and estimate')
+    ax_w.legend(fontsize=8, ncol=4, loc='lower left', framealpha=0.9)
+    _time_axis(ax_q, run, xlabel=False)
+    _time_axis(ax_w, run)
+    for ax in ax_err:
+        ax.set_xlabel('simulation time [s]')
+    fig.suptitle(f'{run.title}: chaser attitude, chaser_body in hill (quaternion x, y, z, w), truth and estimate')
+    fig.tight_layout(rect=(0, 0, 1, 0.98))
+    plots.save(fig, path, DPI)
+
+
+def pointing_window(run):
+    """(t_start, t_end) [s] of the pointing requirement: the first burn's start to the grasp (else the end of
+    the truth), as flyby_planner.summary.pointing_figures; None before any burn."""
+    if not run.burns:
+        return None
+    t_g = grasp_time(run.events)
+    return min(b.t_start for b in run.burns), (t_g if t_g is not None else run.t_end)
+
+
+def fig_pointing(run, path):
+    truth = run.need(c.SIM_CHASER_ODOM)
+    error_deg = np.degrees(pointing_error_rad(truth.orientation_xyzw, truth.position))
+    floor = 1e-4  # [deg] a log axis shows no zero
+    window = pointing_window(run)
+    figures = {k: run.summary.get(k) for k in ('pointing_error_p95_deg', 'pointing_error_max_deg')}
+    source = 'summary.json'
+    if figures['pointing_error_p95_deg'] is None and window is not None:
+        figures, source = pointing_figures(truth, run.events, grasp_time(run.events)), 'bag'
+    fig, (ax, ax_cdf) = plt.subplots(1, 2, figsize=(15, 7.5), gridspec_kw=dict(width_ratios=(3.2, 1)))
+    _phase_bands(ax, run)
+    _burn_lines(ax, run)
+    _sphere_spans(ax, run)
+    est = chaser_attitude_estimate(run)
+    if not isinstance(est, str):
+        e, _, i, _ = est
+        ax.plot(e.t[i], np.maximum(np.degrees(pointing_error_rad(e.orientation_xyzw[i], e.position[i])), floor),
+                color=ESTIMATE, lw=0.6, alpha=0.8, label="estimate's (what guidance controls)")
+    ax.plot(truth.t, np.maximum(error_deg, floor), color=TRUTH, lw=1.2, label='truth')
+    ax.axhline(POINTING_REQUIREMENT_DEG, color='r', ls='--', lw=1.1,
+               label=f'requirement: p95 <= {POINTING_REQUIREMENT_DEG:g} deg')
+    t_g, label = run.grasp
+    if t_g is not None:
+        ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label)
+    title = 'no burn: no requirement window'
+    if window is not None:
+        t0, t1 = window
+        ax.axvspan(t0, t1, ymin=0.0, ymax=0.015, color='0.15', lw=0, label='window: first burn to grasp')
+        inside = (truth.t >= t0) & (truth.t <= t1)
+        p95, peak = figures['pointing_error_p95_deg'], figures['pointing_error_max_deg']
+        if p95 is not None:
+            ax.hlines(p95, t0, t1, color='k', ls='--', lw=1.0, label=f'p95 {p95:.3g} deg ({source})')
+        if np.any(inside):
+            k = np.flatnonzero(inside)[int(np.argmax(error_deg[inside]))]
+            ax.plot(truth.t[k], error_deg[k], 'kv', ms=7, label=f'max {error_deg[k]:.3g} deg at t = {truth.t[k]:.1f} s')
+            ordered = np.sort(error_deg[inside])
+            ax_cdf.plot(np.maximum(ordered, floor), np.arange(1, len(ordered) + 1) / len(ordered) * 100.0,
+                        color=TRUTH, lw=1.4)
+        if p95 is not None:
+            ax_cdf.axvline(p95, color='k', ls='--', lw=1.0, label=f'p95 {p95:.3g} deg')
+            ax_cdf.axhline(95.0, color='k', ls=':', lw=0.8)
+        title = (f'window {t0:.1f} to {t1:.1f} s: p95 {p95:.3g} deg, max {peak:.3g} deg ({source})'
+                 if p95 is not None else f'window {t0:.1f} to {t1:.1f} s')
+    ax.set(yscale='log', ylabel='body +x from the line of sight\nto the target CoM [deg]')
+    _time_axis(ax, run)
+    ax.legend(fontsize=8, ncol=5, loc='upper center', bbox_to_anchor=(0.5, -0.12), framealpha=0.9)
+    ax_cdf.axvline(POINTING_REQUIREMENT_DEG, color='r', ls='--', lw=1.1, label='requirement')
+    ax_cdf.set(xscale='log', ylim=(0.0, 100.0), xlabel='pointing error [deg]',
+               ylabel='share of the window [%]', title='in the window (truth)')
+    ax_cdf.grid(alpha=0.3, which='both')
+    if ax_cdf.get_legend_handles_labels()[0]:
+        ax_cdf.legend(fontsize=8, loc='lower right')
+    fig.suptitle(f'{run.title}: pointing of body +x at the target centre of mass\n{title}')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def fig_wheels(run, path):
+    wheels = run.need(c.SIM_CHASER_WHEELS)
+    limits = run.need_scenario().chaser.wheels
+    speed_limit = limits.max_momentum_n_m_s / limits.spin_inertia_kg_m2
+    axes = np.asarray(limits.axes, dtype=float)
+    fig, (ax_s, ax_u) = plt.subplots(2, 1, figsize=(13, 8.5), sharex=True)
+    for ax in (ax_s, ax_u):
+        _phase_bands(ax, run, legend=ax is ax_s)
+        _burn_lines(ax, run, labels=ax is ax_s)
+        _sphere_spans(ax, run, label=ax is ax_s)
+    for k, name in enumerate(wheels.names):
+        axis = f', axis ({", ".join(f"{a:.3g}" for a in axes[k])})' if len(axes) == len(wheels.names) else ''
+        ax_s.plot(wheels.t, wheels.velocity[:, k], color=f'C{k}', lw=1.1, label=f'{name}{axis}')
+        ax_u.plot(wheels.t, wheels.effort[:, k], color=f'C{k}', lw=0.6, label=name)
+    for sign in (1.0, -1.0):
+        ax_s.axhline(sign * speed_limit, color='r', ls='--', lw=1.0,
+                     label=f'momentum limit {limits.max_momentum_n_m_s:g} N m s / {limits.spin_inertia_kg_m2:g} '
+                           f'kg m$^2$ = {speed_limit:.4g} rad/s' if sign > 0 else None)
+        ax_u.axhline(sign * limits.max_torque_n_m, color='r', ls='--', lw=1.0,
+                     label=f'torque limit {limits.max_torque_n_m:g} N m' if sign > 0 else None)
+    ax_s.secondary_yaxis('right', functions=(lambda w: w * limits.spin_inertia_kg_m2,
+                                             lambda h: h / limits.spin_inertia_kg_m2)).set_ylabel(
+        'J$_s$ x speed [N m s]')
+    peak = np.nanmax(np.abs(wheels.velocity))
+    ax_s.set(ylabel='wheel speed relative to the body [rad/s]')
+    ax_u.set(ylabel='motor torque applied [N m]\n(limits included)')
+    ax_s.legend(fontsize=8, ncol=3, loc='lower left', framealpha=0.9)
+    ax_u.legend(fontsize=8, ncol=4, loc='lower left', framealpha=0.9)
+    _time_axis(ax_s, run, xlabel=False)
+    _time_axis(ax_u, run)
+    fig.suptitle(f'{run.title}: reaction wheels (/sim/chaser/wheels)\n'
+                 f'largest |speed| {peak:.3g} rad/s = {peak / speed_limit * 100.0:.1f} % of the momentum limit')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def firing_inside_sphere(run, t, firing):
+    """How many of the samples at times t with firing (N,) true fired inside the restriction sphere: the
+    truth range below the radius at the sample or at the one before (a sample's thrust acted between
+    them), as flyby_planner.summary.thrust_figures counts; None without truth or scenario."""
+    chaser = run.get(c.SIM_CHASER_ODOM)
+    if chaser is None or run.scenario is None or not len(t):
+        return None
+    inside = np.interp(t, chaser.t, np.linalg.norm(chaser.position, axis=1)) < \
+        run.scenario.planner.restriction_sphere_radius_m
+    inside[1:] |= inside[:-1]
+    return int(np.sum(firing & inside))
+
+
+def fig_thrusters(run, path, bins=1200):
+    thrusters = run.need(c.SIM_CHASER_THRUSTERS)
+    f_max = run.need_scenario().chaser.thrusters.max_thrust_n
+    wrench = run.get(c.SIM_CHASER_THRUST)
+    t, thrust = thrusters.t, np.nan_to_num(thrusters.effort)
+    n_thrusters = thrust.shape[1]
+    # Each thruster's largest thrust in each time bin: a single firing step stays visible.
+    edges = np.linspace(0.0, max(run.t_end, t[-1]), bins + 1)
+    peak = np.zeros((bins, n_thrusters))
+    np.maximum.at(peak, np.clip(np.searchsorted(edges, t, side='right') - 1, 0, bins - 1), thrust)
+    fig = plt.figure(figsize=(14, 9))
+    grid = fig.add_gridspec(2, 2, height_ratios=(1.6, 1), width_ratios=(1, 0.015), wspace=0.02)
+    ax_r = fig.add_subplot(grid[0, 0])
+    ax_m = fig.add_subplot(grid[1, 0], sharex=ax_r)
+    _phase_bands(ax_r, run)
+    positive = thrust[thrust > 0.0]
+    vmin = max(float(positive.min()) if len(positive) else f_max * 1e-3, f_max * 1e-4)
+    image = ax_r.imshow(np.ma.masked_less_equal(peak.T, 0.0), aspect='auto', interpolation='nearest',
+                        cmap='viridis', norm=matplotlib.colors.LogNorm(vmin=vmin, vmax=f_max), zorder=2,
+                        extent=(edges[0], edges[-1], n_thrusters - 0.5, -0.5))
+    fig.colorbar(image, cax=fig.add_subplot(grid[0, 1]), label=f'thrust [N], largest in each {edges[1]:.2g} s bin')
+    ax_r.set_yticks(range(n_thrusters), thrusters.names)
+    ax_r.set(ylabel='thruster (/sim/chaser/thrusters effort)')
+    firing = np.any(thrust > 0.0, axis=1)
+    if wrench is not None:
+        torque = np.linalg.norm(wrench.torque, axis=1)
+        force = np.linalg.norm(wrench.force, axis=1)
+        firing_w = (torque > 0.0) | (force > 0.0)
+        _phase_bands(ax_m, run, legend=False)
+        floor = 1e-5  # [N], [N m]: arithmetic residues of pure forces and couples go on the bottom edge
+        for values, color, name in ((force, 'C1', '|force| [N]'), (torque, 'C3', '|torque| about the CoM [N m]')):
+            ax_m.plot(wrench.t[firing_w], np.where(values > 0.0, np.maximum(values, floor), np.nan)[firing_w], '.',
+                      color=color, ms=3, label=name)
+        ax_m.set(yscale='log', ylim=(0.5 * floor, None),
+                 ylabel=f'/sim/chaser/thrust\n[N] and [N m] (below {floor:g}:\non the bottom edge)')
+    else:
+        ax_m.text(0.5, 0.5, f'no {c.absolute(c.SIM_CHASER_THRUST)}', transform=ax_m.transAxes, ha='center')
+    for ax in (ax_r, ax_m):
+        _burn_lines(ax, run, labels=ax is ax_r)
+        _sphere_spans(ax, run)
+        _time_axis(ax, run, xlabel=ax is ax_m)
+    handles, labels = ax_m.get_legend_handles_labels()
+    if handles:
+        ax_m.legend(handles, labels, fontsize=8, ncol=3, loc='lower left', framealpha=0.9)
+    n_inside = firing_inside_sphere(run, t, firing)
+    radius = run.scenario.planner.restriction_sphere_radius_m
+    entries = ', '.join(f'{a:.1f} to {"the end" if b >= run.t_end - STEP_TOLERANCE_S else f"{b:.1f} s"}'
+                        for a, b in run.sphere) or 'never'
+    verdict = ('no firing inside' if n_inside == 0 else
+               f'{n_inside} firing samples INSIDE' if n_inside is not None else 'no truth')
+    fig.suptitle(f'{run.title}: thrust of each thruster and of all (nothing drawn: off)\n'
+                 f'inside the {radius:g} m restriction sphere (hatched): {entries}; {verdict}')
+    fig.subplots_adjust(left=0.08, right=0.93, top=0.9, bottom=0.07, hspace=0.12)
+    plots.save(fig, path, DPI)
+
+
 FIGURES = (
     ('trajectory_xz.png', fig_trajectory_xz),
     ('trajectory_3d.png', fig_trajectory_3d),
@@ -647,6 +977,12 @@ FIGURES = (
     ('maneuvers.png', fig_maneuvers),
     ('estimation.png', fig_estimation),
     ('clearance.png', fig_clearance),
+)
+RIGID_BODY_FIGURES = (  # written for chaser.model rigid_body only
+    ('attitude.png', fig_attitude),
+    ('pointing.png', fig_pointing),
+    ('wheels.png', fig_wheels),
+    ('thrusters.png', fig_thrusters),
 )
 
 
@@ -656,7 +992,7 @@ def _write(run_dir, out_dir):
     out = Path(out_dir) if out_dir is not None else Path(run_dir)
     out.mkdir(parents=True, exist_ok=True)
     written, failed = [], []
-    for name, draw in FIGURES:
+    for name, draw in FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()):
         path = out / name
         try:
             draw(run, path)
