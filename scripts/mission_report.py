@@ -398,6 +398,13 @@ def _phase_bands(ax, run, legend=True):
         seen.add(phase)
 
 
+def _grasp_line(ax, run, legend=True):
+    """The grasp time (decided, else planned) as a vertical line, if it falls within the run."""
+    t_g, label = run.grasp
+    if t_g is not None and t_g <= run.t_end + STEP_TOLERANCE_S:
+        ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label if legend else None)
+
+
 def _burn_lines(ax, run, labels=True):
     for b in run.burns:
         ax.axvline(b.t_start, color=run.kind_colors[b.kind], lw=0.9, zorder=1)
@@ -492,10 +499,8 @@ def fig_range(run, path):
     if run.scenario is not None:
         ax_r.axhline(run.scenario.planner.restriction_sphere_radius_m, color='0.4', ls=':', lw=0.9,
                      label='restriction sphere')
-    t_g, label = run.grasp
-    if t_g is not None:
-        for ax in (ax_r, ax_v):
-            ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label if ax is ax_r else None)
+    for ax in (ax_r, ax_v):
+        _grasp_line(ax, run, legend=ax is ax_r)
     ax_v.axhline(0.0, color='k', lw=0.6)
     ax_v.set(xlabel='simulation time [s]', xlim=(0.0, run.t_end))
     ax_r.legend(fontsize=8, ncol=3, loc='lower left', framealpha=0.9)
@@ -616,14 +621,12 @@ def _error_row(ax_row, run, name, unit, t, err, sig3):
     # logarithmic beyond (the first estimates are far larger).
     typical = float(np.median(sig3[len(sig3) // 2:]))
     linthresh = 10.0 ** math.ceil(math.log10(typical)) if typical > 0.0 else 1e-9
-    t_g, label = run.grasp
     for k, (ax, axis) in enumerate(zip(ax_row, 'xyz', strict=True)):
         ax.fill_between(t, -sig3[:, k], sig3[:, k], color='C0', alpha=0.2, lw=0, label='$\\pm 3\\sigma$')
         ax.plot(t, err[:, k], color='C3', lw=0.7, label='estimate - truth')
         ax.set_yscale('symlog', linthresh=linthresh)
         ax.axhline(0.0, color='k', lw=0.5)
-        if t_g is not None:
-            ax.axvline(t_g, color='darkred', ls='-.', lw=0.8, label=label)
+        _grasp_line(ax, run)
         ax.grid(alpha=0.3)
         ax.set_title(f'{name}, {axis}', fontsize=9)
         outside = np.mean(np.abs(err[:, k]) > sig3[:, k]) * 100.0
@@ -753,12 +756,10 @@ def fig_attitude(run, path):
     ax_q = fig.add_subplot(grid[0, :])
     ax_err = [fig.add_subplot(grid[1, k], sharex=ax_q) for k in range(3)]
     ax_w = fig.add_subplot(grid[2, :], sharex=ax_q)
-    t_g, label = run.grasp
     for ax in (ax_q, ax_w):
         _phase_bands(ax, run, legend=ax is ax_q)
         _burn_lines(ax, run, labels=ax is ax_q)
-        if t_g is not None:
-            ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label if ax is ax_q else None)
+        _grasp_line(ax, run, legend=ax is ax_q)
 
     q_true = continuous_quaternions(truth.orientation_xyzw)
     for k, name in enumerate('xyzw'):
@@ -829,9 +830,7 @@ def fig_pointing(run, path):
     ax.plot(truth.t, np.maximum(error_deg, floor), color=TRUTH, lw=1.2, label='truth')
     ax.axhline(POINTING_REQUIREMENT_DEG, color='r', ls='--', lw=1.1,
                label=f'requirement: p95 <= {POINTING_REQUIREMENT_DEG:g} deg')
-    t_g, label = run.grasp
-    if t_g is not None:
-        ax.axvline(t_g, color='darkred', ls='-.', lw=0.9, label=label)
+    _grasp_line(ax, run)
     title = 'no burn: no requirement window'
     if window is not None:
         t0, t1 = window
@@ -914,14 +913,17 @@ def firing_inside_sphere(run, t, firing):
     return int(np.sum(firing & inside))
 
 
-def fig_thrusters(run, path, bins=1200):
+def fig_thrusters(run, path, max_bins=1200):
     thrusters = run.need(c.SIM_CHASER_THRUSTERS)
     f_max = run.need_scenario().chaser.thrusters.max_thrust_n
     wrench = run.get(c.SIM_CHASER_THRUST)
     t, thrust = thrusters.t, np.nan_to_num(thrusters.effort)
     n_thrusters = thrust.shape[1]
-    # Each thruster's largest thrust in each time bin: a single firing step stays visible.
-    edges = np.linspace(0.0, max(run.t_end, t[-1]), bins + 1)
+    # Each thruster's largest thrust in each time bin, bins no shorter than a sample's step: a single
+    # firing step stays visible and no bin is left empty between two samples.
+    span = max(run.t_end, t[-1])
+    bins = int(min(max_bins, span / np.median(np.diff(t)))) if len(t) > 1 else 1
+    edges = np.linspace(0.0, span, bins + 1)
     peak = np.zeros((bins, n_thrusters))
     np.maximum.at(peak, np.clip(np.searchsorted(edges, t, side='right') - 1, 0, bins - 1), thrust)
     fig = plt.figure(figsize=(14, 9))
