@@ -43,7 +43,8 @@ thrusters cannot give (saturation and the minimum impulse bit) is reported once 
 (``wrench_undelivered``). An impulsive delta-v becomes a burn at the
 attitude the chaser holds when it starts: its body direction is allocated a pure force of the point-mass
 chaser's thrust (the navigation filter's burn model; the layout's largest if it gives less,
-``actuators.plan_burn``) for the rocket equation's duration; a wrench held during a burn is added on top,
+``actuators.plan_burn``, every firing thruster at least its minimum impulse bit over the burn, small burns
+re-allocated for it) for the rocket equation's duration; a wrench held during a burn is added on top,
 each thruster limited to its maximum (the burn first, ``wrench_limited_by_burn``).
 """
 
@@ -579,7 +580,8 @@ class SixDofChaser:
                               dv_cmd_hill=burn.dv_cmd_hill, dv_hill=dv_expected_hill,
                               direction_body=burn.direction_body,
                               force_n=burn.force_n, thrusts_n=burn.thrusts_n, mass_kg=burn.mass_start_kg,
-                              below_minimum_impulse=np.flatnonzero(held.below_minimum_impulse))))
+                              below_minimum_impulse=np.flatnonzero(held.below_minimum_impulse),
+                              minimum_impulse_allocated=plan.minimum_impulse_allocated)))
         if burn.late:
             lateness = burn.start_s - burn.t_cmd_s
             self._emit(Event(t_event, 'WARN', 'late_maneuver',

@@ -10,6 +10,7 @@ from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.actuators import (
     ThrusterLayout,
+    allocate_force_with_minimum_impulse,
     allocate_max_force,
     allocate_wrench,
     default_thruster_layout,
@@ -207,6 +208,68 @@ def test_burn_plan_follows_the_rocket_equation_with_the_effective_exhaust_veloci
     assert end[1] == pytest.approx(0.3, rel=1e-10)
     assert 100.0 - end[0] == pytest.approx(plan.fuel_kg, rel=1e-10)
     assert plan.mass_flow_kg_s == pytest.approx(total / ve, rel=1e-15)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.tuples(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0)).filter(
+    lambda u: np.linalg.norm(u) > 1e-3), st.floats(5e-5, 2e-3))
+def test_small_burn_fires_every_thruster_at_least_its_minimum_impulse_bit_and_delivers_the_delta_v(direction, dv):
+    """Trims of 0.05-2 mm/s from 100 kg at the point-mass chaser's 10 N (0.005-0.2 N s in all): no firing thruster is
+    below the 0.01 N s bit over the burn (fire() leaves none off), the force is the planned one along the direction
+    (to 1e-6 rad: smaller components are dropped) with no torque, and the rocket equation over the planned duration
+    gives the delta-v."""
+    u = np.array(direction) / np.linalg.norm(direction)
+    plan = plan_burn(LAYOUT, direction, dv, 100.0, 10.0)
+    f = plan.allocation.thrusts_n
+    held = fire(LAYOUT, f, plan.duration_s)
+    assert not held.below_minimum_impulse.any()
+    assert np.all(f[f > 0.0] * plan.duration_s >= LAYOUT.min_impulse_bit_n_s)
+    wrench = B @ f
+    assert np.linalg.norm(wrench[:3]) == pytest.approx(plan.allocation.force_n, rel=1e-9)
+    assert np.linalg.norm(np.cross(wrench[:3], u)) <= 1.01e-6 * plan.allocation.force_n  # components < 1e-6 dropped
+    np.testing.assert_allclose(wrench[3:], 0.0, atol=1e-9)
+    assert 0.0 < plan.allocation.force_n <= 10.0 * (1.0 + 1e-12)
+    ve = 220.0 * STANDARD_GRAVITY_M_S2
+    mass_flow = f.sum() / ve
+    assert plan.allocation.force_n / mass_flow * math.log(100.0 / (100.0 - mass_flow * plan.duration_s)) == \
+        pytest.approx(dv, rel=1e-9)
+
+
+def test_small_burn_is_reallocated_where_the_linear_program_leaves_components_below_the_bit():
+    """0.3 mm/s along (1, 0.2, 0.1) from 100 kg at 10 N lasts 3 ms: the least-thrust pure force puts 0.98 N (y) and
+    0.49 N (z) on its pairs, 3 and 1.5 mN s each, below the 0.01 N s bit, which would lose the y and z parts; the
+    re-allocation fires the y and z pairs against their opposite pairs, each at least 0.01 N s, for the same 10 N
+    and duration. A 0.1 m/s burn along it keeps the linear program's thrusts."""
+    direction = np.array([1.0, 0.2, 0.1])
+    lp = allocate_max_force(LAYOUT, direction)
+    plan = plan_burn(LAYOUT, direction, 3e-4, 100.0, 10.0)
+    lp_thrusts = lp.thrusts_n * (10.0 / lp.force_n)
+    assert fire(LAYOUT, lp_thrusts, plan.duration_s).below_minimum_impulse.sum() == 4
+    assert plan.minimum_impulse_allocated and plan.allocation.force_n == pytest.approx(10.0, rel=1e-9)
+    assert plan.duration_s == pytest.approx(100.0 * 3e-4 / 10.0, rel=1e-5)
+    assert np.count_nonzero(plan.allocation.thrusts_n) == 10  # the y and z pairs against their opposite pairs
+    large = plan_burn(LAYOUT, direction, 0.1, 100.0, 10.0)
+    assert not large.minimum_impulse_allocated
+    np.testing.assert_array_equal(large.allocation.thrusts_n, lp_thrusts)
+
+
+def test_burn_too_short_for_the_bit_at_its_force_is_lengthened():
+    """0.05 mm/s nearly along y: at 10 N the burn would last 0.5 ms and every firing thruster would need 20 N; the
+    force is halved until an allocation meets the bit (2.5 N, 2 ms)."""
+    plan = plan_burn(LAYOUT, [0.01, 1.0, 0.0], 5e-5, 100.0, 10.0)
+    assert plan.minimum_impulse_allocated and plan.allocation.force_n == pytest.approx(2.5, rel=1e-9)
+    f = plan.allocation.thrusts_n
+    assert np.all(f[f > 0.0] * plan.duration_s >= LAYOUT.min_impulse_bit_n_s)
+
+
+def test_force_with_a_thrust_floor_is_none_where_no_thruster_reaches_the_floor_and_refuses_bad_inputs():
+    assert allocate_force_with_minimum_impulse(LAYOUT, [1.0, 0.0, 0.0], 10.5) is None
+    floored = allocate_force_with_minimum_impulse(LAYOUT, [1.0, 0.0, 0.0], 3.0)
+    np.testing.assert_allclose(floored.thrusts_n[:4], [3.5, 3.5, 3.0, 3.0], atol=1e-9)  # +x pair against -x pair
+    with pytest.raises(ValueError, match='force_body_n'):
+        allocate_force_with_minimum_impulse(LAYOUT, [0.0, 0.0, 0.0], 1.0)
+    with pytest.raises(ValueError, match='floor_n'):
+        allocate_force_with_minimum_impulse(LAYOUT, [1.0, 0.0, 0.0], 0.0)
 
 
 def test_max_force_of_a_direction_rejects_a_zero_direction():

@@ -326,6 +326,23 @@ def test_impulsive_maneuver_at_an_attitude_90_deg_off_delivers_the_commanded_del
     np.testing.assert_allclose(end.q_hill_from_chaser_body * np.sign(end.q_hill_from_chaser_body[3]), q0, atol=1e-9)
 
 
+def test_small_burn_off_the_body_axes_delivers_its_delta_v_despite_the_minimum_impulse_bit():
+    """A 0.3 mm/s trim along (1, 0.2, 0.1) (far from gravity, errors off, 0.01 N s bit): at 10 N it lasts 3 ms, so the
+    least-thrust pure force would put 3 and 1.5 mN s on the y and z thrusters, below the bit, and lose a fifth of the
+    delta-v's direction; the burn fires them against their opposite pairs instead and delivers the delta-v."""
+    plant = Plant(plant_config(mu=1e-6, thrusters=dataclasses.replace(EXACT, min_impulse_bit_ns=0.01)))
+    dv = 3e-4 * np.array([1.0, 0.2, 0.1]) / np.linalg.norm([1.0, 0.2, 0.1])
+    v0 = plant.truth().v_hill
+    plant.command_maneuver(0.5, dv)
+    samples, events = step_to(plant, 1.0)
+    np.testing.assert_allclose(samples[-1].v_hill - v0, dv, rtol=0.0, atol=1e-12)
+    started, ended = (e.values for e in events)
+    assert started['minimum_impulse_allocated'] and len(started['below_minimum_impulse']) == 0
+    assert started['force_n'] == pytest.approx(10.0, rel=1e-9)
+    assert np.count_nonzero(started['thrusts_n']) == 10
+    np.testing.assert_allclose(ended['dv_delivered_hill'], dv, rtol=0.0, atol=1e-12)
+
+
 def test_burn_in_orbit_with_the_attitude_held_in_hill_delivers_dv_along_its_hill_direction():
     """On the real orbit, a spherical chaser turning with hill (omega = (0, -n, 0)) holds its attitude in hill: the
     delivered thrust acceleration, integrated in hill, is dv to 1e-6 and the sum of |dv| is |dv|."""
