@@ -245,6 +245,7 @@ class StepTotals(NamedTuple):
     thruster_thrust_n: np.ndarray
     wheel_torque_n_m: np.ndarray
     firing: bool
+    dv_thrust_hill: np.ndarray = None  # integral of the thrust acceleration over the step, hill axes [m/s]
 
 
 def _sort_key(command):
@@ -455,9 +456,9 @@ class SixDofChaser:
     def advance(self, t, t1):
         """Integrate from t to t1 [s] (one plant step), applying every command and burn on time; the step's
         means are then ``totals``."""
-        self._acc = dict(impulse_hill=[0.0] * 3, angular_impulse_hill=[0.0] * 3, force_body=[0.0] * 3,
-                         torque_body=[0.0] * 3, thruster=[0.0] * self.layout.count, wheel=[0.0] * self._nw,
-                         firing=False)
+        self._acc = dict(impulse_hill=[0.0] * 3, angular_impulse_hill=[0.0] * 3, dv_hill=[0.0] * 3,
+                         force_body=[0.0] * 3, torque_body=[0.0] * 3, thruster=[0.0] * self.layout.count,
+                         wheel=[0.0] * self._nw, firing=False)
         while t < t1:
             self._apply_due(t, t1)
             t_end = min(t1, self._next_break(t))
@@ -473,7 +474,8 @@ class SixDofChaser:
         acc, k = self._acc, 1.0 / self.step_s
         self._totals = StepTotals(np.array(acc['impulse_hill']) * k, np.array(acc['force_body']) * k,
                                   np.array(acc['torque_body']) * k, np.array(acc['angular_impulse_hill']) * k,
-                                  np.array(acc['thruster']) * k, np.array(acc['wheel']) * k, acc['firing'])
+                                  np.array(acc['thruster']) * k, np.array(acc['wheel']) * k, acc['firing'],
+                                  np.array(acc['dv_hill']))
         return self._totals
 
     def advance_idle(self):
@@ -483,7 +485,7 @@ class SixDofChaser:
     def _zero_totals(self):
         z3 = np.zeros(3)
         return StepTotals(z3, z3.copy(), z3.copy(), z3.copy(), np.zeros(self.layout.count), np.zeros(self._nw),
-                          False)
+                          False, z3.copy())
 
     def _apply_due(self, t, t_event):
         changed = False
@@ -655,6 +657,7 @@ class SixDofChaser:
             self.mass_kg = m1
             for k in range(3):
                 acc['impulse_hill'][k] += y[13 + nw + k]
+                acc['dv_hill'][k] += y[19 + nw + k]
                 acc['angular_impulse_hill'][k] += y[16 + nw + k]
                 if self._burn is not None:
                     self._burn_dv_hill[k] += y[19 + nw + k]

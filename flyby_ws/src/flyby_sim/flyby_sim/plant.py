@@ -219,6 +219,8 @@ class Plant:
         self._imu_schedule = SampleSchedule(imu.rate_hz, config.step_s)
         self._star_tracker_every = imu.star_tracker_every
         self._q_target_from_chaser = None
+        self._imu_dv_hill = [0.0, 0.0, 0.0]  # thrust delta-v since the last IMU sample, hill axes [m/s]
+        self._imu_t_last = 0.0
 
     def _events_append(self, event):
         self._events.append(event)
@@ -402,6 +404,9 @@ class Plant:
         self._y = chaser.y_translation
         self._mass_kg = chaser.mass_kg
         self._dv_total_mps = chaser.dv_total_mps
+        dv = chaser.totals.dv_thrust_hill
+        for k in range(3):
+            self._imu_dv_hill[k] += dv[k]
         imu = self._imu_measurement()  # before the truth, which holds the gyro bias of this sample
         self._last = self._truth_rigid(chaser.totals)
         self._sample(self._last)
@@ -415,7 +420,14 @@ class Plant:
         if k is None:
             return None
         chaser, t = self._chaser, self.t
-        specific_force = chaser.totals.force_body_n / chaser.mass_kg
+        # The accelerometer's velocity increment over the sample interval (the thrust acceleration integrated in
+        # hill axes, resolved in chaser_body at the sample; hill turns from inertial by n dt ~ 1e-4 rad over an
+        # interval, left out) over the interval: the mean specific force since the previous sample, so a firing
+        # shorter than the interval is sensed in full (sensors module doc).
+        q_body_from_hill = quat_conjugate(chaser.q_hill_from_body(t))
+        specific_force = quat_rotate(q_body_from_hill, self._imu_dv_hill) / (t - self._imu_t_last)
+        self._imu_dv_hill = [0.0, 0.0, 0.0]
+        self._imu_t_last = t
         # The star tracker reads at samples k = 1, 1 + every, 1 + 2 every, ...: the first IMU sample carries one,
         # so the estimator gives a chaser estimate from the first IMU stamp on.
         star_tracker = (k - 1) % self._star_tracker_every == 0

@@ -11,8 +11,14 @@ The chaser's IMU (``ImuModel``, six-degree-of-freedom chaser only; docs/chaser_6
 - gyro: omega_meas = omega_body + b + sigma_g n, n ~ N(0, I3); the bias starts at b(0) ~ N(0, sigma_b0^2 I3)
   and walks at every sample before it is read: b_k = b_(k-1) + sigma_bw sqrt(dt) m_k, m_k ~ N(0, I3), dt the
   time since the previous sample (since t = 0 for the first);
-- accelerometer: the specific force in chaser_body, the thrust force over the mass (gravity and the
-  relative-orbit terms are not sensed), plus sigma_a n.
+- accelerometer: the mean specific force in chaser_body over the interval since the previous sample (t = 0 for
+  the first), the thrust acceleration's velocity increment over the interval divided by its length (gravity and
+  the relative-orbit terms are not sensed), plus sigma_a n. A real IMU integrates its accelerometers and reports
+  the velocity increment of each interval (Savage, "Strapdown inertial navigation integration algorithm design
+  part 2: velocity and position algorithms", J. Guidance, Control, and Dynamics 21(2), 1998; Groves,
+  "Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems", 2nd ed., 2013, ch. 4), so a
+  firing shorter than the interval is sensed in full; the plant gives that increment resolved in chaser_body
+  at the sample (``plant.Plant``).
 
 Each sensor draws from its own child stream of the generator given (Generator.spawn), so adding a
 sensor, or sampling one at another rate, leaves the others' draws unchanged.
@@ -54,7 +60,7 @@ class ImuSample(NamedTuple):
 
     q_hill_from_body is the star tracker's attitude of chaser_body in hill (x, y, z, w), None between its
     samples; omega_body_meas the gyro's inertial rate in chaser_body [rad/s]; specific_force_body the
-    accelerometer's specific force in chaser_body [m/s^2].
+    accelerometer's mean specific force in chaser_body over the interval since the previous sample [m/s^2].
     """
 
     t: float
@@ -92,7 +98,8 @@ class ImuModel:
 
     def sample(self, t, star_tracker, q_hill_from_body, omega_body, specific_force_body):
         """The ImuSample at time t [s] (after the previous sample) of the true attitude, inertial rate in body
-        axes [rad/s] and specific force in body axes [m/s^2]; star_tracker: this sample includes one.
+        axes [rad/s] and mean specific force over the interval in body axes [m/s^2]; star_tracker: this sample
+        includes one.
 
         Draws per sample: gyro 3 (walk) + 3 (noise), accelerometer 3, star tracker 3 when it samples.
         """

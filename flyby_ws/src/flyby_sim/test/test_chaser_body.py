@@ -436,6 +436,25 @@ def test_imu_samples_at_its_rate_with_the_star_tracker_on_every_fifth_from_the_f
     assert imu[0].q_hill_from_body is not None and with_star[0] == imu[0].t
 
 
+def test_imu_accelerometer_senses_a_burn_shorter_than_its_interval_in_full():
+    """A 3 ms burn between two 10 Hz samples: the accelerometer reports the mean specific force over the 0.1 s
+    interval, so its value times 0.1 s is the burn's delta-v in chaser_body (noise off); the next interval, with
+    nothing firing, reads zero. The body is turned 90 deg from hill, so the increment is resolved in body axes."""
+    q0 = tuple(quat_from_axis_angle([0.0, 0.0, 1.0], math.pi / 2).tolist())
+    body = dataclasses.replace(BODY, q_hill_from_body0=q0, imu=ImuConfig(accel_noise_sigma_mps2=0.0))
+    plant = Plant(plant_config(body, mu=1e-6))
+    dv = np.array([2e-4, -1e-4, 1.5e-4])
+    plant.command_maneuver(0.52, dv)  # 0.52 s to 0.52 s + 2.7 ms, inside the interval (0.5, 0.6]
+    imu = {}
+    while plant.t < 0.75:
+        plant.step()
+        imu.update({round(m.t, 6): m.value for m in plant.measurements() if m.kind == 'chaser_imu'})
+    dv_body = quat_rotate(quat_conjugate(plant.truth().q_hill_from_chaser_body), dv)
+    np.testing.assert_allclose(imu[0.6].specific_force_body * 0.1, dv_body, rtol=0.0, atol=1e-12)
+    np.testing.assert_array_equal(imu[0.5].specific_force_body, 0.0)
+    np.testing.assert_array_equal(imu[0.7].specific_force_body, 0.0)
+
+
 def test_imu_star_tracker_and_gyro_errors_have_the_configured_statistics():
     """Star tracker sigma 0.5 deg per body axis; gyro white noise 1e-3 rad/s about the true rate plus a bias that
     walks by sigma_bw sqrt(dt) between samples (the truth reports it); specific force is thrust / mass in body."""
