@@ -66,6 +66,7 @@ from flyby_sim.dynamics.rotation import (
 )
 
 _ZERO_STATE = np.zeros((6, 1))  # the error state between updates (reset after each)
+_I6 = np.eye(6)
 DEFAULT_MOTION_THRESHOLDS = MotionThresholds()
 
 
@@ -179,7 +180,8 @@ class TargetAttitudeFilter(FilterBase):
     def state(self):
         """target_motion.PredictedState at the filter time t (last measurement or propagate_to)."""
         self._require_initialized()
-        return make_state(self._t, self._n, self._q, self._omega, self._p)
+        # P is kept exactly symmetric: 0.5 (P + P') would be P again, to the bit
+        return make_state(self._t, self._n, self._q, self._omega, self._p.copy(), symmetric=True)
 
     # -- time and measurement updates ---------------------------------------------------------------
     def propagate_to(self, t):
@@ -192,7 +194,7 @@ class TargetAttitudeFilter(FilterBase):
         q, omega, phi, qd = self.dynamics.propagate(self._q, self._omega, t - self._t, self.config.max_step_angle_rad)
         # P = Phi P Phi' + Qd: filterpy's predict arithmetic without its bookkeeping (x = Phi x stays 0:
         # x = 0 after every reset)
-        p = phi @ self._p @ phi.T + qd
+        p = phi.dot(self._p).dot(phi.T) + qd  # ndarray.dot: @'s BLAS product at half its cost per call
         self._p = 0.5 * (p + p.T)  # exactly symmetric despite rounding
         self._q, self._omega, self._t = q, omega, float(t)
 
@@ -205,10 +207,10 @@ class TargetAttitudeFilter(FilterBase):
         propagated to t); the filter keeps running.
         """
         z = np.asarray(q_hill_from_body_meas, dtype=float)
-        if z.shape != (4,) or not np.all(np.isfinite(z)) or not math.isfinite(t):
+        if z.shape != (4,) or not all(map(math.isfinite, z.tolist())) or not math.isfinite(t):
             return self._outcome('non_finite', t, reason=f'measurement at t = {t} s is not a finite quaternion and '
                                                          f'time: {q_hill_from_body_meas!r}')
-        norm = float(np.linalg.norm(z))
+        norm = math.sqrt(z.dot(z))  # np.linalg.norm's arithmetic for a vector
         if abs(norm - 1.0) > self.config.norm_tolerance:
             return self._outcome('non_unit', t, reason=f'measurement at t = {t} s has norm {norm:.6g}, not within '
                                                        f'{self.config.norm_tolerance} of 1')
@@ -243,9 +245,9 @@ class TargetAttitudeFilter(FilterBase):
         dtheta = dx[:3, 0]
         self._q = quat_normalize(quat_multiply(self._q, quat_from_rotation_vector(dtheta)))
         self._omega = self._omega + dx[3:, 0]
-        g = np.eye(6)
+        g = _I6.copy()
         g[:3, :3] -= 0.5 * skew(dtheta)
-        p = g @ p @ g.T  # P = G P G'
+        p = g.dot(p).dot(g.T)  # P = G P G'
         self._p = 0.5 * (p + p.T)
         self._accept(t, z)
         return self._outcome('accepted', t, d2, '', nu)

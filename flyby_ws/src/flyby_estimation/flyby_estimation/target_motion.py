@@ -33,7 +33,7 @@ from scipy.integrate import solve_ivp
 
 from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body, rk4_step_floats
+from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import (
     quat_normalize,
     quat_to_matrix,
@@ -67,6 +67,7 @@ class ErrorStateDynamics:
         self.torque_psd = float(torque_psd)
         self._inertia_t = tuple(map(tuple, i.tolist()))
         self._inertia_inv_t = tuple(map(tuple, self.inertia_inv.tolist()))
+        self.reference_rate_floats = reference_rate_floats(self._inertia_t, self._inertia_inv_t)
         # G Qc G': torque noise enters the rate error through I^-1.
         self.noise_density = np.zeros((6, 6))
         self.noise_density[3:, 3:] = self.torque_psd * self.inertia_inv @ self.inertia_inv.T
@@ -107,8 +108,9 @@ class ErrorStateDynamics:
         return np.concatenate((q_dot, w_dot, phi_dot.ravel(), qd_dot.ravel()))
 
     def reference_rate(self, t, y):
-        """d/dt of y = [q_eci_from_body (4), omega_body (3)], the reference motion alone."""
-        return np.concatenate(self.state_rate(y[:4].tolist(), y[4:7].tolist()))
+        """d/dt of y = [q_eci_from_body (4), omega_body (3)], the reference motion alone (``state_rate`` to the
+        bit, by ``reference_rate_floats``: DOP853 calls it some 2000 times a prediction)."""
+        return np.array(self.reference_rate_floats(y.tolist()))
 
     def propagate(self, q_eci_from_body, omega_body, dt, max_step_angle_rad=0.02, max_step_s=0.1):
         """(q, omega, Phi, Qd) after dt [s] >= 0: the filter's time update.
@@ -119,39 +121,40 @@ class ErrorStateDynamics:
         default, far under any measurement noise. The quaternion is renormalized at the end.
 
         Phi and Qd of each substep come in closed form from the reference rates at its ends
-        (``substep_transition``) instead of integrating the 72 extra states of ``augmented_rate``
-        alongside; they are chained as Phi = Phi_2 Phi_1, Qd = Phi_2 Qd_1 Phi_2' + Qd_2.
+        (``substep_transition``, with the Euler rates the RK4 stages evaluate anyway) instead of integrating
+        the 72 extra states of ``augmented_rate`` alongside; they are chained as Phi = Phi_2 Phi_1,
+        Qd = Phi_2 Qd_1 Phi_2' + Qd_2.
         """
         if not dt >= 0.0:
             raise ValueError(f'dt must be >= 0, got {dt}')
-        y = np.concatenate((q_eci_from_body, omega_body), dtype=float).tolist()
+        q_floats, w = _floats(q_eci_from_body), np.asarray(omega_body, dtype=float)
+        y = q_floats + w.tolist()
         if not dt > 0.0:
             return quat_normalize(y[:4]), np.array(y[4:]), _I6.copy(), _ZERO6.copy()
-        rate = float(np.linalg.norm(omega_body))
+        rate = math.sqrt(w.dot(w))  # np.linalg.norm's arithmetic for a vector
         # Stamps 0.1 s apart differ by 0.1 s and a few ulp: that excess must not double the steps.
         steps = max(1, math.ceil(dt / max_step_s - 1e-9), math.ceil(rate * dt / max_step_angle_rad))
         h = dt / steps
-        for k in range(steps):
-            y_next = self.reference_rk4_step(y, h)
-            phi_k, qd_k = self.substep_transition(y[4:], y_next[4:], h)
-            if k == 0:
+        rate_of = self.reference_rate_floats
+        r0 = rate_of(y)  # the substep's first RK4 stage; its last three, the Euler rates at its start (eq 4)
+        phi = qd = None
+        for _ in range(steps):
+            y1 = _rk4_step_floats(rate_of, y, h, r0)
+            r1 = rate_of(y1)
+            phi_k, qd_k = self._transition(y[4:], y1[4:], r0[4:], r1[4:], h)
+            if phi is None:
                 phi, qd = phi_k, qd_k
-            else:
-                phi, qd = phi_k @ phi, phi_k @ qd @ phi_k.T + qd_k
-            y = y_next
+            else:  # Phi = Phi_k Phi, Qd = Phi_k Qd Phi_k' + Qd_k
+                phi, qd = phi_k.dot(phi), phi_k.dot(qd).dot(phi_k.T) + qd_k
+            y, r0 = y1, r1
         return quat_normalize(y[:4]), np.array(y[4:]), phi, qd
 
     def reference_rk4_step(self, y, h):
         """One RK4 step of ``reference_rate`` from the 7 floats y = [q_eci_from_body, omega_body] (a list),
-        as a list, by ``orbital.rk4_step_floats``: the same IEEE operations in the same order as rk4_step
-        on the numpy vector, so the same result to the bit, without numpy's cost per call on seven
-        numbers (test_float_rk4_step_is_rk4_step_to_the_bit)."""
-        inertia, inertia_inv = self._inertia_t, self._inertia_inv_t
-
-        def rate(v):
-            return quaternion_rate(v[:4], v[4:]).tolist() + euler_rate(v[4:], inertia, inertia_inv).tolist()
-
-        return rk4_step_floats(lambda _, v: rate(v), 0.0, y, h)
+        as a list: the same IEEE operations in the same order as rk4_step on the numpy vector, so the same
+        result to the bit, without numpy's cost per call on seven numbers
+        (test_float_rk4_step_is_rk4_step_to_the_bit)."""
+        return _rk4_step_floats(self.reference_rate_floats, y, h, self.reference_rate_floats(y))
 
     def substep_transition(self, omega_body0, omega_body1, h):
         """(Phi, Qd) of the error state over a short step h [s] of the reference motion whose body
@@ -172,24 +175,31 @@ class ErrorStateDynamics:
         its series sum_k h^(k+1)/(k+1)! L^k(G Qc G'), L(X) = F X + X F', to k = 3: the attitude
         block, which starts at h^3/3 Qc, then has a relative error ~(|F| h)^2.
         """
-        inertia, inertia_inv = self._inertia_t, self._inertia_inv_t
-        w_dot0 = euler_rate(omega_body0, inertia, inertia_inv)
-        w_dot1 = euler_rate(omega_body1, inertia, inertia_inv)
-        w_mean = [0.5 * (a + b) + h / 12.0 * (da - db)
-                  for a, b, da, db in zip(omega_body0, omega_body1, w_dot0, w_dot1, strict=True)]
-        w_change = [b - a for a, b in zip(omega_body0, omega_body1, strict=True)]
-        f_mean, d_f = (np.array((w_mean, w_change)) @ self._f_per_omega).reshape(2, 6, 6)
-        f_mean = f_mean + self._f_constant  # d_f = F(omega_1) - F(omega_0) has no constant part
-        magnus = h * f_mean + (h * h / 12.0) * (d_f @ f_mean - f_mean @ d_f)  # -sqrt(3)/12 h^2 [F_1, F_2]
+        w0, w1 = [float(a) for a in omega_body0], [float(a) for a in omega_body1]
+        q, rate_of = [0.0, 0.0, 0.0, 1.0], self.reference_rate_floats  # the Euler rates do not depend on q
+        return self._transition(w0, w1, rate_of(q + w0)[4:], rate_of(q + w1)[4:], h)
+
+    def _transition(self, w0, w1, w_dot0, w_dot1, h):
+        """``substep_transition`` (its doc) from the body rates w0, w1 at the substep's ends and their Euler rates
+        w_dot0, w_dot1 (lists of 3 floats; the filter's RK4 stages have them). The products are ndarray.dot,
+        which runs the same BLAS product as @ (the same bits, test_time_update_is_the_previous_formulation_to_the_bit)
+        at half of @'s cost per call on 6x6 matrices."""
+        h12 = h / 12.0
+        w_mean = [0.5 * (a + b) + h12 * (da - db) for a, b, da, db in zip(w0, w1, w_dot0, w_dot1, strict=True)]
+        w_change = [b - a for a, b in zip(w0, w1, strict=True)]
+        f_mean, d_f = np.array((w_mean, w_change)).dot(self._f_per_omega).reshape(2, 6, 6)
+        f_mean = f_mean + self._f_constant  # F(omega_mean); d_f = F(omega_1) - F(omega_0) has no constant part
+        magnus = h * f_mean + (h * h / 12.0) * (d_f.dot(f_mean) - f_mean.dot(d_f))  # -sqrt(3)/12 h^2 [F_1, F_2]
         phi = _I6 + magnus / 4.0  # Horner: I + W (I + W/2 (I + W/3 (I + W/4)))
-        for k in (3.0, 2.0, 1.0):
-            phi = _I6 + (magnus @ phi) / k
+        for k in (3.0, 2.0):
+            phi = _I6 + magnus.dot(phi) / k
+        phi = _I6 + magnus.dot(phi)  # the last division is by 1
         if not self.torque_psd:
             return phi, np.zeros((6, 6))
         f = magnus / h
         x = self.noise_density
         for k in (4.0, 3.0, 2.0):  # Horner: Qd = h (Qc + h/2 L(Qc + h/3 L(Qc + h/4 L(Qc))))
-            fx = f @ x
+            fx = f.dot(x)
             x = self.noise_density + (h / k) * (fx + fx.T)
         return phi, h * x
 
@@ -224,6 +234,55 @@ class ErrorStateDynamics:
         return phi, h * x
 
 
+def reference_rate_floats(inertia, inertia_inv):
+    """The reference motion's rate on Python floats: a function of y = [q_eci_from_body (4), omega_body (3)]
+    (a sequence of 7 floats) that returns [dq/dt (4), domega/dt (3)] as a list, for the inertia and its
+    inverse (3x3 nested sequences) [kg m^2, 1/(kg m^2)].
+
+    It is ``flyby_sim.dynamics.attitude``'s quaternion_rate and euler_rate (seed 000 eq 4, torque free:
+    dq/dt = 1/2 q * (omega, 0), domega/dt = I^-1 (0 - omega x I omega)) written out with the inertia's
+    numbers bound once: the same operations in the same order, hence the same bits
+    (test_float_reference_rate_is_attitudes_to_the_bit), without their two arrays and their unpacking of
+    the inertia at every call (the filter's RK4 calls it 5 times a substep).
+    """
+    (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = inertia
+    (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = inertia_inv
+
+    def rate(y):
+        x, y_, z, w, wx, wy, wz = y
+        hx = i00 * wx + i01 * wy + i02 * wz  # h = I omega
+        hy = i10 * wx + i11 * wy + i12 * wz
+        hz = i20 * wx + i21 * wy + i22 * wz
+        bx = 0.0 - (wy * hz - wz * hy)  # M - omega x h, M = 0
+        by = 0.0 - (wz * hx - wx * hz)
+        bz = 0.0 - (wx * hy - wy * hx)
+        return [0.5 * (w * wx + y_ * wz - z * wy),
+                0.5 * (w * wy + z * wx - x * wz),
+                0.5 * (w * wz + x * wy - y_ * wx),
+                -0.5 * (x * wx + y_ * wy + z * wz),
+                j00 * bx + j01 * by + j02 * bz,
+                j10 * bx + j11 * by + j12 * bz,
+                j20 * bx + j21 * by + j22 * bz]
+
+    return rate
+
+
+def _rk4_step_floats(rate, y, h, k1):
+    """``orbital.rk4_step_floats`` of the autonomous rate(y) with k1 = rate(y) given (the caller has it): the
+    same operations in the same order, so the same bits."""
+    half = 0.5 * h
+    k2 = rate([a + half * b for a, b in zip(y, k1, strict=True)])
+    k3 = rate([a + half * b for a, b in zip(y, k2, strict=True)])
+    k4 = rate([a + h * b for a, b in zip(y, k3, strict=True)])
+    sixth = h / 6.0
+    return [a + sixth * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True)]
+
+
+def _floats(v):
+    """A vector's components as a list of Python floats."""
+    return v.tolist() if type(v) is np.ndarray and v.dtype == np.float64 else [float(a) for a in v]
+
+
 def orbit_rate_hill(n):
     """Omega^H = [0, -n, 0] [rad/s]: the hill frame's inertial angular velocity in hill axes, seed 000 eq 11."""
     return np.array((0.0, -n, 0.0))
@@ -239,9 +298,9 @@ def covariance_in_hill(c_hill_from_body, omega_body, covariance_body):
     c = np.asarray(c_hill_from_body, dtype=float)
     j = np.zeros((6, 6))
     j[:3, :3] = c
-    j[3:, :3] = -c @ skew(omega_body)
+    j[3:, :3] = (-c).dot(skew(omega_body))
     j[3:, 3:] = c
-    return j @ covariance_body @ j.T
+    return j.dot(covariance_body).dot(j.T)  # ndarray.dot: @'s BLAS products at half their cost per call
 
 
 def body_point_in_hill(c_hill_from_body, omega_body, x_body, n):
@@ -278,7 +337,6 @@ def body_point_in_hill(c_hill_from_body, omega_body, x_body, n):
     return r_hill, v_hill, j
 
 
-@dataclasses.dataclass(frozen=True)
 class PredictedState:
     """The target's attitude motion predicted to time t (or the filter's estimate at t).
 
@@ -293,15 +351,44 @@ class PredictedState:
             nav_msgs/Odometry with frame hill and child target_body: pose orientation covariance =
             covariance_hill[:3, :3] (rotation about hill axes), twist angular covariance =
             covariance[3:, 3:] (body axes, as twist is in child_frame_id).
+
+    The covariance may be given as a function of no argument that returns it (``MotionPrediction.state``:
+    most of its states are asked only for the motion, by the planner's and guidance's scans); it is then
+    computed at its first use, and covariance_hill (given or not) at its own. Read-only by convention.
     """
 
-    t: float
-    q_hill_from_body: np.ndarray
-    q_eci_from_body: np.ndarray
-    omega_body: np.ndarray
-    omega_hill: np.ndarray
-    covariance: np.ndarray
-    covariance_hill: np.ndarray
+    __slots__ = ('t', 'q_hill_from_body', 'q_eci_from_body', 'omega_body', 'omega_hill', '_covariance',
+                 '_covariance_hill', '_c_hill_from_body')
+
+    def __init__(self, t, q_hill_from_body, q_eci_from_body, omega_body, omega_hill, covariance, covariance_hill=None,
+                 c_hill_from_body=None):
+        self.t = t
+        self.q_hill_from_body = q_hill_from_body
+        self.q_eci_from_body = q_eci_from_body
+        self.omega_body = omega_body
+        self.omega_hill = omega_hill
+        self._covariance = covariance
+        self._covariance_hill = covariance_hill
+        self._c_hill_from_body = c_hill_from_body
+
+    @property
+    def covariance(self):
+        if callable(self._covariance):
+            self._covariance = self._covariance()
+        return self._covariance
+
+    @property
+    def covariance_hill(self):
+        if self._covariance_hill is None and self.covariance is not None:
+            c = self._c_hill_from_body
+            self._covariance_hill = covariance_in_hill(quat_to_matrix(self.q_hill_from_body) if c is None else c,
+                                                       self.omega_body, self._covariance)
+        return self._covariance_hill
+
+    def __repr__(self):
+        return (f'PredictedState(t={self.t!r}, q_hill_from_body={self.q_hill_from_body!r}, q_eci_from_body='
+                f'{self.q_eci_from_body!r}, omega_body={self.omega_body!r}, omega_hill={self.omega_hill!r}, '
+                f'covariance={self.covariance!r}, covariance_hill={self.covariance_hill!r})')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -314,15 +401,19 @@ class BodyPointPrediction:
     covariance: np.ndarray  # [m^2, m^2/s, m^2/s^2]
 
 
-def make_state(t, n, q_eci_from_body_, omega_body, covariance):
-    """PredictedState from the inertial reference state and error covariance (or None) at t."""
+def make_state(t, n, q_eci_from_body_, omega_body, covariance, symmetric=False):
+    """PredictedState from the inertial reference state and error covariance (or None) at t.
+
+    The covariance is made exactly symmetric, 0.5 (P + P'), unless ``symmetric`` says it is already (that
+    would give it back unchanged, to the bit); it may then also be a function that returns it, called at its
+    first use (PredictedState).
+    """
+    if covariance is not None and not symmetric:
+        covariance = 0.5 * (covariance + covariance.T)
     q_hb = q_hill_from_body(t, n, q_eci_from_body_)
     c = quat_to_matrix(q_hb)
-    w = np.asarray(omega_body, dtype=float).copy()
-    p = None if covariance is None else 0.5 * (covariance + covariance.T)
-    return PredictedState(t=float(t), q_hill_from_body=q_hb, q_eci_from_body=np.asarray(q_eci_from_body_).copy(),
-                          omega_body=w, omega_hill=c @ w, covariance=p,
-                          covariance_hill=None if p is None else covariance_in_hill(c, w, p))
+    w = np.array(omega_body, dtype=float)
+    return PredictedState(float(t), q_hb, np.array(q_eci_from_body_), w, c @ w, covariance, None, c)
 
 
 def point_prediction(state, x_body, n):
@@ -402,12 +493,16 @@ class MotionPrediction:
             self._dense = lambda t: np.repeat(y0[:, None], np.size(t), axis=1) if np.ndim(t) else y0
 
     def state(self, t):
-        """PredictedState at t [s] in [t0, t_end]."""
+        """PredictedState at t [s] in [t0, t_end]; its covariance is computed at its first use."""
         if not (self.t0 <= t <= self.t_end):
             raise ValueError(f't = {t} s is outside the predicted interval [{self.t0}, {self.t_end}] s')
         y = self._dense(t)
-        p = None if self._p0 is None else self._covariance(np.array((t,), dtype=float), slice(None))[0]
-        return make_state(t, self._n, quat_normalize(y[:4].tolist()), y[4:7], p)
+        return make_state(t, self._n, quat_normalize(y[:4].tolist()), y[4:7],
+                          None if self._p0 is None else lambda: self._symmetric_covariance(t), symmetric=True)
+
+    def _symmetric_covariance(self, t):
+        p = self._covariance(np.array((t,), dtype=float), slice(None))[0]
+        return 0.5 * (p + p.T)
 
     @property
     def has_covariance(self):
@@ -445,10 +540,12 @@ class MotionPrediction:
         nodes = np.linspace(self.t0, self.t_end, steps + 1)
         w = self._dense(nodes)[4:7].T
         phi, qd = dyn.substep_transition_many(w[:-1], w[1:], np.diff(nodes))
-        p = np.empty((steps + 1, 6, 6))
-        p[0] = p_k = self._p0
-        for k in range(steps):
-            p[k + 1] = p_k = phi[k] @ p_k @ phi[k].T + qd[k]  # P_k+1 = Phi_k P_k Phi_k' + Qd_k
+        p_k = self._p0
+        chained = [p_k]
+        for phi_k, qd_k in zip(phi, qd, strict=True):
+            p_k = phi_k.dot(p_k).dot(phi_k.T) + qd_k  # P_k+1 = Phi_k P_k Phi_k' + Qd_k (ndarray.dot: @'s product)
+            chained.append(p_k)
+        p = np.array(chained)
         fp = dyn.jacobian_many(w) @ p
         return nodes, p, fp + np.swapaxes(fp, 1, 2) + dyn.noise_density  # dP/dt = F P + P F' + G Qc G'
 

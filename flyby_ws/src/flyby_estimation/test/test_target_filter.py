@@ -20,14 +20,17 @@ from flyby_estimation.target_filter import (
     TargetFilterConfig,
     target_filter_config_from_scenario,
 )
-from flyby_sim.dynamics.orbital import quat_eci_from_hill
+from flyby_estimation.target_motion import make_state
+from flyby_sim.dynamics.orbital import q_eci_from_body, quat_eci_from_hill
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_from_axis_angle,
+    quat_from_rotation_vector,
     quat_multiply,
     quat_normalize,
     quat_to_matrix,
     rotation_vector_from_quat,
+    skew,
 )
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario, scenario_from_dict
@@ -475,3 +478,85 @@ def test_the_estimator_skips_a_batch_check_over_more_samples_than_the_scenario_a
     skipped = [e for e in events if e.name == 'target_filter_check']
     assert len(skipped) == 1 and skipped[0].level == 'WARN' and 'more than 50 measurements' in skipped[0].message
     assert any(e.name == 'target_converged' for e in events)
+
+
+class PreviousFilter(TargetAttitudeFilter):
+    """The measurement update and state() as they were before issue 12's throughput work (np.linalg.inv,
+    np.eye, np.linalg.norm, np.isfinite, make_state's symmetrization of P): the reference the filter must
+    equal to the bit. The time update is the filter's own (test_target_motion checks it against its previous
+    formulation)."""
+
+    def state(self):
+        self._require_initialized()
+        return make_state(self._t, self._n, self._q, self._omega, self._p)
+
+    def update(self, t, q_hill_from_body_meas):
+        z = np.asarray(q_hill_from_body_meas, dtype=float)
+        if z.shape != (4,) or not np.all(np.isfinite(z)) or not math.isfinite(t):
+            return self._outcome('non_finite', t, reason='non finite')
+        norm = float(np.linalg.norm(z))
+        if abs(norm - 1.0) > self.config.norm_tolerance:
+            return self._outcome('non_unit', t, reason='non unit')
+        z = z / norm
+        q_eci_meas = q_eci_from_body(t, self._n, z)
+        if not self.initialized:
+            self._initialize(t, q_eci_meas, z)
+            return self._outcome('initialized', t)
+        if t < self._t:
+            return self._outcome('stale', t, reason='stale')
+        self.propagate_to(t)
+        nu = rotation_vector_from_quat(quat_multiply(quat_conjugate(self._q), q_eci_meas))
+        s_inv = np.linalg.inv(self._p[:3, :3] + self._r)
+        d2 = float(nu @ s_inv @ nu)
+        k = self._p[:, :3] @ s_inv
+        i_kh = np.eye(6)
+        i_kh[:, :3] -= k
+        dx, p = np.zeros((6, 1)) + k @ nu[:, None], i_kh @ self._p @ i_kh.T + k @ self._r @ k.T
+        verdict = self._gate_verdict(d2)
+        if verdict != 'pass':
+            if verdict == 'reset':
+                self._initialize(t, q_eci_meas, z)
+                return self._outcome('reset', t, d2, 'reset', nu)
+            return self._outcome('outlier', t, d2, 'outlier', nu)
+        dtheta = dx[:3, 0]
+        self._q = quat_normalize(quat_multiply(self._q, quat_from_rotation_vector(dtheta)))
+        self._omega = self._omega + dx[3:, 0]
+        g = np.eye(6)
+        g[:3, :3] -= 0.5 * skew(dtheta)
+        p = g @ p @ g.T
+        self._p = 0.5 * (p + p.T)
+        self._accept(t, z)
+        return self._outcome('accepted', t, d2, '', nu)
+
+
+@pytest.mark.parametrize('name, rate_deg_s', [('paper_flyby', None), ('seweryn_tumbling', 13.0)])
+def test_filter_is_its_previous_formulation_to_the_bit(name, rate_deg_s):
+    """120 s of the plant's vision measurements (paper_flyby's 5 deg/s spin, one substep per cycle; the tumbler
+    slowed to 13 deg/s, two), a 30 deg outlier and a gap of 1 s: every outcome, q, omega, P and state() of
+    the filter equal those of its previous formulation (PreviousFilter), to the bit."""
+    scenario = load_scenario(SCENARIOS / f'{name}.yaml')
+    if rate_deg_s is not None:
+        d = scenario.to_dict()
+        w = np.asarray(d['target']['initial_rate']['omega_body_rad_s'], dtype=float)
+        d['target']['initial_rate']['omega_body_rad_s'] = (w * math.radians(rate_deg_s) / np.linalg.norm(w)).tolist()
+        scenario = scenario_from_dict(d, name=f'{name} at {rate_deg_s} deg/s')
+    plant = Plant(plant_config_from_scenario(scenario))
+    config = target_filter_config_from_scenario(scenario)
+    new, old = TargetAttitudeFilter(config), PreviousFilter(config)
+    fused = 0
+    while plant.t < 120.0:
+        plant.step()
+        for m in plant.measurements():
+            if m.kind != 'target_attitude' or 50.0 < m.t < 51.0:
+                continue
+            z = m.value if abs(m.t - 30.0) > 0.01 else quat_multiply(m.value, quat_from_axis_angle([1.0, 1.0, 0.0],
+                                                                                                  30 * DEG))
+            a, b = new.update(m.t, z), old.update(m.t, z)
+            assert (a.kind, a.nis) == (b.kind, b.nis) or (math.isnan(a.nis) and math.isnan(b.nis))
+            fused += a.kind == 'accepted'
+            s, r = new.state(), old.state()
+            for field in ('q_hill_from_body', 'q_eci_from_body', 'omega_body', 'omega_hill', 'covariance',
+                          'covariance_hill'):
+                np.testing.assert_array_equal(getattr(s, field), getattr(r, field))
+            assert s.t == r.t and new.convergence() == old.convergence()
+    assert fused > 1000 and new.counts == old.counts and new.counts['outlier'] == 1

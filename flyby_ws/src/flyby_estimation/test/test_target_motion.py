@@ -21,8 +21,8 @@ from flyby_estimation.target_motion import (
     orbit_rate_hill,
     prediction_from_estimate,
 )
-from flyby_sim.dynamics.attitude import AttitudePropagator
-from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body, rk4_step
+from flyby_sim.dynamics.attitude import AttitudePropagator, euler_rate, quaternion_rate
+from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body, rk4_step, rk4_step_floats
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_from_rotation_vector,
@@ -372,3 +372,130 @@ def test_published_covariance_blocks_round_trip_and_propagate():
     assert sigma[-1] > sigma[0]
     with pytest.raises(ValueError, match='no covariance'):
         prediction_from_estimate(dynamics, n, 10.0, q, omega_body, 400.0).attitude_sigma_rad(times)
+
+
+# -- the time update and the states as they were computed before (issue 12's throughput work), to the bit ------
+
+def previous_propagate(dyn, q, omega, dt, max_step_angle_rad=0.02, max_step_s=0.1):
+    """ErrorStateDynamics.propagate as it was: rates by flyby_sim's quaternion_rate and euler_rate (arrays), one
+    substep_transition call per substep with its own two Euler rates, 2D products."""
+    inertia, inertia_inv = tuple(map(tuple, dyn.inertia.tolist())), tuple(map(tuple, dyn.inertia_inv.tolist()))
+
+    def rate(_, v):
+        return quaternion_rate(v[:4], v[4:]).tolist() + euler_rate(v[4:], inertia, inertia_inv).tolist()
+
+    def transition(w0, w1, h):
+        w_dot0, w_dot1 = euler_rate(w0, inertia, inertia_inv), euler_rate(w1, inertia, inertia_inv)
+        w_mean = [0.5 * (a + b) + h / 12.0 * (da - db) for a, b, da, db in zip(w0, w1, w_dot0, w_dot1, strict=True)]
+        w_change = [b - a for a, b in zip(w0, w1, strict=True)]
+        f_mean, d_f = (np.array((w_mean, w_change)) @ dyn._f_per_omega).reshape(2, 6, 6)
+        f_mean = f_mean + dyn._f_constant
+        magnus = h * f_mean + (h * h / 12.0) * (d_f @ f_mean - f_mean @ d_f)
+        phi = np.eye(6) + magnus / 4.0
+        for k in (3.0, 2.0, 1.0):
+            phi = np.eye(6) + (magnus @ phi) / k
+        if not dyn.torque_psd:
+            return phi, np.zeros((6, 6))
+        f, x = magnus / h, dyn.noise_density
+        for k in (4.0, 3.0, 2.0):
+            fx = f @ x
+            x = dyn.noise_density + (h / k) * (fx + fx.T)
+        return phi, h * x
+
+    y = np.concatenate((q, omega), dtype=float).tolist()
+    if not dt > 0.0:
+        return quat_normalize(y[:4]), np.array(y[4:]), np.eye(6), np.zeros((6, 6))
+    rate_norm = float(np.linalg.norm(omega))
+    steps = max(1, math.ceil(dt / max_step_s - 1e-9), math.ceil(rate_norm * dt / max_step_angle_rad))
+    h = dt / steps
+    phi = qd = None
+    for _ in range(steps):
+        y_next = rk4_step_floats(rate, 0.0, y, h)
+        phi_k, qd_k = transition(y[4:], y_next[4:], h)
+        phi, qd = (phi_k, qd_k) if phi is None else (phi_k @ phi, phi_k @ qd @ phi_k.T + qd_k)
+        y = y_next
+    return quat_normalize(y[:4]), np.array(y[4:]), phi, qd
+
+
+inertias = st.tuples(*[st.floats(100.0, 5000.0)] * 3, *[st.floats(-50.0, 50.0)] * 3).map(
+    lambda v: np.diag(v[:3]) + np.array(((0.0, v[3], v[4]), (v[3], 0.0, v[5]), (v[4], v[5], 0.0))))
+
+
+@settings(max_examples=60, deadline=None)
+@given(inertias, st.booleans(), st.tuples(*[st.floats(-0.3, 0.3)] * 3), st.sampled_from((0.0, 0.05, 0.1, 0.3, 1.0)),
+       st.sampled_from((0.0, 1e-10, 1e-4)))
+def test_time_update_is_the_previous_formulation_to_the_bit(inertia, principal, omega, dt, torque_psd):
+    """propagate (float rates, the substeps' transitions in one stacked call, the Euler rates of the RK4 steps
+    reused) gives the q, omega, Phi and Qd of the per-substep formulation it replaced, to the bit: 1 to 8
+    substeps, principal and general inertia, with and without torque noise."""
+    dyn = ErrorStateDynamics(np.diag(np.diag(inertia)) if principal else inertia, torque_psd)
+    for got, expected in zip(dyn.propagate(Q0, np.array(omega), dt), previous_propagate(dyn, Q0, np.array(omega), dt),
+                             strict=True):
+        np.testing.assert_array_equal(got, expected)
+
+
+@settings(max_examples=100, deadline=None)
+@given(inertias, st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: np.linalg.norm(q) > 0.1),
+       st.tuples(*[st.floats(-0.5, 0.5)] * 3))
+def test_float_reference_rate_is_attitudes_to_the_bit(inertia, q, omega):
+    """reference_rate_floats (and reference_rate, DOP853's) is flyby_sim's quaternion_rate and euler_rate
+    (seed 000 eq 4), to the bit."""
+    dyn = ErrorStateDynamics(inertia)
+    inertia_t, inertia_inv_t = tuple(map(tuple, dyn.inertia.tolist())), tuple(map(tuple, dyn.inertia_inv.tolist()))
+    expected = np.concatenate((quaternion_rate(q, omega), euler_rate(omega, inertia_t, inertia_inv_t)))
+    np.testing.assert_array_equal(dyn.reference_rate_floats(list(q) + list(omega)), expected)
+    np.testing.assert_array_equal(dyn.reference_rate(0.0, np.array(list(q) + list(omega))), expected)
+
+
+def test_substep_transition_is_the_previous_formulation_to_the_bit():
+    """substep_transition (one substep of the stacked closed form) is the one-substep time update's Phi and Qd."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
+    _, w1, phi, qd = previous_propagate(dyn, Q0, OMEGA_TUMBLER, 0.01)  # one substep of 0.01 s
+    phi_new, qd_new = dyn.substep_transition(OMEGA_TUMBLER, w1, 0.01)
+    np.testing.assert_array_equal(phi_new, phi)
+    np.testing.assert_array_equal(qd_new, qd)
+
+
+def test_states_compute_their_covariance_at_first_use_as_before():
+    """MotionPrediction.state's covariance (now computed when first asked for) and covariance_hill are those
+    computed with the state before: 0.5 (P + P') of the interpolated P and covariance_in_hill of it, to the
+    bit; make_state(symmetric=True) of an exactly symmetric P is make_state of it."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
+    a = np.random.default_rng(2).standard_normal((6, 6))
+    p0 = a @ a.T * 1e-6
+    prediction = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, p0, 400.0)
+    for t in (10.0, 123.4, 400.0):
+        s = prediction.state(t)
+        p = prediction._covariance(np.array((t,)), slice(None))[0]
+        expected = make_state(t, N, s.q_eci_from_body, s.omega_body, p)
+        np.testing.assert_array_equal(s.covariance, expected.covariance)
+        np.testing.assert_array_equal(s.covariance_hill, expected.covariance_hill)
+        np.testing.assert_array_equal(s.omega_hill, expected.omega_hill)
+        np.testing.assert_array_equal(s.q_hill_from_body, expected.q_hill_from_body)
+        assert s.t == expected.t == t
+        same = make_state(t, N, s.q_eci_from_body, s.omega_body, expected.covariance, symmetric=True)
+        np.testing.assert_array_equal(same.covariance, expected.covariance)
+        np.testing.assert_array_equal(same.covariance_hill, expected.covariance_hill)
+    assert 'covariance_hill=array' in repr(prediction.state(20.0))
+    bare = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, None, 400.0, with_covariance=False).state(50.0)
+    assert bare.covariance is None and bare.covariance_hill is None
+
+
+def test_covariance_nodes_are_the_previous_chain_to_the_bit():
+    """The prediction's covariance at its substep ends (P_k+1 = Phi_k P_k Phi_k' + Qd_k, now with ndarray.dot) is
+    the chain as it was computed before (@ into a preallocated stack), to the bit."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
+    a = np.random.default_rng(3).standard_normal((6, 6))
+    p0 = a @ a.T * 1e-6
+    prediction = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, p0, 300.0)
+    nodes, p, p_dot = prediction._covariance_nodes()
+    w = prediction._dense(nodes)[4:7].T
+    phi, qd = dyn.substep_transition_many(w[:-1], w[1:], np.diff(nodes))
+    expected = np.empty((nodes.size, 6, 6))
+    expected[0] = p_k = p0
+    for k in range(nodes.size - 1):
+        expected[k + 1] = p_k = phi[k] @ p_k @ phi[k].T + qd[k]
+    np.testing.assert_array_equal(p, expected)
+    fp = dyn.jacobian_many(w) @ expected
+    np.testing.assert_array_equal(p_dot, fp + np.swapaxes(fp, 1, 2) + dyn.noise_density)
+    assert nodes.size > 100
