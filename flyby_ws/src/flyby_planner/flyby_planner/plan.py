@@ -38,12 +38,14 @@ Steps (seed 000 section 4.4: "multiple candidates ... over a period of rotations
 
 import collections
 import dataclasses
+import functools
 import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.linalg import solve_discrete_are
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
+from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction, body_point_in_hill
 from flyby_planner.grasp import flyby_initial_point, flyby_target_point, grasp_candidates
 from flyby_planner.keepout import swept_region
 from flyby_planner.transfer import terminal_impulses
@@ -82,6 +84,69 @@ LAST_BURN_SLACK_M = 2.0
 UNCERTAINTY_SIGMAS = 3.0
 # Points of the terminal transfer checked against the restriction sphere.
 _TRANSFER_SAMPLES = 60
+# The target filter's covariance is predicted over substeps that turn the body by at most this [rad] and last at
+# most this [s]: against 0.1 s / 0.01 rad substeps its sigmas agree to 2 % over 600 s (envelope runs 1, 40, 43,
+# 77, 95, 153, 400; docs/planner.md).
+_COVARIANCE_STEP_RAD = 0.3
+_COVARIANCE_STEP_S = 20.0
+
+
+@dataclasses.dataclass(frozen=True)
+class EstimateAccuracy:
+    """What the planner predicts the estimators will know at the last burn, from their sensors and tuning
+    (scenario sections sensors and estimation; module doc, step 4).
+
+    Attributes:
+        position_sigma_m, position_rate_hz: relative-position sensor, 1 sigma per hill axis [m] and rate [Hz].
+        accel_psd_m2_s3: the navigation filter's white-acceleration density q [m^2/s^3].
+        attitude_sigma_rad, attitude_rate_hz: vision attitude sensor, 1 sigma per body axis [rad] and rate [Hz].
+        torque_psd_n2m2s: the target filter's torque-noise density [N^2 m^2 s].
+        converged_attitude_3sigma_rad, converged_rate_3sigma_rad_s: the target filter's convergence bounds; the
+            plan's estimate is converged, so its covariance is within them.
+    """
+
+    position_sigma_m: float
+    position_rate_hz: float
+    accel_psd_m2_s3: float
+    attitude_sigma_rad: float
+    attitude_rate_hz: float
+    torque_psd_n2m2s: float
+    converged_attitude_3sigma_rad: float
+    converged_rate_3sigma_rad_s: float
+
+    def __post_init__(self):
+        for name in ('position_sigma_m', 'position_rate_hz', 'attitude_sigma_rad', 'attitude_rate_hz',
+                     'converged_attitude_3sigma_rad', 'converged_rate_3sigma_rad_s'):
+            require_positive(name, getattr(self, name))
+        for name in ('accel_psd_m2_s3', 'torque_psd_n2m2s'):
+            require_positive(name, getattr(self, name), allow_zero=True)
+
+    @functools.cached_property
+    def navigation_covariance(self):
+        """6x6 covariance of the navigation estimate [r; v] (hill; m, m/s) between burns: the steady state (a
+        posteriori) of its per-axis Kalman filter, Phi = [[1, dt], [0, 1]], Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]],
+        H = [1 0], R = sigma^2 at dt = 1 / rate (flyby_estimation.relative_nav, whose CW coupling over dt is
+        O(n dt) ~ 1e-4). Flown envelope runs report this sigma at their last burn to the fourth digit."""
+        dt = 1.0 / self.position_rate_hz
+        q = self.accel_psd_m2_s3
+        phi = np.array(((1.0, dt), (0.0, 1.0)))
+        h = np.array(((1.0, 0.0),))
+        r = self.position_sigma_m ** 2
+        prior = solve_discrete_are(phi.T, h.T, q * np.array(((dt ** 3 / 3.0, dt ** 2 / 2.0), (dt ** 2 / 2.0, dt))),
+                                   np.array(((r,),)))
+        axis = prior - prior @ h.T @ h @ prior / (prior[0, 0] + r)  # P+ = P- - P- H' (H P- H' + R)^-1 H P-
+        cov = np.zeros((6, 6))
+        for k in range(3):
+            cov[np.ix_((k, k + 3), (k, k + 3))] = axis
+        return cov
+
+    @property
+    def converged_covariance(self):
+        """6x6 bound of the converged target estimate's covariance of [dtheta_body, domega_body]: each block's
+        worst direction at its convergence bound, and twice that (a covariance is at most twice its
+        block-diagonal part, whatever the attitude-rate correlation)."""
+        return 2.0 * np.diag([(self.converged_attitude_3sigma_rad / 3.0) ** 2] * 3
+                             + [(self.converged_rate_3sigma_rad_s / 3.0) ** 2] * 3)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,7 +171,6 @@ class PlannerConfig:
     flyby_duration_max_s: float | None = None
     restriction_sphere_radius_m: float = 15.0
     sphere_margin_m: float = 1.0
-    max_unguided_coast_s: float = math.inf
     clearance_margin_m: float = 0.1
     escape_check_orbits: float = 1.0
     geometry_window_s: float = 300.0
@@ -123,13 +187,20 @@ class PlannerConfig:
     max_delta_v_per_maneuver_mps: float = math.inf
     impulse_error_sigma: float = 0.0
     midcourse_corrections: int = 1
+    accuracy: EstimateAccuracy | None = None
+    position_tolerance_m: float = math.inf
+    velocity_tolerance_mps: float = math.inf
+    adjust_interval_s: float = 20.0
+    command_lead_s: float = 5.0
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
                      'restriction_sphere_radius_m', 'escape_check_orbits', 'max_rate_rad_s', 'maneuver_lead_s',
-                     'transfer_min_s', 'transfer_max_s'):
+                     'transfer_min_s', 'transfer_max_s', 'adjust_interval_s'):
             require_positive(name, getattr(self, name))
-        require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
+        for name in ('max_delta_v_per_maneuver_mps', 'position_tolerance_m', 'velocity_tolerance_mps'):
+            require_positive(name, getattr(self, name), allow_inf=True)
+        require_positive('command_lead_s', self.command_lead_s, allow_zero=True)
         require_positive('impulse_error_sigma', self.impulse_error_sigma, allow_zero=True)
         if self.midcourse_corrections < 0:
             raise ValueError(f'midcourse_corrections must be >= 0, got {self.midcourse_corrections}')
@@ -210,7 +281,7 @@ def planner_config_from_scenario(scenario):
         offset_m=p.offset_m, offset_min_m=min(p.offset_min_m, p.offset_m), offset_max_m=scenario.offset_max_m,
         flyby_duration_s=p.flyby_duration_s, flyby_duration_max_s=max(p.flyby_duration_max_s, p.flyby_duration_s),
         restriction_sphere_radius_m=p.restriction_sphere_radius_m, sphere_margin_m=scenario.guidance.sphere_margin_m,
-        max_unguided_coast_s=p.max_unguided_coast_s, clearance_margin_m=p.clearance_margin_m,
+        clearance_margin_m=p.clearance_margin_m,
         escape_check_orbits=p.escape_check_orbits, geometry_window_s=p.geometry_window_s,
         geometry_attitude_margin_rad=math.radians(p.geometry_attitude_margin_deg),
         geometry_rate_margin_rad_s=math.radians(p.geometry_rate_margin_deg_s),
@@ -223,7 +294,22 @@ def planner_config_from_scenario(scenario):
         max_delta_v_per_maneuver_mps=scenario.chaser.thrusters.max_delta_v_per_maneuver_mps,
         impulse_error_sigma=math.hypot(scenario.chaser.thrusters.magnitude_error_sigma,
                                        math.radians(scenario.chaser.thrusters.direction_error_sigma_deg)),
-        midcourse_corrections=scenario.guidance.midcourse_corrections)
+        midcourse_corrections=scenario.guidance.midcourse_corrections,
+        accuracy=estimate_accuracy_from_scenario(scenario),
+        position_tolerance_m=scenario.chaser.manipulator.position_tolerance_m,
+        velocity_tolerance_mps=scenario.chaser.manipulator.velocity_tolerance_mps,
+        adjust_interval_s=scenario.guidance.adjust_interval_s, command_lead_s=scenario.guidance.command_lead_s)
+
+
+def estimate_accuracy_from_scenario(scenario):
+    """EstimateAccuracy of a scenario's sensors and estimation sections."""
+    s, e = scenario.sensors, scenario.estimation
+    return EstimateAccuracy(
+        position_sigma_m=s.relative_position.noise_sigma_m, position_rate_hz=s.relative_position.rate_hz,
+        accel_psd_m2_s3=e.accel_psd_m2_s3, attitude_sigma_rad=math.radians(s.target_attitude.noise_sigma_deg),
+        attitude_rate_hz=s.target_attitude.rate_hz, torque_psd_n2m2s=e.torque_psd_n2m2s,
+        converged_attitude_3sigma_rad=math.radians(e.convergence_attitude_3sigma_deg),
+        converged_rate_3sigma_rad_s=math.radians(e.convergence_rate_3sigma_deg_s))
 
 
 def truth_prediction(scenario, t_end):
@@ -248,6 +334,9 @@ class Candidate:
     from X_Fi to the grasp and over the escape (module doc, step 4); None when not propagated.
     closest: what the least gap is to (a box name from the predicted geometry, or 'swept region').
     t_sphere_entry: when the passive path enters the restriction sphere.
+    unguided_coast_s: from the last burn guidance can fly (where the arc is still LAST_BURN_SLACK_M beyond the
+    sphere and its burn margin, or the injection at t_i) to the grasp.
+    miss_3sigma_m, miss_3sigma_mps: the predicted 3-sigma miss at the grasp (module doc, step 4), worst direction.
     """
 
     t_grasp: float
@@ -273,6 +362,8 @@ class Candidate:
     t_min_clearance: float | None = None
     t_sphere_entry: float | None = None
     unguided_coast_s: float | None = None
+    miss_3sigma_m: float | None = None
+    miss_3sigma_mps: float | None = None
 
     @property
     def dv_total_mps(self):
@@ -301,6 +392,7 @@ class Candidate:
             'clearance_escape_m': _rounded(self.clearance_escape_m), 'closest': self.closest,
             't_min_clearance_s': _rounded(self.t_min_clearance),
             't_sphere_entry_s': _rounded(self.t_sphere_entry), 'unguided_coast_s': _rounded(self.unguided_coast_s),
+            'miss_3sigma_m': _rounded(self.miss_3sigma_m), 'miss_3sigma_mps': _rounded(self.miss_3sigma_mps),
         }
 
 
@@ -395,8 +487,17 @@ class _Passage:
     """The passive path through one (grasp instant, offset): X_Ft, V_Ft at t_grasp, coasted back
     over the longest fly-by and on over the escape; its clearance profile on tau = t - t_grasp.
 
-    tau (M,), gap (M,) [m] (the larger of the swept-region gap and the predicted-geometry gap less
-    its uncertainty), closest (M,) what each gap is to, radius (M,) |r| [m] on the coarse samples.
+    tau (M,) and, per sample, gap (M,) [m] (with the fixed uncertainty model, or before any chaser dispersion: the
+    larger of the swept-region gap and the predicted-geometry gap less the target's uncertainty), closest (M,) what
+    it is to; r_tau (M',), radius (M',) |r| [m] on the coarse samples; coast_s, the unguided coast from the last
+    burn guidance can fly on this arc to the grasp (guidance.py, arc law: where the arc is still LAST_BURN_SLACK_M
+    beyond the sphere and its burn margin; the whole back span if it never is).
+
+    With the planner's uncertainty model (_TargetUncertainty) also, per sample: swept (M,) the swept-region gap,
+    predicted (M,) the predicted-geometry gap before any uncertainty (-inf where not sampled), lever (M,) |r| times
+    the target estimate's 1-sigma attitude error there (seen from the estimate the last burn is computed from, at
+    t_estimate), window (M,) whether the sample is within geometry_window_s of the grasp; and target_miss_cov, the
+    6x6 covariance of X_Ft, V_Ft at the grasp from that estimate's error (seed 000 eq 8-9 and 20-21 linearized).
     """
 
     t_grasp: float
@@ -406,6 +507,129 @@ class _Passage:
     r_tau: np.ndarray
     radius: np.ndarray
     path: object  # tau (relative to t_grasp) -> (3, len(tau)) hill positions
+    coast_s: float = None
+    t_estimate: float = None
+    swept: np.ndarray = None
+    predicted: np.ndarray = None
+    lever: np.ndarray = None
+    window: np.ndarray = None
+    names: np.ndarray = None
+    target_miss_cov: np.ndarray = None
+
+    def profile(self, chaser_cov, n):
+        """(gap (M,), closest (M,)) with the chaser's dispersion counted (module doc, step 4): chaser_cov, the 6x6
+        covariance of its state error at t_estimate, carried along CW (seed 000 eq 22) to each sample of the
+        window after it; gap = the larger of swept - 3 sigma_c and predicted - 3 sqrt((|r| sigma_att)^2 +
+        sigma_c^2), sigma_c the chaser's 1-sigma position error along its worst direction. None (or a passage
+        without the uncertainty model): the gap as computed."""
+        if chaser_cov is None or self.swept is None:
+            return self.gap, self.closest
+        # On a grid of _PATH_STEP_S over the window, interpolated to the samples (it grows smoothly).
+        tau = self.tau[self.window]
+        sigma_c = np.zeros(len(self.tau))
+        if tau.size:
+            grid = np.arange(tau.min(), tau.max() + _PATH_STEP_S, _PATH_STEP_S)
+            stm = cw_transition_matrix(n, np.maximum(self.t_grasp + grid - self.t_estimate, 0.0))[:, :3, :]  # eq 22
+            spread = np.einsum('mij,jk,mlk->mil', stm, chaser_cov, stm)
+            sigma_c[self.window] = np.interp(tau, grid, np.sqrt(_largest_eigenvalue(spread)))
+        swept = self.swept - UNCERTAINTY_SIGMAS * sigma_c
+        predicted = self.predicted - UNCERTAINTY_SIGMAS * np.hypot(self.lever, sigma_c)
+        use_predicted = predicted > swept
+        return (np.where(use_predicted, predicted, swept),
+                np.where(use_predicted, self.names, 'swept region').astype(object))
+
+
+class _TargetUncertainty:
+    """The target estimate's covariance the planner predicts over [t0, prediction.t_end] (module doc, step 4).
+
+    An EKF's covariance depends on the trajectory, not on the measured values, so the target filter's can be
+    predicted along the predicted motion: from the converged estimate's bound at t0
+    (EstimateAccuracy.converged_covariance; the Riccati recursion is monotone, so a larger start gives a larger
+    covariance later), each substep P <- Phi P Phi' + Qd of seed 000 eq 4 linearized
+    (ErrorStateDynamics.substep_transition_many, substeps of at most _COVARIANCE_STEP_S and _COVARIANCE_STEP_RAD),
+    then the substep's vision measurements (f h of them, H = [I 0], sigma per body axis) fused at its end as one of
+    their information, R = sigma^2 / (f h) I. Against the target filter's own covariance at the last burn of 16
+    flown envelope runs (1-15 deg/s): attitude and rate sigmas within 1-10 % for the slow targets, and above it
+    (up to 2x the rate sigma of a fast tumbler planned at a tight estimate) otherwise.
+
+    ``filtered`` holds that covariance at the substep ends (the estimate guidance re-aims with at each burn);
+    ``predicted(t_from, times)`` carries the estimate of t_from on to later times without measurements (the
+    estimate of the last burn, seen from the grasp and the escape).
+    """
+
+    def __init__(self, prediction, t0, config):
+        acc = config.accuracy
+        self.dynamics = ErrorStateDynamics(config.inertia_kg_m2, acc.torque_psd_n2m2s)
+        inertia = np.asarray(config.inertia_kg_m2, dtype=float)
+        omega0 = prediction.state(t0).omega_body
+        # Torque-free: |omega| <= |H| / I_min at any time (seed 000 eq 4).
+        rate_max = float(np.linalg.norm(inertia @ omega0)) / float(np.linalg.eigvalsh(inertia)[0])
+        span = prediction.t_end - t0
+        steps = max(1, math.ceil(span / _COVARIANCE_STEP_S), math.ceil(span * rate_max / _COVARIANCE_STEP_RAD))
+        nodes = np.linspace(t0, prediction.t_end, steps + 1)
+        c_hill_from_body = prediction.c_hill_from_body(nodes)
+        omega_body = np.einsum('nji,nj->ni', c_hill_from_body, prediction.track(np.zeros(3), nodes).omega_hill)
+        h = np.diff(nodes)
+        self.phi, self.qd = self.dynamics.substep_transition_many(omega_body[:-1], omega_body[1:], h)
+        self.nodes = nodes
+        p = acc.converged_covariance
+        filtered = [p]
+        for k in range(steps):
+            p = self.phi[k] @ p @ self.phi[k].T + self.qd[k]  # P = Phi P Phi' + Qd
+            if h[k] > 0.0:
+                s = p[:3, :3] + np.eye(3) * acc.attitude_sigma_rad ** 2 / (acc.attitude_rate_hz * h[k])  # S = HPH' + R
+                gain = np.linalg.solve(s, p[:3, :]).T  # K = P H' S^-1
+                p = p - gain @ p[:3, :]  # P = (I - K H) P
+                p = 0.5 * (p + p.T)
+            filtered.append(p)
+        self.filtered = np.array(filtered)
+
+    def predicted(self, t_from, times):
+        """(N, 6, 6) covariance at the times (N,) [s] of the estimate of t_from carried on without measurements
+        (before t_from: the filtered one). It starts from the substep end at or before t_from (fewer
+        measurements: larger) and is linear in time between substep ends (above the covariance's convex growth)."""
+        t = np.atleast_1d(np.asarray(times, dtype=float))
+        nodes = self.nodes
+        last = len(nodes) - 1
+        k0 = int(np.clip(np.searchsorted(nodes, t_from, side='right') - 1, 0, last))
+        k1 = int(np.clip(np.searchsorted(nodes, t.max(), side='left'), k0, last))
+        chain = np.empty((k1 - k0 + 1, 6, 6))
+        chain[0] = p = self.filtered[k0]
+        for k in range(k0, k1):
+            chain[k - k0 + 1] = p = self.phi[k] @ p @ self.phi[k].T + self.qd[k]  # P = Phi P Phi' + Qd
+        out = np.empty((len(t), 6, 6))
+        before = t < nodes[k0]
+        if before.any():
+            out[before] = self._interpolate(self.filtered, nodes, t[before])
+        out[~before] = self._interpolate(chain, nodes[k0:k1 + 1], t[~before])
+        return out
+
+    @staticmethod
+    def _interpolate(table, nodes, t):
+        """Linear interpolation of the matrices table (K, 6, 6) at the nodes (K,) to the times t (clamped)."""
+        if len(nodes) == 1:
+            return np.broadcast_to(table[0], (len(t), 6, 6))
+        i = np.clip(np.searchsorted(nodes, t, side='right') - 1, 0, len(nodes) - 2)
+        w = np.clip((t - nodes[i]) / (nodes[i + 1] - nodes[i]), 0.0, 1.0)[:, None, None]
+        return (1.0 - w) * table[i] + w * table[i + 1]
+
+    def attitude_sigma_rad(self, t_from, times):
+        """(N,) 1-sigma attitude error [rad] along its worst direction (predicted, above)."""
+        return np.sqrt(_largest_eigenvalue(self.predicted(t_from, times)[:, :3, :3]))
+
+
+def _largest_eigenvalue(a):
+    """Largest eigenvalue (...,) of symmetric 3x3 matrices a (..., 3, 3), >= 0 (covariances), in closed form
+    (the trigonometric solution of the characteristic cubic, O. K. Smith, Comm. ACM 4 (1961) 168), which is
+    much faster than numpy's eigvalsh on many small matrices."""
+    a = np.asarray(a, dtype=float)
+    q = np.trace(a, axis1=-2, axis2=-1) / 3.0
+    off = a[..., 0, 1] ** 2 + a[..., 0, 2] ** 2 + a[..., 1, 2] ** 2
+    p = np.sqrt(((a[..., 0, 0] - q) ** 2 + (a[..., 1, 1] - q) ** 2 + (a[..., 2, 2] - q) ** 2 + 2.0 * off) / 6.0)
+    safe = np.where(p > 0.0, p, 1.0)
+    b = (a - q[..., None, None] * np.eye(3)) / safe[..., None, None]
+    r = np.clip(np.linalg.det(b) / 2.0, -1.0, 1.0)
+    return np.maximum(np.where(p > 0.0, q + 2.0 * p * np.cos(np.arccos(r) / 3.0), q), 0.0)
 
 
 def _runs(mask):
@@ -422,26 +646,34 @@ def _nearest_box(p_body, boxes):
     return dist[nearest, np.arange(dist.shape[1])], np.asarray(boxes.names)[nearest]
 
 
+def _predicted_distance(prediction, r_hill, t, config):
+    """Gap [m] of the chaser envelope from the target's predicted geometry at each (r_hill (M, 3), t (M,)), with no
+    uncertainty, and the nearest box's name per sample."""
+    c_hb = prediction.c_hill_from_body(t)
+    dist, names = _nearest_box(np.einsum('mji,mj->mi', c_hb, r_hill), config.boxes)  # C_hill_from_body' r
+    return dist - config.envelope_radius_m, names
+
+
 def _predicted_gaps(prediction, r_hill, t, t_grasp, config):
     """Gap [m] of the chaser envelope from the target's predicted geometry at each (r_hill (M, 3), t (M,)),
     less the prediction's uncertainty, and the nearest box's name per sample.
 
     The uncertainty is |r| times an attitude error: for a prediction that carries the estimate's
     covariance (guidance's gate), UNCERTAINTY_SIGMAS times its own propagated 1-sigma attitude error;
-    otherwise (the planner, which plans from the estimate alone, long before the re-aims) the model of
-    module doc step 4, geometry_attitude_margin + geometry_rate_margin |t - t_g|."""
-    c_hb = prediction.c_hill_from_body(t)
-    dist, names = _nearest_box(np.einsum('mji,mj->mi', c_hb, r_hill), config.boxes)  # C_hill_from_body' r
+    otherwise (a PlannerConfig without EstimateAccuracy) the fixed model geometry_attitude_margin +
+    geometry_rate_margin |t - t_g|. The planner with EstimateAccuracy uses _TargetUncertainty instead (_passages)."""
+    gap, names = _predicted_distance(prediction, r_hill, t, config)
     if getattr(prediction, 'has_covariance', False):
         angle = UNCERTAINTY_SIGMAS * prediction.attitude_sigma_rad(t)
     else:
         angle = config.geometry_attitude_margin_rad + config.geometry_rate_margin_rad_s * np.abs(t - t_grasp)
-    return dist - config.envelope_radius_m - np.linalg.norm(r_hill, axis=1) * angle, names
+    return gap - np.linalg.norm(r_hill, axis=1) * angle, names
 
 
-def _passages(keys, states_at_grasp, prediction, region, config, back_s=None):
+def _passages(keys, states_at_grasp, prediction, region, config, back_s=None, uncertainty=None):
     """_Passage of each (t_grasp, offset) key from its hill state (6,) at the grasp (module doc, step 4),
-    from back_s before the grasp (default: the longest fly-by) over the escape."""
+    from back_s before the grasp (default: the longest fly-by) over the escape. With uncertainty
+    (_TargetUncertainty) the passages carry the parts of the planner's uncertainty model (_Passage)."""
     n = config.mean_motion_rad_s
     back = max(config.flyby_durations_s) if back_s is None else back_s
     escape = config.escape_duration_s
@@ -452,11 +684,16 @@ def _passages(keys, states_at_grasp, prediction, region, config, back_s=None):
                           np.linspace(0.0, escape, int(math.ceil(escape / _PATH_STEP_S)) + 1)))
     r_all = np.concatenate((dense_back(tau[tau < 0.0]), dense_on(tau[tau >= 0.0])), axis=2)[:3]
     rate = max(float(np.linalg.norm(prediction.state(min(k[0], prediction.t_end)).omega_body)) for k in keys)
+    burn_limit = config.restriction_sphere_radius_m + config.sphere_margin_m + LAST_BURN_SLACK_M
     out = {}
     for j, key in enumerate(keys):
         t_g = key[0]
         r = r_all[:, j, :].T
-        gap = region.clearance(r, t_g + tau, n, config.envelope_radius_m)
+        radius = np.linalg.norm(r, axis=1)
+        burnable = np.flatnonzero((tau <= 0.0) & (radius > burn_limit))
+        coast = float(-tau[burnable[-1]]) if burnable.size else back
+        swept = region.clearance(r, t_g + tau, n, config.envelope_radius_m)
+        gap = swept.copy()
         closest = np.full(len(tau), 'swept region', dtype=object)
         # Near the grasp, where the swept region is too close, the predicted geometry at each instant.
         near = ((np.abs(tau) <= config.geometry_window_s) & (t_g + tau >= prediction.t0)
@@ -471,19 +708,28 @@ def _passages(keys, states_at_grasp, prediction, region, config, back_s=None):
             lo, hi = tau[max(a - 1, 0)], tau[min(b, len(tau) - 1)]
             fine_tau.append(np.linspace(lo, hi, int(math.ceil((hi - lo) / step)) + 1))
         tau_k, gap_k, closest_k = tau[keep], gap[keep], closest[keep]
+        swept_k, predicted_k = swept[keep], np.full(int(keep.sum()), -np.inf)
+        names_k, radius_k = closest[keep], radius[keep]
         if fine_tau:
             tf = np.unique(np.concatenate(fine_tau))
             tf = tf[(t_g + tf >= prediction.t0) & (t_g + tf <= prediction.t_end)]
             # CW near the target: over a few hundred seconds within ~20 m it differs from the
             # nonlinear coast by far less than a micrometre.
             rf = np.einsum('mij,j->mi', cw_transition_matrix(n, tf), x0[j])[:, :3]
-            swept = region.clearance(rf, t_g + tf, n, config.envelope_radius_m)
-            predicted, boxes = _predicted_gaps(prediction, rf, t_g + tf, t_g, config)
-            use_predicted = predicted > swept
+            swept_f = region.clearance(rf, t_g + tf, n, config.envelope_radius_m)
+            if uncertainty is None:
+                predicted, boxes = _predicted_gaps(prediction, rf, t_g + tf, t_g, config)
+            else:
+                predicted, boxes = _predicted_distance(prediction, rf, t_g + tf, config)
+            use_predicted = predicted > swept_f
             order = np.argsort(np.concatenate((tau_k, tf)), kind='stable')
             tau_k = np.concatenate((tau_k, tf))[order]
-            gap_k = np.concatenate((gap_k, np.where(use_predicted, predicted, swept)))[order]
+            gap_k = np.concatenate((gap_k, np.where(use_predicted, predicted, swept_f)))[order]
             closest_k = np.concatenate((closest_k, np.where(use_predicted, boxes, 'swept region')))[order]
+            swept_k = np.concatenate((swept_k, swept_f))[order]
+            predicted_k = np.concatenate((predicted_k, predicted))[order]
+            names_k = np.concatenate((names_k, boxes.astype(object)))[order]
+            radius_k = np.concatenate((radius_k, np.linalg.norm(rf, axis=1)))[order]
 
         def path(tau_q, j=j):
             tau_q = np.atleast_1d(tau_q)
@@ -491,24 +737,94 @@ def _passages(keys, states_at_grasp, prediction, region, config, back_s=None):
             xyz[:, tau_q < 0.0] = dense_back(tau_q[tau_q < 0.0])[:3, j, :]
             xyz[:, tau_q >= 0.0] = dense_on(tau_q[tau_q >= 0.0])[:3, j, :]
             return xyz
-        out[key] = _Passage(t_grasp=t_g, tau=tau_k, gap=gap_k, closest=closest_k, r_tau=tau,
-                            radius=np.linalg.norm(r, axis=1), path=path)
+        ps = _Passage(t_grasp=t_g, tau=tau_k, gap=gap_k, closest=closest_k, r_tau=tau, radius=radius, path=path,
+                      coast_s=coast)
+        if uncertainty is not None:
+            _add_uncertainty(ps, x0[j], swept_k, predicted_k, names_k, radius_k, prediction, uncertainty, config)
+        out[key] = ps
     return out
 
 
-def _check_passive_safety(batch, passages, prediction, region, config):
-    """Step 4 for a batch of candidates: fill their clearances and sphere entry, reject the unsafe ones."""
+def _add_uncertainty(ps, state_at_grasp, swept, predicted, names, radius, prediction, uncertainty, config):
+    """Fill the uncertainty parts of a passage (_Passage): the target estimate guidance computes the last burn
+    from is that of command_lead_s before it; seen from there, |r| sigma_att at each sample within the window
+    (the surface moves by |r| times the attitude error) and the covariance of X_Ft, V_Ft at the grasp, J P J' with
+    J the Jacobian of the body point X_Ft^B (seed 000 eq 8-9, 20-21: X_Ft is a body point) and P the
+    estimate's covariance carried to the grasp."""
+    t_g = ps.t_grasp
+    ps.t_estimate = t_g - ps.coast_s - config.command_lead_s
+    window = np.abs(ps.tau) <= config.geometry_window_s
+    window &= (t_g + ps.tau >= prediction.t0) & (t_g + ps.tau <= prediction.t_end)
+    # On a grid of _PATH_STEP_S over the window (the sigma grows smoothly), interpolated to the samples.
+    tau = ps.tau[window]
+    grid = np.arange(tau.min(), tau.max() + _PATH_STEP_S, _PATH_STEP_S) if tau.size else tau
+    cov = uncertainty.predicted(ps.t_estimate, np.concatenate(((t_g,), t_g + grid)))
+    lever = np.zeros(len(ps.tau))
+    if tau.size:
+        lever[window] = radius[window] * np.interp(tau, grid, np.sqrt(_largest_eigenvalue(cov[1:, :3, :3])))
+    ps.swept, ps.predicted, ps.lever, ps.window, ps.names = swept, predicted, lever, window, names
+    at_grasp = prediction.state(t_g)
+    c_hill_from_body = prediction.c_hill_from_body(np.array((t_g,)))[0]
+    x_ft_body = c_hill_from_body.T @ state_at_grasp[:3]
+    _, _, jac = body_point_in_hill(c_hill_from_body, at_grasp.omega_body, x_ft_body, config.mean_motion_rad_s)
+    ps.target_miss_cov = jac @ cov[0] @ jac.T  # J P J'
+
+
+def _sigma3(cov):
+    """3 sigma [m or m/s] along the worst direction of a 3x3 covariance."""
+    return UNCERTAINTY_SIGMAS * math.sqrt(float(_largest_eigenvalue(cov)))
+
+
+def _chaser_error_at_estimate(c, coast_s, config):
+    """6x6 covariance of the chaser's state error at the estimate guidance's last burn is computed from: the
+    navigation estimate's (EstimateAccuracy.navigation_covariance) and the velocity error of the last burn.
+
+    The last burn is the injection (eq 29, |dV_Tf|) when no adjusting burn fits between t_i and the last burnable
+    instant (adjust_interval_s apart); each adjusting burn before the last corrects the one before to the
+    thrusters' execution error, so the last burn's error is impulse_error_sigma^(k + 1) |dV_Tf| after k adjusting
+    burns (isotropic: magnitude and pointing together)."""
+    k = math.floor(max(c.flyby_duration_s - coast_s, 0.0) / config.adjust_interval_s)
+    sigma_v = config.impulse_error_sigma ** (k + 1) * float(np.linalg.norm(c.dv_tf))
+    cov = config.accuracy.navigation_covariance.copy()
+    cov[3:, 3:] += sigma_v ** 2 * np.eye(3)
+    return cov
+
+
+def _miss(c, ps, chaser_cov, coast_s, config):
+    """The predicted 3-sigma miss at the grasp ([m], [m/s], worst direction) and its parts [m]: the chaser's state
+    error at the estimate carried along CW over the command lead and the coast (seed 000 eq 22), plus the target
+    estimate's error at X_Ft (_add_uncertainty). Parts: navigation, last burn, target."""
+    n = config.mean_motion_rad_s
+    stm = cw_transition_matrix(n, coast_s + config.command_lead_s)
+    nav = config.accuracy.navigation_covariance
+    chaser = stm @ chaser_cov @ stm.T
+    total = chaser + ps.target_miss_cov
+    parts = (_sigma3((stm @ nav @ stm.T)[:3, :3]), _sigma3((stm @ (chaser_cov - nav) @ stm.T)[:3, :3]),
+             _sigma3(ps.target_miss_cov[:3, :3]))
+    return _sigma3(total[:3, :3]), _sigma3(total[3:, 3:]), parts
+
+
+def _check_passive_safety(batch, passages, prediction, region, config, uncertainty=None):
+    """Step 4 for a batch of candidates: fill their clearances, sphere entry, coast and predicted miss, reject the
+    unsafe ones and those whose predicted miss exceeds the manipulator's tolerances."""
     new = {}
     for c in batch:
         key = (c.t_grasp, c.offset_m)
         if key not in passages and key not in new:
             new[key] = np.concatenate((c.x_ft, c.v_ft))
     if new:
-        passages.update(_passages(list(new), list(new.values()), prediction, region, config))
+        passages.update(_passages(list(new), list(new.values()), prediction, region, config,
+                                  uncertainty=uncertainty))
     for c in batch:
         ps = passages[(c.t_grasp, c.offset_m)]
+        c.unguided_coast_s = min(ps.coast_s, c.flyby_duration_s)
+        chaser_cov = None
+        if uncertainty is not None:
+            chaser_cov = _chaser_error_at_estimate(c, ps.coast_s, config)
+            c.miss_3sigma_m, c.miss_3sigma_mps, parts = _miss(c, ps, chaser_cov, c.unguided_coast_s, config)
+        gap_all, closest_all = ps.profile(chaser_cov, config.mean_motion_rad_s)
         inside = ps.tau >= -c.flyby_duration_s
-        tau, gap, closest = ps.tau[inside], ps.gap[inside], ps.closest[inside]
+        tau, gap, closest = ps.tau[inside], gap_all[inside], closest_all[inside]
         approach = tau <= 0.0
         c.clearance_approach_m = float(gap[approach].min())
         c.clearance_escape_m = float(gap[~approach].min())
@@ -517,12 +833,13 @@ def _check_passive_safety(batch, passages, prediction, region, config):
         c.t_min_clearance = float(c.t_grasp + tau[i])
         entered = np.flatnonzero((ps.r_tau >= -c.flyby_duration_s) & (ps.radius <= config.restriction_sphere_radius_m))
         c.t_sphere_entry = float(c.t_grasp + ps.r_tau[entered[0]]) if entered.size else None
-        burnable = np.flatnonzero((ps.r_tau <= 0.0) & (ps.radius > config.restriction_sphere_radius_m
-                                                          + config.sphere_margin_m + LAST_BURN_SLACK_M))
-        c.unguided_coast_s = float(-ps.r_tau[burnable[-1]]) if burnable.size else c.flyby_duration_s
-        if c.unguided_coast_s > config.max_unguided_coast_s:
-            c.reasons.append(f'unguided coast {c.unguided_coast_s:.0f} s from the last burn to the grasp is longer '
-                             f'than {config.max_unguided_coast_s:g} s (navigation error grows unchecked)')
+        if uncertainty is not None and (c.miss_3sigma_m > config.position_tolerance_m
+                                        or c.miss_3sigma_mps > config.velocity_tolerance_mps):
+            c.reasons.append(f'predicted 3-sigma miss at the grasp {c.miss_3sigma_m:.3f} m, '
+                             f'{c.miss_3sigma_mps * 1e3:.2f} mm/s exceeds the manipulator tolerance '
+                             f'{config.position_tolerance_m:g} m, {config.velocity_tolerance_mps * 1e3:g} mm/s '
+                             f'(navigation {parts[0]:.3f} m, last burn {parts[1]:.3f} m, target {parts[2]:.3f} m '
+                             f'over an unguided coast of {c.unguided_coast_s:.0f} s)')
         if gap[i] < config.clearance_margin_m:
             part = 'approach' if tau[i] <= 0.0 else 'escape'
             c.reasons.append(f'passive {part} clearance {gap[i]:.3f} m from the {c.closest} at t = '
@@ -607,7 +924,7 @@ _REASON_CLASSES = (
     ('not convex', 'not convex (eq 15)'), ('condition (c)', 'condition (c), lighting'),
     ('X_Fi', 'X_Fi inside the restriction sphere'), ('transfer impulse', 'transfer impulse above the limit'),
     ('transfer passes', 'transfer through the restriction sphere'),
-    ('unguided coast', 'unguided coast too long'),
+    ('predicted 3-sigma miss', 'predicted miss above the tolerance'),
     ('passive', 'passive clearance below the margin'),
 )
 
@@ -640,7 +957,8 @@ def _refusal_reason(candidates, region, config):
 
 def _offset_gaps(config):
     """Gap [m] of the chaser envelope at the fly-by target point (eq 20) of each searched offset from the
-    target's other parts, less the attitude uncertainty at the grasp, and the nearest box's name.
+    target's other parts, and the nearest box's name: with EstimateAccuracy the exact geometry (the uncertainty
+    counts on the passage, per candidate), else less the fixed attitude uncertainty at the grasp.
 
     In body axes X_Ft = (1 + delta r / |x_g|) x_g for every grasp instant alike, so an offset that
     fails here fails at any grasp time."""
@@ -648,7 +966,8 @@ def _offset_gaps(config):
     radius = float(np.linalg.norm(x_g))
     points = np.array([(1.0 + dr / radius) * x_g for dr in config.offsets_m])
     dist, names = _nearest_box(points, config.boxes)
-    gaps = dist - config.envelope_radius_m - np.linalg.norm(points, axis=1) * config.geometry_attitude_margin_rad
+    angle = 0.0 if config.accuracy is not None else config.geometry_attitude_margin_rad
+    gaps = dist - config.envelope_radius_m - np.linalg.norm(points, axis=1) * angle
     return {dr: (float(gap), str(name)) for dr, gap, name in zip(config.offsets_m, gaps, names, strict=True)}
 
 
@@ -774,10 +1093,13 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
         lo, hi = config.offsets_range_m
         return _refused(f'no offset reaches the grasp point: at every offset {lo:g}-{hi:g} m the fly-by target '
                         f'point (eq 20) leaves the chaser envelope at most {gap:.3f} m from the {box} (margin '
-                        f'{config.clearance_margin_m:g} m, attitude uncertainty included), at any grasp time: the '
-                        f'{box} blocks the grasp point', t_now)
+                        f'{config.clearance_margin_m:g} m, '
+                        + ('with the attitude known exactly' if config.accuracy is not None else
+                           'attitude uncertainty included')
+                        + f'), at any grasp time: the {box} blocks the grasp point', t_now)
 
     region = _predicted_region(prediction, t_now, config)
+    uncertainty = None if config.accuracy is None else _TargetUncertainty(prediction, t_now, config)
 
     found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n)
     if not found:
@@ -812,7 +1134,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
             batch = pending[start:start + _BATCH]
             if batch[0].dv_total_mps > cheapest_safe + config.delta_v_tie_mps:
                 break
-            _check_passive_safety(batch, passages, prediction, region, config)
+            _check_passive_safety(batch, passages, prediction, region, config, uncertainty)
             cheapest_safe = min([cheapest_safe] + [c.dv_total_mps for c in batch if not c.reasons])
         if cheapest_safe < math.inf:
             break

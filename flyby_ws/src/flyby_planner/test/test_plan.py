@@ -290,14 +290,15 @@ def test_avoidance_burn_only_when_the_coast_is_unsafe(paper_plan):
 
 
 def test_check_passage_passes_the_planned_arc_and_fails_one_through_the_bus(paper_plan):
-    """Guidance's gate on a re-aimed arc (plan.check_passage) is the planner's step 4: the selected arc
-    keeps the clearance the plan found, the same arc aimed 1.5 m closer (through the bus) does not."""
+    """Guidance's gate on a re-aimed arc (plan.check_passage) is the planner's step 4 without the chaser's own
+    dispersion (the gate re-aims the arc the chaser is on): the selected arc keeps at least the clearance the plan
+    found, more by the chaser's 3 sigma at the grasp; the same arc aimed 1.5 m closer (through the bus) does not."""
     plan, cfg = paper_plan
     c = plan.selected
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     pred = truth_prediction(sc, c.t_grasp + cfg.geometry_window_s)
     ok = check_passage(pred, c.x_ft, c.v_ft, c.t_grasp, c.t_i, cfg)
-    assert ok.safe and ok.gap_m == pytest.approx(c.clearance_min_m, abs=0.02)
+    assert ok.safe and c.clearance_min_m <= ok.gap_m <= c.clearance_min_m + c.miss_3sigma_m
     inside = c.x_g * (1.0 - 0.5 / np.linalg.norm(c.x_g))  # 0.5 m under the grasp point: in the bus
     hit = check_passage(pred, inside, c.v_ft, c.t_grasp, c.t_i, cfg)
     assert not hit.safe and hit.gap_m < 0.0
