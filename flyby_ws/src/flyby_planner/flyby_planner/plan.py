@@ -266,12 +266,12 @@ class PlannerConfig:
         return (self.maneuver_lead_s + self.transfer_min_s + min(durations),
                 self.maneuver_lead_s + max(transfer, self.transfer_max_for(rate_rel_rad_s)) + max(durations))
 
-    def prediction_span_s(self, omega_body_rad_s):
+    def prediction_span_s(self, omega_body_rad_s, extended=False):
         """How far past the plan time the target prediction must reach [s] for a target of inertial body
-        rate omega_body_rad_s (vector or magnitude): the extended grasp window and the passage after it.
-        The rate relative to hill is at least |omega| - n."""
+        rate omega_body_rad_s (vector or magnitude): the grasp window (extended: the extended one) and the passage
+        after it. The rate relative to hill is at least |omega| - n."""
         rate = float(np.linalg.norm(omega_body_rad_s))
-        return self.search_window(max(rate - self.mean_motion_rad_s, 0.0), extended=True)[1] + self.geometry_window_s
+        return self.search_window(max(rate - self.mean_motion_rad_s, 0.0), extended)[1] + self.geometry_window_s
 
     @property
     def escape_duration_s(self):
@@ -1097,9 +1097,8 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     if prediction.t_end < w_hi:
         raise ValueError(f'the prediction covers [{prediction.t0}, {prediction.t_end}] s; planning at {t_now} s '
                          f'needs it up to {w_hi} s')
-    # The extended window as far as the prediction reaches (with the passage after it) and the mission lasts.
-    w_ext = min(t_now + config.search_window(rate_rel, extended=True)[1],
-                max(prediction.t_end - config.geometry_window_s, w_hi), config.latest_grasp_s)
+    # The extended window as far as the mission lasts (the prediction is carried on for it when it is searched).
+    w_ext = min(t_now + config.search_window(rate_rel, extended=True)[1], config.latest_grasp_s)
     w_hi = min(w_hi, config.latest_grasp_s)
 
     # Condition (a) on the current motion: a fly-by needs category II/III (seed 000 section 2.1).
@@ -1160,6 +1159,9 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     uncertainty = None
     for extended in (False, True):
         if extended:
+            if prediction.t_end < w_ext + config.geometry_window_s:
+                prediction = _carried_on(prediction, t_now, w_ext + config.geometry_window_s, config)
+                region = _predicted_region(prediction, t_now, config)
             if w_ext > w_hi:
                 more = [g for g in grasp_candidates(prediction, config.x_grasp_body_m, max(w_lo, w_hi), w_ext, n)
                         if g.t_grasp > w_hi]
@@ -1203,6 +1205,14 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     path_t, path_r = _path(chosen, r_now, v_now, t_now, passages[(chosen.t_grasp, chosen.offset_m)], config)
     return CapturePlan(ok=True, reason='', t_plan=t_now, selected=chosen, candidates=candidates, region=region,
                        path_t=path_t, path_r_hill=path_r)
+
+
+def _carried_on(prediction, t_now, t_end, config):
+    """The prediction's motion from t_now carried on to t_end (a MotionPrediction without covariance from its
+    state at t_now: the same torque-free motion, seed 000 eq 4), for the extended window."""
+    s = prediction.state(t_now)
+    return MotionPrediction(ErrorStateDynamics(config.inertia_kg_m2), config.mean_motion_rad_s, t_now,
+                            s.q_eci_from_body, s.omega_body, None, t_end, with_covariance=False)
 
 
 def avoidance_burn(r_hill, v_hill, t, region, config, dv_mps):
