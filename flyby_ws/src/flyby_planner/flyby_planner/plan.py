@@ -422,6 +422,8 @@ class CapturePlan:
 
     path_t, path_r_hill: the predicted chaser path of the selected plan -- coast to the first burn,
     the terminal transfer (CW), the passive fly-by and the escape (nonlinear) -- for /planner/path.
+    prediction: the target motion the selected plan was made on (the one given, or its extension over the
+    extended window: it covers the grasp).
     """
 
     ok: bool
@@ -432,6 +434,7 @@ class CapturePlan:
     region: object = None
     path_t: np.ndarray = None
     path_r_hill: np.ndarray = None
+    prediction: object = None
 
     def to_dict(self):
         out = {'ok': self.ok, 'reason': self.reason, 't_plan_s': self.t_plan,
@@ -1204,7 +1207,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                         f'{config.transfer_min_s:g}-{transfer_cap:g} s', t_now, candidates, region)
     path_t, path_r = _path(chosen, r_now, v_now, t_now, passages[(chosen.t_grasp, chosen.offset_m)], config)
     return CapturePlan(ok=True, reason='', t_plan=t_now, selected=chosen, candidates=candidates, region=region,
-                       path_t=path_t, path_r_hill=path_r)
+                       path_t=path_t, path_r_hill=path_r, prediction=prediction)
 
 
 def _carried_on(prediction, t_now, t_end, config):

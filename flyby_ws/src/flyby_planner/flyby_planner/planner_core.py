@@ -194,7 +194,7 @@ class PlannerCore:
             out.append(PlanRefused(t, plan_markers(plan, cfg)))
             return out
         chosen = plan.selected
-        at_grasp = prediction.state(chosen.t_grasp)
+        at_grasp = plan.prediction.state(chosen.t_grasp)  # the plan's motion: it reaches an extended window's grasp
         grasp = GraspState(chosen.t_grasp, chosen.x_g, chosen.v_g, at_grasp.q_hill_from_body, at_grasp.omega_body)
         out.append(PlanPublished(t, grasp, chosen.t_grasp, chosen.x_ft, chosen.v_ft, chosen.t_i, chosen.x_fi,
                                  chosen.v_fi, plan.path_t, plan.path_r_hill, plan_markers(plan, cfg)))
