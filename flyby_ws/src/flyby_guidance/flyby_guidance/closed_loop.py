@@ -206,10 +206,11 @@ def scaled_navigation_noise(scenario, factor):
     return scenario_from_dict(d, name=f'{scenario.name} (navigation noise x{factor:g})')
 
 
-def run_headless(scenario):
-    """Fly the scenario (with its seed) through every phase the graph would; a HeadlessRun."""
+def run_headless(scenario, graph=None):
+    """Fly the scenario (with its seed) through every phase the graph would; a HeadlessRun. ``graph``: the
+    HeadlessGraph of the scenario to fly instead of a new one (a test may give one of its cores another model)."""
     wall_start = time.monotonic()
-    graph = HeadlessGraph(scenario)
+    graph = HeadlessGraph(scenario) if graph is None else graph
     graph.start()
     hold_s = scenario.supervisor.abort_observation_s
     duration_s = scenario.simulation.duration_s

@@ -2,7 +2,8 @@
 
 from pathlib import Path
 
-from flyby_guidance.closed_loop import run_headless
+from flyby_guidance.closed_loop import HeadlessGraph, run_headless
+from flyby_guidance.guidance_core import GuidanceCore
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -60,13 +61,17 @@ def test_an_unsafe_reaimed_arc_is_never_flown():
 
 
 def test_without_a_safe_arc_guidance_stops_and_the_supervisor_escapes():
-    """The same run with a filter that admits unmodelled torques of 1e-6 N^2 m^2 s: the estimates' own
-    uncertainty, propagated to the passage, vouches for neither the re-aimed arc nor the planned one, so
-    guidance stops thrusting (passage_unsafe, ERROR), the supervisor aborts outside the sphere and its
+    """The same run with a guidance whose filter model admits unmodelled torques of 1e-6 N^2 m^2 s that the plan
+    did not (the planner, which now weighs its own predicted uncertainty, would not plan this arc with them): the
+    estimates' own uncertainty, propagated to the passage, vouches for neither the re-aimed arc nor the planned
+    one, so guidance stops thrusting (passage_unsafe, ERROR), the supervisor aborts outside the sphere and its
     avoidance burn carries the chaser clear."""
     d = _envelope_run_569()
+    scenario = scenario_from_dict(d, name='envelope run 569')
+    graph = HeadlessGraph(scenario)
     d['estimation']['torque_psd_n2m2s'] = 1e-6
-    run = run_headless(scenario_from_dict(d, name='envelope run 569, torque noise 1e-6'))
+    graph.guidance = GuidanceCore(scenario_from_dict(d, name='envelope run 569, torque noise 1e-6'))
+    run = run_headless(scenario, graph)
     s = run.summary
     unsafe = [e for e in run.events if e['name'] == 'passage_unsafe']
     assert unsafe and unsafe[0]['level'] == 'ERROR', s['end_reason']
