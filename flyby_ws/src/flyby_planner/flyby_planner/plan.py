@@ -940,26 +940,34 @@ def _path(chosen, r_now, v_now, t_now, passage, config):
     return t, r
 
 
-# Classes of rejection, by the start of the reason, and how a refusal counts them.
+# Classes of rejection, by the start of the reason, and the step of the checks that makes it (module doc: the
+# grasp instant's conditions, X_Fi, the transfer's impulses, the transfer's path, then the passage and the miss).
 _REASON_CLASSES = (
-    ('condition (a)', 'condition (a), rate'), ('condition (b)', 'condition (b), spin axis near hill y'),
-    ('not convex', 'not convex (eq 15)'), ('condition (c)', 'condition (c), lighting'),
-    ('X_Fi', 'X_Fi inside the restriction sphere'), ('transfer impulse', 'transfer impulse above the limit'),
-    ('transfer passes', 'transfer through the restriction sphere'),
-    ('predicted 3-sigma miss', 'predicted miss above the tolerance'),
-    ('passive', 'passive clearance below the margin'),
+    ('condition (a)', 'condition (a), rate', 0), ('condition (b)', 'condition (b), spin axis near hill y', 0),
+    ('not convex', 'not convex (eq 15)', 0), ('condition (c)', 'condition (c), lighting', 0),
+    ('X_Fi', 'X_Fi inside the restriction sphere', 1), ('transfer impulse', 'transfer impulse above the limit', 2),
+    ('transfer passes', 'transfer through the restriction sphere', 3),
+    ('predicted 3-sigma miss', 'predicted miss above the tolerance', 4),
+    ('passive', 'passive clearance below the margin', 4),
 )
 
 
 def _reason_class(reason):
-    return next((label for prefix, label in _REASON_CLASSES if reason.startswith(prefix)), reason)
+    return next((label for prefix, label, _ in _REASON_CLASSES if reason.startswith(prefix)), reason)
+
+
+def _reason_step(label):
+    return next((step for _, name, step in _REASON_CLASSES if name == label), -1)
 
 
 def _refusal_reason(candidates, region, config):
-    """One line: how many candidates fell to each class of reason, the best clearance found and, when a
-    part of the target sweeps through the grasp point, which."""
+    """One line: how many candidates fell to each class of reason, the classes of the latest check first (what
+    bound the candidates that came furthest, e.g. the passage or the miss, before the many a short fly-by's X_Fi
+    rejects at once), then by count; the best clearance found and, when a part of the target sweeps through the
+    grasp point, which."""
     counts = collections.Counter(_reason_class(c.reasons[0]) for c in candidates if c.reasons)
-    parts = [f'{k} {label}' for label, k in counts.most_common()]
+    parts = [f'{k} {label}' for label, k in sorted(counts.items(), key=lambda item: (-_reason_step(item[0]),
+                                                                                      -item[1], item[0]))]
     unchecked = sum(not c.reasons for c in candidates)
     if unchecked:
         parts.append(f'{unchecked} of the extended window not checked (search budget)')

@@ -278,3 +278,22 @@ def test_a_fast_grasp_point_flies_half_the_preferred_flyby():
     longer = [c for c in plan.candidates if c.flyby_duration_s > plan.selected.flyby_duration_s and c.convex_value > 0]
     assert longer and all(c.reasons for c in longer)
     assert {r.split()[0] for c in longer for r in c.reasons} >= {'transfer'}
+
+
+def test_a_refusal_leads_with_the_latest_check_that_bound_it():
+    """The refusal's first class is what bound the candidates that came furthest (the passage and the miss before
+    the transfer, the transfer before X_Fi, X_Fi before the grasp instant's conditions), not the most numerous:
+    a slow target's half-length fly-bys put many X_Fi inside the sphere at once (envelope runs 82, 95, 302)."""
+    from flyby_planner.plan import _refusal_reason
+
+    def rejected(reason, k):
+        return [types.SimpleNamespace(reasons=[reason], clearance_approach_m=None)] * k
+
+    cfg = planner_config_from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+    candidates = (rejected('X_Fi at 12.00 m is inside the restriction sphere (15 m)', 48)
+                  + rejected('transfer passes 14.1 m from the target ...', 56)
+                  + rejected('predicted 3-sigma miss at the grasp 0.126 m ...', 44)
+                  + rejected('not convex: eq 15 value -1e-05 m^2/s^2 <= 0', 11))
+    reason = _refusal_reason(candidates, None, cfg)
+    assert reason == ('all 159 candidates rejected: 44 predicted miss above the tolerance; 56 transfer through the '
+                      'restriction sphere; 48 X_Fi inside the restriction sphere; 11 not convex (eq 15)')
