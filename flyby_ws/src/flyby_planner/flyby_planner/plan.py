@@ -17,23 +17,28 @@ Steps (seed 000 section 4.4: "multiple candidates ... over a period of rotations
    sun direction.
 3. Per grasp instant that passed, per offset delta r (section 4.3 leaves it "to be set considering
    capturing manipulation capability": searched from offset_min_m to offset_max_m, the
-   manipulator's reach less its position tolerance) and per fly-by duration (flyby_duration_s and
-   longer, up to flyby_duration_max_s): X_Ft, X_Fi; X_Fi outside the thruster-restriction sphere; the
-   eq 28-29 impulses within the per-maneuver limit.
-4. Passive safety, in order of total delta-v: the coast through X_Ft at the grasp time, backward to
-   X_Fi and forward over escape_check_orbits orbits (nonlinear relative dynamics,
+   manipulator's reach less its position tolerance; an offset whose X_Ft touches the target with the attitude
+   known exactly is dropped at once) and per fly-by duration (flyby_duration_s and longer, up to
+   flyby_duration_max_s): X_Ft, X_Fi; X_Fi outside the thruster-restriction sphere; the
+   eq 28-29 impulses within the per-maneuver limit; the transfer, with its execution spread, outside the sphere.
+4. Passive safety and the predicted miss, in order of total delta-v: the coast through X_Ft at the grasp time,
+   backward to X_Fi and forward over escape_check_orbits orbits (nonlinear relative dynamics,
    flyby_sim.dynamics.orbital), must keep the chaser envelope clearance_margin_m from the target.
    The target is the region it sweeps about its angular momentum (keepout.SweptRegion, good for
    any timing); within geometry_window_s of the grasp, where the swept region is too coarse (a grasp
    point inside the cylinder the panels sweep), the target's *predicted* geometry at each instant
-   counts instead, shrunk by its uncertainty: |r| (geometry_attitude_margin + geometry_rate_margin
-   |t - t_g|), the attitude error at the grasp (guidance re-aims the grasp at the latest estimate,
-   section 4.6) and the rate error carried away from it.
+   counts instead. Both are shrunk there by the planner's uncertainty model (EstimateAccuracy,
+   _TargetUncertainty): 3 sigma of the target estimate the last burn is computed from (its attitude error
+   times |r|) and of the chaser's dispersion from that burn on. Guidance's last burn is where the arc is
+   still LAST_BURN_SLACK_M beyond the sphere and its burn margin (or the injection); over the unguided coast
+   from there the navigation estimate's error (the navigation filter's steady state), the last burn's
+   execution error and the target estimate's error at X_Ft give the predicted 3-sigma miss at the grasp,
+   which must be within the manipulator's tolerances (it replaces a fixed bound on the coast).
 5. Selection, in stages (PlannerConfig.search_stages): the preferred offset and duration (the
-   paper's choice) first, then the other offsets, then longer fly-bys; within the first stage that
-   holds a safe plan, the least total delta-v of the terminal transfer, and plans within
-   delta_v_tie_mps of it tie and the larger least clearance wins. Candidates checked in no stage
-   (dearer than a safe plan, or in a later stage) have status 'unchecked'.
+   paper's choice) first, then the other offsets, then longer fly-bys; within the first stage that holds a safe
+   plan, the least total delta-v of the terminal transfer, and plans within delta_v_tie_mps of it tie and the
+   larger least clearance wins. Candidates checked in no stage (dearer than a safe plan, or in a later stage) have
+   status 'unchecked'.
 """
 
 import collections
@@ -156,6 +161,10 @@ class PlannerConfig:
     Attributes (SI; angles in rad): see the ``planner`` section of docs/scenario.md for the meaning
     and the seed 000 example defaults; ``boxes`` is flyby_sim.scenario.Boxes. offset_min_m,
     offset_max_m and flyby_duration_max_s None: offset_m and flyby_duration_s only (no search).
+    accuracy (EstimateAccuracy, from the sensors and estimation sections) turns on the planner's uncertainty
+    model (module doc, step 4), with the manipulator's position_tolerance_m and velocity_tolerance_mps as the bound
+    on the predicted miss, guidance's adjust_interval_s and command_lead_s for the last burn; None keeps the fixed
+    geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound.
     """
 
     mean_motion_rad_s: float
@@ -552,12 +561,13 @@ class _TargetUncertainty:
     flown envelope runs (1-15 deg/s): attitude and rate sigmas within 1-10 % for the slow targets, and above it
     (up to 2x the rate sigma of a fast tumbler planned at a tight estimate) otherwise.
 
+    covariance0 replaces the converged bound at t0 (a test against the filter's own covariance).
     ``filtered`` holds that covariance at the substep ends (the estimate guidance re-aims with at each burn);
     ``predicted(t_from, times)`` carries the estimate of t_from on to later times without measurements (the
     estimate of the last burn, seen from the grasp and the escape).
     """
 
-    def __init__(self, prediction, t0, config):
+    def __init__(self, prediction, t0, config, covariance0=None):
         acc = config.accuracy
         self.dynamics = ErrorStateDynamics(config.inertia_kg_m2, acc.torque_psd_n2m2s)
         inertia = np.asarray(config.inertia_kg_m2, dtype=float)
@@ -572,7 +582,7 @@ class _TargetUncertainty:
         h = np.diff(nodes)
         self.phi, self.qd = self.dynamics.substep_transition_many(omega_body[:-1], omega_body[1:], h)
         self.nodes = nodes
-        p = acc.converged_covariance
+        p = acc.converged_covariance if covariance0 is None else np.asarray(covariance0, dtype=float)
         filtered = [p]
         for k in range(steps):
             p = self.phi[k] @ p @ self.phi[k].T + self.qd[k]  # P = Phi P Phi' + Qd
