@@ -45,7 +45,7 @@ from flyby_sim.dynamics.rotation import (
 REJECTION_KINDS = ('non_finite', 'non_unit', 'stale', 'outlier')
 STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
 UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
-_IDENTITY = {}  # n -> the n x n identity (_identity)
+_IDENTITY = {}  # n -> the n x n identity and its first three columns (_identity)
 
 __all__ = ['EstimationFilter', 'FilterBase', 'REJECTION_KINDS', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
            'attitude_innovation', 'fold_attitude_error', 'new_counts', 'kalman_update_first_three']
@@ -96,23 +96,27 @@ def kalman_update_first_three(x, p, y, r):
     Returns:
         (NIS, x + K y (6, 1), P after the update). Both filters gate on the NIS before taking the rest.
     """
+    # The products are ndarray.dot, the BLAS calls of @ and of filterpy's dot (the same bits) at half the cost of @
+    # per call on these sizes; the inverse is np.linalg.inv's LAPACK call without its checks (a third of its cost).
     s = p[:3, :3] + r
-    s_inv = _inverse(s, signature='d->d')  # np.linalg.inv's LAPACK call without its checks (a third of its cost)
-    nis = float(y @ s_inv @ y)
+    s_inv = _inverse(s, signature='d->d')
+    nis = float(y.dot(s_inv).dot(y))
     if not math.isfinite(nis):
         s_inv = np.linalg.inv(s)  # a singular S raises LinAlgError here, as it always did
-        nis = float(y @ s_inv @ y)
-    k = p[:, :3].dot(s_inv)  # ndarray.dot: @'s BLAS product (filterpy's dot) at half its cost per call
-    i_kh = _identity(p.shape[0])
-    i_kh[:, :3] -= k
-    return nis, x + k @ y[:, None], i_kh.dot(p).dot(i_kh.T) + k.dot(r).dot(k.T)
+        nis = float(y.dot(s_inv).dot(y))
+    k = p[:, :3].dot(s_inv)
+    eye, eye_first_three = _identity(p.shape[0])
+    i_kh = eye.copy()
+    i_kh[:, :3] = eye_first_three - k  # I - K H (a contiguous subtraction: the strided one costs twice as much)
+    return nis, x + k.dot(y[:, None]), i_kh.dot(p).dot(i_kh.T) + k.dot(r).dot(k.T)
 
 
 def _identity(n):
-    """A new n x n identity matrix (a copy of a kept one: np.eye costs 8x more)."""
+    """The n x n identity and its first three columns (contiguous), kept (np.eye costs 8x a copy)."""
     if n not in _IDENTITY:
-        _IDENTITY[n] = np.eye(n)
-    return _IDENTITY[n].copy()
+        eye = np.eye(n)
+        _IDENTITY[n] = eye, np.ascontiguousarray(eye[:, :3])
+    return _IDENTITY[n]
 
 
 def attitude_innovation(q_ref, q_meas):

@@ -52,17 +52,18 @@ from flyby_estimation.target_motion import (
     classify_motion,
     make_state,
     point_prediction,
+    q_eci_from_hill_floats,
+    quat_exp_floats,
+    quat_normalize_floats,
+    quat_product_floats,
+    rotation_vector_floats,
 )
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
+from flyby_sim.dynamics.orbital import q_hill_from_body
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
-    quat_from_rotation_vector,
     quat_multiply,
-    quat_normalize,
     rotation_angle_many,
-    rotation_vector_from_quat,
-    skew,
 )
 
 _ZERO_STATE = np.zeros((6, 1))  # the error state between updates (reset after each)
@@ -215,16 +216,19 @@ class TargetAttitudeFilter(FilterBase):
             return self._outcome('non_unit', t, reason=f'measurement at t = {t} s has norm {norm:.6g}, not within '
                                                        f'{self.config.norm_tolerance} of 1')
         z = z / norm
-        q_eci_meas = q_eci_from_body(t, self._n, z)
+        # orbital.q_eci_from_body(t, n, z) and the quaternion algebra below on floats (target_motion's *_floats:
+        # rotation's expressions, the same bits, without an array per product)
+        q_eci_meas = quat_product_floats(q_eci_from_hill_floats(t, self._n), z.tolist())
         if not self.initialized:
-            self._initialize(t, q_eci_meas, z)
+            self._initialize(t, np.array(q_eci_meas), z)
             return self._outcome('initialized', t)
         if t < self._t:
             return self._outcome('stale', t, reason=f'measurement stamped t = {t} s is before the filter time '
                                                     f'{self._t} s')
         self.propagate_to(t)
         # nu = log(q_ref^-1 * q_meas): the measured body-frame attitude error
-        nu = rotation_vector_from_quat(quat_multiply(quat_conjugate(self._q), q_eci_meas))
+        x, y, z_, w = self._q.tolist()
+        nu = np.array(rotation_vector_floats(quat_product_floats((-x, -y, -z_, w), q_eci_meas)))
         # d2 = nu' S^-1 nu, S = H P H' + R; K = P H' S^-1; dx = K nu (x = 0 after every reset);
         # P = (I-KH) P (I-KH)' + K R K' (Joseph form). The Joseph form keeps P symmetric positive
         # definite under rounding, which matters here because the rate variance falls by ~10 orders
@@ -234,7 +238,7 @@ class TargetAttitudeFilter(FilterBase):
         if verdict != 'pass':
             innovation_deg = math.degrees(float(np.linalg.norm(nu)))
             if verdict == 'reset':
-                self._initialize(t, q_eci_meas, z)
+                self._initialize(t, np.array(q_eci_meas), z)
                 return self._outcome('reset', t, d2, f'{self.config.max_consecutive_outliers} consecutive outliers, '
                                                      f'the last {innovation_deg:.3g} deg at t = {t} s (d2 = {d2:.4g} '
                                                      f'> gate {self._gate:.4g}): re-initialized from it', nu)
@@ -242,11 +246,14 @@ class TargetAttitudeFilter(FilterBase):
                                                    f'> gate {self._gate:.4g}', nu)
         # Reset: fold the error into the reference and zero it. The attitude block is turned by the
         # reset Jacobian G = I - 1/2 [dtheta x] (Markley), dtheta' = G (dtheta - dtheta_hat).
-        dtheta = dx[:3, 0]
-        self._q = quat_normalize(quat_multiply(self._q, quat_from_rotation_vector(dtheta)))
+        dtheta = a, b, c = dx[:3, 0].tolist()
+        self._q = np.array(quat_normalize_floats(quat_product_floats((x, y, z_, w), quat_exp_floats(dtheta))))
         self._omega = self._omega + dx[3:, 0]
         g = _I6.copy()
-        g[:3, :3] -= 0.5 * skew(dtheta)
+        # G = I - 0.5 [dtheta x], written out: I[:3, :3] - 0.5 * skew(dtheta) element by element
+        g[:3, :3] = ((1.0 - 0.5 * 0.0, 0.0 - 0.5 * -c, 0.0 - 0.5 * b),
+                     (0.0 - 0.5 * c, 1.0 - 0.5 * 0.0, 0.0 - 0.5 * -a),
+                     (0.0 - 0.5 * -b, 0.0 - 0.5 * a, 1.0 - 0.5 * 0.0))
         p = g.dot(p).dot(g.T)  # P = G P G'
         self._p = 0.5 * (p + p.T)
         self._accept(t, z)
@@ -322,9 +329,9 @@ class TargetAttitudeFilter(FilterBase):
         """
         if not self.initialized:
             return False
-        p = self._p
-        limits = ((p[0, 0] + p[1, 1] + p[2, 2], thresholds.attitude_3sigma_rad ** 2 / 9.0),
-                  (p[3, 3] + p[4, 4] + p[5, 5], thresholds.rate_3sigma_rad_s ** 2 / 9.0))  # (trace, sigma^2 limit)
+        d = self._p.diagonal().tolist()
+        limits = ((d[0] + d[1] + d[2], thresholds.attitude_3sigma_rad ** 2 / 9.0),
+                  (d[3] + d[4] + d[5], thresholds.rate_3sigma_rad_s ** 2 / 9.0))  # (trace, sigma^2 limit)
         if all(trace < limit * (1.0 - 1e-9) for trace, limit in limits):
             return True  # largest eigenvalue <= trace
         if any(trace > 3.0 * limit * (1.0 + 1e-9) for trace, limit in limits):

@@ -30,11 +30,13 @@ import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.integrate._ivp.rk import Dop853DenseOutput
 
 from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import eci_vector_in_hill, q_eci_from_body, q_hill_from_body
+from flyby_sim.dynamics.orbital import eci_vector_in_hill, hill_axes_in_eci, q_eci_from_body
 from flyby_sim.dynamics.rotation import (
+    quat_from_matrix,
     quat_normalize,
     quat_to_matrix,
     quat_to_matrix_many,
@@ -268,19 +270,88 @@ def reference_rate_floats(inertia, inertia_inv):
 
 
 def _rk4_step_floats(rate, y, h, k1):
-    """``orbital.rk4_step_floats`` of the autonomous rate(y) with k1 = rate(y) given (the caller has it): the
-    same operations in the same order, so the same bits."""
+    """``orbital.rk4_step_floats`` of the autonomous rate(y) of the 7 reference states, with k1 = rate(y) given
+    (the caller has it): the same operations in the same order, so the same bits, written out for 7 states."""
+    y0, y1, y2, y3, y4, y5, y6 = y
     half = 0.5 * h
-    k2 = rate([a + half * b for a, b in zip(y, k1, strict=True)])
-    k3 = rate([a + half * b for a, b in zip(y, k2, strict=True)])
-    k4 = rate([a + h * b for a, b in zip(y, k3, strict=True)])
+    a0, a1, a2, a3, a4, a5, a6 = k1
+    b0, b1, b2, b3, b4, b5, b6 = rate((y0 + half * a0, y1 + half * a1, y2 + half * a2, y3 + half * a3,
+                                       y4 + half * a4, y5 + half * a5, y6 + half * a6))
+    c0, c1, c2, c3, c4, c5, c6 = rate((y0 + half * b0, y1 + half * b1, y2 + half * b2, y3 + half * b3,
+                                       y4 + half * b4, y5 + half * b5, y6 + half * b6))
+    d0, d1, d2, d3, d4, d5, d6 = rate((y0 + h * c0, y1 + h * c1, y2 + h * c2, y3 + h * c3, y4 + h * c4,
+                                       y5 + h * c5, y6 + h * c6))
     sixth = h / 6.0
-    return [a + sixth * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True)]
+    return [y0 + sixth * (a0 + 2.0 * (b0 + c0) + d0), y1 + sixth * (a1 + 2.0 * (b1 + c1) + d1),
+            y2 + sixth * (a2 + 2.0 * (b2 + c2) + d2), y3 + sixth * (a3 + 2.0 * (b3 + c3) + d3),
+            y4 + sixth * (a4 + 2.0 * (b4 + c4) + d4), y5 + sixth * (a5 + 2.0 * (b5 + c5) + d5),
+            y6 + sixth * (a6 + 2.0 * (b6 + c6) + d6)]
 
 
 def _floats(v):
     """A vector's components as a list of Python floats."""
     return v.tolist() if type(v) is np.ndarray and v.dtype == np.float64 else [float(a) for a in v]
+
+
+# -- quaternions on Python floats, for the filter's measurement update and make_state ------------------------------
+# flyby_sim.dynamics.rotation and orbital compute these element-wise on floats and return one numpy array each; the
+# filter chains five of them per measurement, where those arrays cost more than the arithmetic. These are their
+# expressions in the same order, on tuples, hence the same bits (test_quaternion_floats_are_rotations_to_the_bit).
+# Quaternions (x, y, z, w) as everywhere in this module.
+
+_Q_ECI_FROM_HILL_T0 = tuple(quat_from_matrix(hill_axes_in_eci(0.0, 1.0)).tolist())  # orbital's q_eci_from_hill at t = 0
+_SMALL_ANGLE_RAD = 1e-6  # rotation's switch to the exp/log maps' Taylor series
+_eci_from_hill_at = [None, None]  # (t, n) and q_eci_from_hill there: the update and the state after it share it
+
+
+def quat_product_floats(q1, q2):
+    """rotation.quat_multiply (the Hamilton product q1 * q2) of two float sequences, as a tuple."""
+    x1, y1, z1, w1 = q1
+    x2, y2, z2, w2 = q2
+    return (w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2)
+
+
+def q_eci_from_hill_floats(t, n):
+    """orbital.quat_eci_from_hill(t, n) as a tuple: the t = 0 attitude turned by n t about ECI +z."""
+    key, q = _eci_from_hill_at
+    if key != (t, n):
+        half = 0.5 * n * t
+        q = quat_product_floats((0.0, 0.0, math.sin(half), math.cos(half)), _Q_ECI_FROM_HILL_T0)
+        _eci_from_hill_at[:] = (t, n), q
+    return q
+
+
+def quat_normalize_floats(q):
+    """rotation.quat_normalize as a tuple; ValueError for a zero or non-finite q."""
+    x, y, z, w = q
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if not math.isfinite(norm) or norm == 0.0:
+        raise ValueError(f'quaternion {list(q)} cannot be normalized (norm {norm})')
+    return x / norm, y / norm, z / norm, w / norm
+
+
+def rotation_vector_floats(q):
+    """rotation.rotation_vector_from_quat (the logarithmic map, angle in [0, pi]) as a tuple [rad]."""
+    x, y, z, w = quat_normalize_floats(q)
+    if w < 0.0:  # q and -q are the same rotation; take the short way round
+        x, y, z, w = -x, -y, -z, -w
+    sin_half = math.sqrt(x * x + y * y + z * z)
+    angle = 2.0 * math.atan2(sin_half, w)
+    k = 2.0 / w if angle < _SMALL_ANGLE_RAD else angle / sin_half
+    return k * x, k * y, k * z
+
+
+def quat_exp_floats(r):
+    """rotation.quat_from_rotation_vector (the exponential map) of the rotation vector r [rad], as a tuple."""
+    rx, ry, rz = r
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if not math.isfinite(angle):
+        raise ValueError(f'rotation vector {list(r)} is not finite')
+    k = 0.5 - angle * angle / 48.0 if angle < _SMALL_ANGLE_RAD else math.sin(0.5 * angle) / angle  # sin(a/2)/a
+    return k * rx, k * ry, k * rz, math.cos(0.5 * angle)
 
 
 def orbit_rate_hill(n):
@@ -410,10 +481,11 @@ def make_state(t, n, q_eci_from_body_, omega_body, covariance, symmetric=False):
     """
     if covariance is not None and not symmetric:
         covariance = 0.5 * (covariance + covariance.T)
-    q_hb = q_hill_from_body(t, n, q_eci_from_body_)
+    x, y, z, w = q_eci_from_hill_floats(t, n)
+    q_hb = quat_product_floats((-x, -y, -z, w), _floats(q_eci_from_body_))  # orbital.q_hill_from_body
     c = quat_to_matrix(q_hb)
-    w = np.array(omega_body, dtype=float)
-    return PredictedState(float(t), q_hb, np.array(q_eci_from_body_), w, c @ w, covariance, None, c)
+    omega = np.array(omega_body, dtype=float)
+    return PredictedState(float(t), np.array(q_hb), np.array(q_eci_from_body_), omega, c @ omega, covariance, None, c)
 
 
 def point_prediction(state, x_body, n):
@@ -436,6 +508,46 @@ class PointTrack:
     r_hill: np.ndarray
     v_hill: np.ndarray
     omega_hill: np.ndarray
+
+
+class DenseSolution:
+    """A DOP853 dense solution (scipy's OdeSolution) evaluated at many times at once.
+
+    scipy evaluates an array of times segment by segment, a dozen numpy calls per segment the times fall in: a
+    prediction's covariance asks for a few hundred times spread over a hundred segments. This takes, per time,
+    the segment scipy would take (the lower one at a step, OdeSolution's rule) and runs Dop853DenseOutput's
+    arithmetic on all times at once: the same operations on each element, hence the same values to the bit
+    (test_dense_solution_is_scipys_to_the_bit). A single time, or a solution of another kind, is left to scipy.
+    """
+
+    def __init__(self, ode_solution):
+        self._solution = ode_solution
+        self._segments = None  # (t_old, h, F reversed, y_old) of every segment, gathered at the first array call
+
+    def __call__(self, t):
+        t = np.asarray(t)
+        solution = self._solution
+        if t.ndim != 1 or not t.size or not solution.ascending or solution.side != 'left' or not all(
+                type(i) is Dop853DenseOutput for i in solution.interpolants):
+            return solution(t)
+        if self._segments is None:
+            segments = solution.interpolants
+            self._segments = (np.array([s.t_old for s in segments]), np.array([s.h for s in segments]),
+                              np.array([s.F[::-1] for s in segments]), np.array([s.y_old for s in segments]))
+        t_old, h, f_reversed, y_old = self._segments
+        k = np.searchsorted(solution.ts_sorted, t, side='left') - 1  # OdeSolution.__call__'s choice
+        np.clip(k, 0, solution.n_segments - 1, out=k)
+        x = ((t - t_old[k]) / h[k])[:, None]  # Dop853DenseOutput._call_impl, on every time at once
+        f = f_reversed[k]
+        y = np.zeros((t.size, y_old.shape[1]))
+        for i in range(f.shape[1]):
+            y += f[:, i]
+            if i % 2 == 0:
+                y *= x
+            else:
+                y *= 1 - x
+        y += y_old[k]
+        return y.T.copy()  # (states, times), C-contiguous as scipy's
 
 
 class MotionPrediction:
@@ -487,7 +599,7 @@ class MotionPrediction:
                             rtol=rtol, atol=atol, dense_output=True)
             if not sol.success:
                 raise RuntimeError(f'attitude prediction to t = {t_end} s failed: {sol.message}')
-            self._dense = sol.sol
+            self._dense = DenseSolution(sol.sol)
             self._rate_max = float(np.linalg.norm(sol.y[4:7], axis=0).max())  # at DOP853's steps
         else:
             self._dense = lambda t: np.repeat(y0[:, None], np.size(t), axis=1) if np.ndim(t) else y0

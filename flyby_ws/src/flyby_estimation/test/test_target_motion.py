@@ -499,3 +499,58 @@ def test_covariance_nodes_are_the_previous_chain_to_the_bit():
     fp = dyn.jacobian_many(w) @ expected
     np.testing.assert_array_equal(p_dot, fp + np.swapaxes(fp, 1, 2) + dyn.noise_density)
     assert nodes.size > 100
+
+
+quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: np.linalg.norm(q) > 0.1)
+small_or_not = st.sampled_from((1e-9, 1e-7, 1e-3, 0.5, 3.0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(quaternions, quaternions, st.tuples(*[st.floats(-1.0, 1.0)] * 3), small_or_not,
+       st.floats(0.0, 1e5), st.sampled_from((N, 1e-3)))
+def test_quaternion_floats_are_rotations_to_the_bit(q1, q2, axis, scale, t, n):
+    """target_motion's quaternions on floats (the filter's update, make_state) are flyby_sim's rotation and
+    orbital functions, to the bit: products, normalization, the log map on either side of its small-angle
+    switch and for w < 0, the exp map, q_eci_from_hill (also from its cache) and the hill attitude of make_state."""
+    from flyby_estimation.target_motion import (
+        q_eci_from_hill_floats,
+        quat_exp_floats,
+        quat_normalize_floats,
+        quat_product_floats,
+        rotation_vector_floats,
+    )
+    from flyby_sim.dynamics.orbital import quat_eci_from_hill
+
+    np.testing.assert_array_equal(quat_product_floats(q1, q2), quat_multiply(np.array(q1), np.array(q2)))
+    np.testing.assert_array_equal(quat_normalize_floats(q1), quat_normalize(np.array(q1)))
+    r = np.array(axis) * scale
+    small = quat_multiply(np.array(q1), quat_from_rotation_vector(r))
+    for q in (q1, (-q1[0], -q1[1], -q1[2], -q1[3]), tuple(small), quat_from_rotation_vector(r).tolist()):
+        np.testing.assert_array_equal(rotation_vector_floats(q), rotation_vector_from_quat(np.array(q)))
+    np.testing.assert_array_equal(quat_exp_floats(r.tolist()), quat_from_rotation_vector(r))
+    for _ in range(2):  # computed, then from the cache
+        np.testing.assert_array_equal(q_eci_from_hill_floats(t, n), quat_eci_from_hill(t, n))
+    q_eci = quat_normalize(np.array(q2))
+    s = make_state(t, n, q_eci, np.array(axis), None)
+    np.testing.assert_array_equal(s.q_hill_from_body, q_hill_from_body(t, n, q_eci))
+    np.testing.assert_array_equal(s.omega_hill, quat_to_matrix(q_hill_from_body(t, n, q_eci)) @ np.array(axis))
+
+
+def test_dense_solution_is_scipys_to_the_bit():
+    """DenseSolution (all times at once) gives scipy's OdeSolution values to the bit and in its layout: times
+    unsorted, repeated, on the solver's steps (the lower segment), at both ends and outside; a scalar and no
+    time at all go to scipy itself."""
+    dyn = ErrorStateDynamics(INERTIA_TUMBLER, torque_psd=1e-6)
+    prediction = MotionPrediction(dyn, N, 10.0, Q0, OMEGA_TUMBLER, np.eye(6) * 1e-8, 610.0)
+    dense = prediction._dense
+    scipy_solution = dense._solution
+    steps = scipy_solution.ts
+    rng = np.random.default_rng(4)
+    for times in (rng.uniform(10.0, 610.0, 500), np.linspace(10.0, 610.0, 1201), steps, steps[::-1],
+                  np.array((10.0, 10.0, 610.0, 5.0, 700.0, steps[7], steps[7])), np.array((123.4,))):
+        got, expected = dense(times), scipy_solution(times)
+        np.testing.assert_array_equal(got, expected)
+        assert got.flags.c_contiguous and got.shape == expected.shape
+    np.testing.assert_array_equal(dense(123.4), scipy_solution(123.4))
+    with pytest.raises(ValueError):
+        dense(np.array(()))  # as scipy (nothing to stack)
