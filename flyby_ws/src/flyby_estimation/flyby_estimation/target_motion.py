@@ -29,7 +29,7 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import DOP853, OdeSolution
 from scipy.integrate._ivp.rk import Dop853DenseOutput
 
 from flyby_sim.dynamics.attitude import body_point_state, euler_rate, quaternion_rate, validated_inertia
@@ -139,16 +139,19 @@ class ErrorStateDynamics:
         h = dt / steps
         rate_of = self.reference_rate_floats
         r0 = rate_of(y)  # the substep's first RK4 stage; its last three, the Euler rates at its start (eq 4)
-        phi = qd = None
-        for _ in range(steps):
+        if steps == 1:
             y1 = _rk4_step_floats(rate_of, y, h, r0)
-            r1 = rate_of(y1)
-            phi_k, qd_k = self._transition(y[4:], y1[4:], r0[4:], r1[4:], h)
-            if phi is None:
-                phi, qd = phi_k, qd_k
-            else:  # Phi = Phi_k Phi, Qd = Phi_k Qd Phi_k' + Qd_k
-                phi, qd = phi_k.dot(phi), phi_k.dot(qd).dot(phi_k.T) + qd_k
-            y, r0 = y1, r1
+            phi, qd = self._transition(y[4:], y1[4:], r0[4:], rate_of(y1)[4:], h)
+            return quat_normalize(y1[:4]), np.array(y1[4:]), phi, qd
+        ends, rates = [y], [r0]
+        for _ in range(steps):
+            ends.append(_rk4_step_floats(rate_of, ends[-1], h, rates[-1]))
+            rates.append(rate_of(ends[-1]))
+        phis, qds = self._transitions(ends, rates, h)
+        phi, qd = phis[0], qds[0]
+        for phi_k, qd_k in zip(phis[1:], qds[1:], strict=True):  # Phi = Phi_k Phi, Qd = Phi_k Qd Phi_k' + Qd_k
+            phi, qd = phi_k.dot(phi), phi_k.dot(qd).dot(phi_k.T) + qd_k
+        y = ends[-1]
         return quat_normalize(y[:4]), np.array(y[4:]), phi, qd
 
     def reference_rk4_step(self, y, h):
@@ -187,9 +190,10 @@ class ErrorStateDynamics:
         which runs the same BLAS product as @ (the same bits, test_time_update_is_the_previous_formulation_to_the_bit)
         at half of @'s cost per call on 6x6 matrices."""
         h12 = h / 12.0
-        w_mean = [0.5 * (a + b) + h12 * (da - db) for a, b, da, db in zip(w0, w1, w_dot0, w_dot1, strict=True)]
-        w_change = [b - a for a, b in zip(w0, w1, strict=True)]
-        f_mean, d_f = np.array((w_mean, w_change)).dot(self._f_per_omega).reshape(2, 6, 6)
+        (a0, a1, a2), (b0, b1, b2), (da0, da1, da2), (db0, db1, db2) = w0, w1, w_dot0, w_dot1
+        w_mean = (0.5 * (a0 + b0) + h12 * (da0 - db0), 0.5 * (a1 + b1) + h12 * (da1 - db1),
+                  0.5 * (a2 + b2) + h12 * (da2 - db2))
+        f_mean, d_f = np.array((w_mean, (b0 - a0, b1 - a1, b2 - a2))).dot(self._f_per_omega).reshape(2, 6, 6)
         f_mean = f_mean + self._f_constant  # F(omega_mean); d_f = F(omega_1) - F(omega_0) has no constant part
         magnus = h * f_mean + (h * h / 12.0) * (d_f.dot(f_mean) - f_mean.dot(d_f))  # -sqrt(3)/12 h^2 [F_1, F_2]
         phi = _I6 + magnus / 4.0  # Horner: I + W (I + W/2 (I + W/3 (I + W/4)))
@@ -203,6 +207,33 @@ class ErrorStateDynamics:
         for k in (4.0, 3.0, 2.0):  # Horner: Qd = h (Qc + h/2 L(Qc + h/3 L(Qc + h/4 L(Qc))))
             fx = f.dot(x)
             x = self.noise_density + (h / k) * (fx + fx.T)
+        return phi, h * x
+
+    def _transitions(self, ends, rates, h):
+        """``_transition`` of the M substeps of length h [s] between the M + 1 reference states ``ends`` (lists of 7
+        floats [q, omega]) with the rates ``rates`` (reference_rate_floats) there, all in one call: (Phi, Qd), each
+        (M, 6, 6). Every element-wise operation is the one a substep alone takes, and numpy's stacked matmul runs
+        the same BLAS product per matrix as ndarray.dot, so each substep's Phi and Qd are _transition's, to the bit
+        (test_time_update_is_the_previous_formulation_to_the_bit), for the numpy calls of one substep."""
+        h12 = h / 12.0
+        rows = [([0.5 * (a + b) + h12 * (da - db) for a, b, da, db in zip(y0[4:], y1[4:], r0[4:], r1[4:], strict=True)],
+                 [b - a for a, b in zip(y0[4:], y1[4:], strict=True)])
+                for y0, y1, r0, r1 in zip(ends[:-1], ends[1:], rates[:-1], rates[1:], strict=True)]
+        f = (np.array(rows) @ self._f_per_omega).reshape(-1, 2, 6, 6)
+        f_mean = f[:, 0] + self._f_constant
+        d_f = f[:, 1]
+        magnus = h * f_mean + (h * h / 12.0) * (d_f @ f_mean - f_mean @ d_f)
+        phi = _I6 + magnus / 4.0
+        for k in (3.0, 2.0):
+            phi = _I6 + (magnus @ phi) / k
+        phi = _I6 + magnus @ phi
+        if not self.torque_psd:
+            return phi, np.zeros_like(phi)
+        f = magnus / h
+        x = self.noise_density
+        for k in (4.0, 3.0, 2.0):
+            fx = f @ x
+            x = self.noise_density + (h / k) * (fx + np.swapaxes(fx, 1, 2))
         return phi, h * x
 
     def substep_transition_many(self, omega_body0, omega_body1, h):
@@ -510,6 +541,31 @@ class PointTrack:
     omega_hill: np.ndarray
 
 
+def dop853_reference(dynamics, t0, t_end, y0, rtol, atol):
+    """solve_ivp(dynamics.reference_rate, (t0, t_end), y0, method='DOP853', rtol, atol, dense_output=True):
+    (sol.sol, sol.y), the same steps and dense output to the bit (test_dop853_reference_is_solve_ivps_to_the_bit).
+
+    solve_ivp's loop for this case (no t_eval, no events), with scipy's DOP853 stepping; the solver calls the
+    reference rate directly rather than through its two wrappers (np.asarray of an array it already has and a
+    count of the calls), which cost a third of the rate itself at 15 calls a step. RuntimeError if DOP853 fails.
+    """
+    rate = dynamics.reference_rate_floats
+    solver = DOP853(dynamics.reference_rate, float(t0), y0, float(t_end), rtol=rtol, atol=atol)
+    solver.fun = lambda t, y: np.array(rate(y.tolist()))  # what the wrappers return, without them
+    ts, ys, segments = [float(t0)], [y0], []
+    while solver.status == 'running':
+        message = solver.step()
+        if solver.status == 'failed':
+            raise RuntimeError(f'attitude prediction to t = {t_end} s failed: {message}')
+        segments.append(solver.dense_output())
+        if len(ts) > 1 and ts[-1] == solver.t:  # solve_ivp keeps no empty step
+            segments.pop()
+        else:
+            ts.append(solver.t)
+            ys.append(solver.y)
+    return OdeSolution(ts, segments), np.vstack(ys).T
+
+
 class DenseSolution:
     """A DOP853 dense solution (scipy's OdeSolution) evaluated at many times at once.
 
@@ -523,12 +579,13 @@ class DenseSolution:
     def __init__(self, ode_solution):
         self._solution = ode_solution
         self._segments = None  # (t_old, h, F reversed, y_old) of every segment, gathered at the first array call
+        self._own = (ode_solution.ascending and ode_solution.side == 'left'
+                     and all(type(i) is Dop853DenseOutput for i in ode_solution.interpolants))
 
     def __call__(self, t):
         t = np.asarray(t)
         solution = self._solution
-        if t.ndim != 1 or not t.size or not solution.ascending or solution.side != 'left' or not all(
-                type(i) is Dop853DenseOutput for i in solution.interpolants):
+        if t.ndim != 1 or not t.size or not self._own:
             return solution(t)
         if self._segments is None:
             segments = solution.interpolants
@@ -593,14 +650,12 @@ class MotionPrediction:
         self._max_step_angle_rad = max_step_angle_rad
         self._max_step_s = max_step_s
         self._nodes = None  # (substep ends, P, dP/dt there), built at the first use of the covariance
+        self._blocks = {}  # block.indices(6) -> (P, dP/dt) of that block at the nodes
         y0 = np.concatenate((q_eci_from_body0, omega_body0), dtype=float)
         if t_end > t0:
-            sol = solve_ivp(dynamics.reference_rate, (self.t0, self.t_end), y0, method='DOP853',
-                            rtol=rtol, atol=atol, dense_output=True)
-            if not sol.success:
-                raise RuntimeError(f'attitude prediction to t = {t_end} s failed: {sol.message}')
-            self._dense = DenseSolution(sol.sol)
-            self._rate_max = float(np.linalg.norm(sol.y[4:7], axis=0).max())  # at DOP853's steps
+            solution, y_steps = dop853_reference(dynamics, self.t0, self.t_end, y0, rtol, atol)
+            self._dense = DenseSolution(solution)
+            self._rate_max = float(np.linalg.norm(y_steps[4:7], axis=0).max())  # at DOP853's steps
         else:
             self._dense = lambda t: np.repeat(y0[:, None], np.size(t), axis=1) if np.ndim(t) else y0
 
@@ -634,15 +689,18 @@ class MotionPrediction:
             return np.broadcast_to(self._p0[block, block], (t.size,) + self._p0[block, block].shape)
         if self._nodes is None:
             self._nodes = self._covariance_nodes()
-        nodes, p, p_dot = self._nodes
+        nodes = self._nodes[0]
+        key = block.indices(6)
+        if key not in self._blocks:  # the block of P and dP/dt at every node, contiguous: gathered per time below
+            self._blocks[key] = tuple(np.ascontiguousarray(a[:, block, block]) for a in self._nodes[1:])
+        p, p_dot = self._blocks[key]
         k = np.minimum(np.searchsorted(nodes, t, side='right') - 1, nodes.size - 2)
         h = (nodes[k + 1] - nodes[k])[:, None, None]
         s = (t - nodes[k])[:, None, None] / h
         s2 = s * s
         # cubic Hermite basis on [0, 1]: h00, h10, h01, h11
         h00, h10, h01, h11 = 1.0 - 3.0 * s2 + 2.0 * s2 * s, s - 2.0 * s2 + s2 * s, 3.0 * s2 - 2.0 * s2 * s, s2 * s - s2
-        return (h00 * p[k, block, block] + (h10 * h) * p_dot[k, block, block]
-                + h01 * p[k + 1, block, block] + (h11 * h) * p_dot[k + 1, block, block])
+        return h00 * p[k] + (h10 * h) * p_dot[k] + h01 * p[k + 1] + (h11 * h) * p_dot[k + 1]
 
     def _covariance_nodes(self):
         """(substep ends (M+1,), P there (M+1, 6, 6), dP/dt there (M+1, 6, 6)) over [t0, t_end] (class doc)."""

@@ -17,6 +17,7 @@ from flyby_estimation.target_motion import (
     classify_motion,
     covariance_from_published,
     covariance_in_hill,
+    dop853_reference,
     make_state,
     orbit_rate_hill,
     prediction_from_estimate,
@@ -499,6 +500,17 @@ def test_covariance_nodes_are_the_previous_chain_to_the_bit():
     fp = dyn.jacobian_many(w) @ expected
     np.testing.assert_array_equal(p_dot, fp + np.swapaxes(fp, 1, 2) + dyn.noise_density)
     assert nodes.size > 100
+    # the Hermite interpolant between them, from the blocks gathered per node, as it was from the full stack
+    t = np.random.default_rng(5).uniform(10.0, 300.0, 500)
+    for block in (slice(3), slice(None)):
+        k = np.minimum(np.searchsorted(nodes, t, side='right') - 1, nodes.size - 2)
+        h = (nodes[k + 1] - nodes[k])[:, None, None]
+        s = (t - nodes[k])[:, None, None] / h
+        s2 = s * s
+        h00, h10, h01, h11 = 1.0 - 3.0 * s2 + 2.0 * s2 * s, s - 2.0 * s2 + s2 * s, 3.0 * s2 - 2.0 * s2 * s, s2 * s - s2
+        previous = (h00 * p[k, block, block] + (h10 * h) * p_dot[k, block, block]
+                    + h01 * p[k + 1, block, block] + (h11 * h) * p_dot[k + 1, block, block])
+        np.testing.assert_array_equal(prediction._covariance(t, block), previous)
 
 
 quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: np.linalg.norm(q) > 0.1)
@@ -554,3 +566,20 @@ def test_dense_solution_is_scipys_to_the_bit():
     np.testing.assert_array_equal(dense(123.4), scipy_solution(123.4))
     with pytest.raises(ValueError):
         dense(np.array(()))  # as scipy (nothing to stack)
+
+
+@settings(max_examples=15, deadline=None)
+@given(inertias, quaternions, st.tuples(*[st.floats(-0.4, 0.4)] * 3), st.floats(1.0, 900.0))
+def test_dop853_reference_is_solve_ivps_to_the_bit(inertia, q, omega, span):
+    """dop853_reference (solve_ivp's loop around scipy's DOP853, the rate called without its wrappers) gives
+    solve_ivp's steps, states and dense output, to the bit."""
+    dyn = ErrorStateDynamics(inertia)
+    y0 = np.concatenate((quat_normalize(q), omega))
+    expected = solve_ivp(dyn.reference_rate, (10.0, 10.0 + span), y0, method='DOP853', rtol=1e-9, atol=1e-12,
+                         dense_output=True)
+    solution, y_steps = dop853_reference(dyn, 10.0, 10.0 + span, y0, 1e-9, 1e-12)
+    np.testing.assert_array_equal(solution.ts, expected.t)
+    np.testing.assert_array_equal(y_steps, expected.y)
+    times = np.linspace(10.0, 10.0 + span, 301)
+    np.testing.assert_array_equal(solution(times), expected.sol(times))
+    np.testing.assert_array_equal(solution(10.0 + span / 3.0), expected.sol(10.0 + span / 3.0))
