@@ -73,11 +73,15 @@ _PUBLISHED_PATH_POINTS = 1500
 _MIN_SPIN_RAD_S = math.radians(0.01)
 # The searched offsets are this far apart [m]; fly-by durations are these multiples of flyby_duration_s.
 _OFFSET_STEP_M = 0.2
-_DURATION_FACTORS = (1.0, 1.5, 2.0, 3.0)
+# Half the preferred fly-by comes last: a fast grasp point's X_Fi is then nearer and its injection smaller.
+_DURATION_FACTORS = (1.0, 1.5, 2.0, 3.0, 0.5)
 # The grasp window holds at least this many turns of the target relative to hill; the transfer is
 # kept below this fraction of an orbit (eq 28's Phi12 is singular at half an orbit, out of plane).
 _WINDOW_TURNS = 2.0
 _TRANSFER_CAP_ORBITS = 0.4
+# When the grasp window holds no safe plan, the transfers up to the cap are searched too (the extended window), at
+# most this many batches of candidates (planning time).
+_EXTENDED_BATCHES = 6
 # The passage is sampled so that the target's surface moves at most this far between samples [m].
 _FINE_STEP_M = 0.02
 # Candidates checked for passive safety at once, in order of delta-v.
@@ -201,6 +205,7 @@ class PlannerConfig:
     velocity_tolerance_mps: float = math.inf
     adjust_interval_s: float = 20.0
     command_lead_s: float = 5.0
+    latest_grasp_s: float = math.inf
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
@@ -257,19 +262,25 @@ class PlannerConfig:
         need = self.transfer_min_s + _WINDOW_TURNS * 2.0 * math.pi / rate_rel_rad_s if rate_rel_rad_s > 0 else cap
         return max(self.transfer_max_s, min(need, cap))
 
-    def search_window(self, rate_rel_rad_s):
-        """(earliest, latest) grasp time relative to the plan time [s] for a target turning at
-        rate_rel_rad_s relative to hill."""
-        durations = self.flyby_durations_s
-        return (self.maneuver_lead_s + self.transfer_min_s + min(durations),
-                self.maneuver_lead_s + self.transfer_max_for(rate_rel_rad_s) + max(durations))
+    @property
+    def transfer_cap_s(self):
+        """Longest terminal transfer of the extended window [s] (_TRANSFER_CAP_ORBITS orbits)."""
+        return _TRANSFER_CAP_ORBITS * 2.0 * math.pi / self.mean_motion_rad_s
 
-    def prediction_span_s(self, omega_body_rad_s):
+    def search_window(self, rate_rel_rad_s, extended=False):
+        """(earliest, latest) grasp time relative to the plan time [s] for a target turning at
+        rate_rel_rad_s relative to hill; extended: with the transfers up to transfer_cap_s."""
+        durations = self.flyby_durations_s
+        transfer = self.transfer_cap_s if extended else self.transfer_max_for(rate_rel_rad_s)
+        return (self.maneuver_lead_s + self.transfer_min_s + min(durations),
+                self.maneuver_lead_s + max(transfer, self.transfer_max_for(rate_rel_rad_s)) + max(durations))
+
+    def prediction_span_s(self, omega_body_rad_s, extended=False):
         """How far past the plan time the target prediction must reach [s] for a target of inertial body
-        rate omega_body_rad_s (vector or magnitude): the grasp window and the passage after it.
-        The rate relative to hill is at least |omega| - n."""
+        rate omega_body_rad_s (vector or magnitude): the grasp window (extended: the extended one) and the passage
+        after it. The rate relative to hill is at least |omega| - n."""
         rate = float(np.linalg.norm(omega_body_rad_s))
-        return self.search_window(max(rate - self.mean_motion_rad_s, 0.0))[1] + self.geometry_window_s
+        return self.search_window(max(rate - self.mean_motion_rad_s, 0.0), extended)[1] + self.geometry_window_s
 
     @property
     def escape_duration_s(self):
@@ -307,7 +318,8 @@ def planner_config_from_scenario(scenario):
         accuracy=estimate_accuracy_from_scenario(scenario),
         position_tolerance_m=scenario.chaser.manipulator.position_tolerance_m,
         velocity_tolerance_mps=scenario.chaser.manipulator.velocity_tolerance_mps,
-        adjust_interval_s=scenario.guidance.adjust_interval_s, command_lead_s=scenario.guidance.command_lead_s)
+        adjust_interval_s=scenario.guidance.adjust_interval_s, command_lead_s=scenario.guidance.command_lead_s,
+        latest_grasp_s=scenario.simulation.duration_s - scenario.supervisor.capture_hold_s)
 
 
 def estimate_accuracy_from_scenario(scenario):
@@ -346,6 +358,8 @@ class Candidate:
     unguided_coast_s: from the last burn guidance can fly (where the arc is still LAST_BURN_SLACK_M beyond the
     sphere and its burn margin, or the injection at t_i) to the grasp.
     miss_3sigma_m, miss_3sigma_mps: the predicted 3-sigma miss at the grasp (module doc, step 4), worst direction.
+    extended: its transfer is longer than the grasp window's (PlannerConfig.transfer_max_for): searched only when
+    the window holds no safe plan.
     """
 
     t_grasp: float
@@ -373,6 +387,7 @@ class Candidate:
     unguided_coast_s: float | None = None
     miss_3sigma_m: float | None = None
     miss_3sigma_mps: float | None = None
+    extended: bool = False
 
     @property
     def dv_total_mps(self):
@@ -402,6 +417,7 @@ class Candidate:
             't_min_clearance_s': _rounded(self.t_min_clearance),
             't_sphere_entry_s': _rounded(self.t_sphere_entry), 'unguided_coast_s': _rounded(self.unguided_coast_s),
             'miss_3sigma_m': _rounded(self.miss_3sigma_m), 'miss_3sigma_mps': _rounded(self.miss_3sigma_mps),
+            'extended_window': self.extended,
         }
 
 
@@ -415,6 +431,8 @@ class CapturePlan:
 
     path_t, path_r_hill: the predicted chaser path of the selected plan -- coast to the first burn,
     the terminal transfer (CW), the passive fly-by and the escape (nonlinear) -- for /planner/path.
+    prediction: the target motion the selected plan was made on (the one given, or its extension over the
+    extended window: it covers the grasp).
     """
 
     ok: bool
@@ -425,6 +443,7 @@ class CapturePlan:
     region: object = None
     path_t: np.ndarray = None
     path_r_hill: np.ndarray = None
+    prediction: object = None
 
     def to_dict(self):
         out = {'ok': self.ok, 'reason': self.reason, 't_plan_s': self.t_plan,
@@ -549,7 +568,8 @@ class _Passage:
 
 
 class _TargetUncertainty:
-    """The target estimate's covariance the planner predicts over [t0, prediction.t_end] (module doc, step 4).
+    """The target estimate's covariance the planner predicts over [t0, t_end] (default: the prediction's end;
+    module doc, step 4).
 
     An EKF's covariance depends on the trajectory, not on the measured values, so the target filter's can be
     predicted along the predicted motion: from the converged estimate's bound at t0
@@ -567,16 +587,17 @@ class _TargetUncertainty:
     estimate of the last burn, seen from the grasp and the escape).
     """
 
-    def __init__(self, prediction, t0, config, covariance0=None):
+    def __init__(self, prediction, t0, config, covariance0=None, t_end=None):
         acc = config.accuracy
         self.dynamics = ErrorStateDynamics(config.inertia_kg_m2, acc.torque_psd_n2m2s)
         inertia = np.asarray(config.inertia_kg_m2, dtype=float)
         omega0 = prediction.state(t0).omega_body
         # Torque-free: |omega| <= |H| / I_min at any time (seed 000 eq 4).
         rate_max = float(np.linalg.norm(inertia @ omega0)) / float(np.linalg.eigvalsh(inertia)[0])
-        span = prediction.t_end - t0
+        t_end = prediction.t_end if t_end is None else min(t_end, prediction.t_end)
+        span = t_end - t0
         steps = max(1, math.ceil(span / _COVARIANCE_STEP_S), math.ceil(span * rate_max / _COVARIANCE_STEP_RAD))
-        nodes = np.linspace(t0, prediction.t_end, steps + 1)
+        nodes = np.linspace(t0, t_end, steps + 1)
         c_hill_from_body = prediction.c_hill_from_body(nodes)
         omega_body = np.einsum('nji,nj->ni', c_hill_from_body, prediction.track(np.zeros(3), nodes).omega_hill)
         h = np.diff(nodes)
@@ -928,26 +949,37 @@ def _path(chosen, r_now, v_now, t_now, passage, config):
     return t, r
 
 
-# Classes of rejection, by the start of the reason, and how a refusal counts them.
+# Classes of rejection, by the start of the reason, and the step of the checks that makes it (module doc: the
+# grasp instant's conditions, X_Fi, the transfer's impulses, the transfer's path, then the passage and the miss).
 _REASON_CLASSES = (
-    ('condition (a)', 'condition (a), rate'), ('condition (b)', 'condition (b), spin axis near hill y'),
-    ('not convex', 'not convex (eq 15)'), ('condition (c)', 'condition (c), lighting'),
-    ('X_Fi', 'X_Fi inside the restriction sphere'), ('transfer impulse', 'transfer impulse above the limit'),
-    ('transfer passes', 'transfer through the restriction sphere'),
-    ('predicted 3-sigma miss', 'predicted miss above the tolerance'),
-    ('passive', 'passive clearance below the margin'),
+    ('condition (a)', 'condition (a), rate', 0), ('condition (b)', 'condition (b), spin axis near hill y', 0),
+    ('not convex', 'not convex (eq 15)', 0), ('condition (c)', 'condition (c), lighting', 0),
+    ('X_Fi', 'X_Fi inside the restriction sphere', 1), ('transfer impulse', 'transfer impulse above the limit', 2),
+    ('transfer passes', 'transfer through the restriction sphere', 3),
+    ('predicted 3-sigma miss', 'predicted miss above the tolerance', 4),
+    ('passive', 'passive clearance below the margin', 4),
 )
 
 
 def _reason_class(reason):
-    return next((label for prefix, label in _REASON_CLASSES if reason.startswith(prefix)), reason)
+    return next((label for prefix, label, _ in _REASON_CLASSES if reason.startswith(prefix)), reason)
+
+
+def _reason_step(label):
+    return next((step for _, name, step in _REASON_CLASSES if name == label), -1)
 
 
 def _refusal_reason(candidates, region, config):
-    """One line: how many candidates fell to each class of reason, the best clearance found and, when a
-    part of the target sweeps through the grasp point, which."""
-    counts = collections.Counter(_reason_class(c.reasons[0]) for c in candidates)
-    parts = [f'{k} {label}' for label, k in counts.most_common()]
+    """One line: how many candidates fell to each class of reason, the classes of the latest check first (what
+    bound the candidates that came furthest, e.g. the passage or the miss, before the many a short fly-by's X_Fi
+    rejects at once), then by count; the best clearance found and, when a part of the target sweeps through the
+    grasp point, which."""
+    counts = collections.Counter(_reason_class(c.reasons[0]) for c in candidates if c.reasons)
+    parts = [f'{k} {label}' for label, k in sorted(counts.items(), key=lambda item: (-_reason_step(item[0]),
+                                                                                      -item[1], item[0]))]
+    unchecked = sum(not c.reasons for c in candidates)
+    if unchecked:
+        parts.append(f'{unchecked} of the extended window not checked (search budget)')
     checked = [c for c in candidates if c.clearance_approach_m is not None]
     if checked:
         best = max(checked, key=lambda c: c.clearance_min_m)
@@ -1085,6 +1117,9 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     if prediction.t_end < w_hi:
         raise ValueError(f'the prediction covers [{prediction.t0}, {prediction.t_end}] s; planning at {t_now} s '
                          f'needs it up to {w_hi} s')
+    # The extended window as far as the mission lasts (the prediction is carried on for it when it is searched).
+    w_ext = min(t_now + config.search_window(rate_rel, extended=True)[1], config.latest_grasp_s)
+    w_hi = min(w_hi, config.latest_grasp_s)
 
     # Condition (a) on the current motion: a fly-by needs category II/III (seed 000 section 2.1).
     rate = float(np.linalg.norm(omega_now))
@@ -1109,56 +1144,95 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                         + f'), at any grasp time: the {box} blocks the grasp point', t_now)
 
     region = _predicted_region(prediction, t_now, config)
-    uncertainty = None if config.accuracy is None else _TargetUncertainty(prediction, t_now, config)
+    if not w_ext > w_lo:
+        return _refused(f'no grasp instant before the mission ends: the earliest is at {w_lo:.1f} s, the latest '
+                        f'{config.latest_grasp_s:.1f} s (simulation.duration_s less supervisor.capture_hold_s)', t_now,
+                        region=region)
 
-    found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n)
+    t_ti = t_now + config.maneuver_lead_s
+    chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)
+    transfer_max = config.transfer_max_for(rate_rel)
+    transfer_cap = max(config.transfer_cap_s, transfer_max)
+
+    def build(found, extended):
+        """The candidates of these grasp instants whose transfer is within the window (or, extended, beyond it)."""
+        out = []
+        for g in found:
+            durations = [d for d in config.flyby_durations_s
+                         if config.transfer_min_s <= g.t_grasp - d - t_ti <= transfer_cap
+                         and (g.t_grasp - d - t_ti > transfer_max or g.t_grasp > w_hi) == extended]
+            if not durations:
+                continue
+            reasons = _grasp_reasons(g, config)
+            if reasons:  # one entry per rejected grasp instant, at the first offset and duration searched
+                out.append(_candidate(g, offsets[0], durations[0], t_ti, chaser_at_ti, reasons, config))
+            else:
+                out += [_candidate(g, dr, d, t_ti, chaser_at_ti, (), config) for d in durations for dr in offsets]
+        for c in out:
+            c.extended = extended
+        return out
+
+    # The grasp window first, stage by stage; if it holds no safe plan, the extended window (a bounded search).
+    found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n) if w_hi > w_lo else []
+    candidates = build(found, False)
+    passages = {}
+    uncertainty = None
+    for extended in (False, True):
+        if extended:
+            if prediction.t_end < w_ext + config.geometry_window_s:
+                prediction = _carried_on(prediction, t_now, w_ext + config.geometry_window_s, config)
+                region = _predicted_region(prediction, t_now, config)
+            if w_ext > w_hi:
+                more = [g for g in grasp_candidates(prediction, config.x_grasp_body_m, max(w_lo, w_hi), w_ext, n)
+                        if g.t_grasp > w_hi]
+                found += more
+            candidates += build(found, True)
+        if config.accuracy is not None:
+            horizon = min(prediction.t_end, (w_ext if extended else w_hi) + config.geometry_window_s)
+            if uncertainty is None or uncertainty.nodes[-1] < horizon:
+                uncertainty = _TargetUncertainty(prediction, t_now, config, t_end=horizon)
+        budget = _EXTENDED_BATCHES if extended else math.inf
+        for stage in config.search_stages:
+            pending = sorted((c for c in candidates if not c.reasons and c.extended == extended
+                              and (c.offset_m, c.flyby_duration_s) in stage), key=lambda c: c.dv_total_mps)
+            cheapest_safe = math.inf
+            for start in range(0, len(pending), _BATCH):
+                batch = pending[start:start + _BATCH]
+                if batch[0].dv_total_mps > cheapest_safe + config.delta_v_tie_mps or budget <= 0:
+                    break
+                _check_passive_safety(batch, passages, prediction, region, config, uncertainty)
+                budget -= 1
+                cheapest_safe = min([cheapest_safe] + [c.dv_total_mps for c in batch if not c.reasons])
+            if cheapest_safe < math.inf:
+                break
+        if cheapest_safe < math.inf:
+            break
     if not found:
         angle = _angle_from_orbit_normal(omega_now)
         why = (f'condition (b): spin axis {_deg(angle)} from hill y, the singular case of seed 000 section 3.3 '
                '(the grasp point never has zero y velocity)'
                if angle < config.min_spin_axis_angle_from_orbit_normal_rad else
                'the grasp point\'s hill y velocity does not change sign')
-        return _refused(f'no grasp instant in [{w_lo:.1f}, {w_hi:.1f}] s: {why}', t_now, region=region)
-
-    t_ti = t_now + config.maneuver_lead_s
-    chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)
-    transfer_max = config.transfer_max_for(rate_rel)
-    candidates = []
-    for g in found:
-        durations = [d for d in config.flyby_durations_s
-                     if config.transfer_min_s <= g.t_grasp - d - t_ti <= transfer_max]
-        if not durations:
-            continue
-        reasons = _grasp_reasons(g, config)
-        if reasons:  # one entry per rejected grasp instant, at the first offset and duration searched
-            candidates.append(_candidate(g, offsets[0], durations[0], t_ti, chaser_at_ti, reasons, config))
-            continue
-        candidates += [_candidate(g, dr, d, t_ti, chaser_at_ti, (), config) for d in durations for dr in offsets]
-
-    passages = {}
-    for stage in config.search_stages:
-        pending = sorted((c for c in candidates if not c.reasons and (c.offset_m, c.flyby_duration_s) in stage),
-                         key=lambda c: c.dv_total_mps)
-        cheapest_safe = math.inf
-        for start in range(0, len(pending), _BATCH):
-            batch = pending[start:start + _BATCH]
-            if batch[0].dv_total_mps > cheapest_safe + config.delta_v_tie_mps:
-                break
-            _check_passive_safety(batch, passages, prediction, region, config, uncertainty)
-            cheapest_safe = min([cheapest_safe] + [c.dv_total_mps for c in batch if not c.reasons])
-        if cheapest_safe < math.inf:
-            break
+        return _refused(f'no grasp instant in [{w_lo:.1f}, {max(w_hi, w_ext):.1f}] s: {why}', t_now, region=region)
     for c in candidates:
         if not c.reasons and c.clearance_approach_m is None:
             c.status = 'unchecked'
     chosen = _select(candidates, config)
     if chosen is None:
         return _refused(_refusal_reason(candidates, region, config) if candidates else
-                        f'no grasp instant in [{w_lo:.1f}, {w_hi:.1f}] s is reachable with a transfer of '
-                        f'{config.transfer_min_s:g}-{transfer_max:g} s', t_now, candidates, region)
+                        f'no grasp instant in [{w_lo:.1f}, {max(w_hi, w_ext):.1f}] s is reachable with a transfer of '
+                        f'{config.transfer_min_s:g}-{transfer_cap:g} s', t_now, candidates, region)
     path_t, path_r = _path(chosen, r_now, v_now, t_now, passages[(chosen.t_grasp, chosen.offset_m)], config)
     return CapturePlan(ok=True, reason='', t_plan=t_now, selected=chosen, candidates=candidates, region=region,
-                       path_t=path_t, path_r_hill=path_r)
+                       path_t=path_t, path_r_hill=path_r, prediction=prediction)
+
+
+def _carried_on(prediction, t_now, t_end, config):
+    """The prediction's motion from t_now carried on to t_end (a MotionPrediction without covariance from its
+    state at t_now: the same torque-free motion, seed 000 eq 4), for the extended window."""
+    s = prediction.state(t_now)
+    return MotionPrediction(ErrorStateDynamics(config.inertia_kg_m2), config.mean_motion_rad_s, t_now,
+                            s.q_eci_from_body, s.omega_body, None, t_end, with_covariance=False)
 
 
 def avoidance_burn(r_hill, v_hill, t, region, config, dv_mps):

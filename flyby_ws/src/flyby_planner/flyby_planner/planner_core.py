@@ -31,9 +31,10 @@ from flyby_sim.dynamics.orbital import cw_coast
 # Values of the selected candidate put on its plan_selected event.
 _SELECTED_KEYS = ('t_grasp_s', 't_i_s', 't_ti_s', 'dv_total_mps', 'clearance_approach_m', 'clearance_escape_m',
                   'closest', 't_sphere_entry_s', 'x_g_hill_m', 'v_g_hill_mps', 'x_ft_hill_m', 'v_ft_hill_mps',
-                  'x_fi_hill_m', 'v_fi_hill_mps')
+                  'x_fi_hill_m', 'v_fi_hill_mps', 'unguided_coast_s', 'miss_3sigma_m', 'miss_3sigma_mps',
+                  'extended_window')
 _CANDIDATE_KEYS = ('t_grasp_s', 'status', 'offset_m', 'flyby_duration_s', 'dv_total_mps', 'clearance_approach_m',
-                   'clearance_escape_m', 'closest', 't_i_s', 'convex_value_m2_s2')
+                   'clearance_escape_m', 'closest', 't_i_s', 'convex_value_m2_s2', 'miss_3sigma_m')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,7 +194,7 @@ class PlannerCore:
             out.append(PlanRefused(t, plan_markers(plan, cfg)))
             return out
         chosen = plan.selected
-        at_grasp = prediction.state(chosen.t_grasp)
+        at_grasp = plan.prediction.state(chosen.t_grasp)  # the plan's motion: it reaches an extended window's grasp
         grasp = GraspState(chosen.t_grasp, chosen.x_g, chosen.v_g, at_grasp.q_hill_from_body, at_grasp.omega_body)
         out.append(PlanPublished(t, grasp, chosen.t_grasp, chosen.x_ft, chosen.v_ft, chosen.t_i, chosen.x_fi,
                                  chosen.v_fi, plan.path_t, plan.path_r_hill, plan_markers(plan, cfg)))
@@ -201,7 +202,10 @@ class PlannerCore:
         out.append(self._event(t, 'OK', 'plan_selected',
                                f'grasp at t = {chosen.t_grasp:.2f} s, offset {chosen.offset_m:g} m, fly-by '
                                f'{chosen.flyby_duration_s:g} s, transfer delta-v {chosen.dv_total_mps:.4f} m/s, '
-                               f'least clearance {chosen.clearance_min_m:.3f} m ({chosen.closest})',
+                               f'least clearance {chosen.clearance_min_m:.3f} m ({chosen.closest})'
+                               + ('' if chosen.miss_3sigma_m is None else
+                                  f', predicted 3-sigma miss {chosen.miss_3sigma_m:.3f} m after a '
+                                  f'{chosen.unguided_coast_s:.0f} s coast'),
                                {'request': why, 'plan': str(self.plans), **{k: d[k] for k in _SELECTED_KEYS},
                                 # exact, not the rounded table values: the supervisor times the phases and
                                 # places the fly-by target point by them

@@ -168,7 +168,10 @@ def test_lighting_angle_is_the_same_at_every_convex_instant_of_a_principal_spin(
     along +-(e_y x omega), fixed in inertial space too: condition (c) holds at every grasp instant of a
     principal-axis spin or at none, however long the window (docs/campaigns.md)."""
     from flyby_sim.dynamics.orbital import hill_axes_in_eci
-    sc = _scenario(lambda d: d['planner'].update(transfer_max_s=2000.0))
+    def edit(d):
+        d['planner'].update(transfer_max_s=2000.0)
+        d['simulation'].update(duration_s=4000.0)  # the mission lasts past the window
+    sc = _scenario(edit)
     cfg = planner_config_from_scenario(sc)
     plan = plan_capture(truth_prediction(sc, cfg.prediction_span_s(sc.omega_body0_rad_s)),
                         np.array(sc.chaser.initial_position_hill_m), np.zeros(3), 0.0, cfg)
@@ -215,7 +218,7 @@ def test_a_short_flyby_puts_x_fi_inside_the_sphere():
 def test_the_duration_search_lengthens_a_flyby_that_starts_inside_the_sphere():
     sc = _scenario(lambda d: d['planner'].update(flyby_duration_s=60.0, flyby_duration_max_s=400.0))
     plan, cfg = _plan(sc)
-    assert cfg.flyby_durations_s == (60.0, 90.0, 120.0, 180.0)
+    assert cfg.flyby_durations_s == (60.0, 90.0, 120.0, 180.0, 30.0)  # the preferred, longer, then half
     assert plan.ok and plan.selected.flyby_duration_s > 60.0
     assert np.linalg.norm(plan.selected.x_fi) > cfg.restriction_sphere_radius_m
 

@@ -1,6 +1,6 @@
 """Tests of the planner's uncertainty model (flyby_planner.plan, module doc step 4): the navigation and target
-estimate covariances it predicts, the predicted 3-sigma miss at the grasp and the chaser's dispersion on the
-passage."""
+estimate covariances it predicts, the predicted 3-sigma miss at the grasp, the chaser's dispersion on the passage,
+and the searches it enables (the extended grasp window, the short fly-by)."""
 
 import copy
 import math
@@ -216,3 +216,84 @@ def test_a_grasp_point_beside_a_panel_root_is_refused_with_the_attitude_known_ex
     plan, _, _ = _plan(sc)
     assert not plan.ok and plan.reason.startswith('no offset reaches the grasp point')
     assert 'with the attitude known exactly' in plan.reason and 'panel_minus_y' in plan.reason
+
+
+def test_no_grasp_after_the_mission_ends():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    plan, _, _ = _plan(sc, latest_grasp_s=300.0)
+    assert not plan.ok and 'before the mission ends' in plan.reason
+    plan, cfg, _ = _plan(sc, latest_grasp_s=700.0)
+    assert plan.ok and plan.selected.t_grasp <= 700.0
+
+
+def test_the_window_search_extends_when_the_grasp_window_holds_no_safe_plan():
+    """Envelope run 323 (a 6 deg/s tumbler, grasp point on the -y face by the bus edge, chaser 42 m away below and
+    behind) planned from the truth at 60 s: every candidate of the grasp window fails (its transfer crosses the
+    restriction sphere, or its passage meets a panel), and the extended window's transfers, up to 0.4 orbit, reach a
+    grasp instant 39 minutes out whose passage keeps the margin."""
+    def edit(d):
+        t = d['target']
+        t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.6719, -0.3901, -0.6296]
+        t['initial_rate']['omega_body_deg_s'] = [-1.6203, 0.3315, -5.6986]
+        t['grasp_point_body_m'] = [1.4617, -1.5, 0.4524]
+        t['geometry'][1]['size_m'] = [1.6808, 6.0826, 0.05]
+        t['geometry'][2]['size_m'] = [2.0623, 5.8524, 0.05]
+        d['chaser']['initial_position_hill_m'] = [24.875, -12.248, -31.949]
+        d['chaser']['thrusters'].update(magnitude_error_sigma=0.0159, direction_error_sigma_deg=0.853)
+        d['sensors']['relative_position']['noise_sigma_m'] = 0.0172
+        d['sensors']['target_attitude']['noise_sigma_deg'] = 0.937
+        d['planner']['sun_direction_hill'] = None
+        d['simulation']['duration_s'] = 3000.0
+    plan, cfg, _ = _plan(_scenario(edit), t_plan=60.0)
+    assert plan.ok and plan.selected.extended
+    window = [c for c in plan.candidates if not c.extended]
+    assert window and all(c.reasons for c in window)
+    assert any(r.startswith('transfer passes') for c in window for r in c.reasons)
+    c = plan.selected
+    assert c.t_grasp - c.flyby_duration_s - c.t_ti > cfg.transfer_max_for(1.0)  # longer than the window's transfers
+    assert c.clearance_min_m >= cfg.clearance_margin_m and c.miss_3sigma_m <= cfg.position_tolerance_m
+    assert c.t_grasp <= cfg.latest_grasp_s
+
+
+def test_a_fast_grasp_point_flies_half_the_preferred_flyby():
+    """Envelope run 505 (a 14.5 deg/s tumbler, grasp point on the -x face, the chaser 98 m away) planned from the
+    truth at 1109 s, when its estimate converged: at 300 s and longer fly-bys the grasp point's ~1 m/s puts X_Fi far
+    out, and the injection beyond the thrusters' 2 m/s per maneuver or the transfer's execution spread into the
+    restriction sphere; half the preferred fly-by (150 s, the last stage searched) is safe and flown."""
+    def edit(d):
+        t = d['target']
+        t['initial_attitude']['body_axis_along_hill']['hill'] = [0.0815, 0.9168, -0.3910]
+        t['initial_rate']['omega_body_deg_s'] = [5.7804, -0.8748, -13.2208]
+        t['grasp_point_body_m'] = [-1.5, -1.1848, 0.8010]
+        t['geometry'][1]['size_m'] = [2.0179, 6.5599, 0.05]
+        t['geometry'][2]['size_m'] = [2.1314, 5.3711, 0.05]
+        d['chaser']['initial_position_hill_m'] = [-24.500, -14.949, -92.993]
+        d['chaser']['thrusters'].update(magnitude_error_sigma=0.0114, direction_error_sigma_deg=1.088)
+        d['sensors']['relative_position']['noise_sigma_m'] = 0.0234
+        d['sensors']['target_attitude']['noise_sigma_deg'] = 2.085
+        d['planner']['sun_direction_hill'] = None
+        d['simulation']['duration_s'] = 3000.0
+    plan, cfg, _ = _plan(_scenario(edit), t_plan=1109.0)
+    assert plan.ok and plan.selected.flyby_duration_s == pytest.approx(0.5 * cfg.flyby_duration_s)
+    longer = [c for c in plan.candidates if c.flyby_duration_s > plan.selected.flyby_duration_s and c.convex_value > 0]
+    assert longer and all(c.reasons for c in longer)
+    assert {r.split()[0] for c in longer for r in c.reasons} >= {'transfer'}
+
+
+def test_a_refusal_leads_with_the_latest_check_that_bound_it():
+    """The refusal's first class is what bound the candidates that came furthest (the passage and the miss before
+    the transfer, the transfer before X_Fi, X_Fi before the grasp instant's conditions), not the most numerous:
+    a slow target's half-length fly-bys put many X_Fi inside the sphere at once (envelope runs 82, 95, 302)."""
+    from flyby_planner.plan import _refusal_reason
+
+    def rejected(reason, k):
+        return [types.SimpleNamespace(reasons=[reason], clearance_approach_m=None)] * k
+
+    cfg = planner_config_from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+    candidates = (rejected('X_Fi at 12.00 m is inside the restriction sphere (15 m)', 48)
+                  + rejected('transfer passes 14.1 m from the target ...', 56)
+                  + rejected('predicted 3-sigma miss at the grasp 0.126 m ...', 44)
+                  + rejected('not convex: eq 15 value -1e-05 m^2/s^2 <= 0', 11))
+    reason = _refusal_reason(candidates, None, cfg)
+    assert reason == ('all 159 candidates rejected: 44 predicted miss above the tolerance; 56 transfer through the '
+                      'restriction sphere; 48 X_Fi inside the restriction sphere; 11 not convex (eq 15)')

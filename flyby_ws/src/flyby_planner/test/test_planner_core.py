@@ -64,3 +64,41 @@ def test_a_re_aimed_grasp_is_published_again():
     assert aim.x_ft == pytest.approx((0.45, 3.0, 0.15)) and aim.grasp.omega_body[2] == 0.087
     # Guidance keeping its aim (no convex grasp found) publishes nothing new.
     assert core.on_event(refined._replace(values={})) == []
+
+
+def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
+    """Envelope run 323 (a 6 deg/s tumbler) planned at 60 s from the truth: the plan's grasp lies in the extended
+    window, past the prediction PlannerCore made (the grasp window's), and the published grasp attitude and body
+    rate are those of the motion the plan carried on to it, the truth's to 1e-6."""
+    import copy
+
+    import yaml
+
+    from flyby_planner.plan import truth_prediction
+    from flyby_sim.scenario import scenario_from_dict
+    d = copy.deepcopy(yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text()))
+    t = d['target']
+    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.6719, -0.3901, -0.6296]
+    t['initial_rate']['omega_body_deg_s'] = [-1.6203, 0.3315, -5.6986]
+    t['grasp_point_body_m'] = [1.4617, -1.5, 0.4524]
+    t['geometry'][1]['size_m'] = [1.6808, 6.0826, 0.05]
+    t['geometry'][2]['size_m'] = [2.0623, 5.8524, 0.05]
+    d['chaser']['initial_position_hill_m'] = [24.875, -12.248, -31.949]
+    d['chaser']['thrusters'].update(magnitude_error_sigma=0.0159, direction_error_sigma_deg=0.853)
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.0172
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 0.937
+    d['planner']['sun_direction_hill'] = None
+    d['simulation']['duration_s'] = 3000.0
+    sc = scenario_from_dict(d, name='envelope run 323 (test)')
+    truth = truth_prediction(sc, 3000.0)
+    core = PlannerCore(sc)
+    s60 = truth.state(60.0)
+    r_c = np.array(sc.chaser.initial_position_hill_m)
+    core.on_chaser_estimate(60.0, r_c, np.zeros(3))
+    core.on_event(_planning_event(60.0))
+    out = core.on_target_estimate(60.0, s60.q_hill_from_body, s60.omega_body)
+    (plan,) = [o for o in out if isinstance(o, PlanPublished)]
+    assert plan.t_f > 60.0 + core.config.prediction_span_s(s60.omega_body)
+    at_grasp = truth.state(plan.t_f)
+    assert abs(np.dot(plan.grasp.q_hill_from_body, at_grasp.q_hill_from_body)) == pytest.approx(1.0, abs=1e-9)
+    assert plan.grasp.omega_body == pytest.approx(at_grasp.omega_body, abs=1e-8)
