@@ -1117,9 +1117,9 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     if prediction.t_end < w_hi:
         raise ValueError(f'the prediction covers [{prediction.t0}, {prediction.t_end}] s; planning at {t_now} s '
                          f'needs it up to {w_hi} s')
-    # The extended window as far as the mission lasts (the prediction is carried on for it when it is searched).
+    # The extended window as far as the mission lasts (the prediction is carried on for it when it is searched);
+    # the grasp window plans as it always did, a short test run ending on its time limit.
     w_ext = min(t_now + config.search_window(rate_rel, extended=True)[1], config.latest_grasp_s)
-    w_hi = min(w_hi, config.latest_grasp_s)
 
     # Condition (a) on the current motion: a fly-by needs category II/III (seed 000 section 2.1).
     rate = float(np.linalg.norm(omega_now))
@@ -1144,10 +1144,6 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                         + f'), at any grasp time: the {box} blocks the grasp point', t_now)
 
     region = _predicted_region(prediction, t_now, config)
-    if not w_ext > w_lo:
-        return _refused(f'no grasp instant before the mission ends: the earliest is at {w_lo:.1f} s, the latest '
-                        f'{config.latest_grasp_s:.1f} s (simulation.duration_s less supervisor.capture_hold_s)', t_now,
-                        region=region)
 
     t_ti = t_now + config.maneuver_lead_s
     chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)
@@ -1160,7 +1156,8 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
         for g in found:
             durations = [d for d in config.flyby_durations_s
                          if config.transfer_min_s <= g.t_grasp - d - t_ti <= transfer_cap
-                         and (g.t_grasp - d - t_ti > transfer_max or g.t_grasp > w_hi) == extended]
+                         and (g.t_grasp - d - t_ti > transfer_max or g.t_grasp > w_hi) == extended
+                         and (not extended or g.t_grasp <= config.latest_grasp_s)]
             if not durations:
                 continue
             reasons = _grasp_reasons(g, config)
