@@ -11,7 +11,10 @@ Steps (seed 000 section 4.4: "multiple candidates ... over a period of rotations
 
 1. Grasp-time search (grasp.grasp_candidates, eq 13-15) over the grasp times reachable with a
    terminal transfer of transfer_min_s ... transfer_max_s starting maneuver_lead_s from now and any
-   searched fly-by duration; for a slow target the window is stretched to hold two turns.
+   searched fly-by duration; for a slow target the window is stretched to hold two turns. When that
+   window holds no safe plan, the extended window is searched: transfers up to 0.4 orbit (a tumbler's
+   geometry at the grasp changes with its nutation), grasps before the mission's end, and half the
+   preferred fly-by for a fast grasp point (its nearer X_Fi and smaller injection).
 2. Per grasp instant: condition (a) rate below the category III/IV limit, (b) spin axis away from
    hill y (no pure out-of-plane motion), the safe convex condition eq 15, (c) lighting against the
    sun direction.
