@@ -207,6 +207,11 @@ def plan_terms(problem, plan, steps=600):
     return eq5_terms(problem, plan.sample(tau), dt, plan.duration_s)
 
 
+def _penalty(least_gap_m, collision_penalty):
+    """collision_penalty (1 + depth) for a least gap below zero, else 0."""
+    return collision_penalty * (1.0 - least_gap_m) if least_gap_m < 0.0 else 0.0
+
+
 def total_cost(problems, plans, samples, collision_penalty=0.0, separate=True):
     """P of eq 5 of plans (one per robot, one approach time) on ``samples`` equal steps, summed over the robots, with
     each pair's mutual safety (seed 003 section 4.2, weighted by k_s) when ``separate``, plus collision_penalty
@@ -217,7 +222,7 @@ def total_cost(problems, plans, samples, collision_penalty=0.0, separate=True):
     total = 0.0
     for p, traj in zip(problems, trajectories, strict=True):
         terms = eq5_terms(p, traj, dt, duration)
-        total += terms.total + collision_penalty * (1.0 - terms.clearance_min_m) * (terms.clearance_min_m < 0.0)
+        total += terms.total + _penalty(terms.clearance_min_m, collision_penalty)
     if separate:
         for i in range(len(problems)):
             for j in range(i + 1, len(problems)):
@@ -226,5 +231,5 @@ def total_cost(problems, plans, samples, collision_penalty=0.0, separate=True):
                                               + problems[j].chaser.envelope_radius_m)
                 least = float(gap.min())
                 total += problems[i].weights.safety * float(s.sum()) * dt  # section 4.2, robot to robot
-                total += collision_penalty * (1.0 - least) * (least < 0.0)
+                total += _penalty(least, collision_penalty)
     return total

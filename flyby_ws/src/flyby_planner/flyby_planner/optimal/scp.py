@@ -27,10 +27,10 @@ Model, one robot (several are stacked with a common time grid):
   chaser moves) and gap the distance to the box's supporting plane (a lower bound: the box is convex); the robots'
   mutual safety likewise. k_t T^2 is a constant for a given T, which an outer golden-section search chooses on the
   exact eq 5 of each converged plan.
-* Trust region |r_k - r_ref,k| <= rho_k, rho_k = min(rho, trust_fraction |r_ref,k|) (near the target the
-  linearizations hold over a shorter distance). Each iterate is judged on the exact eq 5 (cost.total_cost): a lower
-  cost is accepted and rho doubles, a higher one is rejected and rho shrinks; the iterations stop when the nodes
-  move less than the tolerance or the cost falls by less than merit_tolerance.
+* Trust region |r_k - r_ref,k| <= rho_k, rho_k = min(rho, max(trust_fraction |r_ref,k|, trust_min_m)) (near the
+  target the linearizations hold over a shorter distance). Each iterate is judged on the exact eq 5
+  (cost.total_cost): a lower cost is accepted and rho doubles, a higher one is rejected and rho shrinks; the
+  iterations stop when the nodes move less than the tolerance or the cost falls by less than merit_tolerance.
 
 ``delta_v_lower_bound`` gives the least delta-v any path can have for a time and acceleration bound, whatever its
 shape (keep-out and plume only add constraints): module doc of that function.
@@ -108,6 +108,7 @@ class ScpSettings:
     tolerance_m: float = 0.02
     trust_region_m: float = 15.0
     trust_fraction: float = 0.3
+    trust_min_m: float = 0.5
     buffer_penalty: float = 10.0
     plume_trust_m: float = 0.05
     trust_shrink: float = 0.25
@@ -310,8 +311,8 @@ def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trus
         rho_node = np.minimum(trust[:, 0], settings.plume_trust_m)
         rho = math.sqrt(3.0) * np.concatenate((np.repeat(np.maximum(rho_node[:-1], rho_node[1:]), grid.substeps),
                                                rho_node[-1:]))
-        distance = np.linalg.norm(r_ref, axis=1)
-        member = distance < p.plume_radius_m + settings.plume_margin_m
+        distance = np.maximum(np.linalg.norm(r_ref, axis=1), 1e-9)
+        member = (distance < p.plume_radius_m + settings.plume_margin_m) & (p.plume_radius_m > 0.0)
         r_hat = member[:, None] * r_ref / distance[:, None]
         sin_alpha = member * np.minimum(rho / distance, 1.0)
         hats, _ = grid.split(r_hat)
@@ -361,9 +362,12 @@ def _solve_fixed(problems, duration_s, settings, references, pairs):
     refs, best, trust = list(references), None, settings.trust_region_m
     for it in range(1, settings.max_iterations + 1):
         rhos = []
-        for robot, (r_ref, _) in zip(model.robots, refs, strict=True):
+        for p, robot, (r_ref, _) in zip(problems, model.robots, refs, strict=True):
             # near the target the linearizations hold over a shorter distance: a trust radius in proportion
-            rho = np.minimum(trust, settings.trust_fraction * np.linalg.norm(r_ref[::grid.substeps], axis=1))
+            rho = np.full(settings.steps + 1, trust)
+            if p.target is not None:
+                distance = np.linalg.norm(r_ref[::grid.substeps], axis=1)
+                rho = np.minimum(rho, np.maximum(settings.trust_fraction * distance, settings.trust_min_m))
             robot['par']['trust'].value = rho[:, None]
             rhos.append(rho[:, None])
         _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, rhos)
