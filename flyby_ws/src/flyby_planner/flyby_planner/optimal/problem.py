@@ -211,3 +211,26 @@ def heuristic_route(problem, duration_s, samples=200):
         if gap > 0.0:
             break
     return best
+
+
+def chaser_from_scenario(scenario, accel_max_mps2=None):
+    """Chaser of a scenario's chaser section: mass, Isp, envelope, and the largest acceleration (default the full
+    thrust over the mass, thrusters.max_thrust_n / mass_kg)."""
+    c = scenario.chaser
+    accel = c.thrusters.max_thrust_n / c.mass_kg if accel_max_mps2 is None else accel_max_mps2
+    return Chaser(mass_kg=c.mass_kg, isp_s=c.thrusters.isp_s, accel_max_mps2=accel,
+                  envelope_radius_m=c.envelope_radius_m)
+
+
+def approach_problem(scenario, prediction, r0_hill, v0_hill, t0_s, plume_radius_m, x_grasp_body=None, offset_m=None,
+                     chaser=None, weights=CostWeights(), duration_min_s=20.0, duration_max_s=200.0):
+    """ApproachProblem of a scenario's target (geometry, grasp point, planner.offset_m by default) from a
+    MotionPrediction (the estimator's, or flyby_planner.plan.truth_prediction) and the chaser's state at t0_s."""
+    n = scenario.mean_motion_rad_s
+    grasp = scenario.target.grasp_point_body_m if x_grasp_body is None else x_grasp_body
+    offset = scenario.planner.offset_m if offset_m is None else offset_m
+    return ApproachProblem(
+        r0_hill=np.asarray(r0_hill, dtype=float), v0_hill=np.asarray(v0_hill, dtype=float), t0_s=float(t0_s),
+        terminal=GraspTerminal(prediction, grasp, offset), target=TargetMotion(prediction, scenario.boxes, n),
+        chaser=chaser_from_scenario(scenario) if chaser is None else chaser, n=n, plume_radius_m=plume_radius_m,
+        weights=weights, duration_min_s=duration_min_s, duration_max_s=duration_max_s)
