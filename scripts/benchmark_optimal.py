@@ -2,6 +2,7 @@
 """Benchmark: seed 003 Table 1's approach planned by the Nelder-Mead baseline and by SCP, side by side.
 
     benchmark_optimal.py [--scenario scenarios/paper_flyby.yaml] [--repeat 5] [--free-time] [--two-robots]
+                         [--figures docs/figures]
 
 Table 1's case: the chaser 50 m ahead on V-bar at rest, the target spinning 5 deg/s about [1, 1, 1]/sqrt(3)
 (paper_flyby's target), the approach time 58.9 s and the peak acceleration 0.138 m/s^2 of Table 1; the end state is
@@ -11,7 +12,8 @@ steps, and their least clearance by the true attitude every 10 ms. SCP is timed 
 cvxpy compiling its parametrized program) and warm (median of --repeat). Also the least delta-v bracket for 58.9 s
 and 0.138 m/s^2 (scp.delta_v_lower_bound) and SCP with the safety weight off (the least-fuel plan that still meets
 keep-out and the plume rule). --free-time: both solvers also choose T (eq 5's k_t T^2). --two-robots: the +-50 m
-V-bar pair (seed 003 Fig 12).
+V-bar pair (seed 003 Fig 12). --figures DIR: seed 003 Fig 10 (x-z path, waypoints, the panels' swept area) and
+Fig 11 (safety metric vs time) regenerated for both plans, seed003_fig10_xz.png and seed003_fig11_safety.png.
 """
 
 import argparse
@@ -23,8 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from flyby_msgs_py.schema import ScenarioError
+from flyby_planner.keepout import swept_region
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
-from flyby_planner.optimal.cost import plan_terms, total_cost
+from flyby_planner.optimal.cost import midpoint_times, plan_terms, safety_metric, total_cost
 from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario
 from flyby_planner.optimal.scp import delta_v_lower_bound, plan_scp
 from flyby_planner.plan import truth_prediction
@@ -33,6 +36,10 @@ from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body_many
 from flyby_sim.dynamics.propulsion import fuel_for_delta_v_kg
 from flyby_sim.scenario import load_scenario
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # scripts/ is not a package
+import plots  # noqa: E402
+from plots import plt  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 T_TABLE1_S = 58.9
@@ -64,6 +71,55 @@ HEADER = (f'{"plan":<22} {"k_a a":>8} {"k_f f":>7} {"k_s s":>7} {"k_pi pi":>7} {
           f'{"dv m/s":>6} {"fuel kg":>6} {"T s":>6} {"a_max":>6} {"clear m":>6} {"compute s":>8}')
 
 
+def _figures(out, scenario, problem, plans):
+    """Seed 003 Fig 10 and Fig 11 for the plans {label: plan} (module doc)."""
+    n = scenario.mean_motion_rad_s
+    region = swept_region(scenario.boxes, scenario.target_inertia, q_eci_from_body(0.0, n, scenario.q_hill_from_body0),
+                          scenario.omega_body0_rad_s[None])
+    axis = region.axis_hill(0.0, n)
+    e1 = np.cross(axis, (0.0, 1.0, 0.0))
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    theta = np.linspace(0.0, 2.0 * np.pi, 181)
+    fig, ax = plt.subplots(figsize=(9, 5.5))
+    for name, lo, hi, radius in zip(region.names, region.axial_min_m, region.axial_max_m, region.radius_m,
+                                    strict=True):
+        if name.startswith('panel'):
+            disc = 0.5 * (lo + hi) * axis + radius * (np.outer(np.cos(theta), e1) + np.outer(np.sin(theta), e2))
+            ax.fill(*plots.xz(disc), color='0.8', label='area swept by the panels' if name.endswith('y') and
+                    'plus' in name else None)
+    spin = np.outer((-12.0, 12.0), axis)
+    ax.plot(*plots.xz(spin), 'k-.', lw=1, label='spin axis')
+    colors = {'Nelder-Mead': 'tab:blue', 'SCP': 'tab:red'}
+    for label, plan in plans.items():
+        traj = plan.sample(np.linspace(0.0, plan.duration_s, 600))
+        ax.plot(*plots.xz(traj.r_hill), color=colors[label], label=label)
+        if hasattr(plan, 'knots_s'):
+            ax.plot(*plots.xz(plan.p_hill[1:-2]), 'o', color=colors[label], ms=5, label='waypoints on path')
+    r_f, _ = problem.end_state(T_TABLE1_S)
+    ax.plot(*plots.xz(problem.r0_hill[None]), 'ks', label='robot initial position')
+    ax.plot(*plots.xz(r_f[None]), 'k*', ms=12, label='final position')
+    ax.set(xlim=(-15, 55), ylim=(15, -15), aspect='equal', xlabel='hill x, along-track [m]',
+           ylabel='hill z, toward Earth [m]', title='Seed 003 Fig 10: optimal approach, single robot (x-z)')
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc='upper right')
+    fig.tight_layout()
+    plots.save(fig, Path(out) / 'seed003_fig10_xz.png', 100)
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for label, plan in plans.items():
+        tau, _ = midpoint_times(plan.duration_s, 600)
+        traj = plan.sample(tau)
+        c, omega_rel = problem.target.attitude(traj.t_s)
+        s, _ = safety_metric(traj.r_hill, traj.v_hill, c, omega_rel, scenario.boxes, problem.chaser.envelope_radius_m)
+        ax.plot(tau, s, color=colors[label], label=label)
+    ax.set(xlabel='time [s]', ylabel='safety metric $s_p$ [m/s$^2$]',
+           title='Seed 003 Fig 11: value of the safety metric vs time')
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    plots.save(fig, Path(out) / 'seed003_fig11_safety.png', 100)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby.yaml'))
@@ -72,6 +128,7 @@ def main():
     ap.add_argument('--waypoints-max', type=int, default=6, help='the baseline\'s last stage')
     ap.add_argument('--free-time', action='store_true')
     ap.add_argument('--two-robots', action='store_true')
+    ap.add_argument('--figures', metavar='DIR', help='write seed 003 Fig 10 and Fig 11 here')
     args = ap.parse_args()
     if args.repeat < 1:
         print(f'error: --repeat: must be >= 1, got {args.repeat}', file=sys.stderr)
@@ -88,7 +145,7 @@ def main():
     w = problem.weights
     print(f'{sc.name}: chaser {chaser.mass_kg:g} kg, Isp {chaser.isp_s:g} s, a_max {chaser.accel_max_mps2:g} m/s^2, '
           f'envelope {chaser.envelope_radius_m:g} m; plume radius {args.plume_radius:g} m; grasp point '
-          f'{list(sc.target.grasp_point_body_m)} body, offset {sc.planner.offset_m:g} m')
+          f'{[float(v) for v in sc.target.grasp_point_body_m]} body, offset {sc.planner.offset_m:g} m')
     print(f'eq 5 weights: k_a {w.actuator:g} 1/s, k_f {w.fuel_per_kg:g} 1/kg, k_s {w.safety:g} s/m, '
           f'k_pi {w.plume:g} s/m, k_t {w.time:g} 1/s^2')
     print(HEADER)
@@ -123,6 +180,9 @@ def main():
     m_over_isp = FUEL_TABLE1_KG * 9.80665 / bound.lower_mps
     print(f'Table 1: {T_TABLE1_S} s, ~{FUEL_TABLE1_KG} kg, {ACCEL_TABLE1_MPS2} m/s^2; {FUEL_TABLE1_KG} kg at the least '
           f'delta-v needs m / Isp >= {m_over_isp:.2f} kg/s (e.g. {m_over_isp * 220.0:.0f} kg at 220 s)')
+
+    if args.figures:
+        _figures(args.figures, sc, problem, {'Nelder-Mead': nm.plans[0], 'SCP': scp.plans[0]})
 
     if args.free_time:
         print('\nT free (eq 5 k_t T^2):')
