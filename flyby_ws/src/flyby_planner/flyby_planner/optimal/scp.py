@@ -135,7 +135,8 @@ class ScpResult:
 
 
 class _Grid:
-    """The check points of one time grid: N steps, M per step, and the matrices giving their positions."""
+    """The check points of one time grid: N steps, M per step (check point k M + j at k h + j h / M, then the end),
+    and the matrices giving their positions from the step's start state and thrust."""
 
     def __init__(self, n, duration_s, steps, substeps):
         self.steps, self.substeps = steps, substeps
@@ -146,12 +147,6 @@ class _Grid:
         self.phi_r = cw_transition_matrix(n, sub)[:, :3, :]  # (M, 3, 6)
         self.gamma_r = zoh_input_matrix(n, sub)[:, :3, :]  # (M, 3, 3)
         self.tau = np.concatenate(((np.arange(steps)[:, None] * self.h + sub[None, :]).reshape(-1), [duration_s]))
-
-    def positions(self, x, u):
-        """Affine expressions of the check-point positions: M of them (N, 3) (check point k M + j is row k of the
-        j-th) and the end node (1, 3)."""
-        rows = [x[:-1] @ self.phi_r[j].T + u @ self.gamma_r[j].T for j in range(self.substeps)]
-        return rows, x[-1:, :3]
 
     def split(self, a):
         """An array over the check points (N M + 1, ...) as M arrays (N, ...) and the end row (1, ...)."""
