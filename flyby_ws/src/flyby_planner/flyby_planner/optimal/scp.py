@@ -183,6 +183,7 @@ class _Model:
         cost, constraints = 0.0, []
         for k_boxes in boxes_per_robot:
             x, u = cp.Variable((steps + 1, 6)), cp.Variable((steps, 3))
+            thrust = cp.Variable(steps)  # >= |u_k|, equal at the optimum (fuel prices it): one cone per step
             rc = [cp.Variable((steps, 3)) for _ in range(substeps)] + [x[steps:, :3]]
             par = dict(x0=cp.Parameter(6), xf=cp.Parameter(6), accel_max=cp.Parameter(nonneg=True),
                        fuel=cp.Parameter(nonneg=True), r_ref=cp.Parameter((steps + 1, 3)),
@@ -200,7 +201,8 @@ class _Model:
                 x[0] == par['x0'],  # the state now
                 x[steps] == par['xf'],  # X_Ft, V_Ft at t0 + T, seed 000 eq 20-21
                 x[1:] == x[:-1] @ self.phi.T + u @ self.gamma.T,  # CW with held thrust, seed 000 eq 22
-                cp.norm(u, 2, axis=1) <= par['accel_max'],  # actuator limit
+                cp.norm(u, 2, axis=1) <= thrust,
+                thrust <= par['accel_max'],  # actuator limit
                 cp.abs(x[:, :3] - par['r_ref']) <= par['trust'],  # trust region, per node
             ]
             constraints += [rc[j] == x[:-1] @ self.phi_r[j].T + u @ self.gamma_r[j].T for j in range(substeps)]
@@ -222,10 +224,10 @@ class _Model:
             # plume: no thrust component away from the target, for any direction to it within the trust region;
             # a virtual buffer (SCvx) at an exact-penalty price keeps an early linearization feasible
             buffer = cp.Variable((substeps + 1, steps), nonneg=True)
-            constraints += [cp.multiply(par['plume_sin'][j], cp.norm(u, 2, axis=1))
+            constraints += [cp.multiply(par['plume_sin'][j], thrust)
                             + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer[j] for j in range(substeps + 1)]
             cost += par['buffer'] * cp.sum(buffer)
-            cost += par['fuel'] * cp.sum(cp.norm(u, 2, axis=1))  # fuel, k_f m / (Isp g0) h sum |u|
+            cost += par['fuel'] * cp.sum(thrust)  # fuel, k_f m / (Isp g0) h sum |u|
             self.robots.append(dict(x=x, u=u, rc=rc, par=par))
         self.pairs = []
         for i, j in pairs:
