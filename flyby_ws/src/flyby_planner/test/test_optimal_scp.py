@@ -1,6 +1,7 @@
 """Tests of flyby_planner.optimal.scp against the Nelder-Mead baseline on seed 003 Table 1's case, and of the
 least delta-v bracket."""
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -9,8 +10,8 @@ import pytest
 
 from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
-from flyby_planner.optimal.cost import plan_terms, plume_metric
-from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario
+from flyby_planner.optimal.cost import box_contacts, plan_terms, plume_metric
+from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario, heuristic_route
 from flyby_planner.optimal.scp import ZohPlan, delta_v_lower_bound, plan_scp, zoh_input_matrix
 from flyby_planner.plan import truth_prediction
 from flyby_sim.dynamics.attitude import AttitudePropagator
@@ -139,3 +140,17 @@ def test_zoh_plan_samples_its_nodes():
     np.testing.assert_allclose(traj.v_hill, np.array(x)[:, 3:], atol=1e-12)
     np.testing.assert_allclose(traj.a_hill[:-1], u)
     np.testing.assert_allclose(traj.t_s, 2.0 + np.arange(steps + 1) * 3.0)
+
+
+def test_scp_plans_around_the_target():
+    """From -50 m V-bar the grasp point's side is behind the panels: the straight start cuts them, the heuristic
+    route goes round (seed 003: 'a heuristically determined collision free path'), and SCP's plan stays clear."""
+    sc, table1 = table1_problem()
+    problem = dataclasses.replace(table1, r0_hill=np.array([-50.0, 0.0, 0.0]))
+    s = np.linspace(0.0, 1.0, 400)
+    route = heuristic_route(problem, T_TABLE1_S)(s)
+    c, _ = problem.target.attitude(s * T_TABLE1_S)
+    assert box_contacts(route, c, sc.boxes)[0].min() > sc.chaser.envelope_radius_m
+    result = plan_scp([problem], duration_s=T_TABLE1_S)
+    tau = np.linspace(0.0, T_TABLE1_S, 5891)
+    assert _truth_clearance(sc, result.plans[0].sample(tau).r_hill, tau).min() > 0.0

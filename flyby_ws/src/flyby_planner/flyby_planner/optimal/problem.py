@@ -164,7 +164,9 @@ def heuristic_route(problem, duration_s, samples=200):
 
     The straight segment if the chaser envelope clears the target's geometry along it (sampled at ``samples``
     times with the predicted attitude); else the segments through a point 1.5 bounding radii from the centre of
-    mass, toward the mean of the start and end directions or either side of it, whichever clears most.
+    mass, toward the mean of the start and end directions or either side of it, whichever clears most. Either is
+    run along a smoothstep in time (3 s^2 - 2 s^3 of the length), leaving and arriving at rest, which the
+    acceleration bound allows when 6 length / T^2 is below it.
 
     Returns:
         route(s) -> (M, 3) hill positions [m] for path fractions s (M,) in [0, 1] (s = tau / T).
@@ -202,9 +204,11 @@ def heuristic_route(problem, duration_s, samples=200):
         via = radius * d / np.linalg.norm(d)
 
         def through(s, via=via):
-            s = np.asarray(s, dtype=float)
-            first = r0 + np.outer(np.clip(2.0 * s, 0.0, 1.0), via - r0)
-            return np.where((s <= 0.5)[:, None], first, via + np.outer(np.clip(2.0 * s - 1.0, 0.0, 1.0), r_f - via))
+            # the two segments by arc length along the smoothstep, so the route leaves and arrives at rest
+            first, second = np.linalg.norm(via - r0), np.linalg.norm(r_f - via)
+            length = _smoothstep(np.asarray(s, dtype=float)) * (first + second)
+            return np.where((length <= first)[:, None], r0 + np.outer(length / first, via - r0),
+                            via + np.outer((length - first) / second, r_f - via))
         gap = least_gap(through)
         if gap > best_gap:
             best, best_gap = through, gap

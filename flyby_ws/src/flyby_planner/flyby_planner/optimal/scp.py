@@ -12,7 +12,9 @@ Model, one robot (several are stacked with a common time grid):
   the step, where the position is affine in x_k, u_k), for every box, the supporting plane of the box at its point
   closest to the reference position, turned with the predicted attitude of that time:
   n . r >= n . q + envelope + margin. A point on the far side of a supporting plane is outside the convex box, so
-  every iterate meets the keep-out at the check points, not only the converged one.
+  every iterate meets the keep-out at the check points, not only the converged one (but for a virtual buffer
+  priced at keepout_penalty, which lets a first reference that the planes and the dynamics cannot both meet
+  through; the exact cost's collision penalty and the converged plans' clearance, tested, show none is left).
 * Plume rule, seed 003 metric 4 as a constraint: where the reference is within the plume radius (plus a margin),
   u_k . r_hat + sin(alpha) |u_k| <= 0 at every check point of the step and at its end, r_hat the reference's
   direction from the target and alpha the largest angle a position within plume_trust_m of it can turn that
@@ -111,6 +113,7 @@ class ScpSettings:
     trust_min_m: float = 0.5
     buffer_penalty: float = 10.0
     plume_trust_m: float = 0.05
+    keepout_penalty: float = 1e3
     trust_shrink: float = 0.25
     plume_margin_m: float = 1.0
     solver: str = 'CLARABEL'
@@ -191,6 +194,7 @@ class _Model:
                        keep_n=[[cp.Parameter((m, 3)) for m in n_check] for _ in range(k_boxes)],
                        keep_b=[[cp.Parameter(m) for m in n_check] for _ in range(k_boxes)],
                        safety=cp.Parameter(nonneg=True), buffer=cp.Parameter(nonneg=True),
+                       keep_price=cp.Parameter(nonneg=True),
                        safe_v=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
                        safe_r=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
                        safe_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
@@ -206,9 +210,12 @@ class _Model:
                 cp.abs(x[:, :3] - par['r_ref']) <= par['trust'],  # trust region, per node
             ]
             constraints += [rc[j] == x[:-1] @ self.phi_r[j].T + u @ self.gamma_r[j].T for j in range(substeps)]
+            keep_buffer = cp.Variable((k_boxes, (substeps + 1) * steps), nonneg=True) if k_boxes else None
             for b in range(k_boxes):
-                constraints += [cp.sum(cp.multiply(par['keep_n'][b][j], rc[j]), axis=1) >= par['keep_b'][b][j]
-                                for j in range(substeps + 1)]  # supporting plane of box b
+                # supporting plane of box b; the buffer (SCvx) lets a first reference through the geometry start
+                constraints += [cp.sum(cp.multiply(par['keep_n'][b][j], rc[j]), axis=1)
+                                >= par['keep_b'][b][j] - keep_buffer[b, j * steps:j * steps + n_check[j]]
+                                for j in range(substeps + 1)]
                 # safety metric k_s h closing^2 / gap: closing >= the speed toward the box's closest point to first
                 # order in r and v, gap the supporting plane's distance (a lower bound of the gap: the box is convex)
                 closing, ratio = cp.Variable(steps + 1, nonneg=True), cp.Variable(steps + 1)
@@ -227,6 +234,8 @@ class _Model:
             constraints += [cp.multiply(par['plume_sin'][j], thrust)
                             + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer[j] for j in range(substeps + 1)]
             cost += par['buffer'] * cp.sum(buffer)
+            if k_boxes:
+                cost += par['keep_price'] * cp.sum(keep_buffer)
             cost += par['fuel'] * cp.sum(thrust)  # fuel, k_f m / (Isp g0) h sum |u|
             self.robots.append(dict(x=x, u=u, rc=rc, par=par))
         self.pairs = []
@@ -356,6 +365,7 @@ def _solve_fixed(problems, duration_s, settings, references, pairs):
         par['accel_max'].value = ch.accel_max_mps2
         par['fuel'].value = p.weights.fuel_per_kg * ch.mass_kg / ch.exhaust_velocity_mps * grid.h
         par['buffer'].value = settings.buffer_penalty * p.weights.plume * grid.h
+        par['keep_price'].value = settings.keepout_penalty
     refs, best, trust = list(references), None, settings.trust_region_m
     for it in range(1, settings.max_iterations + 1):
         rhos = []
