@@ -70,7 +70,9 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
     """
     recorder = NodeSpec('flyby_recorder', 'flyby_msgs_py.recorder_node', 'RecorderNode',
                         {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0})
-    others = [NodeSpec(name, module, cls, {'use_sim_time': True, 'scenario_file': str(scenario_path), 'seed': seed},
+    # The other nodes act on message stamps and never read a ROS clock: without use_sim_time they are spared
+    # rclpy's time-source subscription to the 20 Hz /clock.
+    others = [NodeSpec(name, module, cls, {'scenario_file': str(scenario_path), 'seed': seed},
                        essential=False)
               for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
                                         ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'),

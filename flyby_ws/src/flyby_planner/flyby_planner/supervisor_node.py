@@ -2,7 +2,8 @@
 
 Converts messages for ``flyby_planner.supervisor.SupervisorCore`` (no ROS), which holds every rule:
 it is fed the target and chaser estimates, the events of the other nodes (``mission/events``), their
-progress reports (``/flyby/progress``, the watchdog's heartbeat) and ``/clock``; the node publishes
+progress reports (``/flyby/progress``, the watchdog's heartbeat) and ``/clock`` (through the run loop's
+subscription, runtime.ProgressReporter); the node publishes
 what it returns: ``mission/phase`` (latched), a ``phase_changed`` event per transition with its
 reason, and after an abort outside the restriction sphere at most one collision-avoidance burn on
 ``guidance/maneuver``. ``mission/abort`` (std_srvs/Trigger) aborts.
@@ -33,7 +34,6 @@ class SupervisorNode(CoreNode):
         self.subscribe_estimates(quat_rotate)
         self.subscribe_events()
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock', self.on_clock, qos.QOS_STREAM)
         self.create_service(Trigger, c.MISSION_ABORT_SERVICE, self.on_abort)
         self.publish(self.core.start())
 
@@ -41,6 +41,7 @@ class SupervisorNode(CoreNode):
         self.core.on_progress(msg.frame_id, convert.stamp_to_sec(msg.stamp))
 
     def on_clock(self, msg):
+        """Called from the run loop's one /clock subscription (runtime.ProgressReporter)."""
         self.publish(self.core.on_clock(convert.clock_to_sec(msg)))
 
     def on_abort(self, _request, response):
