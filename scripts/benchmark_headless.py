@@ -19,6 +19,7 @@ import sys
 import time
 from pathlib import Path
 
+from flyby_guidance.campaign import run_indices
 from flyby_guidance.closed_loop import run_headless
 from flyby_sim.scenario import load_scenario
 
@@ -27,15 +28,6 @@ WALL_CLOCK_KEYS = ('wall_time_s', 'real_time_factor', 'planning_time_s')
 # The figures issue 12's campaign rows are judged by.
 KEY_FIGURES = ('outcome', 'capture_position_error_m', 'capture_velocity_error_mps', 'delta_v_total_mps',
                'min_clearance_m', 't_grasp_s')
-
-
-def run_list(spec):
-    """Run indices of '0-19' or '0,3,10' or '0-4,8'."""
-    out = []
-    for part in spec.split(','):
-        lo, _, hi = part.partition('-')
-        out += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
-    return out
 
 
 def comparable(summary, events):
@@ -75,7 +67,7 @@ def main():
     args = ap.parse_args()
     paths = list(args.scenarios)
     if args.runs_dir:
-        paths += [str(Path(args.runs_dir) / str(i) / 'scenario.yaml') for i in run_list(args.runs)]
+        paths += [str(Path(args.runs_dir) / str(i) / 'scenario.yaml') for i in run_indices(args.runs)]
     if not paths:
         ap.error('no scenario: give files or --runs-dir')
     saved = json.loads(Path(args.compare).read_text()) if args.compare else None

@@ -50,6 +50,15 @@ class CampaignMismatch(ValueError):
     """The output directory holds another campaign (its file, base scenario or number of runs differ)."""
 
 
+def run_indices(spec):
+    """Run indices of '0-19', '0,3,10' or '0-4,8' (the scripts' --runs)."""
+    out = []
+    for part in spec.split(','):
+        lo, _, hi = part.partition('-')
+        out += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
+    return out
+
+
 def columns(campaign):
     """The columns of results.csv: run, the dispersed keys in file order, the summary figures, the wall times."""
     return ('run', *campaign.keys, *SUMMARY_COLUMNS, *TIMING_COLUMNS)
