@@ -136,3 +136,20 @@ def collect(node, topic, namespace=''):
     name = c.absolute(topic, namespace) if namespace else topic
     node.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, received.append, profile)
     return received
+
+
+def envelope_run_323(d):
+    """A scenario edit (for write_scenario): envelope run 323's drawn values, a 6 deg/s tumbler, the grasp
+    point on the -y face by the bus edge, the chaser 42 m away below and behind."""
+    t = d['target']
+    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.6719, -0.3901, -0.6296]
+    t['initial_rate']['omega_body_deg_s'] = [-1.6203, 0.3315, -5.6986]
+    t['grasp_point_body_m'] = [1.4617, -1.5, 0.4524]
+    t['geometry'][1]['size_m'] = [1.6808, 6.0826, 0.05]
+    t['geometry'][2]['size_m'] = [2.0623, 5.8524, 0.05]
+    d['chaser']['initial_position_hill_m'] = [24.875, -12.248, -31.949]
+    d['chaser']['thrusters'].update(magnitude_error_sigma=0.0159, direction_error_sigma_deg=0.853)
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.0172
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 0.937
+    d['planner']['sun_direction_hill'] = None
+    d['simulation']['duration_s'] = 3000.0

@@ -29,6 +29,7 @@ from flyby_planner.plan import (
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
 from flyby_sim.scenario import load_scenario, scenario_from_dict
+from flyby_testing import envelope_run_323
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER_DICT = yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
@@ -226,27 +227,10 @@ def test_the_extended_window_ends_with_the_mission():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     plan, _, _ = _plan(sc, latest_grasp_s=300.0)
     assert plan.ok and plan.selected.t_grasp > 300.0 and not plan.selected.extended
-    plan, cfg, _ = _plan(_scenario(_run_323), t_plan=60.0, latest_grasp_s=2000.0)
+    plan, cfg, _ = _plan(_scenario(envelope_run_323), t_plan=60.0, latest_grasp_s=2000.0)
     extended = [c for c in plan.candidates if c.extended]
     assert extended and all(c.t_grasp <= 2000.0 for c in extended)
     assert not plan.ok or plan.selected.t_grasp <= 2000.0
-
-
-def _run_323(d):
-    """Envelope run 323's drawn values: a 6 deg/s tumbler, the grasp point on the -y face by the bus edge, the chaser
-    42 m away below and behind."""
-    t = d['target']
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.6719, -0.3901, -0.6296]
-    t['initial_rate']['omega_body_deg_s'] = [-1.6203, 0.3315, -5.6986]
-    t['grasp_point_body_m'] = [1.4617, -1.5, 0.4524]
-    t['geometry'][1]['size_m'] = [1.6808, 6.0826, 0.05]
-    t['geometry'][2]['size_m'] = [2.0623, 5.8524, 0.05]
-    d['chaser']['initial_position_hill_m'] = [24.875, -12.248, -31.949]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.0159, direction_error_sigma_deg=0.853)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.0172
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 0.937
-    d['planner']['sun_direction_hill'] = None
-    d['simulation']['duration_s'] = 3000.0
 
 
 def test_the_window_search_extends_when_the_grasp_window_holds_no_safe_plan():
@@ -254,7 +238,7 @@ def test_the_window_search_extends_when_the_grasp_window_holds_no_safe_plan():
     behind) planned from the truth at 60 s: every candidate of the grasp window fails (its transfer crosses the
     restriction sphere, or its passage meets a panel), and the extended window's transfers, up to 0.4 orbit, reach a
     grasp instant 39 minutes out whose passage keeps the margin."""
-    plan, cfg, _ = _plan(_scenario(_run_323), t_plan=60.0)
+    plan, cfg, _ = _plan(_scenario(envelope_run_323), t_plan=60.0)
     assert plan.ok and plan.selected.extended
     window = [c for c in plan.candidates if not c.extended]
     assert window and all(c.reasons for c in window)

@@ -14,6 +14,7 @@ from flyby_planner.plan import plan_capture
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished
 from flyby_sim.dynamics.orbital import cw_accel
 from flyby_sim.scenario import load_scenario
+from flyby_testing import envelope_run_323
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 
@@ -77,18 +78,7 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
     from flyby_planner.plan import truth_prediction
     from flyby_sim.scenario import scenario_from_dict
     d = copy.deepcopy(yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text()))
-    t = d['target']
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.6719, -0.3901, -0.6296]
-    t['initial_rate']['omega_body_deg_s'] = [-1.6203, 0.3315, -5.6986]
-    t['grasp_point_body_m'] = [1.4617, -1.5, 0.4524]
-    t['geometry'][1]['size_m'] = [1.6808, 6.0826, 0.05]
-    t['geometry'][2]['size_m'] = [2.0623, 5.8524, 0.05]
-    d['chaser']['initial_position_hill_m'] = [24.875, -12.248, -31.949]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.0159, direction_error_sigma_deg=0.853)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.0172
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 0.937
-    d['planner']['sun_direction_hill'] = None
-    d['simulation']['duration_s'] = 3000.0
+    envelope_run_323(d)
     sc = scenario_from_dict(d, name='envelope run 323 (test)')
     truth = truth_prediction(sc, 3000.0)
     core = PlannerCore(sc)
