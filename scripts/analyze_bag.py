@@ -166,9 +166,12 @@ def recompute(bag_dir, scenario):
 
 def pointing(chaser, events, t_g):
     """Angle between body +x (scipy's rotation of the truth attitude) and the line of sight to the target's
-    CoM, from the first burn's start to t_g (or the end): 95th percentile and largest [deg]."""
+    CoM, from the first burn's start (or a tracked trajectory's start) to t_g (or the end): 95th percentile and
+    largest [deg]."""
     starts = [float(e['values']['t_start']) for e in events
               if e['name'] == 'burn_started' and e.get('hardware_id') == 'flyby_sim']
+    starts += [float(e['values']['t_start_s']) for e in events  # an optimal approach's tracking
+               if e['name'] == 'guidance_started' and 't_start_s' in e['values']]
     if not starts:
         return {'pointing_error_p95_deg': None, 'pointing_error_max_deg': None}
     window = (chaser.t >= min(starts)) & (chaser.t <= (chaser.t[-1] if t_g is None else t_g))

@@ -9,7 +9,10 @@ maneuver becomes a known input of the navigation filter. With the six-degree-of-
 (``chaser.model: rigid_body``) the chaser's own attitude filter (``chaser_attitude_filter``) takes each
 IMU sample, and the ``ChaserEstimate`` is given at the IMU's stamps instead, with the attitude and body
 rate: the plant samples the relative position before the IMU at a common stamp, so the navigation state
-of that stamp is in it (the estimator node keeps that order). A rejected measurement is an event with the
+of that stamp is in it (the estimator node keeps that order). The thrusters' force guidance commands on
+guidance/wrench (the tracking of an optimal approach) is a known input too: a constant acceleration over the
+command's hold (one IMU period), turned into hill by the attitude estimate the command was computed from (the
+stamp one period before the command's). A rejected measurement is an event with the
 running count of its kind. After the capture the chaser moves with the target, so its free-flight
 navigation stops.
 
@@ -28,9 +31,13 @@ from flyby_estimation.filters import filters_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
 from flyby_sim.dynamics.propulsion import ManeuverRejected
+from flyby_sim.dynamics.rotation import quat_rotate
 
 # The category is re-evaluated this often once converged (it scans the attitude history) [s].
 CLASSIFY_PERIOD_S = 10.0
+# Attitude estimates kept for the force commands (computed from one of the last few) and the stamps' rounding [s].
+_ATTITUDES_KEPT = 16
+_STAMP_TOLERANCE_S = 1e-6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,6 +86,10 @@ class EstimatorCore:
         # A fault to inject (tests of the escape): the published rate is off, the filter itself is not.
         self.rate_error = np.radians(scenario.estimation.injected_rate_error_deg_s)
         self.attached = False  # captured: the free-flyer navigation model no longer holds
+        if self.attitude is not None:
+            self.wrench_hold_s = 1.0 / scenario.sensors.chaser_imu.rate_hz  # guidance's control period
+            # (t, q_hill_from_body) of the latest attitude estimates: a force command's is one period old
+            self.attitudes = collections.deque(maxlen=_ATTITUDES_KEPT)
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_phase(self, phase):
@@ -123,6 +134,7 @@ class EstimatorCore:
         if not (self.attitude.ready and self.nav.initialized):
             return out
         a = self.attitude.estimate()
+        self.attitudes.append((a.t, a.q_hill_from_body))
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
         return out + [ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
                                      a.attitude_covariance_hill, a.rate_covariance)]
@@ -135,6 +147,28 @@ class EstimatorCore:
             # The simulator rejects it too; the filter must not expect it.
             return [self._event(t, 'WARN', 'maneuver_ignored',
                                 f'not a known input of the navigation filter: {err}', {'t_stamp': t})]
+        return []
+
+    def on_wrench(self, t, force_body_n):
+        """A commanded thruster force [N, chaser_body] held from t for one control period (guidance/wrench): a
+        known input of the navigation filter (module doc). One below the minimum impulse bit is left out (the
+        thrusters do not give it either)."""
+        force = np.asarray(force_body_n, dtype=float)
+        if self.attitude is None or self.attached or not np.any(force):
+            return []
+        t_estimate = t - self.wrench_hold_s
+        q = next((q for t_q, q in reversed(self.attitudes) if t_q <= t_estimate + _STAMP_TOLERANCE_S), None)
+        if q is None:
+            return []
+        mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg
+        if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
+            return []
+        dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
+        try:
+            self.nav.add_maneuver(t, dv_hill, burn_duration_s=self.wrench_hold_s)
+        except (ManeuverRejected, ValueError) as err:
+            return [self._event(t, 'WARN', 'maneuver_ignored',
+                                f'force command not a known input of the navigation filter: {err}', {'t_stamp': t})]
         return []
 
     # -- target convergence and category --------------------------------------------------------

@@ -14,7 +14,8 @@ With the six-degree-of-freedom chaser the IMU (``sensors/chaser/imu``) comes in 
 published at its samples: pose.orientation = the estimated chaser_body in hill with its attitude covariance
 about hill axes, twist in chaser_body axes (nav_msgs' rule): the velocity (its covariance turned into body
 axes) and the inertial body rate with its covariance. The relative positions and the IMU samples go to the core
-in the plant's order (``measurement_order``), however DDS interleaves the two topics.
+in the plant's order (``measurement_order``), however DDS interleaves the two topics. The force guidance
+commands on ``guidance/wrench`` (an optimal approach's tracking) is a known input of the navigation filter.
 """
 
 import numpy as np
@@ -53,6 +54,7 @@ class EstimatorNode(CoreNode):
                                           [('position', scenario.sensors.relative_position.rate_hz),
                                            ('imu', scenario.sensors.chaser_imu.rate_hz)])
             self.subscribe(c.SENSOR_CHASER_IMU, self.on_imu)
+            self.subscribe(c.GUIDANCE_WRENCH, self.on_wrench)
         for topic, callback in ((c.SENSOR_TARGET_ATTITUDE, self.on_attitude),
                                 (c.SENSOR_RELATIVE_POSITION, self.on_position),
                                 (c.GUIDANCE_MANEUVER, self.on_maneuver)):
@@ -79,6 +81,10 @@ class EstimatorNode(CoreNode):
                 self.publish(self.core.on_position(t, value))
             else:
                 self.publish(self.core.on_imu(t, value.orientation_xyzw, value.angular_velocity))
+
+    def on_wrench(self, msg):
+        w = convert.wrench_stamped_to_numpy(msg)
+        self.publish(self.core.on_wrench(w.t, w.force))
 
     def on_maneuver(self, msg):
         self.publish(self.core.on_maneuver(*convert.vector3_stamped_to_numpy(msg)))

@@ -26,7 +26,7 @@ from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event, wire_time
-from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused
+from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, chaser_truth_from_odometry, summarize
 from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_planner.transfer import terminal_impulses
@@ -162,8 +162,9 @@ class HeadlessGraph:
         elif isinstance(out, AttitudeCommandStamped):  # guidance/wheels and guidance/wrench
             t = wire_time(out.t)
             self.plant.command_wheels(t, out.wheel_torque_n_m)
-            self.plant.command_wrench(t, (0.0, 0.0, 0.0), out.thruster_torque_body_n_m, hold_s=out.hold_s)
+            self.plant.command_wrench(t, out.force_body_n, out.thruster_torque_body_n_m, hold_s=out.hold_s)
             self._publish_plant_events()
+            self._queue.extend(self.estimator.on_wrench(t, out.force_body_n))
         elif isinstance(out, Maneuver):  # guidance/maneuver, from guidance
             self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), out.kind)
         elif isinstance(out, AvoidanceBurn):  # guidance/maneuver, from the supervisor after an abort
@@ -173,6 +174,10 @@ class HeadlessGraph:
                                + self.guidance.on_flyby_initial(wire_time(out.t_i), out.x_fi, out.v_fi)
                                + self.guidance.on_path(wire_time(out.t_plan)))
             self._ideal_delta_v(out)
+        elif isinstance(out, TrajectoryPublished):  # planner/trajectory (and grasp, flyby_target, path, markers)
+            traj = out.trajectory
+            self._queue.extend(self.guidance.on_trajectory([wire_time(t) for t in traj.t_s], traj.r_hill,
+                                                           traj.v_hill, traj.a_hill))
         elif isinstance(out, AimUpdate):  # planner/flyby_target again
             self._queue.extend(self.guidance.on_flyby_target(wire_time(out.grasp.t), out.x_ft, out.v_ft))
         elif not isinstance(out, PlanRefused):  # markers only

@@ -19,6 +19,13 @@ received, unless a wheel met its momentum limit, which the plant reports). No th
 within ``RESTRICTION_SPHERE_MARGIN_M`` of the restriction sphere (by the estimate); nothing is commanded from
 CAPTURE on.
 
+An optimization-based approach (planner/trajectory, seed 003 section 4) is flown by ``tracking``: every chaser
+estimate's command also carries the force [N, chaser_body] of the tracking law (feed-forward plus feedback, the
+plume rule, the acceleration bound) on guidance/wrench, with the same stamp and hold as the attitude command (the
+mass counted down by the fuel of the forces commanded). When the estimate leaves the trajectory by more than
+planner.optimal.replan_error_m guidance asks for a re-plan (``replan_requested``, once per trajectory) and flies
+the old trajectory until the new one arrives.
+
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
 ``AttitudeCommandStamped`` (guidance/wheels and guidance/wrench) and ``wire.Event`` (mission/events).
@@ -32,12 +39,16 @@ import numpy as np
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
+from flyby_guidance.tracking import ReferenceTrajectory, tracking_acceleration, tracking_config_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.grasp import flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.plan import check_passage, planner_config_from_scenario
+from flyby_sim.dynamics.actuators import allocate_wrench, fire
+from flyby_sim.dynamics.orbital import cw_accel
 from flyby_sim.dynamics.rigid_body import ReactionWheels
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 # The attitude control stops at the grasp (the combined body's control is a later capability).
@@ -63,13 +74,15 @@ def flyby_target_of_plan(t_plan, t_i, x_fi, v_fi, t_f, x_ft, v_ft, maneuver_lead
 
 @dataclasses.dataclass(frozen=True)
 class AttitudeCommandStamped:
-    """guidance/wheels and guidance/wrench: from t [s] for hold_s [s], the wheels' motor torques [N m] and the
-    thrusters' torque about the CoM in chaser_body axes [N m] (no force: translation is by maneuvers)."""
+    """guidance/wheels and guidance/wrench: from t [s] for hold_s [s], the wheels' motor torques [N m], the
+    thrusters' torque about the CoM in chaser_body axes [N m] and their force in chaser_body axes [N] (zero but
+    while tracking an optimal approach: the fly-by translates by maneuvers)."""
 
     t: float
     hold_s: float
     wheel_torque_n_m: np.ndarray
     thruster_torque_body_n_m: np.ndarray
+    force_body_n: tuple = (0.0, 0.0, 0.0)
 
 
 def attitude_guidance_from_scenario(scenario):
@@ -104,6 +117,14 @@ class GuidanceCore:
             self.attitude, self.h_wheels_n_m_s = attitude_guidance_from_scenario(scenario)
             self.wheel_commands = collections.deque()  # (t, wheel torques) commanded, not yet in h_wheels
             self.sphere_radius_m = scenario.planner.restriction_sphere_radius_m + RESTRICTION_SPHERE_MARGIN_M
+            self.tracking = tracking_config_from_scenario(scenario)
+            self.mass_kg = scenario.chaser.mass_kg  # less the fuel of the forces commanded
+            self.layout = scenario.thruster_layout
+            self.force_carried_hill = np.zeros(3)  # below the thrusters' minimum impulse bit so far [N]
+        self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
+        self.replan_asked = False
+        self.tracking_error_max_m = 0.0  # over the approach, by the estimates
+        self.tracking_ended = False
 
     # -- the plan -------------------------------------------------------------------------------
     def on_flyby_initial(self, t_i, x_fi, v_fi):
@@ -126,6 +147,18 @@ class GuidanceCore:
                             f'flying the plan of t = {t_plan:.2f} s: transfer at {target.t_ti:.2f} s, injection '
                             f'at {target.t_i:.2f} s, fly-by target at {target.t_f:.2f} s', {'t_plan_s': t_plan})]
 
+    def on_trajectory(self, t_s, r_hill, v_hill, a_hill):
+        """planner/trajectory: a new optimal approach to fly (module doc)."""
+        if self.attitude is None:
+            return [self._event(float(t_s[0]), 'ERROR', 'trajectory_ignored',
+                                'an optimal approach needs the rigid-body chaser (continuous thrust)', {})]
+        self.reference = ReferenceTrajectory(t_s, r_hill, v_hill, a_hill)
+        self.replan_asked = False
+        ref = self.reference
+        return [self._event(ref.t_start, 'OK', 'guidance_started',
+                            f'tracking the optimal approach from t = {ref.t_start:.2f} s to {ref.t_end:.2f} s',
+                            {'t_start_s': ref.t_start, 't_end_s': ref.t_end})]
+
     def on_phase(self, phase):
         self.phase = phase
         return []
@@ -147,19 +180,62 @@ class GuidanceCore:
         self.waiting.append((t, r_hill, v_hill))
         out = self._step_waiting()
         if self.attitude is not None and q_hill_from_body is not None and self.phase not in ATTITUDE_QUIET_PHASES:
-            out.append(self._attitude_command(t, r_hill, v_hill, q_hill_from_body, omega_body))
+            out += self._attitude_command(t, r_hill, v_hill, q_hill_from_body, omega_body)
         return out
 
     def _attitude_command(self, t, r_hill, v_hill, q_hill_from_body, omega_body):
-        """The attitude command of the estimate at t, applied one control period later (module doc)."""
+        """The attitude command of the estimate at t, applied one control period later, with the tracking force of
+        an optimal approach, and the tracking's events (module doc). While tracking, the pointing goal's feed-forward
+        takes the commanded thrust (the line of sight turns with it)."""
         period_s = self.attitude.config.control_period_s
         while self.wheel_commands and self.wheel_commands[0][0] + period_s <= t + 1e-9:
             self.h_wheels_n_m_s = self.h_wheels_n_m_s + period_s * self.wheel_commands.popleft()[1]
+        a_thrust_hill, events = self._tracking_acceleration(t, t + period_s, r_hill, v_hill)
         inside = float(np.linalg.norm(r_hill)) < self.sphere_radius_m
         cmd = self.attitude.command(t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float),
-                                    self.h_wheels_n_m_s, r_hill, v_hill, self.n, inside)
+                                    self.h_wheels_n_m_s, r_hill, v_hill, self.n, inside,
+                                    None if a_thrust_hill is None else cw_accel(r_hill, v_hill, self.n, a_thrust_hill))
         self.wheel_commands.append((t + period_s, cmd.wheel_torque_n_m))
-        return AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m)
+        force_body = (0.0, 0.0, 0.0) if a_thrust_hill is None else self._tracking_force(
+            a_thrust_hill, q_hill_from_body, cmd.thruster_torque_body_n_m)
+        return [AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m,
+                                       force_body)] + events
+
+    def _tracking_acceleration(self, t, t_apply, r_hill, v_hill):
+        """(thrust acceleration [m/s^2, hill] of the tracking law held from t_apply, or None where nothing is
+        tracked; events) for the estimate of t (module doc)."""
+        ref = self.reference
+        if ref is None or self.phase in QUIET_PHASES or t_apply < ref.t_start or self.tracking_ended:
+            return None, []
+        if t_apply >= ref.t_end:
+            self.tracking_ended = True
+            return None, [self._event(t, 'OK', 'tracking_ended',
+                                      f'end of the trajectory at t = {ref.t_end:.2f} s; largest tracking error '
+                                      f'{self.tracking_error_max_m:.3f} m (estimate)',
+                                      {'tracking_error_max_m': self.tracking_error_max_m})]
+        events = []
+        error_m = ref.error(t, r_hill)
+        self.tracking_error_max_m = max(self.tracking_error_max_m, error_m)
+        if error_m > self.tracking.replan_error_m and not self.replan_asked \
+                and t < ref.t_end - self.tracking.replan_cutoff_s:
+            self.replan_asked = True
+            events.append(self._event(t, 'WARN', 'replan_requested',
+                                      f'tracking error {error_m:.3f} m > {self.tracking.replan_error_m:g} m',
+                                      {'tracking_error_m': error_m}))
+        period_s = self.attitude.config.control_period_s
+        return tracking_acceleration(ref, t_apply, period_s, t, r_hill, v_hill, self.tracking), events
+
+    def _tracking_force(self, a_hill, q_hill_from_body, torque_body_n_m):
+        """The force [N, chaser_body] for the thrust acceleration a_hill [m/s^2]. The thrusters fire it with
+        torque_body_n_m as the plant allocates them (the nominal layout, least thrust); what a thruster below its
+        minimum impulse bit leaves out is carried into the next command, so the mean force is the one commanded
+        (otherwise the feedback's small corrections, about 0.1 N, are lost)."""
+        force_body = quat_rotate(quat_conjugate(q_hill_from_body), self.mass_kg * a_hill + self.force_carried_hill)
+        firing = fire(self.layout, allocate_wrench(self.layout, force_body, torque_body_n_m).thrusts_n,
+                      self.attitude.config.control_period_s)
+        self.force_carried_hill = quat_rotate(q_hill_from_body, force_body - firing.force_body_n)
+        self.mass_kg -= firing.fuel_kg
+        return tuple(force_body.tolist())
 
     # -- stepping -------------------------------------------------------------------------------
     def _step_waiting(self):

@@ -10,7 +10,9 @@ six-degree-of-freedom chaser the attitude commands of every chaser estimate on `
 torques as efforts) and ``guidance/wrench`` (the thrusters' torque, chaser_body), stamped one control period
 after the estimate (the simulator holds time there until both are in); and on
 ``mission/events`` ``maneuver_commanded`` per burn, ``adjust_skipped``, ``thrusting_ended``,
-``target_refined``.
+``target_refined``. An optimization-based approach (``planner/trajectory``) is tracked with the force on
+``guidance/wrench`` (chaser_body) of every attitude command; ``replan_requested``, ``tracking_ended`` on
+``mission/events``.
 """
 
 from flyby_guidance.guidance import Maneuver
@@ -39,12 +41,18 @@ class GuidanceNode(CoreNode):
         self.subscribe_odometry(c.PLANNER_FLYBY_INITIAL, self.core.on_flyby_initial, 'position', 'linear')
         self.subscribe_odometry(c.PLANNER_FLYBY_TARGET, self.core.on_flyby_target, 'position', 'linear')
         self.subscribe(c.PLANNER_PATH, self.on_path)
+        if rigid:
+            self.subscribe(c.PLANNER_TRAJECTORY, self.on_trajectory)
         self.subscribe_phase()
         # The gate weighs the target estimate's uncertainty; the attitude control takes the chaser's attitude.
         self.subscribe_estimates(quat_rotate, target_covariance=True, chaser_attitude=rigid)
 
     def on_path(self, msg):
         self.publish(self.core.on_path(convert.stamp_to_sec(msg.header.stamp)))
+
+    def on_trajectory(self, msg):
+        traj = convert.multi_dof_trajectory_to_numpy(msg)
+        self.publish(self.core.on_trajectory(traj.times, traj.positions, traj.velocities, traj.accelerations))
 
     def publish(self, outputs):
         for out in outputs:
@@ -53,7 +61,7 @@ class GuidanceNode(CoreNode):
             elif isinstance(out, AttitudeCommandStamped):
                 self.pub_wheels.publish(convert.joint_state(out.t, c.FRAME_CHASER_BODY, self.wheel_names,
                                                             effort=out.wheel_torque_n_m))
-                self.pub_wrench.publish(convert.wrench_stamped(out.t, c.FRAME_CHASER_BODY, (0.0, 0.0, 0.0),
+                self.pub_wrench.publish(convert.wrench_stamped(out.t, c.FRAME_CHASER_BODY, out.force_body_n,
                                                                out.thruster_torque_body_n_m))
             else:
                 publish_event(self, self.pub_events, out)

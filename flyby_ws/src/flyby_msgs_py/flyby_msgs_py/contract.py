@@ -28,6 +28,7 @@ PLANNER_GRASP = 'planner/grasp'
 PLANNER_FLYBY_TARGET = 'planner/flyby_target'
 PLANNER_FLYBY_INITIAL = 'planner/flyby_initial'
 PLANNER_PATH = 'planner/path'
+PLANNER_TRAJECTORY = 'planner/trajectory'
 GUIDANCE_MANEUVER = 'guidance/maneuver'
 GUIDANCE_WRENCH = 'guidance/wrench'
 GUIDANCE_WHEELS = 'guidance/wheels'
@@ -67,6 +68,7 @@ TOPIC_TYPES = {
     PLANNER_FLYBY_TARGET: 'nav_msgs/msg/Odometry',
     PLANNER_FLYBY_INITIAL: 'nav_msgs/msg/Odometry',
     PLANNER_PATH: 'nav_msgs/msg/Path',
+    PLANNER_TRAJECTORY: 'trajectory_msgs/msg/MultiDOFJointTrajectory',
     GUIDANCE_MANEUVER: 'geometry_msgs/msg/Vector3Stamped',
     GUIDANCE_WRENCH: 'geometry_msgs/msg/WrenchStamped',
     GUIDANCE_WHEELS: 'sensor_msgs/msg/JointState',
@@ -80,6 +82,7 @@ PHASE_PLANNING = 'PLANNING'
 PHASE_TERMINAL_APPROACH = 'TERMINAL_APPROACH'
 PHASE_TRAJECTORY_ADJUST = 'TRAJECTORY_ADJUST'
 PHASE_FLYBY = 'FLYBY'
+PHASE_OPTIMAL_APPROACH = 'OPTIMAL_APPROACH'
 PHASE_CAPTURE = 'CAPTURE'
 PHASE_ESCAPE = 'ESCAPE'
 PHASE_COMPLETE = 'COMPLETE'
@@ -99,7 +102,7 @@ OUTCOMES = (OUTCOME_CAPTURE, OUTCOME_ESCAPE, OUTCOME_NO_SAFE_PLAN, OUTCOME_ABORT
             OUTCOME_COLLISION, OUTCOME_INTERRUPTED, OUTCOME_ERROR)
 
 LATCHED_TOPICS = (MISSION_PHASE, PLANNER_GRASP, PLANNER_FLYBY_TARGET, PLANNER_FLYBY_INITIAL,
-                  PLANNER_PATH, MARKERS)
+                  PLANNER_PATH, PLANNER_TRAJECTORY, MARKERS)
 
 
 def absolute(topic, namespace=''):

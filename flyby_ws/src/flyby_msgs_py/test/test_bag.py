@@ -33,10 +33,12 @@ from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import String
+from trajectory_msgs.msg import MultiDOFJointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
 from flyby_msgs_py import bag as fb
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import convert
 from flyby_msgs_py.bag import reader as bag_reader
 
 S_NS = 1_000_000_000
@@ -156,6 +158,11 @@ def markers(t_ns, rng):
     return m
 
 
+def trajectory(t_ns, rng):
+    return convert.multi_dof_trajectory(t_ns * 1e-9, 'hill', t_ns * 1e-9 + np.arange(4) * 0.5, rng.normal(size=(4, 3)),
+                                        rng.normal(size=(4, 3)), rng.normal(size=(4, 3)))
+
+
 BUILDERS = {
     'nav_msgs/msg/Odometry': odometry,
     'geometry_msgs/msg/Vector3Stamped': vector3,
@@ -169,6 +176,7 @@ BUILDERS = {
     'diagnostic_msgs/msg/DiagnosticArray': diagnostics,
     'nav_msgs/msg/Path': path,
     'visualization_msgs/msg/MarkerArray': markers,
+    'trajectory_msgs/msg/MultiDOFJointTrajectory': trajectory,
 }
 
 
@@ -276,6 +284,11 @@ def test_round_trip_every_contract_topic_read_bag(tmp_path):
         elif type_name == 'sensor_msgs/msg/Imu':
             np.testing.assert_array_equal(got.t_received, t_log)
             assert [vec(g.angular_velocity) for g in got.messages] == [vec(m.angular_velocity) for m in msgs]
+        elif type_name == 'trajectory_msgs/msg/MultiDOFJointTrajectory':
+            np.testing.assert_array_equal(got.t_received, t_log)
+            assert [[vec(p.transforms[0].translation) for p in g.points] for g in got.messages] == \
+                [[vec(p.transforms[0].translation) for p in m.points] for m in msgs]
+            assert isinstance(msgs[0], MultiDOFJointTrajectory)
         else:
             pytest.fail(f'no check for {type_name}')
 

@@ -11,6 +11,15 @@ When guidance re-aims at a re-solved grasp (its ``target_refined`` event), the g
 target point the mission now aims at are published again (``AimUpdate``), so the bag holds what was
 flown, not only the first plan.
 
+``planner.method`` (DESIGN §10) chooses the method: ``flyby`` plans the fly-by only; ``optimal`` the
+optimization-based approach only (seed 003 section 4, ``flyby_planner.optimal.approach``; a rigid-body chaser);
+``auto`` the fly-by, and the optimization-based approach when the fly-by finds no safe plan and the chaser is a
+rigid body. The choice and its reason are a ``method_chosen`` event; nothing safe from any method tried is a
+``plan_refused`` with every method's reason. An optimal plan is published as ``TrajectoryPublished``
+(planner/grasp, planner/flyby_target = X_Ft, V_Ft at the grasp, planner/trajectory, planner/path). Guidance's
+``replan_requested`` event (the tracking error grew beyond its bound) plans the approach again from the
+estimates of its stamp.
+
 The planner node and the headless driver (flyby_guidance.closed_loop) both run ``PlannerCore``;
 every input method returns the outputs to publish, in order.
 """
@@ -25,6 +34,7 @@ from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_e
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
+from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
 from flyby_sim.dynamics.orbital import cw_coast
 
@@ -81,6 +91,22 @@ class PlanPublished:
 
 
 @dataclasses.dataclass(frozen=True)
+class TrajectoryPublished:
+    """An optimal approach: planner/grasp, planner/flyby_target (X_Ft, V_Ft at the grasp time t_f, eq 20-21),
+    planner/trajectory (stamp t_start; trajectory = cost.Trajectory: t_s, r_hill, v_hill, a_hill), planner/path
+    (stamped t_plan) and its markers."""
+
+    t_plan: float
+    grasp: GraspState
+    t_f: float
+    x_ft: np.ndarray
+    v_ft: np.ndarray
+    t_start: float
+    trajectory: object
+    markers: PlanMarkers
+
+
+@dataclasses.dataclass(frozen=True)
 class PlanRefused:
     """A refused plan: only its markers (the keep-out region that defeated it) are published."""
 
@@ -129,12 +155,18 @@ class PlannerCore:
         self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) by stamp
         self.chasers = StampedBuffer()  # (r_hill, v_hill) by stamp
         self.plans = 0
+        self.rigid = scenario.chaser.model == 'rigid_body'
+        self.approach = approach_settings_from_scenario(scenario)
+        self.method_flown = None  # the method of the plan being flown: a re-plan keeps it
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
         """The supervisor's stamped transition to PLANNING plans at that time; guidance's re-aim is published."""
         if event.name == 'phase_changed' and event.values.get('to') == c.PHASE_PLANNING:
             self.request = (event.t, 'phase PLANNING')
+            return self._try_plan()
+        if event.name == 'replan_requested' and self.method_flown == 'optimal':
+            self.request = (event.t, f'replan: {event.message}')
             return self._try_plan()
         if event.name == 'target_refined' and 'x_g_hill_m' in event.values:
             v = event.values
@@ -169,18 +201,81 @@ class PlannerCore:
         self.request = None
         return self._plan(target[0], *target[1], why)
 
-    def _plan(self, t, q_hill_from_body, omega_body, why):
-        """Plan at the target estimate of time t (the plan time); the outputs to publish."""
-        cfg = self.config
-        n = cfg.mean_motion_rad_s
+    def plan_inputs(self, t, q_hill_from_body, omega_body, extended=False):
+        """What a plan at the target estimate of time t starts from: the chaser's estimated state carried to t
+        (eq 22) and the target motion predicted from the estimate over the grasp window (extended: and the
+        extended window, as plan.exhaustive_check needs)."""
+        n = self.config.mean_motion_rad_s
         t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
         chaser_now = cw_coast(r_c, v_c, t - t_c, n)  # eq 22
         prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body,
-                                              t + cfg.prediction_span_s(omega_body))
+                                              t + self.config.prediction_span_s(omega_body, extended))
+        return chaser_now, prediction
+
+    def _plan(self, t, q_hill_from_body, omega_body, why):
+        """Plan at the target estimate of time t (the plan time) by the method of planner.method (module doc);
+        the outputs to publish."""
+        self.plans += 1
+        method = self.method_flown or self.scenario.planner.method
+        if method == 'optimal':
+            reason = 'a re-plan of the approach flown' if self.method_flown else 'planner.method optimal'
+            return self._plan_optimal(t, q_hill_from_body, omega_body, why, reason, [])
+        out, refused = self._plan_flyby(t, q_hill_from_body, omega_body, why)
+        if refused is None:
+            return out
+        if method == 'auto' and self.rigid:
+            return self._plan_optimal(t, q_hill_from_body, omega_body, why, f'auto: no safe fly-by ({refused[0]})',
+                                      out, refused[0])
+        return out + self._refuse(t, why, *refused)
+
+    def _refuse(self, t, why, reason, markers, planning_time_s):
+        """plan_refused and the markers of what refused."""
+        return [self._event(t, 'ERROR', 'plan_refused', reason, {'request': why, 'plan': str(self.plans),
+                                                                  'planning_time_s': planning_time_s}),
+                PlanRefused(t, markers)]
+
+    def _method_chosen(self, t, method, reason):
+        self.method_flown = method
+        return self._event(t, 'OK', 'method_chosen', f'{method}: {reason}', {'method': method, 'reason': reason})
+
+    def _plan_optimal(self, t, q_hill_from_body, omega_body, why, reason, out, flyby_refused=None):
+        """The optimization-based approach (flyby_planner.optimal.approach) at the plan time t; ``out``: what the
+        fly-by already gave (its candidates), flyby_refused its reason."""
+        settings = self.approach
+        n = self.config.mean_motion_rad_s
+        t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
+        chaser_now = cw_coast(r_c, v_c, t - t_c, n)  # eq 22
+        prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body, t + settings.horizon_s)
+        started = time.perf_counter()  # measured for the record only; nothing here acts on it
+        plan = plan_approach(self.scenario, prediction, chaser_now[:3], chaser_now[3:], t, settings, self.config)
+        planning_time_s = time.perf_counter() - started
+        if not plan.ok:
+            refused = plan.reason if flyby_refused is None else f'fly-by: {flyby_refused}; {plan.reason}'
+            return out + self._refuse(t, why, refused, PlanMarkers(settings.plume_radius_m, ()), planning_time_s)
+        at_grasp = prediction.state(plan.t_grasp_s)
+        grasp = GraspState(plan.t_grasp_s, plan.x_g, plan.v_g, at_grasp.q_hill_from_body, at_grasp.omega_body)
+        traj, terms = plan.trajectory, plan.terms
+        return out + [
+            self._method_chosen(t, 'optimal', reason),
+            TrajectoryPublished(t, grasp, plan.t_grasp_s, plan.x_ft, plan.v_ft, plan.t_start_s, traj,
+                                PlanMarkers(settings.plume_radius_m, (), plan.x_g, (plan.x_ft,), traj.r_hill)),
+            self._event(t, 'OK', 'plan_selected', plan.reason,
+                        {'request': why, 'plan': str(self.plans), 'method': 'optimal', 't_grasp_s': plan.t_grasp_s,
+                         't_start_s': plan.t_start_s, 'offset_m': settings.offset_m,
+                         'approach_time_s': plan.t_grasp_s - plan.t_start_s, 'dv_total_mps': terms.delta_v_mps,
+                         'peak_accel_mps2': terms.peak_accel_mps2, 'eq5_cost': terms.total,
+                         'clearance_m': plan.clearance_m, 'x_g_hill_m': plan.x_g, 'v_g_hill_mps': plan.v_g,
+                         'x_ft_hill_m': plan.x_ft, 'v_ft_hill_mps': plan.v_ft, 'solver_time_s': plan.solver_time_s,
+                         'planning_time_s': planning_time_s})]
+
+    def _plan_flyby(self, t, q_hill_from_body, omega_body, why):
+        """The fly-by (flyby_planner.plan) at the plan time t: (outputs, None) for a selected plan, (the candidates'
+        events, (the refusal's reason, its markers, the planning time [s])) otherwise."""
+        cfg = self.config
+        chaser_now, prediction = self.plan_inputs(t, q_hill_from_body, omega_body)
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
         plan = plan_capture(prediction, chaser_now[:3], chaser_now[3:], t, cfg)
         planning_time_s = time.perf_counter() - started
-        self.plans += 1
         out = []
         for cand in plan.candidates:
             d = cand.to_dict()
@@ -189,16 +284,15 @@ class PlannerCore:
                                                          'passes every check'),
                                    {k: d[k] for k in _CANDIDATE_KEYS}))
         if not plan.ok:
-            out.append(self._event(t, 'ERROR', 'plan_refused', plan.reason, {'request': why, 'plan': str(self.plans),
-                                                                              'planning_time_s': planning_time_s}))
-            out.append(PlanRefused(t, plan_markers(plan, cfg)))
-            return out
+            return out, (plan.reason, plan_markers(plan, cfg), planning_time_s)
         chosen = plan.selected
         at_grasp = plan.prediction.state(chosen.t_grasp)  # the plan's motion: it reaches an extended window's grasp
         grasp = GraspState(chosen.t_grasp, chosen.x_g, chosen.v_g, at_grasp.q_hill_from_body, at_grasp.omega_body)
         out.append(PlanPublished(t, grasp, chosen.t_grasp, chosen.x_ft, chosen.v_ft, chosen.t_i, chosen.x_fi,
                                  chosen.v_fi, plan.path_t, plan.path_r_hill, plan_markers(plan, cfg)))
         d = chosen.to_dict()
+        out.insert(len(out) - 1, self._method_chosen(t, 'flyby', 'a safe fly-by exists' if self.scenario.planner.method
+                                                      == 'auto' else 'planner.method flyby'))
         out.append(self._event(t, 'OK', 'plan_selected',
                                f'grasp at t = {chosen.t_grasp:.2f} s, offset {chosen.offset_m:g} m, fly-by '
                                f'{chosen.flyby_duration_s:g} s, transfer delta-v {chosen.dv_total_mps:.4f} m/s, '
@@ -211,7 +305,7 @@ class PlannerCore:
                                 # places the fly-by target point by them
                                 't_grasp_s': chosen.t_grasp, 't_i_s': chosen.t_i, 'offset_m': chosen.offset_m,
                                 'flyby_duration_s': chosen.flyby_duration_s, 'planning_time_s': planning_time_s}))
-        return out
+        return out, None
 
     def _event(self, t, level, name, message, values):
         return Event(t, level, name, message, values, self.name)

@@ -8,8 +8,11 @@ relative to hill and the target's body rate in that frame's axes), ``planner/fly
 t_g; X_Ft, V_Ft, child frame ``flyby_target`` aligned with hill), ``planner/flyby_initial`` (stamp
 t_i; X_Fi, V_Fi, child ``flyby_initial`` aligned with hill), ``planner/path`` and markers (swept
 keep-out cylinders, restriction sphere, grasp point, X_Ft, X_Fi, path); grasp and fly-by target again
-whenever guidance re-aims. On ``mission/events``: the candidate table, then ``plan_selected`` or
-``plan_refused`` with the reason.
+whenever guidance re-aims. An optimization-based approach (planner.method, seed 003 section 4) publishes
+``planner/trajectory`` (trajectory_msgs/MultiDOFJointTrajectory, frame hill, stamp = its start, DESIGN §10) with
+the grasp, the end point X_Ft, V_Ft on ``planner/flyby_target``, the path and markers (the plume sphere), and
+plans again on guidance's ``replan_requested``. On ``mission/events``: the candidate table, ``method_chosen``,
+then ``plan_selected`` or ``plan_refused`` with the reason.
 """
 
 from std_srvs.srv import Trigger
@@ -19,7 +22,7 @@ from flyby_msgs_py import convert
 from flyby_msgs_py.markers import cylinder_marker, line_strip_marker, marker_array, point_marker, sphere_marker
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
-from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused
+from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_shortest_arc
 from flyby_sim.scenario import scenario_of
 
@@ -59,8 +62,8 @@ class PlannerNode(CoreNode):
         super().__init__('flyby_planner', **kwargs)
         self.core = PlannerCore(scenario_of(self), self.get_name())
         self.pubs = {topic: self.publisher(topic) for topic in (
-            c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,
-            c.MISSION_EVENTS)}
+            c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.PLANNER_TRAJECTORY,
+            c.MARKERS, c.MISSION_EVENTS)}
         self.subscribe_estimates(quat_rotate)
         self.subscribe_events()
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
@@ -81,6 +84,15 @@ class PlannerNode(CoreNode):
                 pubs[c.PLANNER_FLYBY_INITIAL].publish(convert.odometry(
                     out.t_i, c.FRAME_HILL, FRAME_FLYBY_INITIAL, out.x_fi, _IDENTITY, out.v_fi, _ZERO))
                 pubs[c.PLANNER_PATH].publish(convert.path(out.t_plan, c.FRAME_HILL, out.path_t, out.path_r_hill))
+                pubs[c.MARKERS].publish(plan_marker_array(out.t_plan, out.markers))
+            elif isinstance(out, TrajectoryPublished):
+                traj = out.trajectory
+                pubs[c.PLANNER_GRASP].publish(grasp_odometry(out.grasp))
+                pubs[c.PLANNER_FLYBY_TARGET].publish(convert.odometry(
+                    out.t_f, c.FRAME_HILL, FRAME_FLYBY_TARGET, out.x_ft, _IDENTITY, out.v_ft, _ZERO))
+                pubs[c.PLANNER_TRAJECTORY].publish(convert.multi_dof_trajectory(
+                    out.t_start, c.FRAME_HILL, traj.t_s, traj.r_hill, traj.v_hill, traj.a_hill))
+                pubs[c.PLANNER_PATH].publish(convert.path(out.t_plan, c.FRAME_HILL, traj.t_s, traj.r_hill))
                 pubs[c.MARKERS].publish(plan_marker_array(out.t_plan, out.markers))
             elif isinstance(out, PlanRefused):
                 pubs[c.MARKERS].publish(plan_marker_array(out.t_plan, out.markers))

@@ -131,9 +131,11 @@ def thrust_figures(t, force_hill, r_hill, mass0_kg, isp_s, sphere_radius_m, torq
 
 def pointing_figures(chaser, events, t_g):
     """The six-degree-of-freedom chaser's pointing error of body +x at the target's CoM (truth), from the first
-    burn's start (the first terminal burn) to the grasp time (or the end of the truth): 95th percentile and
-    largest [deg] (issue 13); None where no burn started."""
+    burn's start (the first terminal burn) or the start of a tracked trajectory (an optimal approach) to the grasp
+    time (or the end of the truth): 95th percentile and largest [deg] (issue 13); None where neither started."""
     starts = [float(e['values']['t_start']) for e in events if e['name'] == 'burn_started' and 't_start' in e['values']]
+    starts += [float(e['values']['t_start_s']) for e in events
+               if e['name'] == 'guidance_started' and 't_start_s' in e['values']]
     t_end = t_g if t_g is not None else chaser.t[-1]
     window = (chaser.t >= min(starts, default=math.inf)) & (chaser.t <= t_end)
     if not np.any(window):
@@ -141,6 +143,46 @@ def pointing_figures(chaser, events, t_g):
     error_deg = np.degrees(pointing_error_rad(chaser.orientation_xyzw[window], chaser.position[window]))
     return {'pointing_error_p95_deg': float(np.percentile(error_deg, 95.0)),
             'pointing_error_max_deg': float(np.max(error_deg))}
+
+
+def chosen_method(events):
+    """The method of the plan flown (the planner's last method_chosen event, DESIGN §10), or None."""
+    chosen = [e['values']['method'] for e in events if e['name'] == 'method_chosen']
+    return chosen[-1] if chosen else None
+
+
+def approach_figures(chaser, thrust, events, scenario):
+    """The figures of a thrusting approach (seed 003 Table 1, issue 14), from the truth: the peak thrust acceleration
+    [m/s^2] (net force over the mass less the fuel spent), the approach time [s] of the last optimal plan, and what
+    fired at the target within planner.optimal.plume_radius_m of its centre of mass: the net force's impulse away
+    from the target [N s] (the plume rule's quantity) and, for the rigid-body chaser, the thrusters' impulse
+    component toward the target [N s] (each thruster's exhaust direction, nominal, dotted with the line of sight;
+    lateral thrusters count by the pointing error)."""
+    plans = [e['values'] for e in events if e['name'] == 'plan_selected' and e['values'].get('method') == 'optimal']
+    out = {'approach_time_s': float(plans[-1]['approach_time_s']) if plans else None,
+           'peak_acceleration_mps2': None, 'plume_radius_m': scenario.planner.optimal.plume_radius_m,
+           'plume_impulse_away_n_s': None, 'plume_thruster_impulse_n_s': None}
+    if thrust is None or len(thrust.t) < 2:
+        return out
+    dt = np.diff(thrust.t)
+    force = thrust.force[1:]
+    v_exhaust = scenario.chaser.thrusters.isp_s * STANDARD_GRAVITY_M_S2
+    each = (np.linalg.norm(force, axis=1) if thrust.thrusters is None else np.sum(thrust.thrusters[1:], axis=1)) * dt
+    mass = scenario.chaser.mass_kg - np.cumsum(each) / v_exhaust  # after the step: the larger acceleration
+    out['peak_acceleration_mps2'] = float(np.max(np.linalg.norm(force, axis=1) / mass))
+    idx = np.searchsorted(chaser.t, thrust.t[1:]).clip(0, len(chaser.t) - 1)
+    r = chaser.position[idx]
+    dist = np.linalg.norm(r, axis=1)
+    u = r / np.maximum(dist, 1e-12)[:, None]
+    inside = dist < scenario.planner.optimal.plume_radius_m
+    away = np.maximum(np.einsum('ij,ij->i', force, u), 0.0)
+    out['plume_impulse_away_n_s'] = float(np.sum((away * dt)[inside]))
+    if thrust.thrusters is not None and chaser.orientation_xyzw is not None:
+        d_hill = np.stack([quat_rotate_many(chaser.orientation_xyzw[idx], np.broadcast_to(d, r.shape))
+                           for d in scenario.thruster_layout.force_directions_body], axis=1)  # (N, M, 3)
+        at_target = np.maximum(np.einsum('nmj,nj->nm', d_hill, u), 0.0)  # a push away: its exhaust's share at it
+        out['plume_thruster_impulse_n_s'] = float(np.sum((thrust.thrusters[1:] * at_target * dt[:, None])[inside]))
+    return out
 
 
 def grasp_time(events):
@@ -157,7 +199,8 @@ def planned_flyby(events):
     selected = [e['values'] for e in events if e['name'] == 'plan_selected' and 'offset_m' in e['values']]
     if not selected:
         return None, None
-    return float(selected[-1]['offset_m']), float(selected[-1]['flyby_duration_s'])
+    duration = selected[-1].get('flyby_duration_s')  # none for an optimal approach
+    return float(selected[-1]['offset_m']), None if duration is None else float(duration)
 
 
 def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
@@ -245,6 +288,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
                                       offset_m or scenario.planner.offset_m, scenario.mean_motion_rad_s)
 
     pointing = pointing_figures(chaser, events, t_g) if has_chaser and scenario.chaser.model == 'rigid_body' else {}
+    approach = approach_figures(chaser, thrust, events, scenario) if has_chaser else {}
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
@@ -258,6 +302,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'outcome': outcome,
         'final_phase': final_phase,
         'end_reason': end_reason,
+        'method': chosen_method(events),
         'phase_sequence': list(phases),
         'scenario': scenario.name,
         'seed': scenario.seed,
@@ -276,6 +321,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'late_maneuvers': count('late_maneuver'),
         'rejected_maneuvers': count('maneuver_rejected'),
         **pointing,
+        **approach,
         'sim_time_s': sim_time_s,
         'planning_time_s': sum(float(e['values'].get('planning_time_s', 0.0)) for e in events
                                if e['name'] in ('plan_selected', 'plan_refused')),
@@ -301,6 +347,7 @@ def format_summary(summary):
         ('outcome', fmt(summary['outcome'])),
         ('final phase', fmt(summary['final_phase'])),
         ('end reason', fmt(summary['end_reason'])),
+        ('method', fmt(summary.get('method'))),
         ('seed', fmt(summary['seed'])),
         ('grasp time', fmt(summary['t_grasp_s'], 's', 7)),
         ('capture position error', fmt(summary['capture_position_error_m'], 'm')),
@@ -312,6 +359,11 @@ def format_summary(summary):
         *([('pointing error p95 / max', f"{fmt(summary['pointing_error_p95_deg'], 'deg')} / "
                                          f"{fmt(summary['pointing_error_max_deg'], 'deg')}")]
           if 'pointing_error_p95_deg' in summary else []),
+        *([('approach time', fmt(summary['approach_time_s'], 's')),
+           ('peak acceleration', fmt(summary['peak_acceleration_mps2'], 'm/s^2')),
+           ('thrust away in plume', f"{fmt(summary['plume_impulse_away_n_s'], 'N s')} net, "
+                                    f"{fmt(summary['plume_thruster_impulse_n_s'], 'N s')} of exhaust at the target")]
+          if summary.get('approach_time_s') is not None else []),
         ('late maneuvers', fmt(summary['late_maneuvers'])),
         ('sim time', fmt(summary['sim_time_s'], 's', 6)),
         ('wall time', fmt(summary['wall_time_s'], 's')),

@@ -11,6 +11,10 @@ observable condition and carries its reason:
     TERMINAL_APPROACH -> TRAJECTORY_ADJUST  an estimate at or after the injection time t_i
     TRAJECTORY_ADJUST -> FLYBY              guidance ended thrusting, or the chaser is inside the sphere
     FLYBY             -> CAPTURE | ESCAPE   at the grasp time, from the estimated relative state
+    PLANNING          -> OPTIMAL_APPROACH   the planner selected an optimization-based approach (seed 003
+                                            section 4, DESIGN §10); a re-plan moves the grasp time
+    OPTIMAL_APPROACH  -> CAPTURE | ESCAPE   at the grasp time, as from FLYBY (the end point is the fly-by
+                                            target point of eq 20-21 with the plan's offset)
     CAPTURE           -> COMPLETE           after capture_hold_s attached
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
@@ -37,7 +41,9 @@ from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
 # Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
-                 c.PHASE_FLYBY)
+                 c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH)
+# The phases that end at the grasp time with the capture decision.
+DECIDING_PHASES = (c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH)
 # Nodes whose silence or ERROR events abort the mission: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
@@ -158,6 +164,14 @@ class PhaseMachine:
         if name == 'target_diverged':
             self.converged = False
             return []
+        if name == 'plan_selected' and values.get('method') == 'optimal' and self.phase in (
+                c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH):
+            self.t_grasp = float(values['t_grasp_s'])
+            self.offset_m = float(values['offset_m'])
+            if self.phase == c.PHASE_OPTIMAL_APPROACH:
+                return []
+            return self._go(t, c.PHASE_OPTIMAL_APPROACH, f'optimal approach selected: grasp at t = '
+                                                         f'{self.t_grasp:.2f} s', {'t_grasp_s': self.t_grasp})
         if name == 'plan_selected' and self.phase == c.PHASE_PLANNING:
             self.t_i = float(values['t_i_s'])
             self.t_grasp = float(values['t_grasp_s'])
@@ -187,8 +201,8 @@ class PhaseMachine:
         return []
 
     def wants_decision(self, t):
-        """True at the first chaser estimate at or after the grasp time in FLYBY."""
-        return self.phase == c.PHASE_FLYBY and self.t_grasp is not None and t >= self.t_grasp
+        """True at the first chaser estimate at or after the grasp time in FLYBY or OPTIMAL_APPROACH."""
+        return self.phase in DECIDING_PHASES and self.t_grasp is not None and t >= self.t_grasp
 
     def decide(self, t, decision):
         """Apply a CaptureDecision made at the grasp time."""

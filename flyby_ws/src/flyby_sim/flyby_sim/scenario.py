@@ -52,7 +52,7 @@ from flyby_msgs_py.schema import (
     validate,
     validate_field,
 )
-from flyby_sim.dynamics.actuators import ThrusterLayout, is_positively_spanning
+from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout, is_positively_spanning
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate, quat_rotate_many, quat_shortest_arc
@@ -332,6 +332,36 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                 'Longest terminal transfer; with transfer_min_s it sets the grasp-time search window.'),
         'delta_v_tie_mps': Field(FLOAT, 0.001, '>= 0',
                                  'Plans within this total delta-v of the cheapest tie; the larger clearance wins.'),
+        'method': Field(ENUM, 'auto', None,
+                        'Capture method (DESIGN §10): flyby (seed 000), optimal (seed 003 section 4, rigid_body '
+                        'only) or auto (the fly-by where a safe one exists, else optimal with a rigid_body chaser).',
+                        choices=('flyby', 'optimal', 'auto')),
+        'optimal': Section(desc='The optimization-based approach (seed 003 section 4, docs/optimal.md)', fields={
+            'plume_radius_m': Field(FLOAT, 5.0, '>= 0',
+                                    'Within this of the target CoM no thrust away from the target (its exhaust '
+                                    'toward it), seed 003 metric 4 as a rule.'),
+            'accel_max_mps2': Field(FLOAT, None, '> 0', 'Largest thrust acceleration flown (plan and feedback); '
+                                                        'omitted: chaser.thrusters.max_thrust_n / mass_kg.'),
+            'feedback_share': Field(FLOAT, 0.1, '[0, 1)',
+                                    'Share of accel_max_mps2 kept for the tracking feedback; the plan uses the rest.'),
+            'approach_time_s': Field(FLOAT, None, '> 0', 'Approach time T from the start to the grasp; omitted: '
+                                                         'chosen by eq 5 within the two bounds below.'),
+            'approach_time_min_s': Field(FLOAT, 20.0, '> 0', 'Shortest approach time searched.'),
+            'approach_time_max_s': Field(FLOAT, 200.0, '> 0', 'Longest approach time searched.'),
+            'weight_actuator': Field(FLOAT, 1000.0, '>= 0', 'k_a of eq 5 [1/s].'),
+            'weight_fuel': Field(FLOAT, 10.0, '>= 0', 'k_f of eq 5 [1/kg] (on the fuel rate).'),
+            'weight_safety': Field(FLOAT, 1.0, '>= 0', 'k_s of eq 5 [s/m].'),
+            'weight_plume': Field(FLOAT, 100.0, '>= 0', 'k_pi of eq 5 [s/m].'),
+            'weight_time': Field(FLOAT, 0.001, '>= 0', 'k_t of eq 5 [1/s^2].'),
+            'trajectory_step_s': Field(FLOAT, 0.2, '> 0', 'Largest spacing of the points of planner/trajectory '
+                                                          '(they fall on the plan\'s thrust steps).'),
+            'tracking_frequency_rad_s': Field(FLOAT, 0.5, '> 0',
+                                              'Natural frequency of the tracking feedback (critically damped).'),
+            'replan_error_m': Field(FLOAT, 0.5, '> 0',
+                                    'Re-plan when the estimated position leaves the trajectory by more than this.'),
+            'replan_cutoff_s': Field(FLOAT, 15.0, '>= 0', 'No re-plan in the last this many seconds before the '
+                                                          'grasp (the capture decision judges the arrival).'),
+        }),
     }),
 
     'guidance': Section(desc='Terminal approach and trajectory adjusting', fields={
@@ -415,6 +445,14 @@ def _cross_checks(d):
     if planner['transfer_max_s'] < planner['transfer_min_s']:
         raise Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
                                                 f"got {planner['transfer_max_s']!r}")
+    if planner['method'] == 'optimal' and d['chaser']['model'] != 'rigid_body':
+        raise Invalid('planner.method', "optimal needs chaser.model rigid_body (continuous thrust), got "
+                                        f"{d['chaser']['model']!r}")
+    optimal = planner['optimal']
+    if optimal['approach_time_max_s'] <= optimal['approach_time_min_s']:
+        raise Invalid('planner.optimal.approach_time_max_s',
+                      f"must be > planner.optimal.approach_time_min_s = {optimal['approach_time_min_s']!r}, "
+                      f"got {optimal['approach_time_max_s']!r}")
 
 
 
@@ -603,6 +641,16 @@ class Scenario:
     def omega_chaser_body0_rad_s(self):
         """Inertial angular velocity of the chaser in chaser_body axes at t = 0 [rad/s] (zero if omitted)."""
         return self._derived['omega_chaser_body'].copy()
+
+    @property
+    def thruster_layout(self):
+        """The rigid-body chaser's nominal ThrusterLayout (chaser.thrusters.layout, or the default 12 thrusters), as
+        guidance allocates and the plant fires it (without the run's execution errors)."""
+        th = self.chaser.thrusters
+        if th.layout is None:
+            return default_thruster_layout(th.max_thrust_n, th.isp_s, th.min_impulse_bit_ns)
+        return ThrusterLayout([x.position_m for x in th.layout], [x.direction for x in th.layout], th.max_thrust_n,
+                              th.isp_s, th.min_impulse_bit_ns)
 
     @property
     def offset_max_m(self):

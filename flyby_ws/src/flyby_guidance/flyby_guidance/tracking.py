@@ -1,0 +1,135 @@
+"""Tracking of an optimization-based approach (seed 003 section 4; DESIGN §10 ``OPTIMAL_APPROACH``), no ROS.
+
+The planner's trajectory (planner/trajectory: times, r_hill, v_hill and the thrust acceleration a_hill it was
+planned with, held over each step) is flown with continuous force commands: the commanded thrust acceleration is
+the plan's feed-forward plus a critically damped feedback on the navigation estimate,
+
+    a = a_ref + w^2 (r_ref - r) + 2 w (v_ref - v),
+
+(the CW terms are the plan's: a is what the thrusters add to the relative motion, seed 000 eq 2), then
+
+* the plume rule (seed 003 metric 4 as a rule): within the plume radius (plus PLUME_MARGIN_M, for the estimate's
+  error and one control period's motion) of the target's centre of mass the component of a pointing away from
+  the target (the exhaust toward it) is removed;
+* the acceleration bound: |a| <= accel_max (the plan keeps a share of it for this feedback, planner.optimal).
+
+The reference between two points is the cubic Hermite interpolant of the positions and velocities; the
+feed-forward of a command is the mean over its hold of the plan's acceleration, held from each point to the next
+(the planner puts points on the plan's step boundaries, where its thrust changes). After the trajectory's end
+nothing is commanded (the supervisor decides the capture at the grasp time, the trajectory's end).
+
+``ReferenceTrajectory.error`` is the estimate's distance from the reference; guidance asks for a re-plan when it
+exceeds planner.optimal.replan_error_m (outside the last replan_cutoff_s).
+
+Frames and units: hill (flyby_sim.dynamics.orbital), velocities relative to the rotating hill frame, SI.
+"""
+
+import dataclasses
+
+import numpy as np
+
+# The plume rule applies this far outside the plume radius (by the estimate) [m].
+PLUME_MARGIN_M = 0.5
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackingConfig:
+    """accel_max_mps2: largest commanded thrust acceleration [m/s^2]; plume_radius_m [m]; frequency_rad_s: the
+    feedback's natural frequency w [rad/s]; replan_error_m: the position error that asks for a re-plan [m];
+    replan_cutoff_s: no re-plan request this close to the trajectory's end [s]."""
+
+    accel_max_mps2: float
+    plume_radius_m: float
+    frequency_rad_s: float
+    replan_error_m: float
+    replan_cutoff_s: float
+
+
+def tracking_config_from_scenario(scenario):
+    """TrackingConfig of planner.optimal (accel_max_mps2 omitted: chaser.thrusters.max_thrust_n / mass_kg). The
+    commanded bound is accel_max_mps2 less 3 sigma of the thrusters' magnitude error, so that what they give stays
+    within it."""
+    o, th = scenario.planner.optimal, scenario.chaser.thrusters
+    accel = th.max_thrust_n / scenario.chaser.mass_kg if o.accel_max_mps2 is None else o.accel_max_mps2
+    return TrackingConfig(accel_max_mps2=accel * (1.0 - 3.0 * th.magnitude_error_sigma),
+                          plume_radius_m=o.plume_radius_m,
+                          frequency_rad_s=o.tracking_frequency_rad_s, replan_error_m=o.replan_error_m,
+                          replan_cutoff_s=o.replan_cutoff_s)
+
+
+class ReferenceTrajectory:
+    """The planned trajectory: t_s (M,) [s], r_hill (M, 3) [m], v_hill (M, 3) [m/s], a_hill (M, 3) [m/s^2]."""
+
+    def __init__(self, t_s, r_hill, v_hill, a_hill):
+        self.t_s = np.asarray(t_s, dtype=float)
+        self.r_hill = np.asarray(r_hill, dtype=float)
+        self.v_hill = np.asarray(v_hill, dtype=float)
+        self.a_hill = np.asarray(a_hill, dtype=float)
+        if len(self.t_s) < 2 or np.any(np.diff(self.t_s) <= 0.0):
+            raise ValueError(f'a reference trajectory needs at least 2 points in increasing time, got {self.t_s!r}')
+
+    @property
+    def t_start(self):
+        return float(self.t_s[0])
+
+    @property
+    def t_end(self):
+        return float(self.t_s[-1])
+
+    def at(self, t):
+        """(r_ref [m], v_ref [m/s], a_ref [m/s^2]) at time t [s], clamped to the trajectory's span (a_ref zero
+        after its end)."""
+        ts = self.t_s
+        if t >= ts[-1]:
+            return self.r_hill[-1].copy(), self.v_hill[-1].copy(), np.zeros(3)
+        t = max(float(t), ts[0])
+        k = int(np.searchsorted(ts, t, side='right') - 1)
+        h = ts[k + 1] - ts[k]
+        s = (t - ts[k]) / h
+        r0, r1, v0, v1 = self.r_hill[k], self.r_hill[k + 1], self.v_hill[k] * h, self.v_hill[k + 1] * h
+        # cubic Hermite basis and its derivative in s
+        r = ((2 * s ** 3 - 3 * s ** 2 + 1) * r0 + (s ** 3 - 2 * s ** 2 + s) * v0 + (-2 * s ** 3 + 3 * s ** 2) * r1
+             + (s ** 3 - s ** 2) * v1)
+        dr = ((6 * s ** 2 - 6 * s) * r0 + (3 * s ** 2 - 4 * s + 1) * v0 + (-6 * s ** 2 + 6 * s) * r1
+              + (3 * s ** 2 - 2 * s) * v1)
+        return r, dr / h, self.a_hill[k].copy()
+
+    def mean_acceleration(self, t0, t1):
+        """Mean [m/s^2] over [t0, t1] (t1 > t0) of the held acceleration (zero outside the trajectory)."""
+        edges = np.clip(np.concatenate(((t0,), self.t_s[(self.t_s > t0) & (self.t_s < t1)], (t1,))),
+                        self.t_s[0], self.t_s[-1])
+        k = np.clip(np.searchsorted(self.t_s, edges[:-1], side='right') - 1, 0, len(self.t_s) - 2)
+        return np.diff(edges) @ self.a_hill[k] / (t1 - t0)
+
+    def error(self, t, r_hill):
+        """Distance [m] of a position at t from the reference."""
+        return float(np.linalg.norm(np.asarray(r_hill, dtype=float) - self.at(t)[0]))
+
+
+def plume_rule(a_hill, r_hill, plume_radius_m):
+    """a_hill [m/s^2] without its component away from the target (along r_hill [m], from the target's centre of
+    mass) when within plume_radius_m + PLUME_MARGIN_M of it: no exhaust toward the target (seed 003 metric 4)."""
+    a = np.asarray(a_hill, dtype=float)
+    dist = float(np.linalg.norm(r_hill))
+    if dist >= plume_radius_m + PLUME_MARGIN_M or dist == 0.0:
+        return a
+    u = np.asarray(r_hill, dtype=float) / dist
+    away = float(a @ u)
+    return a - away * u if away > 0.0 else a
+
+
+def tracking_acceleration(reference, t_apply, hold_s, t_estimate, r_hill, v_hill, config):
+    """The thrust acceleration [m/s^2, hill] to hold from t_apply for hold_s [s], from the estimate (r_hill [m],
+    v_hill [m/s]) of t_estimate [s] (module doc): the reference's feed-forward over the hold, feedback on the error at
+    the estimate's time, the plume rule, the bound. Zero outside the trajectory's span."""
+    if not reference.t_start <= t_apply < reference.t_end:
+        return np.zeros(3)
+    r_ref, v_ref, _ = reference.at(t_estimate)
+    a_ff = reference.mean_acceleration(t_apply, t_apply + hold_s)
+    w = config.frequency_rad_s
+    a = a_ff + w * w * (r_ref - r_hill) + 2.0 * w * (v_ref - v_hill)
+    a = plume_rule(a, r_hill, config.plume_radius_m)
+    norm = float(np.linalg.norm(a))
+    if norm > config.accel_max_mps2:
+        a = a * (config.accel_max_mps2 / norm)
+    return a

@@ -1,0 +1,166 @@
+"""The optimization-based approach as the mission flies it (seed 003 section 4; DESIGN §10 ``planner.method``).
+
+``plan_approach`` plans from the estimates of the plan time: the chaser state carried to the start (the plan time
+plus ``planner.maneuver_lead_s``), the target-motion prediction of the estimate, the scenario's grasp point at
+``planner.offset_m`` (the end state X_Ft, V_Ft of seed 000 eq 20-21 at the grasp time), then SCP
+(``scp.plan_scp``) with ``planner.optimal``'s settings. The plan's acceleration bound is
+accel_max (1 - feedback_share): the rest is kept for guidance's tracking feedback, so that what is flown stays
+within accel_max.
+
+Before it is flown the plan is checked, independently of the solver, on its dense samples: the peak acceleration
+within the plan's bound, no thrust away from the target inside the plume radius (seed 003 metric 4 as a rule), and
+the chaser envelope clear of the target's predicted real geometry less its uncertainty (the fly-by planner's model:
+geometry_attitude_margin + geometry_rate_margin |t - t_g| times the distance, ``plan._predicted_gaps``) by
+planner.clearance_margin_m. A plan that fails any of them is refused with the reason, as is no feasible program.
+
+Frames and units as in flyby_planner.grasp (hill, velocities relative to the rotating hill frame, SI).
+"""
+
+import dataclasses
+
+import numpy as np
+
+from flyby_planner.grasp import flyby_target_point
+from flyby_planner.optimal.cost import plan_terms
+from flyby_planner.optimal.problem import CostWeights, approach_problem, chaser_from_scenario
+from flyby_planner.optimal.sampler import sample_trajectory
+from flyby_planner.optimal.scp import ScpSettings, plan_scp
+from flyby_planner.plan import _predicted_gaps
+from flyby_sim.dynamics.orbital import cw_coast
+
+# Samples per second of the plan's check (the plume rule and the clearance between SCP's check points).
+_CHECK_RATE_HZ = 20.0
+# The plan's thrust may exceed its bound by this share (the solver's tolerance) [-].
+_ACCEL_TOLERANCE = 1e-3
+# Largest thrust away from the target inside the plume radius that counts as none [m/s^2] (the solver's tolerance).
+_PLUME_TOLERANCE_MPS2 = 1e-5
+
+
+@dataclasses.dataclass(frozen=True)
+class ApproachSettings:
+    """planner.optimal of a scenario, resolved: the largest acceleration flown [m/s^2], the plan's share of it,
+    plume radius [m], approach time [s] or None (free) within its bounds, eq 5 weights, the trajectory's point
+    spacing [s], the lead from the plan time to the start [s], the offset [m] and the clearance margin [m]."""
+
+    accel_max_mps2: float
+    feedback_share: float
+    plume_radius_m: float
+    approach_time_s: float | None
+    approach_time_min_s: float
+    approach_time_max_s: float
+    weights: CostWeights
+    trajectory_step_s: float
+    start_lead_s: float
+    offset_m: float
+    clearance_margin_m: float
+
+    @property
+    def plan_accel_max_mps2(self):
+        return self.accel_max_mps2 * (1.0 - self.feedback_share)
+
+    @property
+    def horizon_s(self):
+        """How far past the plan time the target prediction must reach [s]."""
+        return self.start_lead_s + (self.approach_time_max_s if self.approach_time_s is None
+                                    else self.approach_time_s) + 1.0
+
+
+def approach_settings_from_scenario(scenario):
+    """ApproachSettings of a scenario (planner, planner.optimal, chaser.thrusters)."""
+    p, o = scenario.planner, scenario.planner.optimal
+    accel = (scenario.chaser.thrusters.max_thrust_n / scenario.chaser.mass_kg if o.accel_max_mps2 is None
+             else o.accel_max_mps2)
+    return ApproachSettings(
+        accel_max_mps2=accel, feedback_share=o.feedback_share, plume_radius_m=o.plume_radius_m,
+        approach_time_s=o.approach_time_s, approach_time_min_s=o.approach_time_min_s,
+        approach_time_max_s=o.approach_time_max_s,
+        weights=CostWeights(actuator=o.weight_actuator, fuel_per_kg=o.weight_fuel, safety=o.weight_safety,
+                            plume=o.weight_plume, time=o.weight_time),
+        trajectory_step_s=o.trajectory_step_s, start_lead_s=p.maneuver_lead_s, offset_m=p.offset_m,
+        clearance_margin_m=p.clearance_margin_m)
+
+
+@dataclasses.dataclass(frozen=True)
+class ApproachPlan:
+    """A checked plan, or its refusal.
+
+    ok; reason (one line: what was planned, or what refused it); t_start_s, t_grasp_s [s]; x_ft, v_ft the end
+    state (eq 20-21) [m, m/s] and x_g, v_g the grasp point there; trajectory (cost.Trajectory: t_s, r_hill, v_hill,
+    a_hill, for planner/trajectory); terms (cost.CostTerms of eq 5); clearance_m: the least gap less uncertainty
+    of the check [m]; plan: the scp.ZohPlan; solver_time_s [s]."""
+
+    ok: bool
+    reason: str
+    t_start_s: float = None
+    t_grasp_s: float = None
+    x_ft: np.ndarray = None
+    v_ft: np.ndarray = None
+    x_g: np.ndarray = None
+    v_g: np.ndarray = None
+    trajectory: object = None
+    terms: object = None
+    clearance_m: float = None
+    plan: object = None
+    solver_time_s: float = 0.0
+
+
+def check_approach(plan, prediction, t_grasp, settings, planner_config, rate_hz=_CHECK_RATE_HZ):
+    """The checks of a plan before it is flown (module doc): (problems (list of one-line reasons), least gap less
+    uncertainty [m])."""
+    steps = max(2, int(np.ceil(plan.duration_s * rate_hz)))
+    s = plan.sample(np.linspace(0.0, plan.duration_s, steps + 1))
+    problems = []
+    accel = np.linalg.norm(s.a_hill, axis=1)
+    if accel.max() > settings.plan_accel_max_mps2 * (1.0 + _ACCEL_TOLERANCE):
+        problems.append(f'peak acceleration {accel.max():.4f} m/s^2 > {settings.plan_accel_max_mps2:.4f} m/s^2')
+    dist = np.linalg.norm(s.r_hill, axis=1)
+    away = np.einsum('ij,ij->i', s.a_hill, s.r_hill) / np.maximum(dist, 1e-9)
+    inside = dist < settings.plume_radius_m
+    if np.any(inside & (away > _PLUME_TOLERANCE_MPS2)):
+        k = int(np.argmax(np.where(inside, away, -np.inf)))
+        problems.append(f'thrust {away[k]:.2e} m/s^2 away from the target {dist[k]:.2f} m from it (plume radius '
+                        f'{settings.plume_radius_m:g} m)')
+    gaps, names = _predicted_gaps(prediction, s.r_hill, s.t_s, t_grasp, planner_config)
+    k = int(np.argmin(gaps))
+    if gaps[k] < settings.clearance_margin_m:
+        problems.append(f'the envelope comes {gaps[k]:.3f} m from the {names[k]} at t = {s.t_s[k]:.1f} s '
+                        f'(uncertainty included, margin {settings.clearance_margin_m:g} m)')
+    return problems, float(gaps[k])
+
+
+def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_config, scp_settings=None):
+    """Plan the optimization-based approach from the chaser state (r_now [m], v_now [m/s], hill) at the plan time
+    t_now [s] with the target-motion prediction (a MotionPrediction covering [t_now, t_now + settings.horizon_s]);
+    an ApproachPlan (module doc). scp_settings: scp.ScpSettings (default: its defaults)."""
+    n = scenario.mean_motion_rad_s
+    t_start = t_now + settings.start_lead_s
+    start = cw_coast(np.asarray(r_now, dtype=float), np.asarray(v_now, dtype=float), settings.start_lead_s, n)
+    chaser = dataclasses.replace(chaser_from_scenario(scenario), accel_max_mps2=settings.plan_accel_max_mps2)
+    problem = approach_problem(scenario, prediction, start[:3], start[3:], t_start, settings.plume_radius_m,
+                               offset_m=settings.offset_m, chaser=chaser, weights=settings.weights,
+                               duration_min_s=settings.approach_time_min_s,
+                               duration_max_s=settings.approach_time_max_s)
+    result = plan_scp([problem], scp_settings or ScpSettings(), duration_s=settings.approach_time_s)
+    if result.plans is None:
+        span = (f'{settings.approach_time_s:g} s' if settings.approach_time_s is not None else
+                f'{settings.approach_time_min_s:g}-{settings.approach_time_max_s:g} s')
+        return ApproachPlan(False, f'optimal approach: no feasible program for an approach of {span} at '
+                                   f'{settings.plan_accel_max_mps2:.4g} m/s^2 (SCP, {result.solves} programs)',
+                            solver_time_s=result.wall_time_s)
+    plan = result.plans[0]
+    t_grasp = t_start + plan.duration_s
+    problems, clearance_m = check_approach(plan, prediction, t_grasp, settings, planner_config)
+    if problems:
+        return ApproachPlan(False, 'optimal approach refused: ' + '; '.join(problems), t_start, t_grasp,
+                            clearance_m=clearance_m, plan=plan, solver_time_s=result.wall_time_s)
+    track = prediction.track(problem.terminal.x_grasp_body, np.array((t_grasp,)))
+    x_g, v_g = track.r_hill[0], track.v_hill[0]
+    x_ft, v_ft = flyby_target_point(x_g, v_g, settings.offset_m)  # eq 20-21
+    terms = plan_terms(problem, plan)
+    # points on the plan's step boundaries, where its held thrust changes (guidance holds it from point to point)
+    trajectory = sample_trajectory(plan, plan.step_s / np.ceil(plan.step_s / settings.trajectory_step_s - 1e-9))
+    return ApproachPlan(True, f'optimal approach: T = {plan.duration_s:.1f} s, delta-v {terms.delta_v_mps:.3f} m/s, '
+                              f'peak {terms.peak_accel_mps2:.4f} m/s^2, least clearance {clearance_m:.3f} m with '
+                              f'the uncertainty, eq 5 P = {terms.total:.3f}',
+                        t_start, t_grasp, x_ft, v_ft, x_g, v_g, trajectory, terms, clearance_m, plan,
+                        result.wall_time_s)

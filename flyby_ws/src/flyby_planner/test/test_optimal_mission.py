@@ -1,0 +1,175 @@
+"""The optimization-based approach in the mission (issue 14, DESIGN §10): planner.method, PlannerCore's choice and
+its reason, the plan checked before it is flown, NO_SAFE_PLAN when SCP finds nothing, the supervisor's
+OPTIMAL_APPROACH phase and its capture decision."""
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.schema import ScenarioError
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.optimal.approach import approach_settings_from_scenario, check_approach, plan_approach
+from flyby_planner.optimal.scp import ZohPlan
+from flyby_planner.plan import planner_config_from_scenario, truth_prediction
+from flyby_planner.planner_core import PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.supervisor import SupervisorCore
+from flyby_sim.scenario import load_scenario, scenario_from_dict
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+T_PLAN = 60.0
+
+
+def _scenario(name='jacobsen_optimal.yaml', **planner):
+    d = copy.deepcopy(yaml.safe_load((SCENARIOS / name).read_text()))
+    for key, value in planner.items():
+        if key == 'optimal':
+            d['planner'].setdefault('optimal', {}).update(value)
+        elif key == 'estimation':
+            d['estimation'] = {**d.get('estimation', {}), **value}
+        else:
+            d['planner'][key] = value
+    return scenario_from_dict(d, name=name)
+
+
+def _plan(scenario, r_chaser=(50.0, 0.0, 0.0)):
+    """PlannerCore's outputs planning at T_PLAN from the true target state and a chaser at rest."""
+    truth = truth_prediction(scenario, T_PLAN + 1.0).state(T_PLAN)
+    core = PlannerCore(scenario)
+    core.on_chaser_estimate(T_PLAN, np.array(r_chaser), np.zeros(3))
+    core.on_target_estimate(T_PLAN, truth.q_hill_from_body, truth.omega_body)
+    return core, core.on_event(wire_event(Event(T_PLAN, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING',
+                                                {'from': c.PHASE_ESTIMATION, 'to': c.PHASE_PLANNING},
+                                                'flyby_supervisor')))
+
+
+def _events(out, name):
+    return [o for o in out if isinstance(o, Event) and o.name == name]
+
+
+def test_method_keys_are_validated_with_the_key_named():
+    with pytest.raises(ScenarioError, match=r'planner\.method: .*rigid_body'):
+        _scenario('paper_flyby.yaml', method='optimal')
+    with pytest.raises(ScenarioError, match=r'planner\.method'):
+        _scenario(method='fastest')
+    with pytest.raises(ScenarioError, match=r'planner\.optimal\.approach_time_max_s'):
+        _scenario(optimal={'approach_time_min_s': 80.0, 'approach_time_max_s': 60.0})
+    assert load_scenario(SCENARIOS / 'paper_flyby.yaml').planner.method == 'auto'  # DESIGN §10's default
+
+
+def test_optimal_method_publishes_a_checked_trajectory_to_the_grasp():
+    """Seed 003 Table 1's case: the trajectory starts planner.maneuver_lead_s after the plan time at the chaser and
+    ends 58.9 s later at X_Ft, V_Ft (eq 20-21) of the grasp, within the plan's share of the acceleration bound."""
+    sc = _scenario()
+    _, out = _plan(sc)
+    (chosen,) = _events(out, 'method_chosen')
+    assert chosen.values == {'method': 'optimal', 'reason': 'planner.method optimal'}
+    (traj,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    (selected,) = _events(out, 'plan_selected')
+    assert out.index(chosen) < out.index(traj) < out.index(selected)
+    t = traj.trajectory
+    assert traj.t_start == t.t_s[0] == T_PLAN + sc.planner.maneuver_lead_s
+    assert t.t_s[-1] == pytest.approx(traj.t_start + 58.9) and traj.t_f == pytest.approx(t.t_s[-1])
+    assert t.r_hill[0] == pytest.approx((50.0, 0.0, 0.0), abs=1e-9)
+    assert t.r_hill[-1] == pytest.approx(traj.x_ft, abs=1e-6) and t.v_hill[-1] == pytest.approx(traj.v_ft, abs=1e-6)
+    # X_Ft is the grasp point pushed out by the offset along its direction from the centre of mass (eq 20)
+    assert np.linalg.norm(traj.x_ft) - np.linalg.norm(traj.grasp.x_g) == pytest.approx(sc.planner.offset_m)
+    assert np.linalg.norm(t.a_hill, axis=1).max() <= 0.138 * 0.9 * (1 + 1e-3)
+    assert selected.values['method'] == 'optimal' and selected.values['t_grasp_s'] == traj.t_f
+
+
+def test_auto_flies_the_flyby_where_a_safe_one_exists():
+    _, out = _plan(_scenario('paper_flyby_6dof.yaml', method='auto'))
+    (chosen,) = _events(out, 'method_chosen')
+    assert chosen.values['method'] == 'flyby' and chosen.values['reason'] == 'a safe fly-by exists'
+    assert any(isinstance(o, PlanPublished) for o in out)
+    assert not any(isinstance(o, TrajectoryPublished) for o in out)
+
+
+def test_auto_falls_back_to_the_optimal_approach_when_the_flyby_is_refused():
+    """The fly-by refuses a target faster than estimation.spin_rate_deg_s (condition (a)); auto then plans the
+    optimization-based approach, and says why."""
+    _, out = _plan(_scenario('paper_flyby_6dof.yaml', method='auto', estimation={'spin_rate_deg_s': 4.0},
+                             optimal={'accel_max_mps2': 0.138, 'approach_time_s': 58.9}))
+    (chosen,) = _events(out, 'method_chosen')
+    assert chosen.values['method'] == 'optimal'
+    assert chosen.values['reason'].startswith('auto: no safe fly-by (condition (a)')
+    assert any(isinstance(o, TrajectoryPublished) for o in out) and not _events(out, 'plan_refused')
+
+
+def test_point_mass_auto_keeps_the_flyby_refusal():
+    _, out = _plan(_scenario('paper_flyby.yaml', method='auto', estimation={'spin_rate_deg_s': 4.0}))
+    (refused,) = _events(out, 'plan_refused')
+    assert refused.message.startswith('condition (a)') and not _events(out, 'method_chosen')
+
+
+def test_no_safe_plan_when_scp_finds_no_feasible_program():
+    """50 m in 20 s needs 0.5 m/s^2 at least (bang-bang): nothing within 0.138 m/s^2, refused with the reason; with
+    auto the fly-by's reason comes first. The supervisor then ends the mission without flying (NO_SAFE_PLAN)."""
+    _, out = _plan(_scenario(optimal={'approach_time_s': 20.0}))
+    (refused,) = _events(out, 'plan_refused')
+    assert refused.message.startswith('optimal approach: no feasible program for an approach of 20 s')
+    assert any(isinstance(o, PlanRefused) for o in out) and not _events(out, 'method_chosen')
+    _, out = _plan(_scenario(method='auto', estimation={'spin_rate_deg_s': 4.0}, optimal={'approach_time_s': 20.0}))
+    (refused,) = _events(out, 'plan_refused')
+    assert refused.message.startswith('fly-by: condition (a)') and '; optimal approach: no feasible' in refused.message
+    supervisor = SupervisorCore(_scenario())
+    supervisor.machine.phase = c.PHASE_PLANNING
+    out = supervisor.on_event(wire_event(refused))
+    assert supervisor.phase == c.PHASE_COMPLETE
+    assert _events(out, 'phase_changed')[0].values['no_safe_plan'] is True
+
+
+def test_the_check_refuses_a_plan_that_fires_at_the_target_or_cuts_the_geometry():
+    """check_approach judges the plan on its own samples, whatever the solver claimed: a thrust away from the target
+    inside the plume radius, a path through the bus and a thrust above the bound are each named."""
+    sc = _scenario()
+    settings = approach_settings_from_scenario(sc)
+    prediction = truth_prediction(sc, T_PLAN + 30.0)
+    n = sc.mean_motion_rad_s
+    # Straight through the centre of mass at 1 m/s from 10 m, thrusting away from the target (+x) all along.
+    x = np.zeros((11, 6))
+    x[:, 0] = np.linspace(10.0, -10.0, 11)
+    x[:, 3] = -1.0
+    plan = ZohPlan(T_PLAN, 20.0, x, np.tile((0.2, 0.0, 0.0), (10, 1)), n)
+    problems, gap = check_approach(plan, prediction, T_PLAN + 20.0, settings, planner_config_from_scenario(sc))
+    text = ' | '.join(problems)
+    assert 'peak acceleration 0.2' in text and 'away from the target' in text and 'from the bus' in text
+    assert gap < 0.0
+
+
+def test_supervisor_decides_the_capture_of_an_optimal_approach_at_its_grasp_time():
+    sc = _scenario()
+    _, out = _plan(sc)
+    (selected,) = _events(out, 'plan_selected')
+    (traj,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    supervisor = SupervisorCore(sc)
+    supervisor.machine.phase = c.PHASE_PLANNING
+    supervisor.on_event(wire_event(selected))
+    assert supervisor.phase == c.PHASE_OPTIMAL_APPROACH
+    truth = truth_prediction(sc, traj.t_f + 1.0)
+    t_g = traj.t_f
+    for t in (t_g - 0.05, t_g + 0.05):
+        s = truth.state(t)
+        supervisor.on_target_estimate(t, s.q_hill_from_body, s.omega_body)
+    # the chaser 2 cm and 2 mm/s off the end point at the grasp time
+    out = supervisor.on_chaser_estimate(t_g, traj.x_ft + (0.02, 0.0, 0.0), traj.v_ft + (0.0, 0.002, 0.0))
+    assert supervisor.phase == c.PHASE_CAPTURE
+    (changed,) = _events(out, 'phase_changed')
+    # X_Ft recomputed from the target estimate (the estimator's model of the motion) within a millimetre of the plan's
+    assert changed.values['position_error_m'] == pytest.approx(0.02, abs=1e-3)
+    assert changed.values['velocity_error_mps'] == pytest.approx(0.002, abs=1e-4)
+
+
+def test_plan_approach_from_the_far_side_of_the_panels():
+    """From -50 m V-bar (the panels' sweep between the chaser and the grasp point) the approach is planned around
+    the target and passes the check."""
+    sc = _scenario()
+    settings = approach_settings_from_scenario(sc)
+    plan = plan_approach(sc, truth_prediction(sc, T_PLAN + settings.horizon_s), (-50.0, 0.0, 0.0), np.zeros(3),
+                         T_PLAN, settings, planner_config_from_scenario(sc))
+    assert plan.ok, plan.reason
+    assert plan.clearance_m >= sc.planner.clearance_margin_m
