@@ -24,7 +24,7 @@ estimate's command also carries the force [N, chaser_body] of the tracking law (
 plume rule, the acceleration bound) on guidance/wrench, with the same stamp and hold as the attitude command (the
 mass counted down by the fuel of the forces commanded). When the estimate leaves the trajectory by more than
 planner.optimal.replan_error_m guidance asks for a re-plan (``replan_requested``, once per trajectory) and flies
-the old trajectory until the new one arrives.
+the old trajectory until the new one starts.
 
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
@@ -122,6 +122,7 @@ class GuidanceCore:
             self.layout = scenario.thruster_layout
             self.force_carried_hill = np.zeros(3)  # below the thrusters' minimum impulse bit so far [N]
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
+        self.next_reference = None  # a re-planned one, flown from its start
         self.replan_asked = False
         self.tracking_error_max_m = 0.0  # over the approach, by the estimates
         self.tracking_ended = False
@@ -152,9 +153,11 @@ class GuidanceCore:
         if self.attitude is None:
             return [self._event(float(t_s[0]), 'ERROR', 'trajectory_ignored',
                                 'an optimal approach needs the rigid-body chaser (continuous thrust)', {})]
-        self.reference = ReferenceTrajectory(t_s, r_hill, v_hill, a_hill)
-        self.replan_asked = False
-        ref = self.reference
+        ref = ReferenceTrajectory(t_s, r_hill, v_hill, a_hill)
+        if self.reference is None:
+            self.reference = ref
+        else:
+            self.next_reference = ref
         return [self._event(ref.t_start, 'OK', 'guidance_started',
                             f'tracking the optimal approach from t = {ref.t_start:.2f} s to {ref.t_end:.2f} s',
                             {'t_start_s': ref.t_start, 't_end_s': ref.t_end})]
@@ -204,6 +207,8 @@ class GuidanceCore:
     def _tracking_acceleration(self, t, t_apply, r_hill, v_hill):
         """(thrust acceleration [m/s^2, hill] of the tracking law held from t_apply, or None where nothing is
         tracked; events) for the estimate of t (module doc)."""
+        if self.next_reference is not None and t_apply >= self.next_reference.t_start:
+            self.reference, self.next_reference, self.replan_asked = self.next_reference, None, False
         ref = self.reference
         if ref is None or self.phase in QUIET_PHASES or t_apply < ref.t_start or self.tracking_ended:
             return None, []

@@ -18,7 +18,8 @@ rigid body. The choice and its reason are a ``method_chosen`` event; nothing saf
 ``plan_refused`` with every method's reason. An optimal plan is published as ``TrajectoryPublished``
 (planner/grasp, planner/flyby_target = X_Ft, V_Ft at the grasp, planner/trajectory, planner/path). Guidance's
 ``replan_requested`` event (the tracking error grew beyond its bound) plans the approach again from the
-estimates of its stamp.
+estimates of its stamp to the same grasp time: the chaser's state at the new start is the estimate moved as the
+trajectory flown moves over the lead (guidance flies it until the new one starts).
 
 The planner node and the headless driver (flyby_guidance.closed_loop) both run ``PlannerCore``;
 every input method returns the outputs to publish, in order.
@@ -158,6 +159,7 @@ class PlannerCore:
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.approach = approach_settings_from_scenario(scenario)
         self.method_flown = None  # the method of the plan being flown: a re-plan keeps it
+        self.flown = None  # the TrajectoryPublished being flown (an optimal approach)
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
@@ -246,8 +248,16 @@ class PlannerCore:
         t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
         chaser_now = cw_coast(r_c, v_c, t - t_c, n)  # eq 22
         prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body, t + settings.horizon_s)
+        start_state = None
+        if self.flown is not None:  # a re-plan: to the same grasp, from the estimate moved as the flown trajectory
+            settings = dataclasses.replace(settings, approach_time_s=self.flown.t_f - t - settings.start_lead_s)
+            traj = self.flown.trajectory
+            ref = np.array([[np.interp(s, traj.t_s, x[:, k]) for x in (traj.r_hill, traj.v_hill) for k in range(3)]
+                            for s in (t, t + settings.start_lead_s)])
+            start_state = chaser_now + ref[1] - ref[0]
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
-        plan = plan_approach(self.scenario, prediction, chaser_now[:3], chaser_now[3:], t, settings, self.config)
+        plan = plan_approach(self.scenario, prediction, chaser_now[:3], chaser_now[3:], t, settings, self.config,
+                             start_state=start_state)
         planning_time_s = time.perf_counter() - started
         if not plan.ok:
             refused = plan.reason if flyby_refused is None else f'fly-by: {flyby_refused}; {plan.reason}'
@@ -255,10 +265,11 @@ class PlannerCore:
         at_grasp = prediction.state(plan.t_grasp_s)
         grasp = GraspState(plan.t_grasp_s, plan.x_g, plan.v_g, at_grasp.q_hill_from_body, at_grasp.omega_body)
         traj, terms = plan.trajectory, plan.terms
+        self.flown = TrajectoryPublished(t, grasp, plan.t_grasp_s, plan.x_ft, plan.v_ft, plan.t_start_s, traj,
+                                         PlanMarkers(settings.plume_radius_m, (), plan.x_g, (plan.x_ft,), traj.r_hill))
         return out + [
             self._method_chosen(t, 'optimal', reason),
-            TrajectoryPublished(t, grasp, plan.t_grasp_s, plan.x_ft, plan.v_ft, plan.t_start_s, traj,
-                                PlanMarkers(settings.plume_radius_m, (), plan.x_g, (plan.x_ft,), traj.r_hill)),
+            self.flown,
             self._event(t, 'OK', 'plan_selected', plan.reason,
                         {'request': why, 'plan': str(self.plans), 'method': 'optimal', 't_grasp_s': plan.t_grasp_s,
                          't_start_s': plan.t_start_s, 'offset_m': settings.offset_m,

@@ -173,3 +173,29 @@ def test_plan_approach_from_the_far_side_of_the_panels():
                          T_PLAN, settings, planner_config_from_scenario(sc))
     assert plan.ok, plan.reason
     assert plan.clearance_m >= sc.planner.clearance_margin_m
+
+
+def test_a_replan_request_plans_again_to_the_same_grasp_from_the_estimate():
+    """Guidance's replan_requested (the tracking error grew) plans the approach again from the estimates of its
+    stamp: the new trajectory starts planner.maneuver_lead_s later, at the estimate moved as the flown trajectory
+    moves over the lead, and ends at the same grasp time."""
+    sc = _scenario()
+    core, out = _plan(sc)
+    (first,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    t = 80.0
+    ref = first.trajectory
+    r_t, v_t = ([np.interp(t, ref.t_s, x[:, j]) for j in range(3)] for x in (ref.r_hill, ref.v_hill))
+    off = np.array((0.0, 0.8, 0.0))  # 0.8 m off the trajectory
+    truth = truth_prediction(sc, t + 1.0).state(t)
+    core.on_chaser_estimate(t, r_t + off, np.array(v_t))
+    core.on_target_estimate(t, truth.q_hill_from_body, truth.omega_body)
+    out = core.on_event(wire_event(Event(t, 'WARN', 'replan_requested', 'tracking error 0.800 m > 0.5 m',
+                                         {'tracking_error_m': 0.8}, 'flyby_guidance')))
+    (chosen,) = _events(out, 'method_chosen')
+    assert chosen.values['reason'] == 'a re-plan of the approach flown'
+    (second,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    assert second.t_start == pytest.approx(t + sc.planner.maneuver_lead_s)
+    assert second.t_f == pytest.approx(first.t_f, abs=1e-9)
+    moved = np.array([np.interp(second.t_start, ref.t_s, ref.r_hill[:, j]) for j in range(3)])
+    assert second.trajectory.r_hill[0] == pytest.approx(moved + off, abs=0.05)
+    assert _events(out, 'plan_selected')[0].values['request'].startswith('replan: tracking error')

@@ -128,13 +128,16 @@ def check_approach(plan, prediction, t_grasp, settings, planner_config, rate_hz=
     return problems, float(gaps[k])
 
 
-def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_config, scp_settings=None):
+def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_config, scp_settings=None,
+                  start_state=None):
     """Plan the optimization-based approach from the chaser state (r_now [m], v_now [m/s], hill) at the plan time
     t_now [s] with the target-motion prediction (a MotionPrediction covering [t_now, t_now + settings.horizon_s]);
-    an ApproachPlan (module doc). scp_settings: scp.ScpSettings (default: its defaults)."""
+    an ApproachPlan (module doc). scp_settings: scp.ScpSettings (default: its defaults). start_state: the chaser's
+    state (6,) at the start, t_now + start_lead_s, where it is not a coast from now (a re-plan while thrusting)."""
     n = scenario.mean_motion_rad_s
     t_start = t_now + settings.start_lead_s
-    start = cw_coast(np.asarray(r_now, dtype=float), np.asarray(v_now, dtype=float), settings.start_lead_s, n)
+    start = (cw_coast(np.asarray(r_now, dtype=float), np.asarray(v_now, dtype=float), settings.start_lead_s, n)
+             if start_state is None else np.asarray(start_state, dtype=float))
     chaser = dataclasses.replace(chaser_from_scenario(scenario), accel_max_mps2=settings.plan_accel_max_mps2)
     problem = approach_problem(scenario, prediction, start[:3], start[3:], t_start, settings.plume_radius_m,
                                offset_m=settings.offset_m, chaser=chaser, weights=settings.weights,
