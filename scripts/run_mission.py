@@ -35,6 +35,7 @@ from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.summary import EXIT_CODES, compute_summary, format_summary
 from flyby_planner.supervisor import WATCHED_NODES
 from flyby_sim.scenario import load_scenario
+from flyby_sim.sim_node import COMMAND_CHAIN
 
 VENV_PYTHON = sys.executable
 FASTDDS_TOOL = Path(sys.prefix) / 'tools' / 'fastdds' / 'fastdds.py'
@@ -57,9 +58,11 @@ class NodeSpec:
     namespace: str = ''
     remaps: dict = field(default_factory=dict)
     essential: bool = True  # the run cannot go on without it
+    nice: int = 0  # scheduling priority of its process (os.nice increment)
 
 
 OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor')
+OFF_CHAIN_NICE = 5
 
 
 def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
@@ -89,13 +92,31 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
                    {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf), 'flow_control_period_s': 1.0,
                     'wait_for_nodes': [n.name for n in [recorder, *others]],
                     'keep_up_with': [n.name for n in [recorder, *others]]})
+    # The nodes off the simulator's command chain (sim -> estimator -> guidance -> sim, DESIGN §10) yield the
+    # CPU to it: they only have to keep up within the flow-control window, while every turn of the chain holds
+    # the simulator's time.
+    for spec in [recorder, *others]:
+        if spec.name not in COMMAND_CHAIN:
+            spec.nice = OFF_CHAIN_NICE
     return [recorder, *others, sim]
 
 
-def _die_with_parent():
-    """Child side of Popen: get SIGTERM if the launcher dies, so no node outlives a lost run."""
-    libc = ctypes.CDLL('libc.so.6', use_errno=True)
-    libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+def _child_setup(nice):
+    """Child side of Popen: get SIGTERM if the launcher dies, so no node outlives a lost run; take the
+    node's scheduling priority."""
+    def setup():
+        libc = ctypes.CDLL('libc.so.6', use_errno=True)
+        libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+        if nice:
+            os.nice(nice)
+            # Each node is its own session, and with the kernel's autogroup scheduling (Debian's default)
+            # sessions share the CPU evenly whatever their processes' nice: the session's own nice counts.
+            try:
+                with open('/proc/self/autogroup', 'w') as f:
+                    f.write(str(nice))
+            except OSError:
+                pass
+    return setup
 
 
 class ProcessGraph:
@@ -123,7 +144,7 @@ class ProcessGraph:
             log = open(self.run_dir / 'logs' / f'{spec.name}.log', 'w')
             self.procs[spec.name] = subprocess.Popen(
                 cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                start_new_session=True, preexec_fn=_die_with_parent)
+                start_new_session=True, preexec_fn=_child_setup(spec.nice))
             log.close()
         # Lets a user (or a test) find the run's domain and processes while it runs.
         (self.run_dir / 'run.json').write_text(json.dumps(

@@ -1,6 +1,6 @@
 """End-to-end fly-by missions with every node real, in-process, each on its own ROS domain.
 
-Nominal capture; a target-rate fault that must end in a safe escape over one orbit; an abort on
+Nominal capture; a target-rate fault that must end in a safe escape over one orbit (its orbit headless); an abort on
 mission/abort during the terminal approach; the guidance node killed mid-approach.
 """
 
@@ -11,6 +11,7 @@ import sys
 import numpy as np
 import pytest
 
+from flyby_guidance.closed_loop import run_headless
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_rotate_many, rotation_vector_from_quat
@@ -125,25 +126,38 @@ def _headless_agrees(tmp_path, graph):
     assert headless['fuel_used_kg'] == pytest.approx(graph['fuel_used_kg'], rel=1e-12)
 
 
-def test_target_rate_fault_ends_in_a_safe_escape_over_one_orbit(tmp_path):
-    """The published target rate is 0.5 deg/s off: the grasp instant is mistimed, the supervisor sees the
-    miss at the grasp time and lets the passive fly-by carry the chaser away, clear of the target."""
+def _rate_fault(duration_s):
     def edit(d):
         d['estimation'] = {'injected_rate_error_deg_s': [0.0, 0.0, 0.5]}
-        d['simulation']['duration_s'] = 7200.0
-    scenario = write_scenario(tmp_path, edit=edit)
+        d['simulation']['duration_s'] = duration_s
+    return edit
+
+
+def test_target_rate_fault_ends_in_a_safe_escape_over_one_orbit(tmp_path):
+    """The published target rate is 0.5 deg/s off: the grasp instant is mistimed, the supervisor sees the
+    miss at the grasp time and lets the passive fly-by carry the chaser away, clear of the target. The
+    graph flies to the decision and 300 s of the escape; the headless loop (the same cores and rules) the
+    whole orbit of escape the supervisor watches before COMPLETE, and decides at the same instant."""
+    scenario = write_scenario(tmp_path, edit=_rate_fault(1150.0))
     out = tmp_path / 'run'
-    done = run_mission('--scenario', scenario, '--out', out, '--in-process', timeout=900)
+    done = run_mission('--scenario', scenario, '--out', out, '--in-process')
     assert done.returncode == 3, done.stderr[-3000:]
     s = read_summary(out)
-    assert s['outcome'] == 'ESCAPE' and s['final_phase'] == c.PHASE_COMPLETE
+    assert s['outcome'] == 'ESCAPE' and s['final_phase'] == c.PHASE_ESCAPE
     decision = [e for e in _events(out) if e['name'] == 'phase_changed' and e['values'].get('to') == c.PHASE_ESCAPE]
     assert decision and decision[0]['message'].split(': ', 1)[1].startswith('escape:')
-    orbit_s = 2 * np.pi / 1.0780076e-3
-    assert s['sim_time_s'] >= s['t_grasp_s'] + orbit_s - 1.0
+    assert s['sim_time_s'] >= s['t_grasp_s'] + 300.0
     assert s['min_clearance_m'] > 0.0
     assert not s['thrust_inside_restriction_sphere']
     _analyze(out)
+
+    orbit = run_headless(load_scenario(write_scenario(tmp_path, name='orbit', edit=_rate_fault(7200.0)))).summary
+    assert orbit['outcome'] == 'ESCAPE' and orbit['final_phase'] == c.PHASE_COMPLETE
+    assert orbit['t_grasp_s'] == s['t_grasp_s']
+    orbit_s = 2 * np.pi / 1.0780076e-3
+    assert orbit['sim_time_s'] >= orbit['t_grasp_s'] + orbit_s - 1.0
+    assert orbit['min_clearance_m'] > 0.0
+    assert not orbit['thrust_inside_restriction_sphere']
 
 
 def test_abort_during_the_terminal_approach(tmp_path):

@@ -22,6 +22,7 @@ from flyby_planner.plan import (
     _predicted_region,
     _TargetUncertainty,
     estimate_accuracy_from_scenario,
+    exhaustive_check,
     plan_capture,
     planner_config_from_scenario,
     truth_prediction,
@@ -208,6 +209,34 @@ def test_a_slow_spin_is_refused_by_its_predicted_miss_and_planned_with_finer_nav
     planned, cfg, _ = _plan(slow(0.003))
     assert planned.ok and planned.selected.miss_3sigma_m <= cfg.position_tolerance_m
     assert planned.selected.unguided_coast_s > 200.0  # beyond the old fixed bound
+
+
+def test_the_exhaustive_check_confirms_a_refusal_and_finds_what_the_planner_flies():
+    """plan.exhaustive_check (scripts/check_refusals.py) on the slow spin above, the grasp window and the extended
+    one up to 900 s: at 3 cm of noise no candidate is both clear and within the manipulator's tolerance, at 3 mm
+    some are, and a transfer flies one of them; a grasp point by a panel root has no clear offset at all."""
+    def check(edit):
+        sc = _scenario(edit)
+        cfg = type(planner_config_from_scenario(sc))(**{**planner_config_from_scenario(sc).__dict__,
+                                                       'latest_grasp_s': 900.0})
+        pred = truth_prediction(sc, cfg.prediction_span_s(sc.omega_body0_rad_s, extended=True))
+        return exhaustive_check(pred, sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps, 0.0,
+                                cfg), cfg
+
+    def slow(noise_m):
+        def edit(d):
+            d['target']['initial_rate']['omega_body_deg_s'] = [0.0, 0.0, 1.5]
+            d['sensors']['relative_position']['noise_sigma_m'] = noise_m
+        return edit
+
+    refused, cfg = check(slow(0.03))
+    assert refused.candidates > 0 and refused.n_both == 0 and refused.n_flyable == 0
+    assert refused.min_miss_if_clear_m is None or refused.min_miss_if_clear_m > cfg.position_tolerance_m
+    flown, cfg = check(slow(0.003))
+    assert flown.n_flyable >= 1 and flown.n_both >= flown.n_flyable
+    assert flown.min_miss_m <= cfg.position_tolerance_m
+    panel_root, _ = check(lambda d: d['target'].update(grasp_point_body_m=[-0.36, -1.5, -0.13]))
+    assert panel_root.offsets_clear == 0 and panel_root.candidates == 0
 
 
 def test_a_grasp_point_beside_a_panel_root_is_refused_with_the_attitude_known_exactly():
