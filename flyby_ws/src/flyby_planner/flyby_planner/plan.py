@@ -1268,9 +1268,10 @@ class RefusalCheck:
     offsets_clear: offsets whose X_Ft (eq 20) clears the target with the attitude exact; grasp_instants and
     grasp_rejected: the roots of eq 13 in the grasp and extended windows and those failing (a)-(c) or eq 15;
     candidates: every offset x fly-by duration of the others, the transfer's conditions set aside; n_miss_ok,
-    n_clear_ok, n_both: those whose predicted 3-sigma miss is within the manipulator's tolerance, whose passive
-    path keeps clearance_margin_m, and both; n_flyable: both and a transfer that passes; the least miss, the
-    largest clearance, each among the candidates that meet the other bound (None: none does).
+    n_clear_ok, n_both: those whose predicted 3-sigma miss is within the manipulator's position and velocity
+    tolerances, whose passive path keeps clearance_margin_m (the planner's checks), and both; n_flyable: both
+    and a transfer that passes; the least miss, the largest clearance, each among the candidates that meet the
+    other bound (None: none does).
     """
 
     offsets_clear: int
@@ -1334,7 +1335,9 @@ def exhaustive_check(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
         return check
     miss = np.array([math.inf if c.miss_3sigma_m is None else c.miss_3sigma_m for c in candidates])
     clearance = np.array([c.clearance_min_m for c in candidates])
-    miss_ok, clear_ok = miss <= config.position_tolerance_m, clearance >= config.clearance_margin_m
+    # The planner's own verdicts (_check_passive_safety's reasons), not the bounds stated again here.
+    miss_ok = np.array([not any(r.startswith('predicted 3-sigma miss') for r in c.reasons) for c in candidates])
+    clear_ok = np.array([not any(r.startswith('passive') for r in c.reasons) for c in candidates])
     transfer_ok = np.array(transfer_ok)
     check.n_miss_ok, check.n_clear_ok = int(miss_ok.sum()), int(clear_ok.sum())
     check.n_both, check.n_flyable = int((miss_ok & clear_ok).sum()), int((miss_ok & clear_ok & transfer_ok).sum())
