@@ -207,12 +207,14 @@ class PlannerCore:
         """What a plan at the target estimate of time t starts from: the chaser's estimated state carried to t
         (eq 22) and the target motion predicted from the estimate over the grasp window (extended: and the
         extended window, as plan.exhaustive_check needs)."""
-        n = self.config.mean_motion_rad_s
+        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
+                                              omega_body, t + self.config.prediction_span_s(omega_body, extended))
+        return self._chaser_at(t), prediction
+
+    def _chaser_at(self, t):
+        """The chaser's estimated state (r_hill, v_hill stacked) carried to t by CW (eq 22)."""
         t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
-        chaser_now = cw_coast(r_c, v_c, t - t_c, n)  # eq 22
-        prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body,
-                                              t + self.config.prediction_span_s(omega_body, extended))
-        return chaser_now, prediction
+        return cw_coast(r_c, v_c, t - t_c, self.config.mean_motion_rad_s)
 
     def _plan(self, t, q_hill_from_body, omega_body, why):
         """Plan at the target estimate of time t (the plan time) by the method of planner.method (module doc);
@@ -244,10 +246,9 @@ class PlannerCore:
         """The optimization-based approach (flyby_planner.optimal.approach) at the plan time t; ``out``: what the
         fly-by already gave (its candidates), flyby_refused its reason."""
         settings = self.approach
-        n = self.config.mean_motion_rad_s
-        t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
-        chaser_now = cw_coast(r_c, v_c, t - t_c, n)  # eq 22
-        prediction = prediction_from_estimate(self.dynamics, n, t, q_hill_from_body, omega_body, t + settings.horizon_s)
+        chaser_now = self._chaser_at(t)
+        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
+                                              omega_body, t + settings.horizon_s)
         start_state = None
         if self.flown is not None:  # a re-plan: to the same grasp, from the estimate moved as the flown trajectory
             settings = dataclasses.replace(settings, approach_time_s=self.flown.t_f - t - settings.start_lead_s)
