@@ -187,7 +187,7 @@ def main_for(node_class, args=None, drain_on_signal=False):
         run_loop(executor, [node], should_stop=lambda: bool(stop))
         if stop and drain_on_signal:
             drain(executor, node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     except ScenarioError as err:
         raise SystemExit(f'{node_class.__name__}: {err}') from None
