@@ -52,6 +52,7 @@ from flyby_msgs_py.schema import (
     validate,
     validate_field,
 )
+from flyby_sim import chasers
 from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout, is_positively_spanning
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
@@ -521,7 +522,13 @@ class Boxes:
 
 class Scenario:
     """A validated scenario: read-only sections by attribute (``sc.chaser.thrusters.isp_s``) plus
-    derived numpy values. Build it with ``load_scenario`` or ``scenario_from_dict``."""
+    derived numpy values. Build it with ``load_scenario`` or ``scenario_from_dict``.
+
+    A scenario of several chasers (``chasers:``) is one such view per chaser: ``chaser_name`` (None for one
+    chaser), ``chaser_names`` (empty for one chaser) and ``for_chaser(name)``."""
+
+    _fleet = ()
+    chaser_name = None
 
     def __init__(self, resolved, raw, path=None):
         object.__setattr__(self, '_root', Namespace(resolved, SCHEMA))
@@ -549,6 +556,18 @@ class Scenario:
 
     def __repr__(self):
         return f'Scenario({self.name!r}, seed={self.seed}, path={str(self.path) if self.path else None!r})'
+
+    @property
+    def chaser_names(self):
+        """The chasers' names in the file's order (a ``chasers:`` scenario), else ()."""
+        return tuple(n for n, _ in self._fleet)
+
+    def for_chaser(self, name):
+        """The view of chaser ``name`` (a ``chasers:`` scenario); raises KeyError naming the choices."""
+        for n, view in self._fleet:
+            if n == name:
+                return view
+        raise KeyError(f'no chaser {name!r} in scenario {self.name!r} (chasers: {list(self.chaser_names)})')
 
     @property
     def raw(self):
@@ -699,12 +718,38 @@ def _omega_body(rate, q_hill_from_body):
 # Entry points
 
 def scenario_from_dict(data, name='<dict>', seed=None, path=None):
-    """Validate a scenario mapping (as parsed from YAML) into a Scenario; ``name`` labels errors."""
+    """Validate a scenario mapping (as parsed from YAML) into a Scenario; ``name`` labels errors.
+
+    With ``chasers:`` (several robots, flyby_sim.chasers) the result is the first chaser's view; every chaser's
+    view is ``for_chaser(name)``."""
+    if isinstance(data, dict) and 'chasers' in data:
+        return _fleet_from_dict(data, name, seed, path)
     try:
         resolved = _resolve(data, seed)
     except Invalid as e:
         raise ScenarioError(name, e.key, e.problem) from None
     return Scenario(resolved, copy.deepcopy(data), path)
+
+
+def _fleet_from_dict(data, name, seed, path):
+    """The views of a ``chasers:`` scenario (flyby_sim.chasers), each a single-chaser Scenario; the first."""
+    try:
+        singles = chasers.single_chaser_dicts(data)
+    except Invalid as e:
+        raise ScenarioError(name, e.key, e.problem) from None
+    views = []
+    for chaser_name, single, i in singles:
+        try:
+            base_seed = _resolve(single, seed)['seed']
+            resolved = _resolve(single, chasers.chaser_seed(base_seed, i))
+        except Invalid as e:
+            raise ScenarioError(name, chasers.entry_key(e.key, i, data), e.problem) from None
+        views.append((chaser_name, Scenario(resolved, single, path)))
+    fleet = tuple(views)
+    for chaser_name, view in fleet:
+        object.__setattr__(view, '_fleet', fleet)
+        object.__setattr__(view, 'chaser_name', chaser_name)
+    return fleet[0][1]
 
 
 def load_scenario(path, seed=None):
@@ -716,11 +761,21 @@ def load_scenario(path, seed=None):
 
 
 def scenario_of(node):
-    """Declare the node's ``scenario_file`` and ``seed`` parameters and load the scenario (seed < 0: the file's)."""
+    """Declare the node's ``scenario_file``, ``seed`` and ``chaser`` parameters and load the scenario (seed < 0: the
+    file's); with ``chaser`` (a ``chasers:`` scenario) that chaser's view."""
     node.declare_parameter('scenario_file', '')
     node.declare_parameter('seed', -1)
+    node.declare_parameter('chaser', '')
     seed = node.get_parameter('seed').value
-    return load_scenario(node.get_parameter('scenario_file').value, seed=None if seed < 0 else seed)
+    path = node.get_parameter('scenario_file').value
+    scenario = load_scenario(path, seed=None if seed < 0 else seed)
+    chaser = node.get_parameter('chaser').value
+    if not chaser:
+        return scenario
+    try:
+        return scenario.for_chaser(chaser)
+    except KeyError as err:
+        raise ScenarioError(path, 'chasers', f'parameter chaser: {err.args[0]}') from None
 
 
 def schema_markdown():
