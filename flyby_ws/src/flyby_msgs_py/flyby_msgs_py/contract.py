@@ -105,10 +105,15 @@ LATCHED_TOPICS = (MISSION_PHASE, PLANNER_GRASP, PLANNER_FLYBY_TARGET, PLANNER_FL
                   PLANNER_PATH, PLANNER_TRAJECTORY, MARKERS)
 
 
+# With several chasers (DESIGN §10) every other topic lives under the chaser's namespace; these stay global.
+GLOBAL_TOPICS = (CLOCK, SIM_TARGET_ODOM, MARKERS)
+
+
 def absolute(topic, namespace=''):
-    """Fully qualified topic name, e.g. ``absolute('sim/chaser/odom', '/chaser1')``."""
+    """Fully qualified topic name, e.g. ``absolute('sim/chaser/odom', '/chaser1')``; a global topic keeps its
+    root name whatever the namespace."""
     ns = namespace.rstrip('/')
-    return f'{ns}/{topic}' if topic != CLOCK else '/clock'
+    return f'{ns}/{topic}' if topic not in GLOBAL_TOPICS else f'/{topic}'
 
 
 def message_class(type_name):

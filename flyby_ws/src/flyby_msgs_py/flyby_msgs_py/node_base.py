@@ -25,12 +25,14 @@ class CoreNode(Node):
         raise NotImplementedError(f'{type(self).__name__} must turn its core outputs into messages')
 
     def publisher(self, topic):
-        """A publisher of a contract topic with its type and QoS."""
-        return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
+        """A publisher of a contract topic with its type and QoS (a global topic at its root name, DESIGN §10)."""
+        name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
+        return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name, qos.qos_for(topic))
 
     def subscribe(self, topic, callback):
-        """A subscription of a contract topic with its type and QoS."""
-        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), topic, callback, qos.qos_for(topic))
+        """A subscription of a contract topic with its type and QoS (a global topic at its root name)."""
+        name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
+        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, callback, qos.qos_for(topic))
 
     def subscribe_odometry(self, topic, core_input, *fields):
         """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays)."""

@@ -35,7 +35,7 @@ class RecorderNode(Node):
 
         topics = {}
         for topic, type_name in c.TOPIC_TYPES.items():
-            for ns in (namespaces if topic != c.CLOCK else ['']):
+            for ns in (namespaces if topic not in c.GLOBAL_TOPICS else ['']):
                 topics[c.absolute(topic, ns)] = (topic, type_name)
         flush_ns = int(self.get_parameter('flush_period_s').value * 1e9)
         self.writer = BagWriter(bag_dir, {name: t for name, (_, t) in topics.items()}, flush_ns)

@@ -46,6 +46,13 @@ DRAIN_MAX_S = 5.0
 ANNOUNCE_PERIOD_S = 0.1
 
 
+def node_label(node):
+    """How a node names itself on the progress and ready topics: its name, under a namespace ``ns/name``
+    (several chasers run nodes of one name, DESIGN §10)."""
+    ns = node.get_namespace().strip('/')
+    return f'{ns}/{node.get_name()}' if ns else node.get_name()
+
+
 class ProgressReporter:
     """Tells the simulator how far a node has got: the last ``/clock`` it handled.
 
@@ -76,7 +83,7 @@ class ProgressReporter:
             return
         now_ns = self.clock_ns
         if now_ns - self.reported_ns >= PROGRESS_PERIOD_NS or (idle and now_ns != self.reported_ns):
-            msg = Header(frame_id=self.node.get_name())
+            msg = Header(frame_id=node_label(self.node))
             msg.stamp.sec, msg.stamp.nanosec = divmod(now_ns, 1_000_000_000)
             try:
                 self.publisher.publish(msg)
@@ -111,7 +118,7 @@ class ReadyAnnouncer:
             if matched != self.matched:
                 self.matched = matched
                 self.publisher.publish(String(data=json.dumps(
-                    {'node': self.node.get_name(), 'subscriptions': self.subscriptions,
+                    {'node': node_label(self.node), 'subscriptions': self.subscriptions,
                      'publications': matched})))
         except InvalidHandle:  # the node was destroyed (a fault injected by the launcher)
             self.publisher = None
