@@ -335,8 +335,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                  'Plans within this total delta-v of the cheapest tie; the larger clearance wins.'),
         'method': Field(ENUM, 'auto', None,
                         'Capture method (DESIGN §10): flyby (seed 000), optimal (seed 003 section 4, rigid_body '
-                        'only) or auto (the fly-by where a safe one exists, else optimal with a rigid_body chaser).',
-                        choices=('flyby', 'optimal', 'auto')),
+                        'only), sync (seed 001 section 2, rigid_body only) or auto (sync for category IV, else the '
+                        'fly-by where a safe one exists, else optimal; sync and optimal with a rigid_body chaser).',
+                        choices=('flyby', 'optimal', 'sync', 'auto')),
         'optimal': Section(desc='The optimization-based approach (seed 003 section 4, docs/optimal.md)', fields={
             'plume_radius_m': Field(FLOAT, 5.0, '>= 0',
                                     'Within this of the target CoM no thrust away from the target (its exhaust '
@@ -362,6 +363,34 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                     'Re-plan when the estimated position leaves the trajectory by more than this.'),
             'replan_cutoff_s': Field(FLOAT, 15.0, '>= 0', 'No re-plan in the last this many seconds before the '
                                                           'grasp (the capture decision judges the arrival).'),
+        }),
+        'sync': Section(desc='The synchronized approach (seed 001 section 2, docs/synchronized.md); the docking port '
+                             'is target.grasp_point_body_m, the final range planner.offset_m', fields={
+            'station_range_m': Field(FLOAT, 5.0, '> 0', 'Station point of stages 2-3 on the port\'s outward line, '
+                                                        'from the target CoM (seed 001: 5 m).'),
+            'arrival_start_s': Field(FLOAT, 260.0, '>= 0', 'Window (t_s_opt, t_f_opt) of the arrival at the station, '
+                                                           'mission time: its start (seed 001 Table 1) ...'),
+            'arrival_end_s': Field(FLOAT, 370.0, '> 0', '... and its end.'),
+            'keepout_margin_m': Field(FLOAT, 0.1, '>= 0', 'Stage 1 keeps the chaser envelope this far outside the '
+                                                          'target geometry\'s bounding sphere.'),
+            'trajectory_step_s': Field(FLOAT, 0.5, '> 0', 'Spacing of the points of planner/trajectory.'),
+            'resolve_interval_s': Field(FLOAT, 30.0, '> 0', 'Stage 1 is re-solved from the newest estimates this '
+                                                            'often (the solution closest to the previous one).'),
+            'resolve_cutoff_s': Field(FLOAT, 60.0, '>= 0', 'No re-solve this close to the arrival.'),
+            'docking_duration_s': Field(FLOAT, 40.0, '> 0', 'Stage 4, from the station range to the final range.'),
+            'orbiting_fraction': Field(FLOAT, 0.5, '>= 0', 'Stage 3 lasts this fraction of a rotation cycle '
+                                                          '2 pi / |omega| (seed 001: half).'),
+            'accel_max_mps2': Field(FLOAT, None, '> 0', 'Largest commanded thrust acceleration; omitted: two '
+                                                        'thrusters\' max_thrust_n / mass_kg.'),
+            'tracking_frequency_rad_s': Field(FLOAT, 1.0, '> 0', 'Natural frequency of the translation feedback '
+                                                                 '(critically damped).'),
+            'attitude_tolerance_deg': Field(FLOAT, 0.2, '> 0', 'Stage 2 ends when the estimated relative attitude '
+                                                               'error ...'),
+            'rate_tolerance_deg_s': Field(FLOAT, 0.1, '> 0', '... and rate error stay below these ...'),
+            'settle_s': Field(FLOAT, 2.0, '>= 0', '... for this long.'),
+            'retreat_speed_mps': Field(FLOAT, 0.3, '> 0', 'After an abort the chaser thrusts outward along the '
+                                                          'port\'s direction until this outward speed ...'),
+            'retreat_max_s': Field(FLOAT, 10.0, '> 0', '... or for at most this long, then drifts.'),
         }),
     }),
 
@@ -446,9 +475,13 @@ def _cross_checks(d):
     if planner['transfer_max_s'] < planner['transfer_min_s']:
         raise Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
                                                 f"got {planner['transfer_max_s']!r}")
-    if planner['method'] == 'optimal' and d['chaser']['model'] != 'rigid_body':
-        raise Invalid('planner.method', "optimal needs chaser.model rigid_body (continuous thrust), got "
+    if planner['method'] in ('optimal', 'sync') and d['chaser']['model'] != 'rigid_body':
+        raise Invalid('planner.method', f"{planner['method']} needs chaser.model rigid_body (continuous thrust), got "
                                         f"{d['chaser']['model']!r}")
+    sync = planner['sync']
+    if sync['arrival_end_s'] <= sync['arrival_start_s']:
+        raise Invalid('planner.sync.arrival_end_s', f"must be > planner.sync.arrival_start_s = "
+                                                    f"{sync['arrival_start_s']!r}, got {sync['arrival_end_s']!r}")
     optimal = planner['optimal']
     if optimal['approach_time_max_s'] <= optimal['approach_time_min_s']:
         raise Invalid('planner.optimal.approach_time_max_s',
