@@ -77,6 +77,35 @@ def body_point_state(c_hill_from_body, omega_body, x_body, n):
     return r_hill, v_hill
 
 
+def moving_body_point_state(c_hill_from_body, omega_body, omega_dot_body, x_body, x_dot_body, x_ddot_body, n):
+    """Position, velocity and acceleration in hill of a point moving in the body frame (seed 001 stages 3-4: a
+    station held in the target's body frame, a radial docking in it), the body's centre of mass at the hill origin.
+
+    In inertial axes the point's acceleration relative to the centre of mass is the rotating-frame kinematics
+    C (x'' + 2 omega x x' + omega' x x + omega x (omega x x)); hill turns at Omega = (0, -n, 0) in its own axes
+    (constant on a circular orbit), so v^H = C (x' + omega x x) - Omega x r^H (eq 9 with x' = 0, as
+    ``body_point_state``) and a^H = C (...) - 2 Omega x v^H - Omega x (Omega x r^H).
+
+    Args:
+        c_hill_from_body: rotation matrix of q_hill_from_body (3, 3).
+        omega_body, omega_dot_body: inertial angular velocity [rad/s] and its derivative [rad/s^2], body axes.
+        x_body, x_dot_body, x_ddot_body: the point and its first two derivatives in the body frame [m, m/s, m/s^2].
+        n: orbital mean motion [rad/s].
+
+    Returns:
+        (r_hill [m], v_hill [m/s], a_hill [m/s^2]), velocity and acceleration relative to the rotating hill frame.
+    """
+    c = np.asarray(c_hill_from_body, dtype=float)
+    w, w_dot = np.asarray(omega_body, dtype=float), np.asarray(omega_dot_body, dtype=float)
+    x, x_dot, x_ddot = (np.asarray(a, dtype=float) for a in (x_body, x_dot_body, x_ddot_body))
+    big_omega = np.array((0.0, -n, 0.0))
+    r = c @ x
+    v = c @ (x_dot + np.cross(w, x)) - np.cross(big_omega, r)
+    a_inertial = c @ (x_ddot + 2.0 * np.cross(w, x_dot) + np.cross(w_dot, x) + np.cross(w, np.cross(w, x)))
+    a = a_inertial - 2.0 * np.cross(big_omega, v) - np.cross(big_omega, np.cross(big_omega, r))
+    return r, v, a
+
+
 def _matrix_times_vector(c, v):
     """c @ v for one matrix and vector or stacks of them ((N, 3, 3) with (3,) or (N, 3))."""
     return (c @ v[..., None])[..., 0]

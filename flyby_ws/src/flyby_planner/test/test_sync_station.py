@@ -1,0 +1,117 @@
+"""Stage 1 of the synchronized approach (flyby_planner.sync.station, seed 001 section 2 and eq 1): the station point,
+the phase-space link, the arrival time of least delta-v against brute force, the re-solve closest to the previous
+solution."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_planner.sync.station import (
+    PhaseSpaceLink,
+    keepout_radius,
+    reselect_arrival,
+    select_arrival,
+    station_geometry,
+)
+from flyby_sim.dynamics.orbital import nonlinear_relative_accel
+from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply
+from flyby_sim.scenario import load_scenario
+
+SCENARIO = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'seweryn_tumbling.yaml')
+N, RADIUS = SCENARIO.mean_motion_rad_s, SCENARIO.orbit_radius_m
+GEOMETRY = station_geometry(SCENARIO.target.grasp_point_body_m, 5.0, 1.0)
+KEEPOUT = keepout_radius([(b.center_m, b.size_m) for b in SCENARIO.target.geometry], SCENARIO.chaser.envelope_radius_m,
+                         0.1)
+R0, V0, T0 = np.array((-1000.0, 0.0, 0.0)), np.zeros(3), 65.0
+WINDOW = (260.0, 370.0)
+
+
+def _track(q_hill_from_body0, omega_body0):
+    prediction = prediction_from_estimate(ErrorStateDynamics(SCENARIO.target_inertia), N, 0.0, q_hill_from_body0,
+                                          omega_body0, 400.0)
+
+    def track(times):
+        p = prediction.track(GEOMETRY.x_station_body, times)
+        return p.r_hill, p.v_hill
+    return track
+
+
+TRUTH_TRACK = _track(SCENARIO.q_hill_from_body0, SCENARIO.omega_body0_rad_s)
+
+
+def test_station_geometry_is_on_the_ports_outward_line():
+    geo = station_geometry((1.0, 0.0, 0.0), 5.0, 1.0)
+    assert geo.x_station_body == pytest.approx((5.0, 0.0, 0.0)) and geo.x_final_body == pytest.approx((2.0, 0, 0))
+    off_axis = station_geometry((1.0, 2.0, 2.0), 6.0, 1.0)  # eq 20-21: the offset is radial through the port
+    assert off_axis.u_body == pytest.approx(np.array((1.0, 2.0, 2.0)) / 3.0)
+    assert off_axis.final_range_m == pytest.approx(4.0) and off_axis.station_range_m == pytest.approx(6.0)
+    with pytest.raises(ValueError, match='station_range_m 1.5 m must exceed'):
+        station_geometry((1.0, 0.0, 0.0), 1.5, 1.0)
+    with pytest.raises(ValueError, match='docking port'):
+        station_geometry((0.0, 0.0, 0.0), 5.0, 1.0)
+
+
+def test_link_meets_both_phase_space_points_and_its_thrust_is_what_eq2_lacks():
+    link = PhaseSpaceLink(10.0, (-100.0, 2.0, 3.0), (0.1, 0.0, -0.2), 110.0, (4.0, -1.0, 2.0), (0.5, 0.3, -0.4))
+    r, v, ddr = link.states(np.array((10.0, 110.0)))
+    assert r[0] == pytest.approx((-100.0, 2.0, 3.0)) and v[0] == pytest.approx((0.1, 0.0, -0.2))
+    assert r[1] == pytest.approx((4.0, -1.0, 2.0)) and v[1] == pytest.approx((0.5, 0.3, -0.4))
+    t = 37.3
+    (r_t,), (v_t,), (a_t,) = link.states(np.array((t,)))
+    h = 1e-3
+    numeric = (link.states(np.array((t + h,)))[1][0] - link.states(np.array((t - h,)))[1][0]) / (2 * h)
+    assert a_t == pytest.approx(numeric, abs=1e-9)
+    thrust = link.thrust_acceleration(np.array((t,)), N, RADIUS)[0]
+    assert thrust + nonlinear_relative_accel(r_t, v_t, N, RADIUS) == pytest.approx(a_t, abs=1e-15)
+    # the delta-v integral against a dense midpoint sum
+    grid = np.linspace(10.0, 110.0, 200001)
+    mid = 0.5 * (grid[1:] + grid[:-1])
+    dense = float(np.sum(np.linalg.norm(link.thrust_acceleration(mid, N, RADIUS), axis=1)) * (grid[1] - grid[0]))
+    assert link.delta_v(N, RADIUS) == pytest.approx(dense, rel=1e-5)
+
+
+def test_seed001_eq1_optimum_by_brute_force():
+    """Table 1's tumbler, the chaser 1 km behind at rest from 65 s: the arrival in (260, 370) s of least link
+    delta-v against every time 0.02 s apart."""
+    choice = select_arrival(TRUTH_TRACK, T0, R0, V0, WINDOW, N, RADIUS, KEEPOUT)
+    times = np.arange(WINDOW[0], WINDOW[1] + 1e-9, 0.02)
+    r, v = TRUTH_TRACK(times)
+    costs = []
+    for t, r_s, v_s in zip(times, r, v, strict=True):
+        link = PhaseSpaceLink(T0, R0, V0, t, r_s, v_s)
+        costs.append(link.delta_v(N, RADIUS) if link.closest_approach_m() >= KEEPOUT else math.inf)
+    k = int(np.argmin(costs))
+    assert choice.delta_v_mps <= costs[k] + 1e-6
+    assert choice.t_arrival == pytest.approx(times[k], abs=0.05)
+    assert choice.closest_m >= KEEPOUT
+    # eq 1's spread: the velocity to match makes the worst time in the window far dearer than the best
+    assert max(c for c in costs if math.isfinite(c)) > 1.5 * choice.delta_v_mps
+    # the station's velocity at the chosen time is that of a point 5 m out on a 21 deg/s tumbler
+    assert np.linalg.norm(choice.r_hill) == pytest.approx(5.0)
+    assert np.linalg.norm(choice.v_hill) < 5.0 * np.linalg.norm(SCENARIO.omega_body0_rad_s) + 0.01
+
+
+def test_seed001_resolve_keeps_closest_to_the_previous_solution():
+    """A newer estimate (attitude 2 deg off, rate 0.05 deg/s off) moves the station's motion; the re-solve picks the
+    arrival whose station state is closest to the previous one, against brute force."""
+    first = select_arrival(TRUTH_TRACK, T0, R0, V0, WINDOW, N, RADIUS, KEEPOUT)
+    q_new = quat_multiply(SCENARIO.q_hill_from_body0, quat_from_axis_angle((0.3, 1.0, -0.2), math.radians(2.0)))
+    new_track = _track(q_new, SCENARIO.omega_body0_rad_s + math.radians(0.05) * np.array((1.0, -1.0, 0.5)))
+    t_now = 125.0
+    (r_now,), (v_now,), _ = first.link.states(np.array((t_now,)))
+    again = reselect_arrival(new_track, t_now, r_now, v_now, WINDOW, first.r_hill, first.v_hill, N, RADIUS, KEEPOUT)
+    times = np.arange(WINDOW[0], WINDOW[1] + 1e-9, 0.02)
+    r, v = new_track(times)
+    distance = np.sum((r - first.r_hill) ** 2, axis=1) + np.sum((v - first.v_hill) ** 2, axis=1)
+    k = int(np.argmin(distance))
+    assert again.t_arrival == pytest.approx(times[k], abs=0.05)
+    assert abs(again.t_arrival - first.t_arrival) < 5.0  # the same pass of the station, not another
+    assert np.linalg.norm(again.r_hill - first.r_hill) < 0.5
+
+
+def test_no_arrival_when_every_link_cuts_the_keepout_sphere():
+    assert select_arrival(TRUTH_TRACK, T0, R0, V0, WINDOW, N, RADIUS, keepout_radius_m=6.0) is None
+    assert select_arrival(TRUTH_TRACK, 380.0, R0, V0, WINDOW, N, RADIUS, KEEPOUT) is None  # the window is past
