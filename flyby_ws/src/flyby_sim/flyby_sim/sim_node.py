@@ -21,6 +21,13 @@ sample of t + period is out, and being estimated, while guidance computes the co
 phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command).
+
+Several chasers (a ``chasers:`` scenario, DESIGN §10): one plant per chaser (``_Chaser``), each the scenario's view
+of that chaser with its own seed; the target's truth is the same in every one of them (a function of the scenario
+alone, tested) and is published once. Every chaser-specific topic, truth included, is under ``/<name>/``, commands
+are taken there, and the command chain each waits for is that chaser's estimator and guidance (``<name>/...``);
+``/clock``, ``/sim/target/odom`` and ``/visualization/markers`` stay global; the simulator's own events go on every
+chaser's ``mission/events``.
 """
 
 import collections
@@ -53,6 +60,29 @@ ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 COMMAND_STAMP_TOLERANCE_NS = 1000
 
 
+class _Chaser:
+    """One chaser of the simulator: its scenario view, plant, publishers and continuous-command bookkeeping
+    (announced stamps [ns] not yet passed, and per topic the latest stamp received [ns])."""
+
+    def __init__(self, name, scenario):
+        self.name = name
+        self.scenario = scenario
+        self.plant = Plant(plant_config_from_scenario(scenario))
+        self.rigid = scenario.chaser.model == 'rigid_body'
+        self.pubs = {}
+        self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])()
+                     for topic in (c.SIM_CHASER_ODOM, c.SIM_CHASER_THRUST)}
+        self.announced_ns = collections.deque()
+        self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
+        self.attitude_quiet = False
+        self.waiting_command_since = None
+        self.chain = tuple(node if name is None else f'{name}/{node}' for node in COMMAND_CHAIN)
+
+    def topic(self, topic):
+        """The chaser's name of a contract topic: relative for the single chaser, under /<name>/ otherwise."""
+        return topic if self.name is None else c.absolute(topic, f'/{self.name}')
+
+
 class SimNode(Node):
     """Plant simulator; see the module docstring."""
 
@@ -65,7 +95,10 @@ class SimNode(Node):
         if self.rtf < 0.0:
             raise ValueError(f'parameter rtf: must be >= 0 (0 = as fast as possible), got {self.rtf}')
         self.scenario = scenario_of(self)
-        self.plant = Plant(plant_config_from_scenario(self.scenario))
+        sc = self.scenario
+        self.chasers = ([_Chaser(name, sc.for_chaser(name)) for name in sc.chaser_names] if sc.chaser_names
+                        else [_Chaser(None, sc)])
+        self.plant = self.chasers[0].plant  # its time and target are every chaser's
         self.step_s = self.scenario.simulation.step_s
         self.duration_s = self.scenario.simulation.duration_s
         self.flow_every = max(1, round(self.get_parameter('flow_control_period_s').value / self.step_s))
@@ -80,42 +113,16 @@ class SimNode(Node):
         self.publications_of = {}  # node name -> {topic: subscriptions its publisher has matched}
         self.create_subscription(String, READY_TOPIC, self.on_ready, qos.QOS_EVENTS)
 
+        fleet = self.chasers[0].name is not None
         pubs = {}
-        for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
-                      c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE, c.MISSION_EVENTS,
-                      c.MARKERS):
+        for topic in (c.CLOCK, c.SIM_TARGET_ODOM, c.MARKERS) + (() if fleet else (c.MISSION_EVENTS,)):
             name = '/clock' if topic == c.CLOCK else topic
-            pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name,
-                                                qos.qos_for(topic))
-        self.rigid = self.scenario.chaser.model == 'rigid_body'
-        if self.rigid:
-            for topic in (c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS, c.SENSOR_CHASER_IMU):
-                pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), topic, qos.qos_for(topic))
+            pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name, qos.qos_for(topic))
         self.pubs = pubs
         # Reused for every step (publishing serializes them).
-        self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])()
-                     for topic in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST)}
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]),
-                                 c.GUIDANCE_MANEUVER, self.on_maneuver, qos.QOS_STREAM)
-        # Continuous commands (rigid-body chaser): announced stamps [ns] not yet passed, and per topic the
-        # latest stamp received [ns] and what it commands.
-        self.announced_ns = collections.deque()
-        self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
-        self.attitude_quiet = False
-        self.waiting_command_since = None
-        self.commands_expected = self.rigid and all(name in self.progress_s for name in COMMAND_CHAIN)
-        if self.rigid:
-            sc = self.scenario
-            self.command_period_s = 1.0 / sc.sensors.chaser_imu.rate_hz
-            self.wheel_names = c.wheel_names(len(sc.chaser.wheels.axes))
-            self.thruster_names = c.thruster_names(len(self.plant.truth().thruster_thrust_n))
-            self.imu_covariances = self._imu_covariances()
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WHEELS]), c.GUIDANCE_WHEELS,
-                                     self.on_wheels, qos.QOS_STREAM)
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WRENCH]), c.GUIDANCE_WRENCH,
-                                     self.on_wrench, qos.QOS_STREAM)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), c.MISSION_PHASE,
-                                 self.on_phase, qos.QOS_LATCHED)
+        self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])() for topic in (c.CLOCK, c.SIM_TARGET_ODOM)}
+        for ch in self.chasers:
+            self._wire(ch, pubs if not fleet else {})
 
         self.started = False
         self.ending = False  # reached the duration, waiting for the others to catch up
@@ -124,6 +131,30 @@ class SimNode(Node):
         self.wall_start = None
         self.waiting_since = time.monotonic()
         self.startup_deadline = time.monotonic() + STARTUP_TIMEOUT_S
+
+    def _wire(self, ch, pubs):
+        """The publishers (into ``pubs``) and subscriptions of one chaser."""
+        ch.pubs = pubs
+        for topic in (c.SIM_CHASER_ODOM, c.SIM_CHASER_THRUST, c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE,
+                      c.MISSION_EVENTS) + ((c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS, c.SENSOR_CHASER_IMU)
+                                           if ch.rigid else ()):
+            pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic),
+                                                qos.qos_for(topic))
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]), ch.topic(c.GUIDANCE_MANEUVER),
+                                 lambda msg: self.on_maneuver(ch, msg), qos.QOS_STREAM)
+        ch.commands_expected = ch.rigid and all(name in self.progress_s for name in ch.chain)
+        if ch.rigid:
+            sc = ch.scenario
+            ch.command_period_s = 1.0 / sc.sensors.chaser_imu.rate_hz
+            ch.wheel_names = c.wheel_names(len(sc.chaser.wheels.axes))
+            ch.thruster_names = c.thruster_names(len(ch.plant.truth().thruster_thrust_n))
+            ch.imu_covariances = self._imu_covariances(sc)
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WHEELS]), ch.topic(c.GUIDANCE_WHEELS),
+                                     lambda msg: self.on_wheels(ch, msg), qos.QOS_STREAM)
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WRENCH]), ch.topic(c.GUIDANCE_WRENCH),
+                                     lambda msg: self.on_wrench(ch, msg), qos.QOS_STREAM)
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), ch.topic(c.MISSION_PHASE),
+                                 lambda msg: self.on_phase(ch, msg), qos.QOS_LATCHED)
 
     def declare_node_list(self, name):
         """A string-array parameter of node names, empty when not given."""
@@ -165,36 +196,45 @@ class SimNode(Node):
 
     def command_due(self):
         """True while a command announced for a stamp within the next step has not come in (module doc)."""
-        announced = self.announced_ns
+        return any([self._command_due(ch) for ch in self.chasers])
+
+    def _command_due(self, ch):
+        """command_due of one chaser."""
+        announced = ch.announced_ns
         if not announced:
             return False
-        if self.attitude_quiet:
+        if ch.attitude_quiet:
             announced.clear()
             return False
-        received_ns = min(self.commanded_ns.values()) + COMMAND_STAMP_TOLERANCE_NS
+        received_ns = min(ch.commanded_ns.values()) + COMMAND_STAMP_TOLERANCE_NS
         while announced and announced[0] <= received_ns:
             announced.popleft()
         # A command stamped at the end of the next step applies only after it: step there, then wait.
         if not announced or announced[0] >= convert.sec_to_ns(self.plant.t + self.step_s) - COMMAND_STAMP_TOLERANCE_NS:
-            self.waiting_command_since = None
+            ch.waiting_command_since = None
             return False
         now = time.monotonic()
-        if self.waiting_command_since is None:
-            self.waiting_command_since = now
-        elif now - self.waiting_command_since > SLOW_NODE_WARNING_S:
-            self.waiting_command_since = now
-            present = {name for name, _ns in self.get_node_names_and_namespaces()}
-            gone = [name for name in COMMAND_CHAIN if name not in present]
+        if ch.waiting_command_since is None:
+            ch.waiting_command_since = now
+        elif now - ch.waiting_command_since > SLOW_NODE_WARNING_S:
+            ch.waiting_command_since = now
+            present = self._present_nodes()
+            gone = [name for name in ch.chain if name not in present]
             if gone:
-                self.attitude_quiet = True
+                ch.attitude_quiet = True
                 announced.clear()
                 self.emit('WARN', 'node_lost', f'{", ".join(gone)} left the graph; no longer waiting for '
-                          'attitude commands', {'nodes': ','.join(gone)})
+                          'attitude commands', {'nodes': ','.join(gone)}, ch)
                 return False
             self.emit('WARN', 'waiting_for_command', f'holding time at {self.plant.t:.2f} s for the attitude '
                       f'command of t = {announced[0] * 1e-9:.2f} s',
-                      {'t_command_s': repr(announced[0] * 1e-9), 'received_s': repr(received_ns * 1e-9)})
+                      {'t_command_s': repr(announced[0] * 1e-9), 'received_s': repr(received_ns * 1e-9)}, ch)
         return True
+
+    def _present_nodes(self):
+        """Labels (runtime.node_label) of the nodes in the graph now."""
+        return {f'{ns.strip("/")}/{name}' if ns.strip('/') else name
+                for name, ns in self.get_node_names_and_namespaces()}
 
     def on_ready(self, msg):
         announced = json.loads(msg.data)
@@ -229,18 +269,20 @@ class SimNode(Node):
                   {'scenario': sc.name, 'seed': str(sc.seed), 'dynamics': sc.simulation.dynamics,
                    'step_s': repr(self.step_s), 'duration_s': repr(self.duration_s),
                    'rtf': repr(self.rtf)})
-        self.publish_truth(self.plant.truth())
+        self.publish_truth([ch.plant.truth() for ch in self.chasers])
 
     def advance(self):
-        sample = self.plant.step()
+        samples = [ch.plant.step() for ch in self.chasers]
+        sample = samples[0]
         self.steps += 1
         # The measurements first, the target's attitude last: the chaser's estimate (and with the rigid-body
         # chaser the command chain it starts) is worked on while the rest goes out. (The estimator's outputs
         # do not depend on the order of the two chains; a node that has handled the clock of t has handled
         # every measurement of t.)
-        for m in sorted(self.plant.measurements(), key=lambda m: m.kind == 'target_attitude'):
-            self.publish_measurement(m)
-        self.publish_truth(sample)
+        for ch in self.chasers:
+            for m in sorted(ch.plant.measurements(), key=lambda m: m.kind == 'target_attitude'):
+                self.publish_measurement(ch, m)
+        self.publish_truth(samples)
         self.publish_plant_events()
         if sample.t >= self.duration_s - 0.5 * self.step_s:
             self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
@@ -258,7 +300,7 @@ class SimNode(Node):
         if not behind:
             self.waiting_since = time.monotonic()
             return True
-        gone = set(behind) - {name for name, _ns in self.get_node_names_and_namespaces()}
+        gone = set(behind) - self._present_nodes()
         for name in gone:
             del self.progress_s[name]
             self.emit('WARN', 'node_lost', f'{name} left the graph; no longer waiting for it',
@@ -273,26 +315,13 @@ class SimNode(Node):
         return not waiting
 
     # -- publishing -----------------------------------------------------------------------
-    def publish_truth(self, s):
+    def publish_truth(self, samples):
+        """/clock, every chaser's truth and the target's (the same in every chaser's plant), markers."""
+        s = samples[0]
         msgs = self.msgs
         self.pubs[c.CLOCK].publish(convert.clock(s.t, out=msgs[c.CLOCK]))
-        if self.rigid:
-            q_chaser = s.q_hill_from_chaser_body
-            self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
-                s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, q_chaser,
-                quat_rotate(quat_conjugate(q_chaser), s.v_hill), s.omega_chaser_body, out=msgs[c.SIM_CHASER_ODOM]))
-            self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
-                s.t, c.FRAME_HILL, s.force_hill, s.torque_hill_n_m, out=msgs[c.SIM_CHASER_THRUST]))
-            self.pubs[c.SIM_CHASER_WHEELS].publish(convert.joint_state(
-                s.t, c.FRAME_CHASER_BODY, self.wheel_names, velocity=s.wheel_speed_rad_s, effort=s.wheel_torque_n_m))
-            self.pubs[c.SIM_CHASER_THRUSTERS].publish(convert.joint_state(
-                s.t, c.FRAME_CHASER_BODY, self.thruster_names, effort=s.thruster_thrust_n))
-        else:
-            self.pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
-                s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
-                (0.0, 0.0, 0.0), out=msgs[c.SIM_CHASER_ODOM]))
-            self.pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
-                s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
+        for ch, sc in zip(self.chasers, samples, strict=True):
+            self._publish_chaser_truth(ch, sc)
         self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry(
             s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
             (0.0, 0.0, 0.0), s.omega_body, out=msgs[c.SIM_TARGET_ODOM]))
@@ -300,81 +329,108 @@ class SimNode(Node):
             boxes = self.scenario.boxes
             markers = target_box_markers(s.t, s.q_hill_from_body, boxes.centers_hill_m(s.q_hill_from_body),
                                          boxes.size_m, boxes.names)
-            if self.rigid:
-                markers += chaser_markers(s.t, s.r_hill, s.q_hill_from_chaser_body,
-                                          self.scenario.chaser.envelope_radius_m)
+            for ch, sc in zip(self.chasers, samples, strict=True):
+                if ch.rigid:
+                    markers += chaser_markers(sc.t, sc.r_hill, sc.q_hill_from_chaser_body,
+                                              ch.scenario.chaser.envelope_radius_m)
             self.pubs[c.MARKERS].publish(marker_array(markers))
 
-    def publish_measurement(self, m):
+    def _publish_chaser_truth(self, ch, s):
+        pubs, msgs = ch.pubs, ch.msgs
+        if ch.rigid:
+            q_chaser = s.q_hill_from_chaser_body
+            pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+                s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, q_chaser,
+                quat_rotate(quat_conjugate(q_chaser), s.v_hill), s.omega_chaser_body, out=msgs[c.SIM_CHASER_ODOM]))
+            pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
+                s.t, c.FRAME_HILL, s.force_hill, s.torque_hill_n_m, out=msgs[c.SIM_CHASER_THRUST]))
+            pubs[c.SIM_CHASER_WHEELS].publish(convert.joint_state(
+                s.t, c.FRAME_CHASER_BODY, ch.wheel_names, velocity=s.wheel_speed_rad_s, effort=s.wheel_torque_n_m))
+            pubs[c.SIM_CHASER_THRUSTERS].publish(convert.joint_state(
+                s.t, c.FRAME_CHASER_BODY, ch.thruster_names, effort=s.thruster_thrust_n))
+        else:
+            pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+                s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
+                (0.0, 0.0, 0.0), out=msgs[c.SIM_CHASER_ODOM]))
+            pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
+                s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
+
+    def publish_measurement(self, ch, m):
         if m.kind == 'relative_position':
-            self.pubs[c.SENSOR_RELATIVE_POSITION].publish(
+            ch.pubs[c.SENSOR_RELATIVE_POSITION].publish(
                 convert.point_stamped(m.t, c.FRAME_HILL, m.value))
         elif m.kind == 'target_attitude':
-            self.pubs[c.SENSOR_TARGET_ATTITUDE].publish(
+            ch.pubs[c.SENSOR_TARGET_ATTITUDE].publish(
                 convert.quaternion_stamped(m.t, c.FRAME_HILL, m.value))
         else:  # chaser_imu: announces the attitude command of its estimate (module doc)
             imu = m.value
-            orientation_cov, rate_cov, accel_cov = self.imu_covariances
-            self.pubs[c.SENSOR_CHASER_IMU].publish(convert.imu(
+            orientation_cov, rate_cov, accel_cov = ch.imu_covariances
+            ch.pubs[c.SENSOR_CHASER_IMU].publish(convert.imu(
                 m.t, c.FRAME_CHASER_BODY, imu.q_hill_from_body, imu.omega_body_meas, imu.specific_force_body,
                 None if imu.q_hill_from_body is None else orientation_cov, rate_cov, accel_cov))
-            if self.commands_expected and not self.attitude_quiet:
-                self.announced_ns.append(convert.sec_to_ns(wire_time(m.t) + self.command_period_s))
+            if ch.commands_expected and not ch.attitude_quiet:
+                ch.announced_ns.append(convert.sec_to_ns(wire_time(m.t) + ch.command_period_s))
 
-    def _imu_covariances(self):
+    @staticmethod
+    def _imu_covariances(scenario):
         """The IMU's noise covariances (star-tracker attitude, gyro rate, specific force), diagonal."""
-        imu = self.scenario.sensors.chaser_imu
+        imu = scenario.sensors.chaser_imu
         return tuple([[s * s if i == j else 0.0 for j in range(3)] for i in range(3)]
                      for s in (math.radians(imu.star_tracker_sigma_deg), imu.gyro_noise_sigma_rad_s,
                                imu.accel_noise_sigma_mps2))
 
-    def emit(self, level, name, message, values):
-        publish_event(self, self.pubs[c.MISSION_EVENTS], Event(self.plant.t, level, name, message, values), log_ok=True)
+    def emit(self, level, name, message, values, ch=None):
+        """An event of the simulator on a chaser's mission/events (every chaser's when ch is None)."""
+        for each in self.chasers if ch is None else (ch,):
+            publish_event(self, each.pubs[c.MISSION_EVENTS], Event(self.plant.t, level, name, message, values),
+                          log_ok=each is self.chasers[0] or ch is not None)
 
     def publish_plant_events(self):
-        for event in self.plant.drain_events():
-            publish_event(self, self.pubs[c.MISSION_EVENTS], event, log_ok=True)
+        for ch in self.chasers:
+            for event in ch.plant.drain_events():
+                publish_event(self, ch.pubs[c.MISSION_EVENTS], event, log_ok=True)
 
     # -- commands -------------------------------------------------------------------------
-    def on_phase(self, msg):
+    def on_phase(self, ch, msg):
         """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
         phase = convert.string_to_str(msg)
         if phase in ATTITUDE_QUIET_PHASES:
-            self.attitude_quiet = True
+            ch.attitude_quiet = True
         if phase == c.PHASE_CAPTURE:
-            self.plant.capture()
+            ch.plant.capture()
             self.publish_plant_events()
 
-    def on_wheels(self, msg):
-        t_stamp, torques = self._command_stamp(c.GUIDANCE_WHEELS, msg.header.stamp), list(msg.effort)
-        if len(torques) != len(self.wheel_names):
+    def on_wheels(self, ch, msg):
+        t_stamp, torques = self._command_stamp(ch, c.GUIDANCE_WHEELS, msg.header.stamp), list(msg.effort)
+        if len(torques) != len(ch.wheel_names):
             self.emit('ERROR', 'command_rejected', f'guidance/wheels: {len(torques)} efforts for '
-                      f'{len(self.wheel_names)} wheels', {'t_stamp': repr(t_stamp)})
+                      f'{len(ch.wheel_names)} wheels', {'t_stamp': repr(t_stamp)}, ch)
             return
         try:
-            self.plant.command_wheels(t_stamp, torques)
+            ch.plant.command_wheels(t_stamp, torques)
         except ValueError as err:
-            self.emit('ERROR', 'command_rejected', f'guidance/wheels: {err}', {'t_stamp': repr(t_stamp)})
+            self.emit('ERROR', 'command_rejected', f'guidance/wheels: {err}', {'t_stamp': repr(t_stamp)}, ch)
         self.publish_plant_events()
 
-    def on_wrench(self, msg):
+    def on_wrench(self, ch, msg):
         w = convert.wrench_stamped_to_numpy(msg)
-        t_stamp = self._command_stamp(c.GUIDANCE_WRENCH, msg.header.stamp)
+        t_stamp = self._command_stamp(ch, c.GUIDANCE_WRENCH, msg.header.stamp)
         try:
-            self.plant.command_wrench(t_stamp, w.force, w.torque, hold_s=self.command_period_s)
+            ch.plant.command_wrench(t_stamp, w.force, w.torque, hold_s=ch.command_period_s)
         except ValueError as err:
-            self.emit('ERROR', 'command_rejected', f'guidance/wrench: {err}', {'t_stamp': repr(t_stamp)})
+            self.emit('ERROR', 'command_rejected', f'guidance/wrench: {err}', {'t_stamp': repr(t_stamp)}, ch)
         self.publish_plant_events()
 
-    def _command_stamp(self, topic, stamp):
+    @staticmethod
+    def _command_stamp(ch, topic, stamp):
         ns = convert.stamp_to_ns(stamp)
-        self.commanded_ns[topic] = max(self.commanded_ns[topic], ns)
+        ch.commanded_ns[topic] = max(ch.commanded_ns[topic], ns)
         return convert.ns_to_sec(ns)
 
-    def on_maneuver(self, msg):
+    def on_maneuver(self, ch, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)
         try:
-            self.plant.command_maneuver(t_stamp, dv_hill)
+            ch.plant.command_maneuver(t_stamp, dv_hill)
         except ManeuverRejected:
             pass  # the plant recorded why; reported below, never applied
         self.publish_plant_events()
