@@ -32,6 +32,7 @@ from flyby_msgs_py.bag import repair_bag
 from flyby_msgs_py.domain import lease_domain
 from flyby_msgs_py.runtime import FASTDDS_PROFILES
 from flyby_msgs_py.schema import ScenarioError
+from flyby_planner.fleet_summary import compute_fleet_summary
 from flyby_planner.summary import EXIT_CODES, compute_summary, format_summary
 from flyby_planner.supervisor import WATCHED_NODES
 from flyby_sim.scenario import load_scenario
@@ -60,23 +61,33 @@ class NodeSpec:
     essential: bool = True  # the run cannot go on without it
     nice: int = 0  # scheduling priority of its process (os.nice increment)
 
+    @property
+    def label(self):
+        """The node's name in the graph (runtime.node_label): ``name``, or ``ns/name`` under a namespace."""
+        ns = self.namespace.strip('/')
+        return f'{ns}/{self.name}' if ns else self.name
+
 
 OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor')
 OFF_CHAIN_NICE = 5
 
 
-def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
+def graph_for(scenario_path, seed, rtf, bag_dir, without=(), chasers=()):
     """The nodes of a mission, in start order (the recorder first, the simulator last).
 
     The simulator holds time still until the other nodes are up and matched, and keeps its pace
-    to theirs. ``without`` leaves out optional nodes by name.
+    to theirs. ``without`` leaves out optional nodes by name. ``chasers``: the names of a ``chasers:``
+    scenario, each chaser's estimator, planner, guidance and supervisor under its namespace (DESIGN §10).
     """
+    namespaces = [f'/{name}' for name in chasers] or ['']
     recorder = NodeSpec('flyby_recorder', 'flyby_msgs_py.recorder_node', 'RecorderNode',
-                        {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0})
+                        {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0,
+                         'namespaces': namespaces})
     # The other nodes act on message stamps and never read a ROS clock: without use_sim_time they are spared
     # rclpy's time-source subscription to the 20 Hz /clock.
-    others = [NodeSpec(name, module, cls, {'scenario_file': str(scenario_path), 'seed': seed},
-                       essential=False)
+    others = [NodeSpec(name, module, cls, {'scenario_file': str(scenario_path), 'seed': seed, 'chaser': ns[1:]},
+                       namespace=ns, essential=False)
+              for ns in namespaces
               for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
                                         ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'),
                                         ('flyby_guidance', 'flyby_guidance.guidance_node', 'GuidanceNode'),
@@ -90,8 +101,8 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=()):
     # guidance's commands, so every burn starts on its stamp at any pace (determinism).
     sim = NodeSpec('flyby_sim', 'flyby_sim.sim_node', 'SimNode',
                    {'scenario_file': str(scenario_path), 'seed': seed, 'rtf': float(rtf), 'flow_control_period_s': 1.0,
-                    'wait_for_nodes': [n.name for n in [recorder, *others]],
-                    'keep_up_with': [n.name for n in [recorder, *others]]})
+                    'wait_for_nodes': [n.label for n in [recorder, *others]],
+                    'keep_up_with': [n.label for n in [recorder, *others]]})
     # The nodes off the simulator's command chain (sim -> estimator -> guidance -> sim, DESIGN §10) yield the
     # CPU to it: they only have to keep up within the flow-control window, while every turn of the chain holds
     # the simulator's time.
@@ -133,7 +144,8 @@ class ProcessGraph:
         (self.run_dir / 'logs').mkdir(exist_ok=True)
         (self.run_dir / 'params').mkdir(exist_ok=True)
         for spec in self.specs:
-            params_file = self.run_dir / 'params' / f'{spec.name}.yaml'
+            file_name = spec.label.replace('/', '.')
+            params_file = self.run_dir / 'params' / f'{file_name}.yaml'
             params_file.write_text(yaml.safe_dump({'/**': {'ros__parameters': spec.params}}))
             cmd = [VENV_PYTHON, '-m', spec.module, '--ros-args', '-r', f'__node:={spec.name}',
                    '--params-file', str(params_file)]
@@ -141,8 +153,8 @@ class ProcessGraph:
                 cmd += ['-r', f'__ns:={spec.namespace}']
             for src, dst in spec.remaps.items():
                 cmd += ['-r', f'{src}:={dst}']
-            log = open(self.run_dir / 'logs' / f'{spec.name}.log', 'w')
-            self.procs[spec.name] = subprocess.Popen(
+            log = open(self.run_dir / 'logs' / f'{file_name}.log', 'w')
+            self.procs[spec.label] = subprocess.Popen(
                 cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                 start_new_session=True, preexec_fn=_child_setup(spec.nice))
             log.close()
@@ -169,7 +181,7 @@ class ProcessGraph:
         """Stop in order (simulator first, recorder last): SIGINT, then SIGTERM, then SIGKILL."""
         killed = []
         for spec in reversed(self.specs):
-            proc = self.procs.get(spec.name)
+            proc = self.procs.get(spec.label)
             if proc is None or proc.poll() is not None:
                 continue
             for sig, grace in ((signal.SIGINT, SIGINT_GRACE_S), (signal.SIGTERM, SIGTERM_GRACE_S),
@@ -177,7 +189,7 @@ class ProcessGraph:
                 proc.send_signal(sig)
                 if grace is None:
                     proc.wait()
-                    killed.append(spec.name)
+                    killed.append(spec.label)
                     break
                 try:
                     proc.wait(timeout=grace)
@@ -205,30 +217,39 @@ class Monitor:
     time for ABORTED (so the bag records the start of the escape and any avoidance burn).
     """
 
-    def __init__(self, context, abort_hold_s, executor=None, faults=None):
+    def __init__(self, context, abort_hold_s, executor=None, faults=None, namespaces=('',)):
         from rclpy.experimental import EventsExecutor
         from rclpy.node import Node
         from std_srvs.srv import Trigger
 
         self.node = Node('flyby_launcher', context=context)
-        self.phase = None
+        self.phases = dict.fromkeys(namespaces)  # with several chasers the run ends once every one's has ended
         self.sim_time_s = 0.0
         self.abort_hold_s = abort_hold_s
         self.t_terminal = None
         self.faults = faults or Faults()
         self.abort_client = self.node.create_client(Trigger, c.MISSION_ABORT_SERVICE)
         self.abort_future = None
-        self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
-                                      c.MISSION_PHASE, self._on_phase, qos.QOS_LATCHED)
+        for ns in namespaces:
+            self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
+                                          c.absolute(c.MISSION_PHASE, ns) if ns else c.MISSION_PHASE,
+                                          lambda msg, ns=ns: self._on_phase(ns, msg), qos.QOS_LATCHED)
         self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock',
                                       self._on_clock, qos.QOS_STREAM)
         self.own_executor = executor is None
         self.executor = EventsExecutor(context=context) if executor is None else executor
         self.executor.add_node(self.node)
 
-    def _on_phase(self, msg):
-        self.phase = msg.data
-        if self.phase in c.TERMINAL_PHASES and self.t_terminal is None:
+    @property
+    def phase(self):
+        """The phase; with several chasers ``name:PHASE`` of each, comma separated."""
+        if list(self.phases) == ['']:
+            return self.phases['']
+        return ','.join(f'{ns.strip("/")}:{p}' for ns, p in self.phases.items())
+
+    def _on_phase(self, ns, msg):
+        self.phases[ns] = msg.data
+        if all(p in c.TERMINAL_PHASES for p in self.phases.values()) and self.t_terminal is None:
             self.t_terminal = self.sim_time_s
 
     def _on_clock(self, msg):
@@ -250,7 +271,7 @@ class Monitor:
     def done(self):
         if self.t_terminal is None:
             return False
-        hold = self.abort_hold_s if self.phase == c.PHASE_ABORTED else 0.0
+        hold = self.abort_hold_s if c.PHASE_ABORTED in self.phases.values() else 0.0
         return self.sim_time_s >= self.t_terminal + hold
 
     def spin(self, seconds):
@@ -279,7 +300,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s, f
     context = Context()
     rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
                signal_handler_options=SignalHandlerOptions.NO)
-    monitor = Monitor(context, abort_hold_s, faults=faults)
+    monitor = Monitor(context, abort_hold_s, faults=faults, namespaces=specs[0].params['namespaces'])
     graph = ProcessGraph(specs, run_dir, env)
     reason = None
     try:
@@ -292,7 +313,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s, f
             if victim:
                 graph.kill(victim)
             for name, code in graph.poll().items():
-                spec = next(s for s in specs if s.name == name)
+                spec = next(s for s in specs if s.label == name)
                 if name == 'flyby_sim' and code == 0:
                     reason = 'time_limit'
                 elif spec.essential and name != faults.kill_node:
@@ -338,7 +359,7 @@ def run_in_process(specs, env, wall_timeout_s, progress, abort_hold_s, faults):
                        namespace=spec.namespace or None, cli_args=None)
             nodes.append(node)
             executor.add_node(node)
-        monitor = Monitor(context, abort_hold_s, executor, faults)
+        monitor = Monitor(context, abort_hold_s, executor, faults, specs[0].params['namespaces'])
         deadline = time.monotonic() + wall_timeout_s
         sim = nodes[-1]
 
@@ -454,7 +475,7 @@ def main(argv=None):
                   file=sys.stderr, flush=True)
 
     specs = graph_for(Path(args.scenario).resolve(), scenario.seed, args.rtf, bag_dir.resolve(),
-                      args.without)
+                      args.without, scenario.chaser_names)
     print(f'flyby: scenario {scenario.name}, seed {scenario.seed}, ROS domain {lease.domain_id}, '
           f'{"in-process" if args.in_process else f"{len(specs)} processes"} -> {run_dir}',
           file=sys.stderr, flush=True)
@@ -477,10 +498,13 @@ def main(argv=None):
         repair = None
         if not (bag_dir / 'metadata.yaml').exists() and bag_dir.exists():
             repair = repair_bag(bag_dir)
-        summary = compute_summary(
-            bag_dir, scenario, end_reason=reason, final_phase=phase, wall_time_s=wall_time_s,
-            node_exit_codes=exit_codes, nodes_killed=killed, bag_repair=repair,
-            faults_injected={'abort_at_s': faults.abort_at_s, 'kill': args.kill})
+        launcher = dict(node_exit_codes=exit_codes, nodes_killed=killed, bag_repair=repair,
+                        faults_injected={'abort_at_s': faults.abort_at_s, 'kill': args.kill})
+        if scenario.chaser_names:
+            summary = compute_fleet_summary(bag_dir, scenario, reason, wall_time_s, **launcher)
+        else:
+            summary = compute_summary(bag_dir, scenario, end_reason=reason, final_phase=phase, wall_time_s=wall_time_s,
+                                      **launcher)
         (run_dir / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
     finally:
         for sig, handler in previous_handlers.items():

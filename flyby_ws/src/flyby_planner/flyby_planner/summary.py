@@ -26,10 +26,9 @@ from flyby_sim.dynamics.rotation import quat_rotate_many
 # Process exit code of each outcome: 0 capture, 3 safe without capture, 5 collision, 130 interrupted, 1 error.
 EXIT_CODES = {c.OUTCOME_CAPTURE: 0, c.OUTCOME_ESCAPE: 3, c.OUTCOME_NO_SAFE_PLAN: 3, c.OUTCOME_ABORTED: 3,
               c.OUTCOME_TIME_LIMIT: 3, c.OUTCOME_COLLISION: 5, c.OUTCOME_INTERRUPTED: 130, c.OUTCOME_ERROR: 1}
-TRUTH_TOPICS = [c.absolute(t) for t in (c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM,
-                                        c.SIM_CHASER_THRUST, c.MISSION_PHASE, c.MISSION_EVENTS)]
+TRUTH_TOPICS = [c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_PHASE, c.MISSION_EVENTS]
 # The six-degree-of-freedom chaser's, besides.
-RIGID_TRUTH_TOPICS = [c.absolute(c.SIM_CHASER_THRUSTERS)]
+RIGID_TRUTH_TOPICS = [c.SIM_CHASER_THRUSTERS]
 
 
 class ChaserTruth(NamedTuple):
@@ -222,11 +221,16 @@ def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
     return float(np.linalg.norm(r - x_ft)), float(np.linalg.norm(v - v_ft))
 
 
-def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'), **launcher):
+def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'), namespace='',
+                    **launcher):
     """The summary dict of a run from its bag; robust to a bag cut short by an interruption. ``launcher``:
-    what only the launcher knows (summarize's node_exit_codes, nodes_killed, bag_repair, faults_injected)."""
+    what only the launcher knows (summarize's node_exit_codes, nodes_killed, bag_repair, faults_injected).
+    ``namespace``: the chaser's (``/chaser1``) of a ``chasers:`` scenario, whose view ``scenario`` is."""
     rigid = scenario.chaser.model == 'rigid_body'
-    data = read_bag(bag_dir, topics=TRUTH_TOPICS + (RIGID_TRUTH_TOPICS if rigid else []))
+    data = read_bag(bag_dir, topics=[c.absolute(t, namespace) for t in TRUTH_TOPICS + (RIGID_TRUTH_TOPICS if rigid
+                                                                                      else [])])
+    if namespace:  # the chaser's topics by their single-chaser names
+        data = {(name[len(namespace):] if name.startswith(namespace + '/') else name): v for name, v in data.items()}
     chaser = data.get(c.absolute(c.SIM_CHASER_ODOM))
     if rigid:
         chaser = chaser_truth_from_odometry(chaser)

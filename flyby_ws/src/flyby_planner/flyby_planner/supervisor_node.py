@@ -38,7 +38,15 @@ class SupervisorNode(CoreNode):
         self.publish(self.core.start())
 
     def on_progress(self, msg):
-        self.core.on_progress(msg.frame_id, convert.stamp_to_sec(msg.stamp))
+        # Under a chaser's namespace its nodes report as <ns>/<name> (runtime.node_label): the core knows them by
+        # name; other chasers' nodes are not ours to watch.
+        ns = self.get_namespace().strip('/')
+        label = msg.frame_id
+        if ns:
+            if not label.startswith(ns + '/'):
+                return
+            label = label[len(ns) + 1:]
+        self.core.on_progress(label, convert.stamp_to_sec(msg.stamp))
 
     def on_clock(self, msg):
         """Called from the run loop's one /clock subscription (runtime.ProgressReporter)."""

@@ -255,7 +255,8 @@ class SimNode(Node):
         def expected(topic, publisher_node):
             return sum(topics.count(topic) for node, topics in self.subscriptions_of.items()
                        if node != publisher_node)
-        for pub in self.pubs.values():
+        for pub in [*self.pubs.values(), *(p for ch in self.chasers if ch.pubs is not self.pubs
+                                            for p in ch.pubs.values())]:
             if pub.get_subscription_count() < expected(pub.topic_name, self.get_name()):
                 return False
         return all(count >= expected(topic, node) for node in self.wait_for_nodes
