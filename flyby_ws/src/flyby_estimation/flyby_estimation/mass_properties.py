@@ -1,0 +1,529 @@
+"""The captured target's mass properties from the combined body's response to known thruster firings: the
+extended Kalman filter of seed 004 §2.2 on filterpy (no ROS).
+
+Model: ``flyby_sim.dynamics.combined_body`` (seed 004 §2.2: the combined body's CoM, inertia by the parallel-axis
+theorem, v_dot = C F / (m + M), Euler's equation with the thrusters' torque about the combined CoM). Frames and
+conventions are that module's: chaser_body axes, vectors from the chaser's CoM, quaternions (x, y, z, w),
+``q_inertial_from_body`` of the combined body (= the chaser's), ``q_body_from_principal`` the target's principal
+axes (seed 004's Q, its D = C_principal_from_body).
+
+Nominal state (seed 004: "state variables" and "estimated quantities"): r, v (combined CoM, inertial), q,
+omega (body rate, body axes), target mass M, principal axes Q, target CoM X_s from the chaser CoM, and the
+principal moments through j = (j1, j2, j3) (``moments_from_j``). The chaser's mass, inertia and thruster
+positions are known (seed 004: I_t0, m, X_f). The filter is multiplicative in both quaternions: its 22-element
+error state is
+
+    [dr (3), dv (3), dtheta (3), domega (3), dM (1), dphi (3), dX_s (3), dj (3)]
+
+with q_true = q * exp(dtheta) (body axes) and Q_true = Q * exp(dphi) (principal axes), every other error
+additive. Observations (seed 004: omega, x_t'', q): the gyro rate and the accelerometer's specific force at
+the chaser (``on_imu``, 6 values together), the star tracker's attitude (``update``), and, optionally, the
+combined CoM's position (``on_position``; seed 004's GPS).
+
+Time update: the nominal is integrated by RK4 in steps of at most ``max_step_s``, cut at every firing's start
+and end (the known input, ``combined_body.Firing``); the transition Phi of the error over each step is the
+central difference of that same step (44 perturbed copies integrated with the nominal as one batch); P = Phi P
+Phi' + Qd is filterpy's ``ExtendedKalmanFilter.predict`` with F = Phi (the error state is zero between
+updates). Qd: white noise of psd ``accel_psd_m2_s3`` on v_dot and ``angular_accel_psd_rad2_s3`` on omega_dot
+(the model's integration and the unmodelled, e.g. the orbit's differential gravity), integrated into r and
+theta over the step (dt^3/3, dt^2/2 terms), and ``parameter_psd`` on the parameters (default 0: constants).
+
+Measurement update: filterpy's ``ExtendedKalmanFilter.update`` (Joseph form) with H the central difference of
+the measurement function (the IMU) or [.. I ..] (attitude, position), the innovation computed from the nominal
+(attitude: ``filter_interface.attitude_innovation``), gated on the chi-square of its size; then the error is
+folded into the nominal (both quaternions by Markley's reset, ``_fold``) and zeroed. The IMU update is iterated
+(Gauss-Newton, ``imu_iterations``): the specific force F/(m + M) is curved in M.
+
+Limit (measured, docs/post_capture.md): the filter is first order in the parameters. From a prior of a few
+percent (mass 2.5 %, moments 3 %, CoM 1 cm, axes 1 deg) it is consistent on Table 1's sequence; from a
+prior of tens of percent the first full-thrust pulse's response is too curved in the parameters and the
+filter ends overconfident (errors of 5-100 sigma), which the iterated IMU update does not cure (the curvature
+is in the propagation).
+"""
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+from scipy.stats import chi2
+
+from flyby_estimation.filter_interface import FilterBase, attitude_innovation, new_counts
+from flyby_sim.dynamics.checks import require_positive
+from flyby_sim.dynamics.combined_body import (
+    firing_breaks,
+    inertia_from_principal,
+    wrench_about_chaser,
+)
+from flyby_sim.dynamics.rotation import quat_multiply, quat_normalize, quat_to_matrix_many, skew
+
+# The principal-moment re-map: corners of the physical cone {I_i < I_j + I_k}, each where two of the three
+# triangle inequalities are equalities.
+_CONE_EDGES = np.ones((3, 3)) - np.eye(3)
+
+N_ERR = 22
+_SL_R, _SL_V, _SL_TH, _SL_W = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
+_I_M, _SL_PHI, _SL_X, _SL_J = 12, slice(13, 16), slice(16, 19), slice(19, 22)
+# Nominal layout: r 0:3, v 3:6, q 6:10, omega 10:13, M 13, Q 14:18, X_s 18:21, j 21:24.
+N_NOM = 24
+# Central-difference steps per error component (a fraction of each quantity's scale; truncation ~ eps^2).
+_EPS = np.array([1e-3] * 3 + [1e-4] * 3 + [1e-6] * 3 + [1e-7] * 3 + [1e-4] + [1e-6] * 3 + [1e-6] * 3 + [1e-6] * 3)
+
+
+def moments_from_j(j):
+    """Principal moments (..., 3) [kg m^2] of re-mapped parameters j (..., 3), seed 004 §2.2:
+
+        I = zeta ((1 - s) a1 + s (1 - t) a2 + s t a3),  s = (1 + xi)/2, t = (1 + eta)/2,
+        xi = 2/pi atan(j1), eta = 2/pi atan(j2), zeta = exp(j3)
+
+    with a1, a2, a3 = (0, 1, 1), (1, 0, 1), (1, 1, 0). The printed map is garbled: its bracket closes before the
+    last term (zeta would scale only part of it), and its corners (1, 1, 2), (2, 1, 1), (1, 2, 1) (each over
+    sqrt 6) are the midpoints of the cone's faces, whose hull holds only inertias with every moment at least a
+    quarter of the trace (no slender body); the corners here are the cone's edges, so every j gives a physical
+    inertia and every physical inertia has one j (test_mass_properties: round trips). Unnormalized corners
+    make zeta half the trace: I_i = zeta (1 - b_i) with barycentric b = (1 - s, s (1 - t), s t), and b_i > 0
+    is exactly I_i < I_j + I_k.
+    """
+    j = np.asarray(j, dtype=float)
+    s = 0.5 + np.arctan(j[..., 0]) / math.pi  # (1 + xi) / 2
+    t = 0.5 + np.arctan(j[..., 1]) / math.pi  # (1 + eta) / 2
+    b = np.stack((1.0 - s, s * (1.0 - t), s * t), axis=-1)
+    return np.exp(j[..., 2])[..., None] * (b @ _CONE_EDGES)
+
+
+def j_from_moments(moments_kg_m2):
+    """The inverse of ``moments_from_j``; raises ValueError unless the moments are finite, > 0 and satisfy the
+    strict triangle inequality."""
+    i = np.asarray(moments_kg_m2, dtype=float)
+    if i.shape[-1:] != (3,) or not np.all(np.isfinite(i)) or np.any(i <= 0.0):
+        raise ValueError(f'principal moments must be finite and > 0 [kg m^2], got {moments_kg_m2!r}')
+    zeta = 0.5 * i.sum(axis=-1)
+    b = 1.0 - i / zeta[..., None]
+    if np.any(b <= 0.0):
+        raise ValueError(f'principal moments {i.tolist()} break the triangle inequality I_i < I_j + I_k')
+    s = 1.0 - b[..., 0]
+    t = b[..., 2] / s
+    return np.stack((np.tan(math.pi * (s - 0.5)), np.tan(math.pi * (t - 0.5)), np.log(zeta)), axis=-1)
+
+
+def _quat_exp_many(rotvec):
+    """Unit quaternions (N, 4) of rotation vectors (N, 3) (the exponential map, vectorized)."""
+    angle = np.linalg.norm(rotvec, axis=1)
+    half = 0.5 * angle
+    k = np.where(angle < 1e-8, 0.5 - angle * angle / 48.0, np.sin(half) / np.where(angle < 1e-8, 1.0, angle))
+    return np.column_stack((k[:, None] * rotvec, np.cos(half)))
+
+
+def _quat_log_many(q):
+    """Rotation vectors (N, 3) of unit quaternions (N, 4), the short way round (the logarithmic map)."""
+    q = np.where(q[:, 3:4] < 0.0, -q, q)
+    sin_half = np.linalg.norm(q[:, :3], axis=1)
+    angle = 2.0 * np.arctan2(sin_half, q[:, 3])
+    k = np.where(sin_half < 1e-12, 2.0 / q[:, 3], angle / np.where(sin_half < 1e-12, 1.0, sin_half))
+    return k[:, None] * q[:, :3]
+
+
+def _qmul_many(q1, q2):
+    """Hamilton products (N, 4) row by row (``rotation.quat_multiply`` on columns)."""
+    return np.column_stack(quat_multiply(q1.T, q2.T))
+
+
+def _perturb(y_ref, e):
+    """Nominal states (K, 24) of the reference (24,) displaced by error states e (K, 22) (module doc)."""
+    k = e.shape[0]
+    y = np.repeat(y_ref[None, :], k, axis=0)
+    y[:, 0:6] += e[:, 0:6]
+    y[:, 6:10] = _qmul_many(y[:, 6:10], _quat_exp_many(e[:, _SL_TH]))
+    y[:, 10:13] += e[:, _SL_W]
+    y[:, 13] += e[:, _I_M]
+    y[:, 14:18] = _qmul_many(y[:, 14:18], _quat_exp_many(e[:, _SL_PHI]))
+    y[:, 18:24] += e[:, 16:22]
+    return y
+
+
+def _difference(y, y_ref):
+    """Error states (K, 22) of nominal states y (K, 24) from the reference y_ref (24,): the inverse of _perturb."""
+    e = np.empty((y.shape[0], N_ERR))
+    e[:, 0:6] = y[:, 0:6] - y_ref[0:6]
+    conj = y_ref[[6, 7, 8, 9]] * np.array([-1.0, -1.0, -1.0, 1.0])
+    e[:, _SL_TH] = _quat_log_many(_qmul_many(np.broadcast_to(conj, (y.shape[0], 4)), y[:, 6:10]))
+    e[:, _SL_W] = y[:, 10:13] - y_ref[10:13]
+    e[:, _I_M] = y[:, 13] - y_ref[13]
+    conj_q = y_ref[[14, 15, 16, 17]] * np.array([-1.0, -1.0, -1.0, 1.0])
+    e[:, _SL_PHI] = _quat_log_many(_qmul_many(np.broadcast_to(conj_q, (y.shape[0], 4)), y[:, 14:18]))
+    e[:, 16:22] = y[:, 18:24] - y_ref[18:24]
+    return e
+
+
+class _BatchBody:
+    """The combined body's mass properties for a batch of nominal states (K, 24) (combined_body's equations,
+    vectorized over the batch)."""
+
+    def __init__(self, y, chaser_mass_kg, chaser_inertia_body):
+        big_m = y[:, 13]
+        c_body_from_principal = quat_to_matrix_many(y[:, 14:18])
+        moments = moments_from_j(y[:, 21:24])
+        i_s = np.einsum('kab,kb,kcb->kac', c_body_from_principal, moments, c_body_from_principal)
+        total = big_m + chaser_mass_kg
+        c = (big_m / total)[:, None] * y[:, 18:21]  # c = M/(M+m) X_s
+        y_s = y[:, 18:21] - c
+        eye = np.eye(3)
+        inertia = (chaser_inertia_body + i_s
+                   + chaser_mass_kg * (np.einsum('ka,ka->k', c, c)[:, None, None] * eye - np.einsum('ka,kb->kab', c, c))
+                   + big_m[:, None, None] * (np.einsum('ka,ka->k', y_s, y_s)[:, None, None] * eye
+                                             - np.einsum('ka,kb->kab', y_s, y_s)))
+        self.mass = total
+        self.c = c
+        self.inertia = inertia
+        self.inertia_inv = np.linalg.inv(inertia)
+
+    def omega_dot(self, omega, force, moment, h_wheels):
+        """I^-1 (T_c - c x F - omega x (I omega + h_w)) (K, 3)."""
+        torque = moment - np.cross(self.c, force)
+        h = np.einsum('kab,kb->ka', self.inertia, omega) + h_wheels
+        return np.einsum('kab,kb->ka', self.inertia_inv, torque - np.cross(omega, h))
+
+    def rates(self, x, force, moment, h_wheels):
+        """d/dt of (r, v, q, omega) (K, 13)."""
+        q, omega = x[:, 6:10], x[:, 10:13]
+        qx, qy, qz, qw = q.T
+        wx, wy, wz = omega.T
+        q_dot = 0.5 * np.column_stack((qw * wx + qy * wz - qz * wy, qw * wy + qz * wx - qx * wz,
+                                       qw * wz + qx * wy - qy * wx, -(qx * wx + qy * wy + qz * wz)))
+        # v_dot = C_inertial_from_body F / (m + M)
+        u = q[:, :3]
+        t = 2.0 * np.cross(u, force)
+        v_dot = (force + q[:, 3:4] * t + np.cross(u, t)) / self.mass[:, None]
+        return np.column_stack((x[:, 3:6], v_dot, q_dot, self.omega_dot(omega, force, moment, h_wheels)))
+
+
+def _rk4_batch(y, dt, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body):
+    """The nominal states (K, 24) after dt [s] of RK4 under a constant wrench, quaternions renormalized."""
+    body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body)
+    x = y[:, :13]
+    k1 = body.rates(x, force, moment, h_wheels)
+    k2 = body.rates(x + 0.5 * dt * k1, force, moment, h_wheels)
+    k3 = body.rates(x + 0.5 * dt * k2, force, moment, h_wheels)
+    k4 = body.rates(x + dt * k3, force, moment, h_wheels)
+    out = y.copy()
+    out[:, :13] = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    out[:, 6:10] /= np.linalg.norm(out[:, 6:10], axis=1)[:, None]
+    return out
+
+
+def _imu_batch(y, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body, accel_position_body):
+    """Gyro and accelerometer (K, 6) predicted for nominal states (K, 24): omega, and F/(m+M) + omega_dot x p
+    + omega x (omega x p) with p the accelerometer from the combined CoM (combined_body.specific_force_body)."""
+    body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body)
+    omega = y[:, 10:13]
+    p = accel_position_body - body.c
+    w_dot = body.omega_dot(omega, force, moment, h_wheels)
+    accel = force / body.mass[:, None] + np.cross(w_dot, p) + np.cross(omega, np.cross(omega, p))
+    return np.column_stack((omega, accel))
+
+
+@dataclasses.dataclass(frozen=True)
+class MassPropertyFilterConfig:
+    """Parameters of MassPropertyFilter (validated; ValueError names the field).
+
+    Attributes:
+        chaser_mass_kg, chaser_inertia_body_kg_m2: the chaser's (seed 004's m, I_t0), known.
+        accel_position_body_m: the accelerometer's position from the chaser CoM [m].
+        gyro_sigma_rad_s, accel_sigma_mps2, attitude_sigma_rad, position_sigma_m: measurement noise, 1 sigma
+            per axis (defaults: the chaser IMU's of chaser_body.ImuConfig; position 1 cm).
+        accel_psd_m2_s3, angular_accel_psd_rad2_s3, parameter_psd: process noise (module doc).
+        h_wheels_body_n_m_s: the wheels' momentum in body axes, held constant while the filter runs.
+        max_step_s: longest propagation step [s].
+        imu_iterations: most Gauss-Newton iterations of an IMU update (1: the plain EKF update).
+        gate_probability: chi-square probability of the innovation gate (of the measurement's size).
+        max_consecutive_outliers: rejections in a row after which a measurement is taken anyway (the model is
+            then trusted less than the data: the gate must not lock the filter out).
+    """
+
+    chaser_mass_kg: float
+    chaser_inertia_body_kg_m2: tuple
+    accel_position_body_m: tuple = (0.0, 0.0, 0.0)
+    gyro_sigma_rad_s: float = 1e-5
+    accel_sigma_mps2: float = 1e-4
+    attitude_sigma_rad: float = math.radians(0.01)
+    position_sigma_m: float = 0.01
+    accel_psd_m2_s3: float = 1e-10
+    angular_accel_psd_rad2_s3: float = 1e-12
+    parameter_psd: float = 0.0
+    h_wheels_body_n_m_s: tuple = (0.0, 0.0, 0.0)
+    max_step_s: float = 0.1
+    imu_iterations: int = 5
+    gate_probability: float = 0.9999
+    max_consecutive_outliers: int = 20
+
+    def __post_init__(self):
+        require_positive('chaser_mass_kg', self.chaser_mass_kg)
+        inertia = np.asarray(self.chaser_inertia_body_kg_m2, dtype=float)
+        if inertia.shape != (3, 3) or not np.all(np.isfinite(inertia)) or np.linalg.eigvalsh(
+                0.5 * (inertia + inertia.T)).min() <= 0.0:
+            raise ValueError(f'chaser_inertia_body_kg_m2 must be a positive definite 3x3 [kg m^2], '
+                             f'got {self.chaser_inertia_body_kg_m2!r}')
+        for name in ('gyro_sigma_rad_s', 'accel_sigma_mps2', 'attitude_sigma_rad', 'position_sigma_m', 'max_step_s'):
+            require_positive(name, getattr(self, name))
+        for name in ('accel_psd_m2_s3', 'angular_accel_psd_rad2_s3', 'parameter_psd'):
+            require_positive(name, getattr(self, name), allow_zero=True)
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability!r}')
+
+
+class MassPropertyPrior(NamedTuple):
+    """The target's mass properties before the excitation, and their 1-sigma spread (the filter's P0)."""
+
+    target_mass_kg: float
+    target_com_body_m: tuple  # X_s
+    q_body_from_principal: tuple
+    principal_moments_kg_m2: tuple
+    mass_sigma_kg: float
+    com_sigma_m: float  # per axis
+    axes_sigma_rad: float  # per principal axis
+    j_sigma: tuple  # per j component (j3 = log of half the trace: a relative sigma of the trace)
+
+
+class MassPropertyEstimate(NamedTuple):
+    """The filter's estimate of the target at the filter time, each with its 1-sigma (chaser_body axes)."""
+
+    t: float
+    target_mass_kg: float
+    target_com_body_m: np.ndarray  # X_s, from the chaser CoM
+    q_body_from_principal: np.ndarray
+    principal_moments_kg_m2: np.ndarray
+    target_inertia_body_kg_m2: np.ndarray  # about the target's CoM
+    mass_sigma_kg: float
+    com_sigma_m: np.ndarray
+    axes_sigma_rad: np.ndarray  # of dphi, principal axes
+    principal_moments_sigma_kg_m2: np.ndarray
+    r_m: np.ndarray
+    v_mps: np.ndarray
+    q_inertial_from_body: np.ndarray
+    omega_body: np.ndarray
+    covariance: np.ndarray  # (22, 22) of the error state (module doc)
+
+
+class MassPropertyFilter(FilterBase):
+    """Seed 004 §2.2's EKF of the combined body's state and the target's mass properties (module doc).
+
+    ``update(t, q)`` fuses a star-tracker attitude (the ``filter_interface`` verb); ``on_imu(t, gyro, accel)``
+    a gyro and accelerometer sample; ``on_position(t, r)`` a position. Known inputs: the firings given to the
+    constructor or ``add_firings``, which must not start before the filter time.
+    """
+
+    def __init__(self, config, prior, t0, r_m, v_mps, q_inertial_from_body, omega_body, state_sigmas,
+                 firings=()):
+        """state_sigmas: 1 sigma per axis of (r [m], v [m/s], attitude [rad], omega [rad/s]) at t0 [s]."""
+        super().__init__(config.gate_probability, config.max_consecutive_outliers)
+        self.config = config
+        self._gate_by_size = {n: float(chi2.ppf(config.gate_probability, df=n)) for n in (3, 6)}
+        self.imu_counts = new_counts()
+        self.position_counts = new_counts()
+        self._m = float(config.chaser_mass_kg)
+        self._i_t0 = np.asarray(config.chaser_inertia_body_kg_m2, dtype=float)
+        self._p_acc = np.asarray(config.accel_position_body_m, dtype=float)
+        self._h_w = np.asarray(config.h_wheels_body_n_m_s, dtype=float)
+        self._firings = sorted(firings, key=lambda f: f.t_start_s)
+        self._y = np.concatenate((r_m, v_mps, quat_normalize(q_inertial_from_body), omega_body,
+                                  [prior.target_mass_kg], quat_normalize(prior.q_body_from_principal),
+                                  prior.target_com_body_m, j_from_moments(prior.principal_moments_kg_m2)))
+        sig_r, sig_v, sig_att, sig_w = state_sigmas
+        sigmas = np.concatenate(([sig_r] * 3, [sig_v] * 3, [sig_att] * 3, [sig_w] * 3, [prior.mass_sigma_kg],
+                                 [prior.axes_sigma_rad] * 3, [prior.com_sigma_m] * 3, prior.j_sigma))
+        self._kf = ExtendedKalmanFilter(dim_x=N_ERR, dim_z=6)
+        self._kf.x = np.zeros((N_ERR, 1))
+        self._kf.P = np.diag(sigmas ** 2)
+        self._t = float(t0)
+        self._consecutive_rejects = 0
+
+    def add_firings(self, firings):
+        """More known inputs (combined_body.Firing); raises ValueError for one starting before the filter time."""
+        for f in firings:
+            if f.t_start_s < self._t:
+                raise ValueError(f'firing at t = {f.t_start_s} s starts before the filter time {self._t} s')
+        self._firings = sorted(self._firings + list(firings), key=lambda f: f.t_start_s)
+
+    @property
+    def covariance(self):
+        return self._kf.P.copy()
+
+    # --- time update -----------------------------------------------------------------------------------------
+
+    def propagate_to(self, t):
+        """Time update to t >= the filter time [s], cut at the firings' starts and ends (module doc)."""
+        if t < self._t:
+            raise ValueError(f'cannot propagate back from {self._t} s to {t} s')
+        cuts = [b for b in firing_breaks(self._firings) if self._t < b < t] + [t]
+        for t_end in cuts:
+            while self._t < t_end:
+                dt = min(self.config.max_step_s, t_end - self._t)
+                if t_end - (self._t + dt) < 1e-9:
+                    dt = t_end - self._t
+                self._step(dt)
+                self._t = t_end if dt == t_end - self._t else self._t + dt
+
+    def _step(self, dt):
+        force, moment = wrench_about_chaser(self._firings, self._t)
+        e = np.zeros((2 * N_ERR + 1, N_ERR))
+        idx = np.arange(N_ERR)
+        e[1 + idx, idx] = _EPS
+        e[1 + N_ERR + idx, idx] = -_EPS
+        y = _rk4_batch(_perturb(self._y, e), dt, force, moment, self._h_w, self._m, self._i_t0)
+        d = _difference(y[1:], y[0])
+        phi = ((d[:N_ERR] - d[N_ERR:]) / (2.0 * _EPS)[:, None]).T  # column i: d(error')/d(error_i)
+        self._y = y[0]
+        self._kf.F = phi
+        self._kf.Q = self._process_noise(dt)
+        self._kf.predict()  # P = F P F' + Q (x stays zero)
+
+    def _process_noise(self, dt):
+        q = np.zeros((N_ERR, N_ERR))
+        for sl_pos, sl_rate, psd in ((_SL_R, _SL_V, self.config.accel_psd_m2_s3),
+                                     (_SL_TH, _SL_W, self.config.angular_accel_psd_rad2_s3)):
+            q[sl_pos, sl_pos] = np.eye(3) * psd * dt ** 3 / 3.0
+            q[sl_pos, sl_rate] = q[sl_rate, sl_pos] = np.eye(3) * psd * dt ** 2 / 2.0
+            q[sl_rate, sl_rate] = np.eye(3) * psd * dt
+        q[12:, 12:] += np.eye(N_ERR - 12) * self.config.parameter_psd * dt
+        return q
+
+    # --- measurement updates ---------------------------------------------------------------------------------
+
+    def on_imu(self, t, gyro_rad_s, accel_mps2):
+        """Fuse a gyro rate and an accelerometer specific force (body axes) stamped t; an UpdateResult."""
+        z, rejected = self._finite_measurement(t, np.concatenate((np.ravel(gyro_rad_s), np.ravel(accel_mps2))), 6,
+                                               'imu sample', self.imu_counts)
+        if rejected is not None:
+            return rejected
+        stale = self._stale_measurement(t, self._t, 'imu sample', self.imu_counts)
+        if stale is not None:
+            return stale
+        self.propagate_to(t)
+        force, moment = wrench_about_chaser(self._firings, t)
+        r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
+        p = self._kf.P
+        # Iterated update (Gauss-Newton on the measurement): h re-linearized at each iterate dx_i, dx_(i+1) =
+        # K_i (z - h(dx_i) + H_i dx_i); the specific force F/(m + M) is too curved in M for one step while M is
+        # uncertain by tens of percent (the first iterate alone leaves the filter overconfident).
+        dx = np.zeros(N_ERR)
+        for iteration in range(self.config.imu_iterations):
+            h, jac = self._imu_and_jacobian(dx, force, moment)
+            y_eff = z - h + jac @ dx
+            if iteration == 0:
+                innovation = z - h
+            s = jac @ p @ jac.T + r
+            dx_next = p @ jac.T @ np.linalg.solve(s, y_eff)
+            converged = np.max(np.abs(dx_next - dx) / _EPS) < 1e-3
+            dx = dx_next
+            if converged:
+                break
+        return self._fuse(t, innovation, jac, r, self.imu_counts, y_eff)
+
+    def _imu_and_jacobian(self, dx, force, moment):
+        """The IMU predicted at the nominal displaced by dx (6,) and its Jacobian (6, 22) there."""
+        e = np.zeros((2 * N_ERR + 1, N_ERR))
+        idx = np.arange(N_ERR)
+        e[1 + idx, idx] = _EPS
+        e[1 + N_ERR + idx, idx] = -_EPS
+        y0 = _perturb(self._y, dx[None, :])[0]
+        h = _imu_batch(_perturb(y0, e), force, moment, self._h_w, self._m, self._i_t0, self._p_acc)
+        return h[0], ((h[1:N_ERR + 1] - h[N_ERR + 1:]) / (2.0 * _EPS)[:, None]).T
+
+    def update(self, t, z):
+        """Fuse a star-tracker attitude q_inertial_from_body (x, y, z, w) stamped t; an UpdateResult."""
+        q, rejected = self._unit_quaternion_measurement(t, z, 1e-3, 'attitude')
+        if rejected is not None:
+            return rejected
+        stale = self._stale_measurement(t, self._t, 'attitude')
+        if stale is not None:
+            return stale
+        self.propagate_to(t)
+        jac = np.zeros((3, N_ERR))
+        jac[:, _SL_TH] = np.eye(3)
+        r = np.eye(3) * self.config.attitude_sigma_rad ** 2
+        return self._fuse(t, attitude_innovation(self._y[6:10], q), jac, r, self.counts)
+
+    def on_position(self, t, r_m):
+        """Fuse a position of the combined CoM (inertial) stamped t; an UpdateResult."""
+        z, rejected = self._finite_measurement(t, r_m, 3, 'position', self.position_counts)
+        if rejected is not None:
+            return rejected
+        stale = self._stale_measurement(t, self._t, 'position', self.position_counts)
+        if stale is not None:
+            return stale
+        self.propagate_to(t)
+        jac = np.zeros((3, N_ERR))
+        jac[:, _SL_R] = np.eye(3)
+        r = np.eye(3) * self.config.position_sigma_m ** 2
+        return self._fuse(t, z - self._y[0:3], jac, r, self.position_counts)
+
+    def _fuse(self, t, innovation, jac, r, counts, y_eff=None):
+        """Gate on the innovation's NIS, then filterpy's update with the innovation (or the iterated update's
+        y_eff, so that K y_eff is the last iterate) and the fold."""
+        kf = self._kf
+        s = jac @ kf.P @ jac.T + r
+        nis = float(innovation @ np.linalg.solve(s, innovation))
+        gate = self._gate_by_size[innovation.size]
+        if nis > gate and self._consecutive_rejects + 1 < self.config.max_consecutive_outliers:
+            self._consecutive_rejects += 1
+            return self._outcome('outlier', t, nis, f'normalized innovation squared {nis:.4g} above the gate '
+                                                     f'{gate:.4g}', innovation, counts)
+        self._consecutive_rejects = 0
+        z = innovation if y_eff is None else y_eff
+        kf.update(z[:, None], HJacobian=lambda _x: jac, Hx=lambda x: jac @ x, R=r)
+        self._fold(kf.x[:, 0])
+        return self._outcome('accepted', t, nis, '', innovation, counts)
+
+    def _fold(self, dx):
+        """The update's error folded into the nominal, both quaternions with Markley's reset, P <- G P G'."""
+        self._y = _perturb(self._y, dx[None, :])[0]
+        g = np.eye(N_ERR)
+        g[_SL_TH, _SL_TH] -= 0.5 * skew(dx[_SL_TH])
+        g[_SL_PHI, _SL_PHI] -= 0.5 * skew(dx[_SL_PHI])
+        p = g @ self._kf.P @ g.T
+        self._kf.P = 0.5 * (p + p.T)
+        self._kf.x = np.zeros((N_ERR, 1))
+
+    # --- outputs ---------------------------------------------------------------------------------------------
+
+    def predict(self, t):
+        """The nominal (24,) carried to t >= the filter time without changing the filter (r, v, q, omega, M, Q,
+        X_s, j)."""
+        y = self._y[None, :].copy()
+        t_now = self._t
+        cuts = [b for b in firing_breaks(self._firings) if t_now < b < t] + [t]
+        for t_end in cuts:
+            while t_now < t_end:
+                dt = min(self.config.max_step_s, t_end - t_now)
+                force, moment = wrench_about_chaser(self._firings, t_now)
+                y = _rk4_batch(y, dt, force, moment, self._h_w, self._m, self._i_t0)
+                t_now = t_end if t_end - (t_now + dt) < 1e-9 else t_now + dt
+        return y[0]
+
+    def state(self):
+        """The MassPropertyEstimate at the filter time."""
+        y, p = self._y, self._kf.P
+        sig = np.sqrt(np.diag(p))
+        # Principal moments' sigma through the map's Jacobian (central differences in j).
+        j = y[21:24]
+        jac = np.empty((3, 3))
+        for k in range(3):
+            dj = np.zeros(3)
+            dj[k] = 1e-6
+            jac[:, k] = (moments_from_j(j + dj) - moments_from_j(j - dj)) / 2e-6
+        moments_cov = jac @ p[_SL_J, _SL_J] @ jac.T
+        moments = moments_from_j(j)
+        return MassPropertyEstimate(
+            self._t, float(y[13]), y[18:21].copy(), quat_normalize(y[14:18]), moments,
+            inertia_from_principal(moments, y[14:18]), float(sig[_I_M]), sig[_SL_X].copy(), sig[_SL_PHI].copy(),
+            np.sqrt(np.diag(moments_cov)), y[0:3].copy(), y[3:6].copy(), y[6:10].copy(), y[10:13].copy(), p.copy())
+
+
+def principal_axis_errors_rad(q_body_from_principal_est, q_body_from_principal_true):
+    """Angle [rad] between each estimated and true principal axis (3,), the axes' signs ignored (an axis is a
+    line). Where two true moments are equal only the third axis is defined: the caller picks which to read."""
+    c_est = quat_to_matrix_many(np.asarray(q_body_from_principal_est, dtype=float)[None, :])[0]
+    c_true = quat_to_matrix_many(np.asarray(q_body_from_principal_true, dtype=float)[None, :])[0]
+    cosines = np.clip(np.abs(np.einsum('ak,ak->k', c_est, c_true)), 0.0, 1.0)
+    return np.arccos(cosines)

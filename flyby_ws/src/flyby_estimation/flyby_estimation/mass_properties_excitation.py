@@ -1,0 +1,216 @@
+"""Excitation for the mass-property filter: seed 004 Table 1's thruster sequence, the simulated experiment, and
+a sequence chosen for observability (most information at a fuel bound), which seed 004 §4 leaves as future work.
+
+Reading of Table 1 (its columns: firing [s], holding [s], level [%], theta [deg], psi [deg]): each row is one
+firing of the TugRobot's thruster starting at "firing" and lasting "holding", at "level" percent of its
+maximum thrust, pushing the combined body along
+
+    d(theta, psi) = (cos theta cos psi, cos theta sin psi, sin theta)   (chaser_body axes)
+
+(theta the elevation from the body x-y plane, psi the azimuth from +x; 0, 0 pushes toward the target, whose
+CoM is on +x). The table names neither the thruster's maximum thrust nor its position; we take
+``TABLE1_MAX_THRUST_N`` = 10 N (the chaser's thrusters) at ``TABLE1_THRUSTER_POSITION_BODY_M`` on the
+TugRobot's rear face, off its axis so that every direction turns the body. Seed 004 §3.1's bodies are
+``tugrobot_case``.
+
+The chosen sequence: K firings of the same thruster, each a direction from a grid, placed on a grid of
+start times inside the excitation window; a candidate's figure of merit is the log-determinant of the
+information the filter gains on the ten target parameters (log det P0_params - log det P_params after
+the window, P from the filter's own Riccati recursion along the nominal trajectory: a D-optimal design);
+every candidate uses the same total impulse (fuel = impulse / (Isp g0)).
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from flyby_estimation.mass_properties import (
+    MassPropertyFilter,
+    MassPropertyFilterConfig,
+    MassPropertyPrior,
+    j_from_moments,
+    moments_from_j,
+)
+from flyby_sim.dynamics.combined_body import (
+    CombinedState,
+    Firing,
+    combined_mass_properties,
+    inertia_from_principal,
+    simulate_combined_body,
+    specific_force_body,
+)
+from flyby_sim.dynamics.rotation import (
+    quat_from_rotation_vector,
+    quat_multiply,
+    random_small_rotation,
+)
+
+TABLE1_MAX_THRUST_N = 10.0
+TABLE1_THRUSTER_POSITION_BODY_M = (-0.3, 0.1, 0.1)
+# Table 1: (firing [s], holding [s], level [%], theta [deg], psi [deg]).
+TABLE1_ROWS = (
+    (1.0, 1.0, 100.0, 0.0, 0.0),
+    (3.0, 0.5, 50.0, 80.0, 0.0),
+    (5.0, 0.5, 50.0, 80.0, 0.0),
+    (7.0, 0.5, 50.0, -80.0, 0.0),
+    (9.0, 0.5, 50.0, -80.0, 0.0),
+    (11.0, 0.5, 50.0, 0.0, -45.0),
+    (13.0, 0.5, 50.0, 0.0, 45.0),
+    (15.0, 0.5, 50.0, 45.0, 45.0),
+    (19.0, 0.5, 50.0, -45.0, -45.0),
+)
+PARAMETER_SLICE = slice(12, 22)  # M, dphi, X_s, j in the filter's error state
+PRIOR_AXES_SIGMA_RAD = math.radians(1.0)
+STATE_SIGMAS = (1.0, 0.1, math.radians(1.0), 0.01)  # r [m], v [m/s], attitude [rad], omega [rad/s] at the start
+
+
+def thrust_direction(theta_deg, psi_deg):
+    """Unit force direction d(theta, psi) in chaser_body axes (module doc)."""
+    th, ps = math.radians(theta_deg), math.radians(psi_deg)
+    return (math.cos(th) * math.cos(ps), math.cos(th) * math.sin(ps), math.sin(th))
+
+
+def firings_from_rows(rows, max_thrust_n=TABLE1_MAX_THRUST_N, position_body_m=TABLE1_THRUSTER_POSITION_BODY_M):
+    """Firings of rows (firing [s], holding [s], level [%], theta [deg], psi [deg]) of one thruster."""
+    firings = []
+    for t0, hold, level, theta, psi in rows:
+        f = max_thrust_n * level / 100.0
+        firings.append(Firing(float(t0), float(hold), tuple(position_body_m),
+                              tuple(f * c for c in thrust_direction(theta, psi))))
+    return tuple(firings)
+
+
+def table1_firings():
+    """Seed 004 Table 1's sequence as firings (module doc)."""
+    return firings_from_rows(TABLE1_ROWS)
+
+
+def total_impulse_n_s(firings):
+    """Sum of |F| dt over the firings [N s]."""
+    return sum(f.impulse_n_s for f in firings)
+
+
+class TugrobotCase(NamedTuple):
+    """Seed 004 §3.1 / Table 1: the TugRobot (chaser) and the material satellite (target) joined."""
+
+    chaser_mass_kg: float = 30.0
+    chaser_principal_moments_kg_m2: tuple = (2.0, 3.0, 3.0)
+    r0_m: tuple = (10.0, 5.0, 5.0)
+    v0_mps: tuple = (0.0, 0.1, 0.0)
+    attitude0_deg: tuple = (20.0, 10.0, 0.0)  # roll, pitch, yaw (x-y-z body rotations), our reading
+    omega0_body: tuple = (0.0, 0.0, 0.1)
+    target_mass_kg: float = 20.0
+    target_principal_moments_kg_m2: tuple = (2.0, 1.5, 1.5)
+    target_com_body_m: tuple = (0.5, 0.0, 0.0)
+    target_axes_deg: tuple = (0.0, 0.0, 0.0)  # principal axes aligned with the TugRobot's
+
+    @property
+    def q_inertial_from_body0(self):
+        """Roll, pitch, yaw as successive rotations about body x, y, z (the attitude angles of Table 1)."""
+        q = np.array((0.0, 0.0, 0.0, 1.0))
+        for k, angle in enumerate(self.attitude0_deg):
+            q = quat_multiply(q, quat_from_rotation_vector(math.radians(angle) * np.eye(3)[k]))
+        return q
+
+    @property
+    def q_body_from_principal(self):
+        q = np.array((0.0, 0.0, 0.0, 1.0))
+        for k, angle in enumerate(self.target_axes_deg):
+            q = quat_multiply(q, quat_from_rotation_vector(math.radians(angle) * np.eye(3)[k]))
+        return q
+
+    @property
+    def chaser_inertia_body(self):
+        return np.diag(self.chaser_principal_moments_kg_m2)
+
+    def combined(self):
+        """The true combined mass properties (combined_body.combined_mass_properties)."""
+        i_s = inertia_from_principal(self.target_principal_moments_kg_m2, self.q_body_from_principal)
+        return combined_mass_properties(self.chaser_mass_kg, self.chaser_inertia_body, self.target_mass_kg,
+                                        self.target_com_body_m, i_s)
+
+
+class Measurements(NamedTuple):
+    """A simulated experiment: truth and the sensors' samples."""
+
+    t_s: np.ndarray  # (N,) IMU stamps
+    truth: np.ndarray  # (N, 13) r, v, q, omega
+    gyro: np.ndarray  # (N, 3)
+    accel: np.ndarray  # (N, 3)
+    accel_true: np.ndarray  # (N, 3) the specific force without noise
+    attitude: np.ndarray  # (N, 4), a sample every attitude_every IMU samples (others nan)
+    attitude_every: int
+
+
+def simulate_experiment(case, firings, duration_s, config, rng, imu_rate_hz=10.0, attitude_every=5):
+    """The combined body's truth (combined_body.simulate_combined_body) sampled by a gyro, an accelerometer at
+    config.accel_position_body_m and a star tracker with the config's sigmas (white, drawn from rng)."""
+    props = case.combined()
+    n = int(round(duration_s * imu_rate_hz)) + 1
+    t = np.arange(n) / imu_rate_hz
+    state0 = CombinedState(np.asarray(case.r0_m, float), np.asarray(case.v0_mps, float), case.q_inertial_from_body0,
+                           np.asarray(case.omega0_body, float))
+    truth, omega_dot, forces = simulate_combined_body(props, state0, firings, t)
+    accel_true = np.array([specific_force_body(props, truth[i, 10:13], omega_dot[i], forces[i],
+                                               config.accel_position_body_m) for i in range(n)])
+    gyro = truth[:, 10:13] + config.gyro_sigma_rad_s * rng.standard_normal((n, 3))
+    accel = accel_true + config.accel_sigma_mps2 * rng.standard_normal((n, 3))
+    attitude = np.full((n, 4), np.nan)
+    for i in range(0, n, attitude_every):
+        attitude[i] = quat_multiply(truth[i, 6:10], random_small_rotation(rng, config.attitude_sigma_rad))
+    return Measurements(t, truth, gyro, accel, accel_true, attitude, attitude_every)
+
+
+def default_prior(case, rng=None, mass_sigma_kg=0.5, com_sigma_m=0.01, axes_sigma_rad=PRIOR_AXES_SIGMA_RAD,
+                  j_sigma=(0.03, 0.03, 0.02)):
+    """A prior around the truth; with rng its mean is drawn from it (a consistent start), else the truth. The
+    default spread (2.5 % of the mass, 1 cm, 1 deg, about 3 % of the moments) is inside the filter's first-order
+    range (mass_properties module doc)."""
+    mass = case.target_mass_kg
+    com = np.asarray(case.target_com_body_m, dtype=float)
+    q = case.q_body_from_principal
+    j = j_from_moments(case.target_principal_moments_kg_m2)
+    if rng is not None:
+        mass = mass + mass_sigma_kg * rng.standard_normal()
+        com = com + com_sigma_m * rng.standard_normal(3)
+        q = quat_multiply(q, random_small_rotation(rng, axes_sigma_rad))
+        j = j + np.asarray(j_sigma) * rng.standard_normal(3)
+    return MassPropertyPrior(float(mass), tuple(com), tuple(q), tuple(moments_from_j(j)), mass_sigma_kg,
+                             com_sigma_m, axes_sigma_rad, tuple(j_sigma))
+
+
+def run_filter(case, firings, meas, config, prior, state_sigmas=STATE_SIGMAS):
+    """The filter over a simulated experiment, started from the first samples (attitude and gyro), the position
+    and velocity from the prior's spread about the truth; returns (filter, estimates at every IMU sample)."""
+    t0 = float(meas.t_s[0])
+    f = MassPropertyFilter(config, prior, t0, meas.truth[0, 0:3], meas.truth[0, 3:6], meas.attitude[0], meas.gyro[0],
+                           state_sigmas, firings)
+    history = []
+    for i, t in enumerate(meas.t_s.tolist()):
+        f.on_imu(t, meas.gyro[i], meas.accel[i])
+        if i % meas.attitude_every == 0 and i > 0:
+            f.update(t, meas.attitude[i])
+        history.append(f.state())
+    return f, history
+
+
+def tugrobot_filter_config(case, **overrides):
+    """MassPropertyFilterConfig of the TugRobot case (the chaser IMU's sigmas, accelerometer at the chaser CoM)."""
+    return MassPropertyFilterConfig(case.chaser_mass_kg, tuple(map(tuple, case.chaser_inertia_body.tolist())),
+                                    **overrides)
+
+
+def information_gain(case, firings, duration_s, config, prior, imu_rate_hz=5.0, attitude_every=5):
+    """log det P0_params - log det P_params [nats x 2] after duration_s of the filter's covariance recursion on the
+    noise-free truth (the design figure of merit, module doc)."""
+    meas = simulate_experiment(case, firings, duration_s, config, np.random.default_rng(0), imu_rate_hz,
+                               attitude_every)
+    attitude = np.full_like(meas.attitude, np.nan)
+    attitude[::attitude_every] = meas.truth[::attitude_every, 6:10]
+    noise_free = meas._replace(gyro=meas.truth[:, 10:13], accel=meas.accel_true, attitude=attitude)
+    f, _ = run_filter(case, firings, noise_free, config, prior)
+    p0 = np.diag(np.concatenate(([prior.mass_sigma_kg], [prior.axes_sigma_rad] * 3, [prior.com_sigma_m] * 3,
+                                 prior.j_sigma)) ** 2)
+    return float(np.linalg.slogdet(p0)[1] - np.linalg.slogdet(f.covariance[PARAMETER_SLICE, PARAMETER_SLICE])[1])
+
