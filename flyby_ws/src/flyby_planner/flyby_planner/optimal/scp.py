@@ -46,6 +46,7 @@ import cvxpy as cp
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
+from flyby_planner.optimal import mutual
 from flyby_planner.optimal.cost import Trajectory, box_contacts, total_cost
 from flyby_planner.optimal.problem import heuristic_route
 from flyby_sim.dynamics.orbital import cw_transition_matrix
@@ -100,7 +101,7 @@ class ZohPlan:
 class ScpSettings:
     """steps N, check points M per step, keep-out and robot-separation margins [m], iteration limit, stop
     tolerance [m] on the nodes' move, trust region [m], plume margin [m] on the reference's distance, the conic
-    solver, and the golden-section search's tolerance on T [s]."""
+    solver and its thread count, and the golden-section search's tolerance on T [s]."""
 
     steps: int = 40
     substeps: int = 3
@@ -117,6 +118,7 @@ class ScpSettings:
     trust_shrink: float = 0.25
     plume_margin_m: float = 1.0
     solver: str = 'CLARABEL'
+    solver_threads: int = 1
     duration_tolerance_s: float = 1.0
     merit_steps: int = 300
     merit_tolerance: float = 1e-3
@@ -183,6 +185,10 @@ class _Model:
         self.phi_r = [cp.Parameter((3, 6)) for _ in range(substeps)]
         self.gamma_r = [cp.Parameter((3, 3)) for _ in range(substeps)]
         self.robots = []
+        # every second-order cone goes into one SOC constraint at the end (rows of dimension 4; the rotated cones
+        # padded with a zero): cvxpy's cone formatting costs per constraint object, in proportion to the variables
+        # times the parameters, so one object compiles several times faster than one per cone family
+        cone_t, cone_x = [], []
         cost, constraints = 0.0, []
         for k_boxes in boxes_per_robot:
             x, u = cp.Variable((steps + 1, 6)), cp.Variable((steps, 3))
@@ -195,7 +201,6 @@ class _Model:
                        keep_b=[[cp.Parameter(m) for m in n_check] for _ in range(k_boxes)],
                        safety=cp.Parameter(nonneg=True), buffer=cp.Parameter(nonneg=True),
                        keep_price=cp.Parameter(nonneg=True),
-                       safe_v=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
                        safe_r=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
                        safe_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
                        gap_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
@@ -205,16 +210,19 @@ class _Model:
                 x[0] == par['x0'],  # the state now
                 x[steps] == par['xf'],  # X_Ft, V_Ft at t0 + T, seed 000 eq 20-21
                 x[1:] == x[:-1] @ self.phi.T + u @ self.gamma.T,  # CW with held thrust, seed 000 eq 22
-                cp.norm(u, 2, axis=1) <= thrust,
                 thrust <= par['accel_max'],  # actuator limit
                 cp.abs(x[:, :3] - par['r_ref']) <= par['trust'],  # trust region, per node
             ]
+            cone_t.append(thrust)  # |u_k| <= thrust_k
+            cone_x.append(u)
             constraints += [rc[j] == x[:-1] @ self.phi_r[j].T + u @ self.gamma_r[j].T for j in range(substeps)]
-            keep_buffer = cp.Variable((k_boxes, (substeps + 1) * steps), nonneg=True) if k_boxes else None
+            # one buffer per box and step, shared by its check points (fewer variables: cvxpy's compile time grows
+            # with the variables times the parameters)
+            keep_buffer = cp.Variable((k_boxes, steps), nonneg=True) if k_boxes else None
             for b in range(k_boxes):
                 # supporting plane of box b; the buffer (SCvx) lets a first reference through the geometry start
                 constraints += [cp.sum(cp.multiply(par['keep_n'][b][j], rc[j]), axis=1)
-                                >= par['keep_b'][b][j] - keep_buffer[b, j * steps:j * steps + n_check[j]]
+                                >= par['keep_b'][b][j] - (keep_buffer[b] if j < substeps else keep_buffer[b, -1:])
                                 for j in range(substeps + 1)]
                 # safety metric k_s h closing^2 / gap: closing >= the speed toward the box's closest point to first
                 # order in r and v, gap the supporting plane's distance (a lower bound of the gap: the box is convex)
@@ -222,17 +230,20 @@ class _Model:
                 gap = cp.sum(cp.multiply(par['keep_n'][b][0], x[:-1, :3]), axis=1) - par['gap_c'][b][:-1]
                 gap = cp.hstack((gap, cp.sum(cp.multiply(par['keep_n'][b][substeps], x[steps:, :3]), axis=1)
                                  - par['gap_c'][b][-1:]))
+                # d closing / dv = -n, the supporting plane's normal at the node
+                n_node = cp.vstack((par['keep_n'][b][0], par['keep_n'][b][substeps]))
                 constraints += [
-                    closing >= par['safe_c'][b] + cp.sum(cp.multiply(par['safe_v'][b], x[:, 3:]), axis=1)
+                    closing >= par['safe_c'][b] - cp.sum(cp.multiply(n_node, x[:, 3:]), axis=1)
                     + cp.sum(cp.multiply(par['safe_r'][b], x[:, :3]), axis=1),
-                    cp.SOC(gap + ratio, cp.vstack((2.0 * closing, gap - ratio)), axis=0),  # ratio >= closing^2/gap
                 ]
+                cone_t.append(gap + ratio)  # ratio >= closing^2 / gap
+                cone_x.append(cp.vstack((2.0 * closing, gap - ratio, np.zeros(steps + 1))).T)
                 cost += par['safety'] * cp.sum(ratio)
             # plume: no thrust component away from the target, for any direction to it within the trust region;
             # a virtual buffer (SCvx) at an exact-penalty price keeps an early linearization feasible
-            buffer = cp.Variable((substeps + 1, steps), nonneg=True)
+            buffer = cp.Variable(steps, nonneg=True)  # one per step, shared by its check points
             constraints += [cp.multiply(par['plume_sin'][j], thrust)
-                            + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer[j] for j in range(substeps + 1)]
+                            + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer for j in range(substeps + 1)]
             cost += par['buffer'] * cp.sum(buffer)
             if k_boxes:
                 cost += par['keep_price'] * cp.sum(keep_buffer)
@@ -251,10 +262,12 @@ class _Model:
             closing, ratio = cp.Variable(steps + 1, nonneg=True), cp.Variable(steps + 1)
             gap = cp.sum(cp.multiply(par['safe_n'], dx[:, :3]), axis=1) - par['need']
             constraints += [closing >= par['safe_c'] - cp.sum(cp.multiply(par['safe_n'], dx[:, 3:]), axis=1)
-                            + cp.sum(cp.multiply(par['safe_r'], dx[:, :3]), axis=1),
-                            cp.SOC(gap + ratio, cp.vstack((2.0 * closing, gap - ratio)), axis=0)]
+                            + cp.sum(cp.multiply(par['safe_r'], dx[:, :3]), axis=1)]
+            cone_t.append(gap + ratio)
+            cone_x.append(cp.vstack((2.0 * closing, gap - ratio, np.zeros(steps + 1))).T)
             cost += par['safety'] * cp.sum(ratio)  # mutual safety, k_s h closing^2 / gap
             self.pairs.append(par)
+        constraints.append(cp.SOC(cp.hstack(cone_t), cp.vstack(cone_x), axis=1))
         self.program = cp.Problem(cp.Minimize(cost), constraints)
 
 
@@ -281,7 +294,23 @@ def _closing_and_gradient(r_hill, v_hill, c_hill_from_body, omega_rel_hill, boxe
     return base, grad
 
 
-def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trusts):
+def _contacts(problem, att, grid, r_ref, v_ref, obstacles):
+    """What the keep-out planes and the safety metric are linearized on, about the reference: the closest point
+    q and outward normal at the check points (K, C, 3) each, the closing speed (K, N+1) at the nodes and its position
+    gradient (K, N+1, 3) -- the target's boxes (att not None), then other robots' planned motion (mutual.py)."""
+    node = slice(None, None, grid.substeps)
+    parts = []
+    if att is not None:
+        c_hb, omega_rel = att
+        _, q, normal = box_contacts(r_ref, c_hb, problem.target.boxes)
+        parts.append((q, normal) + _closing_and_gradient(r_ref[node], v_ref, c_hb[node], omega_rel[node],
+                                                         problem.target.boxes))
+    if obstacles:
+        parts.append(mutual.obstacle_contacts(obstacles, problem.t0_s + grid.tau, r_ref, v_ref, node))
+    return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
+
+
+def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trusts, obstacles=()):
     """Set the linearizations about the references (check positions, node velocities) for one iteration."""
     h = grid.h
     node = slice(None, None, grid.substeps)
@@ -289,14 +318,11 @@ def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trus
         par = robot['par']
         par['r_ref'].value = r_ref[node]
         ch = p.chaser
-        if att is not None:
-            c_hb, omega_rel = att
-            _, q, normal = box_contacts(r_ref, c_hb, p.target.boxes)  # (K, C, 3) each
+        if att is not None or obstacles:
+            q, normal, closing, j_r = _contacts(p, att, grid, r_ref, v_ref, obstacles)  # (K, C, 3), (K, N+1)
             bound = np.einsum('kci,kci->kc', normal, q) + ch.envelope_radius_m + settings.keepout_margin_m
             par['safety'].value = p.weights.safety * h
-            c_node, omega_node = c_hb[node], omega_rel[node]
-            closing, j_r = _closing_and_gradient(r_ref[node], v_ref, c_node, omega_node, p.target.boxes)
-            for b in range(len(p.target.boxes)):
+            for b in range(len(normal)):
                 normals, last_n = grid.split(normal[b])
                 bounds, last_b = grid.split(bound[b])
                 for param_n, param_b, nn, bb in zip(par['keep_n'][b], par['keep_b'][b], normals + [last_n],
@@ -305,7 +331,6 @@ def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trus
                 n_node = normal[b, node]
                 # closing speed -n . (v - v_point) to first order: d/dv = -n, d/dr by differences (the normal and
                 # the closest point turn as the chaser moves)
-                par['safe_v'][b].value = -n_node
                 par['safe_r'][b].value = j_r[b]
                 par['safe_c'][b].value = (closing[b] + np.einsum('ci,ci->c', n_node, v_ref)
                                           - np.einsum('ci,ci->c', j_r[b], r_ref[node]))
@@ -347,11 +372,12 @@ def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trus
         par['safety'].value = problems[i].weights.safety * h
 
 
-def _solve_fixed(problems, duration_s, settings, references, pairs):
+def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()):
     """SCP iterations at a fixed approach time from the references (per robot: check positions (C, 3), node
-    velocities (N+1, 3)). Returns (plans or None if a program is infeasible, iterations, converged, objective)."""
+    velocities (N+1, 3)), each robot kept off the obstacles. Returns (plans or None if a program is infeasible,
+    iterations, converged, objective)."""
     grid = _Grid(problems[0].n, duration_s, settings.steps, settings.substeps)
-    boxes = [len(p.target.boxes) if p.target is not None else 0 for p in problems]
+    boxes = [(len(p.target.boxes) if p.target is not None else 0) + len(obstacles) for p in problems]
     model = _model(len(problems), settings.steps, settings.substeps, boxes, pairs)
     model.phi.value, model.gamma.value = grid.phi, grid.gamma
     for j in range(settings.substeps):
@@ -377,9 +403,9 @@ def _solve_fixed(problems, duration_s, settings, references, pairs):
                 rho = np.minimum(rho, np.maximum(settings.trust_fraction * distance, settings.trust_min_m))
             robot['par']['trust'].value = rho[:, None]
             rhos.append(rho[:, None])
-        _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, rhos)
+        _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, rhos, obstacles)
         try:
-            model.program.solve(solver=settings.solver)
+            model.program.solve(solver=settings.solver, **_solver_options(settings))
             solved = model.program.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
         except cp.error.SolverError:
             solved = False
@@ -387,7 +413,8 @@ def _solve_fixed(problems, duration_s, settings, references, pairs):
             return (None, it, False, math.inf) if best is None else (best[0], it, False, best[2])
         plans = [ZohPlan(p.t0_s, duration_s, r['x'].value.copy(), r['u'].value.copy(), p.n)
                  for p, r in zip(problems, model.robots, strict=True)]
-        merit = total_cost(problems, plans, settings.merit_steps, settings.collision_penalty, bool(pairs))
+        merit = (total_cost(problems, plans, settings.merit_steps, settings.collision_penalty, bool(pairs))
+                 + mutual.obstacle_cost(problems, plans, obstacles, settings.merit_steps, settings.collision_penalty))
         new_refs = [_reference_from_plan(plan, grid) for plan in plans]
         move = max(float(np.abs(new[0] - old[0]).max()) for new, old in zip(new_refs, refs, strict=True))
         if best is None or merit < best[1]:  # the exact cost fell: accept, and trust the model farther
@@ -404,13 +431,21 @@ def _solve_fixed(problems, duration_s, settings, references, pairs):
     return best[0], settings.max_iterations, False, best[2]
 
 
-def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True):
+def _solver_options(settings):
+    """Clarabel's thread count: one, since its worker threads cost more than they give on programs of this size
+    (1.5 ms per interior-point iteration) and, on a machine shared with other jobs, spin while they wait."""
+    return {'max_threads': settings.solver_threads} if settings.solver == 'CLARABEL' else {}
+
+
+def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, obstacles=()):
     """Plan the approach of one or several robots (a list of ApproachProblem with one mean motion) by SCP.
 
     With duration_s None the approach time T is chosen in [duration_min_s, duration_max_s] of the first problem by
     a golden-section search (scipy.optimize.minimize_scalar, bounded) on the exact eq 5 of each converged plan
     (flyby_planner.optimal.cost.plan_terms, summed over the robots), each solve warm-started from the last plan;
     otherwise T = duration_s. ``separate``: the robots' separation constraints and mutual safety (several robots).
+    ``obstacles``: other robots' planned motion (mutual.MovingObstacle), which every robot keeps off with the same
+    keep-out and mutual safety terms (seed 003 section 4.2 against a known plan).
 
     Returns:
         ScpResult; its plans are None when no T gave a feasible program (RuntimeError is not raised: the caller
@@ -429,16 +464,17 @@ def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True):
             # reshapes the braking of a path that already clears the target)
             free = [dataclasses.replace(p, plume_radius_m=0.0) for p in problems]
             refs = [_reference_from_route(p, grid, t_f) for p in problems]
-            plans, it, _, _ = _solve_fixed(free, t_f, settings, refs, pairs)
+            plans, it, _, _ = _solve_fixed(free, t_f, settings, refs, pairs, obstacles)
             solves[0] += it
             if plans is not None:
                 refs = [_reference_from_plan(plan, grid) for plan in plans]
-        plans, it, converged, objective = _solve_fixed(problems, t_f, settings, refs, pairs)
+        plans, it, converged, objective = _solve_fixed(problems, t_f, settings, refs, pairs, obstacles)
         solves[0] += it
         tried.append(float(t_f))
         if plans is None:
             return None, _INFEASIBLE, it, converged, objective
-        total = total_cost(problems, plans, settings.merit_steps, settings.collision_penalty, bool(pairs))
+        total = (total_cost(problems, plans, settings.merit_steps, settings.collision_penalty, bool(pairs))
+                 + mutual.obstacle_cost(problems, plans, obstacles, settings.merit_steps, settings.collision_penalty))
         return plans, total, it, converged, objective
 
     def record(t_f):
