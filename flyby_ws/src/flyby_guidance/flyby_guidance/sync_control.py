@@ -1,0 +1,290 @@
+"""Stages 2-4 of the synchronized approach (seed 001 section 2, Fig 2-3, eq 2-3) and its abort, no ROS.
+
+After stage 1 (the phase-space link to the station, ``flyby_planner.sync.station``, flown by ``tracking``) the
+chaser lives in the target's body frame: its reference is a point x(t) = rho(t) u of that frame, u the docking
+port's outward direction, turned into hill by the target's attitude PREDICTED from the latest estimate to the
+command's time (the target of seed 001 Table 1 is not in a principal spin: its rate moves in the body, so the
+prediction integrates Euler's equation, not a constant rate):
+
+* stage 2, attitude synchronization (``ATTITUDE_SYNC``): rho = station range; the attitude goal is the target's
+  attitude times a fixed relative orientation (chaser +x along -u, at the port; chosen at the stage's start as
+  the smallest rotation from the chaser's relative orientation then), its rate and acceleration the target's:
+  ``attitude_control``'s tracking law on the wheels (seed 001 eq 3 with the wheels' momentum). Done when the
+  estimated relative attitude and rate errors stay within their tolerances for ``settle_s``;
+* stage 3, orbiting (``ORBITING``): the same hold for ``orbiting_fraction`` of a rotation cycle 2 pi / |omega|
+  (seed 001: half);
+* stage 4, docking (``DOCKING``): rho(t) from the station range to the final range (the port plus the final
+  offset) along a quintic with zero rate and acceleration at both ends over ``docking_duration_s``: radial in the
+  body frame, a spiral in hill (Fig 3); then the final point is held until the capture.
+
+The translation law (seed 001 eq 2 with the control force): with the reference r_ref, v_ref, a_ref of the body
+point (``flyby_sim.dynamics.attitude.moving_body_point_state``: x'' + 2 w x x' + w' x x + w x (w x x) in the body,
+turned into hill), the thrust acceleration held over a control period is
+
+    a = [a_ref - f(r_ref, v_ref)] at the hold's midpoint + w_c^2 (r_ref - r) + 2 w_c (v_ref - v) at the estimate,
+
+f the relative motion without thrust (``nonlinear_relative_accel``), w_c the feedback's natural frequency
+(critically damped), then bounded by ``accel_max_mps2``. Holding a point at r from the spin axis of a body
+turning at |omega| takes r |omega|^2 (0.67 m/s^2 at 5 m and 21 deg/s).
+
+**Abort** (any stage): retreat along the port's outward direction (the chaser sits on that line in stages 2-4; in
+stage 1 the direction away from the target's centre of mass) at the bound until the outward speed reaches
+``retreat_speed_mps`` (a rigid rotation moves the body point under the chaser across the line of sight, not
+along it), at most ``retreat_max_s``; then nothing: the chaser drifts away on a line that leaves the target's circle.
+
+Frames and units: hill of flyby_sim.dynamics.orbital; quaternions (x, y, z, w); angular velocities inertial, in
+the axes of their own frame; SI.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_guidance.attitude_guidance import AttitudeGuidanceConfig, PointingGoal
+from flyby_planner.sync.station import station_geometry
+from flyby_sim.dynamics.attitude import euler_rate, moving_body_point_state
+from flyby_sim.dynamics.orbital import nonlinear_relative_accel
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_multiply,
+    quat_rotate,
+    quat_shortest_arc,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
+
+# The attitude law's settings from stage 2 on: a 21 deg/s tumbler's goal turns 2 deg per 0.1 s period, so the
+# fly-by's gentle gains (omega_n 0.2 rad/s, 0.05 rad/s slew) leave tenths of a degree; measured in
+# test_attitude_synchronization_converges_from_any_attitude.
+SYNC_ATTITUDE = AttitudeGuidanceConfig(natural_frequency_rad_s=0.6, max_rate_rad_s=0.1)
+
+STAGE_APPROACH = 'approach'
+STAGE_ATTITUDE_SYNC = 'attitude_sync'
+STAGE_ORBITING = 'orbiting'
+STAGE_DOCKING = 'docking'
+STAGE_RETREAT = 'retreat'
+STAGE_DRIFT = 'drift'
+
+
+@dataclasses.dataclass(frozen=True)
+class SyncConfig:
+    """The synchronized approach's settings (planner.sync, docs/synchronized.md)."""
+
+    x_port_body_m: tuple  # the docking port (the scenario's grasp point), target body axes [m]
+    station_range_m: float  # from the target's centre of mass [m]
+    final_range_m: float  # from the port [m] (planner.offset_m)
+    docking_duration_s: float
+    orbiting_fraction: float  # of a rotation cycle 2 pi / |omega|
+    frequency_rad_s: float  # the translation feedback's natural frequency
+    accel_max_mps2: float
+    attitude_tolerance_rad: float
+    rate_tolerance_rad_s: float
+    settle_s: float
+    retreat_speed_mps: float
+    retreat_max_s: float
+    n: float  # mean motion [rad/s]
+    radius_m: float  # orbit radius [m]
+    target_inertia: np.ndarray
+
+
+def sync_config_from_scenario(scenario):
+    """SyncConfig of a scenario's planner.sync (accel_max_mps2 omitted: two thrusters' max_thrust_n over the mass,
+    the default layout's weakest direction, less 3 sigma of the magnitude error)."""
+    s, th = scenario.planner.sync, scenario.chaser.thrusters
+    accel = 2.0 * th.max_thrust_n / scenario.chaser.mass_kg if s.accel_max_mps2 is None else s.accel_max_mps2
+    return SyncConfig(
+        x_port_body_m=tuple(scenario.target.grasp_point_body_m), station_range_m=s.station_range_m,
+        final_range_m=scenario.planner.offset_m, docking_duration_s=s.docking_duration_s,
+        orbiting_fraction=s.orbiting_fraction, frequency_rad_s=s.tracking_frequency_rad_s,
+        accel_max_mps2=accel * (1.0 - 3.0 * th.magnitude_error_sigma),
+        attitude_tolerance_rad=math.radians(s.attitude_tolerance_deg),
+        rate_tolerance_rad_s=math.radians(s.rate_tolerance_deg_s), settle_s=s.settle_s,
+        retreat_speed_mps=s.retreat_speed_mps, retreat_max_s=s.retreat_max_s, n=scenario.mean_motion_rad_s,
+        radius_m=scenario.orbit_radius_m, target_inertia=np.asarray(scenario.target_inertia, dtype=float))
+
+
+def radial_profile(t, t_start, duration_s, rho_from_m, rho_to_m):
+    """(rho [m], rho' [m/s], rho'' [m/s^2]) of the docking: the quintic 10 s^3 - 15 s^4 + 6 s^5 from rho_from_m at
+    t_start to rho_to_m after duration_s (zero rate and acceleration at both ends), constant outside."""
+    s = min(max((t - t_start) / duration_s, 0.0), 1.0)
+    d = rho_to_m - rho_from_m
+    inside = 0.0 < s < 1.0
+    shape = s ** 3 * (10.0 - 15.0 * s + 6.0 * s * s)
+    rate = 30.0 * s * s * (1.0 - s) ** 2 / duration_s if inside else 0.0
+    accel = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / duration_s ** 2 if inside else 0.0
+    return rho_from_m + d * shape, d * rate, d * accel
+
+
+def body_point_reference(q_hill_from_body, omega_body, inertia, u_body, rho, rho_dot, rho_ddot, n):
+    """(r_hill [m], v_hill [m/s], a_hill [m/s^2]) of the point rho u_body of a torque-free body (seed 001 eq 3 with
+    no torque for the target's omega')."""
+    w = np.asarray(omega_body, dtype=float)
+    w_dot = euler_rate(w, inertia, np.linalg.inv(inertia))
+    u = np.asarray(u_body, dtype=float)
+    return moving_body_point_state(quat_to_matrix(q_hill_from_body), w, w_dot, rho * u, rho_dot * u, rho_ddot * u, n)
+
+
+def hold_acceleration(ref_estimate, ref_mid, r_hill, v_hill, config):
+    """The thrust acceleration [m/s^2, hill] of the module doc's law: feed-forward of ref_mid (r, v, a at the
+    hold's midpoint), feedback on the estimate (r_hill, v_hill) against ref_estimate (r, v at its time), bounded."""
+    r_mid, v_mid, a_mid = ref_mid
+    a_ff = a_mid - nonlinear_relative_accel(r_mid, v_mid, config.n, config.radius_m)  # eq 2: what thrust must add
+    w = config.frequency_rad_s
+    a = a_ff + w * w * (ref_estimate[0] - r_hill) + 2.0 * w * (ref_estimate[1] - v_hill)
+    norm = float(np.linalg.norm(a))
+    return a * (config.accel_max_mps2 / norm) if norm > config.accel_max_mps2 else a
+
+
+def relative_goal_orientation(q_hill_from_target, q_hill_from_chaser, u_body):
+    """q_target_from_goal: the chaser's orientation relative to the target now, turned by the smallest rotation
+    that puts its +x along -u_body (at the port)."""
+    q_target_from_chaser = quat_multiply(quat_conjugate(q_hill_from_target), q_hill_from_chaser)
+    x_now = quat_rotate(q_target_from_chaser, (1.0, 0.0, 0.0))
+    return quat_multiply(quat_shortest_arc(x_now, -np.asarray(u_body, dtype=float)), q_target_from_chaser)
+
+
+def sync_goal(q_hill_from_target, omega_target_body, omega_dot_target_body, q_target_from_goal, u_body):
+    """PointingGoal of stage 2-4: the target's attitude times the fixed relative orientation, with the target's
+    inertial rate and acceleration in goal axes."""
+    q_goal_from_target = quat_conjugate(q_target_from_goal)
+    q_hill_from_goal = quat_multiply(q_hill_from_target, q_target_from_goal)
+    return PointingGoal(q_hill_from_goal, quat_rotate(q_goal_from_target, omega_target_body),
+                        quat_rotate(q_goal_from_target, omega_dot_target_body),
+                        quat_rotate(q_hill_from_target, -np.asarray(u_body, dtype=float)), 0.0)
+
+
+def attitude_errors(goal, q_hill_from_chaser, omega_chaser_body):
+    """(relative attitude error [rad], rate error [rad/s]) of the chaser against a PointingGoal."""
+    angle = float(np.linalg.norm(rotation_vector_from_quat(
+        quat_multiply(quat_conjugate(goal.q_hill_from_goal), q_hill_from_chaser))))
+    q_body_from_goal = quat_multiply(quat_conjugate(q_hill_from_chaser), goal.q_hill_from_goal)
+    rate = float(np.linalg.norm(np.asarray(omega_chaser_body, dtype=float)
+                                - quat_rotate(q_body_from_goal, goal.omega_goal)))
+    return angle, rate
+
+
+@dataclasses.dataclass(frozen=True)
+class SyncCommand:
+    """What stages 2-4 (or the retreat) ask for over one hold: the thrust acceleration [m/s^2, hill] (None: no
+    force), the attitude goal (None: the caller's own pointing), and events as (level, name, message, values)."""
+
+    a_hill: np.ndarray
+    goal: PointingGoal
+    events: tuple = ()
+
+
+class SyncGuidance:
+    """The stage machine of stages 2-4 and the abort (module doc). ``arm(t_arrival)`` at the station's arrival time
+    of the plan flown (stage 1 ends there); ``command`` once per control period."""
+
+    def __init__(self, config):
+        self.config = config
+        self.geometry = station_geometry(config.x_port_body_m, config.station_range_m, config.final_range_m)
+        self.dynamics = ErrorStateDynamics(config.target_inertia)
+        self.stage = None
+        self.t_arrival = None
+        self.q_target_from_goal = None
+        self.t_settled = None  # since when the attitude errors are within tolerance
+        self.t_docking = self.t_grasp = None
+        self.t_retreat = None
+        self.peak_accel_mps2 = {}  # by stage: the largest commanded thrust acceleration
+
+    @property
+    def holding(self):
+        """True from the arrival on (the body-frame hold, stages 2-4)."""
+        return self.stage in (STAGE_ATTITUDE_SYNC, STAGE_ORBITING, STAGE_DOCKING)
+
+    def arm(self, t_arrival):
+        """Stage 1 is flown and ends at t_arrival [s] (a re-solve moves it)."""
+        if self.stage in (None, STAGE_APPROACH):
+            self.stage, self.t_arrival = STAGE_APPROACH, float(t_arrival)
+
+    def abort(self, t):
+        """An abort at t: retreat (once)."""
+        if self.stage is not None and self.stage not in (STAGE_RETREAT, STAGE_DRIFT):
+            self.stage, self.t_retreat = STAGE_RETREAT, t
+
+    def command(self, t, t_apply, hold_s, r_hill, v_hill, q_hill_from_chaser, omega_chaser_body, target):
+        """SyncCommand for the estimate of t applied over [t_apply, t_apply + hold_s], or None in stage 1 before the
+        arrival (the trajectory's tracking flies it) and after the retreat. target: (t, q_hill_from_body,
+        omega_body) of the latest target estimate."""
+        if self.stage is None or self.stage == STAGE_DRIFT:
+            return None
+        if self.stage == STAGE_APPROACH and t_apply < self.t_arrival:
+            return None
+        events = []
+        if self.stage == STAGE_APPROACH:
+            self.stage = STAGE_ATTITUDE_SYNC
+            events.append(('OK', 'station_reached', f'station reached at t = {self.t_arrival:.2f} s: attitude '
+                                                     'synchronization', {'t_arrival_s': self.t_arrival}))
+        t_mid = t_apply + 0.5 * hold_s
+        t_t, q_t, w_t = target
+        prediction = prediction_from_estimate(self.dynamics, self.config.n, t_t, q_t, w_t, max(t_mid, t_t))
+        now, mid = prediction.state(max(t, t_t)), prediction.state(max(t_mid, t_t))
+        if self.stage == STAGE_RETREAT:
+            return self._retreat(t, r_hill, v_hill, now)
+        cfg, geo = self.config, self.geometry
+        if self.q_target_from_goal is None:
+            self.q_target_from_goal = relative_goal_orientation(now.q_hill_from_body, q_hill_from_chaser, geo.u_body)
+        # the error at the estimate's time, the target's acceleration fed forward at the hold's midpoint
+        w_dot_mid = euler_rate(mid.omega_body, cfg.target_inertia, np.linalg.inv(cfg.target_inertia))
+        goal = sync_goal(now.q_hill_from_body, now.omega_body, w_dot_mid, self.q_target_from_goal, geo.u_body)
+        if self.stage == STAGE_ATTITUDE_SYNC:
+            events += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now)
+        if self.stage == STAGE_ORBITING and t_apply >= self.t_docking:
+            self.stage = STAGE_DOCKING
+            events.append(('OK', 'docking_started', f'docking from {geo.station_range_m:g} m to the final range '
+                                                     f'{cfg.final_range_m:g} m from the port by t = '
+                                                     f'{self.t_grasp:.2f} s',
+                           {'t_docking_s': self.t_docking, 't_grasp_s': self.t_grasp,
+                            'offset_m': cfg.final_range_m}))
+        profile = (lambda s: radial_profile(s, self.t_docking, cfg.docking_duration_s, geo.station_range_m,
+                                            geo.final_range_m)) if self.stage == STAGE_DOCKING else \
+            (lambda s: (geo.station_range_m, 0.0, 0.0))
+        ref_now = body_point_reference(now.q_hill_from_body, now.omega_body, cfg.target_inertia, geo.u_body,
+                                       *profile(t), cfg.n)
+        ref_mid = body_point_reference(mid.q_hill_from_body, mid.omega_body, cfg.target_inertia, geo.u_body,
+                                       *profile(t_mid), cfg.n)
+        a = hold_acceleration(ref_now, ref_mid, np.asarray(r_hill, float), np.asarray(v_hill, float), cfg)
+        self.peak_accel_mps2[self.stage] = max(self.peak_accel_mps2.get(self.stage, 0.0), float(np.linalg.norm(a)))
+        return SyncCommand(a, goal, tuple(events))
+
+    def _check_synchronized(self, t, t_apply, q_hill_from_chaser, omega_chaser_body, now):
+        """Stage 2's end (module doc): the errors of the estimate of t against the goal of t."""
+        cfg = self.config
+        w_dot = euler_rate(now.omega_body, cfg.target_inertia, np.linalg.inv(cfg.target_inertia))
+        goal_now = sync_goal(now.q_hill_from_body, now.omega_body, w_dot, self.q_target_from_goal, self.geometry.u_body)
+        angle, rate = attitude_errors(goal_now, q_hill_from_chaser, omega_chaser_body)
+        if angle > cfg.attitude_tolerance_rad or rate > cfg.rate_tolerance_rad_s:
+            self.t_settled = None
+            return []
+        if self.t_settled is None:
+            self.t_settled = t
+        if t - self.t_settled < cfg.settle_s:
+            return []
+        period_s = 2.0 * math.pi / float(np.linalg.norm(now.omega_body))
+        self.stage = STAGE_ORBITING
+        self.t_docking = t_apply + cfg.orbiting_fraction * period_s
+        self.t_grasp = self.t_docking + cfg.docking_duration_s
+        return [('OK', 'attitude_synchronized',
+                 f'relative attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s for '
+                 f'{cfg.settle_s:g} s: orbiting {cfg.orbiting_fraction:g} of a {period_s:.2f} s rotation cycle, '
+                 f'docking at t = {self.t_docking:.2f} s',
+                 {'attitude_error_deg': math.degrees(angle), 'rate_error_deg_s': math.degrees(rate),
+                  'rotation_period_s': period_s, 't_docking_s': self.t_docking, 't_grasp_s': self.t_grasp})]
+
+    def _retreat(self, t, r_hill, v_hill, now):
+        """The retreat's thrust (module doc); the stage turns to drift when it is done."""
+        cfg = self.config
+        r = np.asarray(r_hill, dtype=float)
+        dist = float(np.linalg.norm(r))
+        u = r / dist if dist > 0.0 else quat_rotate(now.q_hill_from_body, self.geometry.u_body)
+        outward = float(np.asarray(v_hill, dtype=float) @ u)
+        if outward >= cfg.retreat_speed_mps or t - self.t_retreat >= cfg.retreat_max_s:
+            self.stage = STAGE_DRIFT
+            return SyncCommand(None, None, (('WARN', 'retreat_ended',
+                                             f'outward speed {outward:.3f} m/s at {dist:.2f} m: drifting',
+                                             {'outward_speed_mps': outward, 'range_m': dist}),))
+        return SyncCommand(cfg.accel_max_mps2 * u, None)
