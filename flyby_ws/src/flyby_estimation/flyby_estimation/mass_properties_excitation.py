@@ -20,6 +20,7 @@ the window, P from the filter's own Riccati recursion along the nominal trajecto
 every candidate uses the same total impulse (fuel = impulse / (Isp g0)).
 """
 
+import dataclasses
 import math
 from typing import NamedTuple
 
@@ -201,9 +202,11 @@ def tugrobot_filter_config(case, **overrides):
                                     **overrides)
 
 
-def information_gain(case, firings, duration_s, config, prior, imu_rate_hz=5.0, attitude_every=5):
-    """log det P0_params - log det P_params [nats x 2] after duration_s of the filter's covariance recursion on the
-    noise-free truth (the design figure of merit, module doc)."""
+def information_gain(case, firings, duration_s, config, prior, imu_rate_hz=4.0, attitude_every=2, max_step_s=0.25):
+    """log det P0_params - log det P_params after duration_s of the filter's covariance recursion on the noise-free
+    truth (the design figure of merit, module doc), with the IMU at imu_rate_hz and steps of max_step_s for speed:
+    a ranking of candidates, not the filter's figures."""
+    config = dataclasses.replace(config, max_step_s=max_step_s)
     meas = simulate_experiment(case, firings, duration_s, config, np.random.default_rng(0), imu_rate_hz,
                                attitude_every)
     attitude = np.full_like(meas.attitude, np.nan)
@@ -214,3 +217,43 @@ def information_gain(case, firings, duration_s, config, prior, imu_rate_hz=5.0, 
                                  prior.j_sigma)) ** 2)
     return float(np.linalg.slogdet(p0)[1] - np.linalg.slogdet(f.covariance[PARAMETER_SLICE, PARAMETER_SLICE])[1])
 
+
+
+# Directions of the candidate firings: elevations and azimuths [deg] (the thruster's reach, as Table 1's).
+CANDIDATE_THETA_DEG = (-80.0, -45.0, 0.0, 45.0, 80.0)
+CANDIDATE_PSI_DEG = (-135.0, -90.0, -45.0, 0.0, 45.0, 90.0, 135.0, 180.0)
+
+
+def random_sequence(rng, n_firings, impulse_n_s, window_s, max_thrust_n=TABLE1_MAX_THRUST_N,
+                    position_body_m=TABLE1_THRUSTER_POSITION_BODY_M, first_s=1.0):
+    """n_firings firings at full thrust, each of impulse_n_s / n_firings, their directions drawn from the
+    candidate grid and their starts from a 0.5 s grid in [first_s, window_s - 5 s] (at least one firing
+    length apart), all from rng: one candidate of the design search."""
+    duration = impulse_n_s / n_firings / max_thrust_n
+    slots = np.arange(first_s, window_s - 5.0, max(0.5, math.ceil(duration / 0.5) * 0.5 + 0.5))
+    starts = np.sort(rng.choice(slots, size=n_firings, replace=False))
+    rows = [(float(t0), duration, 100.0, float(rng.choice(CANDIDATE_THETA_DEG)), float(rng.choice(CANDIDATE_PSI_DEG)))
+            for t0 in starts]
+    return firings_from_rows(rows, max_thrust_n, position_body_m)
+
+
+class DesignResult(NamedTuple):
+    """The chosen sequence and every candidate's figure of merit."""
+
+    firings: tuple
+    information_gain: float
+    candidate_gains: tuple
+
+
+def choose_sequence(case, config, prior, rng, candidates=16, n_firings=9, impulse_n_s=None, window_s=25.0):
+    """The candidate sequence (``random_sequence``) of most information (``information_gain``) at Table 1's
+    impulse (or impulse_n_s) over window_s seconds: a D-optimal choice by random search."""
+    impulse = total_impulse_n_s(table1_firings()) if impulse_n_s is None else impulse_n_s
+    best, gains = None, []
+    for _ in range(candidates):
+        firings = random_sequence(rng, n_firings, impulse, window_s)
+        gain = information_gain(case, firings, window_s, config, prior)
+        gains.append(gain)
+        if best is None or gain > best[1]:
+            best = (firings, gain)
+    return DesignResult(best[0], best[1], tuple(gains))
