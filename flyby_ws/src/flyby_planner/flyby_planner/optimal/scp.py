@@ -101,7 +101,7 @@ class ZohPlan:
 class ScpSettings:
     """steps N, check points M per step, keep-out and robot-separation margins [m], iteration limit, stop
     tolerance [m] on the nodes' move, trust region [m], plume margin [m] on the reference's distance, the conic
-    solver, and the golden-section search's tolerance on T [s]."""
+    solver and its thread count, and the golden-section search's tolerance on T [s]."""
 
     steps: int = 40
     substeps: int = 3
@@ -118,6 +118,7 @@ class ScpSettings:
     trust_shrink: float = 0.25
     plume_margin_m: float = 1.0
     solver: str = 'CLARABEL'
+    solver_threads: int = 1
     duration_tolerance_s: float = 1.0
     merit_steps: int = 300
     merit_tolerance: float = 1e-3
@@ -184,6 +185,10 @@ class _Model:
         self.phi_r = [cp.Parameter((3, 6)) for _ in range(substeps)]
         self.gamma_r = [cp.Parameter((3, 3)) for _ in range(substeps)]
         self.robots = []
+        # every second-order cone goes into one SOC constraint at the end (rows of dimension 4; the rotated cones
+        # padded with a zero): cvxpy's cone formatting costs per constraint object, in proportion to the variables
+        # times the parameters, so one object compiles several times faster than one per cone family
+        cone_t, cone_x = [], []
         cost, constraints = 0.0, []
         for k_boxes in boxes_per_robot:
             x, u = cp.Variable((steps + 1, 6)), cp.Variable((steps, 3))
@@ -196,7 +201,6 @@ class _Model:
                        keep_b=[[cp.Parameter(m) for m in n_check] for _ in range(k_boxes)],
                        safety=cp.Parameter(nonneg=True), buffer=cp.Parameter(nonneg=True),
                        keep_price=cp.Parameter(nonneg=True),
-                       safe_v=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
                        safe_r=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
                        safe_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
                        gap_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
@@ -206,16 +210,19 @@ class _Model:
                 x[0] == par['x0'],  # the state now
                 x[steps] == par['xf'],  # X_Ft, V_Ft at t0 + T, seed 000 eq 20-21
                 x[1:] == x[:-1] @ self.phi.T + u @ self.gamma.T,  # CW with held thrust, seed 000 eq 22
-                cp.norm(u, 2, axis=1) <= thrust,
                 thrust <= par['accel_max'],  # actuator limit
                 cp.abs(x[:, :3] - par['r_ref']) <= par['trust'],  # trust region, per node
             ]
+            cone_t.append(thrust)  # |u_k| <= thrust_k
+            cone_x.append(u)
             constraints += [rc[j] == x[:-1] @ self.phi_r[j].T + u @ self.gamma_r[j].T for j in range(substeps)]
-            keep_buffer = cp.Variable((k_boxes, (substeps + 1) * steps), nonneg=True) if k_boxes else None
+            # one buffer per box and step, shared by its check points (fewer variables: cvxpy's compile time grows
+            # with the variables times the parameters)
+            keep_buffer = cp.Variable((k_boxes, steps), nonneg=True) if k_boxes else None
             for b in range(k_boxes):
                 # supporting plane of box b; the buffer (SCvx) lets a first reference through the geometry start
                 constraints += [cp.sum(cp.multiply(par['keep_n'][b][j], rc[j]), axis=1)
-                                >= par['keep_b'][b][j] - keep_buffer[b, j * steps:j * steps + n_check[j]]
+                                >= par['keep_b'][b][j] - (keep_buffer[b] if j < substeps else keep_buffer[b, -1:])
                                 for j in range(substeps + 1)]
                 # safety metric k_s h closing^2 / gap: closing >= the speed toward the box's closest point to first
                 # order in r and v, gap the supporting plane's distance (a lower bound of the gap: the box is convex)
@@ -223,17 +230,20 @@ class _Model:
                 gap = cp.sum(cp.multiply(par['keep_n'][b][0], x[:-1, :3]), axis=1) - par['gap_c'][b][:-1]
                 gap = cp.hstack((gap, cp.sum(cp.multiply(par['keep_n'][b][substeps], x[steps:, :3]), axis=1)
                                  - par['gap_c'][b][-1:]))
+                # d closing / dv = -n, the supporting plane's normal at the node
+                n_node = cp.vstack((par['keep_n'][b][0], par['keep_n'][b][substeps]))
                 constraints += [
-                    closing >= par['safe_c'][b] + cp.sum(cp.multiply(par['safe_v'][b], x[:, 3:]), axis=1)
+                    closing >= par['safe_c'][b] - cp.sum(cp.multiply(n_node, x[:, 3:]), axis=1)
                     + cp.sum(cp.multiply(par['safe_r'][b], x[:, :3]), axis=1),
-                    cp.SOC(gap + ratio, cp.vstack((2.0 * closing, gap - ratio)), axis=0),  # ratio >= closing^2/gap
                 ]
+                cone_t.append(gap + ratio)  # ratio >= closing^2 / gap
+                cone_x.append(cp.vstack((2.0 * closing, gap - ratio, np.zeros(steps + 1))).T)
                 cost += par['safety'] * cp.sum(ratio)
             # plume: no thrust component away from the target, for any direction to it within the trust region;
             # a virtual buffer (SCvx) at an exact-penalty price keeps an early linearization feasible
-            buffer = cp.Variable((substeps + 1, steps), nonneg=True)
+            buffer = cp.Variable(steps, nonneg=True)  # one per step, shared by its check points
             constraints += [cp.multiply(par['plume_sin'][j], thrust)
-                            + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer[j] for j in range(substeps + 1)]
+                            + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer for j in range(substeps + 1)]
             cost += par['buffer'] * cp.sum(buffer)
             if k_boxes:
                 cost += par['keep_price'] * cp.sum(keep_buffer)
@@ -252,10 +262,12 @@ class _Model:
             closing, ratio = cp.Variable(steps + 1, nonneg=True), cp.Variable(steps + 1)
             gap = cp.sum(cp.multiply(par['safe_n'], dx[:, :3]), axis=1) - par['need']
             constraints += [closing >= par['safe_c'] - cp.sum(cp.multiply(par['safe_n'], dx[:, 3:]), axis=1)
-                            + cp.sum(cp.multiply(par['safe_r'], dx[:, :3]), axis=1),
-                            cp.SOC(gap + ratio, cp.vstack((2.0 * closing, gap - ratio)), axis=0)]
+                            + cp.sum(cp.multiply(par['safe_r'], dx[:, :3]), axis=1)]
+            cone_t.append(gap + ratio)
+            cone_x.append(cp.vstack((2.0 * closing, gap - ratio, np.zeros(steps + 1))).T)
             cost += par['safety'] * cp.sum(ratio)  # mutual safety, k_s h closing^2 / gap
             self.pairs.append(par)
+        constraints.append(cp.SOC(cp.hstack(cone_t), cp.vstack(cone_x), axis=1))
         self.program = cp.Problem(cp.Minimize(cost), constraints)
 
 
@@ -319,7 +331,6 @@ def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trus
                 n_node = normal[b, node]
                 # closing speed -n . (v - v_point) to first order: d/dv = -n, d/dr by differences (the normal and
                 # the closest point turn as the chaser moves)
-                par['safe_v'][b].value = -n_node
                 par['safe_r'][b].value = j_r[b]
                 par['safe_c'][b].value = (closing[b] + np.einsum('ci,ci->c', n_node, v_ref)
                                           - np.einsum('ci,ci->c', j_r[b], r_ref[node]))
@@ -394,7 +405,7 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
             rhos.append(rho[:, None])
         _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, rhos, obstacles)
         try:
-            model.program.solve(solver=settings.solver)
+            model.program.solve(solver=settings.solver, **_solver_options(settings))
             solved = model.program.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
         except cp.error.SolverError:
             solved = False
@@ -418,6 +429,12 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
             if trust < settings.tolerance_m:
                 return best[0], it, True, best[2]
     return best[0], settings.max_iterations, False, best[2]
+
+
+def _solver_options(settings):
+    """Clarabel's thread count: one, since its worker threads cost more than they give on programs of this size
+    (1.5 ms per interior-point iteration) and, on a machine shared with other jobs, spin while they wait."""
+    return {'max_threads': settings.solver_threads} if settings.solver == 'CLARABEL' else {}
 
 
 def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, obstacles=()):
