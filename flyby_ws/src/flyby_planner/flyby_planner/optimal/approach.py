@@ -129,11 +129,12 @@ def check_approach(plan, prediction, t_grasp, settings, planner_config, rate_hz=
 
 
 def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_config, scp_settings=None,
-                  start_state=None):
+                  start_state=None, obstacles=()):
     """Plan the optimization-based approach from the chaser state (r_now [m], v_now [m/s], hill) at the plan time
     t_now [s] with the target-motion prediction (a MotionPrediction covering [t_now, t_now + settings.horizon_s]);
     an ApproachPlan (module doc). scp_settings: scp.ScpSettings (default: its defaults). start_state: the chaser's
-    state (6,) at the start, t_now + start_lead_s, where it is not a coast from now (a re-plan while thrusting)."""
+    state (6,) at the start, t_now + start_lead_s, where it is not a coast from now (a re-plan while thrusting).
+    obstacles: other robots' planned motion the plan keeps off (mutual.MovingObstacle, scp.plan_scp)."""
     n = scenario.mean_motion_rad_s
     t_start = t_now + settings.start_lead_s
     start = (cw_coast(np.asarray(r_now, dtype=float), np.asarray(v_now, dtype=float), settings.start_lead_s, n)
@@ -143,7 +144,8 @@ def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_c
                                offset_m=settings.offset_m, chaser=chaser, weights=settings.weights,
                                duration_min_s=settings.approach_time_min_s,
                                duration_max_s=settings.approach_time_max_s)
-    result = plan_scp([problem], scp_settings or ScpSettings(), duration_s=settings.approach_time_s)
+    result = plan_scp([problem], scp_settings or ScpSettings(), duration_s=settings.approach_time_s,
+                      obstacles=obstacles)
     if result.plans is None:
         span = (f'{settings.approach_time_s:g} s' if settings.approach_time_s is not None else
                 f'{settings.approach_time_min_s:g}-{settings.approach_time_max_s:g} s')
