@@ -21,6 +21,17 @@ rigid body. The choice and its reason are a ``method_chosen`` event; nothing saf
 estimates of its stamp to the same grasp time: the chaser's state at the new start is the estimate moved as the
 trajectory flown moves over the lead (guidance flies it until the new one starts).
 
+Several chasers (a ``chasers:`` scenario, seed 003 Fig 12) plan in the file's order: a chaser's planner takes
+the earlier chasers' (its leaders') plan decisions (``plan_selected``, ``plan_refused`` on
+``/<leader>/mission/events``) and trajectories (``/<leader>/planner/trajectory``) and plans at the first target
+estimate stamped at or after both its request and each leader's decision (the leader's decision latest at or
+before the request, else its first after it): the plan time is a stamp, the same at any pace, and the simulator
+cannot run past it by more than its flow-control window while the leader plans. An optimization-based approach
+then keeps its envelope off the leaders' planned motion (flyby_planner.optimal.mutual: keep-out planes and mutual
+safety in SCP, the dense separation checked before it is flown, at least planner.clearance_margin_m); the
+predicted least separation goes on ``plan_selected`` (``separation_m``, ``t_separation_s``, ``separation_from``).
+A fly-by plan does not look at the leaders.
+
 The planner node and the headless driver (flyby_guidance.closed_loop) both run ``PlannerCore``;
 every input method returns the outputs to publish, in order.
 """
@@ -36,6 +47,9 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach
+from flyby_planner.optimal.mutual import MovingObstacle, least_separation
+from flyby_planner.optimal.problem import TargetMotion
+from flyby_planner.optimal.scp import ScpSettings
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
 from flyby_sim.dynamics.orbital import cw_coast
 
@@ -156,6 +170,11 @@ class PlannerCore:
         self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) by stamp
         self.chasers = StampedBuffer()  # (r_hill, v_hill) by stamp
         self.plans = 0
+        names = scenario.chaser_names
+        self.leaders = names[:names.index(scenario.chaser_name)] if names else ()  # chasers that plan before this
+        self.leader_decisions = {name: [] for name in self.leaders}  # [(t_plan, t_start or None)] as they came
+        self.leader_trajectories = {name: [] for name in self.leaders}  # [(t_s, r_hill, v_hill)]
+        self.waiting_for = None  # the leaders a request waits for, once announced
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.approach = approach_settings_from_scenario(scenario)
         self.method_flown = None  # the method of the plan being flown: a re-plan keeps it
@@ -182,6 +201,22 @@ class PlannerCore:
         self.request = (self.targets.latest_t, 'replan requested')
         return []
 
+    def on_leader_event(self, leader, event):
+        """An event of a leader's mission/events: its planner's plan_selected (a trajectory to come unless it is a
+        fly-by) or plan_refused is its decision at that stamp."""
+        if leader not in self.leader_decisions or event.name not in ('plan_selected', 'plan_refused'):
+            return []
+        v = event.values
+        has_trajectory = event.name == 'plan_selected' and v.get('method', 'flyby') != 'flyby'
+        self.leader_decisions[leader].append((event.t, float(v['t_start_s']) if has_trajectory else None))
+        return self._try_plan()
+
+    def on_leader_trajectory(self, leader, t_s, r_hill, v_hill):
+        """A leader's planner/trajectory: its points' times t_s (K,) [s], r_hill, v_hill (K, 3)."""
+        if leader in self.leader_trajectories:
+            self.leader_trajectories[leader].append(tuple(np.array(a, dtype=float) for a in (t_s, r_hill, v_hill)))
+        return self._try_plan()
+
     def on_chaser_estimate(self, t, r_hill, v_hill):
         self.chasers.add(t, (np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)))
         return self._try_plan()
@@ -197,11 +232,53 @@ class PlannerCore:
         if self.request is None:
             return []
         t_request, why = self.request
-        target = self.targets.first_at_or_after(t_request)
+        waiting, t_leaders = self._leaders_decided(t_request)
+        if waiting:
+            if self.waiting_for == waiting:
+                return []
+            self.waiting_for = waiting
+            return [self._event(t_request, 'OK', 'waiting_for_leaders',
+                                f'planning after the plans of {", ".join(waiting)}', {'leaders': ' '.join(waiting)})]
+        target = self.targets.first_at_or_after(max(t_request, t_leaders))
         if target is None or self.chasers.latest_t < target[0]:
             return []
         self.request = None
         return self._plan(target[0], *target[1], why)
+
+    def _leader_decision(self, leader, t):
+        """The leader's decision (t_plan, its trajectory or None) a plan at t goes by: the latest at or before t,
+        else its first; None while it has none (or its trajectory has not come in)."""
+        decisions = self.leader_decisions[leader]
+        if not decisions:
+            return None
+        t_plan, t_start = ([d for d in decisions if d[0] <= t] or decisions[:1])[-1]
+        if t_start is None:
+            return t_plan, None
+        for traj in self.leader_trajectories[leader]:
+            if abs(traj[0][0] - t_start) < 1e-6:
+                return t_plan, traj
+        return None
+
+    def _leaders_decided(self, t_request):
+        """(the leaders still to decide, the latest plan time of the decided ones (-inf without leaders))."""
+        decided = {name: self._leader_decision(name, t_request) for name in self.leaders}
+        waiting = tuple(name for name, d in decided.items() if d is None)
+        return waiting, max((d[0] for d in decided.values() if d is not None), default=-np.inf)
+
+    def _leader_obstacles(self, t, prediction):
+        """The leaders' planned motion a plan at t keeps off (mutual.MovingObstacle, carried with the target after
+        their end as a captured robot is), with the joint planner's separation margin."""
+        attitude = TargetMotion(prediction, self.scenario.boxes, self.config.mean_motion_rad_s).attitude
+        obstacles = []
+        for name in self.leaders:
+            decision = self._leader_decision(name, t)
+            if decision is not None and decision[1] is not None:
+                t_s, r_hill, v_hill = decision[1]
+                obstacles.append(MovingObstacle(name, t_s, r_hill, v_hill,
+                                                self.scenario.for_chaser(name).chaser.envelope_radius_m,
+                                                ScpSettings.separation_margin_m, self.config.mean_motion_rad_s,
+                                                attitude))
+        return obstacles
 
     def plan_inputs(self, t, q_hill_from_body, omega_body, extended=False):
         """What a plan at the target estimate of time t starts from: the chaser's estimated state carried to t
@@ -256,10 +333,21 @@ class PlannerCore:
             ref = np.array([[np.interp(s, traj.t_s, x[:, k]) for x in (traj.r_hill, traj.v_hill) for k in range(3)]
                             for s in (t, t + settings.start_lead_s)])
             start_state = chaser_now + ref[1] - ref[0]
+        obstacles = self._leader_obstacles(t, prediction)
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
         plan = plan_approach(self.scenario, prediction, chaser_now[:3], chaser_now[3:], t, settings, self.config,
-                             start_state=start_state)
+                             start_state=start_state, obstacles=obstacles)
         planning_time_s = time.perf_counter() - started
+        separation, mutual_values = None, {}
+        if plan.ok and obstacles:  # the dense separation from the leaders' plans, before it is flown
+            separation = least_separation(plan.plan, obstacles, self.scenario.chaser.envelope_radius_m)
+            mutual_values = {'separation_m': separation.distance_m, 't_separation_s': separation.t_s,
+                             'separation_from': separation.name}
+            if separation.distance_m < self.config.clearance_margin_m:
+                plan = dataclasses.replace(plan, ok=False, reason=(
+                    f'optimal approach refused: the envelope comes {separation.distance_m:.3f} m from '
+                    f'{separation.name}\'s at t = {separation.t_s:.1f} s '
+                    f'(margin {self.config.clearance_margin_m:g} m)'))
         if not plan.ok:
             refused = plan.reason if flyby_refused is None else f'fly-by: {flyby_refused}; {plan.reason}'
             return out + self._refuse(t, why, refused, PlanMarkers(settings.plume_radius_m, ()), planning_time_s)
@@ -271,14 +359,16 @@ class PlannerCore:
         return out + [
             self._method_chosen(t, 'optimal', reason),
             self.flown,
-            self._event(t, 'OK', 'plan_selected', plan.reason,
+            self._event(t, 'OK', 'plan_selected', plan.reason + ('' if separation is None else
+                                                                 f', least separation {separation.distance_m:.3f} m '
+                                                                 f'from {separation.name}'),
                         {'request': why, 'plan': str(self.plans), 'method': 'optimal', 't_grasp_s': plan.t_grasp_s,
                          't_start_s': plan.t_start_s, 'offset_m': settings.offset_m,
                          'approach_time_s': plan.t_grasp_s - plan.t_start_s, 'dv_total_mps': terms.delta_v_mps,
                          'peak_accel_mps2': terms.peak_accel_mps2, 'eq5_cost': terms.total,
                          'clearance_m': plan.clearance_m, 'x_g_hill_m': plan.x_g, 'v_g_hill_mps': plan.v_g,
                          'x_ft_hill_m': plan.x_ft, 'v_ft_hill_mps': plan.v_ft, 'solver_time_s': plan.solver_time_s,
-                         'planning_time_s': planning_time_s})]
+                         'planning_time_s': planning_time_s, **mutual_values})]
 
     def _plan_flyby(self, t, q_hill_from_body, omega_body, why):
         """The fly-by (flyby_planner.plan) at the plan time t: (outputs, None) for a selected plan, (the candidates'

@@ -1,0 +1,95 @@
+"""Two chasers' planners in turn (seed 003 Fig 12, docs/two_robots.md): the second plans after the first's decision,
+at a stamp, with the first's published trajectory as a moving obstacle (PlannerCore, no ROS)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.plan import truth_prediction
+from flyby_planner.planner_core import PlannerCore, TrajectoryPublished
+from flyby_sim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+T_LEADER = 60.0
+
+
+def _events(out, name):
+    return [o for o in out if isinstance(o, Event) and o.name == name]
+
+
+def _planning(t):
+    return wire_event(Event(t, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING',
+                            {'from': c.PHASE_ESTIMATION, 'to': c.PHASE_PLANNING}, 'flyby_supervisor'))
+
+
+def _core(view, r_chaser, times):
+    """A planner of the view fed the true target state and the chaser at rest (V-bar) at the times."""
+    truth = truth_prediction(view, max(times) + 1.0)
+    core = PlannerCore(view)
+    for t in times:
+        core.on_chaser_estimate(t, np.array(r_chaser), np.zeros(3))
+        s = truth.state(t)
+        core.on_target_estimate(t, s.q_hill_from_body, s.omega_body)
+    return core
+
+
+@pytest.fixture(scope='module')
+def fleet():
+    first = load_scenario(SCENARIOS / 'jacobsen_two_robots.yaml')
+    leader = _core(first, (50.0, 0.0, 0.0), [T_LEADER])
+    out = leader.on_event(_planning(T_LEADER))
+    (traj,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    (selected,) = _events(out, 'plan_selected')
+    return first.for_chaser('chaser2'), traj, wire_event(selected)
+
+
+def test_the_first_chaser_plans_alone_and_the_second_follows_it(fleet):
+    view, _, _ = fleet
+    assert PlannerCore(view.for_chaser('chaser1')).leaders == ()
+    assert PlannerCore(view).leaders == ('chaser1',)
+
+
+def test_seed003_fig12_second_chaser_plans_at_the_leaders_stamp_against_its_trajectory(fleet):
+    """Its own PLANNING came first (59 s): it waits for the leader's decision and trajectory, in either order,
+    then plans at the leader's plan time (60 s) with a least separation the dense check measured."""
+    view, traj, selected = fleet
+    core = _core(view, (-50.0, 0.0, 0.0), [59.0, 59.5, T_LEADER, 60.5])
+    out = core.on_event(_planning(59.0))
+    (waiting,) = _events(out, 'waiting_for_leaders')
+    assert waiting.values['leaders'] == 'chaser1' and not _events(out, 'plan_selected')
+    t = traj.trajectory
+    assert core.on_leader_event('chaser1', selected) == []  # the trajectory is not in yet: still waiting
+    out = core.on_leader_trajectory('chaser1', t.t_s, t.r_hill, t.v_hill)
+    (chosen,) = _events(out, 'plan_selected')
+    assert chosen.t == T_LEADER
+    assert chosen.values['separation_from'] == 'chaser1'
+    assert chosen.values['separation_m'] > view.planner.clearance_margin_m
+    assert 'least separation' in chosen.message
+    (mine,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    # against the leader's trajectory sampled independently: the envelopes (0.5 m each) apart throughout
+    times = mine.trajectory.t_s
+    leader_r = np.stack([np.interp(times, t.t_s, t.r_hill[:, k]) for k in range(3)], axis=1)
+    gap = np.linalg.norm(mine.trajectory.r_hill - leader_r, axis=1) - 1.0
+    assert gap.min() > view.planner.clearance_margin_m
+    assert gap.min() == pytest.approx(chosen.values['separation_m'], abs=0.05)
+
+
+def test_second_chaser_plans_alone_after_the_leaders_refusal(fleet):
+    view, _, _ = fleet
+    core = _core(view, (-50.0, 0.0, 0.0), [T_LEADER, 61.0])
+    assert _events(core.on_event(_planning(61.0)), 'waiting_for_leaders')
+    refused = wire_event(Event(T_LEADER, 'ERROR', 'plan_refused', 'no feasible program', {}, 'flyby_planner'))
+    out = core.on_leader_event('chaser1', refused)
+    (chosen,) = _events(out, 'plan_selected')
+    assert chosen.t == 61.0 and 'separation_m' not in chosen.values
+
+
+def test_events_of_other_kinds_and_unknown_leaders_are_ignored(fleet):
+    view, _, selected = fleet
+    core = _core(view, (-50.0, 0.0, 0.0), [T_LEADER])
+    assert core.on_leader_event('chaser9', selected) == []
+    assert core.on_leader_event('chaser1', selected._replace(name='plan_candidate')) == []
+    assert core.leader_decisions == {'chaser1': []}
