@@ -55,6 +55,8 @@ _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(8)
 # The cost the search over T sees where no plan exists (finite: the bounded golden-section search does arithmetic on
 # it).
 _INFEASIBLE = 1e9
+# Thrust away from the target inside the plume radius that counts as none [m/s^2] (the solver's tolerance).
+_PLUME_TOLERANCE_MPS2 = 1e-6
 
 
 def zoh_input_matrix(n, tau_s):
@@ -415,6 +417,11 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
                  for p, r in zip(problems, model.robots, strict=True)]
         merit = (total_cost(problems, plans, settings.merit_steps, settings.collision_penalty, bool(pairs))
                  + mutual.obstacle_cost(problems, plans, obstacles, settings.merit_steps, settings.collision_penalty))
+        # the plume rule is a constraint only where the reference is inside the sphere: what an iterate breaks
+        # elsewhere (a burn moved inside, a sliver between check points) is priced like a collision
+        largest, impulse = _plume_violation(problems, plans)
+        plume_clear = largest <= _PLUME_TOLERANCE_MPS2
+        merit += settings.collision_penalty * impulse
         new_refs = [_reference_from_plan(plan, grid) for plan in plans]
         move = max(float(np.abs(new[0] - old[0]).max()) for new, old in zip(new_refs, refs, strict=True))
         if best is None or merit < best[1]:  # the exact cost fell: accept, and trust the model farther
@@ -422,7 +429,9 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
             best = (plans, merit, float(model.program.value))
             refs = new_refs
             trust = min(2.0 * trust, settings.trust_region_m)
-            if move < settings.tolerance_m or improved < settings.merit_tolerance:
+            # converged, unless the plume rule holds only by the reference's membership of the sphere: an iterate
+            # that moved a burn inside is linearized once more about itself
+            if (move < settings.tolerance_m or improved < settings.merit_tolerance) and plume_clear:
                 return best[0], it, True, best[2]
         else:  # the exact cost rose: the linearization was trusted too far
             trust *= settings.trust_shrink
@@ -431,13 +440,30 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
     return best[0], settings.max_iterations, False, best[2]
 
 
+def _plume_violation(problems, plans, rate_hz=20.0):
+    """The largest thrust away from the target inside the plume radius [m/s^2] of any plan and its integral over
+    time [m/s], on samples at rate_hz (the mission's check, approach.check_approach, samples as densely)."""
+    largest = impulse = 0.0
+    for p, plan in zip(problems, plans, strict=True):
+        if p.plume_radius_m <= 0.0:
+            continue
+        steps = int(np.ceil(plan.duration_s * rate_hz))
+        s = plan.sample(np.linspace(0.0, plan.duration_s, steps + 1))
+        dist = np.linalg.norm(s.r_hill, axis=1)
+        away = np.where(dist < p.plume_radius_m,
+                        np.einsum('ij,ij->i', s.a_hill, s.r_hill) / np.maximum(dist, 1e-9), 0.0).clip(min=0.0)
+        largest = max(largest, float(away.max()))
+        impulse += float(away.sum()) * plan.duration_s / steps
+    return largest, impulse
+
+
 def _solver_options(settings):
     """Clarabel's thread count: one, since its worker threads cost more than they give on programs of this size
     (1.5 ms per interior-point iteration) and, on a machine shared with other jobs, spin while they wait."""
     return {'max_threads': settings.solver_threads} if settings.solver == 'CLARABEL' else {}
 
 
-def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, obstacles=()):
+def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, obstacles=(), initial=None):
     """Plan the approach of one or several robots (a list of ApproachProblem with one mean motion) by SCP.
 
     With duration_s None the approach time T is chosen in [duration_min_s, duration_max_s] of the first problem by
@@ -445,7 +471,8 @@ def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, o
     (flyby_planner.optimal.cost.plan_terms, summed over the robots), each solve warm-started from the last plan;
     otherwise T = duration_s. ``separate``: the robots' separation constraints and mutual safety (several robots).
     ``obstacles``: other robots' planned motion (mutual.MovingObstacle), which every robot keeps off with the same
-    keep-out and mutual safety terms (seed 003 section 4.2 against a known plan).
+    keep-out and mutual safety terms (seed 003 section 4.2 against a known plan). ``initial``: plans (one per robot,
+    e.g. of a coarser grid) as the first reference instead of the heuristic route.
 
     Returns:
         ScpResult; its plans are None when no T gave a feasible program (RuntimeError is not raised: the caller
@@ -458,8 +485,8 @@ def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, o
 
     def solve(t_f):
         grid = _Grid(problems[0].n, t_f, settings.steps, settings.substeps)
-        if best:
-            refs = [_reference_from_plan(plan, grid) for plan in best['plans']]
+        if best or initial is not None:
+            refs = [_reference_from_plan(plan, grid) for plan in (best['plans'] if best else initial)]
         else:  # from the heuristic route, first without the plume rule (a continuation: the rule then only
             # reshapes the braking of a path that already clears the target)
             free = [dataclasses.replace(p, plume_radius_m=0.0) for p in problems]
