@@ -92,7 +92,7 @@ class EstimatorNode(CoreNode):
     def publish(self, outputs):
         for out in outputs:
             if isinstance(out, TargetEstimate):
-                self.pub_target.publish(convert.odometry(
+                self.pub_target.publish(convert.odometry_cdr(
                     out.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), out.q_hill_from_body,
                     (0.0, 0.0, 0.0), out.omega_body,
                     pose_covariance=_block_diag_6(_ZERO3, out.attitude_covariance_hill),
@@ -100,13 +100,13 @@ class EstimatorNode(CoreNode):
             elif isinstance(out, ChaserEstimate) and out.q_hill_from_body is not None:
                 c_body_from_hill = quat_to_matrix(quat_conjugate(out.q_hill_from_body))
                 velocity_cov_body = c_body_from_hill @ out.covariance[3:, 3:] @ c_body_from_hill.T
-                self.pub_chaser.publish(convert.odometry(
+                self.pub_chaser.publish(convert.odometry_cdr(
                     out.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, out.r_hill, out.q_hill_from_body,
                     quat_rotate(quat_conjugate(out.q_hill_from_body), out.v_hill), out.omega_body,
                     pose_covariance=_block_diag_6(out.covariance[:3, :3], out.attitude_covariance_hill),
                     twist_covariance=_block_diag_6(velocity_cov_body, out.rate_covariance_body)))
             elif isinstance(out, ChaserEstimate):
-                self.pub_chaser.publish(convert.odometry(
+                self.pub_chaser.publish(convert.odometry_cdr(
                     out.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, out.r_hill, (0.0, 0.0, 0.0, 1.0), out.v_hill,
                     (0.0, 0.0, 0.0),
                     pose_covariance=_block_diag_6(out.covariance[:3, :3], _ZERO3),

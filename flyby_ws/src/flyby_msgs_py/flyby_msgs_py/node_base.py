@@ -34,12 +34,19 @@ class CoreNode(Node):
         name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
         return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, callback, qos.qos_for(topic))
 
+    def subscribe_raw(self, topic, callback):
+        """``subscribe`` handing the callback the message's CDR bytes (no Python message is built)."""
+        name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
+        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, callback, qos.qos_for(topic),
+                                        raw=True)
+
     def subscribe_odometry(self, topic, core_input, *fields):
-        """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays)."""
-        def callback(msg):
-            o = convert.odometry_to_numpy(msg)
+        """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays), read from its
+        CDR bytes (convert.odometry_cdr_to_numpy: about 85 us a message less than the Python message)."""
+        def callback(data):
+            o = convert.odometry_cdr_to_numpy(data)
             self.publish(core_input(o.t, *(getattr(o, f) for f in fields)))
-        return self.subscribe(topic, callback)
+        return self.subscribe_raw(topic, callback)
 
     def subscribe_estimates(self, rotate, target_covariance=False, chaser_attitude=False):
         """estimation/target/odom and estimation/chaser/odom into the core.
@@ -51,20 +58,20 @@ class CoreNode(Node):
         follow the rate; with chaser_attitude the chaser's q_hill_from_body and omega_body follow its
         velocity."""
         if target_covariance:
-            def on_target(msg):
-                o = convert.odometry_to_numpy(msg)
+            def on_target(data):
+                o = convert.odometry_cdr_to_numpy(data)
                 self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular,
                                                           o.pose_covariance[3:, 3:], o.twist_covariance[3:, 3:]))
-            self.subscribe(c.EST_TARGET_ODOM, on_target)
+            self.subscribe_raw(c.EST_TARGET_ODOM, on_target)
         else:
             self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
 
-        def on_chaser(msg):
-            o = convert.odometry_to_numpy(msg)
+        def on_chaser(data):
+            o = convert.odometry_cdr_to_numpy(data)
             v_hill = rotate(o.orientation_xyzw, o.linear)
             attitude = (o.orientation_xyzw, o.angular) if chaser_attitude else ()
             self.publish(self.core.on_chaser_estimate(o.t, o.position, v_hill, *attitude))
-        self.subscribe(c.EST_CHASER_ODOM, on_chaser)
+        self.subscribe_raw(c.EST_CHASER_ODOM, on_chaser)
 
     def subscribe_phase(self):
         """mission/phase into the core's on_phase(phase)."""

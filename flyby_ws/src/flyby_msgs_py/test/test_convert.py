@@ -9,6 +9,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
 
@@ -146,11 +147,53 @@ GOOD = dict(t=0.0, frame_id=FRAME_HILL, child_frame_id=FRAME_CHASER_BODY, positi
     ('child_frame_id', None, r'^child_frame_id: must be a non-empty string'),
     ('t', math.nan, r'^t: must be finite'),
 ])
-def test_odometry_rejects_bad_input(field, value, match):
+@pytest.mark.parametrize('build', [cv.odometry, cv.odometry_cdr])
+def test_odometry_rejects_bad_input(build, field, value, match):
     kwargs = dict(GOOD)
     kwargs[field] = value
     with pytest.raises(ValueError, match=match):
-        cv.odometry(**kwargs)
+        build(**kwargs)
+
+
+_frame_ids = st.text(st.characters(codec='utf-8', exclude_characters='\x00'), min_size=1, max_size=20)
+_finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=200, deadline=None)
+@given(t=st.floats(min_value=-1e6, max_value=1e6), frame_id=_frame_ids, child_frame_id=_frame_ids,
+       values=st.lists(_finite, min_size=9, max_size=9), covariances=st.booleans())
+def test_odometry_cdr_is_the_messages_serialization(t, frame_id, child_frame_id, values, covariances):
+    """odometry_cdr's bytes deserialize (rclpy) to odometry()'s message, and odometry_cdr_to_numpy reads rclpy's
+    serialization of it as odometry_to_numpy reads the message: field by field, to the bit."""
+    kwargs = dict(t=t, frame_id=frame_id, child_frame_id=child_frame_id, position=values[0:3],
+                  orientation_xyzw=unit_quat(), linear=values[3:6], angular=values[6:9])
+    if covariances:
+        kwargs.update(pose_covariance=RNG.normal(size=(6, 6)), twist_covariance=RNG.normal(size=36))
+    msg = cv.odometry(**kwargs)
+    data = cv.odometry_cdr(**kwargs)
+    assert deserialize_message(data, Odometry) == msg
+    rclpy_data = serialize_message(msg)
+    assert len(rclpy_data) == len(data)
+    for ours, theirs in zip(cv.odometry_cdr_to_numpy(rclpy_data), cv.odometry_to_numpy(msg), strict=True):
+        if isinstance(theirs, np.ndarray):
+            assert ours.shape == theirs.shape and ours.tobytes() == theirs.tobytes()
+        else:
+            assert ours == theirs
+
+
+def test_odometry_cdr_to_numpy_rejects_other_bytes():
+    data = cv.odometry_cdr(**GOOD)
+    with pytest.raises(ValueError, match='expected little-endian CDR'):
+        cv.odometry_cdr_to_numpy(b'\x00\x00' + data[2:])
+    with pytest.raises(ValueError, match='bytes of CDR, expected'):
+        cv.odometry_cdr_to_numpy(data[:-8])
+    with pytest.raises(ValueError, match='malformed CDR string'):
+        cv.odometry_cdr_to_numpy(data[:12] + b'\xff' * 4 + data[16:])
+
+
+@given(st.integers(min_value=0, max_value=2 ** 50))
+def test_clock_cdr_to_ns_reads_the_clock(ns):
+    assert cv.clock_cdr_to_ns(serialize_message(cv.clock(cv.ns_to_sec(ns)))) == ns
 
 
 def test_odometry_is_fast():

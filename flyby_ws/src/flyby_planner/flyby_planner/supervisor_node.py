@@ -48,9 +48,9 @@ class SupervisorNode(CoreNode):
             label = label[len(ns) + 1:]
         self.core.on_progress(label, convert.stamp_to_sec(msg.stamp))
 
-    def on_clock(self, msg):
-        """Called from the run loop's one /clock subscription (runtime.ProgressReporter)."""
-        self.publish(self.core.on_clock(convert.clock_to_sec(msg)))
+    def on_clock(self, t):
+        """Called from the run loop's one /clock subscription (runtime.ProgressReporter) with its time [s]."""
+        self.publish(self.core.on_clock(t))
 
     def on_abort(self, _request, response):
         aborted, outputs = self.core.abort('abort requested on mission/abort')

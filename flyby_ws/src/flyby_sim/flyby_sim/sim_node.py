@@ -70,8 +70,7 @@ class _Chaser:
         self.plant = Plant(plant_config_from_scenario(scenario))
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.pubs = {}
-        self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])()
-                     for topic in (c.SIM_CHASER_ODOM, c.SIM_CHASER_THRUST)}
+        self.msgs = {c.SIM_CHASER_THRUST: c.message_class(c.TOPIC_TYPES[c.SIM_CHASER_THRUST])()}
         self.announced_ns = collections.deque()
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
@@ -119,8 +118,8 @@ class SimNode(Node):
             name = '/clock' if topic == c.CLOCK else topic
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name, qos.qos_for(topic))
         self.pubs = pubs
-        # Reused for every step (publishing serializes them).
-        self.msgs = {topic: c.message_class(c.TOPIC_TYPES[topic])() for topic in (c.CLOCK, c.SIM_TARGET_ODOM)}
+        # Reused for every step (publishing serializes it); the Odometry goes out as CDR (convert.odometry_cdr).
+        self.msgs = {c.CLOCK: c.message_class(c.TOPIC_TYPES[c.CLOCK])()}
         for ch in self.chasers:
             self._wire(ch, pubs if not fleet else {})
 
@@ -323,9 +322,9 @@ class SimNode(Node):
         self.pubs[c.CLOCK].publish(convert.clock(s.t, out=msgs[c.CLOCK]))
         for ch, sc in zip(self.chasers, samples, strict=True):
             self._publish_chaser_truth(ch, sc)
-        self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry(
+        self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry_cdr(
             s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
-            (0.0, 0.0, 0.0), s.omega_body, out=msgs[c.SIM_TARGET_ODOM]))
+            (0.0, 0.0, 0.0), s.omega_body))
         if self.steps % max(1, round(1.0 / self.step_s)) == 0:
             boxes = self.scenario.boxes
             markers = target_box_markers(s.t, s.q_hill_from_body, boxes.centers_hill_m(s.q_hill_from_body),
@@ -340,9 +339,9 @@ class SimNode(Node):
         pubs, msgs = ch.pubs, ch.msgs
         if ch.rigid:
             q_chaser = s.q_hill_from_chaser_body
-            pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+            pubs[c.SIM_CHASER_ODOM].publish(convert.odometry_cdr(
                 s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, q_chaser,
-                quat_rotate(quat_conjugate(q_chaser), s.v_hill), s.omega_chaser_body, out=msgs[c.SIM_CHASER_ODOM]))
+                quat_rotate(quat_conjugate(q_chaser), s.v_hill), s.omega_chaser_body))
             pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
                 s.t, c.FRAME_HILL, s.force_hill, s.torque_hill_n_m, out=msgs[c.SIM_CHASER_THRUST]))
             pubs[c.SIM_CHASER_WHEELS].publish(convert.joint_state(
@@ -350,9 +349,9 @@ class SimNode(Node):
             pubs[c.SIM_CHASER_THRUSTERS].publish(convert.joint_state(
                 s.t, c.FRAME_CHASER_BODY, ch.thruster_names, effort=s.thruster_thrust_n))
         else:
-            pubs[c.SIM_CHASER_ODOM].publish(convert.odometry(
+            pubs[c.SIM_CHASER_ODOM].publish(convert.odometry_cdr(
                 s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
-                (0.0, 0.0, 0.0), out=msgs[c.SIM_CHASER_ODOM]))
+                (0.0, 0.0, 0.0)))
             pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
                 s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
 
