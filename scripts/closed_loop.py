@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_guidance.closed_loop import run_headless, scaled_navigation_noise
+from flyby_guidance.closed_loop import require_one_chaser, run_headless, scaled_navigation_noise
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.summary import EXIT_CODES, format_summary
 from flyby_sim.scenario import load_scenario
@@ -107,7 +107,7 @@ def main(argv=None):
     if (args.out is None) == (args.runs is None):
         ap.error('give either --out DIR (one run) or --runs N (many runs)')
     try:
-        load_scenario(args.scenario)
+        require_one_chaser(load_scenario(args.scenario))
     except ScenarioError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1

@@ -12,6 +12,9 @@ stamped as the truth topics are: the same keys, outcome classes and figures as t
 so a Monte Carlo row is a statement about the graph. The six-degree-of-freedom chaser's velocities, truth and
 estimate, travel in chaser_body axes as its Odometry twists do (DESIGN §10), turned there and back by the same
 functions as the nodes and the bag's reader turn them.
+
+It flies one chaser: a ``chasers:`` scenario (or one chaser's view of it) is refused with a ScenarioError naming
+the file and the key ``chasers`` (``require_one_chaser``); the graph (scripts/run_mission.py) flies several.
 """
 
 import collections
@@ -25,6 +28,7 @@ from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, Targe
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
 from flyby_msgs_py import contract as c
+from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, chaser_truth_from_odometry, summarize
@@ -83,10 +87,20 @@ class _Truth:
                             np.array(self.thrusters) if rigid else None))
 
 
+def require_one_chaser(scenario):
+    """Raise ScenarioError (file, key ``chasers``) for a scenario of several chasers (module doc)."""
+    if scenario.chaser_names:
+        names = ', '.join(scenario.chaser_names)
+        raise ScenarioError(scenario.path or scenario.name, 'chasers',
+                            f'the headless loop flies one chaser, this scenario has {len(scenario.chaser_names)} '
+                            f'({names}): fly it in the graph, scripts/run_mission.py --scenario FILE')
+
+
 class HeadlessGraph:
     """The plant and the four cores, connected as the topics connect the nodes (module doc)."""
 
     def __init__(self, scenario):
+        require_one_chaser(scenario)
         self.scenario = scenario
         self.plant = Plant(plant_config_from_scenario(scenario))
         self.estimator = EstimatorCore(scenario)
