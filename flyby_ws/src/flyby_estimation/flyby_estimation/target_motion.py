@@ -659,6 +659,15 @@ class MotionPrediction:
         else:
             self._dense = lambda t: np.repeat(y0[:, None], np.size(t), axis=1) if np.ndim(t) else y0
 
+    @classmethod
+    def from_dense(cls, dynamics, n, t0, t_end, dense):
+        """A prediction without covariance whose motion is ``dense``: t -> [q_eci_from_body; omega_body] (7,) or
+        (7, N) for times (N,) (perturbed_predictions)."""
+        self = cls.__new__(cls)
+        self.t0, self.t_end, self._n, self._dynamics = float(t0), float(t_end), n, dynamics
+        self._p0, self._dense = None, dense
+        return self
+
     def state(self, t):
         """PredictedState at t [s] in [t0, t_end]; its covariance is computed at its first use."""
         if not (self.t0 <= t <= self.t_end):
@@ -751,6 +760,45 @@ class MotionPrediction:
         body_axes_eci = np.swapaxes(quat_to_matrix_many(y[:4].T), 1, 2)  # row k: body axis k in ECI
         # C_hill_from_body = C_hill_from_eci(t) C_eci_from_body: the body axes seen in hill at their time.
         return np.swapaxes(eci_vector_in_hill(body_axes_eci, t[:, None], self._n), 1, 2)
+
+
+def perturbed_predictions(dynamics, n, t0, q_eci_from_body0, omega_body0, errors, t_end, rtol=1e-8, atol=1e-10):
+    """MotionPredictions (without covariance) of the estimate at t0 with each error state added, one per row of
+    errors (K, 6) = [dtheta_body, domega_body] (q = q_ref * exp(dtheta), omega = omega_ref + domega, the filter's
+    convention): the true motions an estimate's covariance allows (its sigma points), integrated as one DOP853
+    system of the K torque-free states (seed 000 eq 4), which costs about one prediction."""
+    errors = np.atleast_2d(np.asarray(errors, dtype=float))
+    if not (math.isfinite(t_end) and t_end > t0):
+        raise ValueError(f't_end = {t_end} s must be finite and > t0 = {t0} s')
+    count = len(errors)
+    q0 = _floats(q_eci_from_body0)
+    y0 = np.array([quat_product_floats(q0, quat_exp_floats(_floats(e[:3]))) + tuple(np.asarray(omega_body0) + e[3:])
+                   for e in errors]).T  # (7, K): row i holds component i of every state
+    inertia, inertia_inv = dynamics.inertia, dynamics.inertia_inv
+
+    def stacked(t, y):
+        """dq/dt = 1/2 q * (omega, 0), domega/dt = -I^-1 (omega x I omega) of every state at once."""
+        y = y.reshape(7, count)
+        x, y_, z, w = y[:4]
+        wx, wy, wz = omega = y[4:]
+        h = inertia @ omega
+        q_dot = 0.5 * np.array((w * wx + y_ * wz - z * wy, w * wy + z * wx - x * wz, w * wz + x * wy - y_ * wx,
+                                -(x * wx + y_ * wy + z * wz)))
+        omega_dot = inertia_inv @ -np.array((wy * h[2] - wz * h[1], wz * h[0] - wx * h[2], wx * h[1] - wy * h[0]))
+        return np.concatenate((q_dot, omega_dot)).ravel()
+    solver = DOP853(stacked, float(t0), y0.ravel(), float(t_end), rtol=rtol, atol=atol)
+    ts, segments = [float(t0)], []
+    while solver.status == 'running':
+        message = solver.step()
+        if solver.status == 'failed':
+            raise RuntimeError(f'perturbed attitude predictions to t = {t_end} s failed: {message}')
+        segments.append(solver.dense_output())
+        ts.append(solver.t)
+    out = []
+    for k in range(count):  # each motion its own dense output: its components of every step's interpolant
+        own = [Dop853DenseOutput(s.t_old, s.t, s.y_old[k::count], s.F[:, k::count]) for s in segments]
+        out.append(MotionPrediction.from_dense(dynamics, n, t0, t_end, DenseSolution(OdeSolution(ts, own))))
+    return out
 
 
 def prediction_from_estimate(dynamics, n, t, q_hill_from_body_, omega_body, t_end, covariance_body=None):

@@ -48,6 +48,9 @@ from flyby_sim.dynamics.rotation import quat_to_matrix
 _E_Y = np.array((0.0, 1.0, 0.0))
 # A re-solved root this close to the planned grasp time [turns relative to hill] is the planned root.
 _FOLLOW_TURNS = 0.1
+# Guidance's re-aim searches the re-solved grasp at most this far past the aimed grasp time [s] (refine_grasp's
+# t_latest; the planner's re-aim check does the same).
+REFINE_HORIZON_S = 60.0
 
 
 @dataclasses.dataclass(frozen=True)

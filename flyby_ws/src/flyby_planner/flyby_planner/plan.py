@@ -53,8 +53,19 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.linalg import solve_discrete_are
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction, body_point_in_hill
-from flyby_planner.grasp import flyby_initial_point, flyby_target_point, grasp_candidates
+from flyby_estimation.target_motion import (
+    ErrorStateDynamics,
+    MotionPrediction,
+    body_point_in_hill,
+    perturbed_predictions,
+)
+from flyby_planner.grasp import (
+    REFINE_HORIZON_S,
+    flyby_initial_point,
+    flyby_target_point,
+    grasp_candidates,
+    refine_grasp,
+)
 from flyby_planner.keepout import swept_region
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
@@ -171,7 +182,10 @@ class PlannerConfig:
     accuracy (EstimateAccuracy, from the sensors and estimation sections) turns on the planner's uncertainty
     model (module doc, step 4), with the manipulator's position_tolerance_m and velocity_tolerance_mps as the bound
     on the predicted miss, guidance's adjust_interval_s and command_lead_s for the last burn; None keeps the fixed
-    geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound.
+    geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound. reaim_check (with accuracy): check
+    the passage guidance flies once it re-aims at 3 sigma of the plan estimate (_ReaimModel). Off by default: with
+    the convergence bound as the plan estimate's covariance it turns the fourth campaign's five flown failures into
+    captures or refusals but refused 3 of 12 of its captures in a regression sample (docs/campaigns.md).
     """
 
     mean_motion_rad_s: float
@@ -209,6 +223,7 @@ class PlannerConfig:
     adjust_interval_s: float = 20.0
     command_lead_s: float = 5.0
     latest_grasp_s: float = math.inf
+    reaim_check: bool = False
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
@@ -361,6 +376,8 @@ class Candidate:
     unguided_coast_s: from the last burn guidance can fly (where the arc is still LAST_BURN_SLACK_M beyond the
     sphere and its burn margin, or the injection at t_i) to the grasp.
     miss_3sigma_m, miss_3sigma_mps: the predicted 3-sigma miss at the grasp (module doc, step 4), worst direction.
+    reaim_gap_m: the least gap of the passage guidance will fly once it re-aims, at 3 sigma of the plan estimate
+    (_ReaimModel); reaim_checked: None without that model, False until checked (then 'unchecked' if never).
     extended: its transfer is longer than the grasp window's (PlannerConfig.transfer_max_for): searched only when
     the window holds no safe plan.
     """
@@ -391,6 +408,8 @@ class Candidate:
     miss_3sigma_m: float | None = None
     miss_3sigma_mps: float | None = None
     extended: bool = False
+    reaim_gap_m: float | None = None
+    reaim_checked: bool | None = None
 
     @property
     def dv_total_mps(self):
@@ -420,7 +439,7 @@ class Candidate:
             't_min_clearance_s': _rounded(self.t_min_clearance),
             't_sphere_entry_s': _rounded(self.t_sphere_entry), 'unguided_coast_s': _rounded(self.unguided_coast_s),
             'miss_3sigma_m': _rounded(self.miss_3sigma_m), 'miss_3sigma_mps': _rounded(self.miss_3sigma_mps),
-            'extended_window': self.extended,
+            'reaim_gap_m': _rounded(self.reaim_gap_m), 'extended_window': self.extended,
         }
 
 
@@ -555,6 +574,16 @@ class _Passage:
         without the uncertainty model): the gap as computed."""
         if chaser_cov is None or self.swept is None:
             return self.gap, self.closest
+        sigma_c = self.chaser_sigma(chaser_cov, n)
+        swept = self.swept - UNCERTAINTY_SIGMAS * sigma_c
+        predicted = self.predicted - UNCERTAINTY_SIGMAS * np.hypot(self.lever, sigma_c)
+        use_predicted = predicted > swept
+        return (np.where(use_predicted, predicted, swept),
+                np.where(use_predicted, self.names, 'swept region').astype(object))
+
+    def chaser_sigma(self, chaser_cov, n):
+        """(M,) sigma_c [m]: the chaser's 1-sigma position error along its worst direction at each sample of the
+        window (zero outside), from chaser_cov at t_estimate carried along CW (seed 000 eq 22)."""
         # On a grid of _PATH_STEP_S over the window, interpolated to the samples (it grows smoothly).
         tau = self.tau[self.window]
         sigma_c = np.zeros(len(self.tau))
@@ -563,11 +592,7 @@ class _Passage:
             stm = cw_transition_matrix(n, np.maximum(self.t_grasp + grid - self.t_estimate, 0.0))[:, :3, :]  # eq 22
             spread = np.einsum('mij,jk,mlk->mil', stm, chaser_cov, stm)
             sigma_c[self.window] = np.interp(tau, grid, np.sqrt(_largest_eigenvalue(spread)))
-        swept = self.swept - UNCERTAINTY_SIGMAS * sigma_c
-        predicted = self.predicted - UNCERTAINTY_SIGMAS * np.hypot(self.lever, sigma_c)
-        use_predicted = predicted > swept
-        return (np.where(use_predicted, predicted, swept),
-                np.where(use_predicted, self.names, 'swept region').astype(object))
+        return sigma_c
 
 
 class _TargetUncertainty:
@@ -838,9 +863,85 @@ def _miss(c, ps, chaser_cov, coast_s, config):
     return _sigma3(total[:3, :3]), _sigma3(total[3:, 3:]), parts
 
 
-def _check_passive_safety(batch, passages, prediction, region, config, uncertainty=None):
+class _ReaimModel:
+    """The true target motions the plan estimate allows, for the passage guidance will fly once it re-aims (module
+    doc, step 4).
+
+    Guidance re-aims every adjusting burn at the grasp re-solved from the latest estimate (grasp.refine_grasp, the
+    same offset, eq 20-21), and by the last burn that estimate is close to the truth: the passage flown is the one
+    through the *true* motion's grasp, not the plan's. The plan estimate's error, carried 500-700 s to the grasp,
+    moves that passage against the target's parts by decimetres (envelope runs 499, 569, 810, 819, 869: their
+    re-aimed arcs came -0.44 to -0.005 m from a panel where the plan's had 0.10-0.29 m; guidance refused to fly them
+    and kept a stale aim or aborted). So the re-aim is checked against the motions of the plan estimate moved
+    UNCERTAINTY_SIGMAS sigma along each principal direction of its covariance bound
+    (EstimateAccuracy.converged_covariance), integrated in full (target_motion.perturbed_predictions): motions[0]
+    is the estimate's, then the +- pairs."""
+
+    def __init__(self, prediction, t_now, config):
+        cov = config.accuracy.converged_covariance
+        values, vectors = np.linalg.eigh(cov)
+        steps = UNCERTAINTY_SIGMAS * vectors * np.sqrt(np.maximum(values, 0.0))  # columns: 3 sigma along each
+        errors = np.vstack([np.zeros(6)] + [sign * steps[:, k] for k in range(6) for sign in (1.0, -1.0)])
+        s = prediction.state(t_now)
+        self.t_plan, self.t_end = t_now, prediction.t_end
+        self.motions = perturbed_predictions(ErrorStateDynamics(config.inertia_kg_m2), config.mean_motion_rad_s,
+                                             t_now, s.q_eci_from_body, s.omega_body, errors, prediction.t_end)
+
+
+def _reaim_check(c, ps, chaser_cov, model, config):
+    """The re-aimed passage of candidate c at 3 sigma of the plan estimate (_ReaimModel): (least gap [m], what it is
+    to, when [s], the re-aim's 3-sigma spread there [m]), or None when the passage has no sample near the target
+    (the swept region holds there at any timing).
+
+    For each motion the grasp is re-solved as guidance does (refine_grasp near c's grasp time), X_Ft, V_Ft placed
+    with c's offset (eq 20-21) and the arc coasted along CW (eq 22) over the samples where the planner checks the
+    predicted geometry (those within the window, from X_Fi on), each at the same time from its own grasp; the gap
+    of each motion's arc from that motion's geometry, e_k. Per principal direction the larger shortfall of its two
+    motions below e_0 is its 3-sigma effect, and their root sum square the re-aim's 3-sigma spread S; with the
+    last burn's uncertainty L = 3 sqrt((|r| sigma_att)^2 + sigma_c^2) (the planner's passage model) the gap is
+    e_0 - sqrt(S^2 + L^2). A motion with no grasp near c's (the turn drifts out of reach) gives -inf."""
+    n = config.mean_motion_rad_s
+    near = np.flatnonzero(ps.window & np.isfinite(ps.predicted) & (ps.tau >= -c.flyby_duration_s))
+    if not near.size:
+        return None
+    tau = ps.tau[near]
+    stm = cw_transition_matrix(n, tau)
+    gaps, names = [], None
+    for motion in model.motions:
+        g = refine_grasp(motion, config.x_grasp_body_m, c.t_grasp, n,
+                         t_latest=min(c.t_grasp + REFINE_HORIZON_S, motion.t_end))
+        if g is None:
+            return -math.inf, 'no convex grasp re-solved near the planned one', c.t_grasp, math.inf
+        x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, c.offset_m)  # eq 20-21
+        t = g.t_grasp + tau
+        inside = (t >= motion.t0) & (t <= motion.t_end)
+        gap = np.full(len(tau), math.inf)
+        r = np.einsum('mij,j->mi', stm[inside], np.concatenate((x_ft, v_ft)))[:, :3]  # eq 22
+        gap[inside], boxes = _predicted_distance(motion, r, t[inside], config)
+        if names is None:
+            names = np.full(len(tau), 'target', dtype=object)
+            names[inside] = boxes
+        gaps.append(gap)
+    e0, pairs = gaps[0], np.array(gaps[1:]).reshape(-1, 2, len(tau))
+    shortfall = np.maximum(e0 - pairs.min(axis=1), 0.0)
+    spread = np.sqrt(np.sum(np.where(np.isfinite(shortfall), shortfall, 0.0) ** 2, axis=0))
+    last_burn = UNCERTAINTY_SIGMAS * np.hypot(ps.lever[near], ps.chaser_sigma(chaser_cov, n)[near])
+    total = e0 - np.hypot(spread, last_burn)
+    i = int(np.argmin(total))
+    return float(total[i]), str(names[i]), float(c.t_grasp + tau[i]), float(spread[i])
+
+
+def _passes(c):
+    """Checked, no reason against it, and its re-aim checked where the plan has the model."""
+    return c.clearance_approach_m is not None and not c.reasons and c.reaim_checked is not False
+
+
+def _check_passive_safety(batch, passages, prediction, region, config, uncertainty=None, reaim=None,
+                          reaim_all=False):
     """Step 4 for a batch of candidates: fill their clearances, sphere entry, coast and predicted miss, reject the
-    unsafe ones and those whose predicted miss exceeds the manipulator's tolerances."""
+    unsafe ones and those whose predicted miss exceeds the manipulator's tolerances; with reaim (_ReaimModel), those
+    whose re-aimed passage (_reaim_check) keeps less than the margin, in order of delta-v up to the cheapest that
+    passes and its ties (reaim_all: every one)."""
     new = {}
     for c in batch:
         key = (c.t_grasp, c.offset_m)
@@ -878,6 +979,30 @@ def _check_passive_safety(batch, passages, prediction, region, config, uncertain
             part = 'approach' if tau[i] <= 0.0 else 'escape'
             c.reasons.append(f'passive {part} clearance {gap[i]:.3f} m from the {c.closest} at t = '
                              f'{c.t_grasp + tau[i]:.1f} s is below the margin {config.clearance_margin_m:g} m')
+    if reaim is None:
+        return
+    cheapest = math.inf
+    for c in sorted((c for c in batch if not c.reasons), key=lambda c: c.dv_total_mps):
+        c.reaim_checked = False
+        if not reaim_all and c.dv_total_mps > cheapest + config.delta_v_tie_mps:
+            continue
+        c.reaim_checked = True
+        ps = passages[(c.t_grasp, c.offset_m)]
+        found = _reaim_check(c, ps, _chaser_error_at_estimate(c, ps.coast_s, config), reaim, config)
+        if found is None:
+            cheapest = min(cheapest, c.dv_total_mps)
+            continue
+        c.reaim_gap_m, closest, t_gap, spread = found
+        if not math.isfinite(c.reaim_gap_m):
+            c.reasons.append(f'the re-aimed passage: with the plan estimate 3 sigma off over '
+                             f'{c.t_grasp - reaim.t_plan:.0f} s, {closest}')
+        elif c.reaim_gap_m < config.clearance_margin_m:
+            c.reasons.append(f'the re-aimed passage: with the plan estimate 3 sigma off over '
+                             f'{c.t_grasp - reaim.t_plan:.0f} s, the arc through the re-solved grasp comes '
+                             f'{c.reaim_gap_m:.3f} m from the {closest} at t = {t_gap:.1f} s (re-aim spread '
+                             f'{spread:.3f} m), below the margin {config.clearance_margin_m:g} m')
+        else:
+            cheapest = min(cheapest, c.dv_total_mps)
 
 
 def _predicted_region(prediction, t_from, config):
@@ -923,7 +1048,7 @@ def check_passage(prediction, x_ft, v_ft, t_grasp, t_from, config, margin_m=None
 def _select(candidates, config):
     """Step 5 among the checked candidates (one stage's): least total delta-v; within delta_v_tie_mps of
     it the larger least clearance wins."""
-    safe = [c for c in candidates if c.clearance_approach_m is not None and not c.reasons]
+    safe = [c for c in candidates if _passes(c)]
     for c in safe:
         c.status = 'safe'
     if not safe:
@@ -961,6 +1086,7 @@ _REASON_CLASSES = (
     ('transfer passes', 'transfer through the restriction sphere', 3),
     ('predicted 3-sigma miss', 'predicted miss above the tolerance', 4),
     ('passive', 'passive clearance below the margin', 4),
+    ('the re-aimed passage', 'the re-aimed passage below the margin', 5),
 )
 
 
@@ -1176,7 +1302,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n) if w_hi > w_lo else []
     candidates = build(found, False)
     passages = {}
-    uncertainty = None
+    uncertainty = reaim = None
     for extended in (False, True):
         if extended:
             if prediction.t_end < w_ext + config.geometry_window_s:
@@ -1191,6 +1317,8 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
             horizon = min(prediction.t_end, (w_ext if extended else w_hi) + config.geometry_window_s)
             if uncertainty is None or uncertainty.nodes[-1] < horizon:
                 uncertainty = _TargetUncertainty(prediction, t_now, config, t_end=horizon)
+            if config.reaim_check and (reaim is None or reaim.t_end < prediction.t_end):
+                reaim = _ReaimModel(prediction, t_now, config)
         budget = _EXTENDED_BATCHES if extended else math.inf
         for stage in config.search_stages:
             pending = sorted((c for c in candidates if not c.reasons and c.extended == extended
@@ -1200,9 +1328,9 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                 batch = pending[start:start + _BATCH]
                 if batch[0].dv_total_mps > cheapest_safe + config.delta_v_tie_mps or budget <= 0:
                     break
-                _check_passive_safety(batch, passages, prediction, region, config, uncertainty)
+                _check_passive_safety(batch, passages, prediction, region, config, uncertainty, reaim)
                 budget -= 1
-                cheapest_safe = min([cheapest_safe] + [c.dv_total_mps for c in batch if not c.reasons])
+                cheapest_safe = min([cheapest_safe] + [c.dv_total_mps for c in batch if _passes(c)])
             if cheapest_safe < math.inf:
                 break
         if cheapest_safe < math.inf:
@@ -1215,7 +1343,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                'the grasp point\'s hill y velocity does not change sign')
         return _refused(f'no grasp instant in [{w_lo:.1f}, {max(w_hi, w_ext):.1f}] s: {why}', t_now, region=region)
     for c in candidates:
-        if not c.reasons and c.clearance_approach_m is None:
+        if not c.reasons and (c.clearance_approach_m is None or c.reaim_checked is False):
             c.status = 'unchecked'
     chosen = _select(candidates, config)
     if chosen is None:
@@ -1310,6 +1438,7 @@ def exhaustive_check(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
         return check
     region = _predicted_region(prediction, t_now, config)
     uncertainty = _TargetUncertainty(prediction, t_now, config) if config.accuracy is not None else None
+    reaim = _ReaimModel(prediction, t_now, config) if config.accuracy is not None and config.reaim_check else None
     found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n)
     t_ti = t_now + config.maneuver_lead_s
     chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)
@@ -1329,7 +1458,8 @@ def exhaustive_check(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
                 candidates.append(c)
     passages = {}
     for k in range(0, len(candidates), _BATCH):
-        _check_passive_safety(candidates[k:k + _BATCH], passages, prediction, region, config, uncertainty)
+        _check_passive_safety(candidates[k:k + _BATCH], passages, prediction, region, config, uncertainty, reaim,
+                              reaim_all=True)
     check.grasp_instants, check.candidates = len(found), len(candidates)
     if not candidates:
         return check
@@ -1337,7 +1467,8 @@ def exhaustive_check(prediction, r_chaser_hill, v_chaser_hill, t_now, config):
     clearance = np.array([c.clearance_min_m for c in candidates])
     # The planner's own verdicts (_check_passive_safety's reasons), not the bounds stated again here.
     miss_ok = np.array([not any(r.startswith('predicted 3-sigma miss') for r in c.reasons) for c in candidates])
-    clear_ok = np.array([not any(r.startswith('passive') for r in c.reasons) for c in candidates])
+    clear_ok = np.array([not any(r.startswith(('passive', 'the re-aimed passage')) for r in c.reasons)
+                         for c in candidates])
     transfer_ok = np.array(transfer_ok)
     check.n_miss_ok, check.n_clear_ok = int(miss_ok.sum()), int(clear_ok.sum())
     check.n_both, check.n_flyable = int((miss_ok & clear_ok).sum()), int((miss_ok & clear_ok & transfer_ok).sum())

@@ -3,6 +3,7 @@ estimate covariances it predicts, the predicted 3-sigma miss at the grasp, the c
 and the searches it enables (the extended grasp window, the short fly-by)."""
 
 import copy
+import dataclasses
 import math
 import types
 from pathlib import Path
@@ -266,7 +267,7 @@ def test_the_window_search_extends_when_the_grasp_window_holds_no_safe_plan():
     """Envelope run 323 (a 6 deg/s tumbler, grasp point on the -y face by the bus edge, chaser 42 m away below and
     behind) planned from the truth at 60 s: every candidate of the grasp window fails (its transfer crosses the
     restriction sphere, or its passage meets a panel), and the extended window's transfers, up to 0.4 orbit, reach a
-    grasp instant 39 minutes out whose passage keeps the margin."""
+    grasp instant 39 minutes out whose passage keeps the margin (without the re-aim check: see below)."""
     plan, cfg, _ = _plan(_scenario(envelope_run_323), t_plan=60.0)
     assert plan.ok and plan.selected.extended
     window = [c for c in plan.candidates if not c.extended]
@@ -277,6 +278,19 @@ def test_the_window_search_extends_when_the_grasp_window_holds_no_safe_plan():
     assert c.clearance_min_m >= cfg.clearance_margin_m and c.miss_3sigma_m <= cfg.position_tolerance_m
     assert c.t_grasp <= cfg.latest_grasp_s
 
+
+
+def test_envelope_run_323_a_grasp_39_minutes_out_fails_the_reaimed_passage():
+    """The same run with the re-aim check (plan._ReaimModel): over 2100-2400 s the plan estimate's 3-sigma
+    convergence bound moves the passage guidance would re-aim onto by a metre or more (or takes the grasp's turn out
+    of reach), so the extended window's candidates are refused by the re-aimed passage and the plan is refused."""
+    plan, cfg, _ = _plan(_scenario(envelope_run_323), t_plan=60.0, reaim_check=True)
+    assert not plan.ok
+    checked = [c for c in plan.candidates if c.reaim_gap_m is not None]
+    assert checked and all(c.reasons[-1].startswith('the re-aimed passage') for c in checked)
+    assert all(c.reaim_gap_m < cfg.clearance_margin_m for c in checked)
+    assert max(c.t_grasp for c in checked) - 60.0 > 2000.0 and any(c.extended for c in checked)
+    assert 'the re-aimed passage below the margin' in plan.reason
 
 def test_a_fast_grasp_point_flies_half_the_preferred_flyby():
     """Envelope run 505 (a 14.5 deg/s tumbler, grasp point on the -x face, the chaser 98 m away) planned from the
@@ -320,3 +334,81 @@ def test_a_refusal_leads_with_the_latest_check_that_bound_it():
     reason = _refusal_reason(candidates, None, cfg)
     assert reason == ('all 159 candidates rejected: 44 predicted miss above the tolerance; 56 transfer through the '
                       'restriction sphere; 48 X_Fi inside the restriction sphere; 11 not convex (eq 15)')
+
+
+def _envelope_run_569(d):
+    """Envelope run 569's drawn values: 8.2 deg/s about the intermediate axis (body x), grasp point on the +y face."""
+    t = d['target']
+    t['initial_attitude']['body_axis_along_hill']['hill'] = [0.27273772, -0.73874812, -0.61633218]
+    t['initial_rate']['omega_body_deg_s'] = [-8.17512839, -0.63668074, -0.15726096]
+    t['grasp_point_body_m'] = [-1.33073461, 1.5, 0.46957523]
+    t['geometry'][1]['size_m'] = [2.01055898, 5.71214881, 0.05]
+    t['geometry'][2]['size_m'] = [1.74815674, 6.08419009, 0.05]
+    d['chaser']['initial_position_hill_m'] = [36.0302, -26.0769, -78.4106]
+    d['chaser']['thrusters'].update(magnitude_error_sigma=0.00576, direction_error_sigma_deg=0.759)
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.0161
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.754
+    d['planner']['sun_direction_hill'] = None
+    d['simulation']['duration_s'] = 3000.0
+
+
+# The estimate run 569 planned from (t = 125.1 s, 7 deg from the truth at its grasp 630 s later) and the chaser's
+# estimated state then (hill; m, m/s), as its headless replay recorded them.
+_RUN_569_PLAN = (125.1, [-0.48082307293465565, -0.7153359196749034, 0.5067287115468437, 0.01815784818227692],
+                 [-0.0091362953778875, -0.13995412946043953, 0.049404577488324615],
+                 [35.83541297936146, -25.840796018537876, -80.54800366691838, -0.0047391399946759005,
+                  0.0037330054509955, -0.03416054707719021])
+
+
+def _reaimed_at_truth(sc, cfg, c):
+    """Least gap [m] of the chaser envelope from the TRUE target along the arc through X_Ft, V_Ft of the grasp
+    re-solved from the true motion near c's grasp (what guidance flies once its estimate has converged), within
+    the geometry window, by RK4 of the CW equations (independent of the planner's CW matrix)."""
+    from flyby_planner.grasp import REFINE_HORIZON_S, flyby_target_point, refine_grasp
+    from flyby_sim.dynamics.geometry import signed_distance_to_box
+    n = cfg.mean_motion_rad_s
+    truth = truth_prediction(sc, c.t_grasp + cfg.geometry_window_s + 1.0)
+    g = refine_grasp(truth, cfg.x_grasp_body_m, c.t_grasp, n, t_latest=c.t_grasp + REFINE_HORIZON_S)
+    x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, c.offset_m)
+
+    def cw(y):
+        r, v = y[:3], y[3:]
+        return np.concatenate((v, [2 * n * v[2], -n * n * r[1], -2 * n * v[0] + 3 * n * n * r[2]]))
+    least = math.inf
+    for sign in (-1.0, 1.0):
+        h = 0.02 * sign
+        ys = [np.concatenate((x_ft, v_ft))]
+        for _ in range(int(cfg.geometry_window_s / 0.02)):
+            y = ys[-1]
+            k1 = cw(y)
+            k2 = cw(y + 0.5 * h * k1)
+            k3 = cw(y + 0.5 * h * k2)
+            k4 = cw(y + h * k3)
+            ys.append(y + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4))
+        times = g.t_grasp + h * np.arange(len(ys))
+        p_body = np.einsum('mji,mj->mi', truth.c_hill_from_body(times), np.array(ys)[:, :3])
+        gaps = [signed_distance_to_box(p_body, ctr, size) for ctr, size in
+                zip(cfg.boxes.center_body_m, cfg.boxes.size_m, strict=True)]
+        least = min(least, float(np.min(gaps)) - cfg.envelope_radius_m)
+    return least
+
+
+def test_envelope_run_569_the_reaimed_passage_rejects_the_plan_it_flew_and_the_new_plan_clears_the_truth():
+    """Envelope run 569 (fourth campaign, an escape): planned from its 125 s estimate, the plan flown (grasp at
+    754.2 s) put the arc that guidance re-aims at the true grasp 0.3-0.4 m into the +y panel. The re-aim check
+    (plan._ReaimModel) rejects it, and the plan it selects instead keeps the margin from the TRUE target once
+    re-aimed at the true grasp."""
+    sc = _scenario(_envelope_run_569)
+    cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
+    t, q, w, chaser = _RUN_569_PLAN
+    pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, t, q, w,
+                                    t + cfg.prediction_span_s(w))
+    plan = plan_capture(pred, chaser[:3], chaser[3:], t, cfg)
+    flown = [c for c in plan.candidates if abs(c.t_grasp - 754.2) < 0.5 and c.offset_m == 1.0
+             and c.flyby_duration_s == 300.0]
+    assert flown and flown[0].reasons[0].startswith('the re-aimed passage'), flown[0].reasons
+    assert _reaimed_at_truth(sc, cfg, flown[0]) < 0.0  # the truth: that arc hits the target
+    assert plan.ok, plan.reason
+    chosen = plan.selected
+    assert chosen.reaim_gap_m >= cfg.clearance_margin_m
+    assert _reaimed_at_truth(sc, cfg, chosen) >= cfg.clearance_margin_m
