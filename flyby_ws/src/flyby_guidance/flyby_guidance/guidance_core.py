@@ -43,7 +43,7 @@ from flyby_guidance.tracking import ReferenceTrajectory, tracking_acceleration, 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
-from flyby_planner.grasp import flyby_target_point, offset_of_flyby_target, refine_grasp
+from flyby_planner.grasp import REFINE_HORIZON_S, flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.plan import check_passage, planner_config_from_scenario
 from flyby_sim.dynamics.actuators import allocate_wrench, fire
 from flyby_sim.dynamics.orbital import cw_accel
@@ -56,8 +56,6 @@ ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 # Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
 # one control period of motion stay well inside it.
 RESTRICTION_SPHERE_MARGIN_M = 1.0
-# The re-solved grasp is searched in a prediction this far past the planned grasp time [s].
-_REFINE_HORIZON_S = 60.0
 # A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
 # uncertainty [m]: the planner's clearance_margin_m is a planning margin, this is the floor (a plan
 # 0.137 m clear re-aimed 0.096 m clear is no reason to give up a capture).
@@ -286,8 +284,8 @@ class GuidanceCore:
         covariance = None if blocks is None else covariance_from_published(q_hb, *blocks)
         cfg = self.planner_config
         prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body,
-                                              aim.t_f + max(_REFINE_HORIZON_S, cfg.geometry_window_s), covariance)
-        g = refine_grasp(prediction, self.x_grasp_body, aim.t_f, self.n, t_latest=aim.t_f + _REFINE_HORIZON_S)
+                                              aim.t_f + max(REFINE_HORIZON_S, cfg.geometry_window_s), covariance)
+        g = refine_grasp(prediction, self.x_grasp_body, aim.t_f, self.n, t_latest=aim.t_f + REFINE_HORIZON_S)
         if g is not None:
             offset_m = offset_of_flyby_target(aim.x_ft, self.x_grasp_body)
             x_ft, v_ft = flyby_target_point(g.x_g, g.v_g, offset_m)  # eq 20-21
