@@ -185,7 +185,7 @@ class PlannerConfig:
     geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound. reaim_check (with accuracy): check
     the passage guidance flies once it re-aims at 3 sigma of the plan estimate (_ReaimModel). Off by default: with
     the convergence bound as the plan estimate's covariance it turns the fourth campaign's five flown failures into
-    captures or refusals but refused 3 of 12 of its captures in a regression sample (docs/campaigns.md).
+    captures or refusals but refused 4 of 17 of its captures in a regression sample (docs/campaigns.md).
     """
 
     mean_motion_rad_s: float
