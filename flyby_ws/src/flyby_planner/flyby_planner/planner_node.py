@@ -12,16 +12,21 @@ whenever guidance re-aims. An optimization-based approach (planner.method, seed 
 ``planner/trajectory`` (trajectory_msgs/MultiDOFJointTrajectory, frame hill, stamp = its start, DESIGN §10) with
 the grasp, the end point X_Ft, V_Ft on ``planner/flyby_target``, the path and markers (the plume sphere), and
 plans again on guidance's ``replan_requested``. On ``mission/events``: the candidate table, ``method_chosen``,
-then ``plan_selected`` or ``plan_refused`` with the reason.
+then ``plan_selected`` or ``plan_refused`` with the reason. A chaser of a ``chasers:`` scenario also takes its
+leaders' (the chasers before it in the file) ``/<leader>/mission/events`` and ``/<leader>/planner/trajectory``:
+it plans after them and keeps off their planned motion (planner_core module doc).
 """
+
+from functools import partial
 
 from std_srvs.srv import Trigger
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.markers import cylinder_marker, line_strip_marker, marker_array, point_marker, sphere_marker
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
+from flyby_msgs_py.wire import Event
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_shortest_arc
 from flyby_sim.scenario import scenario_of
@@ -67,6 +72,20 @@ class PlannerNode(CoreNode):
         self.subscribe_estimates(quat_rotate)
         self.subscribe_events()
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
+        for leader in self.core.leaders:  # another chaser's topics, by their absolute names
+            for topic, callback in ((c.MISSION_EVENTS, self.on_leader_events),
+                                    (c.PLANNER_TRAJECTORY, self.on_leader_trajectory)):
+                self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), f'/{leader}/{topic}',
+                                         partial(callback, leader), qos.qos_for(topic))
+
+    def on_leader_events(self, leader, msg):
+        for e in convert.events_from_msg(msg):
+            self.publish(self.core.on_leader_event(leader, Event(e['t'], e['level'], e['name'], e['message'],
+                                                                 e['values'], e['source'])))
+
+    def on_leader_trajectory(self, leader, msg):
+        traj = convert.multi_dof_trajectory_to_numpy(msg)
+        self.publish(self.core.on_leader_trajectory(leader, traj.times, traj.positions, traj.velocities))
 
     def on_replan(self, _request, response):
         self.publish(self.core.on_replan())
