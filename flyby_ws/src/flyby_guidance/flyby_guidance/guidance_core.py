@@ -26,6 +26,13 @@ mass counted down by the fuel of the forces commanded). When the estimate leaves
 planner.optimal.replan_error_m guidance asks for a re-plan (``replan_requested``, once per trajectory) and flies
 the old trajectory until the new one starts.
 
+A synchronized approach (seed 001 section 2, ``sync_control``): stage 1 is its planner/trajectory, tracked as above
+(no plume rule, the bound and gain of planner.sync); from the trajectory's end (the station's arrival) every
+command is ``SyncGuidance``'s: the body-frame hold, the docking and their force, and the attitude synchronized with
+the target's (the attitude law with ``SYNC_ATTITUDE``'s gains); its stage events (``station_reached``,
+``attitude_synchronized``, ``docking_started``) move the supervisor's phases. After an abort it retreats along the
+port's outward direction, then nothing is commanded.
+
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
 ``AttitudeCommandStamped`` (guidance/wheels and guidance/wrench) and ``wire.Event`` (mission/events).
@@ -33,13 +40,20 @@ every input method returns the outputs to publish, in order: ``guidance.Maneuver
 
 import collections
 import dataclasses
+import math
 
 import numpy as np
 
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
-from flyby_guidance.tracking import ReferenceTrajectory, tracking_acceleration, tracking_config_from_scenario
+from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, sync_config_from_scenario
+from flyby_guidance.tracking import (
+    ReferenceTrajectory,
+    TrackingConfig,
+    tracking_acceleration,
+    tracking_config_from_scenario,
+)
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
@@ -119,6 +133,9 @@ class GuidanceCore:
             self.mass_kg = scenario.chaser.mass_kg  # less the fuel of the forces commanded
             self.layout = scenario.thruster_layout
             self.force_carried_hill = np.zeros(3)  # below the thrusters' minimum impulse bit so far [N]
+            self.sync = SyncGuidance(sync_config_from_scenario(scenario))
+            self.sync_attitude = AttitudeGuidance(dataclasses.replace(SYNC_ATTITUDE, control_period_s=(
+                self.attitude.config.control_period_s)), scenario.chaser_inertia, self.attitude.wheels)
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
         self.next_reference = None  # a re-planned one, flown from its start
         self.replan_asked = False
@@ -156,12 +173,18 @@ class GuidanceCore:
             self.reference = ref
         else:
             self.next_reference = ref
+        if self.phase in c.SYNC_PHASES:
+            self.sync.arm(ref.t_end)
         return [self._event(ref.t_start, 'OK', 'guidance_started',
                             f'tracking the optimal approach from t = {ref.t_start:.2f} s to {ref.t_end:.2f} s',
                             {'t_start_s': ref.t_start, 't_end_s': ref.t_end})]
 
     def on_phase(self, phase):
         self.phase = phase
+        if phase == c.PHASE_SYNC_APPROACH and self.attitude is not None:
+            cfg = self.sync.config  # stage 1: the link tracked without the plume rule, planner.sync's bound and gain
+            self.tracking = TrackingConfig(cfg.accel_max_mps2, 0.0, cfg.frequency_rad_s, math.inf, 0.0)
+            self.sync.arm((self.next_reference or self.reference).t_end)
         return []
 
     def on_target_estimate(self, t, q_hill_from_body, omega_body, attitude_covariance_hill=None,
@@ -191,6 +214,10 @@ class GuidanceCore:
         period_s = self.attitude.config.control_period_s
         while self.wheel_commands and self.wheel_commands[0][0] + period_s <= t + 1e-9:
             self.h_wheels_n_m_s = self.h_wheels_n_m_s + period_s * self.wheel_commands.popleft()[1]
+        if self.sync.stage is not None:
+            out = self._sync_command(t, r_hill, v_hill, q_hill_from_body, omega_body)
+            if out is not None:
+                return out
         a_thrust_hill, events = self._tracking_acceleration(t, t + period_s, r_hill, v_hill)
         inside = float(np.linalg.norm(r_hill)) < self.sphere_radius_m
         cmd = self.attitude.command(t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float),
@@ -200,6 +227,33 @@ class GuidanceCore:
         force_body = (0.0, 0.0, 0.0) if a_thrust_hill is None else self._tracking_force(
             a_thrust_hill, q_hill_from_body, cmd.thruster_torque_body_n_m)
         return [AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m,
+                                       force_body)] + events
+
+    def _sync_command(self, t, r_hill, v_hill, q_hill_from_body, omega_body):
+        """The command of the synchronized approach's stages 2-4 or its retreat (module doc), or None where
+        SyncGuidance has nothing to say (stage 1 before the arrival, the drift after a retreat)."""
+        if self.phase == c.PHASE_ABORTED:
+            self.sync.abort(t)
+        target = self.targets.last_at_or_before(t)
+        if target is None:
+            return None
+        period_s = self.attitude.config.control_period_s
+        cmd = self.sync.command(t, t + period_s, period_s, r_hill, v_hill, q_hill_from_body, omega_body,
+                                (target[0], target[1][0], target[1][1]))
+        if cmd is None:
+            return None
+        events = [self._event(t, level, name, message, values) for level, name, message, values in cmd.events]
+        if cmd.goal is None:  # the retreat: body +x back on the target's centre of mass
+            att = self.attitude.command(t, np.asarray(q_hill_from_body, dtype=float),
+                                        np.asarray(omega_body, dtype=float), self.h_wheels_n_m_s, r_hill, v_hill,
+                                        self.n, True)
+        else:
+            att = self.sync_attitude.track(cmd.goal, np.asarray(q_hill_from_body, dtype=float),
+                                           np.asarray(omega_body, dtype=float), self.h_wheels_n_m_s, True)
+        self.wheel_commands.append((t + period_s, att.wheel_torque_n_m))
+        force_body = (0.0, 0.0, 0.0) if cmd.a_hill is None else self._tracking_force(
+            cmd.a_hill, q_hill_from_body, att.thruster_torque_body_n_m)
+        return [AttitudeCommandStamped(t + period_s, period_s, att.wheel_torque_n_m, att.thruster_torque_body_n_m,
                                        force_body)] + events
 
     def _tracking_acceleration(self, t, t_apply, r_hill, v_hill):

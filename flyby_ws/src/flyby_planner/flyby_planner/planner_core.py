@@ -51,6 +51,7 @@ from flyby_planner.optimal.mutual import MovingObstacle, least_separation
 from flyby_planner.optimal.problem import TargetMotion
 from flyby_planner.optimal.scp import ScpSettings
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
+from flyby_planner.sync.approach import is_category_iv, plan_sync
 from flyby_sim.dynamics.orbital import cw_coast
 
 # Values of the selected candidate put on its plan_selected event.
@@ -178,7 +179,8 @@ class PlannerCore:
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.approach = approach_settings_from_scenario(scenario)
         self.method_flown = None  # the method of the plan being flown: a re-plan keeps it
-        self.flown = None  # the TrajectoryPublished being flown (an optimal approach)
+        self.flown = None  # the TrajectoryPublished being flown (an optimal or synchronized approach)
+        self.sync_arrival = None  # the synchronized approach's ArrivalChoice being flown
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
@@ -223,6 +225,10 @@ class PlannerCore:
 
     def on_target_estimate(self, t, q_hill_from_body, omega_body):
         self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float)))
+        s = self.scenario.planner.sync
+        if self.method_flown == 'sync' and self.request is None and t >= self.flown.t_plan + s.resolve_interval_s \
+                and t < self.sync_arrival.t_arrival - s.resolve_cutoff_s:
+            self.request = (t, 're-solve of the synchronized approach')  # seed 001 section 2
         return self._try_plan()
 
     # -- planning -------------------------------------------------------------------------------
@@ -301,6 +307,11 @@ class PlannerCore:
         if method == 'optimal':
             reason = 'a re-plan of the approach flown' if self.method_flown else 'planner.method optimal'
             return self._plan_optimal(t, q_hill_from_body, omega_body, why, reason, [])
+        if method == 'sync' or (method == 'auto' and self.rigid and is_category_iv(omega_body, self.scenario)):
+            reason = ('a re-solve of the approach flown' if self.method_flown else 'planner.method sync'
+                      if method == 'sync' else 'auto: category IV (condition (a): the rate is at or above '
+                                               f'{self.scenario.estimation.spin_rate_deg_s:g} deg/s)')
+            return self._plan_sync(t, q_hill_from_body, omega_body, why, reason)
         out, refused = self._plan_flyby(t, q_hill_from_body, omega_body, why)
         if refused is None:
             return out
@@ -369,6 +380,47 @@ class PlannerCore:
                          'clearance_m': plan.clearance_m, 'x_g_hill_m': plan.x_g, 'v_g_hill_mps': plan.v_g,
                          'x_ft_hill_m': plan.x_ft, 'v_ft_hill_mps': plan.v_ft, 'solver_time_s': plan.solver_time_s,
                          'planning_time_s': planning_time_s, **mutual_values})]
+
+    def _plan_sync(self, t, q_hill_from_body, omega_body, why, reason):
+        """Stage 1 of the synchronized approach (flyby_planner.sync.approach) at the plan time t; a re-solve starts
+        from the estimate moved as the flown trajectory over the lead (as an optimal re-plan)."""
+        lead_s = self.scenario.planner.maneuver_lead_s
+        chaser_now = self._chaser_at(t)
+        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
+                                              omega_body, max(t, self.scenario.planner.sync.arrival_end_s) + 1.0)
+        start = cw_coast(chaser_now[:3], chaser_now[3:], lead_s, self.config.mean_motion_rad_s)
+        if self.flown is not None:
+            traj = self.flown.trajectory
+            ref = np.array([[np.interp(s, traj.t_s, x[:, k]) for x in (traj.r_hill, traj.v_hill) for k in range(3)]
+                            for s in (t, t + lead_s)])
+            start = chaser_now + ref[1] - ref[0]
+        started = time.perf_counter()  # measured for the record only; nothing here acts on it
+        plan = plan_sync(self.scenario, prediction, t + lead_s, start[:3], start[3:], self.sync_arrival)
+        planning_time_s = time.perf_counter() - started
+        if not plan.ok:
+            if self.flown is not None:  # a failed re-solve keeps the plan flown
+                return [self._event(t, 'WARN', 'plan_kept', plan.reason, {'request': why})]
+            return self._refuse(t, why, plan.reason, PlanMarkers(self.config.restriction_sphere_radius_m, ()),
+                                planning_time_s)
+        arrival, traj = plan.arrival, plan.trajectory
+        at = prediction.state(arrival.t_arrival)
+        x_port = np.array(self.scenario.target.grasp_point_body_m)
+        port = prediction.track(x_port, (arrival.t_arrival,))
+        grasp = GraspState(arrival.t_arrival, port.r_hill[0], port.v_hill[0], at.q_hill_from_body, at.omega_body)
+        self.sync_arrival = arrival
+        self.flown = TrajectoryPublished(t, grasp, arrival.t_arrival, arrival.r_hill, arrival.v_hill, t + lead_s,
+                                         traj, PlanMarkers(self.config.restriction_sphere_radius_m, (), grasp.x_g,
+                                                           (arrival.r_hill,), traj.r_hill))
+        out = [] if self.method_flown == 'sync' else [self._method_chosen(t, 'sync', reason)]
+        return out + [
+            self.flown,
+            self._event(t, 'OK', 'plan_selected', plan.reason,
+                        {'request': why, 'plan': str(self.plans), 'method': 'sync', 't_arrival_s': arrival.t_arrival,
+                         't_start_s': t + lead_s, 'offset_m': self.scenario.planner.offset_m,
+                         'approach_time_s': arrival.t_arrival - t - lead_s, 'dv_total_mps': arrival.delta_v_mps,
+                         'peak_accel_mps2': plan.peak_accel_mps2, 'closest_m': arrival.closest_m,
+                         'x_station_hill_m': arrival.r_hill, 'v_station_hill_mps': arrival.v_hill,
+                         'planning_time_s': planning_time_s})]
 
     def _plan_flyby(self, t, q_hill_from_body, omega_body, why):
         """The fly-by (flyby_planner.plan) at the plan time t: (outputs, None) for a selected plan, (the candidates'

@@ -15,6 +15,14 @@ observable condition and carries its reason:
                                             section 4, DESIGN §10); a re-plan moves the grasp time
     OPTIMAL_APPROACH  -> CAPTURE | ESCAPE   at the grasp time, as from FLYBY (the end point is the fly-by
                                             target point of eq 20-21 with the plan's offset)
+    PLANNING          -> SYNC_APPROACH      the planner selected a synchronized approach (seed 001 section 2, DESIGN
+                                            §10); its re-solves move the arrival
+    SYNC_APPROACH     -> ATTITUDE_SYNC      guidance reached the station (``station_reached``)
+    ATTITUDE_SYNC     -> ORBITING           guidance synchronized the attitude (``attitude_synchronized``)
+    ORBITING          -> DOCKING            guidance started docking (``docking_started``, with the grasp time)
+    DOCKING           -> CAPTURE | ESCAPE   at the first chaser estimate at or after the grasp time, against the final
+                                            point (eq 20-21 with the final range) at that estimate's own stamp: the
+                                            chaser holds it under thrust, so no coast carries the estimate
     CAPTURE           -> COMPLETE           after capture_hold_s attached
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
@@ -41,9 +49,13 @@ from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
 # Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
-                 c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH)
+                 c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
 # The phases that end at the grasp time with the capture decision.
-DECIDING_PHASES = (c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH)
+DECIDING_PHASES = (c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH, c.PHASE_DOCKING)
+# Guidance's events that move the synchronized approach from one stage to the next (seed 001 section 2).
+_SYNC_STEPS = {'station_reached': (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
+               'attitude_synchronized': (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
+               'docking_started': (c.PHASE_ORBITING, c.PHASE_DOCKING)}
 # Nodes whose silence or ERROR events abort the mission: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
@@ -172,6 +184,18 @@ class PhaseMachine:
                 return []
             return self._go(t, c.PHASE_OPTIMAL_APPROACH, f'optimal approach selected: grasp at t = '
                                                          f'{self.t_grasp:.2f} s', {'t_grasp_s': self.t_grasp})
+        if name == 'plan_selected' and values.get('method') == 'sync':
+            self.offset_m = float(values['offset_m'])
+            if self.phase != c.PHASE_PLANNING:
+                return []
+            return self._go(t, c.PHASE_SYNC_APPROACH, f'synchronized approach selected: station at t = '
+                                                      f"{float(values['t_arrival_s']):.2f} s",
+                            {'t_arrival_s': float(values['t_arrival_s'])})
+        if name in _SYNC_STEPS and self.phase == _SYNC_STEPS[name][0] and source in self.config.watched_nodes:
+            if 't_grasp_s' in values:
+                self.t_grasp = float(values['t_grasp_s'])
+            return self._go(t, _SYNC_STEPS[name][1], values.get('reason', name),
+                            {k: float(values[k]) for k in ('t_grasp_s',) if k in values})
         if name == 'plan_selected' and self.phase == c.PHASE_PLANNING:
             self.t_i = float(values['t_i_s'])
             self.t_grasp = float(values['t_grasp_s'])
@@ -304,6 +328,8 @@ class SupervisorCore:
             return []
         if self.targets.first_at_or_after(self.decision_at[0]) is None:
             return []
+        if self.machine.phase == c.PHASE_DOCKING:  # the final point is held: decided at the estimate's own stamp
+            self.machine.t_grasp = self.decision_at[0]
         target = self.targets.last_at_or_before(self.machine.t_grasp) or self.targets.first_at_or_after(
             self.machine.t_grasp)
         decision = decide_capture(self.decision_at, target[1], self.machine.t_grasp, self.dynamics, self.n,

@@ -1,0 +1,67 @@
+"""The synchronized approach as the mission plans it (seed 001 section 2, DESIGN §10 ``sync``): stage 1 from the
+estimates, for /planner/trajectory.
+
+At the plan time the chaser's estimated state is carried to the start (``maneuver_lead_s`` later), the target's
+motion is predicted from its estimate over the arrival window, and ``station.select_arrival`` (eq 1) chooses the
+arrival; a re-solve (``previous`` given) takes ``station.reselect_arrival``, the solution closest to the previous
+one. The link is sampled every ``planner.sync.trajectory_step_s`` for guidance to track; its end is the station
+at the arrival time, where guidance turns to stages 2-4 (flyby_guidance.sync_control).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from flyby_planner.sync.station import keepout_radius, reselect_arrival, select_arrival, station_geometry
+
+
+@dataclasses.dataclass(frozen=True)
+class SyncPlan:
+    """ok; reason (one line); the arrival (station.ArrivalChoice) and the Trajectory to fly, or None."""
+
+    ok: bool
+    reason: str
+    arrival: object = None
+    trajectory: object = None
+    peak_accel_mps2: float = None
+
+
+def plan_sync(scenario, prediction, t_start, r_start_hill, v_start_hill, previous=None):
+    """SyncPlan of stage 1 from the chaser's state (r, v) at t_start [s] and the target's MotionPrediction (covering
+    the arrival window); previous: the ArrivalChoice of the plan being flown (a re-solve)."""
+    s = scenario.planner.sync
+    geometry = station_geometry(scenario.target.grasp_point_body_m, s.station_range_m, scenario.planner.offset_m)
+    keepout_m = keepout_radius([(b.center_m, b.size_m) for b in scenario.target.geometry],
+                               scenario.chaser.envelope_radius_m, s.keepout_margin_m)
+    n, radius = scenario.mean_motion_rad_s, scenario.orbit_radius_m
+    window = (s.arrival_start_s, s.arrival_end_s)
+
+    def track(times):
+        p = prediction.track(geometry.x_station_body, times)
+        return p.r_hill, p.v_hill
+
+    if previous is None:
+        choice = select_arrival(track, t_start, r_start_hill, v_start_hill, window, n, radius, keepout_m)
+    else:
+        choice = reselect_arrival(track, t_start, r_start_hill, v_start_hill, window, previous.r_hill,
+                                  previous.v_hill, n, radius, keepout_m)
+    if choice is None:
+        return SyncPlan(False, f'synchronized approach: no arrival in ({window[0]:g}, {window[1]:g}) s from '
+                               f't = {t_start:.1f} s whose link keeps {keepout_m:.2f} m off the target')
+    peak = choice.link.peak_acceleration(n, radius)
+    accel_max = (2.0 * scenario.chaser.thrusters.max_thrust_n / scenario.chaser.mass_kg
+                 if s.accel_max_mps2 is None else s.accel_max_mps2)
+    if peak > accel_max:
+        return SyncPlan(False, f'synchronized approach: the link to the arrival at {choice.t_arrival:.1f} s needs '
+                               f'{peak:.3f} m/s^2 > {accel_max:.3f} m/s^2')
+    reason = (f'synchronized approach: station {geometry.station_range_m:g} m out on the port\'s line reached at '
+              f't = {choice.t_arrival:.2f} s ({"closest to the previous solution" if previous else "eq 1, least"} '
+              f'delta-v {choice.delta_v_mps:.3f} m/s, peak {peak:.3f} m/s^2, {choice.feasible} of {choice.tried} '
+              f'arrival times clear of the target)')
+    return SyncPlan(True, reason, choice, choice.link.sample(s.trajectory_step_s, n, radius), peak)
+
+
+def is_category_iv(omega_body, scenario):
+    """Condition (a) fails: the inertial rate is at or above estimation.spin_rate_deg_s (seed 000 §2.1)."""
+    return float(np.linalg.norm(omega_body)) >= math.radians(scenario.estimation.spin_rate_deg_s)
