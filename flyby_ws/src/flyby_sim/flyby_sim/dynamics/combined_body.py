@@ -51,7 +51,8 @@ def inertia_from_principal(principal_moments_kg_m2, q_body_from_principal):
     """C diag(I_1, I_2, I_3) C^T [kg m^2]: a body's inertia about its CoM in body axes from its principal
     moments and the orientation of its principal axes (seed 004's D^T I_s0 D, C = D^T)."""
     c = quat_to_matrix(quat_normalize(q_body_from_principal))
-    return c @ np.diag(np.asarray(principal_moments_kg_m2, dtype=float)) @ c.T
+    i = c @ np.diag(np.asarray(principal_moments_kg_m2, dtype=float)) @ c.T
+    return 0.5 * (i + i.T)  # exactly symmetric (validated_inertia checks it)
 
 
 class CombinedMassProperties(NamedTuple):
