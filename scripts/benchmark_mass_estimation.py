@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Accuracy and consistency of the mass-property filter (seed 004 §2.2) on seed 004 §3.1's TugRobot case, with
+Table 1's thruster sequence and with a sequence chosen for observability at the same impulse; then the grasp
+and the damping of the post-capture cores. Prints figures; asserts nothing (docs/post_capture.md).
+
+    .venv/bin/python scripts/benchmark_mass_estimation.py --runs 50 --candidates 16
+"""
+
+import argparse
+import math
+import time
+
+import numpy as np
+from scipy.stats import chi2
+
+from flyby_estimation.mass_properties import j_from_moments, principal_axis_errors_rad
+from flyby_estimation.mass_properties_excitation import (
+    PARAMETER_SLICE,
+    TugrobotCase,
+    choose_sequence,
+    default_prior,
+    information_gain,
+    run_filter,
+    simulate_experiment,
+    table1_firings,
+    total_impulse_n_s,
+    tugrobot_filter_config,
+)
+from flyby_guidance.post_capture import DampingGains, simulate_damping
+from flyby_sim.dynamics.actuators import default_thruster_layout
+from flyby_sim.dynamics.grasp import Body, Impedance, simulate_grasp
+from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, ReactionWheels
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, rotation_vector_from_quat
+
+WINDOW_S = 25.0
+
+
+def parameter_error(case, estimate):
+    """The error state of the ten parameters (M, dphi, X_s, j), truth minus estimate, in the filter's coordinates."""
+    dphi = rotation_vector_from_quat(quat_multiply(quat_conjugate(estimate.q_body_from_principal),
+                                                   case.q_body_from_principal))
+    y = estimate
+    return np.concatenate(([case.target_mass_kg - y.target_mass_kg], dphi,
+                           np.asarray(case.target_com_body_m) - y.target_com_body_m,
+                           j_from_moments(case.target_principal_moments_kg_m2)
+                           - j_from_moments(y.principal_moments_kg_m2)))
+
+
+def _defined_parameters(case):
+    """Indices of the parameter error (M, dphi, X_s, j) that mean something: for a target with two equal principal
+    moments the rotation about its distinct axis changes nothing and is left out."""
+    moments = np.asarray(case.target_principal_moments_kg_m2)
+    keep = list(range(10))
+    for k in range(3):
+        others = np.delete(moments, k)
+        if math.isclose(others[0], others[1], rel_tol=1e-9) and not math.isclose(moments[k], others[0], rel_tol=1e-9):
+            keep.remove(1 + k)
+    return keep
+
+
+def campaign(case, firings, runs, prior_scale=1.0, label=''):
+    config = tugrobot_filter_config(case)
+    rows, nees = [], []
+    t0 = time.perf_counter()
+    for seed in range(runs):
+        rng = np.random.default_rng([16, seed])
+        meas = simulate_experiment(case, firings, WINDOW_S, config, rng)
+        prior = default_prior(case, rng, mass_sigma_kg=0.5 * prior_scale, com_sigma_m=0.01 * prior_scale,
+                              axes_sigma_rad=math.radians(1.0) * prior_scale,
+                              j_sigma=tuple(prior_scale * np.array([0.03, 0.03, 0.02])))
+        f, _ = run_filter(case, firings, meas, config, prior)
+        e = f.state()
+        truth_i = np.asarray(case.target_principal_moments_kg_m2)
+        rows.append((abs(e.target_mass_kg / case.target_mass_kg - 1.0) * 100.0,
+                     np.linalg.norm(e.target_com_body_m - case.target_com_body_m) * 100.0,
+                     np.max(np.abs(e.principal_moments_kg_m2 / truth_i - 1.0)) * 100.0,
+                     math.degrees(principal_axis_errors_rad(e.q_body_from_principal, case.q_body_from_principal)[0]),
+                     e.mass_sigma_kg / case.target_mass_kg * 100.0,
+                     np.max(e.principal_moments_sigma_kg_m2 / truth_i) * 100.0))
+        err = parameter_error(case, e)
+        p = e.covariance[PARAMETER_SLICE, PARAMETER_SLICE]
+        keep = _defined_parameters(case)
+        nees.append(float(err[keep] @ np.linalg.solve(p[np.ix_(keep, keep)], err[keep])))
+    rows = np.array(rows)
+    wall = time.perf_counter() - t0
+    p95 = np.percentile(rows, 95, axis=0)
+    dof = len(_defined_parameters(case))
+    lo, hi = chi2.ppf([0.025, 0.975], dof * runs) / runs
+    print(f'{label}: {runs} runs, {wall / runs:.2f} s per run, impulse {total_impulse_n_s(firings):.1f} N s, '
+          f'window {WINDOW_S:.0f} s, prior x{prior_scale:g}')
+    print(f'  95th percentile  mass {p95[0]:.4f} %  CoM {p95[1]:.4f} cm  moments {p95[2]:.4f} %  '
+          f'distinct axis {p95[3]:.4f} deg')
+    print(f'  median 1-sigma   mass {np.median(rows[:, 4]):.4f} %  moments {np.median(rows[:, 5]):.4f} %')
+    print(f'  mean NEES ({dof} parameters) {np.mean(nees):.2f}, 95 % band [{lo:.2f}, {hi:.2f}], '
+          f'runs above chi2({dof}) 99.9 %: {int(np.sum(np.array(nees) > chi2.ppf(0.999, dof)))}')
+    return rows, nees
+
+
+def grasp_and_damping():
+    chaser = Body(100.0, np.diag([8.0, 10.0, 12.0]), np.zeros(3), np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]),
+                  np.zeros(3))
+    omega_t = math.radians(3.0) * np.array([0.0, 0.6, 0.8])
+    r_ee, r_g = np.array([0.8, 0.0, 0.0]), np.array([-0.5, 0.0, 0.0])
+    target = Body(20.0, np.diag([2.0, 1.5, 1.5]), r_ee - r_g + np.array([0.005, 0.003, 0.0]),
+                  np.array([0.0, 0.0, 0.001]), np.array([0.0, 0.0, 0.0, 1.0]), omega_t)
+    t0 = time.perf_counter()
+    res = simulate_grasp(chaser, target, Impedance(), r_ee, r_g, 10.0, output_step_s=0.02)
+    print(f'grasp (100 kg chaser, 20 kg target at 3 deg/s, 5.8 mm and 1 mm/s residual, default Impedance): '
+          f'peak force {res.peak_force_n:.3f} N, peak torque {res.peak_torque_n_m:.3f} N m, damped after '
+          f'{res.damping_time_s:.2f} s, released {res.released}, dissipated {res.dissipated_j[-1] * 1e3:.3f} mJ '
+          f'({time.perf_counter() - t0:.1f} s)')
+    res = simulate_grasp(chaser, target._replace(v_mps=np.array([0.0, 0.0, 0.5])), Impedance(), r_ee, r_g, 10.0,
+                         output_step_s=0.02)
+    print(f'grasp at 0.5 m/s closing speed: released {res.released} at {res.t_release_s} s ({res.release_reason})')
+    inertia = np.diag([1200.0, 1000.0, 2000.0]) + np.diag([8.0, 10.0, 12.0])
+    omega0 = math.radians(5.0) * np.array([0.0, 0.6, 0.8])
+    wheels = ReactionWheels.orthogonal(0.1, 4.0, 0.01)
+    state0 = ChaserAttitudeState(np.array([0.0, 0.0, 0.0, 1.0]), omega0, np.array([0.3, -0.2, 0.1]))
+    gains = DampingGains.for_inertia_bound(500.0, 1.0, max_thruster_torque_n_m=4.0)
+    t0 = time.perf_counter()
+    dmp = simulate_damping(inertia, wheels, state0, gains, 600.0, period_s=1.0, layout=default_thruster_layout())
+    print(f'damping (paper_flyby target + chaser, 5 deg/s, |H0| {dmp.momentum_kg_m2_s[0]:.1f} kg m^2/s, 1 s period, '
+          f'gains from a 500 kg m^2 bound): below 0.1 kg m^2/s after {dmp.time_to_bound_s:.0f} s, fuel '
+          f'{dmp.fuel_kg * 1e3:.1f} g ({time.perf_counter() - t0:.1f} s)')
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--runs', type=int, default=10, help='seeded runs per sequence')
+    parser.add_argument('--candidates', type=int, default=16, help='random candidates of the design search')
+    parser.add_argument('--wide-runs', type=int, default=3, help='runs from a ten times wider prior')
+    args = parser.parse_args()
+    case = TugrobotCase()
+    config = tugrobot_filter_config(case)
+    t0 = time.perf_counter()
+    design = choose_sequence(case, config, default_prior(case), np.random.default_rng(2026), args.candidates)
+    table1_gain = information_gain(case, table1_firings(), WINDOW_S, config, default_prior(case))
+    print(f'design: {args.candidates} candidates in {time.perf_counter() - t0:.0f} s; information gain (log det '
+          f'P0/P of the parameters) Table 1 {table1_gain:.2f}, chosen {design.information_gain:.2f}, candidates '
+          f'{min(design.candidate_gains):.2f} to {max(design.candidate_gains):.2f}')
+    for f in design.firings:
+        print(f'  firing at {f.t_start_s:5.1f} s for {f.duration_s:.3f} s, force {np.round(f.force_body_n, 3)} N')
+    campaign(case, table1_firings(), args.runs, label='Table 1')
+    campaign(case, design.firings, args.runs, label='chosen')
+    if args.wide_runs:
+        campaign(case, table1_firings(), args.wide_runs, prior_scale=10.0, label='Table 1, wide prior')
+    grasp_and_damping()
+
+
+if __name__ == '__main__':
+    main()
