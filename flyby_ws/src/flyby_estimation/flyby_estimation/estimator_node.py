@@ -53,26 +53,26 @@ class EstimatorNode(CoreNode):
             self.order = MeasurementOrder(scenario.simulation.step_s,
                                           [('position', scenario.sensors.relative_position.rate_hz),
                                            ('imu', scenario.sensors.chaser_imu.rate_hz)])
-            self.subscribe(c.SENSOR_CHASER_IMU, self.on_imu)
-            self.subscribe(c.GUIDANCE_WRENCH, self.on_wrench)
-        for topic, callback in ((c.SENSOR_TARGET_ATTITUDE, self.on_attitude),
-                                (c.SENSOR_RELATIVE_POSITION, self.on_position),
-                                (c.GUIDANCE_MANEUVER, self.on_maneuver)):
-            self.subscribe(topic, callback)
+            self.subscribe_raw(c.SENSOR_CHASER_IMU, self.on_imu)
+            self.subscribe_raw(c.GUIDANCE_WRENCH, self.on_wrench)
+        # The measurements come as CDR bytes (convert.*_cdr_to_numpy: no Python messages on the hot path).
+        self.subscribe_raw(c.SENSOR_TARGET_ATTITUDE, self.on_attitude)
+        self.subscribe_raw(c.SENSOR_RELATIVE_POSITION, self.on_position)
+        self.subscribe(c.GUIDANCE_MANEUVER, self.on_maneuver)
         self.subscribe_phase()
 
-    def on_attitude(self, msg):
-        self.publish(self.core.on_attitude(*convert.quaternion_stamped_to_numpy(msg)))
+    def on_attitude(self, data):
+        self.publish(self.core.on_attitude(*convert.quaternion_stamped_cdr_to_numpy(data)))
 
-    def on_position(self, msg):
-        t, r_hill = convert.point_stamped_to_numpy(msg)
+    def on_position(self, data):
+        t, r_hill = convert.point_stamped_cdr_to_numpy(data)
         if self.order is None:
             self.publish(self.core.on_position(t, r_hill))
         else:
             self._in_order(self.order.push('position', t, r_hill))
 
-    def on_imu(self, msg):
-        imu = convert.imu_to_numpy(msg)
+    def on_imu(self, data):
+        imu = convert.imu_cdr_to_numpy(data)
         self._in_order(self.order.push('imu', imu.t, imu))
 
     def _in_order(self, samples):
@@ -82,8 +82,8 @@ class EstimatorNode(CoreNode):
             else:
                 self.publish(self.core.on_imu(t, value.orientation_xyzw, value.angular_velocity))
 
-    def on_wrench(self, msg):
-        w = convert.wrench_stamped_to_numpy(msg)
+    def on_wrench(self, data):
+        w = convert.wrench_stamped_cdr_to_numpy(data)
         self.publish(self.core.on_wrench(w.t, w.force))
 
     def on_maneuver(self, msg):

@@ -59,10 +59,11 @@ class GuidanceNode(CoreNode):
             if isinstance(out, Maneuver):
                 self.pub_maneuver.publish(convert.vector3_stamped(out.t, c.FRAME_HILL, out.dv_hill))
             elif isinstance(out, AttitudeCommandStamped):
-                self.pub_wheels.publish(convert.joint_state(out.t, c.FRAME_CHASER_BODY, self.wheel_names,
-                                                            effort=out.wheel_torque_n_m))
-                self.pub_wrench.publish(convert.wrench_stamped(out.t, c.FRAME_CHASER_BODY, out.force_body_n,
-                                                               out.thruster_torque_body_n_m))
+                # Every control period: as CDR bytes (convert.*_cdr), no Python messages on the hot path.
+                self.pub_wheels.publish(convert.joint_state_cdr(out.t, c.FRAME_CHASER_BODY, self.wheel_names,
+                                                                effort=out.wheel_torque_n_m))
+                self.pub_wrench.publish(convert.wrench_stamped_cdr(out.t, c.FRAME_CHASER_BODY, out.force_body_n,
+                                                                   out.thruster_torque_body_n_m))
             else:
                 publish_event(self, self.pub_events, out)
 

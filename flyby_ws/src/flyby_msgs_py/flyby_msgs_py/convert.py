@@ -328,6 +328,36 @@ def clock_cdr_to_ns(data):
     return sec * NS_PER_S + nanosec
 
 
+def _header_cdr(t, frame_id):
+    """CDR payload of a std_msgs/Header, padded to 8 bytes (a float64 field follows in every user here)."""
+    head = struct.pack('<iI', *_stamp_parts(t))
+    head += _cdr_string(_frame(frame_id), len(head))
+    return head + b'\0' * (-len(head) % 8)
+
+
+def _header_from_cdr(data, typename):
+    """(t [s], frame_id, payload offset after the header padded to 8) of serialized ``data``."""
+    if bytes(data[:2]) != _CDR_LE[:2]:
+        raise ValueError(f'{typename}: expected little-endian CDR (encapsulation 00 01), got {bytes(data[:2]).hex()}')
+    sec, nanosec = struct.unpack_from('<iI', data, 4)
+    frame_id, offset = _cdr_string_at(data, 8, 'frame_id')
+    return (sec * NS_PER_S + nanosec) / 1e9, frame_id, offset + (-offset % 8)
+
+
+def _doubles_from_cdr(data, offset, n, typename):
+    if 4 + offset + 8 * n != len(data):
+        raise ValueError(f'{typename}: {len(data)} bytes of CDR, expected {4 + offset + 8 * n}')
+    return np.frombuffer(data, '<f8', n, 4 + offset).astype(float)
+
+
+def header_cdr_to_ns(data):
+    """(time [ns], frame_id) of a serialized std_msgs/Header (e.g. a node's progress)."""
+    if bytes(data[:2]) != _CDR_LE[:2]:
+        raise ValueError(f'Header: expected little-endian CDR (encapsulation 00 01), got {bytes(data[:2]).hex()}')
+    sec, nanosec = struct.unpack_from('<iI', data, 4)
+    return sec * NS_PER_S + nanosec, _cdr_string_at(data, 8, 'frame_id')[0]
+
+
 def odometry_to_numpy(msg):
     pose, twist = msg.pose.pose, msg.twist.twist
     p, q, v, w = pose.position, pose.orientation, twist.linear, twist.angular
@@ -374,6 +404,15 @@ def vector3_stamped(t, frame_id, vector):
     return msg
 
 
+def _stamped_cdr(t, frame_id, values):
+    return b''.join((_CDR_LE, _header_cdr(t, frame_id), struct.pack(f'<{len(values)}d', *values)))
+
+
+def _stamped_from_cdr(data, n, typename):
+    t, _frame_id, offset = _header_from_cdr(data, typename)
+    return t, _doubles_from_cdr(data, offset, n, typename)
+
+
 def vector3_stamped_to_numpy(msg):
     v = msg.vector
     return Stamped(stamp_to_sec(msg.header.stamp), np.array((v.x, v.y, v.z)))
@@ -387,6 +426,15 @@ def point_stamped(t, frame_id, point):
     return msg
 
 
+def point_stamped_cdr(t, frame_id, point):
+    """``point_stamped`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
+    return _stamped_cdr(t, frame_id, _vec3(point, 'point'))
+
+
+def point_stamped_cdr_to_numpy(data):
+    return Stamped(*_stamped_from_cdr(data, 3, 'PointStamped'))
+
+
 def point_stamped_to_numpy(msg):
     p = msg.point
     return Stamped(stamp_to_sec(msg.header.stamp), np.array((p.x, p.y, p.z)))
@@ -398,6 +446,15 @@ def quaternion_stamped(t, frame_id, quaternion_xyzw):
     msg = _with_header(QuaternionStamped(), t, frame_id)
     _set_xyzw(msg.quaternion, xyzw)
     return msg
+
+
+def quaternion_stamped_cdr(t, frame_id, quaternion_xyzw):
+    """``quaternion_stamped`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
+    return _stamped_cdr(t, frame_id, _quat(quaternion_xyzw, 'quaternion_xyzw'))
+
+
+def quaternion_stamped_cdr_to_numpy(data):
+    return Stamped(*_stamped_from_cdr(data, 4, 'QuaternionStamped'))
 
 
 def quaternion_stamped_to_numpy(msg):
@@ -414,6 +471,16 @@ def wrench_stamped(t, frame_id, force, torque=(0.0, 0.0, 0.0), out=None):
     _set_xyz(msg.wrench.force, f)
     _set_xyz(msg.wrench.torque, tq)
     return msg
+
+
+def wrench_stamped_cdr(t, frame_id, force, torque=(0.0, 0.0, 0.0)):
+    """``wrench_stamped`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
+    return _stamped_cdr(t, frame_id, _vec3(force, 'force') + _vec3(torque, 'torque'))
+
+
+def wrench_stamped_cdr_to_numpy(data):
+    t, a = _stamped_from_cdr(data, 6, 'WrenchStamped')
+    return WrenchArrays(t, a[:3], a[3:])
 
 
 def wrench_stamped_to_numpy(msg):
@@ -450,6 +517,35 @@ def imu(t, frame_id, orientation_xyzw, angular_velocity, linear_acceleration, or
     msg.linear_acceleration_covariance = _covariance(linear_acceleration_covariance, 3,
                                                      'linear_acceleration_covariance')
     return msg
+
+
+_NO_ORIENTATION = (0.0, 0.0, 0.0, 0.0, -1.0) + (0.0,) * 8
+
+
+def imu_cdr(t, frame_id, orientation_xyzw, angular_velocity, linear_acceleration, orientation_covariance,
+            angular_velocity_covariance, linear_acceleration_covariance):
+    """``imu`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
+    head = _header_cdr(t, frame_id)
+    if orientation_xyzw is None:
+        orientation = struct.pack('<13d', *_NO_ORIENTATION)
+    else:
+        orientation = (struct.pack('<4d', *_quat(orientation_xyzw, 'orientation_xyzw'))
+                       + _covariance(orientation_covariance, 3, 'orientation_covariance').astype('<f8').tobytes())
+    return b''.join((
+        _CDR_LE, head, orientation, struct.pack('<3d', *_vec3(angular_velocity, 'angular_velocity')),
+        _covariance(angular_velocity_covariance, 3, 'angular_velocity_covariance').astype('<f8').tobytes(),
+        struct.pack('<3d', *_vec3(linear_acceleration, 'linear_acceleration')),
+        _covariance(linear_acceleration_covariance, 3, 'linear_acceleration_covariance').astype('<f8').tobytes()))
+
+
+def imu_cdr_to_numpy(data):
+    """``imu_to_numpy`` of a serialized sensor_msgs/Imu."""
+    t, frame_id, offset = _header_from_cdr(data, 'Imu')
+    a = _doubles_from_cdr(data, offset, 37, 'Imu')
+    has_orientation = a[4] != -1.0
+    return ImuArrays(t, a[0:4] if has_orientation else None, a[13:16], a[25:28],
+                     a[4:13].reshape(3, 3) if has_orientation else None, a[16:25].reshape(3, 3),
+                     a[28:37].reshape(3, 3), frame_id)
 
 
 def imu_to_numpy(msg):
@@ -492,6 +588,59 @@ def joint_state(t, frame_id, names, velocity=None, effort=None, position=None):
             raise ValueError(f'{field}: must have one value per name ({len(names)}), got {len(values)}')
         setattr(msg, field, [_scalar(v, f'{field}[{i}]') for i, v in enumerate(values)])
     return msg
+
+
+def joint_state_cdr(t, frame_id, names, velocity=None, effort=None, position=None):
+    """``joint_state`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
+    names = list(names)
+    if not all(type(n) is str and n for n in names):
+        raise ValueError(f'names: must be non-empty strings, got {names!r}')
+    head = struct.pack('<iI', *_stamp_parts(t))
+    head += _cdr_string(_frame(frame_id), len(head))
+    parts = [head, b'\0' * (-len(head) % 4), struct.pack('<I', len(names))]
+    size = len(head) + len(parts[1]) + 4
+    for name in names:
+        parts.append(_cdr_string(name, size))
+        size += len(parts[-1])
+    for field, values in (('position', position), ('velocity', velocity), ('effort', effort)):
+        if values is None:
+            values = [math.nan] * len(names)
+        else:
+            values = list(values.tolist() if isinstance(values, np.ndarray) else values)
+            if len(values) != len(names):
+                raise ValueError(f'{field}: must have one value per name ({len(names)}), got {len(values)}')
+            values = [_scalar(v, f'{field}[{i}]') for i, v in enumerate(values)]
+        count = b'\0' * (-size % 4) + struct.pack('<I', len(values))
+        size += len(count)
+        pad = b'\0' * (-size % 8) if values else b''
+        size += len(pad) + 8 * len(values)
+        parts += [count, pad, struct.pack(f'<{len(values)}d', *values)]
+    return _CDR_LE + b''.join(parts)
+
+
+def joint_state_cdr_to_numpy(data):
+    """``joint_state_to_numpy`` of a serialized sensor_msgs/JointState."""
+    t, _frame_id, _ = _header_from_cdr(data, 'JointState')
+    offset = _cdr_string_at(data, 8, 'frame_id')[1]
+    offset += -offset % 4
+    (count,) = struct.unpack_from('<I', data, 4 + offset)
+    offset += 4
+    names = []
+    for i in range(count):
+        name, offset = _cdr_string_at(data, offset, f'name[{i}]')
+        names.append(name)
+    fields = []
+    for field in ('position', 'velocity', 'effort'):
+        offset += -offset % 4
+        (n,) = struct.unpack_from('<I', data, 4 + offset)
+        offset += 4
+        if n:
+            offset += -offset % 8
+        if 4 + offset + 8 * n > len(data):
+            raise ValueError(f'JointState: {field} runs past the {len(data)} bytes of CDR')
+        fields.append(np.frombuffer(data, '<f8', n, 4 + offset).astype(float))
+        offset += 8 * n
+    return JointArrays(t, names, *fields)
 
 
 def joint_state_to_numpy(msg):

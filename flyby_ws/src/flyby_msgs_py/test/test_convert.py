@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PointStamped, QuaternionStamped, WrenchStamped
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
+from sensor_msgs.msg import Imu, JointState
+from std_msgs.msg import Header
 
 from flyby_msgs_py import convert as cv
 from flyby_msgs_py.contract import FRAME_CHASER_BODY, FRAME_HILL, FRAME_TARGET_BODY
@@ -189,6 +192,55 @@ def test_odometry_cdr_to_numpy_rejects_other_bytes():
         cv.odometry_cdr_to_numpy(data[:-8])
     with pytest.raises(ValueError, match='malformed CDR string'):
         cv.odometry_cdr_to_numpy(data[:12] + b'\xff' * 4 + data[16:])
+
+
+def _same_arrays(ours, theirs):
+    for a, b in zip(ours, theirs, strict=True):
+        if isinstance(b, np.ndarray):
+            assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+        else:
+            assert a == b
+
+
+_V3, _Q = RNG.normal(size=3), unit_quat()
+CDR_CODECS = [  # builder, its CDR twin, reader, its CDR twin, message type, arguments after (t, frame_id)
+    (cv.point_stamped, cv.point_stamped_cdr, cv.point_stamped_to_numpy, cv.point_stamped_cdr_to_numpy,
+     PointStamped, (_V3,)),
+    (cv.quaternion_stamped, cv.quaternion_stamped_cdr, cv.quaternion_stamped_to_numpy,
+     cv.quaternion_stamped_cdr_to_numpy, QuaternionStamped, (_Q,)),
+    (cv.wrench_stamped, cv.wrench_stamped_cdr, cv.wrench_stamped_to_numpy, cv.wrench_stamped_cdr_to_numpy,
+     WrenchStamped, (_V3, 2.0 * _V3)),
+    (cv.imu, cv.imu_cdr, cv.imu_to_numpy, cv.imu_cdr_to_numpy, Imu,
+     (_Q, _V3, 3.0 * _V3, np.eye(3), 2.0 * np.eye(3), RNG.normal(size=9))),
+    (cv.imu, cv.imu_cdr, cv.imu_to_numpy, cv.imu_cdr_to_numpy, Imu,
+     (None, _V3, 3.0 * _V3, None, 2.0 * np.eye(3), RNG.normal(size=9))),
+]
+
+
+@pytest.mark.parametrize('build,build_cdr,read,read_cdr,msg_type,args', CDR_CODECS)
+@pytest.mark.parametrize('frame_id', ['h', 'hill', 'chaser_body', 'grasp_point_hill'])
+def test_stamped_cdr_is_the_messages_serialization(build, build_cdr, read, read_cdr, msg_type, args, frame_id):
+    """Each *_cdr builder's bytes deserialize (rclpy) to its builder's message, and each *_cdr_to_numpy reads
+    rclpy's serialization as the message reader reads the message (every frame length: string padding)."""
+    msg = build(123.456789, frame_id, *args)
+    assert deserialize_message(build_cdr(123.456789, frame_id, *args), msg_type) == msg
+    _same_arrays(read_cdr(serialize_message(msg)), read(msg))
+
+
+@pytest.mark.parametrize('names', [['w'], ['wheel_0', 'wheel_1', 'wheel_2'], [f'thruster_{i}' for i in range(12)]])
+@pytest.mark.parametrize('fields', [dict(velocity=[1.0, -2.0], effort=[0.5, 0.25]), dict(effort=[3.0, 4.0]), {}])
+def test_joint_state_cdr_is_the_messages_serialization(names, fields):
+    fields = {k: (v * len(names))[:len(names)] for k, v in fields.items()}
+    msg = cv.joint_state(7.25, FRAME_CHASER_BODY, names, **fields)
+    data = cv.joint_state_cdr(7.25, FRAME_CHASER_BODY, names, **fields)
+    _same_arrays(cv.joint_state_to_numpy(deserialize_message(data, JointState)), cv.joint_state_to_numpy(msg))
+    _same_arrays(cv.joint_state_cdr_to_numpy(serialize_message(msg)), cv.joint_state_to_numpy(msg))
+
+
+def test_header_cdr_to_ns_reads_stamp_and_frame():
+    header = Header(frame_id='chaser1/flyby_sim')
+    header.stamp.sec, header.stamp.nanosec = 5, 7
+    assert cv.header_cdr_to_ns(serialize_message(header)) == (5_000_000_007, 'chaser1/flyby_sim')
 
 
 @given(st.integers(min_value=0, max_value=2 ** 50))

@@ -70,7 +70,6 @@ class _Chaser:
         self.plant = Plant(plant_config_from_scenario(scenario))
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.pubs = {}
-        self.msgs = {c.SIM_CHASER_THRUST: c.message_class(c.TOPIC_TYPES[c.SIM_CHASER_THRUST])()}
         self.announced_ns = collections.deque()
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
@@ -107,7 +106,7 @@ class SimNode(Node):
                                            / self.step_s))
         self.wait_for_nodes = self.declare_node_list('wait_for_nodes')
         self.progress_s = {name: 0.0 for name in self.declare_node_list('keep_up_with')}
-        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM)
+        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM, raw=True)
         self.subscriptions_of = {}  # node name -> the topics it subscribes, as it announced them
         self.publications_of = {}  # node name -> {topic: subscriptions its publisher has matched}
         self.create_subscription(String, READY_TOPIC, self.on_ready, qos.QOS_EVENTS)
@@ -148,10 +147,11 @@ class SimNode(Node):
             ch.wheel_names = c.wheel_names(len(sc.chaser.wheels.axes))
             ch.thruster_names = c.thruster_names(len(ch.plant.truth().thruster_thrust_n))
             ch.imu_covariances = self._imu_covariances(sc)
+            # The continuous commands and the hot-path outputs go as CDR bytes (convert.*_cdr: no Python messages).
             self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WHEELS]), ch.topic(c.GUIDANCE_WHEELS),
-                                     lambda msg: self.on_wheels(ch, msg), qos.QOS_STREAM)
+                                     lambda data: self.on_wheels(ch, data), qos.QOS_STREAM, raw=True)
             self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WRENCH]), ch.topic(c.GUIDANCE_WRENCH),
-                                     lambda msg: self.on_wrench(ch, msg), qos.QOS_STREAM)
+                                     lambda data: self.on_wrench(ch, data), qos.QOS_STREAM, raw=True)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), ch.topic(c.MISSION_PHASE),
                                  lambda msg: self.on_phase(ch, msg), qos.QOS_LATCHED)
 
@@ -289,9 +289,10 @@ class SimNode(Node):
                       {'t': repr(sample.t)})
             self.ending = True
 
-    def on_progress(self, msg):
-        if msg.frame_id in self.progress_s:
-            self.progress_s[msg.frame_id] = convert.stamp_to_sec(msg.stamp)
+    def on_progress(self, data):
+        ns, name = convert.header_cdr_to_ns(data)
+        if name in self.progress_s:
+            self.progress_s[name] = ns / 1e9
 
     def others_caught_up(self):
         """True when every node we keep up with is close enough behind (all the way at the end)."""
@@ -336,36 +337,35 @@ class SimNode(Node):
             self.pubs[c.MARKERS].publish(marker_array(markers))
 
     def _publish_chaser_truth(self, ch, s):
-        pubs, msgs = ch.pubs, ch.msgs
+        pubs = ch.pubs
         if ch.rigid:
             q_chaser = s.q_hill_from_chaser_body
             pubs[c.SIM_CHASER_ODOM].publish(convert.odometry_cdr(
                 s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, q_chaser,
                 quat_rotate(quat_conjugate(q_chaser), s.v_hill), s.omega_chaser_body))
-            pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
-                s.t, c.FRAME_HILL, s.force_hill, s.torque_hill_n_m, out=msgs[c.SIM_CHASER_THRUST]))
-            pubs[c.SIM_CHASER_WHEELS].publish(convert.joint_state(
+            pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped_cdr(
+                s.t, c.FRAME_HILL, s.force_hill, s.torque_hill_n_m))
+            pubs[c.SIM_CHASER_WHEELS].publish(convert.joint_state_cdr(
                 s.t, c.FRAME_CHASER_BODY, ch.wheel_names, velocity=s.wheel_speed_rad_s, effort=s.wheel_torque_n_m))
-            pubs[c.SIM_CHASER_THRUSTERS].publish(convert.joint_state(
+            pubs[c.SIM_CHASER_THRUSTERS].publish(convert.joint_state_cdr(
                 s.t, c.FRAME_CHASER_BODY, ch.thruster_names, effort=s.thruster_thrust_n))
         else:
             pubs[c.SIM_CHASER_ODOM].publish(convert.odometry_cdr(
                 s.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, s.r_hill, (0.0, 0.0, 0.0, 1.0), s.v_hill,
                 (0.0, 0.0, 0.0)))
-            pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped(
-                s.t, c.FRAME_HILL, s.force_hill, out=msgs[c.SIM_CHASER_THRUST]))
+            pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped_cdr(s.t, c.FRAME_HILL, s.force_hill))
 
     def publish_measurement(self, ch, m):
         if m.kind == 'relative_position':
             ch.pubs[c.SENSOR_RELATIVE_POSITION].publish(
-                convert.point_stamped(m.t, c.FRAME_HILL, m.value))
+                convert.point_stamped_cdr(m.t, c.FRAME_HILL, m.value))
         elif m.kind == 'target_attitude':
             ch.pubs[c.SENSOR_TARGET_ATTITUDE].publish(
-                convert.quaternion_stamped(m.t, c.FRAME_HILL, m.value))
+                convert.quaternion_stamped_cdr(m.t, c.FRAME_HILL, m.value))
         else:  # chaser_imu: announces the attitude command of its estimate (module doc)
             imu = m.value
             orientation_cov, rate_cov, accel_cov = ch.imu_covariances
-            ch.pubs[c.SENSOR_CHASER_IMU].publish(convert.imu(
+            ch.pubs[c.SENSOR_CHASER_IMU].publish(convert.imu_cdr(
                 m.t, c.FRAME_CHASER_BODY, imu.q_hill_from_body, imu.omega_body_meas, imu.specific_force_body,
                 None if imu.q_hill_from_body is None else orientation_cov, rate_cov, accel_cov))
             if ch.commands_expected and not ch.attitude_quiet:
@@ -400,8 +400,9 @@ class SimNode(Node):
             ch.plant.capture()
             self.publish_plant_events()
 
-    def on_wheels(self, ch, msg):
-        t_stamp, torques = self._command_stamp(ch, c.GUIDANCE_WHEELS, msg.header.stamp), list(msg.effort)
+    def on_wheels(self, ch, data):
+        wheels = convert.joint_state_cdr_to_numpy(data)
+        t_stamp, torques = self._command_stamp(ch, c.GUIDANCE_WHEELS, wheels.t), wheels.effort.tolist()
         if len(torques) != len(ch.wheel_names):
             self.emit('ERROR', 'command_rejected', f'guidance/wheels: {len(torques)} efforts for '
                       f'{len(ch.wheel_names)} wheels', {'t_stamp': repr(t_stamp)}, ch)
@@ -412,9 +413,9 @@ class SimNode(Node):
             self.emit('ERROR', 'command_rejected', f'guidance/wheels: {err}', {'t_stamp': repr(t_stamp)}, ch)
         self.publish_plant_events()
 
-    def on_wrench(self, ch, msg):
-        w = convert.wrench_stamped_to_numpy(msg)
-        t_stamp = self._command_stamp(ch, c.GUIDANCE_WRENCH, msg.header.stamp)
+    def on_wrench(self, ch, data):
+        w = convert.wrench_stamped_cdr_to_numpy(data)
+        t_stamp = self._command_stamp(ch, c.GUIDANCE_WRENCH, w.t)
         try:
             ch.plant.command_wrench(t_stamp, w.force, w.torque, hold_s=ch.command_period_s)
         except ValueError as err:
@@ -422,10 +423,9 @@ class SimNode(Node):
         self.publish_plant_events()
 
     @staticmethod
-    def _command_stamp(ch, topic, stamp):
-        ns = convert.stamp_to_ns(stamp)
-        ch.commanded_ns[topic] = max(ch.commanded_ns[topic], ns)
-        return convert.ns_to_sec(ns)
+    def _command_stamp(ch, topic, t):
+        ch.commanded_ns[topic] = max(ch.commanded_ns[topic], convert.sec_to_ns(t))
+        return t
 
     def on_maneuver(self, ch, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)

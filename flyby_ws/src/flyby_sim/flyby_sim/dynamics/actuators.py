@@ -62,6 +62,9 @@ class ThrusterLayout:
         self.max_thrust_n = thrust
         self.isp_s = float(isp_s)
         self.min_impulse_bit_n_s = float(min_impulse_bit_n_s)
+        self.positions_body_m.flags.writeable = False
+        self.force_directions_body.flags.writeable = False
+        self._wrench_matrix = None
 
     @property
     def count(self):
@@ -75,8 +78,12 @@ class ThrusterLayout:
 
     @property
     def wrench_matrix(self):
-        """B (6, N): force directions over their torques r_i x d_i about the CoM (module doc)."""
-        return wrench_matrix(self.positions_body_m, self.force_directions_body)
+        """B (6, N): force directions over their torques r_i x d_i about the CoM (module doc); computed once (the
+        plant asks for it at every wrench command), read-only."""
+        if self._wrench_matrix is None:
+            self._wrench_matrix = wrench_matrix(self.positions_body_m, self.force_directions_body)
+            self._wrench_matrix.flags.writeable = False
+        return self._wrench_matrix
 
 
 def wrench_matrix(positions_body_m, force_directions_body):
