@@ -25,6 +25,12 @@ and for a six-degree-of-freedom chaser (scenario chaser.model rigid_body; docs/c
 * thrusters.png      each thruster's thrust over time and the thrusters' total torque, with the
                      restriction sphere's entry and exit (no firing inside)
 
+and for a run of several chasers (a ``chasers:`` scenario, docs/two_robots.md) instead of the above:
+
+* chasers.png        every chaser's truth path in the hill x-z plane with the target's boxes at the least
+                     separation; the least distance between two chasers' envelopes over time; each chaser's
+                     clearance to the target's boxes (truth attitude)
+
 Velocities follow nav_msgs' rule (DESIGN section 10): an Odometry's twist is in child_frame_id axes, so
 twist.linear and its covariance are turned into hill by pose.orientation before use (the rigid-body
 chaser's twist is in chaser_body axes; the point mass publishes the identity, which changes nothing).
@@ -988,11 +994,102 @@ RIGID_BODY_FIGURES = (  # written for chaser.model rigid_body only
 )
 
 
+class FleetRun:
+    """What the figure of several chasers draws from: each chaser's truth positions (its namespace's
+    sim/chaser/odom), the target's truth attitude, the scenario and the summary."""
+
+    def __init__(self, run_dir, scenario):
+        self.run_dir, self.scenario = Path(run_dir), scenario
+        _open_bag(self.run_dir / 'bag')
+        topics = {name: c.absolute(c.SIM_CHASER_ODOM, f'/{name}') for name in scenario.chaser_names}
+        data = read_bag(self.run_dir / 'bag', topics=[*topics.values(), c.absolute(c.SIM_TARGET_ODOM)])
+        self.chasers = {name: data[t] for name, t in topics.items() if not _is_empty(data.get(t))}
+        self.target = data.get(c.absolute(c.SIM_TARGET_ODOM))
+        summary = self.run_dir / 'summary.json'
+        self.summary = json.loads(summary.read_text()) if summary.is_file() else {}
+        self.title = f'{scenario.name}, seed {scenario.seed}: {self.summary.get("outcome", "")}'.rstrip(': ')
+
+
+def fig_chasers(run, path):
+    """chasers.png (module doc)."""
+    if len(run.chasers) < 2 or _is_empty(run.target):
+        raise Skipped('fewer than two chasers or no target truth in the bag')
+    names = list(run.chasers)
+    fig, ((ax_xz, ax_sep), (ax_zoom, ax_clear)) = plt.subplots(2, 2, figsize=(16, 10))
+    boxes = list(zip(run.scenario.boxes.center_body_m, run.scenario.boxes.size_m, strict=True))
+    worst = (math.inf, None)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            sa, sb = run.chasers[a], run.chasers[b]
+            i_a, i_b = match_stamps(sa.t, sb.t)
+            gap = (np.linalg.norm(sa.position[i_a] - sb.position[i_b], axis=1)
+                   - run.scenario.for_chaser(a).chaser.envelope_radius_m
+                   - run.scenario.for_chaser(b).chaser.envelope_radius_m)
+            k = int(np.argmin(gap))
+            ax_sep.plot(sa.t[i_a], gap, lw=1.3, label=f'{a} - {b}: least {gap[k]:.2f} m at t = {sa.t[i_a][k]:.1f} s')
+            if gap[k] < worst[0]:
+                worst = (float(gap[k]), float(sa.t[i_a][k]))
+    for j, name in enumerate(names):
+        s = run.chasers[name]
+        color = f'C{j}'
+        for ax in (ax_xz, ax_zoom):
+            ax.plot(*plots.xz(s.position), color=color, lw=1.8, label=f'{name} truth')
+        ax_xz.plot(*plots.xz(s.position[:1]), 'o', color=color, mec='k', ms=7)
+        i_c, i_t = match_stamps(s.t, run.target.t)
+        gap = clearance(s.position[i_c], run.target.orientation_xyzw[i_t], boxes,
+                        run.scenario.for_chaser(name).chaser.envelope_radius_m)
+        k = int(np.argmin(gap))
+        ax_clear.plot(s.t[i_c], gap, color=color, lw=1.3,
+                      label=f'{name}: least {gap[k]:.3f} m at t = {s.t[i_c][k]:.1f} s')
+    k_t = int(np.argmin(np.abs(run.target.t - worst[1])))
+    for ax in (ax_xz, ax_zoom):
+        plots.fill_outline_xz(ax, box_corners_hill(run.scenario, run.target.orientation_xyzw[k_t]), color=BODY_FILL,
+                              lw=0, zorder=2, label=f'target boxes at t = {run.target.t[k_t]:.1f} s (least separation)')
+        ax.set(aspect='equal', xlabel='hill x, along-track [m]', ylabel='hill z, toward Earth [m] (up: away)')
+    ax_xz.set(adjustable='datalim', title='chasers in the hill x-z plane (o: start)')
+    ax_xz.invert_yaxis()
+    ax_zoom.set(xlim=(-8.0, 8.0), ylim=(8.0, -8.0), title='within 8 m of the target')
+    ax_sep.set(ylabel='distance between envelopes [m]', title='separation of the chasers (truth)')
+    ax_clear.set_yscale('symlog', linthresh=1.0)
+    ax_clear.set(xlabel='simulation time [s]', ylabel='envelope clearance [m]',
+                 title="clearance to the target's boxes (truth; symlog: linear below 1 m)")
+    for ax in (ax_xz, ax_zoom, ax_sep, ax_clear):
+        ax.grid(alpha=0.3, which='both')
+        ax.legend(fontsize=8, loc='best')
+    for ax in (ax_sep, ax_clear):
+        ax.axhline(0.0, color='r', lw=1.0)
+    fig.suptitle(run.title)
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def _write_fleet(run_dir, out, scenario):
+    """The figure of several chasers: ([path] or [], [] or its name if it failed)."""
+    path = out / 'chasers.png'
+    try:
+        fig_chasers(FleetRun(run_dir, scenario), path)
+        return [path], []
+    except Skipped as why:
+        _say(f'chasers.png skipped: {why}')
+        return [], []
+    except Exception:  # noqa: BLE001 - reported like any figure's failure
+        _say(f'chasers.png failed:\n{traceback.format_exc()}')
+        return [], ['chasers.png']
+    finally:
+        plt.close('all')
+
+
 def _write(run_dir, out_dir):
     """(paths written, names of the figures that failed)."""
-    run = Run(run_dir)
     out = Path(out_dir) if out_dir is not None else Path(run_dir)
     out.mkdir(parents=True, exist_ok=True)
+    try:
+        scenario = load_scenario(Path(run_dir) / 'scenario.yaml')
+    except (OSError, ScenarioError):
+        scenario = None  # Run says so
+    if scenario is not None and scenario.chaser_names:
+        return _write_fleet(run_dir, out, scenario)
+    run = Run(run_dir)
     written, failed = [], []
     for name, draw in FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()):
         path = out / name
