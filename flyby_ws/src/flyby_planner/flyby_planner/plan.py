@@ -319,7 +319,7 @@ def planner_config_from_scenario(scenario):
         offset_m=p.offset_m, offset_min_m=min(p.offset_min_m, p.offset_m), offset_max_m=scenario.offset_max_m,
         flyby_duration_s=p.flyby_duration_s, flyby_duration_max_s=max(p.flyby_duration_max_s, p.flyby_duration_s),
         restriction_sphere_radius_m=p.restriction_sphere_radius_m, sphere_margin_m=scenario.guidance.sphere_margin_m,
-        clearance_margin_m=p.clearance_margin_m,
+        clearance_margin_m=p.clearance_margin_m, reaim_check=p.reaim_check,
         escape_check_orbits=p.escape_check_orbits, geometry_window_s=p.geometry_window_s,
         geometry_attitude_margin_rad=math.radians(p.geometry_attitude_margin_deg),
         geometry_rate_margin_rad_s=math.radians(p.geometry_rate_margin_deg_s),

@@ -305,6 +305,11 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'clearance_margin_m': Field(FLOAT, 0.1, '>= 0',
                                     'Least gap between the chaser envelope and the swept keep-out region on the '
                                     'passive path.'),
+        'reaim_check': Field(BOOL, False, None,
+                             'Also keep the margin on the arc guidance will fly once it re-aims at the grasp '
+                             'solved from later estimates, with the plan estimate moved 3 sigma (plan._ReaimModel). '
+                             'Off by default: on, the fourth envelope campaign\'s five flown failures capture or are '
+                             'refused, but it also refused 4 of 17 captures of a sample (docs/campaigns.md).'),
         'escape_check_orbits': Field(FLOAT, 1.0, '>= 1',
                                      'Length of the passive escape checked after the grasp, in orbits.'),
         'geometry_window_s': Field(FLOAT, 300.0, '>= 0',
