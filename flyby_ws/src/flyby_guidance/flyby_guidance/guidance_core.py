@@ -30,8 +30,8 @@ A synchronized approach (seed 001 section 2, ``sync_control``): stage 1 is its p
 (no plume rule, the bound and gain of planner.sync); from the trajectory's end (the station's arrival) every
 command is ``SyncGuidance``'s: the body-frame hold, the docking and their force, and the attitude synchronized with
 the target's (the attitude law with ``SYNC_ATTITUDE``'s gains); its stage events (``station_reached``,
-``attitude_synchronized``, ``docking_started``) move the supervisor's phases. After an abort it retreats along the
-port's outward direction, then nothing is commanded.
+``attitude_synchronized``, ``docking_started``) move the supervisor's phases. After ESCAPE or an abort it retreats
+along the port's outward direction, then nothing is commanded.
 
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
@@ -232,7 +232,7 @@ class GuidanceCore:
     def _sync_command(self, t, r_hill, v_hill, q_hill_from_body, omega_body):
         """The command of the synchronized approach's stages 2-4 or its retreat (module doc), or None where
         SyncGuidance has nothing to say (stage 1 before the arrival, the drift after a retreat)."""
-        if self.phase == c.PHASE_ABORTED:
+        if self.phase in (c.PHASE_ESCAPE, c.PHASE_ABORTED):  # no capture: leave the final point
             self.sync.abort(t)
         target = self.targets.last_at_or_before(t)
         if target is None:

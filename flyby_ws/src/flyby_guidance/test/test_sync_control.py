@@ -4,6 +4,7 @@ hold against the closed-form acceleration of a point of a rotating body, the for
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_guidance.attitude_guidance import AttitudeGuidance
+from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
 from flyby_guidance.sync_control import (
     SYNC_ATTITUDE,
     SyncConfig,
@@ -21,11 +23,14 @@ from flyby_guidance.sync_control import (
     relative_goal_orientation,
     sync_goal,
 )
+from flyby_msgs_py import contract as c
 from flyby_sim.dynamics.attitude import AttitudePropagator, euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel, q_hill_from_body, rk4_step
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator, ReactionWheels
-from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_to_matrix
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_rotate, quat_to_matrix
+from flyby_sim.scenario import load_scenario
 
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 TARGET_INERTIA = np.diag([4069.0, 12030.0, 11029.0])  # seed 001 Table 1
 TARGET_RATE = np.array((0.3, 0.2, 0.1))  # rad/s, Table 1: 21.4 deg/s, not a principal spin
 SERVICER_INERTIA = np.diag([13.0, 38.0, 35.0])
@@ -183,3 +188,35 @@ def test_attitude_synchronization_converges_from_any_attitude(rotvec):
     assert math.degrees(angle) < 0.05 and math.degrees(rate) < 0.02
     x_chaser = quat_to_matrix(state.q_inertial_from_body)[:, 0]
     assert x_chaser @ (quat_to_matrix(q_t) @ -U) == pytest.approx(1.0, abs=1e-6)  # +x at the port
+
+
+def test_escape_retreats_along_the_port_line_then_drifts():
+    """GuidanceCore on seweryn_tumbling: on the station the sync command pulls toward the target (the hold);
+    after the supervisor's ESCAPE it thrusts outward along the port's line (r / |r|: the chaser sits on it) at the
+    bound, and once the outward speed reaches retreat_speed_mps it commands no force (the drift)."""
+    sc = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
+    core = GuidanceCore(sc)
+    core.on_trajectory(np.array((0.0, 10.0)), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)))
+    core.on_phase(c.PHASE_SYNC_APPROACH)
+    q_target = quat_from_rotation_vector((0.5, 0.01, 0.2))
+    w_target = np.array((0.3, 0.2, 0.1))
+    u_hill = quat_to_matrix(q_target) @ np.array((0.0, 1.0, 0.0))  # the port's outward direction (+y face)
+    r = 5.0 * u_hill  # the station, 5 m from the centre of mass
+    v = np.cross(quat_to_matrix(q_target) @ w_target, r)
+    q_chaser, w_chaser = quat_from_rotation_vector((0.0, 0.7, 0.0)), np.zeros(3)
+
+    def force_hill(t, v_hill):
+        core.on_target_estimate(t, q_target, w_target)
+        out = core.on_chaser_estimate(t, r, v_hill, q_chaser, w_chaser)
+        (cmd,) = [o for o in out if isinstance(o, AttitudeCommandStamped)]
+        return quat_rotate(q_chaser, cmd.force_body_n), [o.name for o in out if hasattr(o, 'name')]
+
+    f_hold, _ = force_hill(10.0, v)
+    assert f_hold @ u_hill < 0.0  # the hold's centripetal pull
+    core.on_phase(c.PHASE_ESCAPE)
+    f_retreat, _ = force_hill(10.1, v)
+    accel_max = core.sync.config.accel_max_mps2
+    assert f_retreat / np.linalg.norm(f_retreat) == pytest.approx(u_hill, abs=1e-9)
+    assert np.linalg.norm(f_retreat) == pytest.approx(sc.chaser.mass_kg * accel_max, rel=1e-3)
+    f_drift, names = force_hill(10.2, v + 0.31 * u_hill)
+    assert 'retreat_ended' in names and np.linalg.norm(f_drift) == 0.0
