@@ -163,9 +163,10 @@ class HeadlessGraph:
                 self._publish_plant_events()
         elif isinstance(out, TargetEstimate):  # estimation/target/odom
             args = (wire_time(out.t), out.q_hill_from_body, out.omega_body)
-            self._queue.extend(self.supervisor.on_target_estimate(*args) + self.planner.on_target_estimate(*args)
-                               + self.guidance.on_target_estimate(*args, out.attitude_covariance_hill,
-                                                                  out.rate_covariance_body))
+            blocks = (out.attitude_covariance_hill, out.rate_covariance_body)  # as the planner and guidance nodes read
+            self._queue.extend(self.supervisor.on_target_estimate(*args)
+                               + self.planner.on_target_estimate(*args, *blocks)
+                               + self.guidance.on_target_estimate(*args, *blocks))
         elif isinstance(out, ChaserEstimate):  # estimation/chaser/odom
             v_hill = out.v_hill
             if out.q_hill_from_body is not None:  # the twist in chaser_body axes, and back (the nodes' turns)

@@ -42,7 +42,7 @@ import time
 
 import numpy as np
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
@@ -168,7 +168,7 @@ class PlannerCore:
         self.config = planner_config_from_scenario(scenario)
         self.dynamics = ErrorStateDynamics(scenario.target_inertia)
         self.request = None  # (t_request, why) until the plan is made
-        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body) by stamp
+        self.targets = StampedBuffer()  # (q_hill_from_body, omega_body, covariance blocks or None) by stamp
         self.chasers = StampedBuffer()  # (r_hill, v_hill) by stamp
         self.plans = 0
         names = scenario.chaser_names
@@ -223,8 +223,13 @@ class PlannerCore:
         self.chasers.add(t, (np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)))
         return self._try_plan()
 
-    def on_target_estimate(self, t, q_hill_from_body, omega_body):
-        self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float)))
+    def on_target_estimate(self, t, q_hill_from_body, omega_body, attitude_covariance_hill=None,
+                           rate_covariance_body=None):
+        """A target estimate (estimation/target/odom) with, if published, its attitude covariance about hill axes
+        and rate covariance in body axes (3x3 each): the fly-by's re-aim check starts from them (plan._ReaimModel)."""
+        blocks = (None if attitude_covariance_hill is None or rate_covariance_body is None else
+                  (np.asarray(attitude_covariance_hill, dtype=float), np.asarray(rate_covariance_body, dtype=float)))
+        self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float), blocks))
         s = self.scenario.planner.sync
         if self.method_flown == 'sync' and self.request is None and t >= self.flown.t_plan + s.resolve_interval_s \
                 and t < self.sync_arrival.t_arrival - s.resolve_cutoff_s:
@@ -249,7 +254,9 @@ class PlannerCore:
         if target is None or self.chasers.latest_t < target[0]:
             return []
         self.request = None
-        return self._plan(target[0], *target[1], why)
+        q_hill_from_body, omega_body, blocks = target[1]
+        covariance_body = None if blocks is None else covariance_from_published(q_hill_from_body, *blocks)
+        return self._plan(target[0], q_hill_from_body, omega_body, why, covariance_body)
 
     def _leader_decision(self, leader, t):
         """The leader's decision (t_plan, its trajectory or None) a plan at t goes by: the latest at or before t,
@@ -299,9 +306,10 @@ class PlannerCore:
         t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
         return cw_coast(r_c, v_c, t - t_c, self.config.mean_motion_rad_s)
 
-    def _plan(self, t, q_hill_from_body, omega_body, why):
+    def _plan(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
         """Plan at the target estimate of time t (the plan time) by the method of planner.method (module doc);
-        the outputs to publish."""
+        the outputs to publish. covariance_body: that estimate's 6x6 [dtheta_body, domega_body] covariance, if
+        published (the fly-by's re-aim check)."""
         self.plans += 1
         method = self.method_flown or self.scenario.planner.method
         if method == 'optimal':
@@ -312,7 +320,7 @@ class PlannerCore:
                       if method == 'sync' else 'auto: category IV (condition (a): the rate is at or above '
                                                f'{self.scenario.estimation.spin_rate_deg_s:g} deg/s)')
             return self._plan_sync(t, q_hill_from_body, omega_body, why, reason)
-        out, refused = self._plan_flyby(t, q_hill_from_body, omega_body, why)
+        out, refused = self._plan_flyby(t, q_hill_from_body, omega_body, why, covariance_body)
         if refused is None:
             return out
         if method == 'auto' and self.rigid:
@@ -422,13 +430,13 @@ class PlannerCore:
                          'x_station_hill_m': arrival.r_hill, 'v_station_hill_mps': arrival.v_hill,
                          'planning_time_s': planning_time_s})]
 
-    def _plan_flyby(self, t, q_hill_from_body, omega_body, why):
+    def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
         """The fly-by (flyby_planner.plan) at the plan time t: (outputs, None) for a selected plan, (the candidates'
         events, (the refusal's reason, its markers, the planning time [s])) otherwise."""
         cfg = self.config
         chaser_now, prediction = self.plan_inputs(t, q_hill_from_body, omega_body)
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
-        plan = plan_capture(prediction, chaser_now[:3], chaser_now[3:], t, cfg)
+        plan = plan_capture(prediction, chaser_now[:3], chaser_now[3:], t, cfg, covariance_body)
         planning_time_s = time.perf_counter() - started
         out = []
         for cand in plan.candidates:

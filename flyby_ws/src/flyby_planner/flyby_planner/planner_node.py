@@ -69,7 +69,7 @@ class PlannerNode(CoreNode):
         self.pubs = {topic: self.publisher(topic) for topic in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.PLANNER_TRAJECTORY,
             c.MARKERS, c.MISSION_EVENTS)}
-        self.subscribe_estimates(quat_rotate)
+        self.subscribe_estimates(quat_rotate, target_covariance=True)  # the re-aim check starts from it
         self.subscribe_events()
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
         for leader in self.core.leaders:  # another chaser's topics, by their absolute names
