@@ -590,26 +590,43 @@ def joint_state(t, frame_id, names, velocity=None, effort=None, position=None):
     return msg
 
 
+_JOINT_NAMES_CDR = {}  # (frame_id, names) -> (CDR of frame_id and names after the stamp, its length); few keys
+
+
+def _joint_names_cdr(frame_id, names):
+    key = (frame_id, names)
+    cached = _JOINT_NAMES_CDR.get(key)
+    if cached is None:
+        if not all(type(n) is str and n for n in names):
+            raise ValueError(f'names: must be non-empty strings, got {list(names)!r}')
+        part = _cdr_string(_frame(frame_id), 8)
+        part += b'\0' * (-(8 + len(part)) % 4) + struct.pack('<I', len(names))
+        for name in names:
+            part += _cdr_string(name, 8 + len(part))
+        cached = _JOINT_NAMES_CDR[key] = (part, 8 + len(part))
+    return cached
+
+
+def _joint_values(field, values, n):
+    """The n finite floats of a JointState field (list), or ValueError naming it."""
+    if isinstance(values, np.ndarray) and values.shape == (n,) and values.dtype.kind == 'f':
+        if not np.isfinite(values).all():
+            i = int(np.flatnonzero(~np.isfinite(values))[0])
+            raise ValueError(f'{field}[{i}]: must be finite, got {values[i]!r}')
+        return values.tolist()
+    values = list(values.tolist() if isinstance(values, np.ndarray) else values)
+    if len(values) != n:
+        raise ValueError(f'{field}: must have one value per name ({n}), got {len(values)}')
+    return [_scalar(v, f'{field}[{i}]') for i, v in enumerate(values)]
+
+
 def joint_state_cdr(t, frame_id, names, velocity=None, effort=None, position=None):
     """``joint_state`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
-    names = list(names)
-    if not all(type(n) is str and n for n in names):
-        raise ValueError(f'names: must be non-empty strings, got {names!r}')
-    head = struct.pack('<iI', *_stamp_parts(t))
-    head += _cdr_string(_frame(frame_id), len(head))
-    parts = [head, b'\0' * (-len(head) % 4), struct.pack('<I', len(names))]
-    size = len(head) + len(parts[1]) + 4
-    for name in names:
-        parts.append(_cdr_string(name, size))
-        size += len(parts[-1])
+    names_part, size = _joint_names_cdr(frame_id, tuple(names))
+    n = len(names)
+    parts = [struct.pack('<iI', *_stamp_parts(t)), names_part]
     for field, values in (('position', position), ('velocity', velocity), ('effort', effort)):
-        if values is None:
-            values = [math.nan] * len(names)
-        else:
-            values = list(values.tolist() if isinstance(values, np.ndarray) else values)
-            if len(values) != len(names):
-                raise ValueError(f'{field}: must have one value per name ({len(names)}), got {len(values)}')
-            values = [_scalar(v, f'{field}[{i}]') for i, v in enumerate(values)]
+        values = [math.nan] * n if values is None else _joint_values(field, values, n)
         count = b'\0' * (-size % 4) + struct.pack('<I', len(values))
         size += len(count)
         pad = b'\0' * (-size % 8) if values else b''
