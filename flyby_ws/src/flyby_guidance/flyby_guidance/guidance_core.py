@@ -47,7 +47,7 @@ import numpy as np
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
-from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, sync_config_from_scenario
+from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, attitude_ahead, sync_config_from_scenario
 from flyby_guidance.tracking import (
     ReferenceTrajectory,
     TrackingConfig,
@@ -252,7 +252,8 @@ class GuidanceCore:
                                            np.asarray(omega_body, dtype=float), self.h_wheels_n_m_s, True)
         self.wheel_commands.append((t + period_s, att.wheel_torque_n_m))
         force_body = (0.0, 0.0, 0.0) if cmd.a_hill is None else self._tracking_force(
-            cmd.a_hill, q_hill_from_body, att.thruster_torque_body_n_m)
+            cmd.a_hill, attitude_ahead(q_hill_from_body, omega_body, 1.5 * period_s, self.n),
+            att.thruster_torque_body_n_m)
         return [AttitudeCommandStamped(t + period_s, period_s, att.wheel_torque_n_m, att.thruster_torque_body_n_m,
                                        force_body)] + events
 

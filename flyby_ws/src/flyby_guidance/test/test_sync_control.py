@@ -16,6 +16,7 @@ from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
 from flyby_guidance.sync_control import (
     SYNC_ATTITUDE,
     SyncConfig,
+    attitude_ahead,
     attitude_errors,
     body_point_reference,
     hold_acceleration,
@@ -27,7 +28,14 @@ from flyby_msgs_py import contract as c
 from flyby_sim.dynamics.attitude import AttitudePropagator, euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel, q_hill_from_body, rk4_step
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator, ReactionWheels
-from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_rotate, quat_to_matrix
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_rotate,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -216,7 +224,19 @@ def test_escape_retreats_along_the_port_line_then_drifts():
     core.on_phase(c.PHASE_ESCAPE)
     f_retreat, _ = force_hill(10.1, v)
     accel_max = core.sync.config.accel_max_mps2
-    assert f_retreat / np.linalg.norm(f_retreat) == pytest.approx(u_hill, abs=1e-9)
+    assert f_retreat / np.linalg.norm(f_retreat) == pytest.approx(u_hill, abs=1e-3)  # turned 0.15 s ahead at n
     assert np.linalg.norm(f_retreat) == pytest.approx(sc.chaser.mass_kg * accel_max, rel=1e-3)
     f_drift, names = force_hill(10.2, v + 0.31 * u_hill)
     assert 'retreat_ended' in names and np.linalg.norm(f_drift) == 0.0
+
+
+def test_attitude_ahead_turns_with_the_body_rate_less_hill_rate():
+    """The chaser's attitude a hold's midpoint ahead: at rest inertially it turns at +n about hill y (hill turns at
+    (0, -n, 0)); spinning at 0.374 rad/s about body z it turns 3.2 deg in 0.15 s about its z axis."""
+    q0 = quat_from_rotation_vector((0.3, -0.5, 0.2))
+    assert attitude_ahead(q0, np.zeros(3), 10.0, N) == pytest.approx(
+        quat_multiply(quat_from_rotation_vector((0.0, N * 10.0, 0.0)), q0), abs=1e-12)
+    w = np.array((0.0, 0.0, 0.374))
+    q = attitude_ahead(q0, w, 0.15, 0.0)
+    turn = rotation_vector_from_quat(quat_multiply(q, quat_conjugate(q0)))  # in hill axes
+    assert turn == pytest.approx(0.374 * 0.15 * quat_to_matrix(q0)[:, 2], abs=1e-12)
