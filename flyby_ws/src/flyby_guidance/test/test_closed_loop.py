@@ -78,3 +78,35 @@ def test_without_a_safe_arc_guidance_stops_and_the_supervisor_escapes():
     assert s['outcome'] == 'ABORTED' and s['min_clearance_m'] > 10.0
     assert [b['kind'] for b in run.burns if b['t'] >= unsafe[0]['t']] == ['avoidance']
     assert not s['thrust_inside_restriction_sphere']
+
+
+def test_the_planner_plans_from_the_target_filter_covariance_guidance_reads():
+    """The headless loop hands the planner the estimate's covariance blocks as the planner node reads them from
+    estimation/target/odom (the re-aim check starts from them, plan._ReaimModel): at the plan time, the
+    covariance the fly-by planner gets is covariance_from_published of the blocks guidance stored for that stamp."""
+    import numpy as np
+
+    from flyby_estimation.target_motion import covariance_from_published
+    from flyby_planner.planner_core import PlannerCore
+
+    class _PlanTime(Exception):
+        pass
+
+    class _StopAtPlan(PlannerCore):
+        def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
+            raise _PlanTime(t, q_hill_from_body, covariance_body)
+
+    scenario = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    graph = HeadlessGraph(scenario)
+    graph.planner = _StopAtPlan(scenario)
+    try:
+        run_headless(scenario, graph)
+        raise AssertionError('the run never planned')
+    except _PlanTime as at:
+        t, q_hill_from_body, covariance_body = at.args
+    t_g, (q_g, _omega, blocks) = graph.guidance.targets.first_at_or_after(t)
+    assert t_g == t and blocks is not None
+    expected = covariance_from_published(q_g, *blocks)
+    assert np.array_equal(q_hill_from_body, q_g) and np.array_equal(covariance_body, expected)
+    sigma = np.sqrt(np.diag(covariance_body))
+    assert np.all(sigma > 0.0) and np.all(sigma[:3] < np.radians(1.0))  # a converged filter's, not a bound

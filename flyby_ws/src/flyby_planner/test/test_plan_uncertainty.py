@@ -412,3 +412,32 @@ def test_envelope_run_569_the_reaimed_passage_rejects_the_plan_it_flew_and_the_n
     chosen = plan.selected
     assert chosen.reaim_gap_m >= cfg.clearance_margin_m
     assert _reaimed_at_truth(sc, cfg, chosen) >= cfg.clearance_margin_m
+
+
+def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
+    """plan._ReaimModel moves the plan estimate 3 sigma along each principal direction of the filter's own
+    covariance at the plan time, inflated by REAIM_COVARIANCE_SCALE (its measured NEES), else of the convergence
+    bound: row 0 the estimate, then +-3 sqrt(scale lambda_k) v_k, each motion starting from its perturbed state;
+    a covariance that is not a finite 6x6 matrix is refused."""
+    from flyby_planner.plan import REAIM_COVARIANCE_SCALE, _ReaimModel
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
+    pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, 60.0,
+                                    sc.q_hill_from_body0, sc.omega_body0_rad_s, 90.0)
+    rng = np.random.default_rng(12)
+    a = rng.normal(size=(6, 6)) * np.radians([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])[:, None]
+    cov = a @ a.T
+    for given, expected in ((cov, REAIM_COVARIANCE_SCALE * cov), (None, cfg.accuracy.converged_covariance)):
+        model = _ReaimModel(pred, 60.0, cfg, given)
+        assert np.array_equal(model.errors[0], np.zeros(6)) and len(model.motions) == 13
+        plus, minus = model.errors[1::2], model.errors[2::2]
+        assert np.array_equal(plus, -minus)
+        # The +- pairs' outer products sum to 2 * 9 * the covariance they sample (its square-root factor).
+        assert np.allclose(plus.T @ plus, 9.0 * expected, rtol=1e-9, atol=1e-18)
+        e = model.errors[5]
+        start = model.motions[5].state(60.0)
+        q = quat_multiply(pred.state(60.0).q_eci_from_body, quat_from_rotation_vector(e[:3]))
+        assert min(np.abs(start.q_eci_from_body - q).max(), np.abs(start.q_eci_from_body + q).max()) < 1e-12
+        assert np.allclose(start.omega_body, sc.omega_body0_rad_s + e[3:], rtol=0.0, atol=1e-15)
+    with pytest.raises(ValueError, match='finite 6x6'):
+        _ReaimModel(pred, 60.0, cfg, np.eye(3))

@@ -92,3 +92,33 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
     at_grasp = truth.state(plan.t_f)
     assert abs(np.dot(plan.grasp.q_hill_from_body, at_grasp.q_hill_from_body)) == pytest.approx(1.0, abs=1e-9)
     assert plan.grasp.omega_body == pytest.approx(at_grasp.omega_body, abs=1e-8)
+
+
+def test_the_plan_starts_from_the_published_covariance_of_its_estimate():
+    """estimation/target/odom's attitude covariance about hill axes and rate covariance in body axes reach the
+    fly-by planner as the 6x6 body covariance of the plan's estimate (target_motion.covariance_from_published), for
+    the re-aim check (plan._ReaimModel); an estimate published without them plans from the bound (None)."""
+    from flyby_estimation.target_motion import covariance_from_published
+
+    class _Recording(PlannerCore):
+        def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
+            self.received = (t, covariance_body)
+            return [], ('recorded', [], 0.0)
+
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    q0, w0 = sc.q_hill_from_body0, sc.omega_body0_rad_s
+    attitude_hill = np.diag((1e-6, 2e-6, 3e-6)) + 1e-7
+    rate_body = np.diag((4e-8, 5e-8, 6e-8))
+    for blocks, expected in (((attitude_hill, rate_body), covariance_from_published(q0, attitude_hill, rate_body)),
+                             ((), None)):
+        core = _Recording(sc)
+        core.on_chaser_estimate(60.05, np.array((50.0, 0.1, -0.2)), np.zeros(3))
+        core.on_event(_planning_event(59.95))
+        core.on_target_estimate(59.9, q0, w0, 9.0 * attitude_hill, 9.0 * rate_body)  # before the request
+        core.on_target_estimate(60.0, q0, w0, *blocks)
+        t, covariance_body = core.received
+        assert t == 60.0
+        if expected is None:
+            assert covariance_body is None
+        else:
+            assert np.array_equal(covariance_body, expected)
