@@ -12,7 +12,14 @@ from flyby_planner.grasp import flyby_target_from_attitude
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.cost import box_contacts, plan_terms, plume_metric
 from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario, heuristic_route
-from flyby_planner.optimal.scp import ZohPlan, delta_v_lower_bound, plan_scp, zoh_input_matrix
+from flyby_planner.optimal.scp import (
+    ScpSettings,
+    ZohPlan,
+    _plume_violation,
+    delta_v_lower_bound,
+    plan_scp,
+    zoh_input_matrix,
+)
 from flyby_planner.plan import truth_prediction
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.geometry import clearance
@@ -154,3 +161,30 @@ def test_scp_plans_around_the_target():
     result = plan_scp([problem], duration_s=T_TABLE1_S)
     tau = np.linspace(0.0, T_TABLE1_S, 5891)
     assert _truth_clearance(sc, result.plans[0].sample(tau).r_hill, tau).min() > 0.0
+
+
+def test_plume_violation_counts_thrust_away_inside_the_sphere_only():
+    """A plan that coasts in along x and thrusts away from the target (+x) for its last 2 s: the violation is that
+    thrust and its impulse, counted only inside the plume radius (independent of the check points)."""
+    n, h = 1.1e-3, 1.0
+    u = np.zeros((10, 3))
+    u[8:, 0] = 0.01
+    x = [np.array((6.5, 0.0, 0.0, -0.5, 0.0, 0.0))]
+    for k in range(10):
+        x.append(cw_transition_matrix(n, h) @ x[-1] + zoh_input_matrix(n, h) @ u[k])
+    plan = ZohPlan(0.0, 10.0, np.array(x), u, n)
+    problem = dataclasses.replace(table1_problem()[1], plume_radius_m=5.0)
+    largest, impulse = _plume_violation([problem], [plan], rate_hz=1000.0)
+    assert largest == pytest.approx(0.01, rel=1e-3)  # r_hill turns a little off x (CW coupling)
+    assert impulse == pytest.approx(0.02, rel=2e-3)  # 2 s at 0.01 m/s^2, the whole burn inside 5 m
+    assert _plume_violation([dataclasses.replace(problem, plume_radius_m=1.0)], [plan]) == (0.0, 0.0)
+
+
+def test_scp_least_fuel_plans_keep_the_plume_rule_between_check_points():
+    """Least-fuel plans brake at the plume sphere's edge; each one SCP returns keeps the rule on dense samples (a
+    plan at 80 steps once braked at 4.99 m, between the reference's membership and the check points)."""
+    _, problem = table1_problem()
+    lean = dataclasses.replace(problem, weights=dataclasses.replace(problem.weights, safety=0.0))
+    for steps in (40, 80):
+        plan = plan_scp([lean], ScpSettings(steps=steps), duration_s=T_TABLE1_S).plans[0]
+        assert _plume_violation([lean], [plan], rate_hz=200.0)[0] <= 1e-6
