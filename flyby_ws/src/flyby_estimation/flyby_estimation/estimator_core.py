@@ -30,6 +30,7 @@ from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser
 from flyby_estimation.filters import filters_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
+from flyby_sim.dynamics.attitude import attitude_ahead
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_rotate
 
@@ -134,7 +135,7 @@ class EstimatorCore:
         if not (self.attitude.ready and self.nav.initialized):
             return out
         a = self.attitude.estimate()
-        self.attitudes.append((a.t, a.q_hill_from_body))
+        self.attitudes.append((a.t, a.q_hill_from_body, a.omega_body))
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
         return out + [ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
                                      a.attitude_covariance_hill, a.rate_covariance)]
@@ -157,9 +158,12 @@ class EstimatorCore:
         if self.attitude is None or self.attached or not np.any(force):
             return []
         t_estimate = t - self.wrench_hold_s
-        q = next((q for t_q, q in reversed(self.attitudes) if t_q <= t_estimate + _STAMP_TOLERANCE_S), None)
-        if q is None:
+        attitude = next((a for a in reversed(self.attitudes) if a[0] <= t_estimate + _STAMP_TOLERANCE_S), None)
+        if attitude is None:
             return []
+        # the force is fixed in chaser_body over the hold: turned into hill at the hold's midpoint
+        t_q, q, omega = attitude
+        q = attitude_ahead(q, omega, t + 0.5 * self.wrench_hold_s - t_q, self.scenario.mean_motion_rad_s)
         mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
             return []

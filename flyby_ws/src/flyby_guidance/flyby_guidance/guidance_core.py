@@ -47,7 +47,7 @@ import numpy as np
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
-from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, attitude_ahead, sync_config_from_scenario
+from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, sync_config_from_scenario
 from flyby_guidance.tracking import (
     ReferenceTrajectory,
     TrackingConfig,
@@ -60,6 +60,7 @@ from flyby_msgs_py.wire import Event
 from flyby_planner.grasp import REFINE_HORIZON_S, flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.plan import check_passage, planner_config_from_scenario
 from flyby_sim.dynamics.actuators import allocate_wrench, fire
+from flyby_sim.dynamics.attitude import attitude_ahead
 from flyby_sim.dynamics.orbital import cw_accel
 from flyby_sim.dynamics.rigid_body import ReactionWheels
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate

@@ -48,7 +48,6 @@ from flyby_sim.dynamics.attitude import euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
-    quat_from_rotation_vector,
     quat_multiply,
     quat_rotate,
     quat_shortest_arc,
@@ -136,15 +135,6 @@ def hold_acceleration(ref_estimate, ref_mid, r_hill, v_hill, config):
     a = a_ff + w * w * (ref_estimate[0] - r_hill) + 2.0 * w * (ref_estimate[1] - v_hill)
     norm = float(np.linalg.norm(a))
     return a * (config.accel_max_mps2 / norm) if norm > config.accel_max_mps2 else a
-
-
-def attitude_ahead(q_hill_from_body, omega_body, dt_s, n):
-    """q_hill_from_body dt_s [s] ahead at the constant body rate omega_body [rad/s, inertial]: the thrusters' force is
-    held fixed in chaser_body over a hold that starts one control period after the estimate, while the synchronized
-    chaser turns 2 deg per period; the hill-frame force is turned into body axes at the hold's midpoint."""
-    q = np.asarray(q_hill_from_body, dtype=float)
-    w_rel = np.asarray(omega_body, dtype=float) - quat_rotate(quat_conjugate(q), (0.0, -n, 0.0))  # less hill's rate
-    return quat_multiply(q, quat_from_rotation_vector(w_rel * dt_s))
 
 
 def relative_goal_orientation(q_hill_from_target, q_hill_from_chaser, u_body):

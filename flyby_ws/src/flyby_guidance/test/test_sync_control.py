@@ -16,7 +16,6 @@ from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
 from flyby_guidance.sync_control import (
     SYNC_ATTITUDE,
     SyncConfig,
-    attitude_ahead,
     attitude_errors,
     body_point_reference,
     hold_acceleration,
@@ -25,7 +24,7 @@ from flyby_guidance.sync_control import (
     sync_goal,
 )
 from flyby_msgs_py import contract as c
-from flyby_sim.dynamics.attitude import AttitudePropagator, euler_rate, moving_body_point_state
+from flyby_sim.dynamics.attitude import AttitudePropagator, attitude_ahead, euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel, q_hill_from_body, rk4_step
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator, ReactionWheels
 from flyby_sim.dynamics.rotation import (

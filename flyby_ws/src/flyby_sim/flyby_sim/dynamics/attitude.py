@@ -12,7 +12,14 @@ import math
 import numpy as np
 from scipy.integrate import DOP853
 
-from flyby_sim.dynamics.rotation import quat_normalize, quat_rotate, skew
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    skew,
+)
 
 
 def euler_rate(omega_body, inertia, inertia_inv, torque_body=(0.0, 0.0, 0.0)):
@@ -75,6 +82,16 @@ def body_point_state(c_hill_from_body, omega_body, x_body, n):
     big_omega_x = skew((0.0, -n, 0.0))  # [Omega^H x]
     v_hill = _matrix_times_vector(c, omega_x_b) - r_hill @ big_omega_x.T  # eq 9, sign settled above
     return r_hill, v_hill
+
+
+def attitude_ahead(q_hill_from_body, omega_body, dt_s, n):
+    """q_hill_from_body dt_s [s] ahead at the constant body rate omega_body [rad/s, inertial], hill turning at
+    (0, -n, 0). A thruster force is held fixed in chaser_body over a control period that starts one period after the
+    estimate: guidance and the navigation filter turn it between hill and body at the hold's midpoint (a
+    synchronized chaser turns 3.2 deg in those 0.15 s)."""
+    q = np.asarray(q_hill_from_body, dtype=float)
+    w_rel = np.asarray(omega_body, dtype=float) - quat_rotate(quat_conjugate(q), (0.0, -n, 0.0))  # less hill's rate
+    return quat_multiply(q, quat_from_rotation_vector(w_rel * dt_s))
 
 
 def moving_body_point_state(c_hill_from_body, omega_body, omega_dot_body, x_body, x_dot_body, x_ddot_body, n):
