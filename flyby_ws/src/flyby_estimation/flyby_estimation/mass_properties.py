@@ -412,8 +412,8 @@ class MassPropertyFilter(FilterBase):
         r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
         p = self._kf.P
         # Iterated update (Gauss-Newton on the measurement): h re-linearized at each iterate dx_i, dx_(i+1) =
-        # K_i (z - h(dx_i) + H_i dx_i); the specific force F/(m + M) is too curved in M for one step while M is
-        # uncertain by tens of percent (the first iterate alone leaves the filter overconfident).
+        # K_i (z - h(dx_i) + H_i dx_i), for the curvature of F/(m + M) in M while M is uncertain by percents; the
+        # propagation's curvature is not iterated (module doc: the filter's limit).
         dx = np.zeros(N_ERR)
         sigma = np.sqrt(np.diag(p))
         for iteration in range(self.config.imu_iterations):
