@@ -4,11 +4,14 @@ first's decision and around its published trajectory; real processes over Fast D
 full speed, the bag read back. A short variant of scenarios/jacobsen_two_robots.yaml (from 25 m, 10 s of
 observation, a 40 s approach, 2 s attached) so that it ends within about a minute of wall time on a quiet machine."""
 
+import subprocess
+import sys
+
 import pytest
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_testing import analyze_bag, read_summary, run_mission, write_scenario
+from flyby_testing import ROOT, analyze_bag, read_summary, run_mission, write_scenario
 
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH, c.PHASE_CAPTURE, c.PHASE_COMPLETE]
 
@@ -63,3 +66,11 @@ def test_analyze_bag_recomputes_every_figure_of_both_chasers(run):
     assert done.returncode == 0 and 'every figure agrees' in done.stdout, done.stdout + done.stderr
     for row in ('chaser1.capture_position_error_m', 'chaser2.min_clearance_m', 'min_separation_m'):
         assert row in done.stdout
+
+
+def test_the_report_draws_both_chasers_and_their_separation(run, tmp_path):
+    script = ROOT / 'scripts' / 'mission_report.py'
+    done = subprocess.run([sys.executable, str(script), str(run), '--out', str(tmp_path)], capture_output=True,
+                          text=True, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert [p.name for p in tmp_path.glob('*.png')] == ['chasers.png']
