@@ -8,8 +8,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from flyby_estimation.mass_properties import j_from_moments, moments_from_j, principal_axis_errors_rad
+from flyby_estimation.mass_properties import (
+    MassPropertyFilter,
+    MassPropertyFilterConfig,
+    j_from_moments,
+    moments_from_j,
+    principal_axis_errors_rad,
+)
 from flyby_estimation.mass_properties_excitation import (
+    STATE_SIGMAS,
     TugrobotCase,
     choose_sequence,
     default_prior,
@@ -94,3 +101,33 @@ def test_chosen_sequence_beats_table1_in_final_covariance_at_equal_fuel():
     chosen = information_gain(case, design.firings, 25.0, config, prior, **full_rate)
     table1 = information_gain(case, table1_firings(), 25.0, config, prior, **full_rate)
     assert chosen > table1
+
+
+def _started_filter():
+    case = TugrobotCase()
+    config = tugrobot_filter_config(case)
+    return MassPropertyFilter(config, default_prior(case), 0.0, case.r0_m, case.v0_mps, case.q_inertial_from_body0,
+                              case.omega0_body, STATE_SIGMAS, table1_firings())
+
+
+def test_bad_samples_are_rejected_by_kind_and_leave_the_state():
+    f = _started_filter()
+    before = f.state()
+    assert f.on_imu(0.1, (math.nan, 0.0, 0.0), (0.0, 0.0, 0.0)).kind == 'non_finite'
+    assert f.update(0.1, (0.0, 0.0, 0.0, 2.0)).kind == 'non_unit'
+    # Torque-free about a principal axis; the chaser CoM 0.2 m from the combined CoM: omega^2 0.2 m centripetal.
+    assert f.on_imu(0.1, (0.0, 0.0, 0.1), (0.002, 0.0, 0.0)).kind == 'accepted'
+    assert f.on_imu(0.05, (0.0, 0.0, 0.1), (0.0, 0.0, 0.0)).kind == 'stale'
+    assert f.imu_counts['non_finite'] == 1 and f.counts['non_unit'] == 1 and f.imu_counts['stale'] == 1
+    assert before.t == 0.0 and f.t == 0.1
+
+
+def test_a_firing_before_the_filter_time_and_a_bad_config_are_refused_by_name():
+    f = _started_filter()
+    f.propagate_to(2.0)
+    with pytest.raises(ValueError, match='starts before the filter time'):
+        f.add_firings(table1_firings()[:1])
+    with pytest.raises(ValueError, match='chaser_inertia_body_kg_m2'):
+        MassPropertyFilterConfig(30.0, ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0)))
+    with pytest.raises(ValueError, match='gyro_sigma_rad_s'):
+        MassPropertyFilterConfig(30.0, np.eye(3).tolist(), gyro_sigma_rad_s=0.0)
