@@ -109,6 +109,11 @@ UNCERTAINTY_SIGMAS = 3.0
 # fourth campaign's five failures its mean NEES was 2.1-3.4 (3 expected) and run 569's rate NEES ~10 for a stretch
 # of an intermediate-axis tumble, so the variance is scaled to cover that stretch (10 / 3; sigma x1.8).
 REAIM_COVARIANCE_SCALE = 10.0 / 3.0
+# The re-aim check sums each principal direction's effect, a model linear in the plan estimate's error: where its
+# 3-sigma motions part by more than this at the grasp it vouches for nothing and refuses (envelope run 810, an
+# extended-window grasp 2288 s out: 171 deg, flown, no grasp near the planned one, ESCAPE; 323, 2343 s out: 27.5 deg;
+# 569: 5.5 deg). A chosen bound, not derived.
+REAIM_MAX_PARTING_RAD = math.radians(30.0)
 # Points of the terminal transfer checked against the restriction sphere.
 _TRANSFER_SAMPLES = 60
 # The target filter's covariance is predicted over substeps that turn the body by at most this [rad] and last at
@@ -910,8 +915,16 @@ def _reaim_check(c, ps, chaser_cov, model, config):
     of each motion's arc from that motion's geometry, e_k. Per principal direction the larger shortfall of its two
     motions below e_0 is its 3-sigma effect, and their root sum square the re-aim's 3-sigma spread S; with the
     last burn's uncertainty L = 3 sqrt((|r| sigma_att)^2 + sigma_c^2) (the planner's passage model) the gap is
-    e_0 - sqrt(S^2 + L^2). A motion with no grasp near c's (the turn drifts out of reach) gives -inf."""
+    e_0 - sqrt(S^2 + L^2). A motion with no grasp near c's (the turn drifts out of reach), or motions parting by more
+    than REAIM_MAX_PARTING_RAD at c's grasp, give -inf."""
     n = config.mean_motion_rad_s
+    c_grasp = np.array([m.c_hill_from_body(np.array([c.t_grasp]))[0] for m in model.motions])
+    cos_parting = (np.einsum('ij,kij->k', c_grasp[0], c_grasp[1:]) - 1.0) / 2.0  # (trace(C0' Ck) - 1) / 2
+    parting = math.acos(float(np.clip(cos_parting.min(), -1.0, 1.0)))
+    if parting > REAIM_MAX_PARTING_RAD:
+        why = (f'its 3-sigma motions part by {math.degrees(parting):.0f} deg at the grasp (beyond '
+               f'{math.degrees(REAIM_MAX_PARTING_RAD):.0f} deg the re-aim model vouches for nothing)')
+        return -math.inf, why, c.t_grasp, math.inf
     near = np.flatnonzero(ps.window & np.isfinite(ps.predicted) & (ps.tau >= -c.flyby_duration_s))
     if not near.size:
         return None
