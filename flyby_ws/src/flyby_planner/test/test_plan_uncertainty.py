@@ -441,3 +441,59 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
         assert np.allclose(start.omega_body, sc.omega_body0_rad_s + e[3:], rtol=0.0, atol=1e-15)
     with pytest.raises(ValueError, match='finite 6x6'):
         _ReaimModel(pred, 60.0, cfg, np.eye(3))
+
+
+def _envelope_run_810(d):
+    """Envelope run 810's drawn values: 3.6 deg/s, grasp point on the -y face, panels near 5 m."""
+    t = d['target']
+    t['initial_attitude']['body_axis_along_hill']['hill'] = [0.34210046617168277, -0.9328669656531406,
+                                                             0.1128117699454251]
+    t['initial_rate']['omega_body_deg_s'] = [1.0058933703864195, -3.3115092648535747, -1.1736085803304133]
+    t['grasp_point_body_m'] = [0.8546060135718934, -1.5, -1.2755615393104325]
+    t['geometry'][1]['size_m'] = [2.2554451417316312, 5.06663770387962, 0.05]
+    t['geometry'][2]['size_m'] = [1.944823759184012, 5.1048826528782145, 0.05]
+    d['chaser']['initial_position_hill_m'] = [-43.62854122262408, -4.552581932252293, 31.594800529198352]
+    d['chaser']['thrusters'].update(magnitude_error_sigma=0.00821296991773613,
+                                    direction_error_sigma_deg=0.546034775609678)
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.02158354599937746
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 2.7726502190419455
+    d['planner']['sun_direction_hill'] = None
+    d['simulation']['duration_s'] = 3000.0
+
+
+# Run 810's plan: the target estimate at 60.1 s, the diagonal of its published covariance (6x6 body), and
+# the chaser's estimated state (hill; m, m/s), as its headless replay with the re-aim check recorded them.
+_RUN_810_PLAN = (60.1, [-0.4717359874007342, -0.1630320114719664, -0.8604131739914789, 0.1028342912085663],
+                 [-0.03925677992924968, -0.04642177187896765, -0.01642492285923674],
+                 np.diag([1.7877928826075353e-05, 1.3971490676471866e-05, 1.0967972648835133e-05,
+                          2.7601905364582764e-08, 2.718260449686684e-08, 9.772126570520564e-09]),
+                 [-43.61732798898996, -4.544125138890063, 31.791180603171043, 0.00045718925955789605,
+                  0.0003246713499280142, 0.006542553162291167])
+
+
+def test_envelope_run_810_the_reaim_check_refuses_where_its_motions_part():
+    """Envelope run 810 with the re-aim check from its filter's covariance (x REAIM_COVARIANCE_SCALE): the estimate
+    is within 0.5 sigma of the truth, yet 2288 s later, at the extended window's grasp the check used to pass
+    (2348.6 s), its motion is 80 deg from the truth's and no convex grasp lies near it (flown: ESCAPE). Its 3-sigma
+    motions part by more than REAIM_MAX_PARTING_RAD at every grasp the other checks pass, and the plan is refused."""
+    from flyby_planner.grasp import REFINE_HORIZON_S, refine_grasp
+    from flyby_planner.plan import REAIM_MAX_PARTING_RAD, _ReaimModel
+    sc = _scenario(_envelope_run_810)
+    cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
+    n = cfg.mean_motion_rad_s
+    t, q, w, cov, chaser = _RUN_810_PLAN
+    estimate = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, t, q, w, 2400.0)
+    truth = truth_prediction(sc, 2400.0)
+    c_est, c_true = estimate.c_hill_from_body(np.array([2348.56]))[0], truth.c_hill_from_body(np.array([2348.56]))[0]
+    assert math.degrees(math.acos((np.trace(c_est.T @ c_true) - 1.0) / 2.0)) > 60.0
+    assert refine_grasp(estimate, cfg.x_grasp_body_m, 2348.56, n, t_latest=2348.56 + REFINE_HORIZON_S) is not None
+    assert refine_grasp(truth, cfg.x_grasp_body_m, 2348.56, n, t_latest=2348.56 + REFINE_HORIZON_S) is None
+    model = _ReaimModel(estimate, t, cfg, cov)
+    c = [m.c_hill_from_body(np.array([2348.56]))[0] for m in model.motions]
+    assert max(math.acos(np.clip((np.trace(c[0].T @ ck) - 1.0) / 2.0, -1.0, 1.0)) for ck in c[1:]) \
+        > REAIM_MAX_PARTING_RAD
+    pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, t, q, w, t + cfg.prediction_span_s(w))
+    plan = plan_capture(pred, chaser[:3], chaser[3:], t, cfg, cov)
+    assert not plan.ok and 'the re-aimed passage below the margin' in plan.reason
+    parted = [c for c in plan.candidates if c.reasons and 'motions part by' in c.reasons[-1]]
+    assert parted and all(c.reaim_gap_m == -math.inf for c in parted)
