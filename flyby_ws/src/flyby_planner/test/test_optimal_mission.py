@@ -89,14 +89,19 @@ def test_auto_flies_the_flyby_where_a_safe_one_exists():
     assert not any(isinstance(o, TrajectoryPublished) for o in out)
 
 
+# The fly-by refuses paper_flyby's spin axis (54.7 deg from hill y) when condition (b) asks 60 deg; a target
+# refused by condition (a) is category IV, for which auto chooses the synchronized approach (DESIGN §10).
+REFUSED_BY_CONDITION_B = {'min_spin_axis_angle_from_orbit_normal_deg': 60.0}
+
+
 def test_auto_falls_back_to_the_optimal_approach_when_the_flyby_is_refused():
-    """The fly-by refuses a target faster than estimation.spin_rate_deg_s (condition (a)); auto then plans the
-    optimization-based approach, and says why."""
-    _, out = _plan(_scenario('paper_flyby_6dof.yaml', method='auto', estimation={'spin_rate_deg_s': 4.0},
+    """The fly-by refuses the target (condition (b)); auto then plans the optimization-based approach, and says
+    why."""
+    _, out = _plan(_scenario('paper_flyby_6dof.yaml', method='auto', **REFUSED_BY_CONDITION_B,
                              optimal={'accel_max_mps2': 0.138, 'approach_time_s': 58.9}))
     (chosen,) = _events(out, 'method_chosen')
     assert chosen.values['method'] == 'optimal'
-    assert chosen.values['reason'].startswith('auto: no safe fly-by (condition (a)')
+    assert chosen.values['reason'].startswith('auto: no safe fly-by (') and 'condition (b)' in chosen.values['reason']
     assert any(isinstance(o, TrajectoryPublished) for o in out) and not _events(out, 'plan_refused')
 
 
@@ -113,9 +118,11 @@ def test_no_safe_plan_when_scp_finds_no_feasible_program():
     (refused,) = _events(out, 'plan_refused')
     assert refused.message.startswith('optimal approach: no feasible program for an approach of 20 s')
     assert any(isinstance(o, PlanRefused) for o in out) and not _events(out, 'method_chosen')
-    _, out = _plan(_scenario(method='auto', estimation={'spin_rate_deg_s': 4.0}, optimal={'approach_time_s': 20.0}))
+    _, out = _plan(_scenario(method='auto', **REFUSED_BY_CONDITION_B, optimal={'approach_time_s': 20.0}))
     (refused,) = _events(out, 'plan_refused')
-    assert refused.message.startswith('fly-by: condition (a)') and '; optimal approach: no feasible' in refused.message
+    fly_by, optimal = refused.message.split('; ')
+    assert fly_by.startswith('fly-by: ') and 'condition (b)' in fly_by
+    assert optimal.startswith('optimal approach: no feasible')
     supervisor = SupervisorCore(_scenario())
     supervisor.machine.phase = c.PHASE_PLANNING
     out = supervisor.on_event(wire_event(refused))
