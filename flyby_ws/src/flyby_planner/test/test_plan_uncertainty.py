@@ -352,12 +352,18 @@ def _envelope_run_569(d):
     d['simulation']['duration_s'] = 3000.0
 
 
-# The estimate run 569 planned from (t = 125.1 s, 7 deg from the truth at its grasp 630 s later) and the chaser's
-# estimated state then (hill; m, m/s), as its headless replay recorded them.
+# The estimate run 569 planned from (t = 125.1 s, 7 deg from the truth at its grasp 630 s later), the chaser's
+# estimated state then (hill; m, m/s), as its headless replay recorded them, and the estimate's published covariance
+# (covariance_from_published, 6x6 body, 4 digits).
 _RUN_569_PLAN = (125.1, [-0.48082307293465565, -0.7153359196749034, 0.5067287115468437, 0.01815784818227692],
                  [-0.0091362953778875, -0.13995412946043953, 0.049404577488324615],
                  [35.83541297936146, -25.840796018537876, -80.54800366691838, -0.0047391399946759005,
                   0.0037330054509955, -0.03416054707719021])
+_RUN_569_COVARIANCE = np.zeros((6, 6))
+_RUN_569_COVARIANCE[:3, :3] = [[7.993e-07, -4.766e-08, -2.949e-07], [-4.766e-08, 3.784e-06, 9.558e-07],
+                               [-2.949e-07, 9.558e-07, 4.064e-06]]
+_RUN_569_COVARIANCE[3:, 3:] = [[8.404e-08, -5.547e-09, 1.970e-09], [-5.547e-09, 9.192e-10, -3.195e-10],
+                               [1.970e-09, -3.195e-10, 1.219e-10]]
 
 
 def _reaimed_at_truth(sc, cfg, c):
@@ -396,14 +402,14 @@ def _reaimed_at_truth(sc, cfg, c):
 def test_envelope_run_569_the_reaimed_passage_rejects_the_plan_it_flew_and_the_new_plan_clears_the_truth():
     """Envelope run 569 (fourth campaign, an escape): planned from its 125 s estimate, the plan flown (grasp at
     754.2 s) put the arc that guidance re-aims at the true grasp 0.3-0.4 m into the +y panel. The re-aim check
-    (plan._ReaimModel) rejects it, and the plan it selects instead keeps the margin from the TRUE target once
-    re-aimed at the true grasp."""
+    (plan._ReaimModel) from that estimate's published covariance rejects it, and the plan it selects instead keeps
+    the margin from the TRUE target once re-aimed at the true grasp."""
     sc = _scenario(_envelope_run_569)
     cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
     t, q, w, chaser = _RUN_569_PLAN
     pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, t, q, w,
                                     t + cfg.prediction_span_s(w))
-    plan = plan_capture(pred, chaser[:3], chaser[3:], t, cfg)
+    plan = plan_capture(pred, chaser[:3], chaser[3:], t, cfg, _RUN_569_COVARIANCE)
     flown = [c for c in plan.candidates if abs(c.t_grasp - 754.2) < 0.5 and c.offset_m == 1.0
              and c.flyby_duration_s == 300.0]
     assert flown and flown[0].reasons[0].startswith('the re-aimed passage'), flown[0].reasons
