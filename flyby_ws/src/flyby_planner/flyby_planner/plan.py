@@ -192,9 +192,10 @@ class PlannerConfig:
     model (module doc, step 4), with the manipulator's position_tolerance_m and velocity_tolerance_mps as the bound
     on the predicted miss, guidance's adjust_interval_s and command_lead_s for the last burn; None keeps the fixed
     geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound. reaim_check (with accuracy): check
-    the passage guidance flies once it re-aims at 3 sigma of the plan estimate (_ReaimModel). Off by default: with
-    the convergence bound as the plan estimate's covariance it turns the fourth campaign's five flown failures into
-    captures or refusals but refused 4 of 17 of its captures in a regression sample (docs/campaigns.md).
+    the passage guidance flies once it re-aims at 3 sigma of the plan estimate (_ReaimModel: the covariance passed to
+    plan_capture, else the convergence bound). Off by default: from the filter's covariance it turns the fourth
+    campaign's five flown failures into captures or refusals and kept every capture of a regression sample, but
+    from the bound (no covariance passed) it changes even paper_flyby's plan (docs/campaigns.md).
     """
 
     mean_motion_rad_s: float

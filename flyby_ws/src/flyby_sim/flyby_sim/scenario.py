@@ -307,9 +307,11 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                     'passive path.'),
         'reaim_check': Field(BOOL, False, None,
                              'Also keep the margin on the arc guidance will fly once it re-aims at the grasp '
-                             'solved from later estimates, with the plan estimate moved 3 sigma (plan._ReaimModel). '
-                             'Off by default: on, the fourth envelope campaign\'s five flown failures capture or are '
-                             'refused, but it also refused 4 of 17 captures of a sample (docs/campaigns.md).'),
+                             'solved from later estimates, with the plan estimate moved 3 sigma of its published '
+                             'covariance (plan._ReaimModel). On, the fourth envelope campaign\'s five flown '
+                             'failures capture or are refused and the 22 captures of a 24-run sample capture; off '
+                             'by default until planning without a published covariance is settled '
+                             '(docs/campaigns.md).'),
         'escape_check_orbits': Field(FLOAT, 1.0, '>= 1',
                                      'Length of the passive escape checked after the grasp, in orbits.'),
         'geometry_window_s': Field(FLOAT, 300.0, '>= 0',
