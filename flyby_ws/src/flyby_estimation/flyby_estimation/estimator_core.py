@@ -30,7 +30,6 @@ from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser
 from flyby_estimation.filters import filters_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
-from flyby_sim.dynamics.attitude import attitude_ahead
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_rotate
 
@@ -161,9 +160,9 @@ class EstimatorCore:
         attitude = next((a for a in reversed(self.attitudes) if a[0] <= t_estimate + _STAMP_TOLERANCE_S), None)
         if attitude is None:
             return []
-        # the force is fixed in chaser_body over the hold: turned into hill at the hold's midpoint
-        t_q, q, omega = attitude
-        q = attitude_ahead(q, omega, t + 0.5 * self.wrench_hold_s - t_q, self.scenario.mean_motion_rad_s)
+        # Turned into hill at the attitude estimate the command was computed from. (Carried to the hold's midpoint,
+        # a8ddb24, the graph's estimates part from the headless loop's under continuous thrust: reverted until found.)
+        q = attitude[1]
         mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
             return []

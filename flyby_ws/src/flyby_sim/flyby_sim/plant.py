@@ -55,7 +55,6 @@ from flyby_sim.thrusters import ThrusterModel
 DYNAMICS = ('nonlinear', 'cw')
 _ZERO3 = (0.0, 0.0, 0.0)
 ATTITUDE_CHUNK_STEPS = 100  # steps of target attitude evaluated at once (5 s at 20 Hz)
-STEP_GRID_TOLERANCE_S = 1e-6  # a command stamp this close to a step boundary is on it (Plant._on_step_grid)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -273,7 +272,7 @@ class Plant:
         chaser = self._rigid_chaser('command_wrench')
         if self.captured:
             return self._ignored('wrench', t_stamp)
-        return chaser.command_wrench(self.t, self._on_step_grid(t_stamp), force_body_n, torque_body_n_m, hold_s)
+        return chaser.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m, hold_s)
 
     def command_wheels(self, t_stamp, torque_n_m):
         """Hold the reaction wheels' motor torques [N m] (one per wheel) from sim time t_stamp [s] until the next
@@ -284,17 +283,7 @@ class Plant:
         chaser = self._rigid_chaser('command_wheels')
         if self.captured:
             return self._ignored('wheels', t_stamp)
-        return chaser.command_wheels(self.t, self._on_step_grid(t_stamp), torque_n_m)
-
-    def _on_step_grid(self, t_stamp):
-        """A stamp within a microsecond of a step boundary is that boundary, to the bit of ``t``: a command
-        stamped at the end of a step (wire-rounded to the nanosecond) then acts from the next step whether it
-        came in before or after the simulator reached that step's end (sim_node waits only for stamps inside
-        the next step), never for a sliver of the step before."""
-        if not math.isfinite(t_stamp):
-            return t_stamp
-        k = round(t_stamp / self.config.step_s)
-        return k * self.config.step_s if abs(k * self.config.step_s - t_stamp) < STEP_GRID_TOLERANCE_S else t_stamp
+        return chaser.command_wheels(self.t, t_stamp, torque_n_m)
 
     def _rigid_chaser(self, what):
         if self._chaser is None:

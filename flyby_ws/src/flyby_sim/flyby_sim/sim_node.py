@@ -16,8 +16,7 @@ sensor_msgs/JointState), the IMU (``sensors/chaser/imu``) and the chaser's marke
 continuous commands (``guidance/wheels``, ``guidance/wrench``, zero-order hold). Guidance commands every
 chaser estimate, and the estimator gives one at every IMU sample, one control period (the IMU's sample
 period) after its stamp: so every IMU sample of stamp t announces a command of stamp t + period, and the
-simulator does not step past that stamp before the command is in (on both topics; it steps up to it, so the
-sample of t + period is out, and being estimated, while guidance computes the command of t + period), until the mission
+simulator does not step past that stamp before the command is in (on both topics), until the mission
 phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command).
@@ -208,8 +207,7 @@ class SimNode(Node):
         received_ns = min(ch.commanded_ns.values()) + COMMAND_STAMP_TOLERANCE_NS
         while announced and announced[0] <= received_ns:
             announced.popleft()
-        # A command stamped at the end of the next step applies only after it: step there, then wait.
-        if not announced or announced[0] >= convert.sec_to_ns(self.plant.t + self.step_s) - COMMAND_STAMP_TOLERANCE_NS:
+        if not announced or announced[0] > convert.sec_to_ns(self.plant.t + self.step_s) + COMMAND_STAMP_TOLERANCE_NS:
             ch.waiting_command_since = None
             return False
         now = time.monotonic()
