@@ -50,6 +50,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag, repair_bag
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.summary import least_clearance_index
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.scenario import load_scenario
 
@@ -155,7 +156,7 @@ def recompute(bag_dir, scenario, namespace=''):
         common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
         gaps = box_clearance(chaser.position[i_c], target.orientation_xyzw[i_t], scenario.boxes.center_body_m,
                              scenario.boxes.size_m, scenario.chaser.envelope_radius_m)
-        k = int(np.argmin(gaps))
+        k = least_clearance_index(gaps)
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
         t_g = aimed_grasp_time(events, grasp)
         out['t_grasp_s'] = t_g

@@ -221,6 +221,17 @@ def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
     return float(np.linalg.norm(r - x_ft)), float(np.linalg.norm(v - v_ft))
 
 
+# Clearances within this of the least are a tie: a plateau (the chaser attached after the grasp) has no argmin
+# that two routes computing the same gaps to ~1e-12 m agree on.
+CLEARANCE_TIE_M = 1e-6
+
+
+def least_clearance_index(gaps):
+    """Index of the first sample whose clearance is within CLEARANCE_TIE_M of the least (t_min_clearance_s)."""
+    gaps = np.asarray(gaps, dtype=float)
+    return int(np.flatnonzero(gaps <= gaps.min() + CLEARANCE_TIE_M)[0])
+
+
 def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'), namespace='',
                     **launcher):
     """The summary dict of a run from its bag; robust to a bag cut short by an interruption. ``launcher``:
@@ -283,7 +294,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         boxes = [(b.center_m, b.size_m) for b in scenario.target.geometry]
         gaps = clearance(chaser.position[i_c], target.orientation_xyzw[i_t], boxes,
                          scenario.chaser.envelope_radius_m)
-        k = int(np.argmin(gaps))
+        k = least_clearance_index(gaps)
         min_clearance, t_min_clearance = float(gaps[k]), float(t_common[k])
         # A collision is contact before a capture (afterwards the chaser holds the target, DESIGN §10).
         free = t_common <= t_g if c.PHASE_CAPTURE in phases and t_g is not None else np.ones(len(gaps), bool)

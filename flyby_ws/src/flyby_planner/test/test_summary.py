@@ -72,3 +72,11 @@ def test_collision_is_contact_in_the_truth_before_any_capture():
     s = summarize(*held, sc, 'phase COMPLETE')
     assert s['outcome'] == 'CAPTURE' and s['min_clearance_m'] < 0.0
     assert s['phase_sequence'][-2:] == ['CAPTURE', 'COMPLETE']
+
+
+def test_the_least_clearance_time_is_the_first_of_its_plateau():
+    """Attached after the grasp the clearance is flat to round-off: the summary and analyze_bag, computing the same
+    gaps by two routes, take the first sample within CLEARANCE_TIE_M of the least, not either's argmin."""
+    from flyby_planner.summary import least_clearance_index
+    assert least_clearance_index([0.5, 0.3, 0.3 + 1e-12, 0.3 - 1e-12, 0.4]) == 1
+    assert least_clearance_index([0.5, 0.4, 0.3, 0.3 + 2e-6]) == 2
