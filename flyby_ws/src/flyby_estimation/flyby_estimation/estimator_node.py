@@ -53,11 +53,11 @@ class EstimatorNode(CoreNode):
             self.order = MeasurementOrder(scenario.simulation.step_s,
                                           [('position', scenario.sensors.relative_position.rate_hz),
                                            ('imu', scenario.sensors.chaser_imu.rate_hz)])
-            self.subscribe_raw(c.SENSOR_CHASER_IMU, self.on_imu)
-            self.subscribe_raw(c.GUIDANCE_WRENCH, self.on_wrench)
+            self.subscribe(c.SENSOR_CHASER_IMU, self.on_imu, raw=True)
+            self.subscribe(c.GUIDANCE_WRENCH, self.on_wrench, raw=True)
         # The measurements come as CDR bytes (convert.*_cdr_to_numpy: no Python messages on the hot path).
-        self.subscribe_raw(c.SENSOR_TARGET_ATTITUDE, self.on_attitude)
-        self.subscribe_raw(c.SENSOR_RELATIVE_POSITION, self.on_position)
+        self.subscribe(c.SENSOR_TARGET_ATTITUDE, self.on_attitude, raw=True)
+        self.subscribe(c.SENSOR_RELATIVE_POSITION, self.on_position, raw=True)
         self.subscribe(c.GUIDANCE_MANEUVER, self.on_maneuver)
         self.subscribe_phase()
 

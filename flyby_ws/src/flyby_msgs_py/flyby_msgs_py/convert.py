@@ -281,10 +281,8 @@ def odometry_cdr(t, frame_id, child_frame_id, position, orientation_xyzw, linear
     q = _quat(orientation_xyzw, 'orientation_xyzw')
     v = _vec3(linear, 'linear')
     w = _vec3(angular, 'angular')
-    head = struct.pack('<iI', *_stamp_parts(t))
-    head += _cdr_string(_frame(frame_id), len(head))
-    head += _cdr_string(_frame(child_frame_id, 'child_frame_id'), len(head))
-    head += b'\0' * (-len(head) % 8)
+    head = _header_cdr(t, frame_id)
+    head = _pad8(head + _cdr_string(_frame(child_frame_id, 'child_frame_id'), len(head)))
     pose_cov = (_ZERO_COVARIANCE if pose_covariance is None else
                 _covariance(pose_covariance, 6, 'pose_covariance').astype('<f8', copy=False).tobytes())
     twist_cov = (_ZERO_COVARIANCE if twist_covariance is None else
@@ -306,42 +304,50 @@ def _cdr_string_at(data, offset, field):
 def odometry_cdr_to_numpy(data):
     """The OdometryArrays of a serialized nav_msgs/Odometry (a raw=True subscription's bytes), as
     ``odometry_to_numpy`` of the message. Raises ValueError for anything but little-endian CDR of an Odometry."""
-    data = bytes(data)
-    if data[:2] != _CDR_LE[:2]:
-        raise ValueError(f'Odometry: expected little-endian CDR (encapsulation 00 01), got {data[:2].hex()}')
-    sec, nanosec = struct.unpack_from('<iI', data, 4)
-    frame_id, offset = _cdr_string_at(data, 8, 'frame_id')
+    ns, frame_id, offset = _cdr_header(data, 'Odometry')
     child_frame_id, offset = _cdr_string_at(data, offset, 'child_frame_id')
-    offset += -offset % 8
-    if 4 + offset + 8 * _ODOMETRY_DOUBLES != len(data):
-        raise ValueError(f'Odometry: {len(data)} bytes of CDR, expected {4 + offset + 8 * _ODOMETRY_DOUBLES}')
-    a = np.frombuffer(data, '<f8', _ODOMETRY_DOUBLES, 4 + offset).astype(float)
-    return OdometryArrays((sec * NS_PER_S + nanosec) / 1e9, a[0:3], a[3:7], a[43:46], a[46:49],
+    a = _doubles_from_cdr(data, offset + (-offset % 8), _ODOMETRY_DOUBLES, 'Odometry')
+    return OdometryArrays(ns / 1e9, a[0:3], a[3:7], a[43:46], a[46:49],
                           a[7:43].reshape(6, 6), a[49:85].reshape(6, 6), frame_id, child_frame_id)
 
 
-def clock_cdr_to_ns(data):
-    """The time [ns] of a serialized rosgraph_msgs/Clock (a raw=True subscription's bytes)."""
+def _cdr_stamp_ns(data, typename):
+    """The time [ns] of the Time that opens the payload of serialized ``data`` (a Clock's or a Header's stamp);
+    ValueError for anything but little-endian CDR that long."""
     if len(data) < 12 or bytes(data[:2]) != _CDR_LE[:2]:
-        raise ValueError(f'Clock: expected 12 bytes of little-endian CDR, got {bytes(data[:12]).hex()}')
+        raise ValueError(f'{typename}: expected little-endian CDR (encapsulation 00 01) of at least 12 bytes, got '
+                         f'{bytes(data[:12]).hex()}')
     sec, nanosec = struct.unpack_from('<iI', data, 4)
     return sec * NS_PER_S + nanosec
 
 
+def _cdr_header(data, typename):
+    """(stamp [ns], frame_id, payload offset just after them) of the std_msgs/Header that opens ``data``."""
+    ns = _cdr_stamp_ns(data, typename)
+    frame_id, offset = _cdr_string_at(data, 8, 'frame_id')
+    return ns, frame_id, offset
+
+
+def clock_cdr_to_ns(data):
+    """The time [ns] of a serialized rosgraph_msgs/Clock (a raw=True subscription's bytes)."""
+    return _cdr_stamp_ns(data, 'Clock')
+
+
+def _pad8(payload):
+    """``payload`` padded to the 8-byte alignment of the float64 field that follows."""
+    return payload + b'\0' * (-len(payload) % 8)
+
+
 def _header_cdr(t, frame_id):
-    """CDR payload of a std_msgs/Header, padded to 8 bytes (a float64 field follows in every user here)."""
+    """CDR payload of a std_msgs/Header (stamp t [s], frame_id), unpadded."""
     head = struct.pack('<iI', *_stamp_parts(t))
-    head += _cdr_string(_frame(frame_id), len(head))
-    return head + b'\0' * (-len(head) % 8)
+    return head + _cdr_string(_frame(frame_id), len(head))
 
 
 def _header_from_cdr(data, typename):
     """(t [s], frame_id, payload offset after the header padded to 8) of serialized ``data``."""
-    if bytes(data[:2]) != _CDR_LE[:2]:
-        raise ValueError(f'{typename}: expected little-endian CDR (encapsulation 00 01), got {bytes(data[:2]).hex()}')
-    sec, nanosec = struct.unpack_from('<iI', data, 4)
-    frame_id, offset = _cdr_string_at(data, 8, 'frame_id')
-    return (sec * NS_PER_S + nanosec) / 1e9, frame_id, offset + (-offset % 8)
+    ns, frame_id, offset = _cdr_header(data, typename)
+    return ns / 1e9, frame_id, offset + (-offset % 8)
 
 
 def _doubles_from_cdr(data, offset, n, typename):
@@ -352,10 +358,7 @@ def _doubles_from_cdr(data, offset, n, typename):
 
 def header_cdr_to_ns(data):
     """(time [ns], frame_id) of a serialized std_msgs/Header (e.g. a node's progress)."""
-    if bytes(data[:2]) != _CDR_LE[:2]:
-        raise ValueError(f'Header: expected little-endian CDR (encapsulation 00 01), got {bytes(data[:2]).hex()}')
-    sec, nanosec = struct.unpack_from('<iI', data, 4)
-    return sec * NS_PER_S + nanosec, _cdr_string_at(data, 8, 'frame_id')[0]
+    return _cdr_header(data, 'Header')[:2]
 
 
 def odometry_to_numpy(msg):
@@ -405,7 +408,7 @@ def vector3_stamped(t, frame_id, vector):
 
 
 def _stamped_cdr(t, frame_id, values):
-    return b''.join((_CDR_LE, _header_cdr(t, frame_id), struct.pack(f'<{len(values)}d', *values)))
+    return b''.join((_CDR_LE, _pad8(_header_cdr(t, frame_id)), struct.pack(f'<{len(values)}d', *values)))
 
 
 def _stamped_from_cdr(data, n, typename):
@@ -525,7 +528,7 @@ _NO_ORIENTATION = (0.0, 0.0, 0.0, 0.0, -1.0) + (0.0,) * 8
 def imu_cdr(t, frame_id, orientation_xyzw, angular_velocity, linear_acceleration, orientation_covariance,
             angular_velocity_covariance, linear_acceleration_covariance):
     """``imu`` as its CDR bytes (for Publisher.publish; see odometry_cdr)."""
-    head = _header_cdr(t, frame_id)
+    head = _pad8(_header_cdr(t, frame_id))
     if orientation_xyzw is None:
         orientation = struct.pack('<13d', *_NO_ORIENTATION)
     else:
@@ -637,8 +640,7 @@ def joint_state_cdr(t, frame_id, names, velocity=None, effort=None, position=Non
 
 def joint_state_cdr_to_numpy(data):
     """``joint_state_to_numpy`` of a serialized sensor_msgs/JointState."""
-    t, _frame_id, _ = _header_from_cdr(data, 'JointState')
-    offset = _cdr_string_at(data, 8, 'frame_id')[1]
+    ns, _frame_id, offset = _cdr_header(data, 'JointState')
     offset += -offset % 4
     (count,) = struct.unpack_from('<I', data, 4 + offset)
     offset += 4
@@ -657,7 +659,7 @@ def joint_state_cdr_to_numpy(data):
             raise ValueError(f'JointState: {field} runs past the {len(data)} bytes of CDR')
         fields.append(np.frombuffer(data, '<f8', n, 4 + offset).astype(float))
         offset += 8 * n
-    return JointArrays(t, names, *fields)
+    return JointArrays(ns / 1e9, names, *fields)
 
 
 def joint_state_to_numpy(msg):

@@ -16,6 +16,11 @@ from flyby_msgs_py import convert, qos
 from flyby_msgs_py.wire import Event
 
 
+def _name(topic):
+    """The name a node uses for a contract topic: a global one at its root name under a namespace (DESIGN §10)."""
+    return c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
+
+
 class CoreNode(Node):
     """A node around a core (module doc)."""
 
@@ -26,19 +31,13 @@ class CoreNode(Node):
 
     def publisher(self, topic):
         """A publisher of a contract topic with its type and QoS (a global topic at its root name, DESIGN §10)."""
-        name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
-        return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name, qos.qos_for(topic))
+        return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), _name(topic), qos.qos_for(topic))
 
-    def subscribe(self, topic, callback):
-        """A subscription of a contract topic with its type and QoS (a global topic at its root name)."""
-        name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
-        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, callback, qos.qos_for(topic))
-
-    def subscribe_raw(self, topic, callback):
-        """``subscribe`` handing the callback the message's CDR bytes (no Python message is built)."""
-        name = c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
-        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), name, callback, qos.qos_for(topic),
-                                        raw=True)
+    def subscribe(self, topic, callback, raw=False):
+        """A subscription of a contract topic with its type and QoS (a global topic at its root name); ``raw``: the
+        callback takes the message's CDR bytes (no Python message is built; convert.*_cdr_to_numpy reads them)."""
+        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), _name(topic), callback,
+                                        qos.qos_for(topic), raw=raw)
 
     def subscribe_odometry(self, topic, core_input, *fields):
         """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays), read from its
@@ -46,7 +45,7 @@ class CoreNode(Node):
         def callback(data):
             o = convert.odometry_cdr_to_numpy(data)
             self.publish(core_input(o.t, *(getattr(o, f) for f in fields)))
-        return self.subscribe_raw(topic, callback)
+        return self.subscribe(topic, callback, raw=True)
 
     def subscribe_estimates(self, rotate, target_covariance=False, chaser_attitude=False):
         """estimation/target/odom and estimation/chaser/odom into the core.
@@ -62,7 +61,7 @@ class CoreNode(Node):
                 o = convert.odometry_cdr_to_numpy(data)
                 self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular,
                                                           o.pose_covariance[3:, 3:], o.twist_covariance[3:, 3:]))
-            self.subscribe_raw(c.EST_TARGET_ODOM, on_target)
+            self.subscribe(c.EST_TARGET_ODOM, on_target, raw=True)
         else:
             self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
 
@@ -71,7 +70,7 @@ class CoreNode(Node):
             v_hill = rotate(o.orientation_xyzw, o.linear)
             attitude = (o.orientation_xyzw, o.angular) if chaser_attitude else ()
             self.publish(self.core.on_chaser_estimate(o.t, o.position, v_hill, *attitude))
-        self.subscribe_raw(c.EST_CHASER_ODOM, on_chaser)
+        self.subscribe(c.EST_CHASER_ODOM, on_chaser, raw=True)
 
     def subscribe_phase(self):
         """mission/phase into the core's on_phase(phase)."""
