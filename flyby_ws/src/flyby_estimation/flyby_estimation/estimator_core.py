@@ -160,8 +160,7 @@ class EstimatorCore:
         attitude = next((a for a in reversed(self.attitudes) if a[0] <= t_estimate + _STAMP_TOLERANCE_S), None)
         if attitude is None:
             return []
-        # Turned into hill at the attitude estimate the command was computed from. (Carried to the hold's midpoint,
-        # a8ddb24, the graph's estimates part from the headless loop's under continuous thrust: reverted until found.)
+        # Turned into hill at the attitude estimate the command was computed from, which every pace has by then.
         q = attitude[1]
         mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
