@@ -138,6 +138,24 @@ def collect(node, topic, namespace=''):
     return received
 
 
+def envelope_run_569(d):
+    """A scenario edit (for write_scenario): envelope run 569's drawn values (campaigns/flyby_envelope.yaml, campaign
+    seed 2026), an 8.2 deg/s spin about the intermediate principal axis (body x), the grasp point on the +y face."""
+    t = d['target']
+    t['initial_rate'] = {'omega_body_deg_s': [-8.175128388491231, -0.636680740332563, -0.15726095827891964]}
+    t['initial_attitude']['body_axis_along_hill']['hill'] = [0.2727377174418644, -0.7387481216378883,
+                                                              -0.6163321752603003]
+    t['grasp_point_body_m'] = [-1.3307346145151664, 1.5, 0.46957523398567913]
+    t['geometry'][1]['size_m'] = [2.010558977059335, 5.712148812400723, 0.05]
+    t['geometry'][2]['size_m'] = [1.7481567402253142, 6.084190090071806, 0.05]
+    d['chaser']['initial_position_hill_m'] = [36.03019711630237, -26.076948318751352, -78.41055905044796]
+    d['chaser']['thrusters'].update(magnitude_error_sigma=0.005757055901678327,
+                                    direction_error_sigma_deg=0.7593258264653564)
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.016113209381107767
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.7537225542714447
+    d['planner']['sun_direction_hill'] = None
+
+
 def envelope_run_323(d):
     """A scenario edit (for write_scenario): envelope run 323's drawn values, a 6 deg/s tumbler, the grasp
     point on the -y face by the bus edge, the chaser 42 m away below and behind."""

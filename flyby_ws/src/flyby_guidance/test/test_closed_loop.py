@@ -5,6 +5,7 @@ from pathlib import Path
 from flyby_guidance.closed_loop import HeadlessGraph, run_headless
 from flyby_guidance.guidance_core import GuidanceCore
 from flyby_sim.scenario import load_scenario, scenario_from_dict
+from flyby_testing import envelope_run_569
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 
@@ -24,22 +25,11 @@ def test_a_refused_plan_ends_in_no_safe_plan_with_its_reason():
 
 
 def _envelope_run_569():
-    """Run 569 of the envelope campaign (campaigns/flyby_envelope.yaml, campaign seed 2026), drawn values."""
+    """Run 569 of the envelope campaign with its run seed, flown 1200 s."""
     d = load_scenario(SCENARIOS / 'paper_flyby.yaml').to_dict()
+    envelope_run_569(d)
     d['seed'] = 2056802005
-    d['planner']['sun_direction_hill'] = None
     d['simulation']['duration_s'] = 1200.0
-    d['target']['initial_rate'] = {'omega_body_deg_s': [-8.175128388491231, -0.636680740332563, -0.15726095827891964]}
-    d['target']['initial_attitude']['body_axis_along_hill']['hill'] = [0.2727377174418644, -0.7387481216378883,
-                                                                       -0.6163321752603003]
-    d['target']['grasp_point_body_m'] = [-1.3307346145151664, 1.5, 0.46957523398567913]
-    d['target']['geometry'][1]['size_m'] = [2.010558977059335, 5.712148812400723, 0.05]
-    d['target']['geometry'][2]['size_m'] = [1.7481567402253142, 6.084190090071806, 0.05]
-    d['chaser']['initial_position_hill_m'] = [36.03019711630237, -26.076948318751352, -78.41055905044796]
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.016113209381107767
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.7537225542714447
-    d['chaser']['thrusters']['magnitude_error_sigma'] = 0.005757055901678327
-    d['chaser']['thrusters']['direction_error_sigma_deg'] = 0.7593258264653564
     return d
 
 

@@ -31,7 +31,7 @@ from flyby_planner.plan import (
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
 from flyby_sim.scenario import load_scenario, scenario_from_dict
-from flyby_testing import envelope_run_323
+from flyby_testing import envelope_run_323, envelope_run_569
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER_DICT = yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
@@ -337,18 +337,7 @@ def test_a_refusal_leads_with_the_latest_check_that_bound_it():
 
 
 def _envelope_run_569(d):
-    """Envelope run 569's drawn values: 8.2 deg/s about the intermediate axis (body x), grasp point on the +y face."""
-    t = d['target']
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [0.27273772, -0.73874812, -0.61633218]
-    t['initial_rate']['omega_body_deg_s'] = [-8.17512839, -0.63668074, -0.15726096]
-    t['grasp_point_body_m'] = [-1.33073461, 1.5, 0.46957523]
-    t['geometry'][1]['size_m'] = [2.01055898, 5.71214881, 0.05]
-    t['geometry'][2]['size_m'] = [1.74815674, 6.08419009, 0.05]
-    d['chaser']['initial_position_hill_m'] = [36.0302, -26.0769, -78.4106]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.00576, direction_error_sigma_deg=0.759)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.0161
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.754
-    d['planner']['sun_direction_hill'] = None
+    envelope_run_569(d)
     d['simulation']['duration_s'] = 3000.0
 
 
