@@ -92,6 +92,14 @@ def total_impulse_n_s(firings):
     return sum(f.impulse_n_s for f in firings)
 
 
+def _successive_xyz(angles_deg):
+    """The quaternion of successive rotations by angles_deg [deg] about the (turned) body x, y and z axes."""
+    q = np.array((0.0, 0.0, 0.0, 1.0))
+    for k, angle in enumerate(angles_deg):
+        q = quat_multiply(q, quat_from_rotation_vector(math.radians(angle) * np.eye(3)[k]))
+    return q
+
+
 class TugrobotCase(NamedTuple):
     """Seed 004 §3.1 / Table 1: the TugRobot (chaser) and the material satellite (target) joined."""
 
@@ -109,17 +117,11 @@ class TugrobotCase(NamedTuple):
     @property
     def q_inertial_from_body0(self):
         """Roll, pitch, yaw as successive rotations about body x, y, z (the attitude angles of Table 1)."""
-        q = np.array((0.0, 0.0, 0.0, 1.0))
-        for k, angle in enumerate(self.attitude0_deg):
-            q = quat_multiply(q, quat_from_rotation_vector(math.radians(angle) * np.eye(3)[k]))
-        return q
+        return _successive_xyz(self.attitude0_deg)
 
     @property
     def q_body_from_principal(self):
-        q = np.array((0.0, 0.0, 0.0, 1.0))
-        for k, angle in enumerate(self.target_axes_deg):
-            q = quat_multiply(q, quat_from_rotation_vector(math.radians(angle) * np.eye(3)[k]))
-        return q
+        return _successive_xyz(self.target_axes_deg)
 
     @property
     def chaser_inertia_body(self):
