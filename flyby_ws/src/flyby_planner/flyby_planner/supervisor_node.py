@@ -33,6 +33,8 @@ class SupervisorNode(CoreNode):
             self.publisher(c.MISSION_PHASE), self.publisher(c.MISSION_EVENTS), self.publisher(c.GUIDANCE_MANEUVER))
         self.subscribe_estimates(quat_rotate)
         self.subscribe_events()
+        ns = self.get_namespace().strip('/')
+        self.progress_prefix = ns + '/' if ns else ''  # how our chaser's nodes label their progress
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM, raw=True)
         self.create_service(Trigger, c.MISSION_ABORT_SERVICE, self.on_abort)
         self.publish(self.core.start())
@@ -40,12 +42,11 @@ class SupervisorNode(CoreNode):
     def on_progress(self, data):
         # Under a chaser's namespace its nodes report as <ns>/<name> (runtime.node_label): the core knows them by
         # name; other chasers' nodes are not ours to watch. Read from the CDR bytes (every node, 4 Hz of sim time).
-        ns = self.get_namespace().strip('/')
         t_ns, label = convert.header_cdr_to_ns(data)
-        if ns:
-            if not label.startswith(ns + '/'):
+        if self.progress_prefix:
+            if not label.startswith(self.progress_prefix):
                 return
-            label = label[len(ns) + 1:]
+            label = label[len(self.progress_prefix):]
         self.core.on_progress(label, t_ns / 1e9)
 
     def on_clock(self, t):

@@ -64,7 +64,10 @@ class ThrusterLayout:
         self.min_impulse_bit_n_s = float(min_impulse_bit_n_s)
         self.positions_body_m.flags.writeable = False
         self.force_directions_body.flags.writeable = False
-        self._wrench_matrix = None
+        # B (6, N): force directions over their torques r_i x d_i about the CoM (module doc); read-only, built once
+        # (the plant allocates with it at every wrench command).
+        self.wrench_matrix = wrench_matrix(self.positions_body_m, self.force_directions_body)
+        self.wrench_matrix.flags.writeable = False
 
     @property
     def count(self):
@@ -75,15 +78,6 @@ class ThrusterLayout:
     def exhaust_velocity_mps(self):
         """Isp g0 [m/s]."""
         return self.isp_s * STANDARD_GRAVITY_M_S2
-
-    @property
-    def wrench_matrix(self):
-        """B (6, N): force directions over their torques r_i x d_i about the CoM (module doc); computed once (the
-        plant asks for it at every wrench command), read-only."""
-        if self._wrench_matrix is None:
-            self._wrench_matrix = wrench_matrix(self.positions_body_m, self.force_directions_body)
-            self._wrench_matrix.flags.writeable = False
-        return self._wrench_matrix
 
 
 def wrench_matrix(positions_body_m, force_directions_body):
