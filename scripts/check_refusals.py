@@ -4,7 +4,7 @@
     check_refusals.py CAMPAIGN_DIR [--runs 12,19,40-45] [--out FILE.jsonl]
 
 For each run (default: every NO_SAFE_PLAN row of CAMPAIGN_DIR/results.csv) the run's scenario.yaml is flown
-headless up to the planner's first plan, and at that plan time, from the same estimates,
+headless up to the planner's first plan, and at that plan time, from the same estimates and covariance,
 flyby_planner.plan.exhaustive_check tries every grasp instant of the grasp and extended windows, every
 offset and every fly-by duration for passive clearance and the predicted 3-sigma miss. One JSON line per run
 (the RefusalCheck's fields, the run, the plan time and the class of refusal the row gives), and a table of
@@ -32,14 +32,15 @@ from flyby_sim.scenario import load_scenario
 class _PlanTime(Exception):
     """Stops the flight at the planner's first plan, with what it would plan from."""
 
-    def __init__(self, t, chaser_now, prediction):
+    def __init__(self, t, chaser_now, prediction, covariance_body):
         super().__init__(t)
         self.t, self.chaser_now, self.prediction = t, chaser_now, prediction
+        self.covariance_body = covariance_body
 
 
 class _StopAtPlan(PlannerCore):
-    def plan_inputs(self, t, q_hill_from_body, omega_body, extended=False):
-        raise _PlanTime(t, *super().plan_inputs(t, q_hill_from_body, omega_body, extended=True))
+    def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
+        raise _PlanTime(t, *self.plan_inputs(t, q_hill_from_body, omega_body, extended=True), covariance_body)
 
 
 def check_run(scenario):
@@ -49,7 +50,8 @@ def check_run(scenario):
     try:
         run_headless(scenario, graph=graph)
     except _PlanTime as at:
-        return exhaustive_check(at.prediction, at.chaser_now[:3], at.chaser_now[3:], at.t, graph.planner.config), at.t
+        return exhaustive_check(at.prediction, at.chaser_now[:3], at.chaser_now[3:], at.t, graph.planner.config,
+                                at.covariance_body), at.t
     return None, None
 
 

@@ -191,11 +191,11 @@ class PlannerConfig:
     accuracy (EstimateAccuracy, from the sensors and estimation sections) turns on the planner's uncertainty
     model (module doc, step 4), with the manipulator's position_tolerance_m and velocity_tolerance_mps as the bound
     on the predicted miss, guidance's adjust_interval_s and command_lead_s for the last burn; None keeps the fixed
-    geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound. reaim_check (with accuracy): check
-    the passage guidance flies once it re-aims at 3 sigma of the plan estimate (_ReaimModel: the covariance passed to
-    plan_capture, else the convergence bound). Off by default: from the filter's covariance it turns the fourth
-    campaign's five flown failures into captures or refusals and kept every capture of a regression sample, but
-    from the bound (no covariance passed) it changes even paper_flyby's plan (docs/campaigns.md).
+    geometry_attitude_margin_rad + geometry_rate_margin_rad_s and no miss bound. reaim_check (with accuracy and a
+    covariance passed to plan_capture): check the passage guidance flies once it re-aims at 3 sigma of the plan
+    estimate's covariance (_ReaimModel). A caller without the estimate's covariance (a plan from the truth) gets no
+    re-aim check: the convergence bound instead is 2-5 times the filter's sigma and its motions part by more than
+    REAIM_MAX_PARTING_RAD 453 s out on paper_flyby, refusing what flies (docs/campaigns.md).
     """
 
     mean_motion_rad_s: float
@@ -233,7 +233,7 @@ class PlannerConfig:
     adjust_interval_s: float = 20.0
     command_lead_s: float = 5.0
     latest_grasp_s: float = math.inf
-    reaim_check: bool = False
+    reaim_check: bool = True
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
@@ -885,16 +885,13 @@ class _ReaimModel:
     and kept a stale aim or aborted). So the re-aim is checked against the motions of the plan estimate moved
     UNCERTAINTY_SIGMAS sigma along each principal direction of its covariance: the target filter's own at the plan
     time (covariance_body, 6x6 [dtheta_body, domega_body], target_motion.covariance_from_published) inflated by
-    REAIM_COVARIANCE_SCALE, else the bound EstimateAccuracy.converged_covariance; integrated in full
-    (target_motion.perturbed_predictions): motions[0] is the estimate's, then the +- pairs."""
+    REAIM_COVARIANCE_SCALE; integrated in full (target_motion.perturbed_predictions): motions[0] is the estimate's,
+    then the +- pairs."""
 
-    def __init__(self, prediction, t_now, config, covariance_body=None):
-        if covariance_body is None:
-            cov = config.accuracy.converged_covariance
-        else:
-            cov = REAIM_COVARIANCE_SCALE * np.asarray(covariance_body, dtype=float)
-            if cov.shape != (6, 6) or not np.all(np.isfinite(cov)):
-                raise ValueError(f'the plan estimate covariance must be a finite 6x6 matrix, got {covariance_body!r}')
+    def __init__(self, prediction, t_now, config, covariance_body):
+        cov = REAIM_COVARIANCE_SCALE * np.asarray(covariance_body, dtype=float)
+        if cov.shape != (6, 6) or not np.all(np.isfinite(cov)):
+            raise ValueError(f'the plan estimate covariance must be a finite 6x6 matrix, got {covariance_body!r}')
         values, vectors = np.linalg.eigh(0.5 * (cov + cov.T))
         steps = UNCERTAINTY_SIGMAS * vectors * np.sqrt(np.maximum(values, 0.0))  # columns: 3 sigma along each
         errors = np.vstack([np.zeros(6)] + [sign * steps[:, k] for k in range(6) for sign in (1.0, -1.0)])
@@ -1254,7 +1251,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config, covari
         t_now: plan time [s] (sim time).
         config: PlannerConfig.
         covariance_body: the target estimate's 6x6 error covariance of [dtheta_body, domega_body] at t_now
-            (target_motion.covariance_from_published), for the re-aim check (_ReaimModel); None: its bound.
+            (target_motion.covariance_from_published), for the re-aim check (_ReaimModel); None: no re-aim check.
 
     Returns:
         CapturePlan; ok False with a one-line reason when the target cannot be captured by fly-by or
@@ -1344,7 +1341,8 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config, covari
             horizon = min(prediction.t_end, (w_ext if extended else w_hi) + config.geometry_window_s)
             if uncertainty is None or uncertainty.nodes[-1] < horizon:
                 uncertainty = _TargetUncertainty(prediction, t_now, config, t_end=horizon)
-            if config.reaim_check and (reaim is None or reaim.t_end < prediction.t_end):
+            if (config.reaim_check and covariance_body is not None
+                    and (reaim is None or reaim.t_end < prediction.t_end)):
                 reaim = _ReaimModel(prediction, t_now, config, covariance_body)
         budget = _EXTENDED_BATCHES if extended else math.inf
         for stage in config.search_stages:
@@ -1467,7 +1465,7 @@ def exhaustive_check(prediction, r_chaser_hill, v_chaser_hill, t_now, config, co
     region = _predicted_region(prediction, t_now, config)
     uncertainty = _TargetUncertainty(prediction, t_now, config) if config.accuracy is not None else None
     reaim = (_ReaimModel(prediction, t_now, config, covariance_body) if config.accuracy is not None
-             and config.reaim_check else None)
+             and config.reaim_check and covariance_body is not None else None)
     found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n)
     t_ti = t_now + config.maneuver_lead_s
     chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)

@@ -280,11 +280,28 @@ def test_the_window_search_extends_when_the_grasp_window_holds_no_safe_plan():
 
 
 
-def test_envelope_run_323_a_grasp_39_minutes_out_fails_the_reaimed_passage():
-    """The same run with the re-aim check (plan._ReaimModel): over 2100-2400 s the plan estimate's 3-sigma
-    convergence bound moves the passage guidance would re-aim onto by a metre or more (or takes the grasp's turn out
-    of reach), so the extended window's candidates are refused by the re-aimed passage and the plan is refused."""
-    plan, cfg, _ = _plan(_scenario(envelope_run_323), t_plan=60.0, reaim_check=True)
+def test_a_plan_without_the_estimate_covariance_has_no_reaim_check():
+    """plan_capture without covariance_body (a plan from the truth, as above) checks no re-aimed passage: every
+    candidate's reaim_gap_m is None and the plan is the one with the check off."""
+    on, _, _ = _plan(_scenario(envelope_run_323), t_plan=60.0, reaim_check=True)
+    off, _, _ = _plan(_scenario(envelope_run_323), t_plan=60.0, reaim_check=False)
+    assert all(c.reaim_gap_m is None for c in on.candidates)
+    assert on.ok and on.selected.to_dict() == off.selected.to_dict()
+
+
+def test_envelope_run_323_from_the_convergence_bound_a_grasp_39_minutes_out_fails_the_reaimed_passage():
+    """Why the re-aim check starts from the filter's covariance, not the convergence bound: from the bound (2-5 times
+    the filter's sigma) the plan estimate's 3-sigma motions over 2100-2400 s move the passage guidance would re-aim
+    onto by a metre or more (or take the grasp's turn out of reach), so the extended window's candidates are refused
+    by the re-aimed passage and run 323, which captures from its filter's covariance, would be refused."""
+    from flyby_planner.plan import REAIM_COVARIANCE_SCALE
+    sc = _scenario(envelope_run_323)
+    cfg = planner_config_from_scenario(sc)
+    pred = truth_prediction(sc, 60.0 + cfg.prediction_span_s(sc.omega_body0_rad_s))
+    state = cw_transition_matrix(cfg.mean_motion_rad_s, 60.0) @ np.concatenate(
+        (sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps))
+    plan = plan_capture(pred, state[:3], state[3:], 60.0, cfg,
+                        cfg.accuracy.converged_covariance / REAIM_COVARIANCE_SCALE)
     assert not plan.ok
     checked = [c for c in plan.candidates if c.reaim_gap_m is not None]
     assert checked and all(c.reasons[-1].startswith('the re-aimed passage') for c in checked)
@@ -411,9 +428,9 @@ def test_envelope_run_569_the_reaimed_passage_rejects_the_plan_it_flew_and_the_n
 
 def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
     """plan._ReaimModel moves the plan estimate 3 sigma along each principal direction of the filter's own
-    covariance at the plan time, inflated by REAIM_COVARIANCE_SCALE (its measured NEES), else of the convergence
-    bound: row 0 the estimate, then +-3 sqrt(scale lambda_k) v_k, each motion starting from its perturbed state;
-    a covariance that is not a finite 6x6 matrix is refused."""
+    covariance at the plan time, inflated by REAIM_COVARIANCE_SCALE (its measured NEES): row 0 the estimate, then
+    +-3 sqrt(scale lambda_k) v_k, each motion starting from its perturbed state; a covariance that is not a finite
+    6x6 matrix is refused."""
     from flyby_planner.plan import REAIM_COVARIANCE_SCALE, _ReaimModel
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
@@ -422,7 +439,8 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
     rng = np.random.default_rng(12)
     a = rng.normal(size=(6, 6)) * np.radians([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])[:, None]
     cov = a @ a.T
-    for given, expected in ((cov, REAIM_COVARIANCE_SCALE * cov), (None, cfg.accuracy.converged_covariance)):
+    for given, expected in ((cov, REAIM_COVARIANCE_SCALE * cov), (np.diag(np.diag(cov)),
+                                                                 REAIM_COVARIANCE_SCALE * np.diag(np.diag(cov)))):
         model = _ReaimModel(pred, 60.0, cfg, given)
         assert np.array_equal(model.errors[0], np.zeros(6)) and len(model.motions) == 13
         plus, minus = model.errors[1::2], model.errors[2::2]
@@ -434,8 +452,9 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
         q = quat_multiply(pred.state(60.0).q_eci_from_body, quat_from_rotation_vector(e[:3]))
         assert min(np.abs(start.q_eci_from_body - q).max(), np.abs(start.q_eci_from_body + q).max()) < 1e-12
         assert np.allclose(start.omega_body, sc.omega_body0_rad_s + e[3:], rtol=0.0, atol=1e-15)
-    with pytest.raises(ValueError, match='finite 6x6'):
-        _ReaimModel(pred, 60.0, cfg, np.eye(3))
+    for bad in (np.eye(3), None, np.full((6, 6), np.nan)):
+        with pytest.raises(ValueError, match='finite 6x6'):
+            _ReaimModel(pred, 60.0, cfg, bad)
 
 
 def _envelope_run_810(d):

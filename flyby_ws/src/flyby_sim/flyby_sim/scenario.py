@@ -305,13 +305,12 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'clearance_margin_m': Field(FLOAT, 0.1, '>= 0',
                                     'Least gap between the chaser envelope and the swept keep-out region on the '
                                     'passive path.'),
-        'reaim_check': Field(BOOL, False, None,
+        'reaim_check': Field(BOOL, True, None,
                              'Also keep the margin on the arc guidance will fly once it re-aims at the grasp '
                              'solved from later estimates, with the plan estimate moved 3 sigma of its published '
-                             'covariance (plan._ReaimModel). On, the fourth envelope campaign\'s five flown '
-                             'failures capture or are refused and the 22 captures of a 24-run sample capture; off '
-                             'by default until planning without a published covariance is settled '
-                             '(docs/campaigns.md).'),
+                             'covariance (plan._ReaimModel; a plan without that covariance, from the truth, has '
+                             'no re-aim check). Off, the fourth envelope campaign flew five plans whose re-aimed '
+                             'arcs crossed a panel (docs/campaigns.md).'),
         'escape_check_orbits': Field(FLOAT, 1.0, '>= 1',
                                      'Length of the passive escape checked after the grasp, in orbits.'),
         'geometry_window_s': Field(FLOAT, 300.0, '>= 0',
