@@ -81,10 +81,10 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=(), chasers=()):
     """
     namespaces = [f'/{name}' for name in chasers] or ['']
     recorder = NodeSpec('flyby_recorder', 'flyby_msgs_py.recorder_node', 'RecorderNode',
-                        {'use_sim_time': True, 'bag_dir': str(bag_dir), 'flush_period_s': 2.0,
+                        {'bag_dir': str(bag_dir), 'flush_period_s': 2.0,
                          'namespaces': namespaces})
-    # The other nodes act on message stamps and never read a ROS clock: without use_sim_time they are spared
-    # rclpy's time-source subscription to the 20 Hz /clock.
+    # No node reads a ROS clock (they act on message stamps; the recorder logs at the /clock it records): without
+    # use_sim_time they are spared rclpy's time-source subscription to the 20 Hz /clock.
     others = [NodeSpec(name, module, cls, {'scenario_file': str(scenario_path), 'seed': seed, 'chaser': ns[1:]},
                        namespace=ns, essential=False)
               for ns in namespaces

@@ -1,7 +1,9 @@
 """The recorder: every contract topic, subscribed raw, written as received into a rosbag2 MCAP bag.
 
 The serialized CDR bytes go to the bag untouched (no deserialize/serialize round trip). The log
-time of each message is the recorder's clock, i.e. simulation time (``use_sim_time``). Data reach
+time of each message is simulation time: the stamp of the last ``/clock`` the recorder received (it records
+that topic anyway; rclpy's time source would deserialize every clock message again and cost a ROS clock
+query per message). Data reach
 the disk every ``flush_period_s`` of simulation time, so a recorder killed with SIGKILL loses at
 most that much (``python -m flyby_msgs_py.bag repair DIR`` rebuilds the index); SIGINT and SIGTERM
 close the bag cleanly, after taking every message already on its way (``runtime.main_for``,
@@ -9,10 +11,9 @@ drain_on_signal): the launcher stops the recorder last, so the bag ends with the
 """
 
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import BagWriter
 from flyby_msgs_py.runtime import main_for
 
@@ -29,9 +30,6 @@ class RecorderNode(Node):
         if not bag_dir:
             raise ValueError('parameter bag_dir: required (directory of the bag to write)')
         namespaces = list(self.get_parameter('namespaces').value)
-        # Log times are simulation time whatever the launch file says.
-        if not self.get_parameter('use_sim_time').value:
-            self.set_parameters([Parameter('use_sim_time', Parameter.Type.BOOL, True)])
 
         topics = {}
         for topic, type_name in c.TOPIC_TYPES.items():
@@ -40,14 +38,21 @@ class RecorderNode(Node):
         flush_ns = int(self.get_parameter('flush_period_s').value * 1e9)
         self.writer = BagWriter(bag_dir, {name: t for name, (_, t) in topics.items()}, flush_ns)
         self.count = 0
+        self.clock_ns = 0
         for name, (topic, type_name) in topics.items():
             self.create_subscription(c.message_class(type_name), name, self._writer_for(name),
                                      qos.recorder_qos_for(topic), raw=True)
 
     def _writer_for(self, name):
-        def write(raw):
-            self.writer.write(name, self.get_clock().now().nanoseconds, raw)
-            self.count += 1
+        if name == c.absolute(c.CLOCK):
+            def write(raw):
+                self.clock_ns = convert.clock_cdr_to_ns(raw)
+                self.writer.write(name, self.clock_ns, raw)
+                self.count += 1
+        else:
+            def write(raw):
+                self.writer.write(name, self.clock_ns, raw)
+                self.count += 1
         return write
 
     def close(self):

@@ -21,6 +21,7 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Empty, Header, String
 
@@ -70,6 +71,7 @@ class ProgressReporter:
         self.publisher = node.create_publisher(Header, PROGRESS_TOPIC, QOS_STREAM)
         self.clock_ns = 0
         self.reported_ns = -1
+        self.due = None  # a Future the loop spins on: done once a report is due
         self.listener = getattr(node, 'on_clock', None)
         node.create_subscription(Clock, '/clock', self._on_clock, QOS_STREAM, raw=True)
 
@@ -77,6 +79,8 @@ class ProgressReporter:
         self.clock_ns = convert.clock_cdr_to_ns(data)
         if self.listener is not None:
             self.listener(self.clock_ns / 1e9)
+        if self.due is not None and self.clock_ns - self.reported_ns >= PROGRESS_PERIOD_NS and not self.due.done():
+            self.due.set_result(True)
 
     def report(self, idle):
         if self.publisher is None:
@@ -160,7 +164,15 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
             return
         wait_s = max(wait_s, 0.0)
         started = time.monotonic()
-        executor.spin_once(timeout_sec=wait_s)
+        if tickers:
+            executor.spin_once(timeout_sec=wait_s)
+        else:
+            # Only reacting: the executor handles messages in C++ until a report is due or wait_s has passed
+            # (one Python turn of this loop per message cost these nodes 5-15 % of their CPU on the 6-DOF mission).
+            due = Future()
+            for reporter in reporters:
+                reporter.due = due
+            executor.spin_until_future_complete(due, timeout_sec=wait_s)
         idle = wait_s > 0.0 and time.monotonic() - started >= 0.9 * wait_s
         for reporter in reporters:
             reporter.report(idle)
