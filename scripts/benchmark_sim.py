@@ -3,12 +3,13 @@
 
     benchmark_sim.py [--scenario scenarios/paper_flyby.yaml] [--duration 1500] [--compare-rtf 10]
 
-Prints the cost of one plant step alone and the real-time factor of full-speed runs (sim time /
-wall time from launch to summary, start-up included) of the simulator and recorder alone and of
-the whole graph (which ends at COMPLETE after a capture). With ``--compare-rtf X`` the whole graph
-runs again paced at X: its truth up to the grasp time and its capture errors must be identical to
-the full-speed run's. (After the capture the attachment starts when the simulator receives the
-CAPTURE phase, which depends on the pace; the capture errors are measured at the grasp time.)
+Prints the cost of one plant step alone and of one Odometry message (built, as bytes, read), and the
+real-time factor of full-speed runs (sim time / wall time from launch to summary, start-up included) of
+the simulator and recorder alone and of the whole graph (which ends at COMPLETE after a capture). With
+``--compare-rtf X`` the whole graph runs again paced at X: its truth up to the grasp time and its capture
+errors must be identical to the full-speed run's. (After the capture the attachment starts when the
+simulator receives the CAPTURE phase, which depends on the pace; the capture errors are measured at the
+grasp time.)
 """
 
 import argparse
@@ -18,6 +19,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import timeit
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +52,20 @@ def plant_step_cost_us(scenario_path, steps=20000):
     return (time.perf_counter() - t0) / steps * 1e6
 
 
+def codec_costs_us(n=2000):
+    """Per-message cost [us] of the hot path's Odometry: built as a Python message, built as CDR bytes, read
+    from CDR bytes (flyby_msgs_py.convert); best of five repeats."""
+    from flyby_msgs_py import contract as c
+    from flyby_msgs_py import convert
+    p, q, v, w = (1.0, 2.0, 3.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    raw = convert.odometry_cdr(12.35, c.FRAME_HILL, c.FRAME_CHASER_BODY, p, q, v, w)
+    calls = {'odometry (message)': lambda: convert.odometry(12.35, c.FRAME_HILL, c.FRAME_CHASER_BODY, p, q, v, w),
+             'odometry_cdr (bytes)': lambda: convert.odometry_cdr(12.35, c.FRAME_HILL, c.FRAME_CHASER_BODY,
+                                                                  p, q, v, w),
+             'odometry_cdr_to_numpy': lambda: convert.odometry_cdr_to_numpy(raw)}
+    return {name: min(timeit.repeat(call, number=n, repeat=5)) / n * 1e6 for name, call in calls.items()}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby.yaml'))
@@ -66,6 +82,7 @@ def main():
 
         print(f'plant step alone: {plant_step_cost_us(scenario):.1f} us per '
               f'{data["simulation"]["step_s"]} s step')
+        print('one Odometry: ' + ', '.join(f'{name} {us:.1f} us' for name, us in codec_costs_us().items()))
         alone = [a for node in ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor')
                  for a in ('--without', node)]
         for label, extra in (('simulator + recorder', alone), ('whole graph', ())):
