@@ -184,9 +184,9 @@ def main():
           f'{bound.held_mps:.4f} m/s reached by held thrust on {bound.steps} steps (no keep-out, no plume); SCP '
           f'k_s = 0: {lean_dv:.4f} m/s, {100.0 * (lean_dv / bound.lower_mps - 1.0):.1f} % above')
     # The least delta-v of a path that meets what the flown path must (keep-out, the plume rule, the time and the
-    # acceleration bound): SCP minimizing fuel alone (= delta-v) on finer grids, the least it finds
-    # several starts (the plume-constrained least-fuel problem has many local optima): the heuristic route, and the
-    # plan of a smaller plume sphere (continuation)
+    # acceleration bound): SCP minimizing fuel alone (= delta-v) on finer grids, the least it finds from two starts
+    # (the plume-constrained least-fuel problem has many local optima): the heuristic route, and the plan of a
+    # smaller plume sphere (continuation)
     found = {}
     for steps in args.bound_steps:
         settings = ScpSettings(steps=steps, max_iterations=30)

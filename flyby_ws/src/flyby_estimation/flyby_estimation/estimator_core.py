@@ -134,7 +134,7 @@ class EstimatorCore:
         if not (self.attitude.ready and self.nav.initialized):
             return out
         a = self.attitude.estimate()
-        self.attitudes.append((a.t, a.q_hill_from_body, a.omega_body))
+        self.attitudes.append((a.t, a.q_hill_from_body))
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
         return out + [ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
                                      a.attitude_covariance_hill, a.rate_covariance)]
@@ -157,11 +157,10 @@ class EstimatorCore:
         if self.attitude is None or self.attached or not np.any(force):
             return []
         t_estimate = t - self.wrench_hold_s
-        attitude = next((a for a in reversed(self.attitudes) if a[0] <= t_estimate + _STAMP_TOLERANCE_S), None)
-        if attitude is None:
-            return []
         # Turned into hill at the attitude estimate the command was computed from, which every pace has by then.
-        q = attitude[1]
+        q = next((q for t_q, q in reversed(self.attitudes) if t_q <= t_estimate + _STAMP_TOLERANCE_S), None)
+        if q is None:
+            return []
         mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
             return []

@@ -97,7 +97,7 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
 def test_the_plan_starts_from_the_published_covariance_of_its_estimate():
     """estimation/target/odom's attitude covariance about hill axes and rate covariance in body axes reach the
     fly-by planner as the 6x6 body covariance of the plan's estimate (target_motion.covariance_from_published), for
-    the re-aim check (plan._ReaimModel); an estimate published without them plans from the bound (None)."""
+    the re-aim check (plan._ReaimModel); an estimate published without them plans with no re-aim check (None)."""
     from flyby_estimation.target_motion import covariance_from_published
 
     class _Recording(PlannerCore):

@@ -87,8 +87,8 @@ def body_point_state(c_hill_from_body, omega_body, x_body, n):
 def attitude_ahead(q_hill_from_body, omega_body, dt_s, n):
     """q_hill_from_body dt_s [s] ahead at the constant body rate omega_body [rad/s, inertial], hill turning at
     (0, -n, 0). A thruster force is held fixed in chaser_body over a control period that starts one period after the
-    estimate: guidance and the navigation filter turn it between hill and body at the hold's midpoint (a
-    synchronized chaser turns 3.2 deg in those 0.15 s)."""
+    estimate: guidance turns its hill-axes force into body axes at the hold's midpoint (a synchronized chaser turns
+    3.2 deg in those 0.15 s)."""
     q = np.asarray(q_hill_from_body, dtype=float)
     w_rel = np.asarray(omega_body, dtype=float) - quat_rotate(quat_conjugate(q), (0.0, -n, 0.0))  # less hill's rate
     return quat_multiply(q, quat_from_rotation_vector(w_rel * dt_s))
