@@ -156,6 +156,25 @@ def envelope_run_569(d):
     d['planner']['sun_direction_hill'] = None
 
 
+def envelope_run_340(d):
+    """A scenario edit (for write_scenario): envelope run 340's drawn values (campaign seed 2026), a 5.7 deg/s tumbler,
+    the grasp point on the +y face by the panel's root, the chaser 78 m away off-plane and below."""
+    t = d['target']
+    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.09278677218054109, 0.2295665228374612,
+                                                             -0.9688600654896629]
+    t['initial_rate']['omega_body_deg_s'] = [5.374623889591393, -0.9272282582590962, 1.6371492101706349]
+    t['grasp_point_body_m'] = [-0.31502373010731066, 1.5, 0.4952350983208653]
+    t['geometry'][1]['size_m'] = [2.1679599903158895, 6.831801153721422, 0.05]
+    t['geometry'][2]['size_m'] = [1.9457552554429, 5.197391235915042, 0.05]
+    d['chaser']['initial_position_hill_m'] = [-3.1038567585339956, 54.05183265722474, 56.71057469823575]
+    d['chaser']['thrusters'].update(magnitude_error_sigma=0.013933381310087634,
+                                    direction_error_sigma_deg=0.3904937534561491)
+    d['sensors']['relative_position']['noise_sigma_m'] = 0.014883731004898053
+    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.025316864343389
+    d['planner']['sun_direction_hill'] = None
+    d['simulation']['duration_s'] = 3000.0
+
+
 def envelope_run_323(d):
     """A scenario edit (for write_scenario): envelope run 323's drawn values, a 6 deg/s tumbler, the grasp
     point on the -y face by the bus edge, the chaser 42 m away below and behind."""

@@ -31,7 +31,7 @@ from flyby_planner.plan import (
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
 from flyby_sim.scenario import load_scenario, scenario_from_dict
-from flyby_testing import envelope_run_323, envelope_run_569
+from flyby_testing import envelope_run_323, envelope_run_340, envelope_run_569
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER_DICT = yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
@@ -308,6 +308,39 @@ def test_envelope_run_323_from_the_convergence_bound_a_grasp_39_minutes_out_fail
     assert all(c.reaim_gap_m < cfg.clearance_margin_m for c in checked)
     assert max(c.t_grasp for c in checked) - 60.0 > 2000.0 and any(c.extended for c in checked)
     assert 'the re-aimed passage below the margin' in plan.reason
+
+def test_envelope_run_340_the_extended_window_is_searched_past_its_first_stage():
+    """Envelope run 340 at its plan time (60.1 s), from the estimates and the covariance the planner had in the fifth
+    campaign: the grasp window and the extended window's first stage (offset 1 m) hold no safe plan, its panel sweeping
+    every passage; the safe plans are at offset 1.4 m in the second stage, past 60 other candidates of that stage,
+    where the search budget of 6 batches stopped (a NO_SAFE_PLAN in the campaign; docs/campaigns.md)."""
+    sc = _scenario(envelope_run_340)
+    cfg = planner_config_from_scenario(sc)
+    t_plan = 60.1
+    q_hill_from_body = np.array((0.47829610276537565, 0.7952445157384633, 0.2456465105172925, -0.28013709168553214))
+    omega_body = np.array((0.00698193707587852, 0.09309856268109427, 0.04322210967191846))
+    chaser = np.array((-3.0894977446788876, 53.936212715136264, 57.06562820607904,
+                       7.6409269687005761e-04, -3.8826089582909766e-03, 1.1812054640023715e-02))
+    covariance_body = np.zeros((6, 6))
+    covariance_body[:3, :3] = [[7.7218901099320218e-07, -1.9786398973535643e-07, 3.3097094752510076e-07],
+                               [-1.9786398973535643e-07, 2.2982120295643774e-06, 8.5270272672590802e-08],
+                               [3.3097094752510076e-07, 8.5270272672590802e-08, 1.6317957731190905e-06]]
+    covariance_body[3:, 3:] = [[1.4423753979523486e-08, -9.4896497103770347e-10, -1.8943801884058187e-09],
+                               [-9.4896497103770347e-10, 2.3605100746952594e-09, 2.4022763331188078e-10],
+                               [-1.8943801884058187e-09, 2.4022763331188078e-10, 9.0129992413862277e-10]]
+    pred = prediction_from_estimate(ErrorStateDynamics(cfg.inertia_kg_m2), cfg.mean_motion_rad_s, t_plan,
+                                    q_hill_from_body, omega_body, t_plan + cfg.prediction_span_s(omega_body))
+    plan = plan_capture(pred, chaser[:3], chaser[3:], t_plan, cfg, covariance_body)
+    assert plan.ok, plan.reason
+    chosen = plan.selected
+    assert chosen.extended and chosen.offset_m == pytest.approx(1.4) and chosen.t_grasp - t_plan > 2000.0
+    assert chosen.clearance_min_m >= cfg.clearance_margin_m and chosen.reaim_gap_m >= cfg.clearance_margin_m
+    first_stage = [c for c in plan.candidates if c.extended and (c.offset_m, c.flyby_duration_s) in cfg.search_stages[0]]
+    assert first_stage and all(c.reasons for c in first_stage)
+    second = sorted((c for c in plan.candidates if c.extended and c.clearance_approach_m is not None
+                     and (c.offset_m, c.flyby_duration_s) in cfg.search_stages[1]), key=lambda c: c.dv_total_mps)
+    assert second.index(chosen) >= 60 and all(c.reasons for c in second[:second.index(chosen)])
+
 
 def test_a_fast_grasp_point_flies_half_the_preferred_flyby():
     """Envelope run 505 (a 14.5 deg/s tumbler, grasp point on the -x face, the chaser 98 m away) planned from the
