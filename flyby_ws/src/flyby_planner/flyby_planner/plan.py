@@ -287,6 +287,11 @@ class PlannerConfig:
         need = self.transfer_min_s + _WINDOW_TURNS * 2.0 * math.pi / rate_rel_rad_s if rate_rel_rad_s > 0 else cap
         return max(self.transfer_max_s, min(need, cap))
 
+    def reaims(self, covariance_body):
+        """Whether a plan with this target covariance checks the re-aimed passage (_ReaimModel): with the estimate
+        accuracy model, reaim_check on and the plan estimate's covariance given."""
+        return self.accuracy is not None and self.reaim_check and covariance_body is not None
+
     @property
     def transfer_cap_s(self):
         """Longest terminal transfer of the extended window [s] (_TRANSFER_CAP_ORBITS orbits)."""
@@ -1337,8 +1342,7 @@ def plan_capture(prediction, r_chaser_hill, v_chaser_hill, t_now, config, covari
             horizon = min(prediction.t_end, (w_ext if extended else w_hi) + config.geometry_window_s)
             if uncertainty is None or uncertainty.nodes[-1] < horizon:
                 uncertainty = _TargetUncertainty(prediction, t_now, config, t_end=horizon)
-            if (config.reaim_check and covariance_body is not None
-                    and (reaim is None or reaim.t_end < prediction.t_end)):
+            if config.reaims(covariance_body) and (reaim is None or reaim.t_end < prediction.t_end):
                 reaim = _ReaimModel(prediction, t_now, config, covariance_body)
         for stage in config.search_stages:
             pending = sorted((c for c in candidates if not c.reasons and c.extended == extended
@@ -1458,8 +1462,7 @@ def exhaustive_check(prediction, r_chaser_hill, v_chaser_hill, t_now, config, co
         return check
     region = _predicted_region(prediction, t_now, config)
     uncertainty = _TargetUncertainty(prediction, t_now, config) if config.accuracy is not None else None
-    reaim = (_ReaimModel(prediction, t_now, config, covariance_body) if config.accuracy is not None
-             and config.reaim_check and covariance_body is not None else None)
+    reaim = _ReaimModel(prediction, t_now, config, covariance_body) if config.reaims(covariance_body) else None
     found = grasp_candidates(prediction, config.x_grasp_body_m, w_lo, w_hi, n)
     t_ti = t_now + config.maneuver_lead_s
     chaser_at_ti = cw_coast(r_now, v_now, config.maneuver_lead_s, n)
