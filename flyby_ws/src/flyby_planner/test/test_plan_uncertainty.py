@@ -335,7 +335,8 @@ def test_envelope_run_340_the_extended_window_is_searched_past_its_first_stage()
     chosen = plan.selected
     assert chosen.extended and chosen.offset_m == pytest.approx(1.4) and chosen.t_grasp - t_plan > 2000.0
     assert chosen.clearance_min_m >= cfg.clearance_margin_m and chosen.reaim_gap_m >= cfg.clearance_margin_m
-    first_stage = [c for c in plan.candidates if c.extended and (c.offset_m, c.flyby_duration_s) in cfg.search_stages[0]]
+    first_stage = [c for c in plan.candidates
+                   if c.extended and (c.offset_m, c.flyby_duration_s) in cfg.search_stages[0]]
     assert first_stage and all(c.reasons for c in first_stage)
     second = sorted((c for c in plan.candidates if c.extended and c.clearance_approach_m is not None
                      and (c.offset_m, c.flyby_duration_s) in cfg.search_stages[1]), key=lambda c: c.dv_total_mps)
