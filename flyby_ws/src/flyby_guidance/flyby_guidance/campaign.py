@@ -136,7 +136,7 @@ def _check_header(out_dir, header):
 # The LocalCluster's monitoring, which a campaign never reads (no dashboard): the workers' statistical profiler
 # samples the running task 100 times a second, the event-loop tick runs 50 times a second in every server, the
 # system and memory monitors 2-10 times. Idle, a 2-worker cluster spent 18 % of a core on them (driver 7.7 %,
-# each worker 5.1 %); with these, 1.6 % (docs/campaigns.md).
+# each worker 5.1 %); with these, 1.8 % (docs/campaigns.md).
 QUIET_CLUSTER = {
     'distributed.worker.profile.enabled': False,
     'distributed.admin.tick.interval': '1s',
