@@ -138,55 +138,56 @@ def collect(node, topic, namespace=''):
     return received
 
 
-def envelope_run_569(d):
-    """A scenario edit (for write_scenario): envelope run 569's drawn values (campaigns/flyby_envelope.yaml, campaign
-    seed 2026), an 8.2 deg/s spin about the intermediate principal axis (body x), the grasp point on the +y face."""
-    t = d['target']
-    t['initial_rate'] = {'omega_body_deg_s': [-8.175128388491231, -0.636680740332563, -0.15726095827891964]}
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [0.2727377174418644, -0.7387481216378883,
-                                                              -0.6163321752603003]
-    t['grasp_point_body_m'] = [-1.3307346145151664, 1.5, 0.46957523398567913]
-    t['geometry'][1]['size_m'] = [2.010558977059335, 5.712148812400723, 0.05]
-    t['geometry'][2]['size_m'] = [1.7481567402253142, 6.084190090071806, 0.05]
-    d['chaser']['initial_position_hill_m'] = [36.03019711630237, -26.076948318751352, -78.41055905044796]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.005757055901678327,
-                                    direction_error_sigma_deg=0.7593258264653564)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.016113209381107767
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.7537225542714447
-    d['planner']['sun_direction_hill'] = None
+def envelope_run(values):
+    """A scenario edit (for write_scenario) setting a run's values by their dotted scenario keys, as
+    campaigns/flyby_envelope.yaml draws them (campaign seed 2026), and the campaign's override (no lighting)."""
+    def edit(d):
+        from flyby_sim.dispersions import set_values
+        set_values(d, {'planner.sun_direction_hill': None, **values})
+    return edit
 
 
-def envelope_run_340(d):
-    """A scenario edit (for write_scenario): envelope run 340's drawn values (campaign seed 2026), a 5.7 deg/s tumbler,
-    the grasp point on the +y face by the panel's root, the chaser 78 m away off-plane and below."""
-    t = d['target']
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.09278677218054109, 0.2295665228374612,
-                                                             -0.9688600654896629]
-    t['initial_rate']['omega_body_deg_s'] = [5.374623889591393, -0.9272282582590962, 1.6371492101706349]
-    t['grasp_point_body_m'] = [-0.31502373010731066, 1.5, 0.4952350983208653]
-    t['geometry'][1]['size_m'] = [2.1679599903158895, 6.831801153721422, 0.05]
-    t['geometry'][2]['size_m'] = [1.9457552554429, 5.197391235915042, 0.05]
-    d['chaser']['initial_position_hill_m'] = [-3.1038567585339956, 54.05183265722474, 56.71057469823575]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.013933381310087634,
-                                    direction_error_sigma_deg=0.3904937534561491)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.014883731004898053
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 1.025316864343389
-    d['planner']['sun_direction_hill'] = None
-    d['simulation']['duration_s'] = 3000.0
+# Envelope run 569: an 8.2 deg/s spin about the intermediate principal axis (body x), the grasp point on the +y face.
+envelope_run_569 = envelope_run({
+    'target.initial_rate.omega_body_deg_s': [-8.175128388491231, -0.636680740332563, -0.15726095827891964],
+    'target.initial_attitude.body_axis_along_hill.hill': [0.2727377174418644, -0.7387481216378883,
+                                                          -0.6163321752603003],
+    'target.grasp_point_body_m': [-1.3307346145151664, 1.5, 0.46957523398567913],
+    'target.geometry.1.size_m': [2.010558977059335, 5.712148812400723, 0.05],
+    'target.geometry.2.size_m': [1.7481567402253142, 6.084190090071806, 0.05],
+    'chaser.initial_position_hill_m': [36.03019711630237, -26.076948318751352, -78.41055905044796],
+    'chaser.thrusters.magnitude_error_sigma': 0.005757055901678327,
+    'chaser.thrusters.direction_error_sigma_deg': 0.7593258264653564,
+    'sensors.relative_position.noise_sigma_m': 0.016113209381107767,
+    'sensors.target_attitude.noise_sigma_deg': 1.7537225542714447})
 
+# Envelope run 340: a 5.7 deg/s tumbler, the grasp point on the +y face by the panel's root, the chaser 78 m away
+# off-plane and below.
+envelope_run_340 = envelope_run({
+    'target.initial_attitude.body_axis_along_hill.hill': [-0.09278677218054109, 0.2295665228374612,
+                                                          -0.9688600654896629],
+    'target.initial_rate.omega_body_deg_s': [5.374623889591393, -0.9272282582590962, 1.6371492101706349],
+    'target.grasp_point_body_m': [-0.31502373010731066, 1.5, 0.4952350983208653],
+    'target.geometry.1.size_m': [2.1679599903158895, 6.831801153721422, 0.05],
+    'target.geometry.2.size_m': [1.9457552554429, 5.197391235915042, 0.05],
+    'chaser.initial_position_hill_m': [-3.1038567585339956, 54.05183265722474, 56.71057469823575],
+    'chaser.thrusters.magnitude_error_sigma': 0.013933381310087634,
+    'chaser.thrusters.direction_error_sigma_deg': 0.3904937534561491,
+    'sensors.relative_position.noise_sigma_m': 0.014883731004898053,
+    'sensors.target_attitude.noise_sigma_deg': 1.025316864343389,
+    'simulation.duration_s': 3000.0})
 
-def envelope_run_323(d):
-    """A scenario edit (for write_scenario): envelope run 323's drawn values, a 6 deg/s tumbler, the grasp
-    point on the -y face by the bus edge, the chaser 42 m away below and behind."""
-    t = d['target']
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [-0.6719, -0.3901, -0.6296]
-    t['initial_rate']['omega_body_deg_s'] = [-1.6203, 0.3315, -5.6986]
-    t['grasp_point_body_m'] = [1.4617, -1.5, 0.4524]
-    t['geometry'][1]['size_m'] = [1.6808, 6.0826, 0.05]
-    t['geometry'][2]['size_m'] = [2.0623, 5.8524, 0.05]
-    d['chaser']['initial_position_hill_m'] = [24.875, -12.248, -31.949]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.0159, direction_error_sigma_deg=0.853)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.0172
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 0.937
-    d['planner']['sun_direction_hill'] = None
-    d['simulation']['duration_s'] = 3000.0
+# Envelope run 323 (values to 4-5 digits): a 6 deg/s tumbler, the grasp point on the -y face by the bus edge, the
+# chaser 42 m away below and behind.
+envelope_run_323 = envelope_run({
+    'target.initial_attitude.body_axis_along_hill.hill': [-0.6719, -0.3901, -0.6296],
+    'target.initial_rate.omega_body_deg_s': [-1.6203, 0.3315, -5.6986],
+    'target.grasp_point_body_m': [1.4617, -1.5, 0.4524],
+    'target.geometry.1.size_m': [1.6808, 6.0826, 0.05],
+    'target.geometry.2.size_m': [2.0623, 5.8524, 0.05],
+    'chaser.initial_position_hill_m': [24.875, -12.248, -31.949],
+    'chaser.thrusters.magnitude_error_sigma': 0.0159,
+    'chaser.thrusters.direction_error_sigma_deg': 0.853,
+    'sensors.relative_position.noise_sigma_m': 0.0172,
+    'sensors.target_attitude.noise_sigma_deg': 0.937,
+    'simulation.duration_s': 3000.0})

@@ -31,7 +31,7 @@ from flyby_planner.plan import (
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
 from flyby_sim.scenario import load_scenario, scenario_from_dict
-from flyby_testing import envelope_run_323, envelope_run_340, envelope_run_569
+from flyby_testing import envelope_run, envelope_run_323, envelope_run_340, envelope_run_569
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 PAPER_DICT = yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
@@ -491,22 +491,20 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
             _ReaimModel(pred, 60.0, cfg, bad)
 
 
-def _envelope_run_810(d):
-    """Envelope run 810's drawn values: 3.6 deg/s, grasp point on the -y face, panels near 5 m."""
-    t = d['target']
-    t['initial_attitude']['body_axis_along_hill']['hill'] = [0.34210046617168277, -0.9328669656531406,
-                                                             0.1128117699454251]
-    t['initial_rate']['omega_body_deg_s'] = [1.0058933703864195, -3.3115092648535747, -1.1736085803304133]
-    t['grasp_point_body_m'] = [0.8546060135718934, -1.5, -1.2755615393104325]
-    t['geometry'][1]['size_m'] = [2.2554451417316312, 5.06663770387962, 0.05]
-    t['geometry'][2]['size_m'] = [1.944823759184012, 5.1048826528782145, 0.05]
-    d['chaser']['initial_position_hill_m'] = [-43.62854122262408, -4.552581932252293, 31.594800529198352]
-    d['chaser']['thrusters'].update(magnitude_error_sigma=0.00821296991773613,
-                                    direction_error_sigma_deg=0.546034775609678)
-    d['sensors']['relative_position']['noise_sigma_m'] = 0.02158354599937746
-    d['sensors']['target_attitude']['noise_sigma_deg'] = 2.7726502190419455
-    d['planner']['sun_direction_hill'] = None
-    d['simulation']['duration_s'] = 3000.0
+# Envelope run 810: 3.6 deg/s, grasp point on the -y face, panels near 5 m.
+_envelope_run_810 = envelope_run({
+    'target.initial_attitude.body_axis_along_hill.hill': [0.34210046617168277, -0.9328669656531406,
+                                                          0.1128117699454251],
+    'target.initial_rate.omega_body_deg_s': [1.0058933703864195, -3.3115092648535747, -1.1736085803304133],
+    'target.grasp_point_body_m': [0.8546060135718934, -1.5, -1.2755615393104325],
+    'target.geometry.1.size_m': [2.2554451417316312, 5.06663770387962, 0.05],
+    'target.geometry.2.size_m': [1.944823759184012, 5.1048826528782145, 0.05],
+    'chaser.initial_position_hill_m': [-43.62854122262408, -4.552581932252293, 31.594800529198352],
+    'chaser.thrusters.magnitude_error_sigma': 0.00821296991773613,
+    'chaser.thrusters.direction_error_sigma_deg': 0.546034775609678,
+    'sensors.relative_position.noise_sigma_m': 0.02158354599937746,
+    'sensors.target_attitude.noise_sigma_deg': 2.7726502190419455,
+    'simulation.duration_s': 3000.0})
 
 
 # Run 810's plan: the target estimate at 60.1 s, the diagonal of its published covariance (6x6 body), and

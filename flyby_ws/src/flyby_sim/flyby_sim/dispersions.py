@@ -312,6 +312,12 @@ def _get(d, key):
     return parent[leaf] if isinstance(leaf, int) else parent.get(leaf)
 
 
+def set_values(d, values):
+    """Set each dotted scenario key of ``values`` in the scenario mapping ``d`` (a campaign's draws or overrides)."""
+    for key, value in values.items():
+        _set(d, str(key), value)
+
+
 def _set(d, key, value):
     """Set ``key`` in the dict ``d`` to value, removing the other alternatives of its one-of group."""
     parent, leaf = _parent_and_leaf(d, key)
@@ -361,8 +367,7 @@ class Campaign:
         d['seed'] = seed
         d['name'] = f'{self.base.name}_{self.name}_{run}'
         d['description'] = f'Run {run} of campaign {self.name} ({self.path}, campaign seed {self.seed}).'
-        for key, value in values.items():
-            _set(d, key, value)
+        set_values(d, values)
         return d
 
     def draw(self, run):
@@ -405,9 +410,9 @@ def load_campaign(path, checked_draws=CHECKED_DRAWS):
         raise CampaignError(file, 'overrides', f'must be a mapping of scenario keys to values, got {overrides!r}')
     if overrides:
         base_dict = base.to_dict()
-        for key, value in overrides.items():
+        for key in overrides:
             _check_key(file, str(key), base_dict, 'overrides')
-            _set(base_dict, str(key), value)
+        set_values(base_dict, overrides)
         try:
             base = scenario_from_dict(base_dict, name=base.name, path=base_path)
         except ScenarioError as e:
