@@ -30,7 +30,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py.bag import repair_bag
 from flyby_msgs_py.domain import lease_domain
-from flyby_msgs_py.runtime import FASTDDS_PROFILES
+from flyby_msgs_py.runtime import FASTDDS_PROFILES, TICK_TOPIC
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.fleet_summary import compute_fleet_summary
 from flyby_planner.summary import EXIT_CODES, compute_summary, format_summary
@@ -234,7 +234,7 @@ class Monitor:
             self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]),
                                           c.absolute(c.MISSION_PHASE, ns) if ns else c.MISSION_PHASE,
                                           lambda msg, ns=ns: self._on_phase(ns, msg), qos.QOS_LATCHED)
-        self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), '/clock',
+        self.node.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), TICK_TOPIC,
                                       self._on_clock, qos.QOS_STREAM)
         self.own_executor = executor is None
         self.executor = EventsExecutor(context=context) if executor is None else executor

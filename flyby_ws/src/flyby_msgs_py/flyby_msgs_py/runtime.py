@@ -35,6 +35,10 @@ BARRIER_TOPIC = '_flyby_drain_barrier'
 # Not a contract topic (not recorded): header.frame_id = node name, stamp = its sim time.
 PROGRESS_TOPIC = '/flyby/progress'
 PROGRESS_PERIOD_NS = 250_000_000
+# Not a contract topic: the simulator's time every PROGRESS_PERIOD_NS (and at its first and last step), for the
+# nodes that need only to know how far they have got; /clock's every step would cost each of them, and the
+# simulator, one delivery per step (4 of the 6-DOF mission's 15 per step).
+TICK_TOPIC = '/flyby/tick'
 # Each node announces here, once running, the topics it subscribes (JSON), so that the simulator can
 # hold time until every one of those subscriptions is matched (discovery takes 0-3 s).
 READY_TOPIC = '/flyby/ready'
@@ -55,15 +59,15 @@ def node_label(node):
 
 
 class ProgressReporter:
-    """Tells the simulator how far a node has got: the last ``/clock`` it handled.
+    """Tells the simulator how far a node has got: the last simulator time it handled.
 
     EventsExecutor handles a node's messages in arrival order, so once a node has handled the
-    clock message of t it has handled everything published before it. The reporter keeps its own
-    reliable ``/clock`` subscription: the time source's is best effort, and a lost last clock
-    message would leave the simulator waiting forever. Reported every PROGRESS_PERIOD_NS of sim
-    time, and whenever the node has gone idle with news to tell. Its subscription is the node's only
-    ``/clock`` one, read from the CDR bytes: a node that acts on the clock (the supervisor's watchdog) has its
-    ``on_clock(t)`` [s] called from it, since every delivery of the 20 Hz clock costs the graph CPU.
+    time message of t it has handled everything published before it. The reporter keeps its own
+    reliable subscription: the time source's is best effort, and a lost last time message would
+    leave the simulator waiting forever. Reported every PROGRESS_PERIOD_NS of sim time, and whenever
+    the node has gone idle with news to tell. It reads ``TICK_TOPIC`` (the time every PROGRESS_PERIOD_NS), from
+    the CDR bytes; a node that acts on the clock (the supervisor's watchdog and holds) reads ``/clock`` instead,
+    every step, and has its ``on_clock(t)`` [s] called from it. Either is the node's only time subscription.
     """
 
     def __init__(self, node):
@@ -73,7 +77,8 @@ class ProgressReporter:
         self.reported_ns = -1
         self.due = None  # a Future the loop spins on: done once a report is due
         self.listener = getattr(node, 'on_clock', None)
-        node.create_subscription(Clock, '/clock', self._on_clock, QOS_STREAM, raw=True)
+        node.create_subscription(Clock, '/clock' if self.listener is not None else TICK_TOPIC, self._on_clock,
+                                 QOS_STREAM, raw=True)
 
     def _on_clock(self, data):
         self.clock_ns = convert.clock_cdr_to_ns(data)

@@ -42,7 +42,7 @@ from std_msgs.msg import Header, String
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
-from flyby_msgs_py.runtime import PROGRESS_TOPIC, READY_TOPIC, main_for, publish_event
+from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPIC, TICK_TOPIC, main_for, publish_event
 from flyby_msgs_py.wire import Event, wire_time
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
@@ -115,6 +115,9 @@ class SimNode(Node):
         for topic in (c.CLOCK, c.SIM_TARGET_ODOM, c.MARKERS) + (() if fleet else (c.MISSION_EVENTS,)):
             name = '/clock' if topic == c.CLOCK else topic
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), name, qos.qos_for(topic))
+        pubs[TICK_TOPIC] = self.create_publisher(c.message_class(c.TOPIC_TYPES[c.CLOCK]), TICK_TOPIC,
+                                                 qos.qos_for(c.CLOCK))
+        self.tick_every = max(1, round(PROGRESS_PERIOD_NS * 1e-9 / self.step_s))
         self.pubs = pubs
         # Reused for every step (publishing serializes it); the Odometry goes out as CDR (convert.odometry_cdr).
         self.msgs = {c.CLOCK: c.message_class(c.TOPIC_TYPES[c.CLOCK])()}
@@ -268,6 +271,7 @@ class SimNode(Node):
                    'step_s': repr(self.step_s), 'duration_s': repr(self.duration_s),
                    'rtf': repr(self.rtf)})
         self.publish_truth([ch.plant.truth() for ch in self.chasers])
+        self.publish_tick()
 
     def advance(self):
         samples = [ch.plant.step() for ch in self.chasers]
@@ -286,6 +290,13 @@ class SimNode(Node):
             self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
                       {'t': repr(sample.t)})
             self.ending = True
+        self.publish_tick()
+
+    def publish_tick(self):
+        """The time on runtime.TICK_TOPIC every PROGRESS_PERIOD_NS, at the start and at the last step, after
+        everything of its step: a node that has handled it has handled all that came before."""
+        if self.steps % self.tick_every == 0 or self.ending:
+            self.pubs[TICK_TOPIC].publish(self.msgs[c.CLOCK])
 
     def on_progress(self, data):
         ns, name = convert.header_cdr_to_ns(data)
