@@ -32,9 +32,10 @@ from flyby_msgs_py.schema import ScenarioError
 # Fast DDS defaults of every flyby process (see the file); the launcher exports it.
 FASTDDS_PROFILES = os.path.join(os.path.dirname(__file__), 'config', 'fastdds_profiles.xml')
 BARRIER_TOPIC = '_flyby_drain_barrier'
-# Not a contract topic (not recorded): header.frame_id = node name, stamp = its sim time.
+# Not a contract topic (not recorded): header.frame_id = node name, stamp = its sim time. Half the simulator's
+# flow-control lag (1 s in a run): every report and tick is a delivery to each of its readers.
 PROGRESS_TOPIC = '/flyby/progress'
-PROGRESS_PERIOD_NS = 250_000_000
+PROGRESS_PERIOD_NS = 500_000_000
 # Not a contract topic: the simulator's time every PROGRESS_PERIOD_NS (and at its first and last step), for the
 # nodes that need only to know how far they have got; /clock's every step would cost each of them, and the
 # simulator, one delivery per step (4 of the 6-DOF mission's 15 per step).
