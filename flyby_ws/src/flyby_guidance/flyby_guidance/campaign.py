@@ -36,7 +36,7 @@ from flyby_sim.scenario import scenario_from_dict
 
 # The summary.json figures of a row, under their summary.json names (the wall times last, after them).
 SUMMARY_COLUMNS = (
-    'outcome', 'final_phase', 'end_reason', 'phase_sequence', 'seed', 't_grasp_s', 'flyby_offset_m',
+    'outcome', 'final_phase', 'end_reason', 'phase_sequence', 'method', 'seed', 't_grasp_s', 'flyby_offset_m',
     'flyby_duration_s', 'capture_position_error_m',
     'capture_velocity_error_mps', 'delta_v_total_mps', 'fuel_used_kg', 'min_clearance_m', 't_min_clearance_s',
     'thrust_inside_restriction_sphere', 'maneuvers_executed', 'late_maneuvers', 'rejected_maneuvers', 'sim_time_s',

@@ -9,8 +9,9 @@ probability >= 0.1**(1/N) at 90 % confidence (the p at which N successes in a ro
 
 Flown runs are those that reached an outcome of the mission (all but ERROR and INTERRUPTED: those are
 failures of the software or of the operator, counted and listed but not flight statistics). Runs that
-flew a plan are those whose phases reached TERMINAL_APPROACH: the capture rate of a method is taken
-over them (a NO_SAFE_PLAN run is safe and counted with its reason, not a failed capture). Refusals are
+flew a plan are those whose phases reached a method's approach (TERMINAL_APPROACH, OPTIMAL_APPROACH or
+SYNC_APPROACH): the capture rate of a method is taken over them (a NO_SAFE_PLAN run is safe and counted with
+its reason, not a failed capture), in all and by the method flown (``method``, DESIGN §10). Refusals are
 counted by class: the planner's one-line reason names the binding class first.
 """
 
@@ -83,8 +84,11 @@ def refusal_class(end_reason):
     return reason.split(':')[0]
 
 
+APPROACH_PHASES = (c.PHASE_TERMINAL_APPROACH, c.PHASE_OPTIMAL_APPROACH, c.PHASE_SYNC_APPROACH)
+
+
 def _flew_plan(row):
-    return c.PHASE_TERMINAL_APPROACH in json.loads(row.get('phase_sequence') or '[]')
+    return any(p in APPROACH_PHASES for p in json.loads(row.get('phase_sequence') or '[]'))
 
 
 def statistics(rows):
@@ -101,8 +105,12 @@ def statistics(rows):
     planned = [r for r in flown if _flew_plan(r)]
     refused = collections.Counter(refusal_class(r['end_reason']) for r in rows.values()
                                   if r['outcome'] == c.OUTCOME_NO_SAFE_PLAN)
+    by_method = collections.defaultdict(collections.Counter)  # results.csv from before the column: ''
+    for r in planned:
+        by_method[r.get('method') or ''][r['outcome']] += 1
     return {
         'runs': len(rows), 'flown': n, 'flew_a_plan': len(planned), 'outcome_counts': counts,
+        'plans_flown_by_method': {m: dict(by_method[m].most_common()) for m in sorted(by_method)},
         'capture_rate': _rate('capture', captured, n),
         'capture_rate_of_plans_flown': _rate('capture', sum(r['outcome'] == c.OUTCOME_CAPTURE for r in planned),
                                              len(planned)),
@@ -197,6 +205,10 @@ def report_markdown(out_dir, header, stats, rows, images):
              f'{stats["flew_a_plan"]} of them flew a plan.', '',
              '| outcome | runs |', '|---|---|']
     lines += [f'| {o} | {n} |' for o, n in stats['outcome_counts'].items()]
+    if any(stats['plans_flown_by_method']):
+        lines += ['', '| plans flown, by method | runs | outcomes |', '|---|---|---|']
+        lines += [f'| {m or "-"} | {sum(o.values())} | ' + ', '.join(f'{k} {v}' for k, v in o.items()) + ' |'
+                  for m, o in stats['plans_flown_by_method'].items()]
     if stats['refusals_by_class']:
         lines += ['', '| NO_SAFE_PLAN, by what bound it | runs |', '|---|---|']
         lines += [f'| {k} | {n} |' for k, n in stats['refusals_by_class'].items()]

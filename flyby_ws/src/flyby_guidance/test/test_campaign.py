@@ -172,8 +172,8 @@ def test_a_scheduler_and_workers_as_processes_give_the_same_rows_even_when_a_wor
 def test_refusals_are_counted_by_what_bound_them_and_captures_over_the_plans_flown():
     from flyby_guidance.campaign_report import refusal_class, statistics
 
-    def row(outcome, reason, phases):
-        return {'outcome': outcome, 'end_reason': reason, 'phase_sequence': json.dumps(phases),
+    def row(outcome, reason, phases, method='flyby'):
+        return {'outcome': outcome, 'end_reason': reason, 'phase_sequence': json.dumps(phases), 'method': method,
                 'min_clearance_m': '', 'capture_position_error_m': '', 'capture_velocity_error_mps': '',
                 'delta_v_total_mps': '', 'fuel_used_kg': ''}
     flown = ['ESTIMATION', 'PLANNING', 'TERMINAL_APPROACH', 'TRAJECTORY_ADJUST', 'FLYBY']
@@ -183,9 +183,12 @@ def test_refusals_are_counted_by_what_bound_them_and_captures_over_the_plans_flo
                                    'convex (eq 15)', ['ESTIMATION', 'PLANNING', 'COMPLETE']),
             3: row('NO_SAFE_PLAN', 'no safe plan: no offset reaches the grasp point: at every offset ...',
                    ['ESTIMATION', 'PLANNING', 'COMPLETE']),
-            4: row('TIME_LIMIT', 'time_limit', ['ESTIMATION'])}
+            4: row('TIME_LIMIT', 'time_limit', ['ESTIMATION']),
+            5: row('CAPTURE', 'phase COMPLETE', ['ESTIMATION', 'PLANNING', 'OPTIMAL_APPROACH', 'CAPTURE', 'COMPLETE'],
+                   'optimal')}
     stats = statistics(rows)
-    assert stats['flew_a_plan'] == 2 and stats['capture_rate_of_plans_flown']['successes'] == 1
-    assert stats['capture_rate']['runs'] == 5
+    assert stats['flew_a_plan'] == 3 and stats['capture_rate_of_plans_flown']['successes'] == 2
+    assert stats['plans_flown_by_method'] == {'flyby': {'CAPTURE': 1, 'ESCAPE': 1}, 'optimal': {'CAPTURE': 1}}
+    assert stats['capture_rate']['runs'] == 6
     assert stats['refusals_by_class'] == {'unguided coast too long': 1, 'no offset reaches the grasp point': 1}
     assert refusal_class('no safe plan: condition (a): target rate 21 deg/s >= 18 deg/s') == 'condition (a)'
