@@ -726,7 +726,8 @@ class SixDofChaser:
         return rhs
 
     def _check_restriction(self, t, t_event):
-        """Record (once per burn and per wrench command) thrust inside the thruster-restriction sphere."""
+        """Record thrust inside the thruster-restriction sphere: once per burn, and once per run of consecutive
+        wrench commands that fire there."""
         x, y, z = self._y[:3]
         range_m = math.sqrt(x * x + y * y + z * z)
         if not range_m < self._radius_m:
@@ -741,8 +742,13 @@ class SixDofChaser:
             if key in self._reported:
                 continue
             self._reported.add(key)
+            # Continuous thrust commands a wrench every control period: one event per run of consecutive
+            # commands that fire inside the sphere, not one per command (thousands in a docking).
+            if kind == 'wrench' and ('thrust_inside_restriction_sphere', kind, seq - 1) in self._reported:
+                continue
             self._emit(Event(t_event, 'ERROR', 'thrust_inside_restriction_sphere',
                              f'{kind} {seq} thrusts at {range_m:.3f} m, inside the {self._radius_m:.3f} m '
-                             f'restriction sphere',
+                             f'restriction sphere' + (' (its successors that fire there too are not reported '
+                                                      'again)' if kind == 'wrench' else ''),
                              dict(source=kind, seq=seq, t=t, range_m=range_m,
                                   restriction_sphere_radius_m=self._radius_m)))

@@ -165,7 +165,8 @@ class Plant:
     before the current time, applied at once), 'wrench_undelivered' (WARN, once per wrench command the
     thrusters cannot give in full), 'wrench_limited_by_burn' (WARN), 'wheel_torque_limited' and
     'wheel_momentum_limited' (WARN, once per wheel command), 'command_ignored' (WARN, after a capture), and
-    reports 'thrust_inside_restriction_sphere' for any firing (once per burn and per wrench command).
+    reports 'thrust_inside_restriction_sphere' for any firing (once per burn and per run of consecutive wrench
+    commands that fire inside the sphere).
     """
 
     def __init__(self, config):

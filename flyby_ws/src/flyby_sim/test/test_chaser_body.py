@@ -416,6 +416,19 @@ def test_attitude_control_firing_inside_the_restriction_sphere_is_reported_once_
     assert reports[0].values['t'] == 1.0
 
 
+def test_a_run_of_firing_wrench_commands_inside_the_restriction_sphere_is_reported_once():
+    """Continuous control fires a new wrench every period: one event for each run of consecutive firing
+    commands (seq 0-2, then seq 4-5 after a command that does not fire), not one per command."""
+    plant = Plant(plant_config(r0_hill=(10.0, 0.0, 2.0)))
+    for k in range(6):
+        torque = [0.0, 0.0, 0.0] if k == 3 else [0.0, 0.0, 0.2]
+        plant.command_wrench(0.5 * k, [0.0, 0.0, 0.0], torque)
+    _, events = step_to(plant, 3.5)
+    reports = [e for e in events if e.name == 'thrust_inside_restriction_sphere']
+    assert [(e.values['source'], e.values['seq'], e.values['t']) for e in reports] == [('wrench', 0, 0.0),
+                                                                                      ('wrench', 4, 2.0)]
+
+
 # ------------------------------------------------------------------------------------------------
 # The IMU
 
