@@ -76,9 +76,21 @@ def _percentiles(values, tail):
             'p1': float(np.percentile(a, 1)), 'min': float(a.min())}
 
 
+# The optimization-based approach's refusals (flyby_planner.optimal.approach), by how their text starts.
+OPTIMAL_REFUSALS = (('no feasible program', 'no feasible program'),
+                    ('refused: peak acceleration', 'peak acceleration above its share'),
+                    ('refused: thrust', 'thrust away from the target inside the plume radius'),
+                    ('refused: the envelope comes', 'clearance below the margin'))
+
+
 def refusal_class(end_reason):
-    """The class of a NO_SAFE_PLAN reason: what bound the refusal (the first class the planner names)."""
+    """The class of a NO_SAFE_PLAN reason: what bound the refusal (the first class the planner names; with
+    ``auto``, where the fly-by's refusal is followed by the optimization-based approach's, the latter's)."""
     reason = end_reason.removeprefix('no safe plan: ')
+    if reason.startswith('optimal approach') or '; optimal approach' in reason:
+        optimal = reason.rsplit('optimal approach', 1)[1].lstrip(': ')
+        return 'optimal approach: ' + next((cls for start, cls in OPTIMAL_REFUSALS if optimal.startswith(start)),
+                                           optimal.split(':')[0])
     if reason.startswith('all ') and ': ' in reason:  # 'all N candidates rejected: K <class>; ...'
         return reason.split(': ', 1)[1].split(';')[0].split(' ', 1)[1]
     return reason.split(':')[0]
@@ -220,6 +232,11 @@ def report_markdown(out_dir, header, stats, rows, images):
             lines.append(f'| {name} | {r["successes"]}/{r["runs"]} = {r["rate"]:.3f} | [{lo:.3f}, {hi:.3f}] |')
     lines += [''] + [stats[n]['zero_failure_90'] + '.' for n in ('capture_rate_of_plans_flown', 'safe_rate')
                      if 'zero_failure_90' in stats[n]]
+    truth = stats.get('captures_within_tolerance_in_truth')
+    if truth and truth['runs']:
+        lines += ['', f'Captures within the manipulator\'s tolerances in truth (the supervisor decides on the '
+                      f'estimates): {truth["successes"]}/{truth["runs"]}'
+                  + ''.join(f'; run {r} outside at {p:.4g} m, {v:.4g} m/s' for r, p, v in truth['outside']) + '.']
     lines += ['', '| figure (flown runs) | n | p50 | p95 | p99 | max |', '|---|---|---|---|---|---|']
     for key in UPPER_TAIL:
         p = stats['percentiles'][key]
@@ -237,10 +254,26 @@ def report_markdown(out_dir, header, stats, rows, images):
     return '\n'.join(lines)
 
 
+def truth_within_tolerance(out_dir, rows):
+    """The captures whose truth errors (capture_position_error_m, capture_velocity_error_mps) are within their
+    run's manipulator tolerances: the supervisor decides a capture on the estimates, so a CAPTURE can lie outside
+    them in truth. (rate of the captures, [(run, position, velocity) of those outside])."""
+    captured = {r: row for r, row in rows.items() if row['outcome'] == c.OUTCOME_CAPTURE}
+    outside = []
+    for r, row in sorted(captured.items()):
+        arm = load_scenario(Path(out_dir) / 'runs' / str(r) / 'scenario.yaml').chaser.manipulator
+        position, velocity = _number(row['capture_position_error_m']), _number(row['capture_velocity_error_mps'])
+        if not (position <= arm.position_tolerance_m and velocity <= arm.velocity_tolerance_mps):
+            outside.append((r, position, velocity))
+    return _rate('tolerance', len(captured) - len(outside), len(captured)), outside
+
+
 def write_report(out_dir, header, rows):
     """Write campaign.json (header and statistics), the plots and report.md; return the statistics."""
     out = Path(out_dir)
     stats = statistics(rows)
+    rate, outside = truth_within_tolerance(out, rows)
+    stats['captures_within_tolerance_in_truth'] = dict(rate, outside=[list(x) for x in outside])
     (out / 'campaign.json').write_text(json.dumps({'header': header, 'statistics': stats}, indent=1) + '\n')
     images = plots(out, rows, header['dispersed_keys'])
     (out / 'report.md').write_text(report_markdown(out_dir, header, stats, rows, images))

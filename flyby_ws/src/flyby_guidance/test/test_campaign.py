@@ -72,6 +72,13 @@ def test_every_run_is_written_once_with_its_drawn_parameters(campaign_file, flow
     assert sum(stats['outcome_counts'].values()) == RUNS
     header = json.loads((out / 'campaign.json').read_text())
     assert header['header']['sha256'] == campaign.sha256 and header['statistics']['runs'] == RUNS
+    truth = header['statistics']['captures_within_tolerance_in_truth']
+    arm = load_scenario(out / 'runs' / '0' / 'scenario.yaml').chaser.manipulator
+    outside = [i for i, row in rows.items() if row['outcome'] == 'CAPTURE' and not (
+        float(row['capture_position_error_m']) <= arm.position_tolerance_m
+        and float(row['capture_velocity_error_mps']) <= arm.velocity_tolerance_mps)]
+    assert truth['runs'] == stats['outcome_counts'].get('CAPTURE', 0)
+    assert [r for r, _p, _v in truth['outside']] == sorted(outside)
     assert (out / 'report.md').read_text().count('scripts/run_mission.py --scenario') >= 1
     assert (out / 'outcome_counts.png').exists() and (out / 'outcome_map.png').exists()
 
@@ -192,3 +199,9 @@ def test_refusals_are_counted_by_what_bound_them_and_captures_over_the_plans_flo
     assert stats['capture_rate']['runs'] == 6
     assert stats['refusals_by_class'] == {'unguided coast too long': 1, 'no offset reaches the grasp point': 1}
     assert refusal_class('no safe plan: condition (a): target rate 21 deg/s >= 18 deg/s') == 'condition (a)'
+    both = ('no safe plan: fly-by: all 169 candidates rejected: 90 predicted miss above the tolerance; 20 passive '
+            'clearance below the margin; best passive clearance 0.074 m; optimal approach')
+    assert refusal_class(both + ' refused: the envelope comes 0.038 m from the bus at t = 158.5 s (uncertainty '
+                                'included, margin 0.1 m)') == 'optimal approach: clearance below the margin'
+    assert refusal_class(both + ': no feasible program for an approach of 20-200 s at 0.09 m/s^2 (SCP, 24 '
+                                'programs)') == 'optimal approach: no feasible program'
