@@ -163,6 +163,18 @@ def test_scp_plans_around_the_target():
     assert _truth_clearance(sc, result.plans[0].sample(tau).r_hill, tau).min() > 0.0
 
 
+def test_a_plan_does_not_depend_on_what_the_process_planned_before():
+    """cvxpy keeps one compiled program per shape: a plan must be the same whatever was solved before it (a campaign
+    worker flies many runs in one process, and a run is replayed alone)."""
+    _, table1 = table1_problem()
+    first = plan_scp([table1], duration_s=T_TABLE1_S).plans[0]
+    plan_scp([dataclasses.replace(table1, r0_hill=np.array([-50.0, 0.0, 0.0]))], duration_s=T_TABLE1_S)
+    again = plan_scp([table1], duration_s=T_TABLE1_S).plans[0]
+    tau = np.linspace(0.0, T_TABLE1_S, 600)
+    assert np.array_equal(first.sample(tau).r_hill, again.sample(tau).r_hill)
+    assert np.array_equal(first.sample(tau).a_hill, again.sample(tau).a_hill)
+
+
 def test_plume_violation_counts_thrust_away_inside_the_sphere_only():
     """A plan that coasts in along x and thrusts away from the target (+x) for its last 2 s: the violation is that
     thrust and its impulse, counted only inside the plume radius (independent of the check points)."""

@@ -459,8 +459,14 @@ def _plume_violation(problems, plans, rate_hz=20.0):
 
 def _solver_options(settings):
     """Clarabel's thread count: one, since its worker threads cost more than they give on programs of this size
-    (1.5 ms per interior-point iteration) and, on a machine shared with other jobs, spin while they wait."""
-    return {'max_threads': settings.solver_threads} if settings.solver == 'CLARABEL' else {}
+    (1.5 ms per interior-point iteration) and, on a machine shared with other jobs, spin while they wait. No warm
+    start: cvxpy would hand the cached program's new data to the solver object of its last solve (Clarabel's
+    update), whose result then depended on what that process had solved before (a campaign run flown after
+    another differed from the same run flown alone by 4 mm and 1.4 mm/s at the grasp)."""
+    options = {'warm_start': False}
+    if settings.solver == 'CLARABEL':
+        options['max_threads'] = settings.solver_threads
+    return options
 
 
 def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, obstacles=(), initial=None):
