@@ -37,8 +37,8 @@ BARRIER_TOPIC = '_flyby_drain_barrier'
 PROGRESS_TOPIC = '/flyby/progress'
 PROGRESS_PERIOD_NS = 500_000_000
 # Not a contract topic: the simulator's time every PROGRESS_PERIOD_NS (and at its first and last step), for the
-# nodes that need only to know how far they have got; /clock's every step would cost each of them, and the
-# simulator, one delivery per step (4 of the 6-DOF mission's 15 per step).
+# nodes that need only to know how far they have got, and the launcher; /clock's every step would cost each of
+# them, and the simulator, one delivery per step (5 of the 6-DOF mission's ~20 per step).
 TICK_TOPIC = '/flyby/tick'
 # Each node announces here, once running, the topics it subscribes (JSON), so that the simulator can
 # hold time until every one of those subscriptions is matched (discovery takes 0-3 s).
