@@ -12,7 +12,13 @@ rate: the plant samples the relative position before the IMU at a common stamp, 
 of that stamp is in it (the estimator node keeps that order). The thrusters' force guidance commands on
 guidance/wrench (the tracking of an optimal approach) is a known input too: a constant acceleration over the
 command's hold (one IMU period), turned into hill by the attitude estimate the command was computed from (the
-stamp one period before the command's). A rejected measurement is an event with the
+stamp one period before the command's). Its execution error (the thrusters' magnitude and direction errors,
+drawn once per run, so alike from one command to the next along an arc) is not modelled but measured: the
+IMU's accelerometer gives the mean specific force over each IMU interval, which, turned into hill by the
+attitude estimate of its stamp, is the thrust delta-v the interval really had; its difference from the
+command's corrects the navigation state (``RelativeNavFilter.add_thrust_error``, with the accelerometer's
+noise and the attitude estimate's error as covariance). A command that arrives after its interval's IMU
+sample is taken as the delta-v the accelerometer measured. A rejected measurement is an event with the
 running count of its kind. After the capture the chaser moves with the target, so its free-flight
 navigation stops.
 
@@ -69,6 +75,11 @@ class ChaserEstimate:
     rate_covariance_body: np.ndarray = None
 
 
+def _key(t):
+    """A stamp as a dictionary key, to the stamps' rounding."""
+    return round(t / _STAMP_TOLERANCE_S)
+
+
 class EstimatorCore:
     """The estimator's rules (module doc)."""
 
@@ -90,6 +101,13 @@ class EstimatorCore:
             self.wrench_hold_s = 1.0 / scenario.sensors.chaser_imu.rate_hz  # guidance's control period
             # (t, q_hill_from_body) of the latest attitude estimates: a force command's is one period old
             self.attitudes = collections.deque(maxlen=_ATTITUDES_KEPT)
+            self.accel_sigma_mps2 = scenario.sensors.chaser_imu.accel_noise_sigma_mps2
+            self.imu_t_last = None
+            # Interval start (rounded stamp) -> the delta-v sent to the navigation filter for a force command
+            # not yet measured, or the accelerometer's measured delta-v and covariance of an interval whose
+            # force command has not come yet.
+            self.commanded_dv = {}
+            self.measured_dv = {}
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_phase(self, phase):
@@ -122,8 +140,9 @@ class EstimatorCore:
         s = self.nav.state()
         return [ChaserEstimate(s.t, s.r_hill, s.v_hill, s.covariance)]
 
-    def on_imu(self, t, q_hill_from_body, omega_body_meas):
-        """An IMU sample at t (rigid-body chaser): star-tracker attitude q_hill_from_body or None, gyro rate."""
+    def on_imu(self, t, q_hill_from_body, omega_body_meas, specific_force_body=None):
+        """An IMU sample at t (rigid-body chaser): star-tracker attitude q_hill_from_body or None, gyro rate, and
+        the accelerometer's mean specific force [m/s^2, chaser_body] since the previous sample (or None)."""
         if self.attached or self.attitude is None:
             return []
         out = []
@@ -131,10 +150,13 @@ class EstimatorCore:
                                   strict=True):
             if result is not None and not result.accepted:
                 out += self._reject(t, sensor, result.kind, result.reason)
+        t_last, self.imu_t_last = self.imu_t_last, t
         if not (self.attitude.ready and self.nav.initialized):
             return out
         a = self.attitude.estimate()
         self.attitudes.append((a.t, a.q_hill_from_body))
+        if specific_force_body is not None and t_last is not None:
+            out += self._measured_thrust(t_last, t, a, specific_force_body)
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
         return out + [ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
                                      a.attitude_covariance_hill, a.rate_covariance)]
@@ -165,11 +187,41 @@ class EstimatorCore:
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
             return []
         dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
+        measured = self.measured_dv.pop(_key(t), None)
+        if measured is not None:  # its interval's accelerometer sample came first
+            dv_hill = measured
         try:
-            self.nav.add_maneuver(t, dv_hill, burn_duration_s=self.wrench_hold_s)
+            self.nav.add_maneuver(t, dv_hill, burn_duration_s=self.wrench_hold_s, execution_error=False)
         except (ManeuverRejected, ValueError) as err:
             return [self._event(t, 'WARN', 'maneuver_ignored',
                                 f'force command not a known input of the navigation filter: {err}', {'t_stamp': t})]
+        if measured is None:
+            self.commanded_dv[_key(t)] = dv_hill
+            while len(self.commanded_dv) > _ATTITUDES_KEPT:
+                self.commanded_dv.pop(next(iter(self.commanded_dv)))
+        return []
+
+    def _measured_thrust(self, t_start, t_end, attitude, specific_force_body):
+        """The accelerometer's thrust delta-v over [t_start, t_end] against the force command's (module doc)."""
+        commanded = self.commanded_dv.pop(_key(t_start), None)
+        f = np.asarray(specific_force_body, dtype=float)
+        if not np.all(np.isfinite(f)):
+            return self._reject(t_end, 'accelerometer', 'non_finite', f'specific force {specific_force_body!r}')
+        dv_hill = quat_rotate(attitude.q_hill_from_body, f) * (t_end - t_start)
+        # The accelerometer's noise on the mean over the interval, and the attitude estimate's error turning it.
+        skew = np.array(((0.0, -dv_hill[2], dv_hill[1]), (dv_hill[2], 0.0, -dv_hill[0]),
+                         (-dv_hill[1], dv_hill[0], 0.0)))
+        cov = ((self.accel_sigma_mps2 * (t_end - t_start))**2 * np.eye(3)
+               + skew @ attitude.attitude_covariance_hill @ skew.T)
+        if commanded is None:
+            if float(np.linalg.norm(dv_hill)) > 3.0 * self.accel_sigma_mps2 * (t_end - t_start):
+                self.measured_dv[_key(t_start)] = dv_hill  # a command still on its way: it is taken as this
+                while len(self.measured_dv) > _ATTITUDES_KEPT:
+                    self.measured_dv.pop(next(iter(self.measured_dv)))
+            return []
+        if self.nav.t < t_end:
+            self.nav.propagate_to(t_end)
+        self.nav.add_thrust_error(t_start, t_end, dv_hill - commanded, cov)
         return []
 
     # -- target convergence and category --------------------------------------------------------

@@ -80,7 +80,8 @@ class EstimatorNode(CoreNode):
             if kind == 'position':
                 self.publish(self.core.on_position(t, value))
             else:
-                self.publish(self.core.on_imu(t, value.orientation_xyzw, value.angular_velocity))
+                self.publish(self.core.on_imu(t, value.orientation_xyzw, value.angular_velocity,
+                                              value.linear_acceleration))
 
     def on_wrench(self, data):
         w = convert.wrench_stamped_cdr_to_numpy(data)

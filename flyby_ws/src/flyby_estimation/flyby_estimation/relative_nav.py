@@ -34,6 +34,12 @@ known in time). The thrusters' error is a constant acceleration dv_err / T over 
 the burn end is [dv_err T / 2; dv_err]: injecting G dv_err at the start and coasting gives exactly
 that at the end (during the burn the injected velocity spread is conservative).
 
+A burn added with ``execution_error=False`` injects nothing: its error is measured instead (the
+accelerometer, ``add_thrust_error``: the measured thrust delta-v over an interval less the modelled one,
+a constant acceleration error over the interval, x += [dv_err T / 2; dv_err] and P += G C G' with
+G = [T/2 I; I] and C the measurement's covariance, both carried by the CW transition from the interval's
+end to the filter time).
+
 A command whose burn starts before the filter time ("late" for the filter) is applied retroactively:
 the CW response to the part of the burn already past is added to the mean. Measurements already
 processed in between were not explained by the burn; the gate and the outlier reset below cover
@@ -224,6 +230,7 @@ class RelativeNavFilter(FilterBase):
         self._active = None  # the started burn, until the filter time passes its end
         self._chain_end = (-math.inf, config.chaser_mass_kg)  # end time and mass after the last started burn
         self._seq = 0
+        self._measured = set()  # seq of the requests whose execution error is measured, not injected
         # dt [s] -> (Phi, Q): the measurement interval takes a few values (the stamps' rounding), so few entries
         self._transitions = {}
 
@@ -290,7 +297,7 @@ class RelativeNavFilter(FilterBase):
     # ---------------------------------------------------------------------------------------------
     # Inputs
 
-    def add_maneuver(self, t_cmd, dv_hill, burn_duration_s=None):
+    def add_maneuver(self, t_cmd, dv_hill, burn_duration_s=None, execution_error=True):
         """Add a commanded maneuver: delta-v dv_hill [m/s] stamped t_cmd [s]; returns its ScheduledBurn
         as scheduled now (a later command stamped earlier shifts it, as in the plant).
 
@@ -298,7 +305,8 @@ class RelativeNavFilter(FilterBase):
         impulse without thruster data; a number: a constant-acceleration burn of that duration
         (0 = impulse). Raises ManeuverRejected for a delta-v the thrusters reject
         (``propulsion.check_delta_v`` from the mass after the burns started, as the plant would: the
-        maneuver then never happens) and ValueError for a malformed input.
+        maneuver then never happens) and ValueError for a malformed input. execution_error False: the
+        thrusters' error is not injected into the covariance (it is measured, ``add_thrust_error``).
         """
         if not math.isfinite(t_cmd):
             raise ValueError(f'add_maneuver: t_cmd = {t_cmd!r} is not finite')
@@ -317,6 +325,8 @@ class RelativeNavFilter(FilterBase):
                                                                     dv_tuple))
         if burn_duration_s is not None:
             self._fixed_duration_s[seq] = float(burn_duration_s)
+        if not execution_error:
+            self._measured.add(seq)
         self._rechain()
         added = next(b for b in self._pending if b.seq == seq)
         if self.initialized:
@@ -361,6 +371,8 @@ class RelativeNavFilter(FilterBase):
         burn = self._pending.pop(0)
         self._requests.pop(0)
         self._fixed_duration_s.pop(burn.seq, None)
+        self._injects_error = burn.seq not in self._measured
+        self._measured.discard(burn.seq)
         self._active = burn
         self._chain_end = (burn.end_s, burn.mass_end_kg)
         return burn
@@ -368,6 +380,27 @@ class RelativeNavFilter(FilterBase):
     def _retire_active(self):
         if self._active is not None and self._active.end_s <= self._t:
             self._active = None
+
+    def add_thrust_error(self, t_start, t_end, dv_error_hill, covariance):
+        """A measured thrust delta-v error dv_error_hill [m/s] over [t_start, t_end] (the accelerometer's
+        delta-v less the modelled one) with its 3x3 covariance [m^2/s^2]: a constant acceleration error over
+        the interval (module doc). The filter time must be at or after t_end."""
+        self._require_initialized('add_thrust_error')
+        dv = np.asarray(dv_error_hill, dtype=float)
+        cov = np.asarray(covariance, dtype=float)
+        if not (math.isfinite(t_start) and math.isfinite(t_end) and t_start <= t_end and dv.shape == (3,)
+                and np.all(np.isfinite(dv)) and cov.shape == (3, 3) and np.all(np.isfinite(cov))):
+            raise ValueError(f'add_thrust_error: interval [{t_start!r}, {t_end!r}] s, dv_error_hill {dv_error_hill!r} '
+                             f'and a finite 3x3 covariance expected')
+        if t_end > self._t:
+            raise ValueError(f'add_thrust_error: the interval ends at {t_end!r} s, after the filter time {self._t!r} s')
+        g = np.vstack((0.5 * (t_end - t_start) * _I3, _I3))  # [T/2 I; I]
+        if self._t > t_end:
+            g = cw_transition_matrix(self._n, self._t - t_end) @ g  # seed 000 eq 22
+        kf = self._kf
+        kf.x[:, 0] += g @ dv
+        kf.P = kf.P + g @ cov @ g.T
+        kf.P = 0.5 * (kf.P + kf.P.T)
 
     # ---------------------------------------------------------------------------------------------
     # Measurements
@@ -503,7 +536,7 @@ class RelativeNavFilter(FilterBase):
             dx = self._integrate(np.zeros(6), burn.start_s, t_burn, burn, linear=True)
             kf.x[:, 0] += cw_transition_matrix(self._n, tau - t_burn) @ dx
         thr = self.config.thrusters
-        if thr is None:
+        if thr is None or not self._injects_error:
             return
         dv2 = float(burn.dv_hill @ burn.dv_hill)
         u = burn.direction_hill

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.integrate import quad_vec
+from scipy.integrate import quad_vec, solve_ivp
 
 from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
 from flyby_estimation.relative_nav import (
@@ -23,7 +23,7 @@ from flyby_estimation.relative_nav import (
     RelativeNavFilter,
     relative_nav_config_from_scenario,
 )
-from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
+from flyby_sim.dynamics.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 from flyby_sim.thrusters import ThrusterModel
@@ -412,3 +412,31 @@ def test_covariance_stays_symmetric_positive_definite(seed, dv, t_burn):
             p = nav.state().covariance
             assert np.array_equal(p, p.T)
             assert np.linalg.eigvalsh(p).min() > 0.0
+
+
+def test_a_measured_thrust_error_is_a_constant_acceleration_over_its_interval():
+    """add_thrust_error against independent computation: an acceleration error a_err held over [t0, t1] moves the
+    state at t1 by [a_err T^2 / 2; a_err T] (CW coupling over 0.1 s: O(n T) relative) and, the filter later, by
+    the CW transition of that; the covariance grows by G C G'."""
+    n = 0.0011
+    nav = RelativeNavFilter(RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01))
+    nav.initialize(0.0, (10.0, 0.0, 0.0))
+    nav.propagate_to(0.3)
+    before = nav.state()
+    a_err = np.array((1e-3, -2e-3, 5e-4))
+    cov = np.diag((1e-10, 2e-10, 3e-10))
+    nav.add_thrust_error(0.1, 0.2, a_err * 0.1, cov)
+    after = nav.state()
+    g = cw_transition_matrix(n, 0.1) @ np.vstack((0.05 * np.eye(3), np.eye(3)))
+    np.testing.assert_allclose(np.concatenate((after.r_hill, after.v_hill))
+                               - np.concatenate((before.r_hill, before.v_hill)), g @ (a_err * 0.1), atol=1e-15)
+    np.testing.assert_allclose(after.covariance - before.covariance, g @ cov @ g.T, atol=1e-20)
+    # Independent: the same acceleration integrated in the CW equations over [0.1, 0.2], coasted to 0.3.
+    def cw(t, y, a):
+        return np.concatenate((y[3:], cw_accel(y[:3], y[3:], n, a)))
+
+    y = solve_ivp(cw, (0.1, 0.2), np.zeros(6), args=(a_err,), rtol=1e-12, atol=1e-15).y[:, -1]
+    y = solve_ivp(cw, (0.2, 0.3), y, args=(np.zeros(3),), rtol=1e-12, atol=1e-15).y[:, -1]
+    np.testing.assert_allclose(g @ (a_err * 0.1), y, rtol=3.0 * n * 0.1, atol=1e-12)  # O(n T): 2 n T here
+    with pytest.raises(ValueError, match='after the filter time'):
+        nav.add_thrust_error(0.3, 0.4, a_err, cov)

@@ -136,7 +136,8 @@ class HeadlessGraph:
             elif m.kind == 'target_attitude':
                 self._publish(self.estimator.on_attitude(t_m, m.value))
             else:  # chaser_imu
-                self._publish(self.estimator.on_imu(t_m, m.value.q_hill_from_body, m.value.omega_body_meas))
+                self._publish(self.estimator.on_imu(t_m, m.value.q_hill_from_body, m.value.omega_body_meas,
+                                                     m.value.specific_force_body))
         self._publish_plant_events()
         return s
 
