@@ -50,8 +50,6 @@ from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 # Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
                  c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
-# The phases that end at the grasp time with the capture decision.
-DECIDING_PHASES = (c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH, c.PHASE_DOCKING)
 # Guidance's events that move the synchronized approach from one stage to the next (seed 001 section 2).
 _SYNC_STEPS = {'station_reached': (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
                'attitude_synchronized': (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
@@ -226,7 +224,7 @@ class PhaseMachine:
 
     def wants_decision(self, t):
         """True at the first chaser estimate at or after the grasp time in FLYBY or OPTIMAL_APPROACH."""
-        return self.phase in DECIDING_PHASES and self.t_grasp is not None and t >= self.t_grasp
+        return self.phase in c.DECIDING_PHASES and self.t_grasp is not None and t >= self.t_grasp
 
     def decide(self, t, decision):
         """Apply a CaptureDecision made at the grasp time."""

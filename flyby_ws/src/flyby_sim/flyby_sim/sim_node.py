@@ -21,6 +21,14 @@ phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimato
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command).
 
+The capture decision is held for the same way: the supervisor decides at the first chaser estimate at or after the
+grasp time (``planner/flyby_target``'s stamp) once the target's estimate of that stamp is in, and the chaser is
+attached at that step, as in the headless loop. So once the chaser's measurement (the IMU's with the rigid-body
+chaser, else the relative position) and the target's attitude of a stamp at or after the grasp time are out, the
+simulator steps no further while the phase is still one that decides (``contract.DECIDING_PHASES``) and the
+supervisor is in ``keep_up_with``; after SLOW_NODE_WARNING_S without a decision (an estimate the estimator
+rejected) it goes on, with a WARN ``waiting_for_decision``.
+
 Several chasers (a ``chasers:`` scenario, DESIGN §10): one plant per chaser (``_Chaser``), each the scenario's view
 of that chaser with its own seed; the target's truth is the same in every one of them (a function of the scenario
 alone, tested) and is published once. Every chaser-specific topic, truth included, is under ``/<name>/``, commands
@@ -53,6 +61,7 @@ STARTUP_TIMEOUT_S = 30.0
 SLOW_NODE_WARNING_S = 5.0
 # The chain whose commands the simulator waits for (rigid-body chaser): IMU -> estimator -> guidance.
 COMMAND_CHAIN = ('flyby_estimator', 'flyby_guidance')
+SUPERVISOR = 'flyby_supervisor'
 # Phases from which guidance commands no attitude (flyby_guidance.guidance_core.ATTITUDE_QUIET_PHASES).
 ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 # A command stamp this close to the one announced is that command (stamps are whole nanoseconds).
@@ -74,6 +83,12 @@ class _Chaser:
         self.attitude_quiet = False
         self.waiting_command_since = None
         self.chain = tuple(node if name is None else f'{name}/{node}' for node in COMMAND_CHAIN)
+        self.supervisor = SUPERVISOR if name is None else f'{name}/{SUPERVISOR}'
+        self.phase = None
+        self.t_grasp = None  # planner/flyby_target's stamp [s]
+        self.decision_stamp = None  # the first chaser measurement's stamp at or after it [s]
+        self.target_stamp = -math.inf  # the last target attitude measurement's [s]
+        self.waiting_decision_since = None
 
     def topic(self, topic):
         """The chaser's name of a contract topic: relative for the single chaser, under /<name>/ otherwise."""
@@ -156,6 +171,9 @@ class SimNode(Node):
                                      lambda data: self.on_wrench(ch, data), qos.QOS_STREAM, raw=True)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), ch.topic(c.MISSION_PHASE),
                                  lambda msg: self.on_phase(ch, msg), qos.QOS_LATCHED)
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.PLANNER_FLYBY_TARGET]),
+                                 ch.topic(c.PLANNER_FLYBY_TARGET), lambda msg: self.on_flyby_target(ch, msg),
+                                 qos.QOS_LATCHED)
 
     def declare_node_list(self, name):
         """A string-array parameter of node names, empty when not given."""
@@ -196,8 +214,26 @@ class SimNode(Node):
         return 0.0
 
     def command_due(self):
-        """True while a command announced for a stamp within the next step has not come in (module doc)."""
-        return any([self._command_due(ch) for ch in self.chasers])
+        """True while a command announced for a stamp within the next step, or a capture decision, has not come
+        in (module doc)."""
+        return any([self._command_due(ch) or self._decision_due(ch) for ch in self.chasers])
+
+    def _decision_due(self, ch):
+        """True while the supervisor's capture decision of a step already out has not come in (module doc)."""
+        if (ch.decision_stamp is None or ch.target_stamp < ch.decision_stamp - 1e-9
+                or ch.phase not in c.DECIDING_PHASES or ch.supervisor not in self.progress_s):
+            ch.waiting_decision_since = None
+            return False
+        now = time.monotonic()
+        if ch.waiting_decision_since is None:
+            ch.waiting_decision_since = now
+        elif now - ch.waiting_decision_since > SLOW_NODE_WARNING_S:
+            self.emit('WARN', 'waiting_for_decision', f'no capture decision for the grasp time '
+                      f'{ch.t_grasp:.2f} s after {SLOW_NODE_WARNING_S} s; going on',
+                      {'t_grasp_s': repr(ch.t_grasp), 't_estimate_s': repr(ch.decision_stamp)}, ch)
+            ch.decision_stamp = None
+            return False
+        return True
 
     def _command_due(self, ch):
         """command_due of one chaser."""
@@ -365,6 +401,11 @@ class SimNode(Node):
             pubs[c.SIM_CHASER_THRUST].publish(convert.wrench_stamped_cdr(s.t, c.FRAME_HILL, s.force_hill))
 
     def publish_measurement(self, ch, m):
+        if m.kind == 'target_attitude':
+            ch.target_stamp = m.t
+        elif (m.kind == 'chaser_imu') == ch.rigid and ch.decision_stamp is None and ch.t_grasp is not None \
+                and m.t >= ch.t_grasp - 1e-9:
+            ch.decision_stamp = m.t
         if m.kind == 'relative_position':
             ch.pubs[c.SENSOR_RELATIVE_POSITION].publish(
                 convert.point_stamped_cdr(m.t, c.FRAME_HILL, m.value))
@@ -403,11 +444,19 @@ class SimNode(Node):
     def on_phase(self, ch, msg):
         """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
         phase = convert.string_to_str(msg)
+        ch.phase = phase
         if phase in ATTITUDE_QUIET_PHASES:
             ch.attitude_quiet = True
         if phase == c.PHASE_CAPTURE:
             ch.plant.capture()
             self.publish_plant_events()
+
+    def on_flyby_target(self, ch, msg):
+        """The grasp time of the plan (a re-plan moves it): the capture decision is held for there."""
+        t_grasp = convert.stamp_to_sec(msg.header.stamp)
+        if t_grasp != ch.t_grasp:
+            ch.t_grasp = t_grasp
+            ch.decision_stamp = None
 
     def on_wheels(self, ch, data):
         wheels = convert.joint_state_cdr_to_numpy(data)
