@@ -51,14 +51,17 @@ def test_both_chasers_capture_apart_from_each_other_and_the_target(run):
 def test_the_second_chaser_plans_at_the_first_ones_stamp_around_its_trajectory(run):
     topics = [c.absolute(c.MISSION_EVENTS, f'/{name}') for name in ('chaser1', 'chaser2')]
     bag = read_bag(run / 'bag', topics=topics)
-    (first,) = [e for e in bag[topics[0]] if e['name'] == 'plan_selected']
+    first = [e for e in bag[topics[0]] if e["name"] == "plan_selected"][0]
     events = bag[topics[1]]
     (waiting,) = [e for e in events if e['name'] == 'waiting_for_leaders']
-    (second,) = [e for e in events if e['name'] == 'plan_selected']
+    second, *reaims = [e for e in events if e['name'] == 'plan_selected']
     assert waiting['values']['leaders'] == 'chaser1'
-    assert second['t'] >= first['t']
-    assert second['values']['separation_from'] == 'chaser1'
-    assert float(second['values']['separation_m']) > 0.1  # planner.clearance_margin_m, the check before flying
+    assert second['t'] >= first['t'] and second['values']['request'] == 'phase PLANNING'
+    # A re-aim (10 s of observation leave the predicted end point moving) plans around chaser1 again.
+    assert all(e['values']['request'].startswith('re-aim') for e in reaims)
+    for plan in (second, *reaims):
+        assert plan['values']['separation_from'] == 'chaser1'
+        assert float(plan['values']['separation_m']) > 0.1  # planner.clearance_margin_m, the check before flying
 
 
 def test_analyze_bag_recomputes_every_figure_of_both_chasers(run):

@@ -19,7 +19,11 @@ rigid body. The choice and its reason are a ``method_chosen`` event; nothing saf
 (planner/grasp, planner/flyby_target = X_Ft, V_Ft at the grasp, planner/trajectory, planner/path). Guidance's
 ``replan_requested`` event (the tracking error grew beyond its bound) plans the approach again from the
 estimates of its stamp to the same grasp time: the chaser's state at the new start is the estimate moved as the
-trajectory flown moves over the lead (guidance flies it until the new one starts).
+trajectory flown moves over the lead (guidance flies it until the new one starts). The planner re-aims the same
+way: every ``planner.optimal.reaim_interval_s`` it predicts the end point X_Ft at the grasp time from the newest
+target estimate, and when that has moved by more than ``reaim_error_m`` from the plan's (a tumbler's motion
+predicted 100 s ahead from one estimate misses by centimetres; outside the last ``replan_cutoff_s``) it plans again
+to the new end point. A re-aim that finds no safe plan is a WARN ``reaim_refused``: the plan flown stays.
 
 Several chasers (a ``chasers:`` scenario, seed 003 Fig 12) plan in the file's order: a chaser's planner takes
 the earlier chasers' (its leaders') plan decisions (``plan_selected``, ``plan_refused`` on
@@ -48,13 +52,15 @@ from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach
 from flyby_planner.optimal.mutual import MovingObstacle, least_separation
-from flyby_planner.optimal.problem import TargetMotion
+from flyby_planner.optimal.problem import GraspTerminal, TargetMotion
 from flyby_planner.optimal.scp import ScpSettings
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
 from flyby_planner.sync.approach import is_category_iv, plan_sync
 from flyby_sim.dynamics.orbital import cw_coast
 
 # Values of the selected candidate put on its plan_selected event.
+# The request of a re-aim (``_check_aim``): its refusal keeps the plan flown.
+REAIM = 're-aim'
 _SELECTED_KEYS = ('t_grasp_s', 't_i_s', 't_ti_s', 'dv_total_mps', 'clearance_approach_m', 'clearance_escape_m',
                   'closest', 't_sphere_entry_s', 'x_g_hill_m', 'v_g_hill_mps', 'x_ft_hill_m', 'v_ft_hill_mps',
                   'x_fi_hill_m', 'v_fi_hill_mps', 'unguided_coast_s', 'miss_3sigma_m', 'miss_3sigma_mps',
@@ -181,6 +187,7 @@ class PlannerCore:
         self.method_flown = None  # the method of the plan being flown: a re-plan keeps it
         self.flown = None  # the TrajectoryPublished being flown (an optimal or synchronized approach)
         self.sync_arrival = None  # the synchronized approach's ArrivalChoice being flown
+        self.aim_checked_t = None  # the time of the last re-aim check of an optimal approach (the plan's first) [s]
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
@@ -234,7 +241,29 @@ class PlannerCore:
         if self.method_flown == 'sync' and self.request is None and t >= self.flown.t_plan + s.resolve_interval_s \
                 and t < self.sync_arrival.t_arrival - s.resolve_cutoff_s:
             self.request = (t, 're-solve of the synchronized approach')  # seed 001 section 2
+        if self.method_flown == 'optimal':
+            self._check_aim()
         return self._try_plan()
+
+    def _check_aim(self):
+        """Request a re-aim when X_Ft predicted from the target estimate has moved from the plan's (module doc). The
+        checks fall every reaim_interval_s from the plan time, each on the first target estimate stamped at or after
+        its time: the same estimates whenever they arrive."""
+        o, flown = self.scenario.planner.optimal, self.flown
+        while self.request is None:
+            t_check = self.aim_checked_t + o.reaim_interval_s
+            target = self.targets.first_at_or_after(t_check)
+            if target is None or target[0] >= flown.t_f - o.replan_cutoff_s:
+                return
+            self.aim_checked_t = t_check
+            t, (q_hill_from_body, omega_body, _) = target
+            prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
+                                                  omega_body, flown.t_f)
+            x_ft, _ = GraspTerminal(prediction, self.config.x_grasp_body_m, self.approach.offset_m)(flown.t_f)
+            moved_m = float(np.linalg.norm(x_ft - flown.x_ft))
+            if moved_m > o.reaim_error_m:
+                self.request = (t, f'{REAIM}: X_Ft predicted from the target estimate of t = {t:.2f} s is '
+                                   f'{moved_m:.3f} m from the plan\'s (reaim_error_m {o.reaim_error_m:g})')
 
     # -- planning -------------------------------------------------------------------------------
     def _try_plan(self):
@@ -367,6 +396,9 @@ class PlannerCore:
                     f'optimal approach refused: the envelope comes {separation.distance_m:.3f} m from '
                     f'{separation.name}\'s at t = {separation.t_s:.1f} s '
                     f'(margin {self.config.clearance_margin_m:g} m)'))
+        if not plan.ok and why.startswith(REAIM):
+            return [self._event(t, 'WARN', 'reaim_refused', f'{why}: {plan.reason}; the plan flown stays',
+                                {'request': why, 'plan': str(self.plans), 'planning_time_s': planning_time_s})]
         if not plan.ok:
             refused = plan.reason if flyby_refused is None else f'fly-by: {flyby_refused}; {plan.reason}'
             return out + self._refuse(t, why, refused, PlanMarkers(settings.plume_radius_m, ()), planning_time_s)
@@ -375,6 +407,7 @@ class PlannerCore:
         traj, terms = plan.trajectory, plan.terms
         self.flown = TrajectoryPublished(t, grasp, plan.t_grasp_s, plan.x_ft, plan.v_ft, plan.t_start_s, traj,
                                          PlanMarkers(settings.plume_radius_m, (), plan.x_g, (plan.x_ft,), traj.r_hill))
+        self.aim_checked_t = t
         return out + [
             self._method_chosen(t, 'optimal', reason),
             self.flown,

@@ -206,3 +206,38 @@ def test_a_replan_request_plans_again_to_the_same_grasp_from_the_estimate():
     moved = np.array([np.interp(second.t_start, ref.t_s, ref.r_hill[:, j]) for j in range(3)])
     assert second.trajectory.r_hill[0] == pytest.approx(moved + off, abs=0.05)
     assert _events(out, 'plan_selected')[0].values['request'].startswith('replan: tracking error')
+
+
+def test_the_planner_re_aims_when_the_predicted_end_point_moves():
+    """Every planner.optimal.reaim_interval_s from the plan time the end point X_Ft is predicted again from the target
+    estimate of that time (the first stamped at or after it); within reaim_error_m of the plan's nothing happens,
+    beyond it the approach is planned again to the same grasp time and the new end point."""
+    from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+    from flyby_planner.optimal.problem import GraspTerminal
+
+    sc = _scenario()
+    core, out = _plan(sc)
+    (first,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    ref = first.trajectory
+
+    def feed(t, rate_error_deg_s=0.0):
+        r_t, v_t = ([np.interp(t, ref.t_s, x[:, j]) for j in range(3)] for x in (ref.r_hill, ref.v_hill))
+        truth = truth_prediction(sc, t + 1.0).state(t)
+        omega = truth.omega_body + np.radians((0.0, 0.0, rate_error_deg_s))
+        core.on_chaser_estimate(t, np.array(r_t), np.array(v_t))
+        return core.on_target_estimate(t, truth.q_hill_from_body, omega), truth.q_hill_from_body, omega
+
+    assert feed(T_PLAN + 5.0, 0.2)[0] == []  # off the 10 s grid: not looked at
+    assert feed(T_PLAN + 10.0)[0] == []  # the truth: X_Ft where the plan ends
+    out, q, omega = feed(T_PLAN + 20.0, 0.1)  # 0.1 deg/s off over 44 s: centimetres at the grasp point
+    (selected,) = _events(out, 'plan_selected')
+    assert selected.values['request'].startswith('re-aim: X_Ft predicted from the target estimate of t = 80.00 s')
+    (second,) = [o for o in out if isinstance(o, TrajectoryPublished)]
+    assert second.t_f == pytest.approx(first.t_f, abs=1e-9)
+    prediction = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), sc.mean_motion_rad_s, T_PLAN + 20.0,
+                                          q, omega, first.t_f)
+    x_ft, _ = GraspTerminal(prediction, np.array(sc.target.grasp_point_body_m), sc.planner.offset_m)(first.t_f)
+    moved = float(np.linalg.norm(x_ft - first.x_ft))
+    assert moved > sc.planner.optimal.reaim_error_m
+    assert second.x_ft == pytest.approx(x_ft, abs=1e-6)  # the plan predicts over its own horizon
+    assert f'{moved:.3f} m from the plan' in selected.values['request']

@@ -370,6 +370,10 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                     'Re-plan when the estimated position leaves the trajectory by more than this.'),
             'replan_cutoff_s': Field(FLOAT, 15.0, '>= 0', 'No re-plan in the last this many seconds before the '
                                                           'grasp (the capture decision judges the arrival).'),
+            'reaim_interval_s': Field(FLOAT, 10.0, '> 0', 'Every this many seconds of the approach the end point '
+                                                          'X_Ft is predicted again from the newest target estimate'),
+            'reaim_error_m': Field(FLOAT, 0.02, '> 0', 'Re-plan to the new X_Ft when it moved by more than this '
+                                                       '(outside the last replan_cutoff_s).'),
         }),
         'sync': Section(desc='The synchronized approach (seed 001 section 2, docs/synchronized.md); the docking port '
                              'is target.grasp_point_body_m, the final range planner.offset_m', fields={
