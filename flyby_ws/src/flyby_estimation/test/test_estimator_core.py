@@ -47,6 +47,22 @@ def test_rigid_body_estimator_gives_one_chaser_estimate_per_imu_sample_from_the_
     np.testing.assert_array_equal(estimate_stamps, imu_stamps)
 
 
+def _step_and_estimate(plant, estimator, accelerometer=True):
+    """One plant step, its measurements fed to the estimator as the headless driver feeds them: the chaser
+    estimates of its IMU samples (the accelerometer's specific force left out unless ``accelerometer``)."""
+    plant.step()
+    out = []
+    for m in plant.measurements():
+        t = wire_time(m.t)
+        if m.kind == 'relative_position':
+            estimator.on_position(t, m.value)
+        elif m.kind == 'chaser_imu':
+            f = m.value.specific_force_body if accelerometer else None
+            out += [o for o in estimator.on_imu(t, m.value.q_hill_from_body, m.value.omega_body_meas, f)
+                    if isinstance(o, ChaserEstimate)]
+    return out
+
+
 def test_a_commanded_force_is_a_known_input_of_the_navigation_filter():
     """guidance/wrench's force (an optimal approach's tracking) held from its stamp for one IMU period: the filter
     adds it as a constant acceleration turned into hill by the attitude estimate of the command's own estimate (one
@@ -58,14 +74,7 @@ def test_a_commanded_force_is_a_known_input_of_the_navigation_filter():
     estimator = EstimatorCore(scenario)
     estimates = []
     while plant.t < 2.0:
-        plant.step()
-        for m in plant.measurements():
-            t = wire_time(m.t)
-            if m.kind == 'relative_position':
-                estimator.on_position(t, m.value)
-            elif m.kind == 'chaser_imu':
-                estimates += [o for o in estimator.on_imu(t, m.value.q_hill_from_body, m.value.omega_body_meas)
-                              if isinstance(o, ChaserEstimate)]
+        estimates += _step_and_estimate(plant, estimator)
     last = estimates[-1]
     t_cmd = wire_time(last.t + 0.1)
     force_body = np.array((10.0, 0.0, 0.0))  # 0.1 m/s^2 along body +x for 0.1 s: 1 cm/s
@@ -88,33 +97,26 @@ def _fly_constant_force(accelerometer, late_commands=False, duration_s=20.0):
     raw = load_yaml_mapping(SCENARIOS / 'jacobsen_optimal.yaml')
     raw['chaser']['thrusters']['magnitude_error_sigma'] = 0.05
     raw['chaser']['thrusters']['direction_error_sigma_deg'] = 2.5
-    raw['estimation']['accel_psd_m2_s3'] = 1e-9  # the default: no process noise left to follow a bias with
+    raw.setdefault('estimation', {})['accel_psd_m2_s3'] = 1e-9  # the default: no process noise to follow a bias with
     scenario = scenario_from_dict(raw, name='jacobsen_optimal x5 thruster errors')
     plant = Plant(plant_config_from_scenario(scenario))
     estimator = EstimatorCore(scenario)
     force_body = np.array((10.0, 0.0, 0.0))
     estimate, t_start, late = None, None, []
     while plant.t < duration_s:
-        plant.step()
-        for m in plant.measurements():
-            t = wire_time(m.t)
-            if m.kind == 'relative_position':
-                estimator.on_position(t, m.value)
-            elif m.kind == 'chaser_imu':
-                f = m.value.specific_force_body if accelerometer else None
-                out = estimator.on_imu(t, m.value.q_hill_from_body, m.value.omega_body_meas, f)
-                estimate = next(o for o in out if isinstance(o, ChaserEstimate))
-                for t_cmd in late:
+        for estimate in _step_and_estimate(plant, estimator, accelerometer):
+            t = estimate.t
+            for t_cmd in late:
+                estimator.on_wrench(t_cmd, force_body)
+            late = []
+            t_start = t_start or wire_time(t + 1.0)
+            if t >= t_start:
+                t_cmd = wire_time(t + 0.1)
+                plant.command_wrench(t_cmd, force_body, (0.0, 0.0, 0.0))
+                if late_commands:
+                    late.append(t_cmd)  # heard after the IMU sample that measured it
+                else:
                     estimator.on_wrench(t_cmd, force_body)
-                late = []
-                t_start = t_start or wire_time(t + 1.0)
-                if t >= t_start:
-                    t_cmd = wire_time(t + 0.1)
-                    plant.command_wrench(t_cmd, force_body, (0.0, 0.0, 0.0))
-                    if late_commands:
-                        late.append(t_cmd)  # heard after the IMU sample that measured it
-                    else:
-                        estimator.on_wrench(t_cmd, force_body)
     return plant.truth().v_hill, estimate
 
 

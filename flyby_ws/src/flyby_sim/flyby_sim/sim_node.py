@@ -68,6 +68,25 @@ ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 COMMAND_STAMP_TOLERANCE_NS = 1000
 
 
+class _Wait:
+    """A hold's wall time: ``overdue()`` is True once every SLOW_NODE_WARNING_S of it."""
+
+    def __init__(self):
+        self.since = None
+
+    def reset(self):
+        self.since = None
+
+    def overdue(self):
+        now = time.monotonic()
+        if self.since is None:
+            self.since = now
+        elif now - self.since > SLOW_NODE_WARNING_S:
+            self.since = now
+            return True
+        return False
+
+
 class _Chaser:
     """One chaser of the simulator: its scenario view, plant, publishers and continuous-command bookkeeping
     (announced stamps [ns] not yet passed, and per topic the latest stamp received [ns])."""
@@ -81,14 +100,14 @@ class _Chaser:
         self.announced_ns = collections.deque()
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
-        self.waiting_command_since = None
+        self.command_wait = _Wait()
         self.chain = tuple(node if name is None else f'{name}/{node}' for node in COMMAND_CHAIN)
         self.supervisor = SUPERVISOR if name is None else f'{name}/{SUPERVISOR}'
         self.phase = None
         self.t_grasp = None  # planner/flyby_target's stamp [s]
         self.decision_stamp = None  # the first chaser measurement's stamp at or after it [s]
         self.target_stamp = -math.inf  # the last target attitude measurement's [s]
-        self.waiting_decision_since = None
+        self.decision_wait = _Wait()
 
     def topic(self, topic):
         """The chaser's name of a contract topic: relative for the single chaser, under /<name>/ otherwise."""
@@ -222,16 +241,13 @@ class SimNode(Node):
         """True while the supervisor's capture decision of a step already out has not come in (module doc)."""
         if (ch.decision_stamp is None or ch.target_stamp < ch.decision_stamp - 1e-9
                 or ch.phase not in c.DECIDING_PHASES or ch.supervisor not in self.progress_s):
-            ch.waiting_decision_since = None
+            ch.decision_wait.reset()
             return False
-        now = time.monotonic()
-        if ch.waiting_decision_since is None:
-            ch.waiting_decision_since = now
-        elif now - ch.waiting_decision_since > SLOW_NODE_WARNING_S:
+        if ch.decision_wait.overdue():
             self.emit('WARN', 'waiting_for_decision', f'no capture decision for the grasp time '
                       f'{ch.t_grasp:.2f} s after {SLOW_NODE_WARNING_S} s; going on',
                       {'t_grasp_s': repr(ch.t_grasp), 't_estimate_s': repr(ch.decision_stamp)}, ch)
-            ch.decision_stamp = None
+            ch.decision_stamp = ch.t_grasp = None  # not held for again (a new plan's grasp time is)
             return False
         return True
 
@@ -247,13 +263,9 @@ class SimNode(Node):
         while announced and announced[0] <= received_ns:
             announced.popleft()
         if not announced or announced[0] > convert.sec_to_ns(self.plant.t + self.step_s) + COMMAND_STAMP_TOLERANCE_NS:
-            ch.waiting_command_since = None
+            ch.command_wait.reset()
             return False
-        now = time.monotonic()
-        if ch.waiting_command_since is None:
-            ch.waiting_command_since = now
-        elif now - ch.waiting_command_since > SLOW_NODE_WARNING_S:
-            ch.waiting_command_since = now
+        if ch.command_wait.overdue():
             present = self._present_nodes()
             gone = [name for name in ch.chain if name not in present]
             if gone:
