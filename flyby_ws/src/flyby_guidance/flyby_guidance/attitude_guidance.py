@@ -76,6 +76,13 @@ dumping only uses the wheels' torque headroom: if the control torque plus the du
 wheel's limit, the dump is scaled down (and an axis below tau_min dropped), pointing first. Inside the
 restriction sphere the thruster torque is exactly zero and dumping stops (no thruster fires there,
 attitude control included: seed 000 section 4.1, issue 13).
+
+**Integral action** (``integral_time_s``, off by default; the synchronized approach's hold sets it): a constant
+disturbance torque d (the thrusters' errors under a force held in the body) leaves the proportional-derivative
+law a steady error e = d / (k_p J). ``track`` adds -(k_p / T_i) J integral(e dt), the error integrated over the control
+periods of the same goal, each axis's term clamped to ``integral_max_torque_n_m`` (anti-windup); the closed
+loop s^3 + k_d s^2 + k_p s + k_p / T_i is stable for T_i > 1 / k_d (T_i 10 s at omega_n 2.5 rad/s: the poles move
+by a few percent).
 """
 
 import dataclasses
@@ -86,6 +93,7 @@ import numpy as np
 
 from flyby_sim.dynamics.attitude_control import (
     QuaternionFeedbackController,
+    attitude_error_rotation_vector,
     cross3,
     pointing_error_rad,  # noqa: F401  (re-exported: the mission's figure lives with the control law)
 )
@@ -127,6 +135,8 @@ class AttitudeGuidanceConfig:
     dump_gain_per_s: float = 0.05  # k_dump
     dump_min_torque_n_m: float = 0.05  # tau_min: 2 x lever arm x minimum impulse bit / control period
     dump_max_torque_n_m: float = 0.05  # tau_max per axis (half the default wheels' 0.1 N m)
+    integral_time_s: float = None  # [s] T_i of the integral action of ``track`` (None: none)
+    integral_max_torque_n_m: float = 1.0  # its term's clamp per body axis
 
     def __post_init__(self):
         for name in ('natural_frequency_rad_s', 'damping_ratio', 'max_rate_rad_s', 'control_period_s',
@@ -138,6 +148,9 @@ class AttitudeGuidanceConfig:
         if self.dump_stop_n_m_s >= self.dump_start_n_m_s:
             raise ValueError(f'dump_stop_n_m_s {self.dump_stop_n_m_s} must be below dump_start_n_m_s '
                              f'{self.dump_start_n_m_s}')
+        if self.integral_time_s is not None:
+            require_positive('integral_time_s', self.integral_time_s)
+            require_positive('integral_max_torque_n_m', self.integral_max_torque_n_m)
         if self.dump_min_torque_n_m > self.dump_max_torque_n_m:
             raise ValueError(f'dump_min_torque_n_m {self.dump_min_torque_n_m} exceeds dump_max_torque_n_m '
                              f'{self.dump_max_torque_n_m}')
@@ -304,6 +317,7 @@ class AttitudeGuidance:
         self.goal_tracker = LineOfSightGoal(_HILL_Z, config.roll_time_constant_s, config.max_roll_rate_rad_s,
                                             config.max_gap_s)
         self.goal = None
+        self.error_integral = np.zeros(3)  # [rad s] of the integral action, body axes
         self.dumping = False
         self.saturated = False
         self.body_torque_n_m = np.zeros(3)
@@ -338,6 +352,8 @@ class AttitudeGuidance:
         h = np.asarray(h_wheels_n_m_s, dtype=float)
         torque = self.controller.body_torque(q_hill_from_body, omega_body, h, goal.q_hill_from_goal,
                                              goal.omega_goal, goal.omega_dot_goal)
+        if self.config.integral_time_s is not None:
+            torque = torque + self._integral_torque(q_hill_from_body, goal.q_hill_from_goal)
         self.body_torque_n_m = torque
         thruster_torque = np.zeros(3)
         if inside_restriction_sphere:
@@ -347,6 +363,19 @@ class AttitudeGuidance:
         wheel_share = torque - thruster_torque if thruster_torque.any() else torque
         self.saturated = bool(np.any(np.abs(self.controller.axes_pinv @ wheel_share) > self.wheels.max_torque_n_m))
         return AttitudeCommand(self.controller.wheel_torque_for(wheel_share), thruster_torque)
+
+    def _integral_torque(self, q_hill_from_body, q_hill_from_goal):
+        """The integral action's torque [N m] (3,), body axes (module doc)."""
+        cfg, ctrl = self.config, self.controller
+        e = attitude_error_rotation_vector(q_hill_from_body, q_hill_from_goal)
+        self.error_integral = self.error_integral + e * cfg.control_period_s
+        k_i = ctrl.k_p / cfg.integral_time_s
+        limit = cfg.integral_max_torque_n_m
+        torque = -k_i * (ctrl.inertia @ self.error_integral)
+        clamped = np.clip(torque, -limit, limit)
+        if np.any(clamped != torque):  # anti-windup: keep the integral where its term is clamped
+            self.error_integral = -np.linalg.solve(ctrl.inertia, clamped) / k_i
+        return clamped
 
     def _dump_torque(self, torque_body, h):
         """Thruster torque [N m] (3,) of the dump within the wheels' headroom (module doc)."""

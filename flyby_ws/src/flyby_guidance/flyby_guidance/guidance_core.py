@@ -250,7 +250,7 @@ class GuidanceCore:
                                         self.n, True)
         else:
             att = self.sync_attitude.track(cmd.goal, np.asarray(q_hill_from_body, dtype=float),
-                                           np.asarray(omega_body, dtype=float), self.h_wheels_n_m_s, True)
+                                           np.asarray(omega_body, dtype=float), self.h_wheels_n_m_s, False)
         self.wheel_commands.append((t + period_s, att.wheel_torque_n_m))
         force_body = (0.0, 0.0, 0.0) if cmd.a_hill is None else self._tracking_force(
             cmd.a_hill, attitude_ahead(q_hill_from_body, omega_body, 1.5 * period_s, self.n),

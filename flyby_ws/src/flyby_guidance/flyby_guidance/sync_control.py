@@ -60,7 +60,9 @@ from flyby_sim.dynamics.rotation import (
 # stiffness omega_n^2 J turns it into a steady error: 1.3 deg at omega_n 0.6 rad/s (the headless run and a
 # simulation with the one-period command delay agree), 0.09 deg at 2.5 rad/s, still stable with that delay
 # (docs/synchronized.md).
-SYNC_ATTITUDE = AttitudeGuidanceConfig(natural_frequency_rad_s=2.5, max_rate_rad_s=0.1)
+SYNC_ATTITUDE = AttitudeGuidanceConfig(natural_frequency_rad_s=2.5, max_rate_rad_s=0.1, dump_start_n_m_s=2.0,
+                                       dump_stop_n_m_s=0.5, dump_gain_per_s=0.1, dump_max_torque_n_m=1.0,
+                                       integral_time_s=10.0)
 
 STAGE_APPROACH = 'approach'
 STAGE_ATTITUDE_SYNC = 'attitude_sync'
