@@ -26,6 +26,9 @@ different route than flyby_planner.summary takes, from truth alone:
   summary by flyby_sim.dynamics.rotation); fuel from each thruster's thrust on /sim/chaser/thrusters, a
   firing being any thruster's (a pure torque too); the pointing error of body +x at the target's CoM as
   the angle between scipy's rotated axis and the line of sight, from the first burn's start to t_g.
+* t_g: the stamp of the last planner/grasp before the capture decision; for a synchronized approach's docking
+  (which holds its final point and is decided at the chaser estimate's own stamp) the first
+  /sensors/chaser/imu stamp at or after it.
 
 A run of several chasers (a ``chasers:`` scenario, docs/two_robots.md): every figure above per chaser from its
 own topics (``/<name>/sim/chaser/odom``, ``/<name>/sim/chaser/thrust``, ``/<name>/mission/events`` ..., the target's
@@ -101,6 +104,18 @@ def aimed_offset(flyby_target, x_grasp_body):
     return float(np.linalg.norm(flyby_target.position[-1]) - np.linalg.norm(x_grasp_body))
 
 
+def docked(events):
+    """True for a synchronized approach's docking (guidance's ``docking_started``)."""
+    return any(e['name'] == 'docking_started' for e in events)
+
+
+def first_sample_at_or_after(t_samples, t):
+    """A docking holds its final point and is decided at the first chaser estimate (IMU sample) at or after the
+    aimed grasp time: that sample's stamp (t itself when none comes after it)."""
+    k = int(np.searchsorted(t_samples, t - 1e-9))
+    return float(t_samples[k]) if k < len(t_samples) else t
+
+
 def _chaser_truth(data, topic, rigid):
     """The chaser's truth series of a topic with its velocity in hill (a rigid body's twist is in chaser_body axes)."""
     chaser = data.get(topic)
@@ -115,7 +130,8 @@ def recompute(bag_dir, scenario, namespace=''):
     topics = [c.absolute(t, namespace) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
                                                  c.MISSION_EVENTS, c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET)]
     thrusters_topic = c.absolute(c.SIM_CHASER_THRUSTERS, namespace)
-    data = read_bag(bag_dir, topics=topics + ([thrusters_topic] if rigid else []))
+    imu_topic = c.absolute(c.SENSOR_CHASER_IMU, namespace)
+    data = read_bag(bag_dir, topics=topics + ([thrusters_topic, imu_topic] if rigid else []))
     chaser, target = _chaser_truth(data, topics[0], rigid), data.get(topics[1])
     thrust, events, grasp = data.get(topics[2]), data.get(topics[3]) or [], data.get(topics[4])
     x_grasp_body = np.array(scenario.target.grasp_point_body_m)
@@ -159,6 +175,9 @@ def recompute(bag_dir, scenario, namespace=''):
         k = least_clearance_index(gaps)
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
         t_g = aimed_grasp_time(events, grasp)
+        if t_g is not None and docked(events) and data.get(imu_topic) is not None:
+            t_g = first_sample_at_or_after(np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+                                                     for m in data[imu_topic].messages]), t_g)
         out['t_grasp_s'] = t_g
         out['flyby_offset_m'] = offset_m
         if t_g is not None and chaser.t[0] <= t_g <= chaser.t[-1]:

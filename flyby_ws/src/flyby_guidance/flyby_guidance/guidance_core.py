@@ -31,7 +31,10 @@ A synchronized approach (seed 001 section 2, ``sync_control``): stage 1 is its p
 command is ``SyncGuidance``'s: the body-frame hold, the docking and their force, and the attitude synchronized with
 the target's (the attitude law with ``SYNC_ATTITUDE``'s gains); its stage events (``station_reached``,
 ``attitude_synchronized``, ``docking_started``) move the supervisor's phases. After ESCAPE or an abort it retreats
-along the port's outward direction, then nothing is commanded.
+along the port's outward direction, then nothing is commanded. The command of the chaser estimate of t is
+computed from the target estimate stamped last *before* t (predicted to the command's time): the estimator
+publishes the target estimate of t after the chaser estimate of t, and a rule on stamps, not on which message
+came first, gives the same command at any pace and in the headless loop.
 
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
@@ -71,6 +74,8 @@ ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 # Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
 # one control period of motion stay well inside it.
 RESTRICTION_SPHERE_MARGIN_M = 1.0
+# Stamps closer than this are one stamp (wire stamps are whole nanoseconds).
+_STAMP_TOLERANCE_S = 1e-6
 # A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
 # uncertainty [m]: the planner's clearance_margin_m is a planning margin, this is the floor (a plan
 # 0.137 m clear re-aimed 0.096 m clear is no reason to give up a capture).
@@ -235,7 +240,7 @@ class GuidanceCore:
         SyncGuidance has nothing to say (stage 1 before the arrival, the drift after a retreat)."""
         if self.phase in (c.PHASE_ESCAPE, c.PHASE_ABORTED):  # no capture: leave the final point
             self.sync.abort(t)
-        target = self.targets.last_at_or_before(t)
+        target = self.targets.last_at_or_before(t - _STAMP_TOLERANCE_S)  # module doc: the one before t
         if target is None:
             return None
         period_s = self.attitude.config.control_period_s

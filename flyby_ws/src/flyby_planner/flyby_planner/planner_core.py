@@ -9,7 +9,8 @@ along CW (seed 000 eq 22). The planning itself is ``flyby_planner.plan`` (seed 0
 
 When guidance re-aims at a re-solved grasp (its ``target_refined`` event), the grasp and the fly-by
 target point the mission now aims at are published again (``AimUpdate``), so the bag holds what was
-flown, not only the first plan.
+flown, not only the first plan; so are, when a synchronized approach starts docking (``docking_started``), the
+port and the final point at its grasp time (the simulator holds the capture decision at that stamp).
 
 ``planner.method`` (DESIGN §10) chooses the method: ``flyby`` plans the fly-by only; ``optimal`` the
 optimization-based approach only (seed 003 section 4, ``flyby_planner.optimal.approach``; a rigid-body chaser);
@@ -203,7 +204,26 @@ class PlannerCore:
             grasp = GraspState(float(v['t_grasp_s']), _vector_value(v, 'x_g_hill_m'), _vector_value(v, 'v_g_hill_mps'),
                                _vector_value(v, 'q_hill_from_body'), _vector_value(v, 'omega_body_rad_s'))
             return [AimUpdate(grasp, _vector_value(v, 'x_ft_hill_m'), _vector_value(v, 'v_ft_hill_mps'))]
+        if event.name == 'docking_started' and self.method_flown == 'sync' and 't_grasp_s' in event.values:
+            return self._docking_aim(event.t, float(event.values['t_grasp_s']))
         return []
+
+    def _docking_aim(self, t, t_grasp):
+        """The synchronized approach's docking (guidance's ``docking_started`` at t): the port and the final point
+        at the grasp time t_grasp, predicted from the target estimate stamped last before t, as AimUpdate (the
+        simulator holds the capture decision at that stamp)."""
+        target = self.targets.last_at_or_before(t - 1e-6)
+        if target is None:
+            return []
+        t_t, (q_hill_from_body, omega_body, _) = target
+        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t_t, q_hill_from_body,
+                                              omega_body, t_grasp)
+        x_port = np.array(self.scenario.target.grasp_point_body_m)
+        port = prediction.track(x_port, (t_grasp,))
+        x_ft, v_ft = GraspTerminal(prediction, x_port, self.scenario.planner.offset_m)(t_grasp)
+        at = prediction.state(t_grasp)
+        return [AimUpdate(GraspState(t_grasp, port.r_hill[0], port.v_hill[0], at.q_hill_from_body, at.omega_body),
+                          x_ft, v_ft)]
 
     def on_replan(self):
         """Plan again at the next target estimate."""

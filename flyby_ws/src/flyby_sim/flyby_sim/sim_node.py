@@ -22,10 +22,11 @@ That is what makes the truth the same at any pace (DESIGN §5, §10). It waits f
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command).
 
 The capture decision is held for the same way: the supervisor decides at the first chaser estimate at or after the
-grasp time (``planner/flyby_target``'s stamp) once the target's estimate of that stamp is in, and the chaser is
-attached at that step, as in the headless loop. So once the chaser's measurement (the IMU's with the rigid-body
-chaser, else the relative position) and the target's attitude of a stamp at or after the grasp time are out, the
-simulator steps no further while the phase is still one that decides (``contract.DECIDING_PHASES``) and the
+grasp time (``planner/flyby_target``'s stamp; a synchronized approach's docking publishes it again) once the
+target's estimate of that stamp is in, and the chaser is attached at that step, as in the headless loop. So once the
+chaser's measurement (the IMU's with the rigid-body chaser, else the relative position) of a stamp at or after the
+grasp time is out in a phase that decides (``contract.DECIDING_PHASES``), and the target's attitude of that stamp,
+the simulator steps no further while the phase is still one that decides and the
 supervisor is in ``keep_up_with``; after SLOW_NODE_WARNING_S without a decision (an estimate the estimator
 rejected) it goes on, with a WARN ``waiting_for_decision``.
 
@@ -416,7 +417,7 @@ class SimNode(Node):
         if m.kind == 'target_attitude':
             ch.target_stamp = m.t
         elif (m.kind == 'chaser_imu') == ch.rigid and ch.decision_stamp is None and ch.t_grasp is not None \
-                and m.t >= ch.t_grasp - 1e-9:
+                and m.t >= ch.t_grasp - 1e-9 and ch.phase in c.DECIDING_PHASES:
             ch.decision_stamp = m.t
         if m.kind == 'relative_position':
             ch.pubs[c.SENSOR_RELATIVE_POSITION].publish(
