@@ -38,6 +38,9 @@ def test_the_category_iv_tumbler_is_captured_by_the_synchronized_approach_in_the
     assert s['outcome'] == 'CAPTURE' and s['method'] == 'sync' and s['phase_sequence'] == PHASES
     assert s['capture_position_error_m'] < 0.01 and s['capture_velocity_error_mps'] < 0.01  # issue 15: 1 cm, 1 cm/s
     assert s['min_clearance_m'] > 0.0
+    assert s['relative_attitude_drift_max_deg'] < 0.5  # issue 15: from the start of stage 3 to the end
+    assert set(s['peak_force_n_by_phase']) >= {c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC, c.PHASE_DOCKING}
+    assert s['peak_force_n_by_phase'][c.PHASE_DOCKING] > 50.0  # the hold: about r omega^2 m, 0.7 m/s^2 x 189 kg
     done = analyze_bag(out)
     assert done.returncode == 0 and 'every figure agrees' in done.stdout, done.stdout + done.stderr
 

@@ -184,6 +184,48 @@ def approach_figures(chaser, thrust, events, scenario):
     return out
 
 
+def phase_windows(events, t_end):
+    """[(phase, t_from, t_to)] of the supervisor's phase_changed events, the last one to t_end [s]."""
+    changes = [(float(e['t']), e['values']['to']) for e in events
+               if e['name'] == 'phase_changed' and e['values'].get('to')]
+    return [(phase, t0, changes[k + 1][0] if k + 1 < len(changes) else t_end)
+            for k, (t0, phase) in enumerate(changes)]
+
+
+def sync_figures(chaser, target, thrust, events, t_g):
+    """The synchronized approach's figures (seed 001, issue 15), from the truth: per phase the peak thrust force [N]
+    and the thrusters' peak torque [N m] (each step's mean, the step counted in the phase it ends in), and the
+    largest drift [deg] of the chaser's attitude relative to the target's from the start of stage 3 (ORBITING) to
+    the grasp time (seed 001 Fig 6: the relative orientation constant there), or None where it did not run."""
+    out = {'peak_force_n_by_phase': None, 'peak_thruster_torque_n_m_by_phase': None,
+           'relative_attitude_drift_max_deg': None}
+    if not any(e['name'] == 'plan_selected' and e['values'].get('method') == 'sync' for e in events):
+        return out
+    if thrust is not None and len(thrust.t) > 1:
+        windows = phase_windows(events, float(thrust.t[-1]))
+        t = thrust.t[1:]
+        force = np.linalg.norm(thrust.force[1:], axis=1)
+        torque = None if thrust.torque is None else np.linalg.norm(thrust.torque[1:], axis=1)
+        out['peak_force_n_by_phase'], out['peak_thruster_torque_n_m_by_phase'] = {}, {}
+        for phase, t0, t1 in windows:
+            inside = (t > t0) & (t <= t1)
+            if np.any(inside):
+                out['peak_force_n_by_phase'][phase] = float(force[inside].max())
+                if torque is not None:
+                    out['peak_thruster_torque_n_m_by_phase'][phase] = float(torque[inside].max())
+    starts = [float(e['t']) for e in events
+              if e['name'] == 'phase_changed' and e['values'].get('to') == c.PHASE_ORBITING]
+    if starts and t_g is not None and chaser.orientation_xyzw is not None and target is not None:
+        common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
+        window = (common >= starts[0] - 1e-9) & (common <= t_g + 1e-9)
+        if np.any(window):
+            relative = (Rotation.from_quat(target.orientation_xyzw[i_t[window]]).inv()
+                        * Rotation.from_quat(chaser.orientation_xyzw[i_c[window]]))
+            drift = (relative[0].inv() * relative).magnitude()
+            out['relative_attitude_drift_max_deg'] = float(np.degrees(drift.max()))
+    return out
+
+
 def grasp_time(events):
     """The grasp time t_g the supervisor decided at (its FLYBY -> CAPTURE / ESCAPE event), or None."""
     for e in events:
@@ -304,6 +346,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
 
     pointing = pointing_figures(chaser, events, t_g) if has_chaser and scenario.chaser.model == 'rigid_body' else {}
     approach = approach_figures(chaser, thrust, events, scenario) if has_chaser else {}
+    sync = sync_figures(chaser, target if has_target else None, thrust, events, t_g) if has_chaser else {}
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
@@ -337,6 +380,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'rejected_maneuvers': count('maneuver_rejected'),
         **pointing,
         **approach,
+        **sync,
         'sim_time_s': sim_time_s,
         'planning_time_s': sum(float(e['values'].get('planning_time_s', 0.0)) for e in events
                                if e['name'] in ('plan_selected', 'plan_refused')),
@@ -374,6 +418,8 @@ def format_summary(summary):
         *([('pointing error p95 / max', f"{fmt(summary['pointing_error_p95_deg'], 'deg')} / "
                                          f"{fmt(summary['pointing_error_max_deg'], 'deg')}")]
           if 'pointing_error_p95_deg' in summary else []),
+        *([('relative attitude drift', fmt(summary['relative_attitude_drift_max_deg'], 'deg'))]
+          if summary.get('relative_attitude_drift_max_deg') is not None else []),
         *([('approach time', fmt(summary['approach_time_s'], 's')),
            ('peak acceleration', fmt(summary['peak_acceleration_mps2'], 'm/s^2')),
            ('thrust away in plume', f"{fmt(summary['plume_impulse_away_n_s'], 'N s')} net, "

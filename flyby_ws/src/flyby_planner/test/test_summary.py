@@ -5,7 +5,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, outcome_of, summarize, thrust_figures
+from flyby_planner.summary import (
+    ChaserTruth,
+    TargetTruth,
+    ThrustTruth,
+    outcome_of,
+    summarize,
+    sync_figures,
+    thrust_figures,
+)
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2 as G0_MPS2
 from flyby_sim.scenario import load_scenario
 
@@ -80,3 +88,35 @@ def test_the_least_clearance_time_is_the_first_of_its_plateau():
     from flyby_planner.summary import least_clearance_index
     assert least_clearance_index([0.5, 0.3, 0.3 + 1e-12, 0.3 - 1e-12, 0.4]) == 1
     assert least_clearance_index([0.5, 0.4, 0.3, 0.3 + 2e-6]) == 2
+
+
+def test_sync_figures_peaks_by_phase_and_the_relative_attitude_drift_against_a_hand_case():
+    """Issue 15's keys: per phase the peak of each step's mean force and torque (a step counted in the phase it ends
+    in), and the largest drift of the chaser's attitude relative to the target's from the start of ORBITING to the
+    grasp: the target spins at 0.3 rad/s about z, the chaser turns with it and drifts by 0.1 deg/s about x from the
+    start of ORBITING (10 s), so 1 deg at the grasp (20 s), whatever happened before."""
+    from scipy.spatial.transform import Rotation
+
+    t = np.arange(0.0, 25.0 + 1e-9, 0.5)
+    q_target = Rotation.from_rotvec(np.outer(0.3 * t, (0.0, 0.0, 1.0)))
+    drift = np.radians(0.1) * np.clip(t - 10.0, 0.0, None)
+    early = np.radians(5.0) * (t < 10.0)  # before stage 3 the relative attitude may be anything
+    q_chaser = q_target * Rotation.from_rotvec(np.outer(drift + early, (1.0, 0.0, 0.0)))
+    chaser = ChaserTruth(t, np.zeros((len(t), 3)), np.zeros((len(t), 3)), q_chaser.as_quat())
+    target = TargetTruth(t, q_target.as_quat(), np.zeros((len(t), 3)))
+    force = np.zeros((len(t), 3))
+    force[t == 5.0] = (0.0, 30.0, 0.0)  # SYNC_APPROACH
+    force[t == 10.0] = (140.0, 0.0, 0.0)  # the last step of SYNC_APPROACH: ends at 10 s
+    force[t == 12.0] = (0.0, 0.0, 120.0)  # ORBITING
+    torque = np.zeros((len(t), 3))
+    torque[t == 15.0] = (0.0, 0.5, 0.0)
+    events = [{'t': 0.0, 'name': 'plan_selected', 'values': {'method': 'sync'}},
+              {'t': 0.0, 'name': 'phase_changed', 'values': {'to': 'SYNC_APPROACH'}},
+              {'t': 10.0, 'name': 'phase_changed', 'values': {'to': 'ORBITING'}},
+              {'t': 20.0, 'name': 'phase_changed', 'values': {'to': 'CAPTURE'}}]
+    out = sync_figures(chaser, target, ThrustTruth(t, force, torque), events, 20.0)
+    assert out['peak_force_n_by_phase'] == {'SYNC_APPROACH': 140.0, 'ORBITING': 120.0, 'CAPTURE': 0.0}
+    assert out['peak_thruster_torque_n_m_by_phase'] == {'SYNC_APPROACH': 0.0, 'ORBITING': 0.5, 'CAPTURE': 0.0}
+    assert out['relative_attitude_drift_max_deg'] == pytest.approx(1.0, abs=1e-9)
+    events[0]['values']['method'] = 'optimal'
+    assert set(sync_figures(chaser, target, ThrustTruth(t, force, torque), events, 20.0).values()) == {None}
