@@ -2,6 +2,8 @@
 the phase-space link, the arrival time of least delta-v against brute force, the re-solve closest to the previous
 solution."""
 
+import collections
+import copy
 import math
 from pathlib import Path
 
@@ -18,9 +20,10 @@ from flyby_planner.sync.station import (
 )
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply
-from flyby_sim.scenario import load_scenario
+from flyby_sim.scenario import load_scenario, load_yaml_mapping, scenario_from_dict
 
-SCENARIO = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'seweryn_tumbling.yaml')
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+SCENARIO = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
 N, RADIUS = SCENARIO.mean_motion_rad_s, SCENARIO.orbit_radius_m
 GEOMETRY = station_geometry(SCENARIO.target.grasp_point_body_m, 5.0, 1.0)
 KEEPOUT = keepout_radius([(b.center_m, b.size_m) for b in SCENARIO.target.geometry], SCENARIO.chaser.envelope_radius_m,
@@ -118,3 +121,31 @@ def test_seed001_resolve_keeps_closest_to_the_previous_solution():
 def test_no_arrival_when_every_link_cuts_the_keepout_sphere():
     assert select_arrival(TRUTH_TRACK, T0, R0, V0, WINDOW, N, RADIUS, keepout_radius_m=6.0) is None
     assert select_arrival(TRUTH_TRACK, 380.0, R0, V0, WINDOW, N, RADIUS, KEEPOUT) is None  # the window is past
+
+
+def test_the_hold_check_against_the_closed_form_and_a_spinner_too_fast_for_the_thrusters():
+    """approach.hold_acceleration_peak: a principal spin (omega' = 0) needs omega^2 times the distance from the spin
+    axis, r omega^2 (0.7 m/s^2 at 5 m and 21.4 deg/s); a plan whose hold needs more than HOLD_SHARE of the bound is
+    refused with the figures (the thrusters could not keep the chaser on the station)."""
+    from flyby_planner.plan import truth_prediction
+    from flyby_planner.sync.approach import HOLD_SHARE, hold_acceleration_peak, plan_sync
+
+    state = collections.namedtuple('State', 'omega_body')
+    w = math.radians(21.4)
+
+    class Spin:
+        t_end = 100.0
+
+        def state(self, t):
+            return state(np.array((0.0, 0.0, w)))
+
+    inertia = np.diag((4069.0, 12030.0, 11029.0))
+    peak = hold_acceleration_peak(Spin(), (3.0, 4.0, 7.0), inertia, 0.0, 60.0)  # 5 m from the z axis
+    assert peak == pytest.approx(5.0 * w * w, rel=1e-12)
+    d = copy.deepcopy(load_yaml_mapping(SCENARIOS / 'seweryn_tumbling.yaml'))
+    d['target']['initial_rate']['omega_body_rad_s'] = [0.0, 0.0, math.radians(30.0)]  # 1.37 m/s^2 at 5 m
+    sc = scenario_from_dict(d, name='seweryn 30 deg/s')
+    plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
+    bound = 2.0 * sc.chaser.thrusters.max_thrust_n / sc.chaser.mass_kg
+    assert not plan.ok and 'holding the station 5 m out' in plan.reason
+    assert f'> {HOLD_SHARE:g} x {bound:.3f} m/s^2' in plan.reason

@@ -6,6 +6,13 @@ motion is predicted from its estimate over the arrival window, and ``station.sel
 arrival; a re-solve (``previous`` given) takes ``station.reselect_arrival``, the solution closest to the previous
 one. The link is sampled every ``planner.sync.trajectory_step_s`` for guidance to track; its end is the station
 at the arrival time, where guidance turns to stages 2-4 (flyby_guidance.sync_control).
+
+Before it is flown the plan is checked against the thrust it will need: the link's peak acceleration, and the
+hold's, the acceleration of the station point fixed in the tumbling body, |omega' x x + omega x (omega x x)|
+(seed 001 eq 2 with the relative gravity left out, 1e-5 of it), over the predicted motion from the arrival to
+``HOLD_CHECK_S`` later (stages 2-4 of Table 1 take about 60 s), within ``HOLD_SHARE`` of the bound (the rest is the
+feedback's). A target spinning too fast for the thrusters is refused with the figures (``NO_SAFE_PLAN``): a hold
+the thrusters cannot give drifts off the station into the tumbling body.
 """
 
 import dataclasses
@@ -14,6 +21,12 @@ import math
 import numpy as np
 
 from flyby_planner.sync.station import keepout_radius, reselect_arrival, select_arrival, station_geometry
+from flyby_sim.dynamics.attitude import euler_rate
+
+# The hold is checked over this much of the predicted motion after the arrival [s], ...
+HOLD_CHECK_S = 60.0
+# ... within this share of the acceleration bound (the rest is the tracking feedback's).
+HOLD_SHARE = 0.8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,11 +68,32 @@ def plan_sync(scenario, prediction, t_start, r_start_hill, v_start_hill, previou
     if peak > accel_max:
         return SyncPlan(False, f'synchronized approach: the link to the arrival at {choice.t_arrival:.1f} s needs '
                                f'{peak:.3f} m/s^2 > {accel_max:.3f} m/s^2')
+    hold = hold_acceleration_peak(prediction, geometry.x_station_body, scenario.target_inertia, choice.t_arrival,
+                                  choice.t_arrival + HOLD_CHECK_S)
+    if hold > HOLD_SHARE * accel_max:
+        return SyncPlan(False, f'synchronized approach: holding the station {geometry.station_range_m:g} m out on the '
+                               f'tumbling target needs {hold:.3f} m/s^2 > {HOLD_SHARE:g} x {accel_max:.3f} m/s^2 '
+                               f'(planner.sync.accel_max_mps2 or two thrusters)')
     reason = (f'synchronized approach: station {geometry.station_range_m:g} m out on the port\'s line reached at '
               f't = {choice.t_arrival:.2f} s ({"closest to the previous solution" if previous else "eq 1, least"} '
               f'delta-v {choice.delta_v_mps:.3f} m/s, peak {peak:.3f} m/s^2, {choice.feasible} of {choice.tried} '
               f'arrival times clear of the target)')
     return SyncPlan(True, reason, choice, choice.link.sample(s.trajectory_step_s, n, radius), peak)
+
+
+def hold_acceleration_peak(prediction, x_body, inertia, t_from, t_to, step_s=0.5):
+    """The largest acceleration [m/s^2] of a point x_body fixed in the predicted tumbling body over [t_from, t_to]
+    (within the prediction): |omega' x x + omega x (omega x x)|, omega' by Euler's equation (module doc)."""
+    x = np.asarray(x_body, dtype=float)
+    inertia = np.asarray(inertia, dtype=float)
+    inertia_inv = np.linalg.inv(inertia)
+    t_to = min(t_to, getattr(prediction, 't_end', t_to))
+    peak = 0.0
+    for t in np.arange(t_from, t_to + 1e-9, step_s):
+        w = prediction.state(float(t)).omega_body
+        a = np.cross(euler_rate(w, inertia, inertia_inv), x) + np.cross(w, np.cross(w, x))
+        peak = max(peak, float(np.linalg.norm(a)))
+    return peak
 
 
 def is_category_iv(omega_body, scenario):
