@@ -149,3 +149,25 @@ def test_the_hold_check_against_the_closed_form_and_a_spinner_too_fast_for_the_t
     bound = 2.0 * sc.chaser.thrusters.max_thrust_n / sc.chaser.mass_kg
     assert not plan.ok and 'holding the station 5 m out' in plan.reason
     assert f'> {HOLD_SHARE:g} x {bound:.3f} m/s^2' in plan.reason
+
+
+def test_a_port_whose_radial_line_brings_the_envelope_onto_the_face_is_refused():
+    """The docking line (the final point 1 m out along x_port / |x_port| to the station) against the bus, envelope
+    0.75 m: Table 1's port in the middle of the +y face leaves 1 - 0.75 = 0.25 m; a port off the middle of the +x face
+    (a campaign's draw, run 6 collided) has its final point 0.69 m from the box's edge, inside the envelope, and is
+    refused."""
+    from flyby_planner.plan import truth_prediction
+    from flyby_planner.sync.approach import docking_line_clearance, plan_sync
+
+    bus = [((0.0, 0.0, 0.0), (2.0, 4.0, 4.0))]
+    assert docking_line_clearance(station_geometry((0.0, 2.0, 0.0), 5.0, 1.0), bus, 0.75) == pytest.approx(0.25)
+    port = np.array((1.0, -0.409, 1.636))
+    final = port + port / np.linalg.norm(port)  # the closest point of the line: 0.51 m off +x, 0.47 m off +z
+    by_hand = float(np.linalg.norm(np.maximum(np.abs(final) - (1.0, 2.0, 2.0), 0.0))) - 0.75
+    assert docking_line_clearance(station_geometry(port, 5.0, 1.0), bus, 0.75) == pytest.approx(by_hand, abs=1e-12)
+    assert by_hand < 0.0
+    d = copy.deepcopy(load_yaml_mapping(SCENARIOS / 'seweryn_tumbling.yaml'))
+    d['target']['grasp_point_body_m'] = port.tolist()
+    sc = scenario_from_dict(d, name='seweryn, a port off the middle of a face')
+    plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
+    assert not plan.ok and 'the docking line of the port [1.0, -0.409, 1.636] comes -0.05' in plan.reason
