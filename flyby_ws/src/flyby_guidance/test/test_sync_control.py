@@ -248,7 +248,7 @@ def test_escape_retreats_along_the_port_line_then_drifts():
     q_chaser, w_chaser = quat_from_rotation_vector((0.0, 0.7, 0.0)), np.zeros(3)
 
     def force_hill(t, v_hill):
-        core.on_target_estimate(t, q_target, w_target)
+        core.on_target_estimate(t - 0.1, q_target, w_target)  # the hold reads the target estimate stamped before t
         out = core.on_chaser_estimate(t, r, v_hill, q_chaser, w_chaser)
         (cmd,) = [o for o in out if isinstance(o, AttitudeCommandStamped)]
         return quat_rotate(q_chaser, cmd.force_body_n), [o.name for o in out if hasattr(o, 'name')]
