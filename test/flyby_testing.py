@@ -36,6 +36,16 @@ def run_mission(*args, timeout=600):
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 
+def fly_variant(tmp_dir, base, name, edit):
+    """A variant of ``scenarios/<base>.yaml`` (``write_scenario``) flown in the graph by the launcher into
+    tmp_dir/run, asserted to exit 0: (the run directory, the scenario file)."""
+    scenario = write_scenario(tmp_dir, base=base, name=name, edit=edit)
+    out = Path(tmp_dir) / 'run'
+    done = run_mission('--scenario', scenario, '--out', out)
+    assert done.returncode == 0, done.stderr[-3000:] + done.stdout[-3000:]
+    return out, scenario
+
+
 def analyze_bag(run_dir):
     """scripts/analyze_bag.py on a run directory, as a user runs it; returns the CompletedProcess."""
     return subprocess.run([sys.executable, str(ROOT / 'scripts' / 'analyze_bag.py'), str(run_dir)],

@@ -10,7 +10,7 @@ from flyby_guidance.closed_loop import run_headless
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario
-from flyby_testing import analyze_bag, read_summary, run_mission, write_scenario
+from flyby_testing import analyze_bag, fly_variant, read_summary
 
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING,
           c.PHASE_DOCKING, c.PHASE_CAPTURE, c.PHASE_COMPLETE]
@@ -24,12 +24,7 @@ def _short(data):
 
 @pytest.fixture(scope='module')
 def run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp('sync')
-    scenario = write_scenario(tmp, base='seweryn_tumbling', name='sync_short', edit=_short)
-    out = tmp / 'run'
-    done = run_mission('--scenario', scenario, '--out', out)
-    assert done.returncode == 0, done.stderr[-3000:] + done.stdout[-3000:]
-    return out, scenario
+    return fly_variant(tmp_path_factory.mktemp('sync'), 'seweryn_tumbling', 'sync_short', _short)
 
 
 def test_the_category_iv_tumbler_is_captured_by_the_synchronized_approach_in_the_graph(run):

@@ -11,7 +11,7 @@ import pytest
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_testing import ROOT, analyze_bag, read_summary, run_mission, write_scenario
+from flyby_testing import ROOT, analyze_bag, fly_variant, read_summary
 
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH, c.PHASE_CAPTURE, c.PHASE_COMPLETE]
 
@@ -28,12 +28,7 @@ def _short(data):
 
 @pytest.fixture(scope='module')
 def run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp('two_robots')
-    scenario = write_scenario(tmp, base='jacobsen_two_robots', name='two_robots_short', edit=_short)
-    out = tmp / 'run'
-    done = run_mission('--scenario', scenario, '--out', out)
-    assert done.returncode == 0, done.stderr[-3000:] + done.stdout[-3000:]
-    return out
+    return fly_variant(tmp_path_factory.mktemp('two_robots'), 'jacobsen_two_robots', 'two_robots_short', _short)[0]
 
 
 def test_both_chasers_capture_apart_from_each_other_and_the_target(run):
