@@ -37,7 +37,7 @@ from flyby_estimation.filters import filters_from_scenario
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
 from flyby_sim.dynamics.propulsion import ManeuverRejected
-from flyby_sim.dynamics.rotation import quat_rotate
+from flyby_sim.dynamics.rotation import quat_rotate, skew
 
 # The category is re-evaluated this often once converged (it scans the attitude history) [s].
 CLASSIFY_PERIOD_S = 10.0
@@ -209,10 +209,9 @@ class EstimatorCore:
             return self._reject(t_end, 'accelerometer', 'non_finite', f'specific force {specific_force_body!r}')
         dv_hill = quat_rotate(attitude.q_hill_from_body, f) * (t_end - t_start)
         # The accelerometer's noise on the mean over the interval, and the attitude estimate's error turning it.
-        skew = np.array(((0.0, -dv_hill[2], dv_hill[1]), (dv_hill[2], 0.0, -dv_hill[0]),
-                         (-dv_hill[1], dv_hill[0], 0.0)))
+        dv_cross = skew(dv_hill)
         cov = ((self.accel_sigma_mps2 * (t_end - t_start))**2 * np.eye(3)
-               + skew @ attitude.attitude_covariance_hill @ skew.T)
+               + dv_cross @ attitude.attitude_covariance_hill @ dv_cross.T)
         if commanded is None:
             if float(np.linalg.norm(dv_hill)) > 3.0 * self.accel_sigma_mps2 * (t_end - t_start):
                 self.measured_dv[_key(t_start)] = dv_hill  # a command still on its way: it is taken as this
