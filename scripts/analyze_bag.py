@@ -130,8 +130,7 @@ def recompute(bag_dir, scenario, namespace=''):
     topics = [c.absolute(t, namespace) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
                                                  c.MISSION_EVENTS, c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET)]
     thrusters_topic = c.absolute(c.SIM_CHASER_THRUSTERS, namespace)
-    imu_topic = c.absolute(c.SENSOR_CHASER_IMU, namespace)
-    data = read_bag(bag_dir, topics=topics + ([thrusters_topic, imu_topic] if rigid else []))
+    data = read_bag(bag_dir, topics=topics + ([thrusters_topic] if rigid else []))
     chaser, target = _chaser_truth(data, topics[0], rigid), data.get(topics[1])
     thrust, events, grasp = data.get(topics[2]), data.get(topics[3]) or [], data.get(topics[4])
     x_grasp_body = np.array(scenario.target.grasp_point_body_m)
@@ -175,9 +174,12 @@ def recompute(bag_dir, scenario, namespace=''):
         k = least_clearance_index(gaps)
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
         t_g = aimed_grasp_time(events, grasp)
-        if t_g is not None and docked(events) and data.get(imu_topic) is not None:
-            t_g = first_sample_at_or_after(np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
-                                                     for m in data[imu_topic].messages]), t_g)
+        if t_g is not None and rigid and docked(events):  # the IMU decoded only for a docking: it is large
+            imu_topic = c.absolute(c.SENSOR_CHASER_IMU, namespace)
+            imu = read_bag(bag_dir, topics=[imu_topic]).get(imu_topic)
+            if imu is not None:
+                t_g = first_sample_at_or_after(np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+                                                         for m in imu.messages]), t_g)
         out['t_grasp_s'] = t_g
         out['flyby_offset_m'] = offset_m
         if t_g is not None and chaser.t[0] <= t_g <= chaser.t[-1]:

@@ -75,6 +75,14 @@ class ChaserEstimate:
     rate_covariance_body: np.ndarray = None
 
 
+def _put_bounded(stamped, key, value):
+    """stamped[key] = value, the oldest entries dropped beyond _ATTITUDES_KEPT (commands and samples that never
+    found their pair)."""
+    stamped[key] = value
+    while len(stamped) > _ATTITUDES_KEPT:
+        stamped.pop(next(iter(stamped)))
+
+
 def _key(t):
     """A stamp as a dictionary key, to the stamps' rounding."""
     return round(t / _STAMP_TOLERANCE_S)
@@ -196,9 +204,7 @@ class EstimatorCore:
             return [self._event(t, 'WARN', 'maneuver_ignored',
                                 f'force command not a known input of the navigation filter: {err}', {'t_stamp': t})]
         if measured is None:
-            self.commanded_dv[_key(t)] = dv_hill
-            while len(self.commanded_dv) > _ATTITUDES_KEPT:
-                self.commanded_dv.pop(next(iter(self.commanded_dv)))
+            _put_bounded(self.commanded_dv, _key(t), dv_hill)
         return []
 
     def _measured_thrust(self, t_start, t_end, attitude, specific_force_body):
@@ -214,9 +220,7 @@ class EstimatorCore:
                + dv_cross @ attitude.attitude_covariance_hill @ dv_cross.T)
         if commanded is None:
             if float(np.linalg.norm(dv_hill)) > 3.0 * self.accel_sigma_mps2 * (t_end - t_start):
-                self.measured_dv[_key(t_start)] = dv_hill  # a command still on its way: it is taken as this
-                while len(self.measured_dv) > _ATTITUDES_KEPT:
-                    self.measured_dv.pop(next(iter(self.measured_dv)))
+                _put_bounded(self.measured_dv, _key(t_start), dv_hill)  # a command still on its way: taken as this
             return []
         if self.nav.t < t_end:
             self.nav.propagate_to(t_end)

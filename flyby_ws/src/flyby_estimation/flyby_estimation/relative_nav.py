@@ -367,15 +367,16 @@ class RelativeNavFilter(FilterBase):
         self._pending = pending
 
     def _take_next_burn(self):
-        """Move the first pending burn to the started one (the chain after it is unchanged); returns it."""
+        """Move the first pending burn to the started one (the chain after it is unchanged); returns it and whether
+        its execution error is measured (not injected)."""
         burn = self._pending.pop(0)
         self._requests.pop(0)
         self._fixed_duration_s.pop(burn.seq, None)
-        self._injects_error = burn.seq not in self._measured
+        measured = burn.seq in self._measured
         self._measured.discard(burn.seq)
         self._active = burn
         self._chain_end = (burn.end_s, burn.mass_end_kg)
-        return burn
+        return burn, measured
 
     def _retire_active(self):
         if self._active is not None and self._active.end_s <= self._t:
@@ -526,7 +527,7 @@ class RelativeNavFilter(FilterBase):
         Mean: an impulse adds its dv; a burn that began tau > 0 s before the filter time (late for the
         filter) adds the CW response to its past part. Covariance: the execution error (module doc).
         """
-        burn = self._take_next_burn()
+        burn, measured = self._take_next_burn()
         tau = self._t - burn.start_s
         kf = self._kf
         if burn.duration_s == 0.0:
@@ -536,7 +537,7 @@ class RelativeNavFilter(FilterBase):
             dx = self._integrate(np.zeros(6), burn.start_s, t_burn, burn, linear=True)
             kf.x[:, 0] += cw_transition_matrix(self._n, tau - t_burn) @ dx
         thr = self.config.thrusters
-        if thr is None or not self._injects_error:
+        if thr is None or measured:
             return
         dv2 = float(burn.dv_hill @ burn.dv_hill)
         u = burn.direction_hill

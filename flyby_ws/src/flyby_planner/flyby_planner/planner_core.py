@@ -59,9 +59,9 @@ from flyby_planner.plan import plan_capture, planner_config_from_scenario
 from flyby_planner.sync.approach import HOLD_CHECK_S, is_category_iv, plan_sync
 from flyby_sim.dynamics.orbital import cw_coast
 
-# Values of the selected candidate put on its plan_selected event.
 # The request of a re-aim (``_check_aim``): its refusal keeps the plan flown.
 REAIM = 're-aim'
+# Values of the selected candidate put on its plan_selected event.
 _SELECTED_KEYS = ('t_grasp_s', 't_i_s', 't_ti_s', 'dv_total_mps', 'clearance_approach_m', 'clearance_escape_m',
                   'closest', 't_sphere_entry_s', 'x_g_hill_m', 'v_g_hill_mps', 'x_ft_hill_m', 'v_ft_hill_mps',
                   'x_fi_hill_m', 'v_fi_hill_mps', 'unguided_coast_s', 'miss_3sigma_m', 'miss_3sigma_mps',
@@ -215,15 +215,19 @@ class PlannerCore:
         target = self.targets.last_at_or_before(t - 1e-6)
         if target is None:
             return []
-        t_t, (q_hill_from_body, omega_body, _) = target
-        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t_t, q_hill_from_body,
-                                              omega_body, t_grasp)
-        x_port = np.array(self.scenario.target.grasp_point_body_m)
-        port = prediction.track(x_port, (t_grasp,))
-        x_ft, v_ft = GraspTerminal(prediction, x_port, self.scenario.planner.offset_m)(t_grasp)
+        prediction, (x_ft, v_ft) = self._end_point(target, t_grasp, self.scenario.planner.offset_m)
+        port = prediction.track(self.config.x_grasp_body_m, (t_grasp,))
         at = prediction.state(t_grasp)
         return [AimUpdate(GraspState(t_grasp, port.r_hill[0], port.v_hill[0], at.q_hill_from_body, at.omega_body),
                           x_ft, v_ft)]
+
+    def _end_point(self, target, t_f, offset_m):
+        """(the motion predicted from a buffered target estimate (t, (q, omega, blocks)) to t_f, the end point X_Ft,
+        V_Ft of the grasp point at offset_m at t_f, eq 20-21)."""
+        t, (q_hill_from_body, omega_body, _) = target
+        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
+                                              omega_body, t_f)
+        return prediction, GraspTerminal(prediction, self.config.x_grasp_body_m, offset_m)(t_f)
 
     def on_replan(self):
         """Plan again at the next target estimate."""
@@ -276,10 +280,8 @@ class PlannerCore:
             if target is None or target[0] >= flown.t_f - o.replan_cutoff_s:
                 return
             self.aim_checked_t = t_check
-            t, (q_hill_from_body, omega_body, _) = target
-            prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
-                                                  omega_body, flown.t_f)
-            x_ft, _ = GraspTerminal(prediction, self.config.x_grasp_body_m, self.approach.offset_m)(flown.t_f)
+            t = target[0]
+            _, (x_ft, _) = self._end_point(target, flown.t_f, self.approach.offset_m)
             moved_m = float(np.linalg.norm(x_ft - flown.x_ft))
             if moved_m > o.reaim_error_m:
                 self.request = (t, f'{REAIM}: X_Ft predicted from the target estimate of t = {t:.2f} s is '
