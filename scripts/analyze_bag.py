@@ -14,11 +14,12 @@ different route than flyby_planner.summary takes, from truth alone:
 * grasp time: the stamp of the last planner/grasp published before the supervisor's decision (the
   grasp the mission aimed at; the summary reads the supervisor's decision event); the fly-by offset
   delta r from the last planner/flyby_target, |X_Ft| - |x_g| (eq 20; the summary reads the planner's
-  plan_selected event);
+  plan_selected event); a docking's final range from guidance's docking_started;
 * capture errors: the chaser at t_g by cubic Hermite interpolation of truth position and velocity,
   the target attitude by propagating the nearest truth sample with its body rate (the summary
-  interpolates linearly and by slerp). Shared with the summary: the fly-by target point of a given
-  attitude (seed 000 eq 8-9, 20-21, flyby_planner.grasp.flyby_target_from_attitude), the one physics;
+  interpolates linearly and by slerp). Shared with the summary: the target point in body axes
+  (flyby_planner.grasp.capture_target_body: eq 20 for a fly-by, the port's outward normal for a docking) and
+  its hill state at a given attitude (seed 000 eq 8-9), the one physics;
 * clearance: every truth sample against the target boxes by a second implementation (scipy rotation,
   closest point by clamping; the summary uses flyby_sim.dynamics.geometry); thrust inside the sphere:
   every thrusting step's end points; counts from the simulator's own events.
@@ -52,7 +53,7 @@ from scipy.spatial.transform import Rotation
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag, repair_bag
 from flyby_msgs_py.schema import ScenarioError
-from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.grasp import capture_target_body, grasp_from_attitude
 from flyby_planner.summary import least_clearance_index
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.scenario import load_scenario
@@ -104,9 +105,11 @@ def aimed_offset(flyby_target, x_grasp_body):
     return float(np.linalg.norm(flyby_target.position[-1]) - np.linalg.norm(x_grasp_body))
 
 
-def docked(events):
-    """True for a synchronized approach's docking (guidance's ``docking_started``)."""
-    return any(e['name'] == 'docking_started' for e in events)
+def docking_offset(events):
+    """The final range [m] from the port of a synchronized approach's docking (guidance's ``docking_started``), or
+    None without a docking."""
+    docking = [e['values'] for e in events if e['name'] == 'docking_started']
+    return float(docking[-1]['offset_m']) if docking else None
 
 
 def first_sample_at_or_after(t_samples, t):
@@ -174,7 +177,10 @@ def recompute(bag_dir, scenario, namespace=''):
         k = least_clearance_index(gaps)
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
         t_g = aimed_grasp_time(events, grasp)
-        if t_g is not None and rigid and docked(events):  # the IMU decoded only for a docking: it is large
+        docking_m = docking_offset(events)
+        if docking_m is not None:  # the port plus the final range along its outward normal (DESIGN §10)
+            offset_m = docking_m
+        if t_g is not None and rigid and docking_m is not None:  # the IMU decoded only for a docking: it is large
             imu_topic = c.absolute(c.SENSOR_CHASER_IMU, namespace)
             imu = read_bag(bag_dir, topics=[imu_topic]).get(imu_topic)
             if imu is not None:
@@ -193,7 +199,9 @@ def recompute(bag_dir, scenario, namespace=''):
             dt = t_g - target.t[j]
             q = (Rotation.from_rotvec((0.0, n * dt, 0.0)) * Rotation.from_quat(target.orientation_xyzw[j])
                  * Rotation.from_rotvec(w_body * dt)).as_quat()
-            x_ft, v_ft = flyby_target_from_attitude(q, w_body, x_grasp_body, offset_m, n)
+            x_target_body = capture_target_body('sync' if docking_m is not None else 'flyby', x_grasp_body, offset_m,
+                                                [(b.center_m, b.size_m) for b in scenario.target.geometry])
+            x_ft, v_ft = grasp_from_attitude(q, w_body, x_target_body, n)
             out['capture_position_error_m'] = float(np.linalg.norm(r - x_ft))
             out['capture_velocity_error_mps'] = float(np.linalg.norm(v - v_ft))
         if rigid:

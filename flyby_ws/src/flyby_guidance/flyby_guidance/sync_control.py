@@ -1,21 +1,22 @@
 """Stages 2-4 of the synchronized approach (seed 001 section 2, Fig 2-3, eq 2-3) and its abort, no ROS.
 
 After stage 1 (the phase-space link to the station, ``flyby_planner.sync.station``, flown by ``tracking``) the
-chaser lives in the target's body frame: its reference is a point x(t) = rho(t) u of that frame, u the docking
-port's outward direction, turned into hill by the target's attitude PREDICTED from the latest estimate to the
-command's time (the target of seed 001 Table 1 is not in a principal spin: its rate moves in the body, so the
-prediction integrates Euler's equation, not a constant rate):
+chaser lives in the target's body frame: its reference is a point x(t) = x_port + s(t) u of that frame, u the
+docking port's outward direction (the face's normal, flyby_planner.sync.station), turned into hill by the target's
+attitude PREDICTED from the latest estimate to the command's time (the target of seed 001 Table 1 is not in a
+principal spin: its rate moves in the body, so the prediction integrates Euler's equation, not a constant rate):
 
-* stage 2, attitude synchronization (``ATTITUDE_SYNC``): rho = station range; the attitude goal is the target's
-  attitude times a fixed relative orientation (chaser +x along -u, at the port; chosen at the stage's start as
-  the smallest rotation from the chaser's relative orientation then), its rate and acceleration the target's:
+* stage 2, attitude synchronization (``ATTITUDE_SYNC``): x at the station (``station_range_m`` from the centre of
+  mass); the attitude goal is the target's attitude times a fixed relative orientation (chaser +x along -u, at
+  the port; chosen at the stage's start as the smallest rotation from the chaser's relative orientation then), its
+  rate and acceleration the target's:
   ``attitude_control``'s tracking law on the wheels (seed 001 eq 3 with the wheels' momentum). Done when the
   estimated relative attitude and rate errors stay within their tolerances for ``settle_s``;
 * stage 3, orbiting (``ORBITING``): the same hold for ``orbiting_fraction`` of a rotation cycle 2 pi / |omega|
   (seed 001: half);
-* stage 4, docking (``DOCKING``): rho(t) from the station range to the final range (the port plus the final
-  offset) along a quintic with zero rate and acceleration at both ends over ``docking_duration_s``: radial in the
-  body frame, a spiral in hill (Fig 3); then the final point is held until the capture.
+* stage 4, docking (``DOCKING``): s(t) from the station to the final range (planner.offset_m from the port)
+  along a quintic with zero rate and acceleration at both ends over ``docking_duration_s``: a straight line in the
+  body frame (seed 001: radial), a spiral in hill (Fig 3); then the final point is held until the capture.
 
 The translation law (seed 001 eq 2 with the control force): with the reference r_ref, v_ref, a_ref of the body
 point (``flyby_sim.dynamics.attitude.moving_body_point_state``: x'' + 2 w x x' + w' x x + w x (w x x) in the body,
@@ -28,7 +29,7 @@ f the relative motion without thrust (``nonlinear_relative_accel``), w_c the fee
 turning at |omega| takes r |omega|^2 (0.67 m/s^2 at 5 m and 21 deg/s).
 
 **Abort** (any stage): retreat along the port's outward direction (the chaser sits on that line in stages 2-4; in
-stage 1 the direction away from the target's centre of mass) at the bound until the outward speed reaches
+stage 1 along the line of sight away from the target's centre of mass) at the bound until the outward speed reaches
 ``retreat_speed_mps`` (a rigid rotation moves the body point under the chaser across the line of sight, not
 along it), at most ``retreat_max_s``; then nothing: the chaser drifts away on a line that leaves the target's circle.
 
@@ -43,7 +44,7 @@ import numpy as np
 
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidanceConfig, PointingGoal
-from flyby_planner.sync.station import station_geometry
+from flyby_planner.sync.approach import sync_station_geometry
 from flyby_sim.dynamics.attitude import euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
 from flyby_sim.dynamics.rotation import (
@@ -76,9 +77,8 @@ STAGE_DRIFT = 'drift'
 class SyncConfig:
     """The synchronized approach's settings (planner.sync, docs/synchronized.md)."""
 
-    x_port_body_m: tuple  # the docking port (the scenario's grasp point), target body axes [m]
-    station_range_m: float  # from the target's centre of mass [m]
-    final_range_m: float  # from the port [m] (planner.offset_m)
+    geometry: object  # the docking line (flyby_planner.sync.station.StationGeometry); None without a port on the
+    # target's surface, for which the planner refuses the synchronized approach (plan_sync)
     docking_duration_s: float
     orbiting_fraction: float  # of a rotation cycle 2 pi / |omega|
     frequency_rad_s: float  # the translation feedback's natural frequency
@@ -98,9 +98,12 @@ def sync_config_from_scenario(scenario):
     the default layout's weakest direction, less 3 sigma of the magnitude error)."""
     s, th = scenario.planner.sync, scenario.chaser.thrusters
     accel = 2.0 * th.max_thrust_n / scenario.chaser.mass_kg if s.accel_max_mps2 is None else s.accel_max_mps2
+    try:
+        geometry = sync_station_geometry(scenario)
+    except ValueError:
+        geometry = None
     return SyncConfig(
-        x_port_body_m=tuple(scenario.target.grasp_point_body_m), station_range_m=s.station_range_m,
-        final_range_m=scenario.planner.offset_m, docking_duration_s=s.docking_duration_s,
+        geometry=geometry, docking_duration_s=s.docking_duration_s,
         orbiting_fraction=s.orbiting_fraction, frequency_rad_s=s.tracking_frequency_rad_s,
         accel_max_mps2=accel * (1.0 - 3.0 * th.magnitude_error_sigma),
         attitude_tolerance_rad=math.radians(s.attitude_tolerance_deg),
@@ -109,9 +112,9 @@ def sync_config_from_scenario(scenario):
         radius_m=scenario.orbit_radius_m, target_inertia=np.asarray(scenario.target_inertia, dtype=float))
 
 
-def radial_profile(t, t_start, duration_s, rho_from_m, rho_to_m):
-    """(rho [m], rho' [m/s], rho'' [m/s^2]) of the docking: the quintic 10 s^3 - 15 s^4 + 6 s^5 from rho_from_m at
-    t_start to rho_to_m after duration_s (zero rate and acceleration at both ends), constant outside."""
+def docking_profile(t, t_start, duration_s, rho_from_m, rho_to_m):
+    """(rho [m], rho' [m/s], rho'' [m/s^2]) along the docking line: the quintic 10 s^3 - 15 s^4 + 6 s^5 from
+    rho_from_m at t_start to rho_to_m after duration_s (zero rate and acceleration at both ends), constant outside."""
     s = min(max((t - t_start) / duration_s, 0.0), 1.0)
     d = rho_to_m - rho_from_m
     inside = 0.0 < s < 1.0
@@ -121,13 +124,14 @@ def radial_profile(t, t_start, duration_s, rho_from_m, rho_to_m):
     return rho_from_m + d * shape, d * rate, d * accel
 
 
-def body_point_reference(q_hill_from_body, omega_body, inertia, u_body, rho, rho_dot, rho_ddot, n):
-    """(r_hill [m], v_hill [m/s], a_hill [m/s^2]) of the point rho u_body of a torque-free body (seed 001 eq 3 with
-    no torque for the target's omega')."""
+def body_point_reference(q_hill_from_body, omega_body, inertia, x0_body, u_body, rho, rho_dot, rho_ddot, n):
+    """(r_hill [m], v_hill [m/s], a_hill [m/s^2]) of the point x0_body + rho u_body of a torque-free body moving
+    along u_body at rho' and rho'' (seed 001 eq 3 with no torque for the target's omega')."""
     w = np.asarray(omega_body, dtype=float)
     w_dot = euler_rate(w, inertia, np.linalg.inv(inertia))
     u = np.asarray(u_body, dtype=float)
-    return moving_body_point_state(quat_to_matrix(q_hill_from_body), w, w_dot, rho * u, rho_dot * u, rho_ddot * u, n)
+    return moving_body_point_state(quat_to_matrix(q_hill_from_body), w, w_dot, np.asarray(x0_body, dtype=float)
+                                   + rho * u, rho_dot * u, rho_ddot * u, n)
 
 
 def hold_acceleration(ref_estimate, ref_mid, r_hill, v_hill, config):
@@ -185,7 +189,7 @@ class SyncGuidance:
 
     def __init__(self, config):
         self.config = config
-        self.geometry = station_geometry(config.x_port_body_m, config.station_range_m, config.final_range_m)
+        self.geometry = config.geometry
         self.dynamics = ErrorStateDynamics(config.target_inertia)
         self.stage = None
         self.t_arrival = None
@@ -193,6 +197,7 @@ class SyncGuidance:
         self.t_settled = None  # since when the attitude errors are within tolerance
         self.t_docking = self.t_grasp = None
         self.t_retreat = None
+        self.retreat_from_hold = False  # the abort came in stages 2-4, on the port's line
         self.peak_accel_mps2 = {}  # by stage: the largest commanded thrust acceleration
 
     @property
@@ -208,7 +213,7 @@ class SyncGuidance:
     def abort(self, t):
         """An abort at t: retreat (once)."""
         if self.stage is not None and self.stage not in (STAGE_RETREAT, STAGE_DRIFT):
-            self.stage, self.t_retreat = STAGE_RETREAT, t
+            self.retreat_from_hold, self.stage, self.t_retreat = self.holding, STAGE_RETREAT, t
 
     def command(self, t, t_apply, hold_s, r_hill, v_hill, q_hill_from_chaser, omega_chaser_body, target):
         """SyncCommand for the estimate of t applied over [t_apply, t_apply + hold_s], or None in stage 1 before the
@@ -239,18 +244,18 @@ class SyncGuidance:
             events += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now)
         if self.stage == STAGE_ORBITING and t_apply >= self.t_docking:
             self.stage = STAGE_DOCKING
-            events.append(('OK', 'docking_started', f'docking from {geo.station_range_m:g} m to the final range '
-                                                     f'{cfg.final_range_m:g} m from the port by t = '
+            events.append(('OK', 'docking_started', f'docking from {geo.station_offset_m:.3g} m to the final range '
+                                                     f'{geo.final_range_m:g} m from the port by t = '
                                                      f'{self.t_grasp:.2f} s',
                            {'t_docking_s': self.t_docking, 't_grasp_s': self.t_grasp,
-                            'offset_m': cfg.final_range_m}))
-        profile = (lambda s: radial_profile(s, self.t_docking, cfg.docking_duration_s, geo.station_range_m,
-                                            geo.final_range_m)) if self.stage == STAGE_DOCKING else \
-            (lambda s: (geo.station_range_m, 0.0, 0.0))
-        ref_now = body_point_reference(now.q_hill_from_body, now.omega_body, cfg.target_inertia, geo.u_body,
-                                       *profile(t), cfg.n)
-        ref_mid = body_point_reference(mid.q_hill_from_body, mid.omega_body, cfg.target_inertia, geo.u_body,
-                                       *profile(t_mid), cfg.n)
+                            'offset_m': geo.final_range_m}))
+        profile = (lambda s: docking_profile(s, self.t_docking, cfg.docking_duration_s, geo.station_offset_m,
+                                             geo.final_range_m)) if self.stage == STAGE_DOCKING else \
+            (lambda s: (geo.station_offset_m, 0.0, 0.0))
+        ref_now = body_point_reference(now.q_hill_from_body, now.omega_body, cfg.target_inertia, geo.x_port_body,
+                                       geo.u_body, *profile(t), cfg.n)
+        ref_mid = body_point_reference(mid.q_hill_from_body, mid.omega_body, cfg.target_inertia, geo.x_port_body,
+                                       geo.u_body, *profile(t_mid), cfg.n)
         a = hold_acceleration(ref_now, ref_mid, np.asarray(r_hill, float), np.asarray(v_hill, float), cfg)
         self.peak_accel_mps2[self.stage] = max(self.peak_accel_mps2.get(self.stage, 0.0), float(np.linalg.norm(a)))
         return SyncCommand(a, goal, tuple(events))
@@ -284,7 +289,8 @@ class SyncGuidance:
         cfg = self.config
         r = np.asarray(r_hill, dtype=float)
         dist = float(np.linalg.norm(r))
-        u = r / dist if dist > 0.0 else quat_rotate(now.q_hill_from_body, self.geometry.u_body)
+        u = quat_rotate(now.q_hill_from_body, self.geometry.u_body) if self.retreat_from_hold or dist == 0.0 else \
+            r / dist
         outward = float(np.asarray(v_hill, dtype=float) @ u)
         if outward >= cfg.retreat_speed_mps or t - self.t_retreat >= cfg.retreat_max_s:
             self.stage = STAGE_DRIFT

@@ -18,12 +18,13 @@ from flyby_guidance.sync_control import (
     SyncConfig,
     attitude_errors,
     body_point_reference,
+    docking_profile,
     hold_acceleration,
-    radial_profile,
     relative_goal_orientation,
     sync_goal,
 )
 from flyby_msgs_py import contract as c
+from flyby_planner.sync.station import station_geometry
 from flyby_sim.dynamics.attitude import AttitudePropagator, attitude_ahead, euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel, q_hill_from_body, rk4_step
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator, ReactionWheels
@@ -44,7 +45,8 @@ SERVICER_INERTIA = np.diag([13.0, 38.0, 35.0])
 N = 0.0011596  # 200 km circular orbit [rad/s]
 RADIUS = 6578137.0
 U = np.array((1.0, 0.0, 0.0))
-CONFIG = SyncConfig(x_port_body_m=(1.0, 0.0, 0.0), station_range_m=5.0, final_range_m=1.0, docking_duration_s=40.0,
+ZERO = np.zeros(3)
+CONFIG = SyncConfig(geometry=station_geometry(U, U, 5.0, 1.0), docking_duration_s=40.0,
                     orbiting_fraction=0.5, frequency_rad_s=1.0, accel_max_mps2=1.0,
                     attitude_tolerance_rad=math.radians(0.2), rate_tolerance_rad_s=math.radians(0.1), settle_s=2.0,
                     retreat_speed_mps=0.3, retreat_max_s=10.0, n=N, radius_m=RADIUS, target_inertia=TARGET_INERTIA)
@@ -66,7 +68,7 @@ def test_station_fixed_in_body_frame_against_closed_form_and_numerical_derivativ
     for k in (1000, 7345, 15000):
         q, w = states[k]
         w_dot = euler_rate(w, TARGET_INERTIA, np.linalg.inv(TARGET_INERTIA))
-        r_k, v_k, a_k = body_point_reference(q, w, TARGET_INERTIA, U, 5.0, 0.0, 0.0, 0.0)
+        r_k, v_k, a_k = body_point_reference(q, w, TARGET_INERTIA, ZERO, U, 5.0, 0.0, 0.0, 0.0)
         assert quat_to_matrix(q).T @ r_k == pytest.approx(x, abs=1e-12)
         assert v_k == pytest.approx((r[k + 1] - r[k - 1]) / 2e-3, abs=1e-6)
         assert a_k == pytest.approx((r[k + 1] - 2 * r[k] + r[k - 1]) / 1e-6, abs=2e-5)
@@ -101,14 +103,14 @@ def test_seed001_holding_5m_on_a_21_deg_s_tumbler_takes_r_omega_squared():
     station is: 0.67-0.75 m/s^2 along its cycle for a station on body +y, 0.26-0.33 on body +x (200 s, measured)."""
     spin = math.radians(21.0)
     inertia = np.diag([100.0, 100.0, 200.0])
-    r, v, a = body_point_reference((0.0, 0.0, 0.0, 1.0), (0.0, 0.0, spin), inertia, U, 5.0, 0.0, 0.0, N)
+    r, v, a = body_point_reference((0.0, 0.0, 0.0, 1.0), (0.0, 0.0, spin), inertia, ZERO, U, 5.0, 0.0, 0.0, N)
     thrust = a - nonlinear_relative_accel(r, v, N, RADIUS)
     assert np.linalg.norm(thrust) == pytest.approx(5.0 * spin ** 2, rel=1e-3)
     assert 5.0 * spin ** 2 == pytest.approx(0.6717, abs=1e-4)
     for u, low, high in (((0.0, 1.0, 0.0), 0.66, 0.75), ((1.0, 0.0, 0.0), 0.25, 0.34)):
         needs = []
         for q, w in _target(np.arange(0.0, 200.0, 0.5)):
-            r, v, a = body_point_reference(q, w, TARGET_INERTIA, u, 5.0, 0.0, 0.0, N)
+            r, v, a = body_point_reference(q, w, TARGET_INERTIA, ZERO, u, 5.0, 0.0, 0.0, N)
             needs.append(np.linalg.norm(a - nonlinear_relative_accel(r, v, N, RADIUS)))
         assert low < min(needs) and max(needs) < high
 
@@ -120,8 +122,8 @@ def test_seed001_docking_is_radial_in_the_body_frame_and_a_spiral_in_hill():
     states = _target(t_s)
     ranges, angles, prev = [], [], None
     for t, (q, w) in zip(t_s, states, strict=True):
-        rho = radial_profile(t, 0.0, 40.0, 5.0, 2.0)
-        r, _, _ = body_point_reference(q, w, TARGET_INERTIA, U, *rho, 0.0)
+        rho = docking_profile(t, 0.0, 40.0, 5.0, 2.0)
+        r, _, _ = body_point_reference(q, w, TARGET_INERTIA, ZERO, U, *rho, 0.0)
         body = quat_to_matrix(q).T @ r
         assert np.linalg.norm(np.cross(body, U)) < 1e-12 and body @ U > 0.0
         ranges.append(np.linalg.norm(r))
@@ -134,10 +136,10 @@ def test_seed001_docking_is_radial_in_the_body_frame_and_a_spiral_in_hill():
     # the profile's derivatives
     h = 1e-5
     for t in (3.0, 17.0, 29.0):
-        rho, rate, acc = radial_profile(t, 0.0, 40.0, 5.0, 2.0)
-        assert rate == pytest.approx((radial_profile(t + h, 0, 40, 5, 2)[0] - radial_profile(t - h, 0, 40, 5, 2)[0])
+        rho, rate, acc = docking_profile(t, 0.0, 40.0, 5.0, 2.0)
+        assert rate == pytest.approx((docking_profile(t + h, 0, 40, 5, 2)[0] - docking_profile(t - h, 0, 40, 5, 2)[0])
                                      / (2 * h), abs=1e-8)
-        assert acc == pytest.approx((radial_profile(t + h, 0, 40, 5, 2)[1] - radial_profile(t - h, 0, 40, 5, 2)[1])
+        assert acc == pytest.approx((docking_profile(t + h, 0, 40, 5, 2)[1] - docking_profile(t - h, 0, 40, 5, 2)[1])
                                     / (2 * h), abs=1e-7)
 
 
@@ -149,7 +151,7 @@ def test_hold_law_closes_on_the_tumbling_station_under_eq2():
 
     def station(t):
         q_eci, w = prop.state_at(t)
-        return body_point_reference(q_hill_from_body(t, N, q_eci), w, TARGET_INERTIA, U, 5.0, 0.0, 0.0, N)
+        return body_point_reference(q_hill_from_body(t, N, q_eci), w, TARGET_INERTIA, ZERO, U, 5.0, 0.0, 0.0, N)
 
     r0, v0, _ = station(0.0)
     y = np.concatenate((r0 + (0.3, -0.1, 0.1), v0 + (0.1, 0.0, -0.05)))
@@ -234,8 +236,9 @@ def test_synchronized_attitude_under_the_thrusters_torque_and_the_command_delay(
 
 def test_escape_retreats_along_the_port_line_then_drifts():
     """GuidanceCore on seweryn_tumbling: on the station the sync command pulls toward the target (the hold);
-    after the supervisor's ESCAPE it thrusts outward along the port's line (r / |r|: the chaser sits on it) at the
-    bound, and once the outward speed reaches retreat_speed_mps it commands no force (the drift)."""
+    after the supervisor's ESCAPE it thrusts outward along the port's line (its outward normal at the estimate's
+    time, predicted from the target estimate) at the bound, and once the outward speed reaches retreat_speed_mps
+    it commands no force (the drift)."""
     sc = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
     core = GuidanceCore(sc)
     core.on_trajectory(np.array((0.0, 10.0)), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)))
@@ -258,7 +261,9 @@ def test_escape_retreats_along_the_port_line_then_drifts():
     core.on_phase(c.PHASE_ESCAPE)
     f_retreat, _ = force_hill(10.1, v)
     accel_max = core.sync.config.accel_max_mps2
-    assert f_retreat / np.linalg.norm(f_retreat) == pytest.approx(u_hill, abs=1e-3)  # turned 0.15 s ahead at n
+    q_now, _ = AttitudePropagator(q_target, w_target, sc.target_inertia).state_at(0.1)  # the estimate carried to t
+    u_now = quat_to_matrix(q_now) @ np.array((0.0, 1.0, 0.0))  # (hill's own 1e-4 rad turn in 0.1 s left out)
+    assert f_retreat / np.linalg.norm(f_retreat) == pytest.approx(u_now, abs=1e-3)
     assert np.linalg.norm(f_retreat) == pytest.approx(sc.chaser.mass_kg * accel_max, rel=1e-3)
     f_drift, names = force_hill(10.2, v + 0.31 * u_hill)
     assert 'retreat_ended' in names and np.linalg.norm(f_drift) == 0.0

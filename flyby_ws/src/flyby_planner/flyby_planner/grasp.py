@@ -42,6 +42,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from flyby_estimation.target_motion import body_point_in_hill
+from flyby_sim.dynamics.geometry import outward_normal
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
@@ -317,6 +318,28 @@ def flyby_target_point(x_g, v_g, offset_m):
         raise ValueError(f'offset_m {offset_m} m would put the target point through the centre of mass '
                          f'(|x_g| = {r} m)')
     return k * x, k * v  # eq 20, eq 21
+
+
+def docking_axis(x_port_body, boxes):
+    """The docking port's outward direction (3,), body axes: the outward normal of the target's surface at the port
+    (boxes: (center_m, size_m) pairs, body axes). A ValueError names the port when it is not on the surface."""
+    axis = outward_normal(x_port_body, boxes)
+    if axis is None:
+        raise ValueError(f'the docking port (target.grasp_point_body_m) {np.round(x_port_body, 4).tolist()} m is not '
+                         'on the outer surface of target.geometry: its outward direction is undefined')
+    return axis
+
+
+def capture_target_body(method, x_grasp_body, offset_m, boxes):
+    """The body point [m, body axes] the chaser's centre of mass must be at, moving with the body, at the grasp
+    time (DESIGN §10): the synchronized approach's final point, the port plus offset_m along its outward direction
+    (``docking_axis``: the line it docks along, normal to the face); for the fly-by and the optimal approach
+    seed 000 eq 20, the grasp point moved offset_m outward from the centre of mass (their velocities, eq 21, are
+    the body point's)."""
+    x = np.asarray(x_grasp_body, dtype=float)
+    if method == 'sync':
+        return x + offset_m * docking_axis(x, boxes)
+    return (1.0 + offset_m / float(np.linalg.norm(x))) * x  # eq 20
 
 
 def offset_of_flyby_target(x_ft, x_grasp_body):

@@ -51,6 +51,7 @@ from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_p
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
+from flyby_planner.grasp import capture_target_body
 from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach
 from flyby_planner.optimal.mutual import MovingObstacle, least_separation
 from flyby_planner.optimal.problem import GraspTerminal, TargetMotion
@@ -215,11 +216,17 @@ class PlannerCore:
         target = self.targets.last_at_or_before(t - 1e-6)
         if target is None:
             return []
-        prediction, (x_ft, v_ft) = self._end_point(target, t_grasp, self.scenario.planner.offset_m)
+        t_t, (q_hill_from_body, omega_body, _) = target
+        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t_t, q_hill_from_body,
+                                              omega_body, t_grasp)
+        sc = self.scenario
+        x_final_body = capture_target_body('sync', self.config.x_grasp_body_m, sc.planner.offset_m,
+                                           [(b.center_m, b.size_m) for b in sc.target.geometry])
         port = prediction.track(self.config.x_grasp_body_m, (t_grasp,))
+        final = prediction.track(x_final_body, (t_grasp,))
         at = prediction.state(t_grasp)
         return [AimUpdate(GraspState(t_grasp, port.r_hill[0], port.v_hill[0], at.q_hill_from_body, at.omega_body),
-                          x_ft, v_ft)]
+                          final.r_hill[0], final.v_hill[0])]
 
     def _end_point(self, target, t_f, offset_m):
         """(the motion predicted from a buffered target estimate (t, (q, omega, blocks)) to t_f, the end point X_Ft,

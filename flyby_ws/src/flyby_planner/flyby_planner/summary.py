@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.grasp import capture_target_body, grasp_from_attitude
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.geometry import clearance
@@ -244,8 +244,9 @@ def planned_flyby(events):
     return float(selected[-1]['offset_m']), None if duration is None else float(duration)
 
 
-def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
-    """Truth chaser at t_g against X_Ft, V_Ft recomputed from the true target attitude at t_g (DESIGN §7).
+def capture_errors(t_g, chaser, target, x_target_body, n):
+    """Truth chaser at t_g against the target point x_target_body (body axes, flyby_planner.grasp.capture_target_body:
+    X_Ft, V_Ft of eq 20-21 for a fly-by) recomputed from the true target attitude at t_g (DESIGN §7, §10).
 
     Truth is sampled every step: the chaser is interpolated linearly (its error is a dt^2 / 8 ~ 1e-7 m),
     the attitude by slerp and the body rate linearly between the samples around t_g.
@@ -259,7 +260,7 @@ def capture_errors(t_g, chaser, target, x_grasp_body, offset_m, n):
     pair = Rotation.from_quat(target.orientation_xyzw[i - 1:i + 1])
     q = Slerp(target.t[i - 1:i + 1], pair)([t_g]).as_quat()[0]
     w = np.array([np.interp(t_g, target.t, target.angular[:, k]) for k in range(3)])
-    x_ft, v_ft = flyby_target_from_attitude(q, w, x_grasp_body, offset_m, n)
+    x_ft, v_ft = grasp_from_attitude(q, w, x_target_body, n)
     return float(np.linalg.norm(r - x_ft)), float(np.linalg.norm(v - v_ft))
 
 
@@ -341,8 +342,10 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         # A collision is contact before a capture (afterwards the chaser holds the target, DESIGN §10).
         free = t_common <= t_g if c.PHASE_CAPTURE in phases and t_g is not None else np.ones(len(gaps), bool)
         collided = bool(np.any(gaps[free] < 0.0))
-        e_pos, e_vel = capture_errors(t_g, chaser, target, np.array(scenario.target.grasp_point_body_m),
-                                      offset_m or scenario.planner.offset_m, scenario.mean_motion_rad_s)
+        if t_g is not None:
+            x_target_body = capture_target_body(chosen_method(events), scenario.target.grasp_point_body_m,
+                                                offset_m or scenario.planner.offset_m, boxes)
+            e_pos, e_vel = capture_errors(t_g, chaser, target, x_target_body, scenario.mean_motion_rad_s)
 
     pointing = pointing_figures(chaser, events, t_g) if has_chaser and scenario.chaser.model == 'rigid_body' else {}
     approach = approach_figures(chaser, thrust, events, scenario) if has_chaser else {}

@@ -42,7 +42,7 @@ from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_e
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
-from flyby_planner.grasp import flyby_target_point, grasp_from_attitude
+from flyby_planner.grasp import capture_target_body, grasp_from_attitude
 from flyby_planner.keepout import swept_region
 from flyby_planner.plan import avoidance_burn, planner_config_from_scenario
 from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
@@ -136,6 +136,7 @@ class PhaseMachine:
         self.t_i = None
         self.t_grasp = None
         self.offset_m = None  # the plan's fly-by offset delta r [m]
+        self.method = None  # the plan's method (DESIGN §10)
         self.t_entered = 0.0
         self.progress = {}  # watched node -> sim time it last reported
         self.decision = None
@@ -177,13 +178,13 @@ class PhaseMachine:
         if name == 'plan_selected' and values.get('method') == 'optimal' and self.phase in (
                 c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH):
             self.t_grasp = float(values['t_grasp_s'])
-            self.offset_m = float(values['offset_m'])
+            self.method, self.offset_m = 'optimal', float(values['offset_m'])
             if self.phase == c.PHASE_OPTIMAL_APPROACH:
                 return []
             return self._go(t, c.PHASE_OPTIMAL_APPROACH, f'optimal approach selected: grasp at t = '
                                                          f'{self.t_grasp:.2f} s', {'t_grasp_s': self.t_grasp})
         if name == 'plan_selected' and values.get('method') == 'sync':
-            self.offset_m = float(values['offset_m'])
+            self.method, self.offset_m = 'sync', float(values['offset_m'])
             if self.phase != c.PHASE_PLANNING:
                 return []
             return self._go(t, c.PHASE_SYNC_APPROACH, f'synchronized approach selected: station at t = '
@@ -197,6 +198,7 @@ class PhaseMachine:
         if name == 'plan_selected' and self.phase == c.PHASE_PLANNING:
             self.t_i = float(values['t_i_s'])
             self.t_grasp = float(values['t_grasp_s'])
+            self.method = values.get('method', 'flyby')
             self.offset_m = float(values['offset_m']) if 'offset_m' in values else None
             return self._go(t, c.PHASE_TERMINAL_APPROACH, f'plan selected: grasp at t = {self.t_grasp:.2f} s, '
                                                           f'injection at {self.t_i:.2f} s',
@@ -330,10 +332,12 @@ class SupervisorCore:
             self.machine.t_grasp = self.decision_at[0]
         target = self.targets.last_at_or_before(self.machine.t_grasp) or self.targets.first_at_or_after(
             self.machine.t_grasp)
+        sc = self.scenario
+        x_target_body = capture_target_body(self.machine.method, self.planner_config.x_grasp_body_m,
+                                            self.machine.offset_m or sc.planner.offset_m,
+                                            [(b.center_m, b.size_m) for b in sc.target.geometry])
         decision = decide_capture(self.decision_at, target[1], self.machine.t_grasp, self.dynamics, self.n,
-                                  self.planner_config.x_grasp_body_m,
-                                  self.machine.offset_m or self.scenario.planner.offset_m,
-                                  self.machine.config)
+                                  self.planner_config.x_grasp_body_m, x_target_body, self.machine.config)
         return self._apply(self.machine.decide(self.decision_at[0], decision))
 
     def _escape_burn(self, t):
@@ -386,15 +390,16 @@ class AvoidanceBurn:
     dv_hill: np.ndarray
 
 
-def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, offset_m, config):
+def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, x_target_body, config):
     """The capture decision at the grasp time t_grasp from a chaser estimate (t, r_hill, v_hill) and a
     target estimate (t, q_hill_from_body, omega_body), both carried to t_g: the chaser along CW (eq 22),
-    the target by its torque-free motion (eq 4); the fly-by target point from eq 8-9, 20-21."""
+    the target by its torque-free motion (eq 4); the target point is the body point x_target_body
+    (flyby_planner.grasp.capture_target_body: eq 20-21 for a fly-by) in hill by eq 8-9."""
     t_c, r, v = chaser
     state = cw_coast(r, v, t_grasp - t_c, n)
     t_t, q_hb, omega_body = target
     t_at = max(t_grasp, t_t)  # an estimate newer than t_g (none older was kept): its own time
     s = prediction_from_estimate(dynamics, n, t_t, q_hb, omega_body, t_at).state(t_at)
-    x_g, v_g = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_grasp_body, n)
-    x_ft, v_ft = flyby_target_point(x_g, v_g, offset_m)
+    x_g, _ = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_grasp_body, n)
+    x_ft, v_ft = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_target_body, n)
     return capture_decision(state[:3], state[3:], x_g, x_ft, v_ft, config)

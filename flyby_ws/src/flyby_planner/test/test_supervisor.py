@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 from flyby_estimation.target_motion import ErrorStateDynamics
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
-from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.grasp import capture_target_body, flyby_target_from_attitude
 from flyby_planner.supervisor import (
     AvoidanceBurn,
     PhaseMachine,
@@ -136,7 +136,8 @@ def test_decide_capture_carries_both_estimates_to_the_grasp_time():
     q_t, w_t = truth.state_at(t_t)
     decision = decide_capture((t_c, r_c, v_c), (t_t, q_hill_from_body(t_t, n, q_t), w_t), t_g,
                               ErrorStateDynamics(inertia), n, np.array(sc.target.grasp_point_body_m),
-                              sc.planner.offset_m, CONFIG)
+                              capture_target_body('flyby', sc.target.grasp_point_body_m, sc.planner.offset_m, ()),
+                              CONFIG)
     coast = solve_ivp(lambda _t, y: np.concatenate((y[3:], cw_accel(y[:3], y[3:], n))), (t_c, t_g),
                       np.concatenate((r_c, v_c)), rtol=1e-12, atol=1e-12).y[:, -1]
     q_g, w_g = truth.state_at(t_g)

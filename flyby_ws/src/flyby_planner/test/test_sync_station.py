@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_planner.grasp import capture_target_body
+from flyby_planner.sync.approach import sync_station_geometry
 from flyby_planner.sync.station import (
     PhaseSpaceLink,
     keepout_radius,
@@ -18,6 +20,7 @@ from flyby_planner.sync.station import (
     select_arrival,
     station_geometry,
 )
+from flyby_sim.dynamics.geometry import outward_normal
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply
 from flyby_sim.scenario import load_scenario, load_yaml_mapping, scenario_from_dict
@@ -25,7 +28,7 @@ from flyby_sim.scenario import load_scenario, load_yaml_mapping, scenario_from_d
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 SCENARIO = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
 N, RADIUS = SCENARIO.mean_motion_rad_s, SCENARIO.orbit_radius_m
-GEOMETRY = station_geometry(SCENARIO.target.grasp_point_body_m, 5.0, 1.0)
+GEOMETRY = sync_station_geometry(SCENARIO)
 KEEPOUT = keepout_radius([(b.center_m, b.size_m) for b in SCENARIO.target.geometry], SCENARIO.chaser.envelope_radius_m,
                          0.1)
 R0, V0, T0 = np.array((-1000.0, 0.0, 0.0)), np.zeros(3), 65.0
@@ -46,15 +49,28 @@ TRUTH_TRACK = _track(SCENARIO.q_hill_from_body0, SCENARIO.omega_body0_rad_s)
 
 
 def test_station_geometry_is_on_the_ports_outward_line():
-    geo = station_geometry((1.0, 0.0, 0.0), 5.0, 1.0)
+    geo = station_geometry((1.0, 0.0, 0.0), (1.0, 0.0, 0.0), 5.0, 1.0)
     assert geo.x_station_body == pytest.approx((5.0, 0.0, 0.0)) and geo.x_final_body == pytest.approx((2.0, 0, 0))
-    off_axis = station_geometry((1.0, 2.0, 2.0), 6.0, 1.0)  # eq 20-21: the offset is radial through the port
-    assert off_axis.u_body == pytest.approx(np.array((1.0, 2.0, 2.0)) / 3.0)
-    assert off_axis.final_range_m == pytest.approx(4.0) and off_axis.station_range_m == pytest.approx(6.0)
+    off_axis = station_geometry((1.0, 2.0, 2.0), (1.0, 0.0, 0.0), 6.0, 1.0)  # a port on the +x face, off its middle
+    assert off_axis.x_final_body == pytest.approx((2.0, 2.0, 2.0))
+    assert off_axis.station_range_m == pytest.approx(6.0)
+    assert off_axis.x_station_body[1:] == pytest.approx((2.0, 2.0)) and off_axis.station_offset_m > 1.0
     with pytest.raises(ValueError, match='station_range_m 1.5 m must exceed'):
-        station_geometry((1.0, 0.0, 0.0), 1.5, 1.0)
-    with pytest.raises(ValueError, match='docking port'):
-        station_geometry((0.0, 0.0, 0.0), 5.0, 1.0)
+        station_geometry((1.0, 0.0, 0.0), (1.0, 0.0, 0.0), 1.5, 1.0)
+    with pytest.raises(ValueError, match='a unit vector'):
+        station_geometry((1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 5.0, 1.0)
+
+
+def test_outward_normal_of_the_surface_at_the_port():
+    """A face's normal; the bisector on an edge; None off the surface or on a face buried in another box."""
+    bus = ((0.0, 0.0, 0.0), (2.0, 4.0, 4.0))
+    panel = ((0.0, 3.0, 0.0), (0.1, 2.0, 1.0))  # against the +y face
+    assert outward_normal((1.0, -0.4, 1.6), [bus]) == pytest.approx((1.0, 0.0, 0.0))
+    assert outward_normal((-0.3, 0.2, -2.0), [bus, panel]) == pytest.approx((0.0, 0.0, -1.0))
+    assert outward_normal((1.0, 2.0, 0.0), [bus]) == pytest.approx(np.array((1.0, 1.0, 0.0)) / math.sqrt(2.0))
+    assert outward_normal((0.5, 0.0, 0.0), [bus]) is None and outward_normal((1.2, 0.0, 0.0), [bus]) is None
+    assert outward_normal((0.0, 2.0, 0.0), [bus, panel]) is None  # under the panel's root
+    assert outward_normal((0.8, 2.0, 1.5), [bus, panel]) == pytest.approx((0.0, 1.0, 0.0))  # beside it
 
 
 def test_link_meets_both_phase_space_points_and_its_thrust_is_what_eq2_lacks():
@@ -151,23 +167,32 @@ def test_the_hold_check_against_the_closed_form_and_a_spinner_too_fast_for_the_t
     assert f'> {HOLD_SHARE:g} x {bound:.3f} m/s^2' in plan.reason
 
 
-def test_a_port_whose_radial_line_brings_the_envelope_onto_the_face_is_refused():
-    """The docking line (the final point 1 m out along x_port / |x_port| to the station) against the bus, envelope
-    0.75 m: Table 1's port in the middle of the +y face leaves 1 - 0.75 = 0.25 m; a port off the middle of the +x face
-    (a campaign's draw, run 6 collided) has its final point 0.69 m from the box's edge, inside the envelope, and is
-    refused."""
+def test_a_port_off_the_middle_of_a_face_docks_along_the_faces_normal():
+    """The docking line (from the final point 1 m out from the port to the station) against the bus, envelope
+    0.75 m: Table 1's port in the middle of the +y face leaves 1 - 0.75 = 0.25 m. A port off the middle of the +x face
+    (the campaign's run 6): 1 m out along its radial line x_port / |x_port| (seed 001's) the envelope would reach
+    0.06 m into the box; along the face's normal +x it keeps 0.25 m, and the plan is flown."""
     from flyby_planner.plan import truth_prediction
     from flyby_planner.sync.approach import docking_line_clearance, plan_sync
 
     bus = [((0.0, 0.0, 0.0), (2.0, 4.0, 4.0))]
-    assert docking_line_clearance(station_geometry((0.0, 2.0, 0.0), 5.0, 1.0), bus, 0.75) == pytest.approx(0.25)
+    y = np.array((0.0, 1.0, 0.0))
+    assert docking_line_clearance(station_geometry((0.0, 2.0, 0.0), y, 5.0, 1.0), bus, 0.75) == pytest.approx(0.25)
     port = np.array((1.0, -0.409, 1.636))
-    final = port + port / np.linalg.norm(port)  # the closest point of the line: 0.51 m off +x, 0.47 m off +z
-    by_hand = float(np.linalg.norm(np.maximum(np.abs(final) - (1.0, 2.0, 2.0), 0.0))) - 0.75
-    assert docking_line_clearance(station_geometry(port, 5.0, 1.0), bus, 0.75) == pytest.approx(by_hand, abs=1e-12)
-    assert by_hand < 0.0
+    radial_final = port + port / np.linalg.norm(port)
+    assert float(np.linalg.norm(np.maximum(np.abs(radial_final) - (1.0, 2.0, 2.0), 0.0))) - 0.75 < -0.05
+    x = np.array((1.0, 0.0, 0.0))
+    assert docking_line_clearance(station_geometry(port, x, 5.0, 1.0), bus, 0.75) == pytest.approx(0.25)
     d = copy.deepcopy(load_yaml_mapping(SCENARIOS / 'seweryn_tumbling.yaml'))
     d['target']['grasp_point_body_m'] = port.tolist()
     sc = scenario_from_dict(d, name='seweryn, a port off the middle of a face')
     plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
-    assert not plan.ok and 'the docking line of the port [1.0, -0.409, 1.636] comes -0.05' in plan.reason
+    assert plan.ok, plan.reason
+    geometry = sync_station_geometry(sc)
+    assert geometry.u_body == pytest.approx(x) and geometry.x_final_body == pytest.approx(port + x)
+    assert geometry.x_final_body == pytest.approx(capture_target_body('sync', port, 1.0, bus))  # DESIGN §10's point
+    d['target']['grasp_point_body_m'] = [0.5, 0.0, 0.0]  # inside the bus
+    sc = scenario_from_dict(d, name='seweryn, a port inside the bus')
+    plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
+    assert not plan.ok and 'the docking port (target.grasp_point_body_m) [0.5, 0.0, 0.0] m is not on the outer' \
+        in plan.reason

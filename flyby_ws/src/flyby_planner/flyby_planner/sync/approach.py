@@ -12,11 +12,11 @@ hold's, the acceleration of the station point fixed in the tumbling body, |omega
 (seed 001 eq 2 with the relative gravity left out, 1e-5 of it), over the predicted motion from the arrival to
 ``HOLD_CHECK_S`` later (stages 2-4 of Table 1 take about 60 s), within ``HOLD_SHARE`` of the bound (the rest is the
 feedback's). A target spinning too fast for the thrusters is refused with the figures (``NO_SAFE_PLAN``): a hold
-the thrusters cannot give drifts off the station into the tumbling body. So is a docking port whose radial line
-(stages 2-4 hold points rho u of the body, u = x_port / |x_port|, down to the final point |x_port| + offset) brings
-the chaser's envelope closer than ``planner.clearance_margin_m`` to the target's boxes: a port off the middle of a
-face has its radial line oblique to the face, and the final point 1 m out along it can be within the envelope's
-radius of the face (checked in body axes, where the line is fixed).
+the thrusters cannot give drifts off the station into the tumbling body. So is a port off the target's surface (no
+outward direction to dock along), and a docking line (stages 2-4 hold the points x_port + s u of the body, u the
+face's outward normal, from the station down to the final point, ``station.StationGeometry``) that brings the
+chaser's envelope closer than ``planner.clearance_margin_m`` to the target's boxes (another box in the way; checked
+in body axes, where the line is fixed).
 """
 
 import dataclasses
@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from flyby_planner.grasp import docking_axis
 from flyby_planner.sync.station import keepout_radius, reselect_arrival, select_arrival, station_geometry
 from flyby_sim.dynamics.attitude import euler_rate
 from flyby_sim.dynamics.geometry import signed_distance_to_box
@@ -45,18 +46,29 @@ class SyncPlan:
     peak_accel_mps2: float = None
 
 
+def sync_station_geometry(scenario):
+    """The scenario's docking line (station.StationGeometry): its port (target.grasp_point_body_m), the outward
+    normal there, planner.sync.station_range_m and planner.offset_m. A ValueError names the port when it is off the
+    target's surface."""
+    port = scenario.target.grasp_point_body_m
+    axis = docking_axis(port, [(b.center_m, b.size_m) for b in scenario.target.geometry])
+    return station_geometry(port, axis, scenario.planner.sync.station_range_m, scenario.planner.offset_m)
+
+
 def plan_sync(scenario, prediction, t_start, r_start_hill, v_start_hill, previous=None):
     """SyncPlan of stage 1 from the chaser's state (r, v) at t_start [s] and the target's MotionPrediction (covering
     the arrival window); previous: the ArrivalChoice of the plan being flown (a re-solve)."""
     s = scenario.planner.sync
-    geometry = station_geometry(scenario.target.grasp_point_body_m, s.station_range_m, scenario.planner.offset_m)
+    try:
+        geometry = sync_station_geometry(scenario)
+    except ValueError as e:
+        return SyncPlan(False, f'synchronized approach: {e}')
     line_m = docking_line_clearance(geometry, [(b.center_m, b.size_m) for b in scenario.target.geometry],
                                     scenario.chaser.envelope_radius_m)
     if line_m < scenario.planner.clearance_margin_m:
         port = np.round(scenario.target.grasp_point_body_m, 3).tolist()
         return SyncPlan(False, f'synchronized approach: the docking line of the port {port} comes {line_m:.3f} m '
-                               f'from the target (margin {scenario.planner.clearance_margin_m:g} m): its radial line '
-                               'is oblique to the face')
+                               f'from the target (margin {scenario.planner.clearance_margin_m:g} m)')
     keepout_m = keepout_radius([(b.center_m, b.size_m) for b in scenario.target.geometry],
                                scenario.chaser.envelope_radius_m, s.keepout_margin_m)
     n, radius = scenario.mean_motion_rad_s, scenario.orbit_radius_m
@@ -94,10 +106,10 @@ def plan_sync(scenario, prediction, t_start, r_start_hill, v_start_hill, previou
 
 
 def docking_line_clearance(geometry, boxes, envelope_radius_m, samples=200):
-    """The least gap [m] between the chaser's envelope on the docking line (rho u from the final point to the
-    station, body axes) and the target's boxes ((center, size) pairs, body axes)."""
-    rho = np.linspace(geometry.final_range_m, geometry.station_range_m, samples)
-    points = np.outer(rho, geometry.u_body)
+    """The least gap [m] between the chaser's envelope on the docking line (station.StationGeometry: from the final
+    point to the station, body axes) and the target's boxes ((center, size) pairs, body axes)."""
+    s = np.linspace(geometry.final_range_m, geometry.station_offset_m, samples)
+    points = geometry.x_port_body + np.outer(s, geometry.u_body)
     return float(np.min([signed_distance_to_box(points, c, z) for c, z in boxes], axis=0).min() - envelope_radius_m)
 
 

@@ -1,9 +1,13 @@
 """Stage 1 of the synchronized approach, seed 001 section 2 and eq 1: the station point, the arrival time and the
 phase-space link that reaches it.
 
-The station is the point of the target's body frame on the docking port's outward line (the radial direction of
-seed 000 eq 20-21 through the port) at ``station_range_m`` from the centre of mass: seed 001's circle of radius
-|r_alpha0,d| (5 m) that stage 3 orbits and stage 4 leaves radially for the final range of 1 m from the port.
+The station is the point of the target's body frame on the docking port's outward line (the line through the port
+along the outward normal of the face it sits on, flyby_planner.grasp.docking_axis) at ``station_range_m`` from the
+centre of mass: seed 001's circle of radius |r_alpha0,d| (5 m) that stage 3 orbits and stage 4 leaves along the
+line for the final range of 1 m from the port. Seed 001 docks radially: its port faces away from the centre of
+mass; for a port off the middle of a face the radial line is oblique to the face, and 1 m out along it the
+chaser's envelope (0.75 m) reaches into the face (issue 15's campaign: 58 of 100 ports), so the line is the face's
+normal, which is the radial line for a port in the middle of a face (Table 1's scenario).
 
 **Eq 1** as printed is garbled ("min_v min_r [ |r_alpha0,dorb;x(t)| / dt - v_alpha0,dorb(t) ] -> t_s_opt < t <
 t_f_opt"); we read it with the sentence before it ("a minimum difference between approaching and final velocity")
@@ -47,38 +51,53 @@ _CLEARANCE_SAMPLES = 200
 
 @dataclasses.dataclass(frozen=True)
 class StationGeometry:
-    """The docking port's outward unit vector u_body, the station point (stages 2-3) and the final point (the end of
-    stage 4, the capture's target point of DESIGN §10: eq 20-21 with the final range as offset), body axes [m]."""
+    """The docking line in body axes: the port x_port_body [m], its outward unit vector u_body, the station (stages
+    2-3) station_offset_m [m] out along u from the port and the final point (the end of stage 4, the capture's
+    target point of DESIGN §10) final_range_m [m] out."""
 
+    x_port_body: np.ndarray
     u_body: np.ndarray
-    x_station_body: np.ndarray
-    x_final_body: np.ndarray
+    station_offset_m: float
+    final_range_m: float
+
+    def point(self, s_m):
+        """The body point s_m [m] out along the line from the port."""
+        return self.x_port_body + s_m * self.u_body
+
+    @property
+    def x_station_body(self):
+        return self.point(self.station_offset_m)
+
+    @property
+    def x_final_body(self):
+        return self.point(self.final_range_m)
 
     @property
     def station_range_m(self):
+        """Distance of the station from the centre of mass [m]."""
         return float(np.linalg.norm(self.x_station_body))
 
-    @property
-    def final_range_m(self):
-        """Distance of the final point from the centre of mass [m]."""
-        return float(np.linalg.norm(self.x_final_body))
 
-
-def station_geometry(x_port_body, station_range_m, final_range_m):
-    """StationGeometry of a docking port x_port_body [m] (body axes, its outward direction radial as in seed 000
-    eq 20-21), the station at station_range_m [m] from the centre of mass and the final point final_range_m [m]
-    outside the port."""
+def station_geometry(x_port_body, u_body, station_range_m, final_range_m):
+    """StationGeometry of a docking port x_port_body [m] with outward unit vector u_body (body axes), the station on
+    its line at station_range_m [m] from the centre of mass and the final point final_range_m [m] out from the
+    port."""
     x_port = np.asarray(x_port_body, dtype=float)
-    port_m = float(np.linalg.norm(x_port))
-    if not (math.isfinite(port_m) and port_m > 0.0):
-        raise ValueError(f'the docking port must be a finite point off the centre of mass, got {x_port.tolist()}')
+    u = np.asarray(u_body, dtype=float)
+    if not (np.all(np.isfinite(x_port)) and np.all(np.isfinite(u)) and abs(float(np.linalg.norm(u)) - 1.0) < 1e-9):
+        raise ValueError(f'the docking port {x_port.tolist()} must be finite and its outward direction {u.tolist()} '
+                         'a unit vector')
     if not (math.isfinite(final_range_m) and final_range_m > 0.0):
         raise ValueError(f'final_range_m must be finite and > 0, got {final_range_m}')
-    if not station_range_m > port_m + final_range_m:
-        raise ValueError(f'station_range_m {station_range_m} m must exceed the port\'s distance {port_m:.3f} m plus '
-                         f'the final range {final_range_m} m (docking moves inward)')
-    u = x_port / port_m
-    return StationGeometry(u, station_range_m * u, (port_m + final_range_m) * u)
+    along = float(x_port @ u)
+    final_m = float(np.linalg.norm(x_port + final_range_m * u))
+    if not station_range_m > final_m:
+        raise ValueError(f'station_range_m {station_range_m} m must exceed the final point\'s distance {final_m:.3f} m '
+                         f'from the centre of mass (the port plus the final range {final_range_m} m; docking moves '
+                         'inward)')
+    # |x_port + s u| = station_range_m, the root outward of the final point
+    offset = -along + math.sqrt(along * along - float(x_port @ x_port) + station_range_m ** 2)
+    return StationGeometry(x_port, u, offset, float(final_range_m))
 
 
 class PhaseSpaceLink:

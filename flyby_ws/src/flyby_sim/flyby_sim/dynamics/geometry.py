@@ -30,3 +30,26 @@ def clearance(r_hill, q_hill_from_body, boxes, envelope_radius_m):
     p_body = rotate_into_body(q_hill_from_body, r_hill)
     distances = [signed_distance_to_box(p_body, center, size) for center, size in boxes]
     return np.min(distances, axis=0) - envelope_radius_m
+
+
+def outward_normal(point_body, boxes, tolerance_m=1e-6):
+    """The unit outward normal (3,) of the boxes' outer surface at a body point on it: the normal of the face the
+    point lies on (within tolerance_m), the normalized sum of the faces' normals on an edge or a corner; None when
+    the point is not on the outer surface (off it, or on a face buried in another box).
+
+    ``boxes`` is a sequence of (center_m, size_m) pairs in the target body frame.
+    """
+    p = np.asarray(point_body, dtype=float)
+    depth = [float(signed_distance_to_box(p, c, s)[0]) for c, s in boxes]
+    if min(depth) < -tolerance_m or min(depth) > tolerance_m:
+        return None
+    normal = np.zeros(3)
+    for (center, size), d in zip(boxes, depth, strict=True):
+        if abs(d) > tolerance_m:
+            continue
+        offset = p - np.asarray(center, dtype=float)
+        half = 0.5 * np.asarray(size, dtype=float)
+        on_face = np.abs(np.abs(offset) - half) <= tolerance_m
+        normal += np.where(on_face, np.sign(offset), 0.0)
+    norm = float(np.linalg.norm(normal))
+    return normal / norm if norm > 0.0 else None
