@@ -57,7 +57,7 @@ from flyby_planner.optimal.mutual import MovingObstacle, least_separation
 from flyby_planner.optimal.problem import GraspTerminal, TargetMotion
 from flyby_planner.optimal.scp import ScpSettings
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
-from flyby_planner.sync.approach import HOLD_CHECK_S, is_category_iv, plan_sync
+from flyby_planner.sync.approach import HOLD_CHECK_S, arrival_window, is_category_iv, plan_sync
 from flyby_sim.dynamics.orbital import cw_coast
 
 # The request of a re-aim (``_check_aim``): its refusal keeps the plan flown.
@@ -456,9 +456,9 @@ class PlannerCore:
         from the estimate moved as the flown trajectory over the lead (as an optimal re-plan)."""
         lead_s = self.scenario.planner.maneuver_lead_s
         chaser_now = self._chaser_at(t)
+        window = arrival_window(self.scenario, t + lead_s, self.sync_arrival)
         prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
-                                              omega_body, max(t, self.scenario.planner.sync.arrival_end_s) + 1.0
-                                              + HOLD_CHECK_S)
+                                              omega_body, max(t, window[1]) + 1.0 + HOLD_CHECK_S)
         start = cw_coast(chaser_now[:3], chaser_now[3:], lead_s, self.config.mean_motion_rad_s)
         if self.flown is not None:
             traj = self.flown.trajectory

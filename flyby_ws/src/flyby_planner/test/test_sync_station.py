@@ -196,3 +196,18 @@ def test_a_port_off_the_middle_of_a_face_docks_along_the_faces_normal():
     plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
     assert not plan.ok and 'the docking port (target.grasp_point_body_m) [0.5, 0.0, 0.0] m is not on the outer' \
         in plan.reason
+
+
+def test_a_late_plan_moves_the_arrival_window_and_a_resolve_keeps_it():
+    """Table 1's window (260, 370) s for a plan starting at 90 s; an estimate converged late (the campaign's run 3
+    planned at 383 s, past the window, and was refused) moves it to start min_transfer_s (150 s) after the plan's
+    start, 110 s long; a re-solve keeps its previous solution's window; the late plan is flown."""
+    from flyby_planner.plan import truth_prediction
+    from flyby_planner.sync.approach import arrival_window, plan_sync
+
+    assert arrival_window(SCENARIO, 90.0) == (260.0, 370.0)
+    assert arrival_window(SCENARIO, 383.2) == pytest.approx((533.2, 643.2))
+    late = plan_sync(SCENARIO, truth_prediction(SCENARIO, 720.0), 383.2, R0, V0)
+    assert late.ok, late.reason
+    assert 533.2 <= late.arrival.t_arrival <= 643.2 and late.arrival.window_s == pytest.approx((533.2, 643.2))
+    assert arrival_window(SCENARIO, 420.0, late.arrival) == pytest.approx((533.2, 643.2))

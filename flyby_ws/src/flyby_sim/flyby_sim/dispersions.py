@@ -17,7 +17,8 @@ key by dotted path (list items by index: ``target.geometry.0.size_m``), drawn in
 
 Kinds (``KINDS``): ``uniform`` (low, high: scalars or one per component), ``normal`` (mean, sigma),
 ``direction`` (uniform on the unit sphere, optional ``exclude_cone`` {axis, half_angle_deg,
-both_ways}, optional ``magnitude``: a number or a nested scalar dispersion; a 3-vector),
+both_ways}, optional ``magnitude``: a number or a nested scalar dispersion, optional ``axis_probability``:
+the chance of one of +-x, +-y, +-z instead, e.g. a principal spin of a body with diagonal inertia; a 3-vector),
 ``box_surface_point`` (uniform by area on the faces of the base scenario's target boxes, or of the
 boxes named in ``boxes``), ``choice`` (values, optional weights) and ``scale`` (the base value times
 ``factor``, a number or a nested scalar dispersion).
@@ -47,7 +48,7 @@ KINDS = ('uniform', 'normal', 'direction', 'box_surface_point', 'choice', 'scale
 _PARAMS = {
     'uniform': (('low', 'high'), ()),
     'normal': (('mean', 'sigma'), ()),
-    'direction': ((), ('exclude_cone', 'magnitude')),
+    'direction': ((), ('exclude_cone', 'magnitude', 'axis_probability')),
     'box_surface_point': ((), ('boxes',)),
     'choice': (('values',), ('weights',)),
     'scale': (('factor',), ()),
@@ -148,6 +149,11 @@ class Dispersion:
                 raise CampaignError(file, f'{where}.exclude_cone.half_angle_deg',
                                     f'must be in [0, {90 if both else 180}) (some direction must remain), got {half!r}')
             self._cone = (axis, math.cos(math.radians(half)), both)
+        self._axis_p = spec.get('axis_probability')
+        if self._axis_p is not None and not (isinstance(self._axis_p, (int, float)) and 0.0 <= self._axis_p <= 1.0):
+            raise CampaignError(file, f'{where}.axis_probability', f'must be a number in [0, 1], got {self._axis_p!r}')
+        if self._axis_p is not None and self._cone is not None:
+            raise CampaignError(file, f'{where}.axis_probability', 'cannot be combined with exclude_cone')
         self._magnitude = None
         if spec.get('magnitude') is not None:
             self._magnitude = Dispersion(f'{self.key}.magnitude', spec['magnitude'], file, nested=True)
@@ -223,6 +229,11 @@ class Dispersion:
         return _plain(rng.normal(self._mean, self._sigma, size=self._shape))
 
     def _draw_direction(self, rng, base_value):
+        if self._axis_p is not None and rng.uniform() < self._axis_p:
+            u = np.zeros(3)
+            u[rng.integers(3)] = rng.choice((-1.0, 1.0))
+            magnitude = 1.0 if self._magnitude is None else self._magnitude.draw(rng)
+            return _plain(magnitude * u)
         # An isotropic normal 3-vector, normalized, is uniform on the sphere; rejecting the excluded
         # cone keeps it uniform on what remains.
         for _ in range(_MAX_REJECTIONS):

@@ -382,6 +382,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
             'arrival_start_s': Field(FLOAT, 260.0, '>= 0', 'Window (t_s_opt, t_f_opt) of the arrival at the station, '
                                                            'mission time: its start (seed 001 Table 1) ...'),
             'arrival_end_s': Field(FLOAT, 370.0, '> 0', '... and its end.'),
+            'min_transfer_s': Field(FLOAT, 150.0, '> 0', 'A plan made later than this before the window\'s start '
+                                                         '(a late estimate) moves the window to start this long after '
+                                                         'the plan\'s start, its length kept.'),
             'keepout_margin_m': Field(FLOAT, 0.1, '>= 0', 'Stage 1 keeps the chaser envelope this far outside the '
                                                           'target geometry\'s bounding sphere.'),
             'trajectory_step_s': Field(FLOAT, 0.5, '> 0', 'Spacing of the points of planner/trajectory.'),

@@ -87,6 +87,20 @@ def test_direction_magnitude_nested_and_number():
     np.testing.assert_allclose(np.linalg.norm(_draws({'kind': 'direction', 'magnitude': 2.5}, n=50), axis=1), 2.5)
 
 
+def test_direction_axis_probability_mixes_signed_axes_with_the_sphere():
+    """axis_probability 0.3: 30 % of the draws (binomial, 5 standard errors) along one of +-x, +-y, +-z, equally
+    often (chi-square); the rest uniform on the sphere (a coordinate uniform on [-1, 1]); the magnitude kept."""
+    v = _draws({'kind': 'direction', 'axis_probability': 0.3, 'magnitude': 2.0})
+    np.testing.assert_allclose(np.linalg.norm(v, axis=1), 2.0, atol=1e-12)
+    on_axis = np.count_nonzero(v, axis=1) == 1
+    assert abs(on_axis.mean() - 0.3) < 5.0 * np.sqrt(0.3 * 0.7 / N)
+    axes = np.argmax(np.abs(v[on_axis]), axis=1) * 2 + (v[on_axis].sum(axis=1) > 0)
+    assert scipy.stats.chisquare(np.bincount(axes, minlength=6)).pvalue > P_MIN
+    assert scipy.stats.kstest(v[~on_axis, 0] / 2.0, scipy.stats.uniform(-1.0, 2.0).cdf).pvalue > P_MIN
+    with pytest.raises(CampaignError, match=r'x.axis_probability: must be a number in \[0, 1\], got 1.5'):
+        Dispersion('x', {'kind': 'direction', 'axis_probability': 1.5}, 'test.yaml')
+
+
 def test_box_surface_points_lie_on_faces_in_proportion_to_area():
     # Three separated boxes of unequal faces (no face shared, so each point lies on exactly one face).
     boxes = Boxes(('a', 'b', 'c'), np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, -10.0, 0.0]]),

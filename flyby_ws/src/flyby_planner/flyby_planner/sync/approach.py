@@ -2,10 +2,11 @@
 estimates, for /planner/trajectory.
 
 At the plan time the chaser's estimated state is carried to the start (``maneuver_lead_s`` later), the target's
-motion is predicted from its estimate over the arrival window, and ``station.select_arrival`` (eq 1) chooses the
-arrival; a re-solve (``previous`` given) takes ``station.reselect_arrival``, the solution closest to the previous
-one. The link is sampled every ``planner.sync.trajectory_step_s`` for guidance to track; its end is the station
-at the arrival time, where guidance turns to stages 2-4 (flyby_guidance.sync_control).
+motion is predicted from its estimate over the arrival window (``arrival_window``: Table 1's, or later for a plan
+made late), and ``station.select_arrival`` (eq 1) chooses the arrival; a re-solve (``previous`` given) takes
+``station.reselect_arrival``, the solution closest to the previous one. The link is sampled every
+``planner.sync.trajectory_step_s`` for guidance to track; its end is the station at the arrival time, where
+guidance turns to stages 2-4 (flyby_guidance.sync_control).
 
 Before it is flown the plan is checked against the thrust it will need: the link's peak acceleration, and the
 hold's, the acceleration of the station point fixed in the tumbling body, |omega' x x + omega x (omega x x)|
@@ -72,7 +73,7 @@ def plan_sync(scenario, prediction, t_start, r_start_hill, v_start_hill, previou
     keepout_m = keepout_radius([(b.center_m, b.size_m) for b in scenario.target.geometry],
                                scenario.chaser.envelope_radius_m, s.keepout_margin_m)
     n, radius = scenario.mean_motion_rad_s, scenario.orbit_radius_m
-    window = (s.arrival_start_s, s.arrival_end_s)
+    window = arrival_window(scenario, t_start, previous)
 
     def track(times):
         p = prediction.track(geometry.x_station_body, times)
@@ -103,6 +104,17 @@ def plan_sync(scenario, prediction, t_start, r_start_hill, v_start_hill, previou
               f'delta-v {choice.delta_v_mps:.3f} m/s, peak {peak:.3f} m/s^2, {choice.feasible} of {choice.tried} '
               f'arrival times clear of the target)')
     return SyncPlan(True, reason, choice, choice.link.sample(s.trajectory_step_s, n, radius), peak)
+
+
+def arrival_window(scenario, t_start, previous=None):
+    """The arrival window (t_s_opt, t_f_opt) [s] of a plan starting at t_start [s]: a re-solve's is its previous
+    solution's (an ArrivalChoice); a first plan's is planner.sync's (seed 001 Table 1: 260-370 s), moved to start
+    min_transfer_s after t_start when it comes later than that (an estimate converged late), its length kept."""
+    if previous is not None:
+        return previous.window_s
+    s = scenario.planner.sync
+    shift = max(0.0, t_start + s.min_transfer_s - s.arrival_start_s)
+    return s.arrival_start_s + shift, s.arrival_end_s + shift
 
 
 def docking_line_clearance(geometry, boxes, envelope_radius_m, samples=200):

@@ -159,7 +159,7 @@ class PhaseSpaceLink:
 class ArrivalChoice:
     """The chosen arrival: time t_arrival [s], the station's state there (r_hill [m], v_hill [m/s]), the link's
     delta-v [m/s], its closest approach to the centre of mass [m] and the link itself; how many candidate times
-    were feasible out of those tried."""
+    were feasible out of those tried, in the arrival window window_s (t_s_opt, t_f_opt) [s]."""
 
     t_arrival: float
     r_hill: np.ndarray
@@ -169,6 +169,7 @@ class ArrivalChoice:
     link: PhaseSpaceLink
     feasible: int
     tried: int
+    window_s: tuple
 
 
 def _grid(window_s, step_s):
@@ -222,7 +223,8 @@ def select_arrival(station_track, t0, r0_hill, v0_hill, window_s, n, radius_m, k
     if best is None:
         return None
     k = link(best[0])
-    return ArrivalChoice(best[0], k.r1, k.v1, best[1], k.closest_approach_m(), k, feasible, len(times))
+    return ArrivalChoice(best[0], k.r1, k.v1, best[1], k.closest_approach_m(), k, feasible, len(times),
+                         tuple(window_s))
 
 
 def reselect_arrival(station_track, t0, r0_hill, v0_hill, window_s, previous_r_hill, previous_v_hill, n, radius_m,
@@ -247,7 +249,8 @@ def reselect_arrival(station_track, t0, r0_hill, v0_hill, window_s, previous_r_h
         return None
     r, v = _station_state(station_track, best[0])
     k = PhaseSpaceLink(t0, r0_hill, v0_hill, best[0], r, v)
-    return ArrivalChoice(best[0], r, v, k.delta_v(n, radius_m), k.closest_approach_m(), k, feasible, len(times))
+    return ArrivalChoice(best[0], r, v, k.delta_v(n, radius_m), k.closest_approach_m(), k, feasible, len(times),
+                         tuple(window_s))
 
 
 def keepout_radius(boxes, envelope_radius_m, margin_m):
