@@ -35,15 +35,14 @@ import numpy as np
 from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser_attitude_filter_config_from_scenario
 from flyby_estimation.filters import filters_from_scenario
 from flyby_msgs_py import contract as c
-from flyby_msgs_py.wire import Event
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_rotate, skew
 
 # The category is re-evaluated this often once converged (it scans the attitude history) [s].
 CLASSIFY_PERIOD_S = 10.0
-# Attitude estimates kept for the force commands (computed from one of the last few) and the stamps' rounding [s].
+# Attitude estimates kept for the force commands (computed from one of the last few).
 _ATTITUDES_KEPT = 16
-_STAMP_TOLERANCE_S = 1e-6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,7 +84,7 @@ def _put_bounded(stamped, key, value):
 
 def _key(t):
     """A stamp as a dictionary key, to the stamps' rounding."""
-    return round(t / _STAMP_TOLERANCE_S)
+    return round(t / STAMP_TOLERANCE_S)
 
 
 class EstimatorCore:
@@ -188,7 +187,7 @@ class EstimatorCore:
             return []
         t_estimate = t - self.wrench_hold_s
         # Turned into hill at the attitude estimate the command was computed from, which every pace has by then.
-        q = next((q for t_q, q in reversed(self.attitudes) if t_q <= t_estimate + _STAMP_TOLERANCE_S), None)
+        q = next((q for t_q, q in reversed(self.attitudes) if t_q <= t_estimate + STAMP_TOLERANCE_S), None)
         if q is None:
             return []
         mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg

@@ -59,7 +59,7 @@ from flyby_guidance.tracking import (
 )
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
-from flyby_msgs_py.wire import Event
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_planner.grasp import REFINE_HORIZON_S, flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.plan import check_passage, planner_config_from_scenario
 from flyby_sim.dynamics.actuators import allocate_wrench, fire
@@ -74,8 +74,6 @@ ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 # Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
 # one control period of motion stay well inside it.
 RESTRICTION_SPHERE_MARGIN_M = 1.0
-# Stamps closer than this are one stamp (wire stamps are whole nanoseconds).
-_STAMP_TOLERANCE_S = 1e-6
 # A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
 # uncertainty [m]: the planner's clearance_margin_m is a planning margin, this is the floor (a plan
 # 0.137 m clear re-aimed 0.096 m clear is no reason to give up a capture).
@@ -240,7 +238,7 @@ class GuidanceCore:
         SyncGuidance has nothing to say (stage 1 before the arrival, the drift after a retreat)."""
         if self.phase in (c.PHASE_ESCAPE, c.PHASE_ABORTED):  # no capture: leave the final point
             self.sync.abort(t)
-        target = self.targets.last_at_or_before(t - _STAMP_TOLERANCE_S)  # module doc: the one before t
+        target = self.targets.last_at_or_before(t - STAMP_TOLERANCE_S)  # module doc: the one before t
         if target is None:
             return None
         period_s = self.attitude.config.control_period_s

@@ -51,6 +51,10 @@ def values_text(values):
     return {str(k): value_text(v) for k, v in (values or {}).items()}
 
 
+# Stamps closer than this are one instant: wire stamps are whole nanoseconds, sim times sums of steps [s].
+STAMP_TOLERANCE_S = 1e-6
+
+
 def wire_time(t):
     """The time [s] a stamp of sim time t carries: rounded to the nearest nanosecond (convert.sec_to_stamp)."""
     return round(t * 1e9) / 1e9

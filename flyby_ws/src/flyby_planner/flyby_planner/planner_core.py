@@ -50,7 +50,7 @@ import numpy as np
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
-from flyby_msgs_py.wire import Event
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_planner.grasp import capture_target_body
 from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach
 from flyby_planner.optimal.mutual import MovingObstacle, least_separation
@@ -213,7 +213,7 @@ class PlannerCore:
         """The synchronized approach's docking (guidance's ``docking_started`` at t): the port and the final point
         at the grasp time t_grasp, predicted from the target estimate stamped last before t, as AimUpdate (the
         simulator holds the capture decision at that stamp)."""
-        target = self.targets.last_at_or_before(t - 1e-6)
+        target = self.targets.last_at_or_before(t - STAMP_TOLERANCE_S)
         if target is None:
             return []
         t_t, (q_hill_from_body, omega_body, _) = target
