@@ -107,7 +107,9 @@ KINDS = (FLOAT, INT, STR, BOOL, VEC3, QUAT, MAT3, ENUM, VEC3_LIST, FLOAT_LIST)
 
 # Units derived from the key's suffix (units live in the names, STYLE.md); longest suffix first.
 _UNIT_SUFFIXES = (
-    ('_rad_s_sqrt_s', 'rad/s/sqrt(s)'), ('_m3_s2', 'm^3/s^2'), ('_n_m_s', 'N m s'), ('_kg_m2', 'kg m^2'),
+    ('_n_m_s_per_rad', 'N m s/rad'), ('_n_m_per_rad', 'N m/rad'), ('_n_s_per_m', 'N s/m'), ('_n_per_m', 'N/m'),
+    ('_kg_m2_s', 'kg m^2/s'), ('_per_s', '1/s'), ('_rad_s_sqrt_s', 'rad/s/sqrt(s)'), ('_m3_s2', 'm^3/s^2'),
+    ('_n_m_s', 'N m s'), ('_kg_m2', 'kg m^2'),
     ('_deg_s', 'deg/s'), ('_rad_s', 'rad/s'), ('_mps2', 'm/s^2'), ('_n_m', 'N m'), ('_mps', 'm/s'),
     ('_deg', 'deg'), ('_rad', 'rad'), ('_kg', 'kg'), ('_hz', 'Hz'),
     ('_ns', 'N s'), ('_n', 'N'), ('_s', 's'), ('_m', 'm'),

@@ -444,6 +444,65 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                        'may fire.'),
     }),
 
+    'post_capture': Section(
+        desc='After the capture (seed 000 section 2.2 phases (5)-(6), seed 004 section 2.2; rigid_body only, '
+             'docs/post_capture.md): the grasp, the damping of the combined body and the estimation of the target\'s '
+             'mass properties; omitted: the capture ends the run supervisor.capture_hold_s later',
+        optional=True, fields={
+            'grasp': Section(desc='The arm: an impedance between its end effector and the grasp point '
+                                  '(flyby_sim.dynamics.grasp)', fields={
+                'stiffness_n_per_m': Field(FLOAT, 200.0, '> 0', 'Translational stiffness K_p.'),
+                'damping_n_s_per_m': Field(FLOAT, 150.0, '> 0', 'Translational damping D_p.'),
+                'rot_stiffness_n_m_per_rad': Field(FLOAT, 50.0, '> 0', 'Rotational stiffness K_r.'),
+                'rot_damping_n_m_s_per_rad': Field(FLOAT, 40.0, '> 0', 'Rotational damping D_r.'),
+                'max_force_n': Field(FLOAT, 50.0, '> 0', 'The gripper lets go above this contact force ...'),
+                'max_torque_n_m': Field(FLOAT, 20.0, '> 0', '... or this contact torque ...'),
+                'max_stroke_m': Field(FLOAT, 0.2, '> 0', '... or when the grasp point leaves this compliance stroke.'),
+                'velocity_tolerance_mps': Field(FLOAT, 0.001, '> 0', 'The relative motion is damped (the arm locks: '
+                                                                     'one rigid body) once the grasp point\'s '
+                                                                     'relative velocity ...'),
+                'rate_tolerance_rad_s': Field(FLOAT, 0.001, '> 0', '... and the relative rate stay below these.'),
+                'max_duration_s': Field(FLOAT, 20.0, '> 0', 'The arm locks at the latest this long after the '
+                                                            'first contact.'),
+            }),
+            'damping': Section(desc='Detumbling of the combined body by rate feedback on the thrusters and wheels '
+                                    '(flyby_guidance.post_capture)', fields={
+                'momentum_threshold_kg_m2_s': Field(FLOAT, 0.1, '> 0',
+                                                    'Damped when the estimated angular momentum (prior inertia) '
+                                                    'stays below this (seed 004 section 3.2) ...'),
+                'settle_s': Field(FLOAT, 5.0, '>= 0', '... for this long (its mean over this window).'),
+                'inertia_lower_bound_kg_m2': Field(FLOAT, None, '> 0',
+                                                   'Lower bound of the combined body\'s principal moments that sets '
+                                                   'the gains (I_lb / (2 T), T the IMU period); omitted: half the '
+                                                   'smallest principal moment of target.inertia_kg_m2.'),
+                'wheel_share': Field(FLOAT, 0.1, '(0, 1)', 'Share of the rate gain on the wheels.'),
+                'max_thruster_torque_n_m': Field(FLOAT, 2.0, '> 0', 'Saturation of the thrusters\' couple per '
+                                                                    'body axis.'),
+                'dump_rate_per_s': Field(FLOAT, 0.05, '> 0', 'Rate at which the wheels\' momentum is handed to the '
+                                                             'thrusters.'),
+            }),
+            'mass_estimation': Section(desc='The target\'s mass properties from known thruster firings (seed 004 '
+                                            'section 2.2, flyby_estimation.mass_properties)', fields={
+                'excitation': Field(ENUM, 'table1', None,
+                                    'table1: seed 004 Table 1\'s sequence (30 N s); chosen: the sequence chosen for '
+                                    'observability at no more impulse (docs/post_capture.md).',
+                                    choices=('table1', 'chosen')),
+                'start_delay_s': Field(FLOAT, 2.0, '>= 0', 'From the end of the damping to the excitation\'s start.'),
+                'window_s': Field(FLOAT, 25.0, '[20, 600]', 'The estimate is final this long after the excitation\'s '
+                                                            'start (both sequences end within 20 s).'),
+                'prior_mass_sigma': Field(FLOAT, 0.025, '(0, 0.5)',
+                                          'Relative 1-sigma of the prior target mass, drawn around target.mass_kg '
+                                          'from the seed (a catalogue value).'),
+                'prior_moments_sigma': Field(FLOAT, 0.03, '(0, 0.5)',
+                                             'Relative 1-sigma of the prior principal moments, drawn likewise around '
+                                             'those of target.inertia_kg_m2.'),
+                'prior_com_sigma_m': Field(FLOAT, 0.02, '> 0', '1-sigma per axis of the prior target CoM (the '
+                                                               'navigation estimate at the capture).'),
+                'prior_axes_sigma_deg': Field(FLOAT, 1.0, '> 0', '1-sigma per axis of the prior principal axes (the '
+                                                                 'target attitude estimate at the capture).'),
+            }),
+        }),
+
     'simulation': Section(desc='Plant integration', fields={
         'dynamics': Field(ENUM, 'nonlinear', None, 'Relative orbital dynamics: nonlinear two-body or linear CW.',
                           choices=('cw', 'nonlinear')),
@@ -496,6 +555,9 @@ def _cross_checks(d):
     if sync['arrival_end_s'] <= sync['arrival_start_s']:
         raise Invalid('planner.sync.arrival_end_s', f"must be > planner.sync.arrival_start_s = "
                                                     f"{sync['arrival_start_s']!r}, got {sync['arrival_end_s']!r}")
+    if d['post_capture'] is not None and d['chaser']['model'] != 'rigid_body':
+        raise Invalid('post_capture', f"needs chaser.model rigid_body (attitude, thrusters and wheels to damp and "
+                                      f"excite the combined body), got {d['chaser']['model']!r}")
     optimal = planner['optimal']
     if optimal['approach_time_max_s'] <= optimal['approach_time_min_s']:
         raise Invalid('planner.optimal.approach_time_max_s',

@@ -574,3 +574,54 @@ def test_error_thruster_layout_without_full_authority(tmp_path):
     d = paper_dict()
     d['chaser']['thrusters']['layout'] = items
     assert len(scenario_from_dict(d).chaser.thrusters.layout) == 12
+
+
+# ------------------------------------------------------------------------------------------------
+# After the capture (issue 16, docs/post_capture.md)
+
+TUG = REPO / 'scenarios' / 'paper_flyby_tug.yaml'
+
+
+def test_post_capture_is_optional_and_paper_flyby_tug_is_paper_flyby_6dof_with_it():
+    assert load_scenario(SIX_DOF).post_capture is None and load_scenario(PAPER).post_capture is None
+    a, b = load_scenario(SIX_DOF).to_dict(), load_scenario(TUG).to_dict()
+    pc = b.pop('post_capture')
+    for d in (a, b):
+        for key in ('name', 'description'):
+            del d[key]
+    del a['post_capture']
+    assert a == b
+    assert pc['damping']['momentum_threshold_kg_m2_s'] == 0.1 and pc['mass_estimation']['excitation'] == 'table1'
+    d = yaml.safe_load(SIX_DOF.read_text())
+    d['post_capture'] = {}  # every key at its default
+    sc = scenario_from_dict(d)
+    assert sc.post_capture.grasp.max_force_n == 50.0 and sc.post_capture.damping.inertia_lower_bound_kg_m2 is None
+
+
+def test_error_post_capture_keys_name_themselves(tmp_path):
+    def rigid(update):
+        def mutate(d):
+            d['chaser']['model'] = 'rigid_body'
+            d['post_capture'] = {}
+            update(d['post_capture'])
+        return mutate
+    cases = [
+        (lambda d: d.update(post_capture={}), 'post_capture: needs chaser.model rigid_body'),
+        (rigid(lambda p: p.update(grasp={'stiffness_n_m': 200.0})),
+         "post_capture.grasp.stiffness_n_m: unknown key (did you mean 'stiffness_n_per_m'?)"),
+        (rigid(lambda p: p.update(grasp={'max_force_n': 0.0})), 'post_capture.grasp.max_force_n: must be > 0, got 0.0'),
+        (rigid(lambda p: p.update(damping={'momentum_threshold_kg_m2_s': -0.1})),
+         'post_capture.damping.momentum_threshold_kg_m2_s: must be > 0, got -0.1'),
+        (rigid(lambda p: p.update(damping={'wheel_share': 1.0})),
+         'post_capture.damping.wheel_share: must be in (0, 1)'),
+        (rigid(lambda p: p.update(mass_estimation={'excitation': 'table2'})),
+         "post_capture.mass_estimation.excitation: must be one of ['table1', 'chosen'], got 'table2'"),
+        (rigid(lambda p: p.update(mass_estimation={'window_s': 10.0})),
+         'post_capture.mass_estimation.window_s: must be in [20, 600], got 10.0'),
+        (rigid(lambda p: p.update(mass_estimation={'prior_mass_sigma': 0.0})),
+         'post_capture.mass_estimation.prior_mass_sigma: must be in (0, 0.5), got 0.0'),
+        (rigid(lambda p: p.update(transport={})), 'post_capture.transport: unknown key'),
+    ]
+    for mutate, expected in cases:
+        _, msg = error_of(tmp_path, mutate)
+        assert expected in msg, (expected, msg)
