@@ -11,7 +11,9 @@ principal spin: its rate moves in the body, so the prediction integrates Euler's
   the port; chosen at the stage's start as the smallest rotation from the chaser's relative orientation then), its
   rate and acceleration the target's:
   ``attitude_control``'s tracking law on the wheels (seed 001 eq 3 with the wheels' momentum). Done when the
-  estimated relative attitude and rate errors stay within their tolerances for ``settle_s``;
+  estimated relative attitude and rate errors stay within their tolerances for ``settle_s``; not done within
+  ``attitude_sync_max_s`` of the arrival, a fault (ERROR ``attitude_sync_timeout``: the supervisor aborts) and the
+  retreat (a target estimated too coarsely to synchronize with holds the station for nothing);
 * stage 3, orbiting (``ORBITING``): the same hold for ``orbiting_fraction`` of a rotation cycle 2 pi / |omega|
   (seed 001: half);
 * stage 4, docking (``DOCKING``): s(t) from the station to the final range (planner.offset_m from the port)
@@ -86,6 +88,7 @@ class SyncConfig:
     attitude_tolerance_rad: float
     rate_tolerance_rad_s: float
     settle_s: float
+    attitude_sync_max_s: float
     retreat_speed_mps: float
     retreat_max_s: float
     n: float  # mean motion [rad/s]
@@ -108,6 +111,7 @@ def sync_config_from_scenario(scenario):
         accel_max_mps2=accel * (1.0 - 3.0 * th.magnitude_error_sigma),
         attitude_tolerance_rad=math.radians(s.attitude_tolerance_deg),
         rate_tolerance_rad_s=math.radians(s.rate_tolerance_deg_s), settle_s=s.settle_s,
+        attitude_sync_max_s=s.attitude_sync_max_s,
         retreat_speed_mps=s.retreat_speed_mps, retreat_max_s=s.retreat_max_s, n=scenario.mean_motion_rad_s,
         radius_m=scenario.orbit_radius_m, target_inertia=np.asarray(scenario.target_inertia, dtype=float))
 
@@ -242,6 +246,9 @@ class SyncGuidance:
         goal = sync_goal(now.q_hill_from_body, now.omega_body, w_dot_mid, self.q_target_from_goal, geo.u_body)
         if self.stage == STAGE_ATTITUDE_SYNC:
             events += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now)
+            if self.stage == STAGE_RETREAT:
+                retreat = self._retreat(t, r_hill, v_hill, now)
+                return dataclasses.replace(retreat, events=tuple(events) + retreat.events)
         if self.stage == STAGE_ORBITING and t_apply >= self.t_docking:
             self.stage = STAGE_DOCKING
             events.append(('OK', 'docking_started', f'docking from {geo.station_offset_m:.3g} m to the final range '
@@ -268,6 +275,12 @@ class SyncGuidance:
         angle, rate = attitude_errors(goal_now, q_hill_from_chaser, omega_chaser_body)
         if angle > cfg.attitude_tolerance_rad or rate > cfg.rate_tolerance_rad_s:
             self.t_settled = None
+            if t_apply - self.t_arrival > cfg.attitude_sync_max_s:
+                self.abort(t)
+                return [('ERROR', 'attitude_sync_timeout',
+                         f'attitude not synchronized {cfg.attitude_sync_max_s:g} s after the arrival (relative '
+                         f'attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s): retreating',
+                         {'attitude_error_deg': math.degrees(angle), 'rate_error_deg_s': math.degrees(rate)})]
             return []
         if self.t_settled is None:
             self.t_settled = t

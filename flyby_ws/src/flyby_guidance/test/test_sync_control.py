@@ -16,6 +16,7 @@ from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
 from flyby_guidance.sync_control import (
     SYNC_ATTITUDE,
     SyncConfig,
+    SyncGuidance,
     attitude_errors,
     body_point_reference,
     docking_profile,
@@ -49,6 +50,7 @@ ZERO = np.zeros(3)
 CONFIG = SyncConfig(geometry=station_geometry(U, U, 5.0, 1.0), docking_duration_s=40.0,
                     orbiting_fraction=0.5, frequency_rad_s=1.0, accel_max_mps2=1.0,
                     attitude_tolerance_rad=math.radians(0.2), rate_tolerance_rad_s=math.radians(0.1), settle_s=2.0,
+                    attitude_sync_max_s=60.0,
                     retreat_speed_mps=0.3, retreat_max_s=10.0, n=N, radius_m=RADIUS, target_inertia=TARGET_INERTIA)
 
 
@@ -279,3 +281,23 @@ def test_attitude_ahead_turns_with_the_body_rate_less_hill_rate():
     q = attitude_ahead(q0, w, 0.15, 0.0)
     turn = rotation_vector_from_quat(quat_multiply(q, quat_conjugate(q0)))  # in hill axes
     assert turn == pytest.approx(0.374 * 0.15 * quat_to_matrix(q0)[:, 2], abs=1e-12)
+
+
+def test_attitude_sync_that_never_settles_is_a_fault_and_retreats_along_the_port_normal():
+    """Stage 2 with the chaser's attitude held 5 deg off the goal: no event before attitude_sync_max_s (60 s) after
+    the arrival, then an ERROR attitude_sync_timeout (the supervisor aborts on it) and, in the same command, the
+    retreat's full thrust along the port's outward direction in hill (the target's +x here)."""
+    sync = SyncGuidance(CONFIG)
+    sync.arm(10.0)
+    q_target, w_target = (0.0, 0.0, 0.0, 1.0), np.array((0.0, 0.0, 0.3))
+    r = np.array((5.0, 0.0, 0.0))
+    v = np.cross(w_target, r)
+    q_off = quat_from_rotation_vector((0.0, 0.0, math.radians(5.0)))
+    names = []
+    for t in np.arange(10.0, 69.95, 1.0):
+        cmd = sync.command(t, t, 0.1, r, v, q_off, w_target, (t, q_target, w_target))
+        names += [e[1] for e in cmd.events]
+    assert names == ['station_reached'] and sync.stage == 'attitude_sync'
+    cmd = sync.command(70.5, 70.5, 0.1, r, v, q_off, w_target, (70.5, q_target, w_target))
+    assert [e[:2] for e in cmd.events] == [('ERROR', 'attitude_sync_timeout')] and sync.stage == 'retreat'
+    assert cmd.goal is None and cmd.a_hill == pytest.approx(CONFIG.accel_max_mps2 * np.array((1.0, 0.0, 0.0)))

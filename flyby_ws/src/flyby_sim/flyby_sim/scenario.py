@@ -402,6 +402,8 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                                                'error ...'),
             'rate_tolerance_deg_s': Field(FLOAT, 0.1, '> 0', '... and rate error stay below these ...'),
             'settle_s': Field(FLOAT, 2.0, '>= 0', '... for this long.'),
+            'attitude_sync_max_s': Field(FLOAT, 60.0, '> 0', 'Stage 2 not done this long after the arrival is a '
+                                                             'fault: guidance retreats and the mission aborts.'),
             'retreat_speed_mps': Field(FLOAT, 0.3, '> 0', 'After an abort the chaser thrusts outward along the '
                                                           'port\'s direction until this outward speed ...'),
             'retreat_max_s': Field(FLOAT, 10.0, '> 0', '... or for at most this long, then drifts.'),
