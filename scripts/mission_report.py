@@ -25,6 +25,19 @@ and for a six-degree-of-freedom chaser (scenario chaser.model rigid_body; docs/c
 * thrusters.png      each thruster's thrust over time and the thrusters' total torque, with the
                      restriction sphere's entry and exit (no firing inside)
 
+and for a run of the synchronized approach (summary.json's method sync; docs/synchronized.md), seed 001's figures
+(Seweryn and Banaszkiewicz, section 3) from the truth, Euler angles R = Rz(psi) Ry(theta) Rx(phi) as the scenario
+reads rpy_rad:
+
+* seed001_fig4_position_velocity.png  Fig 4: the chaser's position and velocity relative to the target in hill, its
+                     position in target_body and its thrust acceleration; stages 1-2 and stages 3-4 side by side
+* seed001_fig5_euler_sigma.png        Fig 5: standard deviation of the estimated target Euler angles (the estimator's
+                     covariance), and their error with +-3 sigma
+* seed001_fig6_attitude.png           Fig 6: both bodies' Euler angles and body rates (from stage 3 the target's carried
+                     by the relative attitude, which the chaser's follow), the relative attitude and rate
+* seed001_fig7_kinetic_energy.png     Fig 7: translational (relative to hill) and rotational kinetic energy of both
+                     bodies, and the chaser's wheels' spin energy
+
 and for a run of several chasers (a ``chasers:`` scenario, docs/two_robots.md) instead of the above:
 
 * chasers.png        every chaser's truth path in the hill x-z plane with the target's boxes at the least
@@ -50,25 +63,31 @@ import json
 import math
 import sys
 import traceback
+import typing
 from pathlib import Path
 
 import matplotlib.colors
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import BagError, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
 from flyby_msgs_py.schema import ScenarioError
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S  # truth (every step) and estimate stamps: one instant
 from flyby_planner.keepout import swept_region
-from flyby_planner.summary import grasp_time, pointing_figures
+from flyby_planner.summary import grasp_time, phase_windows, pointing_figures
+from flyby_sim.dynamics.attitude import kinetic_energy
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import q_eci_from_body
+from flyby_sim.dynamics.rigid_body import ReactionWheels
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_multiply,
     quat_normalize,
     quat_rotate_many,
     quat_to_matrix_many,
+    rotation_angle_many,
     rotation_vector_from_quat,
 )
 from flyby_sim.scenario import load_scenario
@@ -78,7 +97,6 @@ import plots  # noqa: E402
 from plots import plt  # noqa: E402
 
 DPI = 100
-STAMP_TOLERANCE_S = 1e-6      # truth (every step) and estimate stamps that are the same instant
 BURN_MATCH_TOLERANCE_S = 0.01  # a commanded burn time against the simulator's start of it
 STEP_TOLERANCE_S = 0.05        # a time this close to the truth's span is within it (one step)
 REGION_SAMPLES = 200           # truth attitude samples the swept region is built from
@@ -88,6 +106,8 @@ PHASE_COLORS = {
     c.PHASE_ESTIMATION: '#dddddd', c.PHASE_PLANNING: '#ffe9a8', c.PHASE_TERMINAL_APPROACH: '#cfe3ff',
     c.PHASE_TRAJECTORY_ADJUST: '#d9f2d0', c.PHASE_FLYBY: '#f9d5e5', c.PHASE_CAPTURE: '#b9f0e4',
     c.PHASE_ESCAPE: '#ffd9b3', c.PHASE_COMPLETE: '#e5e5ff', c.PHASE_ABORTED: '#ffb3b3',
+    c.PHASE_SYNC_APPROACH: '#cfe3ff', c.PHASE_ATTITUDE_SYNC: '#fde2c4', c.PHASE_ORBITING: '#d9f2d0',
+    c.PHASE_DOCKING: '#f9d5e5',
 }
 TOPICS = (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.EST_CHASER_ODOM, c.EST_TARGET_ODOM, c.PLANNER_PATH,
           c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.MISSION_PHASE,
@@ -218,6 +238,7 @@ class Run:
         self.burns = _burns(self.events)
         summary = self.run_dir / 'summary.json'
         self.summary = json.loads(summary.read_text()) if summary.is_file() else {}
+        self.sync = is_sync(self.summary, self.events)
 
     def _load_scenario(self):
         try:
@@ -267,15 +288,15 @@ class Run:
 
     @functools.cached_property
     def phases(self):
-        """[(t_start, t_end, phase)] from the supervisor's stamped phase_changed events (else the
-        receive times of /mission/phase, which lag the decisions)."""
-        starts = [(e['t'], e['values']['to']) for e in self.events
-                  if e['name'] == 'phase_changed' and 'to' in e['values']]
+        """[(phase, t_start, t_end)] of the supervisor's stamped phase_changed events (summary.phase_windows), else
+        of the receive times of /mission/phase, which lag the decisions; a window never ends before it starts."""
+        windows = phase_windows(self.events, self.t_end)
         msgs = self.get(c.MISSION_PHASE)
-        if not starts and msgs is not None:
-            starts = list(zip(msgs.t_received, msgs.data, strict=True))
-        ends = [t for t, _ in starts[1:]] + [self.t_end]
-        return [(t0, max(t0, t1), phase) for (t0, phase), t1 in zip(starts, ends, strict=True)]
+        if not windows and msgs is not None:
+            received = [{'name': 'phase_changed', 't': t, 'values': {'to': phase}}
+                        for t, phase in zip(msgs.t_received, msgs.data, strict=True)]
+            windows = phase_windows(received, self.t_end)
+        return [(phase, t0, max(t0, t1)) for phase, t0, t1 in windows]
 
     @functools.cached_property
     def kind_colors(self):
@@ -290,6 +311,15 @@ class Run:
         if chaser is None or self.scenario is None:
             return []
         return sphere_intervals(chaser.t, chaser.position, self.scenario.planner.restriction_sphere_radius_m)
+
+    def truth_pair(self):
+        """(chaser, target, i_chaser, i_target): both bodies' truth series and the indices of their common stamps;
+        Skipped if either is missing or they share no stamp."""
+        chaser, target = self.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM)
+        i_c, i_t = match_stamps(chaser.t, target.t)
+        if not len(i_c):
+            raise Skipped('no truth chaser and target samples at the same stamps')
+        return chaser, target, i_c, i_t
 
     def truth_at(self, t):
         """Truth chaser position (3,) at time t, interpolated."""
@@ -398,7 +428,7 @@ def _paths_and_points(ax, run, project):
 
 def _phase_bands(ax, run, legend=True):
     seen = set()
-    for t0, t1, phase in run.phases:
+    for phase, t0, t1 in run.phases:
         ax.axvspan(t0, t1, color=PHASE_COLORS.get(phase, '#eeeeee'), lw=0, zorder=0,
                    label=phase if legend and phase not in seen else None)
         seen.add(phase)
@@ -668,10 +698,7 @@ def fig_estimation(run, path):
 def clearances(run):
     """(t, gap to the target's boxes [m], gap to the swept region [m] or None) over the truth."""
     scenario = run.need_scenario()
-    chaser, target = run.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM)
-    i_c, i_t = match_stamps(chaser.t, target.t)
-    if not len(i_c):
-        raise Skipped('no truth chaser and target samples at the same stamps')
+    chaser, target, i_c, i_t = run.truth_pair()
     t, r = chaser.t[i_c], chaser.position[i_c]
     envelope = scenario.chaser.envelope_radius_m
     boxes = list(zip(scenario.boxes.center_body_m, scenario.boxes.size_m, strict=True))
@@ -978,6 +1005,360 @@ def fig_thrusters(run, path, max_bins=1200):
     plots.save(fig, path, DPI)
 
 
+# ---------------------------------------------------------------------------------------------
+# The synchronized approach (seed 001 section 2, its Fig 4-7)
+# ---------------------------------------------------------------------------------------------
+
+SYNC_STAGES = (('stages 1-2', (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC)),
+               ('stages 3-4', (c.PHASE_ORBITING, c.PHASE_DOCKING)))
+RPY_NAMES = ('$\\phi$ (roll, x)', '$\\theta$ (pitch, y)', '$\\psi$ (yaw, z)')
+RPY_SEQUENCE = 'R = Rz($\\psi$) Ry($\\theta$) Rx($\\phi$) of body in hill'
+
+
+def is_sync(summary, events):
+    """Whether the run flew the synchronized approach: summary.json's method, or a plan_selected event's."""
+    return summary.get('method') == 'sync' or any(
+        e['name'] == 'plan_selected' and e['values'].get('method') == 'sync' for e in events)
+
+
+def stage_windows(phases):
+    """{'stages 1-2': (t0, t1), 'stages 3-4': (t0, t1)} [s] of the phase windows [(phase, t0, t1)]: seed 001's
+    stages 1-2 (phase-space transfer, attitude synchronization) and 3-4 (orbiting, docking), each from the start of
+    its first phase to the end of its last; a pair the run did not reach is left out."""
+    out = {}
+    for name, members in SYNC_STAGES:
+        spans = [(t0, t1) for phase, t0, t1 in phases if phase in members]
+        if spans:
+            out[name] = (min(t0 for t0, _ in spans), max(t1 for _, t1 in spans))
+    return out
+
+
+def euler_rpy(q_hill_from_body):
+    """Euler angles (phi, theta, psi) [rad] (N, 3) of q_hill_from_body (N, 4): R = Rz(psi) Ry(theta) Rx(phi), the
+    scenario's reading of rpy_rad (scipy's extrinsic 'xyz'); theta in [-pi/2, pi/2], phi and psi in [-pi, pi]."""
+    return Rotation.from_quat(q_hill_from_body).as_euler('xyz')
+
+
+def euler_from_hill_rotation(rpy):
+    """(N, 3, 3) J = d(phi, theta, psi) / d(dtheta_hill) at the Euler angles rpy (N, 3) [rad] (euler_rpy): a small
+    rotation dtheta_hill about hill axes (q' = exp(dtheta_hill) q, how the estimator's attitude error is defined)
+    moves the angles by J dtheta_hill. J inverts [Rz(psi) Ry(theta) e_x, Rz(psi) e_y, e_z], the hill-axes angular
+    velocities of unit Euler rates, and grows without bound at theta = +-90 deg (gimbal lock)."""
+    _, theta, psi = np.moveaxis(np.asarray(rpy, dtype=float), -1, 0)
+    cos_psi, sin_psi, zero = np.cos(psi), np.sin(psi), np.zeros_like(psi)
+    return np.stack((np.stack((cos_psi, sin_psi, zero), -1) / np.cos(theta)[:, None],
+                     np.stack((-sin_psi, cos_psi, zero), -1),
+                     np.stack((cos_psi * np.tan(theta), sin_psi * np.tan(theta), zero + 1.0), -1)), axis=1)
+
+
+def euler_estimation_errors(run):
+    """Seed 001 Fig 5: (t [s], error (N, 3), sigma (N, 3)) [rad] of the target's Euler angles (euler_rpy) estimated
+    on /estimation/target/odom against the truth at the same stamps. sigma is the standard deviation the estimator
+    publishes: its attitude covariance P (about hill axes, as estimation_errors reads it) carried into the angles to
+    first order, J P J' with J = euler_from_hill_rotation at the truth."""
+    matched = _matched(run, c.EST_TARGET_ODOM, c.SIM_TARGET_ODOM)
+    if isinstance(matched, str):
+        raise Skipped(matched)
+    e, tr, i, j = matched
+    rpy_true = euler_rpy(tr.orientation_xyzw[j])
+    error = (euler_rpy(e.orientation_xyzw[i]) - rpy_true + np.pi) % (2.0 * np.pi) - np.pi  # the short way round
+    jac = euler_from_hill_rotation(rpy_true)
+    covariance = jac @ e.pose_covariance[i, 3:, 3:] @ np.swapaxes(jac, 1, 2)
+    return e.t[i], error, _sigma3(covariance, slice(0, 3)) / 3.0
+
+
+class SyncTranslation(typing.NamedTuple):
+    """Seed 001 Fig 4 (sync_translation)."""
+
+    t: np.ndarray              # (N,) [s] truth stamps of chaser and target
+    r_hill: np.ndarray         # (N, 3) [m] chaser CoM from the target's (the hill origin)
+    v_hill: np.ndarray         # (N, 3) [m/s] relative to the rotating hill frame, hill axes
+    r_target_body: np.ndarray  # (N, 3) [m] r_hill in target_body axes
+    a_thrust_mps2: np.ndarray  # (N,) |thrust force| / initial mass, NaN where /sim/chaser/thrust has no sample
+
+
+def sync_translation(run):
+    """Seed 001 Fig 4 from the truth: the chaser's position and velocity relative to the target in hill (the twist is
+    in chaser_body axes: velocity_hill), its position in target_body axes (constant while orbiting, seed 001 Fig 2;
+    radial while docking, Fig 3), and the thrusters' acceleration |F| / m0 with the scenario's initial mass (the fuel
+    burned, under 3 % of it in seweryn_tumbling, left out)."""
+    truth, target, i_c, i_t = run.truth_pair()
+    t, r_hill = truth.t[i_c], truth.position[i_c]
+    r_target_body = quat_rotate_many(quat_conjugate(target.orientation_xyzw[i_t].T).T, r_hill)
+    a_thrust = np.full(len(t), np.nan)
+    thrust = run.get(c.SIM_CHASER_THRUST)
+    if thrust is not None:
+        i_a, i_f = match_stamps(t, thrust.t)
+        a_thrust[i_a] = np.linalg.norm(thrust.force[i_f], axis=1) / run.need_scenario().chaser.mass_kg
+    return SyncTranslation(t, r_hill, velocity_hill(truth)[i_c], r_target_body, a_thrust)
+
+
+def relative_attitude(q_hill_from_chaser, omega_chaser_body, q_hill_from_target, omega_target_body):
+    """(q_target_from_chaser (N, 4), omega_relative_body (N, 3) [rad/s]) of the two bodies' truth (N, 4) and (N, 3):
+    the chaser's attitude in target_body and its angular velocity relative to the target's, omega_chaser -
+    C_chaser_from_target omega_target in chaser_body axes; synchronized (seed 001 stages 3-4) the one is constant
+    and the other zero."""
+    q_target_from_chaser = quat_multiply(quat_conjugate(np.asarray(q_hill_from_target).T),
+                                         np.asarray(q_hill_from_chaser).T).T
+    omega_target_chaser_axes = quat_rotate_many(quat_conjugate(q_target_from_chaser.T).T, omega_target_body)
+    return q_target_from_chaser, np.asarray(omega_chaser_body) - omega_target_chaser_axes
+
+
+class SyncAttitude(typing.NamedTuple):
+    """Seed 001 Fig 6 (sync_attitude); the last four are None when stage 3 did not start."""
+
+    t: np.ndarray                          # (N,) [s] truth stamps of both bodies
+    rpy_chaser: np.ndarray                 # (N, 3) [rad] chaser_body in hill (euler_rpy)
+    rpy_target: np.ndarray                 # (N, 3) [rad] target_body in hill
+    omega_chaser_body: np.ndarray          # (N, 3) [rad/s] inertial, chaser_body axes
+    omega_target_body: np.ndarray          # (N, 3) [rad/s] inertial, target_body axes
+    relative_angle_rad: np.ndarray         # (N,) rotation angle of q_target_from_chaser
+    omega_relative_body: np.ndarray        # (N, 3) [rad/s] relative_attitude's
+    t_stage3: float | None                 # [s] the first stamp of stage 3 (ORBITING)
+    rpy_carried: np.ndarray | None         # (N, 3) [rad] the target's attitude times its stage-3 relative one
+    omega_carried_body: np.ndarray | None  # (N, 3) [rad/s] omega_target in the chaser axes of that attitude
+    drift_rad: np.ndarray | None           # (N,) angle of the relative attitude from its value at t_stage3
+
+
+def sync_attitude(run):
+    """Seed 001 Fig 6 from the truth: both bodies' Euler angles (euler_rpy) and body rates, their relative attitude,
+    and from the start of stage 3 the target's motion carried into the chaser by the relative attitude of that
+    instant (where the chaser is if it turns with the target: in stages 3-4 the chaser's own, up to the drift,
+    as summary.json's relative_attitude_drift_max_deg measures it to the grasp)."""
+    chaser, target, i_c, i_t = run.truth_pair()
+    t = chaser.t[i_c]
+    q_c, w_c = chaser.orientation_xyzw[i_c], chaser.angular[i_c]
+    q_t, w_t = target.orientation_xyzw[i_t], target.angular[i_t]
+    q_rel, w_rel = relative_attitude(q_c, w_c, q_t, w_t)
+    starts = [t0 for phase, t0, _ in run.phases if phase == c.PHASE_ORBITING]
+    carried = (None, None, None, None)
+    k = int(np.searchsorted(t, starts[0] - STAMP_TOLERANCE_S)) if starts else len(t)
+    if k < len(t):
+        q_rel0 = np.tile(q_rel[k], (len(t), 1))
+        carried = (float(t[k]), euler_rpy(quat_multiply(q_t.T, q_rel0.T).T),
+                   quat_rotate_many(quat_conjugate(q_rel[k]), w_t),
+                   rotation_angle_many(quat_multiply(quat_conjugate(q_rel0.T), q_rel.T).T))
+    return SyncAttitude(t, euler_rpy(q_c), euler_rpy(q_t), w_c, w_t, rotation_angle_many(q_rel), w_rel, *carried)
+
+
+def wheel_energy_j(wheels, speed_rad_s, omega_body):
+    """Spin kinetic energy [J] (N,) of the reaction wheels (flyby_sim.dynamics.rigid_body.ReactionWheels) at their
+    speeds relative to the body (N, K) [rad/s] (/sim/chaser/wheels) and the body rate omega_body (N, 3): the sum of
+    h^2 / (2 J_s) with h = J_s (speed + a . omega) each wheel's absolute momentum. The chaser's inertia leaves the
+    wheels' spin-axis inertia out, so this adds to its body's 1/2 omega . I omega."""
+    spin_rad_s = np.asarray(speed_rad_s) + np.asarray(omega_body) @ wheels.axes_body.T
+    return 0.5 * np.sum(wheels.spin_inertia_kg_m2 * spin_rad_s ** 2, axis=1)
+
+
+class SyncEnergy(typing.NamedTuple):
+    """Seed 001 Fig 7 (kinetic_energies) [J]."""
+
+    t: np.ndarray                      # (N,) [s] truth stamps of both bodies
+    chaser_translational: np.ndarray   # (N,) 1/2 m |v_hill|^2, relative to the target (the hill frame)
+    chaser_rotational: np.ndarray      # (N,) 1/2 omega . I omega of the chaser's body
+    chaser_wheels: np.ndarray          # (N,) wheel_energy_j, NaN where /sim/chaser/wheels has no sample
+    target_translational: np.ndarray   # (N,) 1/2 M |v_hill|^2 (zero: the hill origin is the target's CoM)
+    target_rotational: np.ndarray      # (N,) 1/2 omega . I omega (constant: torque-free)
+
+
+def kinetic_energies(run):
+    """Seed 001 Fig 7 from the truth and the scenario's masses and inertias: each body's translational and rotational
+    kinetic energy. Translation is relative to the target's centre of mass in the rotating hill frame, as the
+    paper's relative motion (its eq 2) and Fig 4 have it: the velocity of velocity_hill, not the orbital one
+    (1/2 m (7.8 km/s)^2 would hide every change); the chaser's mass is the initial one (its fuel burned left out),
+    its inertia that of its body, the reaction wheels' spin energy apart (wheel_energy_j)."""
+    scenario = run.need_scenario()
+    chaser, target, i_c, i_t = run.truth_pair()
+    t, w_c, w_t = chaser.t[i_c], chaser.angular[i_c], target.angular[i_t]
+    wheels_j = np.full(len(t), np.nan)
+    wheels = run.get(c.SIM_CHASER_WHEELS)
+    if wheels is not None:
+        config = scenario.chaser.wheels
+        i_w, i_s = match_stamps(t, wheels.t)
+        assembly = ReactionWheels(config.axes, config.max_torque_n_m, config.max_momentum_n_m_s,
+                                  config.spin_inertia_kg_m2)
+        wheels_j[i_w] = wheel_energy_j(assembly, wheels.velocity[i_s], w_c[i_w])
+    return SyncEnergy(
+        t,
+        0.5 * scenario.chaser.mass_kg * np.sum(velocity_hill(chaser)[i_c] ** 2, axis=1),
+        np.array([kinetic_energy(w, scenario.chaser_inertia) for w in w_c]),
+        wheels_j,
+        0.5 * scenario.target.mass_kg * np.sum(velocity_hill(target)[i_t] ** 2, axis=1),
+        np.array([kinetic_energy(w, scenario.target_inertia) for w in w_t]))
+
+
+def _stage_grid(run, rows, row_height=2.6):
+    """(fig, axes (rows, columns), windows [(t0, t1)]): a column for each pair of seed 001's stages the run reached
+    (stage_windows), its x-axis over the pair's window with the phases named at the top; Skipped if it reached
+    neither. The figures draw in a column only the samples of its window, so that each axis scales to them."""
+    windows = stage_windows(run.phases)
+    if not windows:
+        raise Skipped('no phase of the synchronized approach')
+    fig, axes = plt.subplots(rows, len(windows), figsize=(7.0 * len(windows), row_height * rows + 1.2),
+                             sharex='col', squeeze=False)
+    for col, (name, (t0, t1)) in enumerate(windows.items()):
+        for ax in axes[:, col]:
+            _phase_bands(ax, run, legend=False)
+            _grasp_line(ax, run, legend=ax is axes[0, col])
+            ax.set_xlim(t0, t1)
+            ax.grid(alpha=0.3)
+        top = axes[0, col]
+        for phase, p0, p1 in run.phases:
+            if p1 > t0 and p0 < t1:
+                top.text(0.5 * (max(p0, t0) + min(p1, t1)), 1.0, phase, transform=top.get_xaxis_transform(),
+                         ha='center', va='bottom', fontsize=7)
+        top.set_title(f'seed 001 {name}: {t0:.1f} to {t1:.1f} s\n', fontsize=10)
+        axes[-1, col].set_xlabel('simulation time [s]')
+    return fig, axes, list(windows.values())
+
+
+def _xyz_and_norm(ax, t, vectors, ylabel, frame='hill'):
+    """The components of vectors (N, 3) in frame's axes and their norm (black) against t."""
+    for k, axis in enumerate('xyz'):
+        ax.plot(t, vectors[:, k], color=f'C{k}', lw=1.1, label=f'{frame} {axis}')
+    ax.plot(t, np.linalg.norm(vectors, axis=1), color='k', lw=1.3, label='norm')
+    ax.set_ylabel(ylabel)
+
+
+def _peak(ax, t, values, unit):
+    """The largest of values (N,) at times t marked and labelled, if any is finite."""
+    finite = np.flatnonzero(np.isfinite(values))
+    if len(finite):
+        k = finite[int(np.argmax(values[finite]))]
+        ax.plot(t[k], values[k], 'kv', ms=7, label=f'peak {values[k]:.3g} {unit} at t = {t[k]:.1f} s')
+
+
+def fig_sync_translation(run, path):
+    """Seed 001 Fig 4 (sync_translation): a column for stages 1-2 and one for stages 3-4."""
+    d = sync_translation(run)
+    station_m = run.need_scenario().planner.sync.station_range_m
+    fig, axes, windows = _stage_grid(run, 4)
+    for (t0, t1), (ax_r, ax_v, ax_b, ax_a) in zip(windows, axes.T, strict=True):
+        keep = (d.t >= t0) & (d.t <= t1)
+        t = d.t[keep]
+        _xyz_and_norm(ax_r, t, d.r_hill[keep], 'chaser position\nin hill [m]')
+        _xyz_and_norm(ax_v, t, d.v_hill[keep], 'velocity relative to\nhill, hill axes [m/s]')
+        _xyz_and_norm(ax_b, t, d.r_target_body[keep], 'position in\ntarget_body axes [m]', frame='target_body')
+        ax_b.axhline(station_m, color='0.3', ls=':', lw=1.0, label=f'station range {station_m:g} m')
+        ax_a.plot(t, d.a_thrust_mps2[keep], color='C3', lw=0.8, label='|F| / m$_0$')
+        _peak(ax_a, t, d.a_thrust_mps2[keep], 'm/s$^2$')
+        ax_a.set_ylabel('thrust acceleration\n[m/s$^2$]')
+        for ax in (ax_r, ax_v, ax_b, ax_a):
+            ax.legend(fontsize=7, ncol=3, loc='best', framealpha=0.85)
+    fig.suptitle(f'{run.title}: seed 001 Fig 4, the chaser relative to the target (truth; '
+                 f'|F| / m$_0$ with the initial mass)')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def fig_sync_estimation(run, path):
+    """Seed 001 Fig 5 (euler_estimation_errors): the standard deviation of each Euler angle's estimate, and its
+    error against the truth with +-3 sigma."""
+    t, error, sigma = euler_estimation_errors(run)
+    deg = math.degrees(1.0)
+    fig, axes = plt.subplots(2, 3, figsize=(16, 8.5), sharex=True)
+    for k, (ax, name) in enumerate(zip(axes[0], RPY_NAMES, strict=True)):
+        _phase_bands(ax, run, legend=k == 0)
+        ax.plot(t, sigma[:, k] * deg, color='C0', lw=1.1, label='$\\sigma$ (estimator covariance)')
+        late = np.median(sigma[t >= 0.5 * (t[0] + t[-1]), k]) * deg
+        ax.set(yscale='log', title=f'{name}: median $\\sigma$ of the second half {late:.3g} deg',
+               ylabel='standard deviation [deg]' if k == 0 else None)
+        _grasp_line(ax, run)
+        _time_axis(ax, run, xlabel=False)
+    axes[0, 0].legend(fontsize=7, ncol=2, loc='upper right', framealpha=0.9)
+    _error_row(axes[1], run, 'estimate - truth', 'deg', t, error * deg, 3.0 * sigma * deg)
+    for ax, name in zip(axes[1], RPY_NAMES, strict=True):
+        ax.set_title(f'{name}: estimate - truth, $\\pm 3\\sigma$', fontsize=9)
+        _time_axis(ax, run)
+    fig.suptitle(f'{run.title}: seed 001 Fig 5, the target\'s Euler angles as estimated (/estimation/target/odom)\n'
+                 f'{RPY_SEQUENCE}; sigma of $\\phi$ and $\\psi$ grows without bound as $\\theta$ nears $\\pm$90 deg')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def _angles_deg(angles_rad):
+    """Angles (N, ...) [rad] in degrees, NaN at each wrap (a jump over 180 deg) so that no line crosses the axis."""
+    deg = np.degrees(angles_rad)
+    deg[1:][np.abs(np.diff(deg, axis=0)) > 180.0] = np.nan
+    return deg
+
+
+def fig_sync_attitude(run, path):
+    """Seed 001 Fig 6 (sync_attitude): both bodies' Euler angles and body rates (chaser solid, target dotted, as the
+    paper draws them), from stage 3 the target's carried into the chaser (dashed), and the relative attitude."""
+    d = sync_attitude(run)
+    deg = math.degrees(1.0)
+    fig, axes, windows = _stage_grid(run, 4, row_height=2.7)
+    for (t0, t1), (ax_e, ax_w, ax_rel, ax_dw) in zip(windows, axes.T, strict=True):
+        keep = (d.t >= t0) & (d.t <= t1)
+        t = d.t[keep]
+        carried = d.t_stage3 is not None and t0 >= d.t_stage3 - STEP_TOLERANCE_S
+        for k, name in enumerate(RPY_NAMES):
+            ax_e.plot(t, _angles_deg(d.rpy_chaser[keep, k]), color=f'C{k}', lw=1.2, label=f'chaser {name}')
+            ax_e.plot(t, _angles_deg(d.rpy_target[keep, k]), color=f'C{k}', lw=1.0, ls=':', label=f'target {name}')
+            ax_w.plot(t, d.omega_chaser_body[keep, k] * deg, color=f'C{k}', lw=1.2, label=f'chaser {"pqr"[k]}')
+            ax_w.plot(t, d.omega_target_body[keep, k] * deg, color=f'C{k}', lw=1.0, ls=':', label=f'target {"pqr"[k]}')
+            if carried:
+                ax_e.plot(t, _angles_deg(d.rpy_carried[keep, k]), color='k', lw=0.9, ls='--',
+                          label='target x stage-3 relative attitude' if k == 0 else None)
+                ax_w.plot(t, d.omega_carried_body[keep, k] * deg, color='k', lw=0.9, ls='--',
+                          label='target rate in those chaser axes' if k == 0 else None)
+        ax_e.set(ylabel=f'Euler angles [deg]\n{RPY_SEQUENCE}' if ax_e is axes[0, 0] else None, ylim=(-185.0, 185.0))
+        ax_w.set_ylabel('body rates p, q, r [deg/s]\n(own body axes)' if ax_w is axes[1, 0] else None)
+        ax_rel.plot(t, np.degrees(d.relative_angle_rad[keep]), color='C4', lw=1.2,
+                    label='angle of chaser_body in target_body')
+        ax_rel.set_ylabel('relative attitude [deg]' if ax_rel is axes[2, 0] else None)
+        if carried:
+            ax_drift = ax_rel.twinx()
+            drift_deg = np.degrees(d.drift_rad[keep])
+            ax_drift.plot(t, drift_deg, color='C3', lw=1.0, ls='--')
+            ax_drift.set_ylabel('its drift from the start\nof stage 3 [deg] (dashed)', color='C3')
+            k = int(np.argmax(drift_deg))
+            ax_rel.set_title(f'drift from t = {d.t_stage3:.1f} s: largest {drift_deg[k]:.3g} deg at t = {t[k]:.1f} s',
+                             fontsize=9)
+        relative_rate = np.linalg.norm(d.omega_relative_body[keep], axis=1) * deg
+        ax_dw.plot(t, relative_rate, color='C5', lw=1.0, label='|$\\omega_c$ - C$_{c \\leftarrow t}$ $\\omega_t$|')
+        ax_dw.set(yscale='log', ylabel='relative rate [deg/s]' if ax_dw is axes[3, 0] else None)
+        for ax in (ax_e, ax_w, ax_rel, ax_dw):
+            ax.legend(fontsize=7, ncol=3, loc='lower left', framealpha=0.85)
+    fig.suptitle(f'{run.title}: seed 001 Fig 6, orientation and angular velocity of both bodies (truth)')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def fig_sync_energy(run, path):
+    """Seed 001 Fig 7 (kinetic_energies): translational (left axes, dashed) and rotational (right axes, dotted)
+    kinetic energy of the chaser and of the target, and the chaser's wheels' spin energy."""
+    d = kinetic_energies(run)
+    fig, (ax_c, ax_t, ax_w) = plt.subplots(3, 1, figsize=(13, 11), sharex=True)
+    for ax, name, translational, rotational in ((ax_c, 'chaser', d.chaser_translational, d.chaser_rotational),
+                                                 (ax_t, 'target', d.target_translational, d.target_rotational)):
+        _phase_bands(ax, run, legend=ax is ax_c)
+        _grasp_line(ax, run, legend=ax is ax_c)
+        ax.plot(d.t, translational, color='C0', ls='--', lw=1.3, label=f'{name} translational (left)')
+        ax_rot = ax.twinx()
+        ax_rot.plot(d.t, rotational, color='C3', ls=':', lw=1.6)
+        ax.plot([], [], color='C3', ls=':', lw=1.6, label=f'{name} rotational (right)')
+        for axis, values in ((ax, translational), (ax_rot, rotational)):  # from zero: a constant shows as one
+            axis.set_ylim(0.0, 1.1 * max(float(np.max(values)), 1.0))
+        ax.set_ylabel(f'{name} translational [J]\n(relative to hill)', color='C0')
+        ax_rot.set_ylabel(f'{name} rotational [J]', color='C3')
+        ax.set_title(f'{name}: translational peak {np.max(translational):.4g} J, '
+                     f'rotational {np.min(rotational):.6g} to {np.max(rotational):.6g} J', fontsize=9)
+        ax.legend(fontsize=8, ncol=4, loc='upper left', framealpha=0.9)
+        _time_axis(ax, run, xlabel=False)
+    _phase_bands(ax_w, run, legend=False)
+    ax_w.plot(d.t, d.chaser_wheels, color='C2', lw=1.2, label='reaction wheels, $\\Sigma$ h$^2$ / 2 J$_s$')
+    _peak(ax_w, d.t, d.chaser_wheels, 'J')
+    ax_w.set_ylabel('chaser wheels\' spin [J]')
+    ax_w.legend(fontsize=8, loc='upper left', framealpha=0.9)
+    _time_axis(ax_w, run)
+    fig.suptitle(f'{run.title}: seed 001 Fig 7, kinetic energy (truth; masses and inertias of the scenario, '
+                 f'the chaser\'s initial mass)')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
 FIGURES = (
     ('trajectory_xz.png', fig_trajectory_xz),
     ('trajectory_3d.png', fig_trajectory_3d),
@@ -991,6 +1372,12 @@ RIGID_BODY_FIGURES = (  # written for chaser.model rigid_body only
     ('pointing.png', fig_pointing),
     ('wheels.png', fig_wheels),
     ('thrusters.png', fig_thrusters),
+)
+SYNC_FIGURES = (  # written for a run of the synchronized approach only (is_sync)
+    ('seed001_fig4_position_velocity.png', fig_sync_translation),
+    ('seed001_fig5_euler_sigma.png', fig_sync_estimation),
+    ('seed001_fig6_attitude.png', fig_sync_attitude),
+    ('seed001_fig7_kinetic_energy.png', fig_sync_energy),
 )
 
 
@@ -1091,7 +1478,7 @@ def _write(run_dir, out_dir):
         return _write_fleet(run_dir, out, scenario)
     run = Run(run_dir)
     written, failed = [], []
-    for name, draw in FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()):
+    for name, draw in FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()) + (SYNC_FIGURES if run.sync else ()):
         path = out / name
         try:
             draw(run, path)

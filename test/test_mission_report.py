@@ -1,5 +1,5 @@
 """scripts/mission_report.py on real runs: one cut short before any plan, one that captures, one short run of the
-six-degree-of-freedom chaser through run_mission --report."""
+six-degree-of-freedom chaser through run_mission --report, one short synchronized approach (seed 001 Fig 4-7)."""
 
 import importlib.util
 import subprocess
@@ -7,6 +7,9 @@ import sys
 
 import numpy as np
 import pytest
+import yaml
+from scipy.spatial.transform import Rotation
+from test_run_mission_sync import _short as sync_short
 
 from flyby_msgs_py import contract as c
 from flyby_testing import ROOT, read_summary, run_mission, with_duration, write_scenario
@@ -30,11 +33,11 @@ def report():
         del sys.modules[spec.name]
 
 
-def check_pngs(paths):
+def check_pngs(paths, largest=400_000):
     for path in paths:
         data = path.read_bytes()
         assert data.startswith(PNG_MAGIC), path
-        assert 10_000 < len(data) < 400_000, (path, len(data))
+        assert 10_000 < len(data) < largest, (path, len(data))
 
 
 def test_match_stamps_pairs_the_same_instants_only(report):
@@ -130,3 +133,93 @@ def test_report_of_a_rigid_body_run_from_run_mission(report, tmp_path):
     assert np.max(np.abs(np.gradient(r, truth.t) - r_dot)[coasting][1:-1]) < 1e-6  # [m/s]
     read_in_body_axes = truth._replace(orientation_xyzw=np.tile((0.0, 0.0, 0.0, 1.0), (len(r), 1)))
     assert np.max(np.abs(report._range_and_rate(read_in_body_axes)[1] - r_dot)) > 1e-3  # what the check catches
+
+
+def test_euler_angles_are_the_scenarios_and_their_derivative_is_right(report):
+    """euler_rpy inverts the scenario's reading of rpy_rad, R = Rz(psi) Ry(theta) Rx(phi); euler_from_hill_rotation is
+    how a small rotation about hill axes (the estimator's attitude error) moves them, as a finite difference shows."""
+    rng = np.random.default_rng(15)
+    q = Rotation.random(50, random_state=rng)
+    rpy = report.euler_rpy(q.as_quat())
+    phi, theta, psi = rpy.T
+    one, zero = np.ones(50), np.zeros(50)
+    rx = np.stack((np.stack((one, zero, zero), -1), np.stack((zero, np.cos(phi), -np.sin(phi)), -1),
+                   np.stack((zero, np.sin(phi), np.cos(phi)), -1)), axis=1)
+    ry = np.stack((np.stack((np.cos(theta), zero, np.sin(theta)), -1), np.stack((zero, one, zero), -1),
+                   np.stack((-np.sin(theta), zero, np.cos(theta)), -1)), axis=1)
+    rz = np.stack((np.stack((np.cos(psi), -np.sin(psi), zero), -1), np.stack((np.sin(psi), np.cos(psi), zero), -1),
+                   np.stack((zero, zero, one), -1)), axis=1)
+    assert np.allclose(rz @ ry @ rx, q.as_matrix(), atol=1e-12)
+    dtheta_hill = 1e-7 * rng.standard_normal((50, 3))
+    moved = report.euler_rpy((Rotation.from_rotvec(dtheta_hill) * q).as_quat())
+    step = (moved - rpy + np.pi) % (2.0 * np.pi) - np.pi
+    predicted = np.einsum('nij,nj->ni', report.euler_from_hill_rotation(rpy), dtheta_hill)
+    assert np.allclose(step, predicted, rtol=1e-4, atol=1e-13)
+
+
+def _sync_short(data):
+    """test_run_mission_sync's short variant, its window kept: the plan, made about 35 s before the window's start,
+    would move it past the run's end under planner.sync.min_transfer_s's default (150 s)."""
+    sync_short(data)
+    data['planner']['sync']['min_transfer_s'] = 30.0
+
+
+def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp_path):
+    """The short synchronized approach of test_run_mission_sync flown by run_mission --report (every node in one
+    process, to be quick): the report adds seed 001's Fig 4-7, and what they draw agrees with the truth computed here
+    another way: the kinetic energies at a sample of stage 4 from the raw twist and wheel speeds and the scenario's
+    Table 1 masses and inertias, the target's constant (torque-free) at Table 1's initial rate's; in stages 3-4 the
+    chaser keeps its attitude in target_body as summary.json measures it and turns with the target, which it did not do
+    in stage 1, and its position in target_body holds while orbiting."""
+    scenario_path = write_scenario(tmp_path, base='seweryn_tumbling', name='sync_short', edit=_sync_short)
+    out = tmp_path / 'run'
+    result = run_mission('--scenario', scenario_path, '--out', out, '--in-process', '--report')
+    assert result.returncode == 0, result.stderr
+    summary = read_summary(out)
+    assert summary['outcome'] == 'CAPTURE' and summary['method'] == 'sync'
+
+    no_burn = tuple(n for n in ALL_FIGURES if n != 'maneuvers.png')  # the synchronized approach fires no impulse
+    written = [out / name for name in no_burn + RIGID_BODY_FIGURES + tuple(n for n, _ in report.SYNC_FIGURES)]
+    assert [f'report: {p}' for p in written] == [line for line in result.stderr.splitlines()
+                                                  if line.startswith('report: ')]
+    assert 'failed' not in result.stderr
+    check_pngs(written[-4:], largest=700_000)
+    run = report.Run(out)
+    windows = report.stage_windows(run.phases)
+    (t1, t2), (t3, t4) = windows['stages 1-2'], windows['stages 3-4']
+    assert t2 == t3 and t4 == summary['t_grasp_s']
+
+    attitude = report.sync_attitude(run)
+    assert attitude.t_stage3 == pytest.approx(t3, abs=0.05)
+    synced = (attitude.t >= attitude.t_stage3) & (attitude.t <= t4)
+    drift_deg = np.degrees(attitude.drift_rad[synced])
+    assert drift_deg.max() == pytest.approx(summary['relative_attitude_drift_max_deg'], abs=1e-9)
+    assert drift_deg.max() < 0.5
+    relative_rate_deg_s = np.degrees(np.linalg.norm(attitude.omega_relative_body, axis=1))
+    assert relative_rate_deg_s[synced].max() < 0.5
+    assert np.median(relative_rate_deg_s[(attitude.t >= t1) & (attitude.t < t1 + 10.0)]) > 10.0  # 21.4 deg/s tumble
+
+    translation = report.sync_translation(run)
+    orbiting = [(a, b) for phase, a, b in run.phases if phase == c.PHASE_ORBITING][0]
+    held = translation.r_target_body[(translation.t >= orbiting[0]) & (translation.t <= orbiting[1])]
+    assert np.ptp(held, axis=0).max() < 0.05  # [m] seed 001 Fig 2: constant in the target's frame
+
+    data = yaml.safe_load(scenario_path.read_text())
+    energy = report.kinetic_energies(run)
+    chaser, wheels = run.need(c.SIM_CHASER_ODOM, c.SIM_CHASER_WHEELS)
+    k = int(np.searchsorted(chaser.t, 0.5 * (t3 + t4)))
+    (i,) = np.flatnonzero(energy.t == chaser.t[k])
+    (j,) = np.flatnonzero(wheels.t == chaser.t[k])
+    speed_mps = np.linalg.norm(chaser.linear[k])  # in chaser_body axes: turning it into hill keeps its norm
+    omega = chaser.angular[k]
+    assert energy.chaser_translational[i] == pytest.approx(0.5 * data['chaser']['mass_kg'] * speed_mps ** 2, rel=1e-12)
+    assert energy.chaser_rotational[i] == pytest.approx(0.5 * omega @ np.array(data['chaser']['inertia_kg_m2']) @ omega,
+                                                         rel=1e-12)
+    assert np.allclose(data['chaser']['wheels']['axes'], np.eye(3))  # each wheel spins at its speed + omega's part
+    spin = wheels.velocity[j] + omega
+    assert energy.chaser_wheels[i] == pytest.approx(0.5 * data['chaser']['wheels']['spin_inertia_kg_m2'] * spin @ spin,
+                                                     rel=1e-12)
+    omega0 = np.array(data['target']['initial_rate']['omega_body_rad_s'])
+    table_1 = 0.5 * omega0 @ np.array(data['target']['inertia_kg_m2']) @ omega0  # 478.85 J
+    assert np.allclose(energy.target_rotational, table_1, rtol=1e-9)
+    assert np.all(energy.target_translational == 0.0)  # the hill origin is its centre of mass
