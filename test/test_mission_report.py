@@ -157,13 +157,6 @@ def test_euler_angles_are_the_scenarios_and_their_derivative_is_right(report):
     assert np.allclose(step, predicted, rtol=1e-4, atol=1e-13)
 
 
-def _sync_short(data):
-    """test_run_mission_sync's short variant, its window kept: the plan, made about 35 s before the window's start,
-    would move it past the run's end under planner.sync.min_transfer_s's default (150 s)."""
-    sync_short(data)
-    data['planner']['sync']['min_transfer_s'] = 30.0
-
-
 def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp_path):
     """The short synchronized approach of test_run_mission_sync flown by run_mission --report (every node in one
     process, to be quick): the report adds seed 001's Fig 4-7, and what they draw agrees with the truth computed here
@@ -171,7 +164,7 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp
     Table 1 masses and inertias, the target's constant (torque-free) at Table 1's initial rate's; in stages 3-4 the
     chaser keeps its attitude in target_body as summary.json measures it and turns with the target, which it did not do
     in stage 1, and its position in target_body holds while orbiting."""
-    scenario_path = write_scenario(tmp_path, base='seweryn_tumbling', name='sync_short', edit=_sync_short)
+    scenario_path = write_scenario(tmp_path, base='seweryn_tumbling', name='sync_short', edit=sync_short)
     out = tmp_path / 'run'
     result = run_mission('--scenario', scenario_path, '--out', out, '--in-process', '--report')
     assert result.returncode == 0, result.stderr

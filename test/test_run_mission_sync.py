@@ -18,7 +18,8 @@ PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_SYNC_APPROACH, c.PHASE_A
 
 def _short(data):
     data['chaser']['initial_position_hill_m'] = [-100.0, 0.0, 0.0]
-    data['planner']['sync'].update({'arrival_start_s': 110.0, 'arrival_end_s': 150.0, 'docking_duration_s': 20.0})
+    data['planner']['sync'].update({'arrival_start_s': 110.0, 'arrival_end_s': 150.0, 'docking_duration_s': 20.0,
+                                    'min_transfer_s': 30.0})  # 100 m in 30-70 s: the window is not moved
     data['simulation']['duration_s'] = 240.0
 
 
