@@ -31,7 +31,8 @@ f the relative motion without thrust (``nonlinear_relative_accel``), w_c the fee
 turning at |omega| takes r |omega|^2 (0.67 m/s^2 at 5 m and 21 deg/s).
 
 **Abort** (any stage): retreat along the port's outward direction (the chaser sits on that line in stages 2-4; in
-stage 1 along the line of sight away from the target's centre of mass) at the bound until the outward speed reaches
+stage 1, or when the hold has lost its point (``HOLD_ERROR_MAX_M``, ERROR ``station_lost``), along the line of sight
+away from the target's centre of mass) at the bound until the outward speed reaches
 ``retreat_speed_mps`` (a rigid rotation moves the body point under the chaser across the line of sight, not
 along it), at most ``retreat_max_s``; then nothing: the chaser drifts away on a line that leaves the target's circle.
 
@@ -66,6 +67,12 @@ from flyby_sim.dynamics.rotation import (
 SYNC_ATTITUDE = AttitudeGuidanceConfig(natural_frequency_rad_s=2.5, max_rate_rad_s=0.1, dump_start_n_m_s=2.0,
                                        dump_stop_n_m_s=0.5, dump_gain_per_s=0.1, dump_max_torque_n_m=1.0,
                                        integral_time_s=10.0)
+
+# A hold whose estimate is farther than this from its reference [m] is a fault: the reference moved (a newer
+# estimate of an unstable tumble, whose prediction to the arrival was wrong) and the feedback's straight pull could
+# cross the body (the category IV campaign's run 95: 0.88 m into the bus 3 s after the arrival). Stages 2-4 hold within
+# centimetres.
+HOLD_ERROR_MAX_M = 1.0
 
 STAGE_APPROACH = 'approach'
 STAGE_ATTITUDE_SYNC = 'attitude_sync'
@@ -263,6 +270,14 @@ class SyncGuidance:
                                        geo.u_body, *profile(t), cfg.n)
         ref_mid = body_point_reference(mid.q_hill_from_body, mid.omega_body, cfg.target_inertia, geo.x_port_body,
                                        geo.u_body, *profile(t_mid), cfg.n)
+        miss_m = float(np.linalg.norm(ref_now[0] - np.asarray(r_hill, dtype=float)))
+        if miss_m > HOLD_ERROR_MAX_M:
+            self.abort(t)
+            self.retreat_from_hold = False  # off the port's line: away from the centre of mass
+            retreat = self._retreat(t, r_hill, v_hill, now)
+            return dataclasses.replace(retreat, events=tuple(events) + (
+                ('ERROR', 'station_lost', f'{miss_m:.2f} m from the body point held (> {HOLD_ERROR_MAX_M:g} m): '
+                                          'retreating', {'miss_m': miss_m}),) + retreat.events)
         a = hold_acceleration(ref_now, ref_mid, np.asarray(r_hill, float), np.asarray(v_hill, float), cfg)
         self.peak_accel_mps2[self.stage] = max(self.peak_accel_mps2.get(self.stage, 0.0), float(np.linalg.norm(a)))
         return SyncCommand(a, goal, tuple(events))

@@ -301,3 +301,22 @@ def test_attitude_sync_that_never_settles_is_a_fault_and_retreats_along_the_port
     cmd = sync.command(70.5, 70.5, 0.1, r, v, q_off, w_target, (70.5, q_target, w_target))
     assert [e[:2] for e in cmd.events] == [('ERROR', 'attitude_sync_timeout')] and sync.stage == 'retreat'
     assert cmd.goal is None and cmd.a_hill == pytest.approx(CONFIG.accel_max_mps2 * np.array((1.0, 0.0, 0.0)))
+
+
+def test_a_hold_far_from_its_point_is_a_fault_and_retreats_away_from_the_centre_of_mass():
+    """The campaign's run 95 (an intermediate-axis spin, whose 70 s prediction to the arrival was wrong): the station
+    is elsewhere when the chaser arrives. 2 m from the held point, the first stage-2 command is an ERROR station_lost
+    and the retreat's full thrust along the line of sight away from the centre of mass, not the feedback's pull across
+    the body; within HOLD_ERROR_MAX_M the hold goes on."""
+    q_target, w_target = (0.0, 0.0, 0.0, 1.0), np.array((0.0, 0.0, 0.3))
+    near = SyncGuidance(CONFIG)
+    near.arm(10.0)
+    cmd = near.command(10.0, 10.0, 0.1, (5.0, 0.9, 0.0), (0.0, 1.5, 0.0), (0.0, 0.0, 0.0, 1.0), w_target,
+                       (10.0, q_target, w_target))
+    assert near.stage == 'attitude_sync' and cmd.goal is not None
+    far = SyncGuidance(CONFIG)
+    far.arm(10.0)
+    r = np.array((3.0, -4.0, 0.0))  # 5 m from the centre of mass, 4.5 m from the station (5, 0, 0)
+    cmd = far.command(10.0, 10.0, 0.1, r, np.zeros(3), (0.0, 0.0, 0.0, 1.0), w_target, (10.0, q_target, w_target))
+    assert [e[1] for e in cmd.events][:2] == ['station_reached', 'station_lost'] and far.stage == 'retreat'
+    assert cmd.a_hill == pytest.approx(CONFIG.accel_max_mps2 * r / 5.0)
