@@ -31,6 +31,15 @@ different route than flyby_planner.summary takes, from truth alone:
   (which holds its final point and is decided at the chaser estimate's own stamp) the first
   /sensors/chaser/imu stamp at or after it.
 
+* after the capture (a post_capture section, docs/post_capture.md): the approach's delta-v and thrust inside the
+  sphere up to the capture (the whole run's fuel); the grasp's peak contact force and torque from the two bodies'
+  truth by the arm's impedance written out here with scipy's rotations (the summary: flyby_sim.dynamics.grasp), the
+  combined body's angular momentum about its CoM at the end of DAMPING as the sum of both bodies' spin, orbital
+  momentum about the common CoM and the wheels' (the summary: grasp.momentum about the origin, moved); the
+  estimates from the last /estimation/target/inertia message (the summary reads the estimator's final event): its
+  mass and CoM, and the principal moments and axes of its inertia by eigendecomposition; their errors against the
+  truth at that message's stamp.
+
 A run of several chasers (a ``chasers:`` scenario, docs/two_robots.md): every figure above per chaser from its
 own topics (``/<name>/sim/chaser/odom``, ``/<name>/sim/chaser/thrust``, ``/<name>/mission/events`` ..., the target's
 ``/sim/target/odom``) against ``summary.json``'s ``chasers: {name: ...}``, rows ``name.figure``; and the least
@@ -64,6 +73,13 @@ TOLERANCES = {
     'delta_v_total_mps': 1e-4, 'fuel_used_kg': 1e-6, 'min_clearance_m': 1e-3, 't_min_clearance_s': 1e-3,
     'sim_time_s': 1e-3, 'thrust_inside_restriction_sphere': 0, 'maneuvers_executed': 0, 'late_maneuvers': 0,
     'rejected_maneuvers': 0, 'pointing_error_p95_deg': 1e-6, 'pointing_error_max_deg': 1e-6,
+}
+# after the capture (post_capture) -> tolerance; a quaternion's is the largest angle between its axes [deg]
+POST_CAPTURE_TOLERANCES = {
+    'final_angular_momentum_kg_m2_s': 1e-6, 'peak_grasp_force_n': 1e-6, 'peak_grasp_torque_n_m': 1e-6,
+    'target_mass_estimate_kg': 1e-6, 'target_com_estimate_m': 1e-9, 'target_principal_moments_estimate_kg_m2': 1e-6,
+    'target_principal_axes_estimate_q': 1e-4, 'target_mass_error_pct': 1e-6, 'target_com_error_m': 1e-9,
+    'target_principal_moments_error_pct': 1e-6, 'target_principal_axes_error_deg': 1e-4,
 }
 # the figures of several chasers together -> tolerance
 FLEET_TOLERANCES = {'min_separation_m': 1e-3, 't_min_separation_s': 1e-3, 'min_clearance_m': 1e-3}
@@ -127,8 +143,93 @@ def _chaser_truth(data, topic, rigid):
     return chaser
 
 
+def phase_entered(events, phase):
+    """The stamp [s] of the supervisor's first phase_changed to phase, or None."""
+    return next((e['t'] for e in events if e['name'] == 'phase_changed' and e['values'].get('to') == phase), None)
+
+
+def _inertial(chaser, target, scenario, j, k):
+    """(r, inertial velocity, scipy rotation, inertial rate) of the chaser at sample j and the target at sample k, hill
+    axes: the velocity relative to hill plus Omega^H x r, the body rate turned into hill."""
+    omega_hill = np.array([0.0, -scenario.mean_motion_rad_s, 0.0])
+    out = []
+    for odom, i, linear_in_body in ((chaser, j, False), (target, k, True)):
+        rot = Rotation.from_quat(odom.orientation_xyzw[i])
+        r = np.array(odom.position[i])  # copies: the bag's arrays are read-only, scipy's apply wants them writable
+        v = rot.apply(np.array(odom.linear[i])) if linear_in_body else np.array(odom.linear[i])
+        out.append((r, v + np.cross(omega_hill, r), rot, rot.apply(np.array(odom.angular[i]))))
+    return out
+
+
+def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):
+    """The post-capture figures of POST_CAPTURE_TOLERANCES by the module doc's second route."""
+    out = dict.fromkeys(POST_CAPTURE_TOLERANCES)
+    t_grasp, t_damping = phase_entered(events, c.PHASE_GRASP), phase_entered(events, c.PHASE_DAMPING)
+    if t_grasp is None:
+        return out
+    g = scenario.post_capture.grasp
+    common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
+    r_g = np.array(scenario.target.grasp_point_body_m, dtype=float)  # writable: scipy's apply wants it
+    t_end = t_damping if t_damping is not None else (phase_entered(events, c.PHASE_ESCAPE) or common[-1])
+    window = np.flatnonzero((common >= t_grasp - 1e-9) & (common <= t_end + 1e-9))
+    (r_c, _, rot_c, _), (r_t, _, rot_t, _) = _inertial(chaser, target, scenario, i_c[window[0]], i_t[window[0]])
+    r_ee = np.array([np.linalg.norm(r_t + rot_t.apply(r_g) - r_c), 0.0, 0.0])  # along +x to the handle
+    handle_in_target = rot_t.inv() * rot_c  # aligned with the end effector at the first contact
+    forces, torques = [], []
+    for w in window:
+        (r_c, v_c, rot_c, w_c), (r_t, v_t, rot_t, w_t) = _inertial(chaser, target, scenario, i_c[w], i_t[w])
+        p_g = r_t + rot_t.apply(r_g)
+        dv = v_t + np.cross(w_t, rot_t.apply(r_g)) - v_c - np.cross(w_c, p_g - r_c)
+        forces.append(-g.stiffness_n_per_m * (p_g - r_c - rot_c.apply(r_ee)) - g.damping_n_s_per_m * dv)
+        e = (rot_t * handle_in_target * rot_c.inv()).as_rotvec()
+        torques.append(-g.rot_stiffness_n_m_per_rad * e - g.rot_damping_n_m_s_per_rad * (w_t - w_c))
+    out['peak_grasp_force_n'] = float(np.max(np.linalg.norm(forces, axis=1)))
+    out['peak_grasp_torque_n_m'] = float(np.max(np.linalg.norm(torques, axis=1)))
+    if t_damping is None:
+        return out
+    t_damped = phase_entered(events, c.PHASE_MASS_ESTIMATION) or common[-1]
+    k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
+    (r_c, v_c, rot_c, w_c), (r_t, v_t, rot_t, w_t) = _inertial(chaser, target, scenario, i_c[k], i_t[k])
+    m_c, m_t = scenario.chaser.mass_kg - fuel_at(common[k]), scenario.target.mass_kg
+    r_cm, v_cm = (m_c * r_c + m_t * r_t) / (m_c + m_t), (m_c * v_c + m_t * v_t) / (m_c + m_t)
+    wheels_topic = c.absolute(c.SIM_CHASER_WHEELS, namespace)
+    wheels = read_bag(bag_dir, topics=[wheels_topic])[wheels_topic]
+    w = scenario.chaser.wheels
+    axes = np.asarray(w.axes, dtype=float) / np.linalg.norm(w.axes, axis=1)[:, None]
+    speed = wheels.velocity[int(np.argmin(np.abs(wheels.t - common[k])))]
+    h_wheels_body = (w.spin_inertia_kg_m2 * (speed + axes @ chaser.angular[i_c[k]])) @ axes
+    momentum = sum(rot.apply(inertia @ rot.inv().apply(rate)) + mass * np.cross(r - r_cm, v - v_cm)
+                   for rot, inertia, rate, mass, r, v in ((rot_c, scenario.chaser_inertia, w_c, m_c, r_c, v_c),
+                                                          (rot_t, scenario.target_inertia, w_t, m_t, r_t, v_t)))
+    out['final_angular_momentum_kg_m2_s'] = float(np.linalg.norm(momentum + rot_c.apply(h_wheels_body)))
+    inertia_topic = c.absolute(c.EST_TARGET_INERTIA, namespace)
+    messages = read_bag(bag_dir, topics=[inertia_topic])[inertia_topic].messages
+    if not messages:
+        return out
+    last = messages[-1]
+    i = last.inertia
+    inertia = np.array([[i.ixx, i.ixy, i.ixz], [i.ixy, i.iyy, i.iyz], [i.ixz, i.iyz, i.izz]])
+    moments, axes_est = np.linalg.eigh(inertia)
+    com = np.array([i.com.x, i.com.y, i.com.z])
+    t_est = last.header.stamp.sec + 1e-9 * last.header.stamp.nanosec
+    k = int(np.searchsorted(common, t_est - 1e-9))
+    (r_c, _, rot_c, _), (r_t, _, rot_t, _) = _inertial(chaser, target, scenario, i_c[k], i_t[k])
+    true_moments, true_axes_target = np.linalg.eigh(scenario.target_inertia)
+    true_axes = (rot_c.inv() * rot_t).apply(true_axes_target.T).T
+    out.update(target_mass_estimate_kg=float(i.m), target_com_estimate_m=com.tolist(),
+               target_principal_moments_estimate_kg_m2=moments.tolist(),
+               target_principal_axes_estimate_q=axes_est,  # compared by angle (compare)
+               target_mass_error_pct=100.0 * abs(i.m / m_t - 1.0),
+               target_com_error_m=float(np.linalg.norm(com - rot_c.inv().apply(r_t - r_c))),
+               target_principal_moments_error_pct=100.0 * float(np.max(np.abs(moments / true_moments - 1.0))),
+               target_principal_axes_error_deg=float(np.degrees(np.max(np.arccos(np.clip(np.abs(np.sum(
+                   axes_est * true_axes, axis=0)), 0.0, 1.0))))))
+    return out
+
+
 def recompute(bag_dir, scenario, namespace=''):
-    """Every figure of TOLERANCES from the truth topics of the bag (of the chaser under ``namespace``)."""
+    """Every figure of TOLERANCES (and POST_CAPTURE_TOLERANCES) from the truth topics of the bag (of the chaser under
+    ``namespace``)."""
     rigid = scenario.chaser.model == 'rigid_body'
     topics = [c.absolute(t, namespace) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
                                                  c.MISSION_EVENTS, c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET)]
@@ -165,15 +266,19 @@ def recompute(bag_dir, scenario, namespace=''):
             fuel_steps = impulse / v_exhaust
         out['fuel_used_kg'] = float(fuel_steps.sum())
         mass_mean = m0 - np.cumsum(fuel_steps) + 0.5 * fuel_steps  # over each step
-        out['delta_v_total_mps'] = float(np.sum(impulse / mass_mean))
         idx = np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)
         inside = np.linalg.norm(chaser.position[idx], axis=1) < scenario.planner.restriction_sphere_radius_m
-        out['thrust_inside_restriction_sphere'] = bool(np.any(firing & (inside | np.roll(inside, 1))))
+        approach = np.ones(len(thrust.t), bool)  # up to the capture when the mission goes on after it
+        t_capture = phase_entered(events, c.PHASE_GRASP) if scenario.post_capture is not None else None
+        if t_capture is not None:
+            approach = thrust.t <= t_capture + 1e-9
+        out['delta_v_total_mps'] = float(np.sum((impulse / mass_mean)[approach[1:]]))
+        out['thrust_inside_restriction_sphere'] = bool(np.any(firing & (inside | np.roll(inside, 1)) & approach))
 
     if target is not None and len(target.t):
         common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
-        gaps = box_clearance(chaser.position[i_c], target.orientation_xyzw[i_t], scenario.boxes.center_body_m,
-                             scenario.boxes.size_m, scenario.chaser.envelope_radius_m)
+        gaps = box_clearance(chaser.position[i_c] - target.position[i_t], target.orientation_xyzw[i_t],
+                             scenario.boxes.center_body_m, scenario.boxes.size_m, scenario.chaser.envelope_radius_m)
         k = least_clearance_index(gaps)
         out['min_clearance_m'], out['t_min_clearance_s'] = float(gaps[k]), float(common[k])
         t_g = aimed_grasp_time(events, grasp)
@@ -206,6 +311,14 @@ def recompute(bag_dir, scenario, namespace=''):
             out['capture_velocity_error_mps'] = float(np.linalg.norm(v - v_ft))
         if rigid:
             out.update(pointing(chaser, events, t_g))
+        if scenario.post_capture is not None:
+            fuel_t = thrust.t[1:] if thrust is not None and len(thrust.t) > 1 else np.zeros(0)
+            fuel_cum = np.cumsum(fuel_steps) if len(fuel_t) else np.zeros(0)
+
+            def fuel_at(t):
+                n = int(np.searchsorted(fuel_t, t + 1e-9))
+                return float(fuel_cum[n - 1]) if n else 0.0
+            out.update(post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace))
     return out
 
 
@@ -253,8 +366,16 @@ def fleet_figures(bag_dir, scenario, per_chaser):
             'min_clearance_m': None if None in clearances else min(clearances)}
 
 
+def axes_angle_deg(q_body_from_principal, axes):
+    """The largest angle [deg] between the principal axes of a quaternion (x, y, z, w) and the columns of axes (3, 3),
+    in order, signs ignored (an axis is a line)."""
+    columns = Rotation.from_quat(q_body_from_principal).as_matrix()
+    return float(np.degrees(np.max(np.arccos(np.clip(np.abs(np.sum(columns * np.asarray(axes), axis=0)), 0.0, 1.0)))))
+
+
 def compare(summary, recomputed, tolerances=TOLERANCES):
-    """Rows (figure, summary value, recomputed value, agrees)."""
+    """Rows (figure, summary value, recomputed value, agrees); lists agree element by element, a principal-axes
+    quaternion with recomputed axes by their angle (axes_angle_deg)."""
     rows = []
     for key, tol in tolerances.items():
         if key not in recomputed:  # a figure of the six-degree-of-freedom chaser only
@@ -262,6 +383,11 @@ def compare(summary, recomputed, tolerances=TOLERANCES):
         a, b = summary.get(key), recomputed.get(key)
         if a is None or b is None:
             agrees = a is None and b is None
+        elif key.endswith('_q'):
+            angle = axes_angle_deg(a, b)
+            agrees, b = angle <= tol, f'{angle:.3g} deg off'
+        elif isinstance(a, list):
+            agrees = len(a) == len(b) and float(np.max(np.abs(np.subtract(a, b)))) <= tol
         elif isinstance(a, bool) or tol == 0:
             agrees = a == b
         else:
@@ -305,7 +431,8 @@ def main(argv=None):
                 for key, a, b, agrees in compare(summary.get('chasers', {}).get(n, {}), recomputed[n])]
         rows += compare(summary, recomputed, FLEET_TOLERANCES)
     else:
-        rows = compare(summary, recomputed)
+        rows = compare(summary, recomputed, {**TOLERANCES, **(POST_CAPTURE_TOLERANCES if scenario.post_capture
+                                                               is not None else {})})
     width = max(len(r[0]) for r in rows)
     for key, a, b, agrees in rows:
         print(f'{key:<{width}}  {a!s:>24}  {b!s:>24}  {"ok" if agrees else "DISAGREES"}')

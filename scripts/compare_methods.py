@@ -40,7 +40,7 @@ def fly(scenario_path, method):
     require_one_chaser(scenario)
     graph = HeadlessGraph(scenario)
     run = run_headless(scenario, graph)
-    chaser, _target, thrust = graph.truth.series()
+    chaser, _target, thrust, _wheels = graph.truth.series()
     starts = [e['t'] for e in run.events if e['name'] == 'phase_changed' and e['values'].get('to') == APPROACH[method]]
     return run.summary, chaser, thrust, (starts[0] if starts else None), scenario
 

@@ -56,7 +56,7 @@ def test_graph_truth_equals_the_headless_loops(runs):
     graph.start()
     while graph.plant.t < DURATION_S - 1e-9:
         graph.step()
-    chaser, _target, thrust = graph.truth.series()
+    chaser, _target, thrust, _wheels = graph.truth.series()
     odom = runs['max'][c.absolute(c.SIM_CHASER_ODOM)]
     n = len(odom.t)
     assert n == len(chaser.t) == DURATION_S / 0.05 + 1

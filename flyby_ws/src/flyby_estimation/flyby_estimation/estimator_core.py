@@ -22,22 +22,40 @@ sample is taken as the delta-v the accelerometer measured. A rejected measuremen
 running count of its kind. After the capture the chaser moves with the target, so its free-flight
 navigation stops.
 
+After the capture with a post_capture section (issue 16, ``post_capture``): the target filter stops too (the target
+is no longer torque-free), the chaser attitude filter goes on, and a ``ChaserEstimate`` is still given at every
+IMU sample (guidance damps and excites the combined body from it), its position the chaser's at the capture,
+fixed in its own axes (the navigation estimate at the simulator's ``captured`` stamp, turned with the attitude
+estimate). At guidance's ``damping_complete`` the mass-property filter runs over the excitation
+(``post_capture.MassEstimationRun``), from the prior at the capture (``post_capture.mass_property_prior``); its
+estimates go out as ``TargetInertiaEstimate`` (estimation/target/inertia) with their 1-sigma on mission/events
+(``mass_properties_estimate``, the last ``mass_properties_estimated``).
+
 The estimator node and the headless driver (flyby_guidance.closed_loop) both run ``EstimatorCore``;
 every input method returns the outputs to publish, in order.
 """
 
 import collections
 import dataclasses
+import json
 import math
 
 import numpy as np
 
 from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser_attitude_filter_config_from_scenario
 from flyby_estimation.filters import filters_from_scenario
+from flyby_estimation.post_capture import (
+    CaptureSnapshot,
+    MassEstimationRun,
+    imu_sample,
+    mass_property_prior,
+)
 from flyby_msgs_py import contract as c
+from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
+from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.propulsion import ManeuverRejected
-from flyby_sim.dynamics.rotation import quat_rotate, skew
+from flyby_sim.dynamics.rotation import quat_rotate, quat_to_matrix, skew
 
 # The category is re-evaluated this often once converged (it scans the attitude history) [s].
 CLASSIFY_PERIOD_S = 10.0
@@ -115,6 +133,13 @@ class EstimatorCore:
             # force command has not come yet.
             self.commanded_dv = {}
             self.measured_dv = {}
+        # After the capture (module doc): the estimates around it by stamp, what the capture fixed, the filter's run.
+        self.post_capture = scenario.post_capture is not None and self.attitude is not None
+        if self.post_capture:
+            self.recent_chaser, self.recent_target = StampedBuffer(200), StampedBuffer(200)
+            self.snapshot = None
+            self.mass_run = None
+            self.pending = []  # IMU samples after the capture that came before its stamp did
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_phase(self, phase):
@@ -125,15 +150,84 @@ class EstimatorCore:
         return [self._event(t, 'OK', 'navigation_suspended',
                             'captured: the chaser moves with the target, its free-flight navigation filter stops', {})]
 
+    def on_event(self, event):
+        """An event of mission/events (wire.Event): the capture's stamp and the excitation's start (module doc)."""
+        if not self.post_capture or event.source == self.name:
+            return []
+        if event.name == 'captured' and self.snapshot is None:
+            return self._take_snapshot(event.t)
+        if event.name == 'grasp_damped':
+            self.arm_deflection = (json.loads(event.values['arm_displacement_body_m']),
+                                   json.loads(event.values['arm_rotation_body_rad']))
+            return []
+        if event.name == 'damping_complete' and self.mass_run is not None and self.mass_run.t_start is None:
+            return self._start_mass_estimation(event)
+        return []
+
+    def _start_mass_estimation(self, event):
+        """The prior at the lock and the filter's run from the excitation's start (module doc)."""
+        prior = mass_property_prior(self.scenario, self.snapshot, *self.arm_deflection)
+        t_start = float(event.values['t_excitation_s'])
+        started = self._event(event.t, 'OK', 'mass_properties_prior',
+                              f'prior of the target at the lock: {prior.target_mass_kg:.2f} kg, CoM '
+                              f'{np.round(prior.target_com_body_m, 3).tolist()} m (chaser_body); the excitation from '
+                              f't = {t_start:.2f} s',
+                              {'mass_kg': prior.target_mass_kg, 'com_body_m': prior.target_com_body_m,
+                               'principal_moments_kg_m2': prior.principal_moments_kg_m2,
+                               'principal_axes_q': prior.q_body_from_principal,
+                               'principal_axes_sigma_rad': prior.axes_sigma_rad})
+        return [started] + self._mass_outputs(self.mass_run.start(
+            t_start, json.loads(event.values['h_wheels_body_n_m_s']), prior))
+
+    def _take_snapshot(self, t_capture):
+        """What the capture fixed: the estimates stamped at (or last before) it, the prior and the filter's run."""
+        chaser = self.recent_chaser.last_at_or_before(t_capture + STAMP_TOLERANCE_S)
+        target = self.recent_target.last_at_or_before(t_capture + STAMP_TOLERANCE_S)
+        if chaser is None or target is None:
+            return [self._event(t_capture, 'WARN', 'mass_estimation_unavailable',
+                                'no chaser or target estimate at the capture: no prior for the mass properties', {})]
+        estimate = chaser[1]
+        self.snapshot = CaptureSnapshot(t_capture, estimate.r_hill, estimate.q_hill_from_body,
+                                        target[1].q_hill_from_body, target[1].attitude_covariance_hill)
+        self.capture_covariance = estimate.covariance
+        self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.mass_run = MassEstimationRun(self.scenario, self.nav.mass_kg or self.scenario.chaser.mass_kg)
+        pending, self.pending = self.pending, []
+        return [out for args in pending for out in self._attached_imu(*args)]
+
+    def _mass_outputs(self, estimates):
+        """The filter's estimates and their 1-sigma events (module doc)."""
+        out = []
+        for e in estimates:
+            f = e.estimate
+            out.append(e)
+            out.append(self._event(e.t, 'OK', 'mass_properties_estimated' if e.final else 'mass_properties_estimate',
+                                   f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '
+                                   f'{np.round(f.principal_moments_kg_m2, 1).tolist()} kg m^2'
+                                   + (' (final)' if e.final else ''),
+                                   {'mass_kg': f.target_mass_kg, 'mass_sigma_kg': f.mass_sigma_kg,
+                                    'com_body_m': f.target_com_body_m, 'com_sigma_m': f.com_sigma_m,
+                                    'principal_moments_kg_m2': f.principal_moments_kg_m2,
+                                    'principal_moments_sigma_kg_m2': f.principal_moments_sigma_kg_m2,
+                                    'principal_axes_q': f.q_body_from_principal,
+                                    'principal_axes_sigma_rad': f.axes_sigma_rad,
+                                    'imu_rejected': sum(v for k, v in self.mass_run.filter.imu_counts.items()
+                                                        if k != 'accepted')}))
+        return out
+
     def on_attitude(self, t, q_hill_from_body):
         """A vision attitude measurement at t."""
+        if self.attached and self.post_capture:
+            return []  # the target is no longer torque-free (module doc)
         result = self.target.update(t, q_hill_from_body)
         if not result.accepted:
             return self._reject(t, 'target_attitude', result.kind, result.reason)
         s = self.target.state()
-        out = [TargetEstimate(s.t, s.q_hill_from_body, s.omega_body + self.rate_error, s.covariance_hill[:3, :3],
-                              s.covariance[3:, 3:])]
-        return out + self._check_convergence(s.t)
+        estimate = TargetEstimate(s.t, s.q_hill_from_body, s.omega_body + self.rate_error, s.covariance_hill[:3, :3],
+                                  s.covariance[3:, 3:])
+        if self.post_capture:
+            self.recent_target.add(s.t, estimate)
+        return [estimate] + self._check_convergence(s.t)
 
     def on_position(self, t, r_hill):
         """A relative-position measurement at t."""
@@ -150,7 +244,7 @@ class EstimatorCore:
     def on_imu(self, t, q_hill_from_body, omega_body_meas, specific_force_body=None):
         """An IMU sample at t (rigid-body chaser): star-tracker attitude q_hill_from_body or None, gyro rate, and
         the accelerometer's mean specific force [m/s^2, chaser_body] since the previous sample (or None)."""
-        if self.attached or self.attitude is None:
+        if self.attitude is None or (self.attached and not self.post_capture):
             return []
         out = []
         for sensor, result in zip(('gyro', 'star_tracker'), self.attitude.on_imu(t, omega_body_meas, q_hill_from_body),
@@ -161,12 +255,32 @@ class EstimatorCore:
         if not (self.attitude.ready and self.nav.initialized):
             return out
         a = self.attitude.estimate()
+        if self.attached:
+            return out + self._attached_imu(t, a, specific_force_body, q_hill_from_body)
         self.attitudes.append((a.t, a.q_hill_from_body))
         if specific_force_body is not None and t_last is not None:
             out += self._measured_thrust(t_last, t, a, specific_force_body)
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
-        return out + [ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
-                                     a.attitude_covariance_hill, a.rate_covariance)]
+        estimate = ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
+                                  a.attitude_covariance_hill, a.rate_covariance)
+        if self.post_capture:
+            self.recent_chaser.add(a.t, estimate)
+        return out + [estimate]
+
+    def _attached_imu(self, t, a, specific_force_body, q_star_hill):
+        """An IMU sample after the capture (module doc): the chaser estimate, then the mass-property filter's."""
+        if self.snapshot is None:
+            self.pending.append((t, a, specific_force_body, q_star_hill))
+            return []
+        c_hill_from_body = quat_to_matrix(a.q_hill_from_body)
+        r_hill, v_hill = body_point_state(c_hill_from_body, a.omega_body, self.snapshot.r_chaser_body,
+                                          self.scenario.mean_motion_rad_s)
+        out = [ChaserEstimate(a.t, r_hill, v_hill, self.capture_covariance, a.q_hill_from_body, a.omega_body,
+                              a.attitude_covariance_hill, a.rate_covariance)]
+        if specific_force_body is None:
+            return out
+        sample = imu_sample(t, a, specific_force_body, q_star_hill, self.scenario.mean_motion_rad_s)
+        return out + self._mass_outputs(self.mass_run.on_sample(sample))
 
     def on_maneuver(self, t, dv_hill):
         """A commanded maneuver (stamp t, dv_hill): a known input of the navigation filter."""

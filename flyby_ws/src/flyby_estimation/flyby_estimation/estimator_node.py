@@ -16,12 +16,18 @@ about hill axes, twist in chaser_body axes (nav_msgs' rule): the velocity (its c
 axes) and the inertial body rate with its covariance. The relative positions and the IMU samples go to the core
 in the plant's order (``measurement_order``), however DDS interleaves the two topics. The force guidance
 commands on ``guidance/wrench`` (an optimal approach's tracking) is a known input of the navigation filter.
+
+With a post_capture section (issue 16) the events of ``mission/events`` come in too (the capture's stamp, the arm's
+lock, guidance's ``damping_complete``), and the mass-property filter's estimates go out on
+``estimation/target/inertia`` (geometry_msgs/InertiaStamped, frame chaser_body: the target's mass, its CoM from the
+chaser's CoM, its inertia about its CoM), their 1-sigma on ``mission/events``.
 """
 
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
 from flyby_estimation.measurement_order import MeasurementOrder
+from flyby_estimation.post_capture import TargetInertiaEstimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode
@@ -60,6 +66,9 @@ class EstimatorNode(CoreNode):
         self.subscribe(c.SENSOR_RELATIVE_POSITION, self.on_position, raw=True)
         self.subscribe(c.GUIDANCE_MANEUVER, self.on_maneuver)
         self.subscribe_phase()
+        if scenario.post_capture is not None:
+            self.pub_inertia = self.publisher(c.EST_TARGET_INERTIA)
+            self.subscribe_events()
 
     def on_attitude(self, data):
         self.publish(self.core.on_attitude(*convert.quaternion_stamped_cdr_to_numpy(data)))
@@ -106,6 +115,9 @@ class EstimatorNode(CoreNode):
                     quat_rotate(quat_conjugate(out.q_hill_from_body), out.v_hill), out.omega_body,
                     pose_covariance=_block_diag_6(out.covariance[:3, :3], out.attitude_covariance_hill),
                     twist_covariance=_block_diag_6(velocity_cov_body, out.rate_covariance_body)))
+            elif isinstance(out, TargetInertiaEstimate):
+                self.pub_inertia.publish(convert.inertia_stamped(out.t, c.FRAME_CHASER_BODY, out.mass_kg,
+                                                                 out.com_body_m, out.inertia_body_kg_m2))
             elif isinstance(out, ChaserEstimate):
                 self.pub_chaser.publish(convert.odometry_cdr(
                     out.t, c.FRAME_HILL, c.FRAME_CHASER_BODY, out.r_hill, (0.0, 0.0, 0.0, 1.0), out.v_hill,

@@ -28,6 +28,15 @@ updates). Qd: white noise of psd ``accel_psd_m2_s3`` on v_dot and ``angular_acce
 (the model's integration and the unmodelled, e.g. the orbit's differential gravity), integrated into r and
 theta over the step (dt^3/3, dt^2/2 terms), and ``parameter_psd`` on the parameters (default 0: constants).
 
+The thrusters' execution errors (``thrust_magnitude_sigma``, ``thrust_misalignment_sigma_rad``: each thruster's force
+off by a relative magnitude and a small rotation, drawn once per run in the plant, unknown here) make the known
+input uncertain: a firing's force error dF has the covariance S_F = s_m^2 F F' + s_d^2 (|F|^2 U - F F') per
+thruster; it enters v_dot as C dF / (m + M) and omega_dot as I^-1 ((X_f - c) x dF), which is added to Qd as white
+noise of psd S_F times the firing's duration (the error is constant over a firing: its velocity error at the
+firing's end has the right variance; that one thruster's errors recur from firing to firing is left out), and the
+accelerometer reads it directly, dF / (m + M) - p x I^-1 ((X_f - c) x dF), which is added to the IMU update's R.
+Without them (the default, 0) the firings are exact.
+
 Measurement update: filterpy's ``ExtendedKalmanFilter.update`` (Joseph form) with H the central difference of
 the measurement function (the IMU) or [.. I ..] (attitude, position), the innovation computed from the nominal
 (attitude: ``filter_interface.attitude_innovation``), gated on the chi-square of its size; then the error is
@@ -247,6 +256,12 @@ class MassPropertyFilterConfig:
         gate_probability: chi-square probability of the innovation gate (of the measurement's size).
         max_consecutive_outliers: rejections in a row after which a measurement is taken anyway (the model is
             then trusted less than the data: the gate must not lock the filter out).
+        thrust_magnitude_sigma, thrust_misalignment_sigma_rad: each thruster's execution errors, 1 sigma (relative
+            magnitude; misalignment [rad] about each axis normal to its force) (module doc).
+        accel_interval_s: 0: the accelerometer reads the specific force at its stamp; > 0: the mean over the
+            interval of this length ending at its stamp (the plant's IMU, ``flyby_sim.sensors``), modelled with the
+            wrench held at the interval's middle: exact for firings that start and end on samples (the mean of
+            omega_dot x p over the interval is then that of the held wrench, to the gyroscopic term's change).
     """
 
     chaser_mass_kg: float
@@ -264,6 +279,9 @@ class MassPropertyFilterConfig:
     imu_iterations: int = 3
     gate_probability: float = 0.9999
     max_consecutive_outliers: int = 20
+    thrust_magnitude_sigma: float = 0.0
+    thrust_misalignment_sigma_rad: float = 0.0
+    accel_interval_s: float = 0.0
 
     def __post_init__(self):
         require_positive('chaser_mass_kg', self.chaser_mass_kg)
@@ -274,7 +292,8 @@ class MassPropertyFilterConfig:
                              f'got {self.chaser_inertia_body_kg_m2!r}')
         for name in ('gyro_sigma_rad_s', 'accel_sigma_mps2', 'attitude_sigma_rad', 'position_sigma_m', 'max_step_s'):
             require_positive(name, getattr(self, name))
-        for name in ('accel_psd_m2_s3', 'angular_accel_psd_rad2_s3', 'parameter_psd'):
+        for name in ('accel_psd_m2_s3', 'angular_accel_psd_rad2_s3', 'parameter_psd', 'accel_interval_s',
+                     'thrust_magnitude_sigma', 'thrust_misalignment_sigma_rad'):
             require_positive(name, getattr(self, name), allow_zero=True)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability!r}')
@@ -381,10 +400,45 @@ class MassPropertyFilter(FilterBase):
         y = _rk4_batch(_perturb(self._y, e), dt, force, moment, self._h_w, self._m, self._i_t0)
         d = _difference(y[1:], y[0])
         phi = ((d[:N_ERR] - d[N_ERR:]) / (2.0 * _EPS)[:, None]).T  # column i: d(error')/d(error_i)
-        self._y = y[0]
         self._kf.F = phi
-        self._kf.Q = self._process_noise(dt)
+        self._kf.Q = self._process_noise(dt) + self._firing_noise(dt)
+        self._y = y[0]
         self._kf.predict()  # P = F P F' + Q (x stays zero)
+
+    def _firing_errors(self, t):
+        """[(S_F (3, 3), X_f - c (3,))] of the thruster firings active at t, at the nominal (module doc)."""
+        cfg = self.config
+        if cfg.thrust_magnitude_sigma == 0.0 and cfg.thrust_misalignment_sigma_rad == 0.0:
+            return []
+        c = self._y[13] / (self._y[13] + self._m) * self._y[18:21]  # c = M/(M+m) X_s
+        out = []
+        for f in self._firings:
+            if f.t_start_s <= t < f.t_start_s + f.duration_s:
+                force = np.asarray(f.force_body_n, dtype=float)
+                ff = np.outer(force, force)
+                s_f = cfg.thrust_magnitude_sigma ** 2 * ff + cfg.thrust_misalignment_sigma_rad ** 2 * (
+                    float(force @ force) * np.eye(3) - ff)
+                out.append((s_f, np.asarray(f.position_body_m, dtype=float) - c, f.duration_s))
+        return out
+
+    def _firing_noise(self, dt):
+        """Qd of the firings' force errors over a step of dt from the filter time (module doc): dF held as white
+        noise of psd S_F x the firing's duration on v_dot (inertial) and omega_dot, integrated into r and theta."""
+        errors = self._firing_errors(self._t)
+        q = np.zeros((N_ERR, N_ERR))
+        if not errors:
+            return q
+        body = _BatchBody(self._y[None, :], self._m, self._i_t0)
+        c_inertial_from_body = quat_to_matrix_many(self._y[None, 6:10])[0]
+        rates = np.zeros((6, 6))
+        for s_f, lever, duration in errors:
+            g = np.vstack((c_inertial_from_body / body.mass[0], body.inertia_inv[0] @ skew(lever)))
+            rates += g @ s_f @ g.T * duration
+        pos, rate = np.r_[0:3, 6:9], np.r_[3:6, 9:12]
+        q[np.ix_(rate, rate)] = rates * dt
+        q[np.ix_(pos, pos)] = rates * dt ** 3 / 3.0
+        q[np.ix_(pos, rate)] = q[np.ix_(rate, pos)] = rates * dt ** 2 / 2.0
+        return q
 
     def _process_noise(self, dt):
         q = np.zeros((N_ERR, N_ERR))
@@ -408,8 +462,16 @@ class MassPropertyFilter(FilterBase):
         if stale is not None:
             return stale
         self.propagate_to(t)
-        force, moment = wrench_about_chaser(self._firings, t)
+        t_wrench = t - 0.5 * self.config.accel_interval_s
+        force, moment = wrench_about_chaser(self._firings, t_wrench)
         r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
+        errors = self._firing_errors(t_wrench)
+        if errors:  # the accelerometer reads the firings' force errors directly (module doc)
+            body = _BatchBody(self._y[None, :], self._m, self._i_t0)
+            p_acc = self._p_acc - body.c[0]
+            for s_f, lever, _ in errors:
+                h_f = np.eye(3) / body.mass[0] - skew(p_acc) @ body.inertia_inv[0] @ skew(lever)
+                r[3:, 3:] += h_f @ s_f @ h_f.T
         p = self._kf.P
         # Iterated update (Gauss-Newton on the measurement): h re-linearized at each iterate dx_i, dx_(i+1) =
         # K_i (z - h(dx_i) + H_i dx_i), for the curvature of F/(m + M) in M while M is uncertain by percents; the

@@ -18,6 +18,12 @@ start times inside the excitation window; a candidate's figure of merit is the l
 information the filter gains on the ten target parameters (log det P0_params - log det P_params after
 the window, P from the filter's own Riccati recursion along the nominal trajectory: a D-optimal design);
 every candidate uses the same total impulse (fuel = impulse / (Isp g0)).
+
+In a mission (scenario post_capture, issue 16) the chaser has no such gimballed thruster: each firing is the
+wrench (F, X_f x F) about the chaser's CoM, commanded on /guidance/wrench and held in steps of the control period,
+which the plant allocates on the chaser's own thrusters (``actuators.allocate_wrench`` and ``fire`` with the
+minimum impulse bit over the hold); ``thruster_firings`` is that allocation as the filter's known input, each
+thruster at its true position (``excitation_firings`` the sequence itself, from the excitation's start).
 """
 
 import dataclasses
@@ -33,6 +39,7 @@ from flyby_estimation.mass_properties import (
     j_from_moments,
     moments_from_j,
 )
+from flyby_sim.dynamics.actuators import allocate_wrench, fire
 from flyby_sim.dynamics.combined_body import (
     CombinedState,
     Firing,
@@ -61,6 +68,20 @@ TABLE1_ROWS = (
     (15.0, 0.5, 50.0, 45.0, 45.0),
     (19.0, 0.5, 50.0, -45.0, -45.0),
 )
+# The sequence choose_sequence picked for §3.1's case (seed [16], 16 candidates, docs/post_capture.md): nine
+# full-thrust firings, each 0.3 s (its 1/3 s on the 0.1 s IMU grid, 27 N s: no more impulse than Table 1).
+CHOSEN_ROWS = (
+    (1.0, 0.3, 100.0, 45.0, -135.0),
+    (2.0, 0.3, 100.0, -45.0, -90.0),
+    (3.0, 0.3, 100.0, 80.0, 90.0),
+    (6.0, 0.3, 100.0, 80.0, -45.0),
+    (7.0, 0.3, 100.0, 45.0, 45.0),
+    (8.0, 0.3, 100.0, 45.0, -135.0),
+    (9.0, 0.3, 100.0, 0.0, 90.0),
+    (10.0, 0.3, 100.0, 80.0, 90.0),
+    (13.0, 0.3, 100.0, 0.0, 0.0),
+)
+EXCITATIONS = {'table1': TABLE1_ROWS, 'chosen': CHOSEN_ROWS}  # scenario post_capture.mass_estimation.excitation
 PARAMETER_SLICE = slice(12, 22)  # M, dphi, X_s, j in the filter's error state
 PRIOR_AXES_SIGMA_RAD = math.radians(1.0)
 STATE_SIGMAS = (1.0, 0.1, math.radians(1.0), 0.01)  # r [m], v [m/s], attitude [rad], omega [rad/s] at the start
@@ -85,6 +106,31 @@ def firings_from_rows(rows, max_thrust_n=TABLE1_MAX_THRUST_N, position_body_m=TA
 def table1_firings():
     """Seed 004 Table 1's sequence as firings (module doc)."""
     return firings_from_rows(TABLE1_ROWS)
+
+
+def excitation_firings(name, t_start_s):
+    """The excitation ``name`` ('table1' or 'chosen', EXCITATIONS) as firings of Table 1's thruster from t_start_s
+    [s] (module doc)."""
+    return tuple(f._replace(t_start_s=t_start_s + f.t_start_s) for f in firings_from_rows(EXCITATIONS[name]))
+
+
+def firing_wrench(firing):
+    """(force [N], torque about the chaser CoM [N m]) of a firing, chaser_body axes: (F, X_f x F)."""
+    force = np.asarray(firing.force_body_n, dtype=float)
+    return force, np.cross(firing.position_body_m, force)
+
+
+def thruster_firings(layout, firings, hold_s):
+    """Each firing's wrench (``firing_wrench``) as the plant fires it held over hold_s [s] (module doc): the firings
+    of the layout's thrusters (nominal thrust, at their positions from the chaser CoM), one per thruster that
+    fires."""
+    out = []
+    for f in firings:
+        thrusts = fire(layout, allocate_wrench(layout, *firing_wrench(f)).thrusts_n, hold_s).thrusts_n
+        out.extend(Firing(f.t_start_s, f.duration_s, tuple(p.tolist()), tuple((thrust * d).tolist()))
+                   for p, d, thrust in zip(layout.positions_body_m, layout.force_directions_body, thrusts.tolist(),
+                                           strict=True) if thrust > 0.0)
+    return tuple(out)
 
 
 def total_impulse_n_s(firings):

@@ -131,3 +131,35 @@ def test_a_firing_before_the_filter_time_and_a_bad_config_are_refused_by_name():
         MassPropertyFilterConfig(30.0, ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0)))
     with pytest.raises(ValueError, match='gyro_sigma_rad_s'):
         MassPropertyFilterConfig(30.0, np.eye(3).tolist(), gyro_sigma_rad_s=0.0)
+
+
+def test_thruster_errors_enter_as_process_and_measurement_noise_during_a_firing():
+    """The module doc's input noise, by hand for one firing: S_F = s_m^2 F F' + s_d^2 (|F|^2 U - F F'), the rates'
+    psd G S_F G' x the firing's duration (G = [C / (m + M); I^-1 [X_f - c]x]) over the step; none between firings
+    and none without the sigmas."""
+    from flyby_estimation.mass_properties import _BatchBody
+    from flyby_sim.dynamics.combined_body import Firing
+    from flyby_sim.dynamics.rotation import quat_to_matrix, skew
+
+    case = TugrobotCase()
+    firing = Firing(1.0, 0.5, (-0.3, 0.1, 0.1), (3.0, 4.0, 0.0))
+    prior = default_prior(case)
+
+    def new(**sigmas):
+        config = tugrobot_filter_config(case, **sigmas)
+        return MassPropertyFilter(config, prior, 1.2, np.zeros(3), np.zeros(3), case.q_inertial_from_body0,
+                                  np.asarray(case.omega0_body), STATE_SIGMAS, (firing,))
+
+    assert not np.any(new()._firing_noise(0.1))
+    f = new(thrust_magnitude_sigma=0.01, thrust_misalignment_sigma_rad=math.radians(0.5))
+    q = f._firing_noise(0.1)
+    force = np.array(firing.force_body_n)
+    s_f = 0.01 ** 2 * np.outer(force, force) + math.radians(0.5) ** 2 * (25.0 * np.eye(3) - np.outer(force, force))
+    body = _BatchBody(f._y[None, :], case.chaser_mass_kg, case.chaser_inertia_body)
+    g = np.vstack((quat_to_matrix(case.q_inertial_from_body0) / body.mass[0],
+                   body.inertia_inv[0] @ skew(np.array(firing.position_body_m) - body.c[0])))
+    rates = g @ s_f @ g.T * 0.5
+    np.testing.assert_allclose(q[np.ix_(np.r_[3:6, 9:12], np.r_[3:6, 9:12])], rates * 0.1, rtol=1e-12)
+    np.testing.assert_allclose(q[np.ix_(np.r_[0:3, 6:9], np.r_[3:6, 9:12])], rates * 0.1 ** 2 / 2.0, rtol=1e-12)
+    f.propagate_to(1.6)  # past the firing
+    assert not np.any(f._firing_noise(0.1))

@@ -25,13 +25,21 @@ import time
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
+from flyby_estimation.post_capture import TargetInertiaEstimate
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
 from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
-from flyby_planner.summary import ChaserTruth, TargetTruth, ThrustTruth, chaser_truth_from_odometry, summarize
+from flyby_planner.summary import (
+    ChaserTruth,
+    TargetTruth,
+    ThrustTruth,
+    WheelTruth,
+    chaser_truth_from_odometry,
+    summarize,
+)
 from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
@@ -62,6 +70,7 @@ class _Truth:
     def __init__(self):
         self.t, self.r, self.v, self.q, self.w, self.f = [], [], [], [], [], []
         self.q_chaser, self.torque, self.thrusters = [], [], []  # the six-degree-of-freedom chaser's
+        self.w_chaser, self.wheels, self.r_target, self.v_target = [], [], [], []
 
     def add(self, s):
         self.t.append(wire_time(s.t))
@@ -69,6 +78,10 @@ class _Truth:
         self.q.append(s.q_hill_from_body)
         self.w.append(s.omega_body)
         self.f.append(s.force_hill)
+        # /sim/target/odom: the CoM off the hill origin after a grasp, its twist in target_body axes
+        self.r_target.append(np.zeros(3) if s.r_target_hill is None else s.r_target_hill)
+        self.v_target.append(np.zeros(3) if s.v_target_hill is None else quat_rotate(
+            quat_conjugate(s.q_hill_from_body), s.v_target_hill))
         if s.q_hill_from_chaser_body is None:
             self.v.append(s.v_hill)
         else:  # the twist of /sim/chaser/odom: chaser_body axes, as the sim node publishes it
@@ -76,15 +89,20 @@ class _Truth:
             self.q_chaser.append(s.q_hill_from_chaser_body)
             self.torque.append(s.torque_hill_n_m)
             self.thrusters.append(s.thruster_thrust_n)
+            self.w_chaser.append(s.omega_chaser_body)
+            self.wheels.append(s.wheel_speed_rad_s)
 
     def series(self):
+        """(ChaserTruth, TargetTruth, ThrustTruth, the wheels' (t, velocity) or None) as the bag's topics give them."""
         t = np.array(self.t)
         rigid = len(self.q_chaser) == len(t)
-        chaser = ChaserTruth(t, np.array(self.r), np.array(self.v), np.array(self.q_chaser) if rigid else None)
+        chaser = ChaserTruth(t, np.array(self.r), np.array(self.v), np.array(self.q_chaser) if rigid else None,
+                             np.array(self.w_chaser) if rigid else None)
         return (chaser_truth_from_odometry(chaser) if rigid else chaser,
-                TargetTruth(t, np.array(self.q), np.array(self.w)),
+                TargetTruth(t, np.array(self.q), np.array(self.w), np.array(self.r_target), np.array(self.v_target)),
                 ThrustTruth(t, np.array(self.f), np.array(self.torque) if rigid else None,
-                            np.array(self.thrusters) if rigid else None))
+                            np.array(self.thrusters) if rigid else None),
+                WheelTruth(t, np.array(self.wheels)) if rigid else None)
 
 
 def require_one_chaser(scenario):
@@ -155,7 +173,8 @@ class HeadlessGraph:
             e = wire_event(out)
             self.events.append({'t': e.t, 'level': e.level, 'name': e.name, 'message': e.message,
                                 'values': e.values, 'hardware_id': e.source})
-            self._queue.extend(self.supervisor.on_event(e) + self.planner.on_event(e))
+            self._queue.extend(self.supervisor.on_event(e) + self.planner.on_event(e) + self.estimator.on_event(e)
+                               + self.guidance.on_event(e))
         elif isinstance(out, Transition):  # mission/phase
             self.phases.append(out.phase_to)
             self._queue.extend(self.guidance.on_phase(out.phase_to) + self.estimator.on_phase(out.phase_to))
@@ -196,7 +215,7 @@ class HeadlessGraph:
                                                            traj.v_hill, traj.a_hill))
         elif isinstance(out, AimUpdate):  # planner/flyby_target again
             self._queue.extend(self.guidance.on_flyby_target(wire_time(out.grasp.t), out.x_ft, out.v_ft))
-        elif not isinstance(out, PlanRefused):  # markers only
+        elif not isinstance(out, (PlanRefused, TargetInertiaEstimate)):  # markers; estimation/target/inertia: recorded
             raise TypeError(f'no topic for the output {out!r}')
 
     def _maneuver(self, t, dv_hill, kind):
@@ -245,7 +264,7 @@ def run_headless(scenario, graph=None):
         if t_terminal is not None and s.t >= t_terminal + (hold_s if graph.phase == c.PHASE_ABORTED else 0.0):
             end_reason = f'phase {graph.phase}'
             break
-    chaser, target, thrust = graph.truth.series()
+    chaser, target, thrust, wheels = graph.truth.series()
     graph.run.summary = summarize(chaser, target, thrust, graph.phases, graph.events, scenario, end_reason,
-                                  graph.phase, time.monotonic() - wall_start)
+                                  graph.phase, time.monotonic() - wall_start, wheels=wheels)
     return graph.run

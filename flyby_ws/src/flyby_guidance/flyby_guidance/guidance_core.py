@@ -36,6 +36,12 @@ computed from the target estimate stamped last *before* t (predicted to the comm
 publishes the target estimate of t after the chaser estimate of t, and a rule on stamps, not on which message
 came first, gives the same command at any pace and in the headless loop.
 
+After the capture with a post_capture section (issue 16, ``post_capture.PostCaptureControl``): nothing is commanded
+while the arm's impedance damps the contact; from the simulator's ``grasp_damped`` (the arm locked) every chaser
+estimate stamped at or after its stamp gets the damping law's command, then the excitation's, each applied one
+control period later (the simulator holds time for them as before the capture). The estimates that come before
+that event are kept until it does (the topics race), so the commands are the same at any pace.
+
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
 ``AttitudeCommandStamped`` (guidance/wheels and guidance/wrench) and ``wire.Event`` (mission/events).
@@ -50,6 +56,12 @@ import numpy as np
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
+from flyby_guidance.post_capture import (
+    DampingGains,
+    PostCaptureConfig,
+    PostCaptureControl,
+    inertia_upper_bound,
+)
 from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, sync_config_from_scenario
 from flyby_guidance.tracking import (
     ReferenceTrajectory,
@@ -71,6 +83,8 @@ from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 # The attitude control stops at the grasp (the combined body's control is a later capability).
 ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
+# The phases in which the chaser holds the target (post_capture: its estimates wait for the arm's lock).
+_ATTACHED_PHASES = (c.PHASE_CAPTURE,) + c.POST_CAPTURE_PHASES
 # Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
 # one control period of motion stay well inside it.
 RESTRICTION_SPHERE_MARGIN_M = 1.0
@@ -99,6 +113,21 @@ class AttitudeCommandStamped:
     wheel_torque_n_m: np.ndarray
     thruster_torque_body_n_m: np.ndarray
     force_body_n: tuple = (0.0, 0.0, 0.0)
+
+
+def post_capture_config_from_scenario(scenario):
+    """The PostCaptureConfig of a scenario with a post_capture section (the gains for the inertia bound it gives, or
+    half the smallest principal moment of the target's inertia; the IMU's period)."""
+    pc = scenario.post_capture
+    d = pc.damping
+    period_s = 1.0 / scenario.sensors.chaser_imu.rate_hz
+    bound = d.inertia_lower_bound_kg_m2 or 0.5 * float(np.linalg.eigvalsh(scenario.target_inertia)[0])
+    gains = DampingGains.for_inertia_bound(bound, period_s, d.wheel_share,
+                                           max_thruster_torque_n_m=d.max_thruster_torque_n_m,
+                                           dump_rate_per_s=d.dump_rate_per_s)
+    m = pc.mass_estimation
+    return PostCaptureConfig(gains, period_s, d.momentum_threshold_kg_m2_s, d.settle_s, m.excitation, m.start_delay_s,
+                             m.window_s)
 
 
 def attitude_guidance_from_scenario(scenario):
@@ -140,6 +169,12 @@ class GuidanceCore:
             self.sync = SyncGuidance(sync_config_from_scenario(scenario))
             self.sync_attitude = AttitudeGuidance(dataclasses.replace(SYNC_ATTITUDE, control_period_s=(
                 self.attitude.config.control_period_s)), scenario.chaser_inertia, self.attitude.wheels)
+        self.post = None  # after the capture (module doc)
+        if self.attitude is not None and scenario.post_capture is not None:
+            self.post = PostCaptureControl(post_capture_config_from_scenario(scenario),
+                                           float(self.attitude.wheels.max_torque_n_m.min()))
+            self.t_locked = None  # the arm's lock (the simulator's grasp_damped) [s]
+            self.post_waiting = collections.deque()  # (t, r_hill, q_hill_from_body, omega_body) not yet commanded
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
         self.next_reference = None  # a re-planned one, flown from its start
         self.replan_asked = False
@@ -202,9 +237,24 @@ class GuidanceCore:
         self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float), blocks))
         return self._step_waiting()
 
+    def on_event(self, event):
+        """An event of mission/events (wire.Event): the arm's lock or release after the capture (module doc)."""
+        if self.post is None:
+            return []
+        if event.name == 'grasp_damped' and self.t_locked is None:
+            self.t_locked = event.t
+            return self._post_commands()
+        if event.name == 'grasp_released':
+            self.post = None  # the chaser flies free, nothing to command
+        return []
+
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
         """A chaser estimate (estimation/chaser/odom), with the rigid-body chaser's attitude and body rate."""
         r_hill, v_hill = np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)
+        if self.post is not None and (self.t_locked is not None or self.phase in _ATTACHED_PHASES):
+            self.post_waiting.append((t, r_hill, np.asarray(q_hill_from_body, dtype=float),
+                                      np.asarray(omega_body, dtype=float)))
+            return self._post_commands()
         self.waiting.append((t, r_hill, v_hill))
         out = self._step_waiting()
         if self.attitude is not None and q_hill_from_body is not None and self.phase not in ATTITUDE_QUIET_PHASES:
@@ -216,8 +266,7 @@ class GuidanceCore:
         an optimal approach, and the tracking's events (module doc). While tracking, the pointing goal's feed-forward
         takes the commanded thrust (the line of sight turns with it)."""
         period_s = self.attitude.config.control_period_s
-        while self.wheel_commands and self.wheel_commands[0][0] + period_s <= t + 1e-9:
-            self.h_wheels_n_m_s = self.h_wheels_n_m_s + period_s * self.wheel_commands.popleft()[1]
+        self._account_wheels(t)
         if self.sync.stage is not None:
             out = self._sync_command(t, r_hill, v_hill, q_hill_from_body, omega_body)
             if out is not None:
@@ -232,6 +281,43 @@ class GuidanceCore:
             a_thrust_hill, q_hill_from_body, cmd.thruster_torque_body_n_m)
         return [AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m,
                                        force_body)] + events
+
+    def _account_wheels(self, t):
+        """The wheels' momentum with every wheel command whose hold ended by t (module doc). After the capture a
+        wheel stops at its momentum limit as the plant's does (the damping drives them there: h + u dt, clipped, is
+        what the wheel holds at the hold's end)."""
+        period_s = self.attitude.config.control_period_s
+        while self.wheel_commands and self.wheel_commands[0][0] + period_s <= t + 1e-9:
+            self.h_wheels_n_m_s = self.h_wheels_n_m_s + period_s * self.wheel_commands.popleft()[1]
+            if self.post is not None and self.t_locked is not None:
+                h_max = self.attitude.wheels.max_momentum_n_m_s
+                self.h_wheels_n_m_s = np.clip(self.h_wheels_n_m_s, -h_max, h_max)
+
+    def _post_commands(self):
+        """The commands of the chaser estimates after the capture, from the arm's lock on (module doc)."""
+        out = []
+        while self.post is not None and self.t_locked is not None and self.post_waiting \
+                and self.phase != c.PHASE_COMPLETE:
+            t, r_hill, q_hill_from_body, omega_body = self.post_waiting.popleft()
+            if t < self.t_locked - STAMP_TOLERANCE_S:
+                continue  # the arm's impedance had it
+            self._account_wheels(t)
+            period_s = self.attitude.config.control_period_s
+            wheels = self.attitude.wheels
+            axes = wheels.axis_matrix
+            h_settled = np.clip(self.h_wheels_n_m_s + period_s * sum((u for _, u in self.wheel_commands),
+                                                                      np.zeros(wheels.count)),
+                                -wheels.max_momentum_n_m_s, wheels.max_momentum_n_m_s)
+            sc = self.scenario
+            bound = inertia_upper_bound(sc.chaser_inertia, sc.target_inertia, sc.chaser.mass_kg, sc.target.mass_kg,
+                                        float(np.linalg.norm(r_hill)))
+            cmd = self.post.command(t, omega_body, axes @ self.h_wheels_n_m_s, axes @ h_settled, bound)
+            wheel_torque = np.linalg.pinv(axes) @ cmd.wheel_torque_body_n_m
+            self.wheel_commands.append((t + period_s, wheel_torque))
+            out.append(AttitudeCommandStamped(t + period_s, period_s, wheel_torque, cmd.torque_body_n_m,
+                                              tuple(cmd.force_body_n.tolist())))
+            out += [self._event(t, *e) for e in cmd.events]
+        return out
 
     def _sync_command(self, t, r_hill, v_hill, q_hill_from_body, omega_body):
         """The command of the synchronized approach's stages 2-4 or its retreat (module doc), or None where

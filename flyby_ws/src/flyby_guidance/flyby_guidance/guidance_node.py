@@ -12,7 +12,8 @@ after the estimate (the simulator holds time there until both are in); and on
 ``mission/events`` ``maneuver_commanded`` per burn, ``adjust_skipped``, ``thrusting_ended``,
 ``target_refined``. An optimization-based approach (``planner/trajectory``) is tracked with the force on
 ``guidance/wrench`` (chaser_body) of every attitude command; ``replan_requested``, ``tracking_ended`` on
-``mission/events``.
+``mission/events``. With a post_capture section the events of ``mission/events`` come in too (the simulator's
+``grasp_damped``: the arm locked, the combined body is commanded from its stamp on).
 """
 
 from flyby_guidance.guidance import Maneuver
@@ -44,6 +45,8 @@ class GuidanceNode(CoreNode):
         if rigid:
             self.subscribe(c.PLANNER_TRAJECTORY, self.on_trajectory)
         self.subscribe_phase()
+        if rigid and scenario.post_capture is not None:
+            self.subscribe_events()
         # The gate weighs the target estimate's uncertainty; the attitude control takes the chaser's attitude.
         self.subscribe_estimates(quat_rotate, target_covariance=True, chaser_attitude=rigid)
 

@@ -25,17 +25,23 @@ slow one for a heavy target (decay rate I_lb / (2 T I)); half the smallest momen
 bound the planner has, and a faster one.
 """
 
+import collections
 import dataclasses
 import math
 from typing import NamedTuple
 
 import numpy as np
 
+from flyby_estimation.mass_properties_excitation import excitation_firings, firing_wrench
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator
 
 SEED004_MOMENTUM_BOUND_KG_M2_S = 0.1  # seed 004 §3.2, rendezvous condition 1
+# The damping ends when its momentum bound is below this share of the threshold: the bound takes the rate estimate
+# and the account of the wheels' momentum as exact; their errors (the gyro bias estimate's, ~1e-6 rad/s times some
+# 3000 kg m^2) are kept inside the margin.
+MOMENTUM_MARGIN = 0.5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,3 +125,110 @@ def simulate_damping(inertia_body_kg_m2, wheels, state0, gains, duration_s, peri
         state = propagator.step(state, period_s, tau, a_pinv @ u_body).state
         t += period_s
     return DampingResult(np.array(times), np.array(momenta), not math.isnan(t_bound), t_bound, fuel, state)
+
+
+def inertia_upper_bound(chaser_inertia_kg_m2, target_inertia_kg_m2, chaser_mass_kg, target_mass_kg, distance_m):
+    """A bound [kg m^2] of the combined body's largest principal moment: the chaser's and the target's largest plus
+    the reduced mass at the distance between their CoMs (lambda_max(A + B) <= lambda_max(A) + lambda_max(B); the
+    parallel-axis terms about the combined CoM are mu (d'd U - d d'), mu = m M / (m + M), largest mu d^2)."""
+    mu = chaser_mass_kg * target_mass_kg / (chaser_mass_kg + target_mass_kg)
+    return float(np.linalg.eigvalsh(chaser_inertia_kg_m2)[-1] + np.linalg.eigvalsh(target_inertia_kg_m2)[-1]
+                 + mu * distance_m ** 2)
+
+
+@dataclasses.dataclass(frozen=True)
+class PostCaptureConfig:
+    """What guidance needs after the arm locks (scenario post_capture; ``PostCaptureControl``)."""
+
+    gains: DampingGains
+    period_s: float  # the control period (the IMU's) [s]
+    momentum_threshold_kg_m2_s: float = SEED004_MOMENTUM_BOUND_KG_M2_S
+    settle_s: float = 5.0
+    excitation: str = 'table1'  # flyby_estimation.mass_properties_excitation.EXCITATIONS
+    start_delay_s: float = 2.0
+    window_s: float = 25.0
+
+
+class PostCaptureCommand(NamedTuple):
+    """One control period's command after the lock: thrusters' force [N] and torque about the chaser CoM [N m]
+    (chaser_body), the wheels' motor torque [N m, chaser_body axes: the body feels -u], events (level, name,
+    message, values)."""
+
+    force_body_n: np.ndarray
+    torque_body_n_m: np.ndarray
+    wheel_torque_body_n_m: np.ndarray
+    events: list
+
+
+class PostCaptureControl:
+    """Guidance's rules from the arm's lock on (issue 16), one command per chaser estimate, applied one control
+    period after its stamp (DESIGN §10):
+
+    * damping: ``damping_command`` on the estimated rate and the wheels' momentum, until the bound of the angular
+      momentum, inertia_upper_bound |mean omega| + |A h| with the rate's mean over the last settle_s, is below
+      MOMENTUM_MARGIN of the threshold (seed 004 §3.2): it needs no inertia, only a bound, and the mean keeps the
+      gyro's noise out of it;
+      then ``damping_complete`` with the excitation's start t_x = its stamp + start_delay_s;
+    * from t_x the excitation's wrench (``mass_properties_excitation.excitation_firings``, each firing's wrench
+      about the chaser CoM held over the control periods it covers), nothing on the wheels (the filter holds
+      their momentum constant), and nothing after it, until the mission completes.
+    """
+
+    def __init__(self, config, wheel_max_torque_n_m):
+        """wheel_max_torque_n_m: the smallest wheel's torque limit."""
+        self.config = config
+        self.wheel_max_torque_n_m = wheel_max_torque_n_m
+        self.rates = collections.deque()  # (t, omega_body) over the last settle_s
+        self.t_first = None
+        self.t_excitation = None
+        self.firings = ()
+        self.excitation_ended = False
+
+    def command(self, t, omega_body, h_wheels_body_n_m_s, h_wheels_settled_body_n_m_s, inertia_bound_kg_m2):
+        """The PostCaptureCommand of the estimate stamped t [s] (rate [rad/s], wheels' momentum [N m s], both
+        chaser_body; h_wheels_settled: once every wheel command so far has acted)."""
+        cfg = self.config
+        zero = np.zeros(3)
+        if self.t_first is None:
+            self.t_first = t
+        if self.t_excitation is not None:
+            return PostCaptureCommand(*self._excitation(t), zero, self._excitation_events(t))
+        omega = np.asarray(omega_body, dtype=float)
+        self.rates.append((t, omega))
+        while self.rates[0][0] < t - cfg.settle_s - 1e-9:
+            self.rates.popleft()
+        if t - self.t_first >= cfg.settle_s - 1e-9:
+            mean = np.mean([w for _, w in self.rates], axis=0)
+            bound = inertia_bound_kg_m2 * float(np.linalg.norm(mean)) + float(np.linalg.norm(h_wheels_body_n_m_s))
+            if bound < MOMENTUM_MARGIN * cfg.momentum_threshold_kg_m2_s:
+                self.t_excitation = t + cfg.start_delay_s
+                self.firings = excitation_firings(cfg.excitation, self.t_excitation)
+                h = np.asarray(h_wheels_settled_body_n_m_s, dtype=float)
+                return PostCaptureCommand(zero, zero, zero, [(
+                    'OK', 'damping_complete',
+                    f'angular momentum at most {bound:.4f} kg m^2/s (< {MOMENTUM_MARGIN:g} x '
+                    f'{cfg.momentum_threshold_kg_m2_s:g}) after '
+                    f'{t - self.t_first:.1f} s of damping; {cfg.excitation} excitation from t = '
+                    f'{self.t_excitation:.2f} s',
+                    {'momentum_bound_kg_m2_s': bound, 'damping_time_s': t - self.t_first,
+                     't_excitation_s': self.t_excitation, 'excitation': cfg.excitation, 'h_wheels_body_n_m_s': h})])
+        tau, u = damping_command(omega, h_wheels_body_n_m_s, cfg.gains, self.wheel_max_torque_n_m)
+        return PostCaptureCommand(zero, tau, u, [])
+
+    def _excitation(self, t):
+        """(force, torque) held over the control period from t + period: the firing active at its middle."""
+        t_mid = t + 1.5 * self.config.period_s
+        force, torque = np.zeros(3), np.zeros(3)
+        for f in self.firings:
+            if f.t_start_s <= t_mid < f.t_start_s + f.duration_s:
+                force_f, torque_f = firing_wrench(f)
+                force, torque = force + force_f, torque + torque_f
+        return force, torque
+
+    def _excitation_events(self, t):
+        t_end = max((f.t_start_s + f.duration_s for f in self.firings), default=self.t_excitation)
+        if self.excitation_ended or t + self.config.period_s < t_end:
+            return []
+        self.excitation_ended = True
+        return [('OK', 'excitation_ended', f'{self.config.excitation} excitation ended at t = {t_end:.2f} s',
+                 {'t_end_s': t_end})]

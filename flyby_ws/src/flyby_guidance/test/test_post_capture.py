@@ -68,3 +68,68 @@ def test_paper_flyby_target_detumbled_with_the_chasers_thrusters_counts_fuel():
     # At least the momentum's worth of couple impulse through the 0.25 m arms of two thrusters.
     h0 = np.linalg.norm(inertia @ omega0 + state0.h_wheels_n_m_s)
     assert result.fuel_kg >= h0 / 0.25 / layout.exhaust_velocity_mps * 0.99
+
+
+# -- guidance after the arm locks (PostCaptureControl, issue 16) -------------------------------------------------
+
+def test_inertia_upper_bound_bounds_every_combined_body():
+    """lambda_max of the combined inertia (combined_body.combined_mass_properties) never exceeds the bound, for
+    random bodies, axes and CoM offsets."""
+    from flyby_guidance.post_capture import inertia_upper_bound
+    from flyby_sim.dynamics.combined_body import combined_mass_properties
+
+    rng = np.random.default_rng(16)
+    for _ in range(200):
+        moments = rng.uniform(1.0, 3000.0, 2)
+        target = inertia_from_principal([moments[0], moments[1], rng.uniform(abs(moments[0] - moments[1]) + 1.0,
+                                                                             moments.sum())],
+                                        quat_from_rotation_vector(rng.normal(size=3)))
+        x_s = rng.normal(size=3) * rng.uniform(0.1, 5.0)
+        m, big_m = rng.uniform(10.0, 200.0), rng.uniform(1.0, 3000.0)
+        props = combined_mass_properties(m, _CHASER_INERTIA, big_m, x_s, target)
+        bound = inertia_upper_bound(_CHASER_INERTIA, target, m, big_m, float(np.linalg.norm(x_s)))
+        assert np.linalg.eigvalsh(props.inertia_body_kg_m2).max() <= bound * (1.0 + 1e-12)
+
+
+def _control(**changes):
+    from flyby_guidance.post_capture import PostCaptureConfig, PostCaptureControl
+    config = PostCaptureConfig(DampingGains.for_inertia_bound(500.0, 0.1), 0.1, settle_s=1.0, **changes)
+    return PostCaptureControl(config, 0.1)
+
+
+def test_damping_then_the_excitation_then_nothing():
+    """The damping law until the momentum bound stays below half the threshold over settle_s (damping_complete with
+    the excitation's start), then Table 1's firings as wrenches about the chaser CoM, each held over the control
+    periods it covers (the one active at the middle of the period the command holds), the wheels idle."""
+    from flyby_estimation.mass_properties_excitation import excitation_firings, firing_wrench
+    from flyby_guidance.post_capture import MOMENTUM_MARGIN
+
+    control = _control()
+    h = np.zeros(3)
+    cmd = control.command(100.0, (0.01, 0.0, 0.0), h, h, 3000.0)
+    assert cmd.torque_body_n_m[0] < 0.0 and cmd.wheel_torque_body_n_m[0] > 0.0 and not cmd.events  # damping
+    t = 100.0
+    omega = 1e-5 * np.array([1.0, 0.0, 0.0])  # 3000 x 1e-5 = 0.03 < 0.05
+    while True:
+        t = round(t + 0.1, 6)
+        cmd = control.command(t, omega, h, h, 3000.0)
+        if cmd.events:
+            break
+    (level, name, _, values), = cmd.events
+    assert name == 'damping_complete' and t == pytest.approx(101.1)  # the first window of settle_s without 100.0 s
+    assert values['momentum_bound_kg_m2_s'] < MOMENTUM_MARGIN * SEED004_MOMENTUM_BOUND_KG_M2_S
+    t_x = values['t_excitation_s']
+    assert t_x == pytest.approx(103.1) and not np.any(cmd.torque_body_n_m)
+    firings = excitation_firings('table1', t_x)
+    events = []
+    for k in range(1, 260):
+        t_k = t + 0.1 * k
+        cmd = control.command(t_k, omega, h, h, 3000.0)
+        events += [e[1] for e in cmd.events]
+        held_from = t_k + 0.1
+        active = [f for f in firings if f.t_start_s <= held_from + 0.05 < f.t_start_s + f.duration_s]
+        expected = firing_wrench(active[0]) if active else (np.zeros(3), np.zeros(3))
+        np.testing.assert_allclose(cmd.force_body_n, expected[0], atol=1e-12)
+        np.testing.assert_allclose(cmd.torque_body_n_m, expected[1], atol=1e-12)
+        assert not np.any(cmd.wheel_torque_body_n_m)
+    assert events == ['excitation_ended']  # once, at the last firing's end

@@ -24,6 +24,7 @@ SENSOR_RELATIVE_POSITION = 'sensors/chaser/relative_position'
 SENSOR_TARGET_ATTITUDE = 'sensors/target/attitude'
 EST_TARGET_ODOM = 'estimation/target/odom'
 EST_CHASER_ODOM = 'estimation/chaser/odom'
+EST_TARGET_INERTIA = 'estimation/target/inertia'
 PLANNER_GRASP = 'planner/grasp'
 PLANNER_FLYBY_TARGET = 'planner/flyby_target'
 PLANNER_FLYBY_INITIAL = 'planner/flyby_initial'
@@ -64,6 +65,7 @@ TOPIC_TYPES = {
     SENSOR_TARGET_ATTITUDE: 'geometry_msgs/msg/QuaternionStamped',
     EST_TARGET_ODOM: 'nav_msgs/msg/Odometry',
     EST_CHASER_ODOM: 'nav_msgs/msg/Odometry',
+    EST_TARGET_INERTIA: 'geometry_msgs/msg/InertiaStamped',
     PLANNER_GRASP: 'nav_msgs/msg/Odometry',
     PLANNER_FLYBY_TARGET: 'nav_msgs/msg/Odometry',
     PLANNER_FLYBY_INITIAL: 'nav_msgs/msg/Odometry',
@@ -93,6 +95,12 @@ PHASE_CAPTURE = 'CAPTURE'
 PHASE_ESCAPE = 'ESCAPE'
 # The phases that end in the capture decision (CAPTURE or ESCAPE) at the grasp time.
 DECIDING_PHASES = (PHASE_FLYBY, PHASE_OPTIMAL_APPROACH, PHASE_DOCKING)
+# After the capture (DESIGN §10, seed 000 §2.2 (5)-(6), seed 004): the arm's impedance absorbs the relative motion,
+# the thrusters and wheels detumble the combined body, known firings excite it for its mass properties.
+PHASE_GRASP = 'GRASP'
+PHASE_DAMPING = 'DAMPING'
+PHASE_MASS_ESTIMATION = 'MASS_ESTIMATION'
+POST_CAPTURE_PHASES = (PHASE_GRASP, PHASE_DAMPING, PHASE_MASS_ESTIMATION)
 PHASE_COMPLETE = 'COMPLETE'
 PHASE_ABORTED = 'ABORTED'
 TERMINAL_PHASES = (PHASE_COMPLETE, PHASE_ABORTED)

@@ -23,7 +23,14 @@ from typing import NamedTuple
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PointStamped, PoseStamped, QuaternionStamped, Vector3Stamped, WrenchStamped
+from geometry_msgs.msg import (
+    InertiaStamped,
+    PointStamped,
+    PoseStamped,
+    QuaternionStamped,
+    Vector3Stamped,
+    WrenchStamped,
+)
 from nav_msgs.msg import Odometry, Path
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
@@ -405,6 +412,28 @@ def vector3_stamped(t, frame_id, vector):
     msg = _with_header(Vector3Stamped(), t, frame_id)
     _set_xyz(msg.vector, xyz)
     return msg
+
+
+def inertia_stamped(t, frame_id, mass_kg, com_m, inertia_kg_m2):
+    """geometry_msgs/InertiaStamped (/estimation/target/inertia, DESIGN §10): mass [kg], centre of mass [m] and the
+    inertia about it [kg m^2, symmetric 3x3] in frame_id's axes."""
+    msg = _with_header(InertiaStamped(), t, frame_id)
+    msg.inertia.m = _scalar(mass_kg, 'mass_kg')
+    _set_xyz(msg.inertia.com, _vec3(com_m, 'com_m'))
+    i = _array(inertia_kg_m2, 3, 'inertia_kg_m2')
+    if i.shape != (3, 3):
+        raise ValueError(f'inertia_kg_m2 must be 3x3, got shape {i.shape}')
+    inertia = msg.inertia
+    inertia.ixx, inertia.ixy, inertia.ixz = (float(x) for x in i[0])
+    inertia.iyy, inertia.iyz, inertia.izz = float(i[1, 1]), float(i[1, 2]), float(i[2, 2])
+    return msg
+
+
+def inertia_to_numpy(inertia):
+    """(mass [kg], com (3,) [m], inertia (3, 3) [kg m^2]) of a geometry_msgs/Inertia (rclpy's or rosbags')."""
+    i = inertia
+    return (float(i.m), np.array([i.com.x, i.com.y, i.com.z]),
+            np.array([[i.ixx, i.ixy, i.ixz], [i.ixy, i.iyy, i.iyz], [i.ixz, i.iyz, i.izz]]))
 
 
 def _stamped_cdr(t, frame_id, values):

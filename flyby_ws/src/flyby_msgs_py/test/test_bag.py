@@ -163,7 +163,14 @@ def trajectory(t_ns, rng):
                                         rng.normal(size=(4, 3)), rng.normal(size=(4, 3)))
 
 
+def inertia(t_ns, rng):
+    a = rng.normal(size=(3, 3))
+    return convert.inertia_stamped(t_ns * 1e-9, 'chaser_body', float(rng.uniform(1.0, 2.0)), rng.normal(size=3),
+                                   a @ a.T + np.eye(3))
+
+
 BUILDERS = {
+    'geometry_msgs/msg/InertiaStamped': inertia,
     'nav_msgs/msg/Odometry': odometry,
     'geometry_msgs/msg/Vector3Stamped': vector3,
     'geometry_msgs/msg/PointStamped': point,
@@ -281,6 +288,11 @@ def test_round_trip_every_contract_topic_read_bag(tmp_path):
             np.testing.assert_array_equal(got.velocity, [m.velocity for m in msgs])
             np.testing.assert_array_equal(got.effort, [m.effort for m in msgs])
             assert np.isnan(got.position).all() and got.position.shape == (len(msgs), 3)
+        elif type_name == 'geometry_msgs/msg/InertiaStamped':
+            np.testing.assert_array_equal(got.t_received, t_log)
+            for g, m in zip(got.messages, msgs, strict=True):
+                for a, b in zip(convert.inertia_to_numpy(g.inertia), convert.inertia_to_numpy(m.inertia), strict=True):
+                    np.testing.assert_array_equal(a, b)
         elif type_name == 'sensor_msgs/msg/Imu':
             np.testing.assert_array_equal(got.t_received, t_log)
             assert [vec(g.angular_velocity) for g in got.messages] == [vec(m.angular_velocity) for m in msgs]

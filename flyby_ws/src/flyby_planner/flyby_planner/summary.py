@@ -9,19 +9,23 @@ and the scenario's geometry, the capture errors from the truth at the grasp time
 are *which* grasp time (the one the supervisor decided at) and the phases the mission went through.
 """
 
+import json
 import math
 from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from flyby_estimation.mass_properties import principal_axis_errors_rad
+from flyby_estimation.post_capture import principal_axes
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.grasp import capture_target_body, grasp_from_attitude
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.geometry import clearance
-from flyby_sim.dynamics.rotation import quat_rotate_many
+from flyby_sim.dynamics.grasp import Body, Contact, momentum
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_rotate, quat_rotate_many
 
 # Process exit code of each outcome: 0 capture, 3 safe without capture, 5 collision, 130 interrupted, 1 error.
 EXIT_CODES = {c.OUTCOME_CAPTURE: 0, c.OUTCOME_ESCAPE: 3, c.OUTCOME_NO_SAFE_PLAN: 3, c.OUTCOME_ABORTED: 3,
@@ -29,26 +33,37 @@ EXIT_CODES = {c.OUTCOME_CAPTURE: 0, c.OUTCOME_ESCAPE: 3, c.OUTCOME_NO_SAFE_PLAN:
 TRUTH_TOPICS = [c.CLOCK, c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST, c.MISSION_PHASE, c.MISSION_EVENTS]
 # The six-degree-of-freedom chaser's, besides.
 RIGID_TRUTH_TOPICS = [c.SIM_CHASER_THRUSTERS]
+# After the capture (scenario post_capture, DESIGN §10): the keys post_capture_figures adds.
+POST_CAPTURE_KEYS = ('final_angular_momentum_kg_m2_s', 'peak_grasp_force_n', 'peak_grasp_torque_n_m',
+                     'grasp_damping_time_s', 'grasp_released', 'damping_time_s', 'damping_fuel_kg',
+                     'target_mass_estimate_kg', 'target_com_estimate_m', 'target_principal_moments_estimate_kg_m2',
+                     'target_principal_axes_estimate_q', 'target_mass_error_pct', 'target_com_error_m',
+                     'target_principal_moments_error_pct', 'target_principal_axes_error_deg')
 
 
 class ChaserTruth(NamedTuple):
     """Truth of the chaser (the fields of /sim/chaser/odom the summary reads): t (N,) [s], position (N, 3)
     [m] and linear (N, 3) [m/s] in hill; the six-degree-of-freedom chaser's orientation_xyzw (N, 4),
-    q_hill_from_chaser_body (None: a point mass)."""
+    q_hill_from_chaser_body (None: a point mass), and angular (N, 3), its inertial rate in chaser_body axes
+    [rad/s] (None where not read)."""
 
     t: np.ndarray
     position: np.ndarray
     linear: np.ndarray
     orientation_xyzw: np.ndarray = None
+    angular: np.ndarray = None
 
 
 class TargetTruth(NamedTuple):
     """Truth of the target (/sim/target/odom): t (N,), orientation_xyzw (N, 4) q_hill_from_body, angular
-    (N, 3) inertial body rate in body axes [rad/s]."""
+    (N, 3) inertial body rate in body axes [rad/s]; its CoM's position (N, 3) [m] in hill and velocity linear
+    (N, 3) [m/s] in target_body axes (off the hill origin after a grasp; None where not read)."""
 
     t: np.ndarray
     orientation_xyzw: np.ndarray
     angular: np.ndarray
+    position: np.ndarray = None
+    linear: np.ndarray = None
 
 
 class ThrustTruth(NamedTuple):
@@ -62,11 +77,19 @@ class ThrustTruth(NamedTuple):
     thrusters: np.ndarray = None
 
 
+class WheelTruth(NamedTuple):
+    """The reaction wheels' truth (/sim/chaser/wheels): t (N,), velocity (N, M), each wheel's speed relative to the
+    body [rad/s]."""
+
+    t: np.ndarray
+    velocity: np.ndarray
+
+
 def chaser_truth_from_odometry(odom):
     """The six-degree-of-freedom chaser's ChaserTruth from its /sim/chaser/odom series, whose twist is in
     chaser_body axes (nav_msgs' rule, DESIGN §10): the velocity turned into hill by the orientation."""
     return ChaserTruth(odom.t, odom.position, quat_rotate_many(odom.orientation_xyzw, odom.linear),
-                       odom.orientation_xyzw)
+                       odom.orientation_xyzw, odom.angular)
 
 
 def outcome_of(end_reason, phases, collided=False, refused=False):
@@ -82,10 +105,10 @@ def outcome_of(end_reason, phases, collided=False, refused=False):
         return c.OUTCOME_ABORTED
     if refused and c.PHASE_TERMINAL_APPROACH not in phases:
         return c.OUTCOME_NO_SAFE_PLAN
+    if c.PHASE_ESCAPE in phases:  # a decision to escape, or a grasp that let go (GRASP -> ESCAPE)
+        return c.OUTCOME_ESCAPE
     if c.PHASE_CAPTURE in phases:
         return c.OUTCOME_CAPTURE
-    if c.PHASE_ESCAPE in phases:
-        return c.OUTCOME_ESCAPE
     return c.OUTCOME_TIME_LIMIT
 
 
@@ -264,6 +287,118 @@ def capture_errors(t_g, chaser, target, x_target_body, n):
     return float(np.linalg.norm(r - x_ft)), float(np.linalg.norm(v - v_ft))
 
 
+def phase_start(events, phase):
+    """The time [s] the supervisor entered phase (its first phase_changed to it), or None."""
+    return next((float(e['t']) for e in events if e['name'] == 'phase_changed' and e['values'].get('to') == phase),
+                None)
+
+
+def _fuel_steps(thrust, scenario):
+    """The fuel [kg] of each truth step of the thrust (the step ending at thrust.t[1:]; each thruster's impulse for
+    the rigid body, the net force's for the point mass)."""
+    dt = np.diff(thrust.t)
+    each = (np.sum(thrust.thrusters[1:], axis=1) if thrust.thrusters is not None
+            else np.linalg.norm(thrust.force[1:], axis=1))
+    return each * dt / (scenario.chaser.thrusters.isp_s * STANDARD_GRAVITY_M_S2)
+
+
+def truth_bodies(i_c, i_t, chaser, target, wheels_speed, scenario, chaser_mass_kg):
+    """(chaser, target) as grasp.Body from the truth samples i_c, i_t (the same stamp), in the inertial frame whose axes
+    are hill's then: velocities relative to hill plus Omega^H x r (Omega^H = [0, -n, 0], seed 000 eq 11), the wheels'
+    momentum in chaser_body axes from their speeds (h_i = J (speed_i + a_i . omega))."""
+    n = scenario.mean_motion_rad_s
+    omega_hill = np.array([0.0, -n, 0.0])
+    w = scenario.chaser.wheels
+    axes = np.asarray(w.axes, dtype=float)
+    axes = axes / np.linalg.norm(axes, axis=1)[:, None]
+    omega_c = chaser.angular[i_c]
+    h_wheels = axes.T @ (w.spin_inertia_kg_m2 * (np.asarray(wheels_speed) + axes @ omega_c))
+    r_c, r_t = chaser.position[i_c], target.position[i_t]
+    q_t = target.orientation_xyzw[i_t]
+    v_t = quat_rotate(q_t, target.linear[i_t])  # the twist in target_body axes (nav_msgs' rule)
+    return (Body(chaser_mass_kg, scenario.chaser_inertia, r_c, chaser.linear[i_c] + np.cross(omega_hill, r_c),
+                 chaser.orientation_xyzw[i_c], omega_c, h_wheels),
+            Body(scenario.target.mass_kg, scenario.target_inertia, r_t, v_t + np.cross(omega_hill, r_t), q_t,
+                 target.angular[i_t]))
+
+
+def angular_momentum_about_com(bodies):
+    """|angular momentum| [kg m^2/s] of free bodies about their common CoM (grasp.momentum, wheels included)."""
+    p, h_origin = momentum(bodies)
+    mass = sum(b.mass_kg for b in bodies)
+    r_cm = sum(b.mass_kg * b.r_m for b in bodies) / mass
+    return float(np.linalg.norm(h_origin - np.cross(r_cm, p)))
+
+
+def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
+    """After the capture (issue 16, DESIGN §10), from the truth: the grasp's peak contact force and torque (the arm's
+    impedance, ``grasp.Contact.at_first_contact`` of the truth at the capture, at every truth sample of GRASP), the
+    damping's time and fuel and the combined body's angular momentum about its CoM at its end (inertial, wheels
+    included), the estimator's final estimates of the target (its ``mass_properties_estimated``) and their errors
+    against the truth at their stamp (target CoM from the chaser CoM and principal axes in chaser_body; principal
+    moments and mass the scenario's). None where a phase did not run."""
+    out = dict.fromkeys(POST_CAPTURE_KEYS)
+    out['grasp_released'] = any(e['name'] == 'grasp_released' for e in events)
+    t_grasp, t_damping = phase_start(events, c.PHASE_GRASP), phase_start(events, c.PHASE_DAMPING)
+    t_mass = phase_start(events, c.PHASE_MASS_ESTIMATION)
+    if t_grasp is None or chaser is None or target is None or chaser.angular is None or target.position is None:
+        return out
+    t_end = float(chaser.t[-1])
+    t_grasp_end = t_damping if t_damping is not None else phase_start(events, c.PHASE_ESCAPE) or t_end
+    common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
+    i_w = np.searchsorted(wheels.t, common).clip(0, len(wheels.t) - 1)
+    fuel = np.concatenate(([0.0], np.cumsum(_fuel_steps(thrust, scenario)))) if thrust is not None and len(
+        thrust.t) > 1 else np.zeros(1)
+    t_fuel = thrust.t if thrust is not None and len(thrust.t) > 1 else np.zeros(1)
+
+    def bodies(k):
+        mass = scenario.chaser.mass_kg - fuel[int(np.searchsorted(t_fuel, common[k], side='right')) - 1]
+        return truth_bodies(i_c[k], i_t[k], chaser, target, wheels.velocity[i_w[k]], scenario, mass)
+
+    in_grasp = np.flatnonzero((common >= t_grasp - 1e-9) & (common <= t_grasp_end + 1e-9))
+    if len(in_grasp):
+        contact = Contact.at_first_contact(scenario.arm_impedance, *bodies(in_grasp[0]),
+                                           scenario.target.grasp_point_body_m)
+        wrenches = [contact.wrench(*bodies(k))[:2] for k in in_grasp]
+        out['peak_grasp_force_n'] = float(max(np.linalg.norm(f) for f, _ in wrenches))
+        out['peak_grasp_torque_n_m'] = float(max(np.linalg.norm(tau) for _, tau in wrenches))
+    if t_damping is None:
+        return out
+    out['grasp_damping_time_s'] = t_damping - t_grasp
+    t_damped = t_mass if t_mass is not None else t_end
+    out['damping_time_s'] = t_damped - t_damping
+    k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
+    out['final_angular_momentum_kg_m2_s'] = angular_momentum_about_com(bodies(k))
+    if thrust is not None and len(thrust.t) > 1:
+        steps = _fuel_steps(thrust, scenario)
+        t_step = thrust.t[1:]
+        out['damping_fuel_kg'] = float(np.sum(steps[(t_step > t_damping) & (t_step <= t_damped + 1e-9)]))
+    final = [e for e in events if e['name'] == 'mass_properties_estimated']
+    if not final:
+        return out
+    e = final[-1]
+    values = {key: json.loads(e['values'][key]) for key in ('com_body_m', 'principal_moments_kg_m2',
+                                                              'principal_axes_q')}
+    mass_kg = float(e['values']['mass_kg'])
+    out.update(target_mass_estimate_kg=mass_kg, target_com_estimate_m=values['com_body_m'],
+               target_principal_moments_estimate_kg_m2=values['principal_moments_kg_m2'],
+               target_principal_axes_estimate_q=values['principal_axes_q'])
+    k = int(np.searchsorted(common, float(e['t']) - 1e-9))
+    if k >= len(common):
+        return out
+    q_c, q_t = chaser.orientation_xyzw[i_c[k]], target.orientation_xyzw[i_t[k]]
+    x_s = quat_rotate(quat_conjugate(q_c), target.position[i_t[k]] - chaser.position[i_c[k]])
+    moments, q_target_from_principal = principal_axes(scenario.target_inertia)
+    q_true = quat_multiply(quat_multiply(quat_conjugate(q_c), q_t), q_target_from_principal)
+    out.update(target_mass_error_pct=100.0 * abs(mass_kg / scenario.target.mass_kg - 1.0),
+               target_com_error_m=float(np.linalg.norm(np.asarray(values['com_body_m']) - x_s)),
+               target_principal_moments_error_pct=100.0 * float(np.max(np.abs(
+                   np.asarray(values['principal_moments_kg_m2']) / moments - 1.0))),
+               target_principal_axes_error_deg=math.degrees(float(np.max(principal_axis_errors_rad(
+                   np.asarray(values['principal_axes_q']), q_true)))))
+    return out
+
+
 # Clearances within this of the least are a tie: a plateau (the chaser attached after the grasp) has no argmin
 # that two routes computing the same gaps to ~1e-12 m agree on.
 CLEARANCE_TIE_M = 1e-6
@@ -281,8 +416,9 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
     what only the launcher knows (summarize's node_exit_codes, nodes_killed, bag_repair, faults_injected).
     ``namespace``: the chaser's (``/chaser1``) of a ``chasers:`` scenario, whose view ``scenario`` is."""
     rigid = scenario.chaser.model == 'rigid_body'
+    wheels_topics = [c.SIM_CHASER_WHEELS] if scenario.post_capture is not None else []
     data = read_bag(bag_dir, topics=[c.absolute(t, namespace) for t in TRUTH_TOPICS + (RIGID_TRUTH_TOPICS if rigid
-                                                                                      else [])])
+                                                                                      else []) + wheels_topics])
     if namespace:  # the chaser's topics by their single-chaser names
         data = {(name[len(namespace):] if name.startswith(namespace + '/') else name): v for name, v in data.items()}
     chaser = data.get(c.absolute(c.SIM_CHASER_ODOM))
@@ -304,15 +440,22 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
     events = data.get(c.absolute(c.MISSION_EVENTS)) or []
     phases = list(phase_msgs.data) if phase_msgs is not None else []
     return summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase, wall_time_s,
-                     **launcher)
+                     wheels=data.get(c.absolute(c.SIM_CHASER_WHEELS)), **launcher)
 
 
 def summarize(chaser, target, thrust, phases, events, scenario, end_reason, final_phase=None,
-              wall_time_s=float('nan'), node_exit_codes=None, nodes_killed=(), bag_repair=None, faults_injected=None):
+              wall_time_s=float('nan'), node_exit_codes=None, nodes_killed=(), bag_repair=None, faults_injected=None,
+              wheels=None):
     """The summary dict of a run from its truth (ChaserTruth, TargetTruth, ThrustTruth or the bag's series
     with the same fields, any of them None), the phases in order and the events (dicts with t, level,
-    name, message, values (text), hardware_id). The last four are the launcher's: the nodes' exit codes,
-    the nodes it killed, its repair of the bag and the faults it injected (none for the headless driver)."""
+    name, message, values (text), hardware_id). The next four are the launcher's: the nodes' exit codes,
+    the nodes it killed, its repair of the bag and the faults it injected (none for the headless driver).
+    wheels: the wheels' truth (t (N,), velocity (N, M) [rad/s] relative to the body, /sim/chaser/wheels), read
+    with a post_capture section.
+
+    After the capture (post_capture, DESIGN §10) the combined body fires inside the restriction sphere by design:
+    delta_v_total_mps and thrust_inside_restriction_sphere are the approach's (up to the capture), fuel_used_kg the
+    whole run's."""
     if final_phase is None and phases:
         final_phase = phases[-1]
     has_chaser = chaser is not None and len(chaser.t)
@@ -321,11 +464,18 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     sphere_m = scenario.planner.restriction_sphere_radius_m
     delta_v = fuel = 0.0
     thrust_inside = False
+    approach = thrust  # the thrust up to the capture (docstring)
+    t_capture = phase_start(events, c.PHASE_GRASP) if scenario.post_capture is not None else None
+    if thrust is not None and t_capture is not None:
+        approach = ThrustTruth(*(None if a is None else a[:int(np.searchsorted(thrust.t, t_capture + 1e-9))]
+                                 for a in thrust))
     if thrust is not None and has_chaser and len(thrust.t):
-        r_at_thrust = chaser.position[np.searchsorted(chaser.t, thrust.t).clip(0, len(chaser.t) - 1)]
+        r_at_thrust = chaser.position[np.searchsorted(chaser.t, approach.t).clip(0, len(chaser.t) - 1)]
         delta_v, fuel, thrust_inside = thrust_figures(
-            thrust.t, thrust.force, r_at_thrust, scenario.chaser.mass_kg,
-            scenario.chaser.thrusters.isp_s, sphere_m, thrust.torque, thrust.thrusters)
+            approach.t, approach.force, r_at_thrust, scenario.chaser.mass_kg,
+            scenario.chaser.thrusters.isp_s, sphere_m, approach.torque, approach.thrusters)
+        if approach is not thrust:
+            fuel = float(np.sum(_fuel_steps(thrust, scenario))) if len(thrust.t) > 1 else 0.0
 
     t_g = grasp_time(events)
     offset_m, flyby_duration_s = planned_flyby(events)
@@ -335,8 +485,9 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     if has_chaser and has_target:
         t_common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
         boxes = [(b.center_m, b.size_m) for b in scenario.target.geometry]
-        gaps = clearance(chaser.position[i_c], target.orientation_xyzw[i_t], boxes,
-                         scenario.chaser.envelope_radius_m)
+        # The chaser from the target's CoM, off the hill origin after a grasp (zero before).
+        r_from_target = chaser.position[i_c] - (0.0 if target.position is None else target.position[i_t])
+        gaps = clearance(r_from_target, target.orientation_xyzw[i_t], boxes, scenario.chaser.envelope_radius_m)
         k = least_clearance_index(gaps)
         min_clearance, t_min_clearance = float(gaps[k]), float(t_common[k])
         # A collision is contact before a capture (afterwards the chaser holds the target, DESIGN §10).
@@ -348,8 +499,10 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
             e_pos, e_vel = capture_errors(t_g, chaser, target, x_target_body, scenario.mean_motion_rad_s)
 
     pointing = pointing_figures(chaser, events, t_g) if has_chaser and scenario.chaser.model == 'rigid_body' else {}
-    approach = approach_figures(chaser, thrust, events, scenario) if has_chaser else {}
-    sync = sync_figures(chaser, target if has_target else None, thrust, events, t_g) if has_chaser else {}
+    approach_keys = approach_figures(chaser, approach, events, scenario) if has_chaser else {}
+    sync = sync_figures(chaser, target if has_target else None, approach, events, t_g) if has_chaser else {}
+    post = {} if scenario.post_capture is None else post_capture_figures(
+        chaser if has_chaser else None, target if has_target else None, wheels, thrust, events, scenario)
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None)
@@ -382,8 +535,9 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'late_maneuvers': count('late_maneuver'),
         'rejected_maneuvers': count('maneuver_rejected'),
         **pointing,
-        **approach,
+        **approach_keys,
         **sync,
+        **post,
         'sim_time_s': sim_time_s,
         'planning_time_s': sum(float(e['values'].get('planning_time_s', 0.0)) for e in events
                                if e['name'] in ('plan_selected', 'plan_refused')),

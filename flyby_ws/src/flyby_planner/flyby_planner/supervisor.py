@@ -23,7 +23,13 @@ observable condition and carries its reason:
     DOCKING           -> CAPTURE | ESCAPE   at the first chaser estimate at or after the grasp time, against the final
                                             point (eq 20-21 with the final range) at that estimate's own stamp: the
                                             chaser holds it under thrust, so no coast carries the estimate
-    CAPTURE           -> COMPLETE           after capture_hold_s attached
+    CAPTURE           -> COMPLETE           after capture_hold_s attached (no post_capture section)
+    CAPTURE           -> GRASP              the simulator's ``captured``: the arm's impedance takes the contact
+                                            (post_capture, DESIGN §10, seed 000 §2.2 (5))
+    GRASP             -> DAMPING            the simulator's ``grasp_damped``: the arm locked, one rigid body
+    GRASP             -> ESCAPE             the simulator's ``grasp_released``: beyond the arm's limits
+    DAMPING           -> MASS_ESTIMATION    guidance's ``damping_complete`` (seed 000 §2.2 (6), seed 004 §3.2)
+    MASS_ESTIMATION   -> COMPLETE           the estimator's ``mass_properties_estimated`` (seed 004 §2.2)
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
                                             fault (ERROR event) reported by a watched node
@@ -54,6 +60,13 @@ ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH
 _SYNC_STEPS = {'station_reached': (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
                'attitude_synchronized': (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
                'docking_started': (c.PHASE_ORBITING, c.PHASE_DOCKING)}
+# After the capture (post_capture): (phase, event) -> the next phase; the events are the simulator's (the arm),
+# guidance's (the damping) and the estimator's (the mass properties).
+_POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, 'captured'): c.PHASE_GRASP,
+                       (c.PHASE_GRASP, 'grasp_damped'): c.PHASE_DAMPING,
+                       (c.PHASE_GRASP, 'grasp_released'): c.PHASE_ESCAPE,
+                       (c.PHASE_DAMPING, 'damping_complete'): c.PHASE_MASS_ESTIMATION,
+                       (c.PHASE_MASS_ESTIMATION, 'mass_properties_estimated'): c.PHASE_COMPLETE}
 # Nodes whose silence or ERROR events abort the mission: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
@@ -72,6 +85,7 @@ class SupervisorConfig:
     escape_observation_s: float
     watchdog_s: float
     watched_nodes: tuple = WATCHED_NODES
+    post_capture: bool = False  # the scenario's post_capture section: the capture goes on to GRASP
 
 
 def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
@@ -82,7 +96,7 @@ def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
         position_tolerance_m=m.position_tolerance_m, velocity_tolerance_mps=m.velocity_tolerance_mps,
         capture_hold_s=s.capture_hold_s,
         escape_observation_s=scenario.planner.escape_check_orbits * scenario.orbit_period_s,
-        watchdog_s=s.watchdog_s, watched_nodes=tuple(watched_nodes))
+        watchdog_s=s.watchdog_s, watched_nodes=tuple(watched_nodes), post_capture=scenario.post_capture is not None)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -211,6 +225,9 @@ class PhaseMachine:
             return []
         if name == 'thrusting_ended' and self.phase == c.PHASE_TRAJECTORY_ADJUST:
             return self._go(t, c.PHASE_FLYBY, 'guidance ended thrusting: passive fly-by')
+        if self.config.post_capture and (self.phase, name) in _POST_CAPTURE_STEPS:
+            return self._go(t, _POST_CAPTURE_STEPS[(self.phase, name)], values.get('reason', name),
+                            {k: v for k, v in values.items() if k != 'reason'})
         if level == 'ERROR' and source in self.config.watched_nodes and self.phase in ACTIVE_PHASES:
             return self._go(t, c.PHASE_ABORTED, f'fault reported by {source}: {name}',
                             {'source': source, 'event': name})
@@ -247,7 +264,8 @@ class PhaseMachine:
                 if t - last > self.config.watchdog_s:
                     return self._go(t, c.PHASE_ABORTED, f'watchdog: {node} silent for {t - last:.1f} s',
                                     {'node': node, 'last_progress_s': last})
-        if self.phase == c.PHASE_CAPTURE and t - self.t_entered >= self.config.capture_hold_s:
+        if self.phase == c.PHASE_CAPTURE and not self.config.post_capture and \
+                t - self.t_entered >= self.config.capture_hold_s:
             return self._go(t, c.PHASE_COMPLETE, f'attached for {t - self.t_entered:.1f} s')
         if self.phase == c.PHASE_ESCAPE and t - self.t_entered >= self.config.escape_observation_s:
             return self._go(t, c.PHASE_COMPLETE, f'passive escape observed for {t - self.t_entered:.1f} s')

@@ -256,3 +256,47 @@ def test_core_decides_with_the_target_estimate_of_the_grasp_time_not_a_later_one
     (decided,) = [o for o in out if isinstance(o, Transition)]
     assert decided.phase_to == c.PHASE_CAPTURE
     assert decided.values['velocity_error_mps'] < 1e-6 and decided.values['position_error_m'] < 1e-6
+
+
+def _captured(post_capture=True):
+    """A machine (post_capture or not) that has just decided to capture at 813.1 s."""
+    import dataclasses
+    m = PhaseMachine(dataclasses.replace(CONFIG, post_capture=post_capture))
+    _flyby(m)
+    m.decide(813.1, capture_decision(X_FT, V_FT, X_G, X_FT, V_FT, CONFIG))
+    return m
+
+
+def test_post_capture_phases_follow_the_arm_the_damping_and_the_estimate():
+    """DESIGN §10: CAPTURE -> GRASP -> DAMPING -> MASS_ESTIMATION -> COMPLETE on the simulator's, guidance's and the
+    estimator's events, each transition with its reason; no capture_hold_s timer."""
+    m = _captured()
+    assert m.clock(823.2) == []  # no COMPLETE after capture_hold_s
+    steps = [(813.1, 'captured', 'flyby_sim', c.PHASE_GRASP), (820.05, 'grasp_damped', 'flyby_sim', c.PHASE_DAMPING),
+             (1010.7, 'damping_complete', 'flyby_guidance', c.PHASE_MASS_ESTIMATION),
+             (1037.7, 'mass_properties_estimated', 'flyby_estimator', c.PHASE_COMPLETE)]
+    for t, name, source, phase in steps:
+        before = m.phase
+        assert m.event(t, 'OK', name, source, {'reason': f'{name} at {t}', 'x': '1.5'}) == [
+            Transition(t, before, phase, f'{name} at {t}', {'x': '1.5'})]
+        assert m.phase == phase and m.t_entered == t
+    # out of order: nothing
+    assert m.event(1040.0, 'OK', 'grasp_damped', 'flyby_sim', {}) == []
+
+
+def test_a_grasp_that_lets_go_escapes_and_is_not_a_capture():
+    from flyby_planner.summary import outcome_of
+    m = _captured()
+    m.event(813.1, 'OK', 'captured', 'flyby_sim', {})
+    out = m.event(813.1, 'WARN', 'grasp_released', 'flyby_sim', {'reason': 'the arm lets go: |F| 77 N > 50 N'})
+    assert [(tr.phase_from, tr.phase_to) for tr in out] == [(c.PHASE_GRASP, c.PHASE_ESCAPE)]
+    assert 'lets go' in out[0].reason
+    phases = [c.PHASE_FLYBY, c.PHASE_CAPTURE, c.PHASE_GRASP, c.PHASE_ESCAPE, c.PHASE_COMPLETE]
+    assert outcome_of('phase COMPLETE', phases) == c.OUTCOME_ESCAPE
+    assert outcome_of('phase COMPLETE', [c.PHASE_FLYBY, c.PHASE_CAPTURE, c.PHASE_COMPLETE]) == c.OUTCOME_CAPTURE
+
+
+def test_without_post_capture_the_events_change_nothing():
+    m = _captured(post_capture=False)
+    assert m.event(813.1, 'OK', 'captured', 'flyby_sim', {}) == [] and m.phase == c.PHASE_CAPTURE
+    assert m.clock(823.2)[0].phase_to == c.PHASE_COMPLETE

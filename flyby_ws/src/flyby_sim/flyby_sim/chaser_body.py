@@ -256,10 +256,17 @@ class SixDofChaser:
     """The rigid-body chaser's state, commands and integration (module doc); driven by ``Plant``."""
 
     def __init__(self, config, thrusters, r0_hill, v0_hill, mass_kg, mean_motion_rad_s, accel, step_s,
-                 restriction_sphere_radius_m, rng_errors, emit):
+                 restriction_sphere_radius_m, rng_errors, emit, errors=None, com_body_m=(0.0, 0.0, 0.0)):
         """config: RigidChaserConfig; thrusters: propulsion.ThrusterConfig; accel(r, v, a_ext): the relative
         acceleration on floats (``orbital.*_accel_components``); rng_errors: the Generator of the thruster
-        errors (4 N draws, here); emit(Event) records an event."""
+        errors (4 N draws, here), unless errors (``actuators.ThrusterErrors``, the hardware's, drawn before) is
+        given; emit(Event) records an event.
+
+        com_body_m: the centre of mass the body turns about, from the chaser's own CoM [m, chaser_body]: nonzero
+        for the combined body of chaser and captured target (seed 004 section 2.2), whose config, mass and
+        translation are the combined body's. The thrusters then act at their true positions about it (the
+        moment about the combined CoM is T - c x F), while wrench commands stay about the chaser's CoM
+        (DESIGN §10 /guidance/wrench) and are allocated on the layout as before."""
         self.config = config
         self.thrusters = thrusters
         self.layout = config.layout(thrusters)
@@ -270,10 +277,10 @@ class SixDofChaser:
         self._radius_m = restriction_sphere_radius_m
         self._emit = emit
         self._ve = self.layout.exhaust_velocity_mps
-        self.errors = draw_thruster_errors(self.layout, rng_errors, thrusters.magnitude_error_sigma,
-                                           thrusters.direction_error_sigma_rad)
-        b_actual = wrench_matrix(self.layout.positions_body_m, self.errors.force_directions_body) \
-            * self.errors.magnitude_factors
+        self.errors = errors if errors is not None else draw_thruster_errors(
+            self.layout, rng_errors, thrusters.magnitude_error_sigma, thrusters.direction_error_sigma_rad)
+        b_actual = wrench_matrix(self.layout.positions_body_m - np.asarray(com_body_m, dtype=float),
+                                 self.errors.force_directions_body) * self.errors.magnitude_factors
         self._b_actual_columns = tuple(map(tuple, b_actual.T.tolist()))
         self._factors = tuple(self.errors.magnitude_factors.tolist())
         self._max_thrust = tuple(self.layout.max_thrust_n.tolist())

@@ -6,6 +6,19 @@ The chaser is a point mass (the default) or, when the configuration has a ``chas
 IMU (docs/chaser_6dof.md). The point-mass chaser's truth, measurements and events do not depend on anything
 the rigid-body chaser adds.
 
+After the capture (``capture``) the chaser is welded to the target where it is, unless the configuration has a
+``grasp`` (scenario ``post_capture``, issue 16, docs/post_capture.md; the rigid-body chaser): then the arm's
+impedance joins the two free bodies (``dynamics.grasp.simulate_grasp``, from the first contact, in the inertial
+frame that coincides with hill at the capture; the orbit is left out over the seconds of the grasp) until the
+relative motion is damped and the arm locks (``grasp_damped``), or beyond the arm's limits lets go
+(``grasp_released``: both fly on freely, the target off the hill origin). Once locked, chaser and target are one
+rigid body (``dynamics.grasp.weld``: the true combined mass properties, the momentum both carried) whose CoM
+moves by the relative orbital dynamics and whose thrusters act at their true positions about the combined CoM
+(``chaser_body.SixDofChaser`` with ``com_body_m``); wrench and wheel commands stamped from one IMU period after the
+lock on apply to it (earlier ones, from before the capture, are ignored). The target's truth then carries its CoM
+off the hill origin (``TruthSample.r_target_hill``), and the IMU's accelerometer, at the chaser's CoM, reads the
+combined body's rotation too (seed 004 section 2.2: F/(m + M) + omega_dot x p + omega x (omega x p)).
+
 Pure numpy/scipy, no ROS: the simulator node wraps it, Monte Carlo drives it directly.
 
 Frames and conventions are those of ``flyby_sim.dynamics.orbital`` (hill, ECI) with quaternions (x, y, z, w),
@@ -38,16 +51,26 @@ from flyby_sim.chaser_body import ImuConfig, RigidChaserConfig, SixDofChaser
 from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
 from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
+from flyby_sim.dynamics.grasp import Body, Contact, Impedance, simulate_grasp, weld
 from flyby_sim.dynamics.orbital import (
     cw_accel_components,
     mean_motion_rad_s,
     nonlinear_relative_accel_components,
     q_eci_from_body,
+    q_hill_from_body,
     q_hill_from_body_many,
+    quat_eci_from_hill,
     rk4_step_floats,
 )
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_normalize, quat_rotate, quat_to_matrix
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
 from flyby_sim.dynamics.sampling import SampleSchedule
 from flyby_sim.sensors import ImuModel, SensorModel
 from flyby_sim.thrusters import ThrusterModel
@@ -55,6 +78,25 @@ from flyby_sim.thrusters import ThrusterModel
 DYNAMICS = ('nonlinear', 'cw')
 _ZERO3 = (0.0, 0.0, 0.0)
 ATTITUDE_CHUNK_STEPS = 100  # steps of target attitude evaluated at once (5 s at 20 Hz)
+
+
+@dataclasses.dataclass(frozen=True)
+class GraspConfig:
+    """The arm after the capture (scenario ``post_capture.grasp``; validated, ValueError names the field)."""
+
+    impedance: Impedance
+    target_mass_kg: float
+    grasp_point_body_m: tuple  # the handle, target_body from its CoM [m]
+    velocity_tolerance_mps: float = 1e-3  # damped once the relative velocity ...
+    rate_tolerance_rad_s: float = 1e-3  # ... and rate stay below these
+    max_duration_s: float = 20.0  # the arm locks at the latest this long after the first contact
+
+    def __post_init__(self):
+        if not isinstance(self.impedance, Impedance):
+            raise ValueError(f'impedance must be a grasp.Impedance, got {self.impedance!r}')
+        for name in ('target_mass_kg', 'velocity_tolerance_mps', 'rate_tolerance_rad_s', 'max_duration_s'):
+            require_positive(name, getattr(self, name))
+        object.__setattr__(self, 'grasp_point_body_m', finite_vector('grasp_point_body_m', self.grasp_point_body_m, 3))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,6 +121,7 @@ class PlantConfig:
     restriction_sphere_radius_m: float = 0.0
     seed: int = 0
     chaser_body: RigidChaserConfig = None  # None: the point-mass chaser
+    grasp: GraspConfig = None  # None: the capture welds the chaser to the target (module doc)
 
     def __post_init__(self):
         for name in ('radius_m', 'chaser_mass_kg', 'mu', 'step_s', 'position_rate_hz', 'attitude_rate_hz'):
@@ -112,6 +155,11 @@ class PlantConfig:
             if self.chaser_body.imu.rate_hz * self.step_s > 1.0:
                 raise ValueError(f'chaser_body.imu.rate_hz = {self.chaser_body.imu.rate_hz} exceeds one sample per '
                                  f'step (step_s = {self.step_s})')
+        if self.grasp is not None:
+            if not isinstance(self.grasp, GraspConfig):
+                raise ValueError(f'grasp must be a GraspConfig or None, got {self.grasp!r}')
+            if self.chaser_body is None:
+                raise ValueError('grasp needs the rigid-body chaser (chaser_body)')
 
     @property
     def rigid_body(self):
@@ -144,6 +192,10 @@ class TruthSample:
     torque_hill_n_m: np.ndarray = None  # the same torque in hill axes (angular impulse / step_s) [N m]
     thruster_thrust_n: np.ndarray = None  # (M,) mean thrust of each thruster, errors included [N]
     gyro_bias_rad_s: np.ndarray = None  # the IMU gyro's bias (as of its latest sample) [rad/s]
+    # The target's CoM off the hill origin after a grasp (None: at the origin): position and velocity relative to the
+    # rotating frame, hill axes [m, m/s].
+    r_target_hill: np.ndarray = None
+    v_target_hill: np.ndarray = None
 
 
 class Measurement(NamedTuple):
@@ -166,7 +218,8 @@ class Plant:
     thrusters cannot give in full), 'wrench_limited_by_burn' (WARN), 'wheel_torque_limited' and
     'wheel_momentum_limited' (WARN, once per wheel command), 'command_ignored' (WARN, after a capture), and
     reports 'thrust_inside_restriction_sphere' for any firing (once per burn and per run of consecutive wrench
-    commands that fire inside the sphere).
+    commands that fire inside the sphere). With a grasp (module doc): 'grasp_damped' (OK, the arm locked: its
+    peak force and torque and the damping time) or 'grasp_released' (WARN, why), at the step they happen.
     """
 
     def __init__(self, config):
@@ -195,9 +248,11 @@ class Plant:
         self._burn_rhs = None
         self._restriction_reported = False
         self._r_body_captured = None
+        self._mode = 'free'  # then 'attached' (welded where it is), or 'grasp' and 'combined' or 'released'
+        self._target_now = None  # (q_hill_from_body, omega_body, r_hill, v_hill) of the target after a grasp
         self._events = []
         self._measurements = []
-        self._chaser = self._imu = None
+        self._chaser = self._imu = self._body = None
         if config.chaser_body is not None:
             self._init_rigid_body(root_seed, sensor_rng)
             self._last = self._truth_rigid(self._chaser.totals)
@@ -220,8 +275,10 @@ class Plant:
         self._imu_schedule = SampleSchedule(imu.rate_hz, config.step_s)
         self._star_tracker_every = imu.star_tracker_every
         self._q_target_from_chaser = None
-        self._imu_dv_hill = [0.0, 0.0, 0.0]  # thrust delta-v since the last IMU sample, hill axes [m/s]
+        self._imu_dv_hill = [0.0, 0.0, 0.0]  # non-gravitational delta-v since the last IMU sample, hill axes [m/s]
         self._imu_t_last = 0.0
+        self._imu_omega_last = None  # the combined body's rate at the last IMU sample (its omega_dot x p term)
+        self._body = self._chaser  # the rigid body integrated: the chaser, or the combined body after a grasp
 
     def _events_append(self, event):
         self._events.append(event)
@@ -270,10 +327,10 @@ class Plant:
         None after a capture (``command_ignored``). Raises ValueError for a point-mass chaser or a non-finite
         command.
         """
-        chaser = self._rigid_chaser('command_wrench')
-        if self.captured:
+        self._rigid_chaser('command_wrench')
+        if not self._accepts_command(t_stamp):
             return self._ignored('wrench', t_stamp)
-        return chaser.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m, hold_s)
+        return self._body.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m, hold_s)
 
     def command_wheels(self, t_stamp, torque_n_m):
         """Hold the reaction wheels' motor torques [N m] (one per wheel) from sim time t_stamp [s] until the next
@@ -281,10 +338,17 @@ class Plant:
         Stamped before now: applied at once (``late_command``). Returns the chaser_body.WheelCommand, or None
         after a capture. Raises ValueError for a point-mass chaser or a non-finite command.
         """
-        chaser = self._rigid_chaser('command_wheels')
-        if self.captured:
+        self._rigid_chaser('command_wheels')
+        if not self._accepts_command(t_stamp):
             return self._ignored('wheels', t_stamp)
-        return chaser.command_wheels(self.t, t_stamp, torque_n_m)
+        return self._body.command_wheels(self.t, t_stamp, torque_n_m)
+
+    def _accepts_command(self, t_stamp):
+        """Free flight, or the combined body for a command stamped from one IMU period after the lock on (the first
+        the controller computes from the combined body's IMU, DESIGN §10)."""
+        if self._mode == 'combined':
+            return t_stamp >= self._t_locked + 1.0 / self.config.chaser_body.imu.rate_hz - 1e-6
+        return not self.captured
 
     def _rigid_chaser(self, what):
         if self._chaser is None:
@@ -294,7 +358,8 @@ class Plant:
 
     def _ignored(self, kind, t_stamp):
         self._events.append(Event(self.t, 'WARN', 'command_ignored',
-                                  f'{kind} command stamped {t_stamp} s ignored: the chaser is attached to the target',
+                                  f'{kind} command stamped {t_stamp} s ignored: the chaser is attached to the target'
+                                  + (' (stamped before the arm locked)' if self._mode == 'combined' else ''),
                                   dict(command=kind, t_stamp=t_stamp)))
 
     def measurements(self):
@@ -308,19 +373,28 @@ class Plant:
 
     @property
     def captured(self):
-        """True once ``capture`` has attached the chaser to the target."""
-        return self._r_body_captured is not None
+        """True once ``capture`` has grasped the target (or attached the chaser to it)."""
+        return self._mode != 'free'
+
+    @property
+    def mode(self):
+        """'free'; after the capture 'attached' (no grasp configured), 'grasp', then 'combined' or 'released'."""
+        return self._mode
 
     def capture(self):
-        """Attach the chaser rigidly to the target where it is now (seed 000 section 2.2 (4)-(5)).
+        """The manipulator grasps the target where the chaser is now (seed 000 section 2.2 (4)-(5)).
 
-        From the next step on the chaser keeps its current position in target_body axes and moves
+        With a grasp configured (module doc) the arm's impedance takes over from the next step. Otherwise
+        from the next step on the chaser keeps its current position in target_body axes and moves
         with the target (r_hill = C r_body, v_hill = C (omega_body x r_body) - Omega^H x r_hill); truth
-        keeps flowing. Pending and later maneuvers are dropped (the combined body's control is a later
-        capability). Idempotent.
+        keeps flowing. Pending and later maneuvers are dropped (and commands until the arm locks). Idempotent.
         """
         if self.captured:
             return
+        if self.config.grasp is not None:
+            self._start_grasp()
+            return
+        self._mode = 'attached'
         c_hill_from_body = quat_to_matrix(self._last.q_hill_from_body)
         self._r_body_captured = c_hill_from_body.T @ np.array(self._y[:3])
         self._thrusters.cancel_all()
@@ -331,8 +405,184 @@ class Plant:
         self._events.append(Event(self.t, 'OK', 'captured', f'chaser attached to the target at t = {self.t:.3f} s',
                                   dict(t=self.t, r_hill=np.array(self._y[:3]), r_body=self._r_body_captured)))
 
+    # -- after the capture with a grasp (module doc) -----------------------------------------------
+    def _start_grasp(self):
+        """The grasp from the first contact now: two free bodies joined by the arm, integrated at once (nothing
+        commands them until the arm locks) in the inertial frame L whose axes are hill's now and whose origin is
+        the target's CoM."""
+        g = self.config.grasp
+        last, chaser = self._last, self._chaser
+        self._thrusters.cancel_all()
+        chaser.cancel_all()
+        self._mode = 'grasp'
+        t0 = self.t
+        self._q_eci_from_local = quat_eci_from_hill(t0, self.mean_motion_rad_s)
+        r_c = np.array(self._y[:3])
+        chaser_body = Body(self._mass_kg, np.array(self.config.chaser_body.inertia), r_c,
+                           self._inertial_velocity(r_c, np.array(self._y[3:])), last.q_hill_from_chaser_body,
+                           last.omega_chaser_body, chaser.wheels.axis_matrix @ chaser.h_wheels_n_m_s)
+        target_body = Body(g.target_mass_kg, np.array(self.config.target_inertia), np.zeros(3), np.zeros(3),
+                           last.q_hill_from_body, last.omega_body)
+        contact = Contact.at_first_contact(g.impedance, chaser_body, target_body, g.grasp_point_body_m)
+        result = simulate_grasp(chaser_body, target_body, g.impedance, contact.r_ee, g.grasp_point_body_m,
+                                g.max_duration_s, q_target_from_handle=contact.q_t_h, output_step_s=self.config.step_s,
+                                velocity_tolerance_mps=g.velocity_tolerance_mps,
+                                rate_tolerance_rad_s=g.rate_tolerance_rad_s)
+        self._contact = contact
+        t_end = result.t_release_s if result.released else (
+            result.damping_time_s if math.isfinite(result.damping_time_s) else float(result.t_s[-1]))
+        self._grasp = (result, self._step_index, round(t_end / self.config.step_s))
+        self._events.append(Event(t0, 'OK', 'captured', f'the manipulator grasps the target at t = {t0:.3f} s',
+                                  dict(t=t0, r_hill=r_c, r_end_effector_body_m=contact.r_ee,
+                                       position_error_m=float(np.linalg.norm(
+                                           contact.wrench(chaser_body, target_body)[2])))))
+        if self._grasp[2] == 0:  # beyond the arm's limits at the first contact
+            self._end_grasp(result, 0)
+
+    def _inertial_velocity(self, r_hill, v_hill):
+        """The velocity in L (hill axes at the capture) of a point at r_hill moving at v_hill relative to hill."""
+        return v_hill + np.cross((0.0, -self.mean_motion_rad_s, 0.0), r_hill)  # Omega^H = [0, -n, 0] (eq 11)
+
+    def _hill_of_local(self, t, body):
+        """(r_hill, v_hill relative to hill, q_hill_from_body, q_eci_from_body) of a grasp Body in L at time t."""
+        q_hill_from_local = q_hill_from_body(t, self.mean_motion_rad_s, self._q_eci_from_local)
+        r = quat_rotate(q_hill_from_local, body.r_m)
+        v = quat_rotate(q_hill_from_local, body.v_mps) - np.cross((0.0, -self.mean_motion_rad_s, 0.0), r)
+        return r, v, quat_multiply(q_hill_from_local, body.q_inertial_from_body), quat_multiply(
+            self._q_eci_from_local, body.q_inertial_from_body)
+
+    def _step_grasp(self):
+        self._step_index += 1
+        result, k0, k_end = self._grasp
+        k = self._step_index - k0
+        t = self.t
+        chaser_b, target_b = result.bodies_at(k)
+        r, v, _, q_eci = self._hill_of_local(t, chaser_b)
+        chaser = self._chaser
+        chaser.set_attitude(q_eci, chaser_b.omega_body)
+        chaser.set_translation(r.tolist() + v.tolist(), t)
+        chaser.advance_idle()
+        self._y = chaser.y_translation
+        # The accelerometer feels the arm's pull: the chaser's delta-v in L over the step, in hill axes now.
+        dv_local = chaser_b.v_mps - result.states[k - 1, 3:6]
+        dv_hill = quat_rotate(q_hill_from_body(t, self.mean_motion_rad_s, self._q_eci_from_local), dv_local)
+        for i in range(3):
+            self._imu_dv_hill[i] += dv_hill[i]
+        r_t, v_t, q_t, _ = self._hill_of_local(t, target_b)
+        self._target_now = (q_t, target_b.omega_body, r_t, v_t)
+        if k == k_end:
+            self._end_grasp(result, k)
+        return self._rigid_truth_and_samples(self._chaser)
+
+    def _end_grasp(self, result, k):
+        """The arm locks (one rigid body, ``weld``) or lets go (both fly freely) at grasp sample k."""
+        t = self.t
+        chaser_b, target_b = result.bodies_at(k)
+        peaks = dict(peak_force_n=float(np.max(np.linalg.norm(result.force_n[:k + 1], axis=1))),
+                     peak_torque_n_m=float(np.max(np.linalg.norm(result.torque_n_m[:k + 1], axis=1))))
+        if result.released:
+            self._mode = 'released'
+            r_t, v_t, _, q_eci_t = self._hill_of_local(t, target_b)
+            self._target_free = (AttitudePropagator(q_eci_t, target_b.omega_body, self.config.target_inertia, t0=t),
+                                 r_t.tolist() + v_t.tolist())
+            self._events.append(Event(t, 'WARN', 'grasp_released', f'the arm lets go at t = {t:.3f} s: '
+                                                                    f'{result.release_reason}',
+                                      dict(t=t, reason=result.release_reason, **peaks)))
+            return
+        props, state = weld(chaser_b, target_b)
+        c_local_from_chaser = quat_to_matrix(chaser_b.q_inertial_from_body)
+        self._x_s_body = c_local_from_chaser.T @ (target_b.r_m - chaser_b.r_m)  # X_s, seed 004
+        self._q_chaser_from_target = quat_multiply(quat_conjugate(chaser_b.q_inertial_from_body),
+                                                   target_b.q_inertial_from_body)
+        self._com_body = props.com_body_m
+        chaser, cfg = self._chaser, self.config
+        body_cfg = dataclasses.replace(cfg.chaser_body, inertia=tuple(map(tuple, props.inertia_body_kg_m2.tolist())),
+                                       wheel_momentum0_n_m_s=tuple(chaser.h_wheels_n_m_s.tolist()))
+        r, v, _, q_eci = self._hill_of_local(t, Body(props.mass_kg, props.inertia_body_kg_m2, state.r_m, state.v_mps,
+                                                     state.q_inertial_from_body, state.omega_body))
+        combined = SixDofChaser(body_cfg, cfg.thrusters, tuple(r), tuple(v), props.mass_kg, self.mean_motion_rad_s,
+                                self._accel, cfg.step_s, 0.0, None, self._events_append, errors=chaser.errors,
+                                com_body_m=props.com_body_m)
+        combined.set_attitude(q_eci, state.omega_body)
+        combined.set_translation(r.tolist() + v.tolist(), t)
+        self._body = combined
+        self._mode = 'combined'
+        self._t_locked = t
+        self._dv_before_lock = self._dv_total_mps
+        self._imu_omega_last = None
+        displacement, rotation = self._arm_deflection(result.bodies_at(0), (chaser_b, target_b))
+        self._events.append(Event(t, 'OK', 'grasp_damped', f'the arm locks at t = {t:.3f} s: one rigid body of '
+                                                            f'{props.mass_kg:.2f} kg',
+                                  dict(t=t, damping_time_s=float(result.t_s[k]), arm_displacement_body_m=displacement,
+                                       arm_rotation_body_rad=rotation, **peaks)))
+
+    def _arm_deflection(self, contact_bodies, locked_bodies):
+        """How far the arm's compliance moved the grasp handle from the first contact to the lock, in the chaser's
+        axes: (displacement [m], rotation vector [rad]), what the arm's joint encoders read (exactly, here)."""
+        poses = []
+        for chaser_b, target_b in (contact_bodies, locked_bodies):
+            q_chaser_from_target = quat_multiply(quat_conjugate(chaser_b.q_inertial_from_body),
+                                                 target_b.q_inertial_from_body)
+            p_handle = target_b.r_m + quat_rotate(target_b.q_inertial_from_body, self._contact.r_g) - chaser_b.r_m
+            poses.append((quat_rotate(quat_conjugate(chaser_b.q_inertial_from_body), p_handle),
+                          quat_multiply(q_chaser_from_target, self._contact.q_t_h)))
+        (p0, q0), (p1, q1) = poses
+        return p1 - p0, rotation_vector_from_quat(quat_multiply(q1, quat_conjugate(q0)))
+
+    def _step_combined(self):
+        body = self._body
+        t = self.t
+        self._step_index += 1
+        body.advance(t, self.t)
+        y = body.y_translation
+        self._mass_kg = body.mass_kg - self.config.grasp.target_mass_kg
+        self._dv_total_mps = self._dv_before_lock + body.dv_total_mps
+        dv = body.totals.dv_thrust_hill
+        for k in range(3):
+            self._imu_dv_hill[k] += dv[k]
+        q_hill = body.q_hill_from_body(self.t)
+        c_hill = quat_to_matrix(q_hill)
+        omega = body.omega_body
+        n = self.mean_motion_rad_s
+        r_c, v_c = body_point_state(c_hill, omega, -self._com_body, n)  # eq 8-9 of the chaser's CoM ...
+        r_t, v_t = body_point_state(c_hill, omega, self._x_s_body - self._com_body, n)  # ... and the target's
+        self._y = (np.array(y[:3]) + r_c).tolist() + (np.array(y[3:]) + v_c).tolist()
+        q_t = quat_multiply(q_hill, self._q_chaser_from_target)
+        self._target_now = (q_t, quat_rotate(quat_conjugate(self._q_chaser_from_target), omega),
+                            np.array(y[:3]) + r_t, np.array(y[3:]) + v_t)
+        return self._rigid_truth_and_samples(body)
+
+    def _step_released(self):
+        self._step_index += 1
+        attitude, y_t = self._target_free
+        t = self.t
+        y_t = rk4_step_floats(self._coast_rhs, t - self.config.step_s, y_t, self.config.step_s)
+        q_eci, omega = attitude.state_at(t)
+        self._target_free = (attitude, y_t)
+        self._target_now = (q_hill_from_body(t, self.mean_motion_rad_s, q_eci), omega, np.array(y_t[:3]),
+                            np.array(y_t[3:]))
+        chaser = self._chaser
+        chaser.advance(t - self.config.step_s, t)
+        self._y = chaser.y_translation
+        self._mass_kg = chaser.mass_kg
+        return self._rigid_truth_and_samples(chaser)
+
+    def _rigid_truth_and_samples(self, body):
+        imu = self._imu_measurement(body)  # before the truth, which holds the gyro bias of this sample
+        self._last = self._truth_rigid(body.totals, body)
+        self._sample(self._last)
+        if imu is not None:
+            self._measurements.append(imu)
+        return self._last
+
     def step(self):
         """Advance exactly one step_s; returns the TruthSample at the new time."""
+        if self._mode == 'grasp':
+            return self._step_grasp()
+        if self._mode == 'combined':
+            return self._step_combined()
+        if self._mode == 'released':
+            return self._step_released()
         if self.captured:
             return self._step_attached()
         if self._chaser is not None:
@@ -387,12 +637,7 @@ class Plant:
                                 quat_rotate(quat_conjugate(self._q_target_from_chaser), omega_body))
             chaser.set_translation(self._y, self.t)
             chaser.advance_idle()
-            imu = self._imu_measurement()
-            self._last = self._truth_rigid(chaser.totals)
-            self._sample(self._last)
-            if imu is not None:
-                self._measurements.append(imu)
-            return self._last
+            return self._rigid_truth_and_samples(chaser)
         self._last = self._truth(np.zeros(3), False)
         self._sample(self._last)
         return self._last
@@ -408,25 +653,28 @@ class Plant:
         dv = chaser.totals.dv_thrust_hill
         for k in range(3):
             self._imu_dv_hill[k] += dv[k]
-        imu = self._imu_measurement()  # before the truth, which holds the gyro bias of this sample
-        self._last = self._truth_rigid(chaser.totals)
-        self._sample(self._last)
-        if imu is not None:
-            self._measurements.append(imu)
-        return self._last
+        return self._rigid_truth_and_samples(chaser)
 
-    def _imu_measurement(self):
-        """The chaser IMU's Measurement at the current step, or None between its samples."""
+    def _imu_measurement(self, chaser):
+        """The chaser IMU's Measurement at the current step, or None between its samples (chaser: the rigid body
+        integrated, whose attitude and rate are the chaser's)."""
         k = self._imu_schedule.sample_index(self._step_index)
         if k is None:
             return None
-        chaser, t = self._chaser, self.t
+        t = self.t
         # The accelerometer's velocity increment over the sample interval (the thrust acceleration integrated in
         # hill axes, resolved in chaser_body at the sample; hill turns from inertial by n dt ~ 1e-4 rad over an
         # interval, left out) over the interval: the mean specific force since the previous sample, so a firing
         # shorter than the interval is sensed in full (sensors module doc).
         q_body_from_hill = quat_conjugate(chaser.q_hill_from_body(t))
         specific_force = quat_rotate(q_body_from_hill, self._imu_dv_hill) / (t - self._imu_t_last)
+        if self._mode == 'combined':  # at the chaser's CoM, p = -c from the combined one: omega_dot x p (its
+            # interval mean, exactly) + omega x (omega x p) (seed 004 section 2.2, combined_body.specific_force_body)
+            omega, p = chaser.omega_body, -self._com_body
+            if self._imu_omega_last is not None:
+                specific_force = specific_force + np.cross((omega - self._imu_omega_last) / (t - self._imu_t_last), p)
+            specific_force = specific_force + np.cross(omega, np.cross(omega, p))
+            self._imu_omega_last = omega
         self._imu_dv_hill = [0.0, 0.0, 0.0]
         self._imu_t_last = t
         # The star tracker reads at samples k = 1, 1 + every, 1 + 2 every, ...: the first IMU sample carries one,
@@ -436,10 +684,21 @@ class Plant:
                                                              chaser.q_hill_from_body(t), chaser.omega_body,
                                                              specific_force))
 
-    def _truth_rigid(self, totals):
-        """The TruthSample of the six-degree-of-freedom chaser at the current time."""
-        q_hill_from_body, omega_body = self._target_attitude()
-        chaser = self._chaser
+    def _truth_rigid(self, totals, chaser=None):
+        """The TruthSample of the six-degree-of-freedom chaser at the current time (chaser: the rigid body integrated,
+        the chaser's own by default)."""
+        chaser = self._chaser if chaser is None else chaser
+        r_target = v_target = None
+        if self._target_now is None:
+            q_hill_from_body, omega_body = self._target_attitude()
+        else:
+            q_hill_from_body, omega_body, r_target, v_target = self._target_now
+        torque_body, torque_hill = totals.torque_body_n_m, totals.torque_hill_n_m
+        if chaser is not self._chaser:  # the combined body's torque is about its CoM: the contract's is about the
+            # chaser's, T_c = T + c x F
+            torque_body = torque_body + np.cross(self._com_body, totals.force_body_n)
+            torque_hill = torque_hill + np.cross(quat_rotate(chaser.q_hill_from_body(self.t), self._com_body),
+                                                 totals.force_hill)
         y = self._y
         omega_chaser = chaser.omega_body
         h = chaser.h_wheels_n_m_s
@@ -450,8 +709,9 @@ class Plant:
                            q_hill_from_chaser_body=chaser.q_hill_from_body(self.t), omega_chaser_body=omega_chaser,
                            wheel_momentum_n_m_s=h, wheel_speed_rad_s=chaser.wheel_speeds_rad_s(),
                            wheel_torque_n_m=totals.wheel_torque_n_m, force_body_n=totals.force_body_n,
-                           torque_body_n_m=totals.torque_body_n_m, torque_hill_n_m=totals.torque_hill_n_m,
-                           thruster_thrust_n=totals.thruster_thrust_n, gyro_bias_rad_s=self._imu.gyro_bias_rad_s)
+                           torque_body_n_m=torque_body, torque_hill_n_m=torque_hill,
+                           thruster_thrust_n=totals.thruster_thrust_n, gyro_bias_rad_s=self._imu.gyro_bias_rad_s,
+                           r_target_hill=r_target, v_target_hill=v_target)
 
     def _coast_rhs(self, t, y):
         return (y[3], y[4], y[5], *self._accel(y[:3], y[3:], _ZERO3))
@@ -563,7 +823,15 @@ def plant_config_from_scenario(scenario):
         restriction_sphere_radius_m=sc.planner.restriction_sphere_radius_m,
         seed=sc.seed,
         chaser_body=rigid_chaser_config_from_scenario(sc) if sc.chaser.model == 'rigid_body' else None,
+        grasp=None if sc.post_capture is None else grasp_config_from_scenario(sc),
     )
+
+
+def grasp_config_from_scenario(scenario):
+    """The GraspConfig of a validated scenario with a post_capture section."""
+    g = scenario.post_capture.grasp
+    return GraspConfig(scenario.arm_impedance, scenario.target.mass_kg, tuple(scenario.target.grasp_point_body_m),
+                       g.velocity_tolerance_mps, g.rate_tolerance_rad_s, g.max_duration_s)
 
 
 def rigid_chaser_config_from_scenario(scenario):

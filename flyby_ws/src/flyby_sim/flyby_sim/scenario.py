@@ -55,6 +55,7 @@ from flyby_msgs_py.schema import (
 from flyby_sim import chasers
 from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout, is_positively_spanning
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
+from flyby_sim.dynamics.grasp import Impedance
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate, quat_rotate_many, quat_shortest_arc
 
@@ -500,8 +501,10 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                              'those of target.inertia_kg_m2.'),
                 'prior_com_sigma_m': Field(FLOAT, 0.02, '> 0', '1-sigma per axis of the prior target CoM (the '
                                                                'navigation estimate at the capture).'),
-                'prior_axes_sigma_deg': Field(FLOAT, 1.0, '> 0', '1-sigma per axis of the prior principal axes (the '
-                                                                 'target attitude estimate at the capture).'),
+                'prior_axes_sigma_deg': Field(FLOAT, None, '> 0',
+                                              '1-sigma per axis of the prior principal axes (the target attitude '
+                                              'estimate at the capture); omitted: that estimate\'s own, the largest '
+                                              'of its attitude covariance.'),
             }),
         }),
 
@@ -781,6 +784,18 @@ class Scenario:
             return default_thruster_layout(th.max_thrust_n, th.isp_s, th.min_impulse_bit_ns)
         return ThrusterLayout([x.position_m for x in th.layout], [x.direction for x in th.layout], th.max_thrust_n,
                               th.isp_s, th.min_impulse_bit_ns)
+
+    @property
+    def arm_impedance(self):
+        """The arm's impedance after the capture (post_capture.grasp as a ``dynamics.grasp.Impedance``), or None
+        without a post_capture section."""
+        if self.post_capture is None:
+            return None
+        g = self.post_capture.grasp
+        return Impedance(stiffness_n_m=g.stiffness_n_per_m, damping_n_s_m=g.damping_n_s_per_m,
+                         rot_stiffness_n_m_rad=g.rot_stiffness_n_m_per_rad,
+                         rot_damping_n_m_s_rad=g.rot_damping_n_m_s_per_rad, max_force_n=g.max_force_n,
+                         max_torque_n_m=g.max_torque_n_m, max_stroke_m=g.max_stroke_m)
 
     @property
     def offset_max_m(self):

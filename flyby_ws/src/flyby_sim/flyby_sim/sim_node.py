@@ -19,7 +19,11 @@ period) after its stamp: so every IMU sample of stamp t announces a command of s
 simulator does not step past that stamp before the command is in (on both topics), until the mission
 phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
-``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command).
+``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command). With a
+post_capture section (issue 16) the attitude control comes back when the arm locks (the plant's combined body,
+``grasp_damped``, at a step the plant decides): from that step's IMU sample on, every sample announces its command
+again (guidance damps and excites the combined body), until COMPLETE; ``/sim/target/odom`` then carries the
+target's CoM off the hill origin (pose position, twist linear in target_body axes).
 
 The capture decision is held for the same way: the supervisor decides at the first chaser estimate at or after the
 grasp time (``planner/flyby_target``'s stamp; a synchronized approach's docking publishes it again) once the
@@ -101,6 +105,7 @@ class _Chaser:
         self.announced_ns = collections.deque()
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
+        self.locked = False  # the plant's combined body after a grasp: commanded again (module doc)
         self.command_wait = _Wait()
         self.chain = tuple(node if name is None else f'{name}/{node}' for node in COMMAND_CHAIN)
         self.supervisor = SUPERVISOR if name is None else f'{name}/{SUPERVISOR}'
@@ -326,6 +331,9 @@ class SimNode(Node):
         samples = [ch.plant.step() for ch in self.chasers]
         sample = samples[0]
         self.steps += 1
+        for ch in self.chasers:
+            if not ch.locked and ch.plant.mode == 'combined':
+                ch.locked, ch.attitude_quiet = True, False
         # The measurements first, the target's attitude last: the chaser's estimate (and with the rigid-body
         # chaser the command chain it starts) is worked on while the rest goes out. (The estimator's outputs
         # do not depend on the order of the two chains; a node that has handled the clock of t has handled
@@ -381,9 +389,12 @@ class SimNode(Node):
         self.pubs[c.CLOCK].publish(convert.clock(s.t, out=msgs[c.CLOCK]))
         for ch, sc in zip(self.chasers, samples, strict=True):
             self._publish_chaser_truth(ch, sc)
+        if s.r_target_hill is None:
+            r_target, v_target_body = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        else:  # after a grasp: off the hill origin, the twist in target_body axes (nav_msgs' rule)
+            r_target, v_target_body = s.r_target_hill, quat_rotate(quat_conjugate(s.q_hill_from_body), s.v_target_hill)
         self.pubs[c.SIM_TARGET_ODOM].publish(convert.odometry_cdr(
-            s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, (0.0, 0.0, 0.0), s.q_hill_from_body,
-            (0.0, 0.0, 0.0), s.omega_body))
+            s.t, c.FRAME_HILL, c.FRAME_TARGET_BODY, r_target, s.q_hill_from_body, v_target_body, s.omega_body))
         if self.steps % max(1, round(1.0 / self.step_s)) == 0:
             boxes = self.scenario.boxes
             markers = target_box_markers(s.t, s.q_hill_from_body, boxes.centers_hill_m(s.q_hill_from_body),
@@ -458,7 +469,7 @@ class SimNode(Node):
         """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
         phase = convert.string_to_str(msg)
         ch.phase = phase
-        if phase in ATTITUDE_QUIET_PHASES:
+        if phase in ATTITUDE_QUIET_PHASES and not (ch.locked and phase == c.PHASE_CAPTURE):
             ch.attitude_quiet = True
         if phase == c.PHASE_CAPTURE:
             ch.plant.capture()

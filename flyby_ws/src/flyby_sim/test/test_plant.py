@@ -371,3 +371,125 @@ def test_capture_attaches_the_chaser_to_the_target_and_drops_maneuvers():
     # eq 9 written independently, as the rotation relative to hill: (omega^H - Omega^H) x x^H
     omega_rel_hill = c_hill_from_body @ s.omega_body - np.array((0.0, -plant.mean_motion_rad_s, 0.0))
     np.testing.assert_allclose(s.v_hill, np.cross(omega_rel_hill, s.r_hill), atol=1e-12)
+
+
+# -- after the capture with a grasp (scenario post_capture, issue 16) ---------------------------------------------
+
+TUG = Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby_tug.yaml'
+
+
+def _at_the_flyby_target_point(**grasp_changes):
+    """A plant of paper_flyby_tug whose chaser starts at the fly-by target point of eq 20-21 (delta r 1 m) moving as
+    it does, body +x at the target's CoM, at rest in inertial space (the rate mismatch loads the wrist)."""
+    from flyby_sim.dynamics.attitude import body_point_state
+    from flyby_sim.dynamics.rotation import quat_shortest_arc
+
+    config = plant_config_from_scenario(load_scenario(TUG))
+    c = quat_to_matrix(config.q_hill_from_body0)
+    x_g = np.array(config.grasp.grasp_point_body_m)
+    x_ft_body = x_g * (1.0 + 1.0 / np.linalg.norm(x_g))
+    r0, v0 = body_point_state(c, np.array(config.omega_body0), x_ft_body, N)
+    body = dataclasses.replace(config.chaser_body, q_hill_from_body0=tuple(quat_shortest_arc((1.0, 0.0, 0.0), -r0)),
+                               omega_body0=(0.0, 0.0, 0.0))
+    grasp = dataclasses.replace(config.grasp, impedance=dataclasses.replace(config.grasp.impedance, **grasp_changes))
+    return Plant(dataclasses.replace(config, r0_hill=tuple(r0), v0_hill=tuple(v0), chaser_body=body, grasp=grasp,
+                                     position_sigma_m=0.0, attitude_sigma_rad=0.0))
+
+
+def _angular_momentum_about_com(plant, s):
+    """|H| [kg m^2/s] of chaser (wheels included) and target about their common CoM, from a TruthSample, in the
+    inertial frame whose axes are hill's at s.t (grasp.momentum)."""
+    from flyby_sim.dynamics.grasp import Body, momentum
+
+    omega_hill = np.array([0.0, -plant.mean_motion_rad_s, 0.0])
+    cfg = plant.config
+    r_t = np.zeros(3) if s.r_target_hill is None else s.r_target_hill
+    v_t = np.zeros(3) if s.v_target_hill is None else s.v_target_hill
+    axes = np.array(cfg.chaser_body.wheel_axes_body)
+    bodies = (Body(s.mass_kg, np.array(cfg.chaser_body.inertia), s.r_hill, s.v_hill + np.cross(omega_hill, s.r_hill),
+                   s.q_hill_from_chaser_body, s.omega_chaser_body, axes.T @ s.wheel_momentum_n_m_s),
+              Body(cfg.grasp.target_mass_kg, np.array(cfg.target_inertia), r_t, v_t + np.cross(omega_hill, r_t),
+                   s.q_hill_from_body, s.omega_body))
+    p, h = momentum(bodies)
+    r_cm = sum(b.mass_kg * b.r_m for b in bodies) / sum(b.mass_kg for b in bodies)
+    return float(np.linalg.norm(h - np.cross(r_cm, p)))
+
+
+def test_momentum_is_kept_through_the_grasp_and_the_lock_without_firing():
+    """Seed 000 §2.2 (5): the arm's impedance is internal, then the two are one rigid body with the momentum they
+    carried (grasp.weld); no thruster fires. The angular momentum about the common CoM is that of the two free bodies
+    at the contact, to the integrators' accuracy, through the grasp and 20 s of the combined body after it."""
+    plant = _at_the_flyby_target_point()
+    h0 = _angular_momentum_about_com(plant, plant.truth())
+    plant.capture()
+    assert plant.mode == 'grasp' and [e.name for e in plant.drain_events()] == ['captured']
+    momenta, names = [], []
+    while plant.mode == 'grasp':
+        momenta.append(_angular_momentum_about_com(plant, plant.step()))
+        names += [e.name for e in plant.drain_events()]
+    locked = plant.t
+    for _ in range(400):
+        s = plant.step()
+        momenta.append(_angular_momentum_about_com(plant, s))
+        assert not s.firing
+    assert names == ['grasp_damped'] and plant.mode == 'combined' and locked < 20.0
+    assert h0 > 100.0  # the target's spin: 2000 kg m^2 x 5 deg/s and the chaser's orbit about the common CoM
+    np.testing.assert_allclose(momenta, h0, rtol=1e-7)
+    # The chaser holds the target where the arm locked: the target CoM fixed in chaser_body.
+    s = plant.truth()
+    x_s = quat_to_matrix(s.q_hill_from_chaser_body).T @ (s.r_target_hill - s.r_hill)
+    assert np.linalg.norm(x_s) == pytest.approx(3.12, abs=0.02)
+
+
+def test_the_grasp_lets_go_beyond_the_arms_limits_and_both_fly_on():
+    """A force limit below the arm's first push (the handle slides past the chaser-fixed point at ~6 cm/s: ~9 N on
+    the 150 N s/m damper): released at once, the momentum kept, no command acts on the chaser, both fly freely."""
+    plant = _at_the_flyby_target_point(max_force_n=2.0)
+    h0 = _angular_momentum_about_com(plant, plant.truth())
+    plant.capture()
+    events = plant.drain_events()
+    assert [e.name for e in events] == ['captured', 'grasp_released'] and plant.mode == 'released'
+    assert '|F|' in events[1].message and events[1].values['peak_force_n'] > 2.0
+    assert plant.command_wrench(plant.t + 0.1, (0.0, 0.0, 0.0), (0.1, 0.0, 0.0)) is None
+    samples = [plant.step() for _ in range(200)]
+    assert not any(s.firing for s in samples)
+    # Free again, the two bodies feel the orbit's tidal acceleration (3 n^2 r on ~3 m: ~1e-5 m/s^2), a torque on
+    # the pair about their CoM; until the release (the first sample) the momentum is the contact's.
+    momenta = [_angular_momentum_about_com(plant, s) for s in samples]
+    assert momenta[0] == pytest.approx(h0, rel=1e-9)
+    np.testing.assert_allclose(momenta, h0, rtol=2e-5)
+    # Let go at the first contact, before any impulse: the target's CoM stays on the hill origin, the chaser drifts
+    # off on the fly-by's passive arc (the grasp point's velocity less the rotation it did not follow).
+    gap = [np.linalg.norm(s.r_hill - s.r_target_hill) for s in samples]
+    assert gap[-1] > gap[0] + 0.5 and np.all(samples[-1].r_target_hill == 0.0)
+
+
+def test_the_combined_body_takes_commands_from_one_imu_period_after_the_lock_and_its_accelerometer_sees_it_turn():
+    """Commands stamped before the lock plus one IMU period are ignored (from before the capture); a pure force held
+    on the combined body reads at the chaser's accelerometer as F/(m + M) + omega_dot x p + omega x (omega x p),
+    p = -c (seed 004 §2.2, combined_body.specific_force_body)."""
+    from flyby_sim.dynamics.combined_body import CombinedMassProperties, specific_force_body
+
+    plant = _at_the_flyby_target_point()
+    plant.capture()
+    while plant.mode == 'grasp':
+        plant.step()
+    plant.drain_events()
+    t_lock, period = plant.t, 1.0 / plant.config.chaser_body.imu.rate_hz
+    assert plant.command_wrench(t_lock + 0.5 * period, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)) is None
+    assert [e.name for e in plant.drain_events()] == ['command_ignored']
+    t_on = t_lock + 2.0 * period
+    assert plant.command_wrench(t_on, (10.0, 0.0, 0.0), (0.0, 1.0, -1.0), hold_s=10.0) is not None
+    imu = []
+    while plant.t < t_on + 2.0 - 1e-9:
+        s = plant.step()
+        imu += [(m.t, m.value) for m in plant.measurements() if m.kind == 'chaser_imu']
+    body = plant._body
+    props = CombinedMassProperties(body.mass_kg, plant._com_body, np.array(body.config.inertia))
+    (t0, a), (t1, b) = [(t, v) for t, v in imu if t > t_on + 0.5][:2]
+    omega_dot = (b.omega_body_meas - a.omega_body_meas) / (t1 - t0)  # the gyro's noise 1e-5 rad/s: ~1e-4 rad/s^2
+    force = s.force_body_n  # with the thrusters' errors
+    expected = specific_force_body(props, b.omega_body_meas, omega_dot, force)
+    assert np.linalg.norm(force) == pytest.approx(10.0, rel=0.05)
+    np.testing.assert_allclose(b.specific_force_body, expected, atol=1e-3)  # noise 1e-4 m/s^2 and the gyro's
+    assert abs(b.specific_force_body[1]) > 1e-3  # omega_dot x p: the turn the force's moment about c gives

@@ -3,10 +3,12 @@ the target's grasp point, from the first contact until the relative motion is da
 
 Seed 000 names the phase only ("the manipulator keeps the relative position and velocity and manages force and
 torque caused by mechanical contact"); the model is ours. Both bodies are rigid and free (the orbit left out over
-the seconds of the grasp). The end effector is a frame fixed in the chaser (its point r_ee from the chaser CoM),
-the grasp handle a frame fixed in the target (its point r_g from the target CoM); at the first contact the
-handle frame is where the end effector frame is, less the residual capture errors. The arm pulls the handle
-toward the end effector with a six-axis spring and damper (inertial axes):
+the seconds of the grasp); a body may carry reaction wheels whose axial momentum is held (no motor torque: a
+gyrostat). The end effector is a frame fixed in the chaser (its point r_ee from the chaser CoM), the grasp handle
+a frame fixed in the target (its point r_g from the target CoM); at the first contact the handle frame is where
+the end effector frame is, less the residual capture errors (``first_contact``: the arm reaches along chaser_body
++x, DESIGN §3, to the grasp point's distance; the residual error off that line is the spring's first deflection).
+The arm pulls the handle toward the end effector with a six-axis spring and damper (inertial axes):
 
 .. math::
 
@@ -64,7 +66,8 @@ class Impedance:
 
 
 class Body(NamedTuple):
-    """One rigid body's mass properties and state (inertial frame; omega in body axes)."""
+    """One rigid body's mass properties and state (inertial frame; omega in body axes), and the momentum its
+    reaction wheels hold, body axes (constant: no motor torque)."""
 
     mass_kg: float
     inertia_body_kg_m2: np.ndarray
@@ -72,6 +75,7 @@ class Body(NamedTuple):
     v_mps: np.ndarray
     q_inertial_from_body: np.ndarray
     omega_body: np.ndarray
+    h_wheels_body_n_m_s: tuple = (0.0, 0.0, 0.0)
 
 
 class GraspResult(NamedTuple):
@@ -90,11 +94,16 @@ class GraspResult(NamedTuple):
     damping_time_s: float  # nan unless damped within the duration
     dissipated_j: np.ndarray  # (N,) energy the dampers took since the contact
     energy_j: np.ndarray  # (N,) kinetic energy of both bodies plus the springs' energy
+    states: np.ndarray  # (N, 26) chaser then target: r, v, q_inertial_from_body, omega_body (``bodies_at``)
+
+    def bodies_at(self, k):
+        """(chaser, target) Bodies at output sample k."""
+        return _unpack(self.states[k], self.chaser, self.target)
 
 
 def _unpack(y, chaser, target):
     def body(y6, b):
-        return Body(b.mass_kg, b.inertia_body_kg_m2, y6[0:3], y6[3:6], y6[6:10], y6[10:13])
+        return b._replace(r_m=y6[0:3], v_mps=y6[3:6], q_inertial_from_body=y6[6:10], omega_body=y6[10:13])
     return body(y[0:13], chaser), body(y[13:26], target)
 
 
@@ -103,13 +112,31 @@ def _pack(chaser, target):
                            for b in (chaser, target)])
 
 
-class _Contact:
+def first_contact(chaser, target, r_grasp_target_m):
+    """The end effector's point [m] in chaser_body at the first contact: on +x, the direction the arm reaches
+    (DESIGN §3), at the grasp point's distance from the chaser CoM (module doc)."""
+    p_g = target.r_m + quat_rotate(target.q_inertial_from_body, np.asarray(r_grasp_target_m, dtype=float))
+    return np.array([float(np.linalg.norm(p_g - chaser.r_m)), 0.0, 0.0])
+
+
+class Contact:
+    """The arm's impedance between the end effector (r_ee, q_chaser_from_ee in the chaser) and the grasp handle
+    (r_g, q_target_from_handle in the target): ``wrench`` of two bodies' states (module doc)."""
+
     def __init__(self, impedance, r_ee_chaser_m, q_chaser_from_ee, r_grasp_target_m, q_target_from_handle):
         self.k = impedance
         self.r_ee = np.asarray(r_ee_chaser_m, dtype=float)
         self.q_c_ee = quat_normalize(q_chaser_from_ee)
         self.r_g = np.asarray(r_grasp_target_m, dtype=float)
         self.q_t_h = quat_normalize(q_target_from_handle)
+
+    @classmethod
+    def at_first_contact(cls, impedance, chaser, target, r_grasp_target_m, q_chaser_from_ee=(0.0, 0.0, 0.0, 1.0)):
+        """The contact of a grasp starting from these states: ``first_contact``'s end effector, the handle frame
+        aligned with it (no attitude error; the rate mismatch still loads the wrist)."""
+        q_ee0 = quat_multiply(chaser.q_inertial_from_body, quat_normalize(q_chaser_from_ee))
+        return cls(impedance, first_contact(chaser, target, r_grasp_target_m), q_chaser_from_ee, r_grasp_target_m,
+                   quat_multiply(quat_conjugate(target.q_inertial_from_body), q_ee0))
 
     def wrench(self, c, t):
         """(F, tau on the target, inertial; dx; e; arms from each CoM to the grasp point; relative velocities)."""
@@ -137,23 +164,28 @@ class _Contact:
 
 
 def _body_rates(b, force, torque_about_com, i_inv):
-    """d/dt (r, v, q, omega) of a free body under a force and a torque about its CoM (inertial axes)."""
-    torque_body = quat_rotate(quat_conjugate(b.q_inertial_from_body), torque_about_com)
+    """d/dt (r, v, q, omega) of a free body under a force and a torque about its CoM (inertial axes), its wheels'
+    momentum h held: I omega_dot = T - omega x (I omega + h)."""
+    torque_body = (quat_rotate(quat_conjugate(b.q_inertial_from_body), torque_about_com)
+                   - np.cross(b.omega_body, b.h_wheels_body_n_m_s))
     w_dot = euler_rate(b.omega_body.tolist(), b.inertia_body_kg_m2.tolist(), i_inv.tolist(), torque_body.tolist())
     return np.concatenate((b.v_mps, force / b.mass_kg, quaternion_rate(b.q_inertial_from_body.tolist(),
                                                                         b.omega_body.tolist()), w_dot))
 
 
 def kinetic_energy(b):
-    """Translational plus rotational kinetic energy of a body [J]."""
+    """Translational plus rotational kinetic energy of a body [J] (its wheels' held momentum left out: the
+    gyroscopic torque omega x h does no work on it)."""
     return 0.5 * b.mass_kg * float(b.v_mps @ b.v_mps) + 0.5 * float(b.omega_body @ b.inertia_body_kg_m2 @ b.omega_body)
 
 
 def momentum(bodies):
-    """(Total linear momentum [N s], total angular momentum about the inertial origin [N m s]) of free bodies."""
+    """(Total linear momentum [N s], total angular momentum about the inertial origin [N m s], wheels included) of
+    free bodies."""
     p = sum(b.mass_kg * b.v_mps for b in bodies)
     h = sum(np.cross(b.r_m, b.mass_kg * b.v_mps)
-            + quat_rotate(b.q_inertial_from_body, b.inertia_body_kg_m2 @ b.omega_body) for b in bodies)
+            + quat_rotate(b.q_inertial_from_body, b.inertia_body_kg_m2 @ b.omega_body + b.h_wheels_body_n_m_s)
+            for b in bodies)
     return p, h
 
 
@@ -172,7 +204,7 @@ def simulate_grasp(chaser, target, impedance, r_ee_chaser_m, r_grasp_target_m, d
     if q_target_from_handle is None:
         q_ee0 = quat_multiply(chaser.q_inertial_from_body, quat_normalize(q_chaser_from_ee))
         q_target_from_handle = quat_multiply(quat_conjugate(target.q_inertial_from_body), q_ee0)
-    contact = _Contact(impedance, r_ee_chaser_m, q_chaser_from_ee, r_grasp_target_m, q_target_from_handle)
+    contact = Contact(impedance, r_ee_chaser_m, q_chaser_from_ee, r_grasp_target_m, q_target_from_handle)
 
     def rhs(_t, y):
         c, t = _unpack(y, chaser, target)
@@ -217,12 +249,12 @@ def simulate_grasp(chaser, target, impedance, r_ee_chaser_m, r_grasp_target_m, d
         forces, torques, energy = forces[:last + 1], torques[:last + 1], energy[:last + 1]
     return GraspResult(sol.t[:last + 1], c, t, forces, torques, float(np.max(np.linalg.norm(forces, axis=1))),
                        float(np.max(np.linalg.norm(torques, axis=1))), released, t_release, reason,
-                       math.nan if released else t_damped, sol.y[26, :last + 1], energy)
+                       math.nan if released else t_damped, sol.y[26, :last + 1], energy, sol.y[:26, :last + 1].T)
 
 
 def weld(chaser, target):
-    """The two bodies made one rigid body at their current states, keeping total linear and angular momentum:
-    (CombinedMassProperties in chaser_body axes, CombinedState of the combined CoM)."""
+    """The two bodies made one rigid body at their current states, keeping total linear and angular momentum (the
+    chaser's wheels keep theirs): (CombinedMassProperties in chaser_body axes, CombinedState of the combined CoM)."""
     c_ib = quat_to_matrix(chaser.q_inertial_from_body)
     c_it = quat_to_matrix(target.q_inertial_from_body)
     x_s_body = c_ib.T @ (target.r_m - chaser.r_m)
@@ -233,5 +265,5 @@ def weld(chaser, target):
     p, h_origin = momentum((chaser, target))
     v = p / props.mass_kg
     h_com = h_origin - np.cross(r, props.mass_kg * v)
-    omega_body = np.linalg.solve(props.inertia_body_kg_m2, c_ib.T @ h_com)
+    omega_body = np.linalg.solve(props.inertia_body_kg_m2, c_ib.T @ h_com - np.asarray(chaser.h_wheels_body_n_m_s))
     return props, CombinedState(r, v, chaser.q_inertial_from_body.copy(), omega_body)
