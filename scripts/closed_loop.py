@@ -14,7 +14,8 @@ With --runs: seeds K, K+1, ... in J processes; one line per run and the statisti
 true chaser at the grasp time against the fly-by target point recomputed from the true target
 attitude (position, velocity), the delta-v commanded against the ideal one (eq 28-29 of the same
 transfer from the true state), the least clearance from the real target geometry, and any thrust
-inside the restriction sphere.
+inside the restriction sphere; with a post_capture section also the grasp's peak force, the damping and the
+target's mass-property errors (docs/post_capture.md).
 """
 
 import argparse
@@ -76,6 +77,16 @@ def many(args):
     print(_stats('commanded / ideal delta-v', [r['dv_commanded_mps'] / r['dv_ideal_mps'] for r in flown], ''))
     print(_stats('least clearance (real geometry)', [r['min_clearance_m'] for r in flown], 'm'))
     print(f'runs with thrust inside the restriction sphere: {sum(r["thrust_inside_restriction_sphere"] for r in runs)}')
+    if any('peak_grasp_force_n' in r for r in runs):  # after the capture (a post_capture section)
+        for key, label, unit in (('peak_grasp_force_n', 'peak grasp force', 'N'),
+                                 ('final_angular_momentum_kg_m2_s', 'angular momentum after the damping', 'kg m^2/s'),
+                                 ('damping_time_s', 'damping time', 's'), ('damping_fuel_kg', 'damping fuel', 'kg'),
+                                 ('target_mass_error_pct', 'target mass error', '%'),
+                                 ('target_com_error_m', 'target CoM error', 'm'),
+                                 ('target_principal_moments_error_pct', 'target principal moments error', '%'),
+                                 ('target_principal_axes_error_deg', 'target principal axes error', 'deg')):
+            print(_stats(label, [r.get(key) for r in runs], unit))
+        print(f'grasps released: {sum(bool(r.get("grasp_released")) for r in runs)}')
     if args.json:
         Path(args.json).write_text(json.dumps(runs, indent=1))
     return 0

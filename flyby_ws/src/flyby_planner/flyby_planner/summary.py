@@ -582,6 +582,16 @@ def format_summary(summary):
            ('thrust away in plume', f"{fmt(summary['plume_impulse_away_n_s'], 'N s')} net, "
                                     f"{fmt(summary['plume_thruster_impulse_n_s'], 'N s')} of exhaust at the target")]
           if summary.get('approach_time_s') is not None else []),
+        *([('peak grasp force / torque', f"{fmt(summary['peak_grasp_force_n'], 'N')} / "
+                                          f"{fmt(summary['peak_grasp_torque_n_m'], 'N m')}"
+                                          + (' (released)' if summary.get('grasp_released') else '')),
+           ('damping', f"{fmt(summary['damping_time_s'], 's')}, {fmt(summary['damping_fuel_kg'], 'kg')}, "
+                       f"momentum {fmt(summary['final_angular_momentum_kg_m2_s'], 'kg m^2/s')}"),
+           ('target mass error', fmt(summary['target_mass_error_pct'], '%')),
+           ('target CoM error', fmt(summary['target_com_error_m'], 'm')),
+           ('target moments / axes error', f"{fmt(summary['target_principal_moments_error_pct'], '%')} / "
+                                           f"{fmt(summary['target_principal_axes_error_deg'], 'deg')}")]
+          if 'peak_grasp_force_n' in summary else []),
         ('late maneuvers', fmt(summary['late_maneuvers'])),
         ('sim time', fmt(summary['sim_time_s'], 's', 6)),
         ('wall time', fmt(summary['wall_time_s'], 's')),
