@@ -147,7 +147,8 @@ def _cross(a, b):
 
 
 def _perturb(y_ref, e):
-    """Nominal states (K, 24) of the reference (24,) displaced by error states e (K, 22) (module doc)."""
+    """Nominal states (K, 24 + 3 n) of the reference (24 + 3 n,) displaced by error states e (K, 22 + 3 n) (module
+    doc; n thrusters' force errors as states, 0 without them)."""
     k = e.shape[0]
     y = np.repeat(y_ref[None, :], k, axis=0)
     y[:, 0:6] += e[:, 0:6]
@@ -156,12 +157,14 @@ def _perturb(y_ref, e):
     y[:, 13] += e[:, _I_M]
     y[:, 14:18] = _qmul_many(y[:, 14:18], _quat_exp_many(e[:, _SL_PHI]))
     y[:, 18:24] += e[:, 16:22]
+    y[:, N_NOM:] += e[:, N_ERR:]  # the thrusters' force errors, additive
     return y
 
 
 def _difference(y, y_ref):
-    """Error states (K, 22) of nominal states y (K, 24) from the reference y_ref (24,): the inverse of _perturb."""
-    e = np.empty((y.shape[0], N_ERR))
+    """Error states (K, 22 + 3 n) of nominal states y (K, 24 + 3 n) from the reference y_ref: the inverse of
+    _perturb."""
+    e = np.empty((y.shape[0], y.shape[1] - N_NOM + N_ERR))
     e[:, 0:6] = y[:, 0:6] - y_ref[0:6]
     conj = y_ref[[6, 7, 8, 9]] * np.array([-1.0, -1.0, -1.0, 1.0])
     e[:, _SL_TH] = _quat_log_many(_qmul_many(np.broadcast_to(conj, (y.shape[0], 4)), y[:, 6:10]))
@@ -170,7 +173,26 @@ def _difference(y, y_ref):
     conj_q = y_ref[[14, 15, 16, 17]] * np.array([-1.0, -1.0, -1.0, 1.0])
     e[:, _SL_PHI] = _quat_log_many(_qmul_many(np.broadcast_to(conj_q, (y.shape[0], 4)), y[:, 14:18]))
     e[:, 16:22] = y[:, 18:24] - y_ref[18:24]
+    e[:, N_ERR:] = y[:, N_NOM:] - y_ref[N_NOM:]
     return e
+
+
+def _central_offsets(eps):
+    """Error states (2 n + 1, n): zero, then +eps_i and -eps_i one component at a time (central differences)."""
+    n = eps.size
+    e = np.zeros((2 * n + 1, n))
+    idx = np.arange(n)
+    e[1 + idx, idx] = eps
+    e[1 + n + idx, idx] = -eps
+    return e
+
+
+def _thruster_key(firing):
+    """A thruster's identity in the firings: its position and force direction (rounded; the allocation changes only
+    the thrust)."""
+    force = np.asarray(firing.force_body_n, dtype=float)
+    return (tuple(np.round(firing.position_body_m, 9).tolist()),
+            tuple(np.round(force / np.linalg.norm(force), 6).tolist()))
 
 
 class _BatchBody:
@@ -252,12 +274,15 @@ class MassPropertyFilterConfig:
         accel_psd_m2_s3, angular_accel_psd_rad2_s3, parameter_psd: process noise (module doc).
         h_wheels_body_n_m_s: the wheels' momentum in body axes, held constant while the filter runs.
         max_step_s: longest propagation step [s].
-        imu_iterations: most Gauss-Newton iterations of an IMU update (1: the plain EKF update).
+        imu_iterations: most Gauss-Newton iterations of an IMU update over an interval with a firing, each
+            re-propagating from the last update (module doc; 1: the plain EKF update).
         gate_probability: chi-square probability of the innovation gate (of the measurement's size).
         max_consecutive_outliers: rejections in a row after which a measurement is taken anyway (the model is
             then trusted less than the data: the gate must not lock the filter out).
         thrust_magnitude_sigma, thrust_misalignment_sigma_rad: each thruster's execution errors, 1 sigma (relative
             magnitude; misalignment [rad] about each axis normal to its force) (module doc).
+        thrust_error_states: the execution errors as states, three per thruster (constant over the run, as the
+            plant draws them), instead of white input noise (module doc).
         accel_interval_s: 0: the accelerometer reads the specific force at its stamp; > 0: the mean over the
             interval of this length ending at its stamp (the plant's IMU, ``flyby_sim.sensors``), modelled with the
             wrench held at the interval's middle: exact for firings that start and end on samples (the mean of
@@ -281,6 +306,7 @@ class MassPropertyFilterConfig:
     max_consecutive_outliers: int = 20
     thrust_magnitude_sigma: float = 0.0
     thrust_misalignment_sigma_rad: float = 0.0
+    thrust_error_states: bool = False
     accel_interval_s: float = 0.0
 
     def __post_init__(self):
@@ -329,7 +355,8 @@ class MassPropertyEstimate(NamedTuple):
     v_mps: np.ndarray
     q_inertial_from_body: np.ndarray
     omega_body: np.ndarray
-    covariance: np.ndarray  # (22, 22) of the error state (module doc)
+    covariance: np.ndarray  # (22 + 3 n, 22 + 3 n) of the error state (module doc)
+    thrust_errors: np.ndarray  # (n, 3) each thruster's force error per newton of thrust (thrust_error_states)
 
 
 class MassPropertyFilter(FilterBase):
@@ -337,7 +364,8 @@ class MassPropertyFilter(FilterBase):
 
     ``update(t, q)`` fuses a star-tracker attitude (the ``filter_interface`` verb); ``on_imu(t, gyro, accel)``
     a gyro and accelerometer sample; ``on_position(t, r)`` a position. Known inputs: the firings given to the
-    constructor or ``add_firings``, which must not start before the filter time.
+    constructor or ``add_firings``, which must not start before the filter time (nor, with thrust_error_states,
+    come from a thruster the constructor's firings did not name).
     """
 
     def __init__(self, config, prior, t0, r_m, v_mps, q_inertial_from_body, omega_body, state_sigmas,
@@ -353,28 +381,73 @@ class MassPropertyFilter(FilterBase):
         self._p_acc = np.asarray(config.accel_position_body_m, dtype=float)
         self._h_w = np.asarray(config.h_wheels_body_n_m_s, dtype=float)
         self._firings = sorted(firings, key=lambda f: f.t_start_s)
+        # thruster key -> index of its force-error state (thrust_error_states), in order of first firing
+        self._thrusters = {}
+        self._error_states = config.thrust_error_states and (config.thrust_magnitude_sigma > 0.0
+                                                             or config.thrust_misalignment_sigma_rad > 0.0)
+        if self._error_states:
+            for f in self._firings:
+                self._thrusters.setdefault(_thruster_key(f), len(self._thrusters))
+        n_thr = len(self._thrusters)
+        self._n = N_ERR + 3 * n_thr
+        self._eps = np.concatenate((_EPS, np.full(3 * n_thr, 1e-6)))
         self._y = np.concatenate((r_m, v_mps, quat_normalize(q_inertial_from_body), omega_body,
                                   [prior.target_mass_kg], quat_normalize(prior.q_body_from_principal),
-                                  prior.target_com_body_m, j_from_moments(prior.principal_moments_kg_m2)))
+                                  prior.target_com_body_m, j_from_moments(prior.principal_moments_kg_m2),
+                                  np.zeros(3 * n_thr)))
         sig_r, sig_v, sig_att, sig_w = state_sigmas
         sigmas = np.concatenate(([sig_r] * 3, [sig_v] * 3, [sig_att] * 3, [sig_w] * 3, [prior.mass_sigma_kg],
                                  [prior.axes_sigma_rad] * 3, [prior.com_sigma_m] * 3, prior.j_sigma))
-        self._kf = ExtendedKalmanFilter(dim_x=N_ERR, dim_z=6)
-        self._kf.x = np.zeros((N_ERR, 1))
-        self._kf.P = np.diag(sigmas ** 2)
+        p0 = np.zeros((self._n, self._n))
+        p0[:N_ERR, :N_ERR] = np.diag(sigmas ** 2)
+        for (_, u), i in self._thrusters.items():
+            k = N_ERR + 3 * i
+            p0[k:k + 3, k:k + 3] = self._force_error_covariance(np.array(u))
+        self._kf = ExtendedKalmanFilter(dim_x=self._n, dim_z=6)
+        self._kf.x = np.zeros((self._n, 1))
+        self._kf.P = p0
         self._t = float(t0)
         self._consecutive_rejects = 0
 
     def add_firings(self, firings):
-        """More known inputs (combined_body.Firing); raises ValueError for one starting before the filter time."""
+        """More known inputs (combined_body.Firing); raises ValueError for one starting before the filter time or
+        (thrust_error_states) from a thruster without an error state."""
         for f in firings:
             if f.t_start_s < self._t:
                 raise ValueError(f'firing at t = {f.t_start_s} s starts before the filter time {self._t} s')
+            if self._error_states and _thruster_key(f) not in self._thrusters:
+                raise ValueError(f'firing at t = {f.t_start_s} s is from a thruster the filter has no error state '
+                                 f'for (position {f.position_body_m}): give every thruster in the constructor')
         self._firings = sorted(self._firings + list(firings), key=lambda f: f.t_start_s)
 
     @property
     def covariance(self):
         return self._kf.P.copy()
+
+    def _force_error_covariance(self, force):
+        """S_F = s_m^2 F F' + s_d^2 (|F|^2 U - F F'): a force's execution error (module doc)."""
+        cfg = self.config
+        ff = np.outer(force, force)
+        return cfg.thrust_magnitude_sigma ** 2 * ff + cfg.thrust_misalignment_sigma_rad ** 2 * (
+            float(force @ force) * np.eye(3) - ff)
+
+    def _active(self, t):
+        return [f for f in self._firings if f.t_start_s <= t < f.t_start_s + f.duration_s]
+
+    def _wrench(self, y, t):
+        """(force, moment about the chaser CoM) at t [s] of the firings for nominal states y (K, 24 + 3 n): the known
+        wrench, plus (thrust_error_states) each firing thruster's error |F| e_i at its position, one per row."""
+        force, moment = wrench_about_chaser(self._firings, t)
+        if not self._thrusters:
+            return force, moment
+        force = np.repeat(force[None, :], y.shape[0], axis=0)
+        moment = np.repeat(moment[None, :], y.shape[0], axis=0)
+        for f in self._active(t):
+            k = N_NOM + 3 * self._thrusters[_thruster_key(f)]
+            d_f = math.hypot(*f.force_body_n) * y[:, k:k + 3]
+            force += d_f
+            moment += _cross(np.asarray(f.position_body_m, dtype=float), d_f)
+        return force, moment
 
     # --- time update -----------------------------------------------------------------------------------------
 
@@ -382,54 +455,53 @@ class MassPropertyFilter(FilterBase):
         """Time update to t >= the filter time [s], cut at the firings' starts and ends (module doc)."""
         if t < self._t:
             raise ValueError(f'cannot propagate back from {self._t} s to {t} s')
-        cuts = [b for b in firing_breaks(self._firings) if self._t < b < t] + [t]
-        for t_end in cuts:
-            while self._t < t_end:
-                dt = min(self.config.max_step_s, t_end - self._t)
-                if t_end - (self._t + dt) < 1e-9:
-                    dt = t_end - self._t
-                self._step(dt)
-                self._t = t_end if dt == t_end - self._t else self._t + dt
-
-    def _step(self, dt):
-        force, moment = wrench_about_chaser(self._firings, self._t)
-        e = np.zeros((2 * N_ERR + 1, N_ERR))
-        idx = np.arange(N_ERR)
-        e[1 + idx, idx] = _EPS
-        e[1 + N_ERR + idx, idx] = -_EPS
-        y = _rk4_batch(_perturb(self._y, e), dt, force, moment, self._h_w, self._m, self._i_t0)
-        d = _difference(y[1:], y[0])
-        phi = ((d[:N_ERR] - d[N_ERR:]) / (2.0 * _EPS)[:, None]).T  # column i: d(error')/d(error_i)
-        self._kf.F = phi
-        self._kf.Q = self._process_noise(dt) + self._firing_noise(dt)
-        self._y = y[0]
+        if t == self._t:
+            return
+        self._y, self._kf.F, self._kf.Q = self._transition(self._y, self._t, t)
         self._kf.predict()  # P = F P F' + Q (x stays zero)
+        self._t = float(t)
 
-    def _firing_errors(self, t):
-        """[(S_F (3, 3), X_f - c (3,))] of the thruster firings active at t, at the nominal (module doc)."""
+    def _transition(self, y, t0, t1):
+        """(the nominal at t1, Phi, Qd) from the nominal y at t0 [s]: RK4 steps of at most max_step_s cut at the
+        firings' starts and ends, each step's Phi the central difference of that step, composed (module doc)."""
+        n = self._n
+        phi, q = np.eye(n), np.zeros((n, n))
+        offsets = _central_offsets(self._eps)
+        t = t0
+        for t_end in [b for b in firing_breaks(self._firings) if t0 < b < t1] + [t1]:
+            while t < t_end:
+                dt = min(self.config.max_step_s, t_end - t)
+                if t_end - (t + dt) < 1e-9:
+                    dt = t_end - t
+                batch = _perturb(y, offsets)
+                out = _rk4_batch(batch, dt, *self._wrench(batch, t), self._h_w, self._m, self._i_t0)
+                d = _difference(out[1:], out[0])
+                phi_step = ((d[:n] - d[n:]) / (2.0 * self._eps)[:, None]).T  # column i: d(error')/d(error_i)
+                phi = phi_step @ phi
+                q = phi_step @ q @ phi_step.T + self._process_noise(dt) + self._firing_noise(y, t, dt)
+                y = out[0]
+                t = t_end if dt == t_end - t else t + dt
+        return y, phi, q
+
+    def _firing_errors(self, y, t):
+        """[(S_F (3, 3), X_f - c (3,), duration)] of the thruster firings active at t for the nominal y, when the
+        execution errors are white input noise (module doc)."""
         cfg = self.config
-        if cfg.thrust_magnitude_sigma == 0.0 and cfg.thrust_misalignment_sigma_rad == 0.0:
+        if self._error_states or (cfg.thrust_magnitude_sigma == 0.0 and cfg.thrust_misalignment_sigma_rad == 0.0):
             return []
-        c = self._y[13] / (self._y[13] + self._m) * self._y[18:21]  # c = M/(M+m) X_s
-        out = []
-        for f in self._firings:
-            if f.t_start_s <= t < f.t_start_s + f.duration_s:
-                force = np.asarray(f.force_body_n, dtype=float)
-                ff = np.outer(force, force)
-                s_f = cfg.thrust_magnitude_sigma ** 2 * ff + cfg.thrust_misalignment_sigma_rad ** 2 * (
-                    float(force @ force) * np.eye(3) - ff)
-                out.append((s_f, np.asarray(f.position_body_m, dtype=float) - c, f.duration_s))
-        return out
+        c = y[13] / (y[13] + self._m) * y[18:21]  # c = M/(M+m) X_s
+        return [(self._force_error_covariance(np.asarray(f.force_body_n, dtype=float)),
+                 np.asarray(f.position_body_m, dtype=float) - c, f.duration_s) for f in self._active(t)]
 
-    def _firing_noise(self, dt):
-        """Qd of the firings' force errors over a step of dt from the filter time (module doc): dF held as white
+    def _firing_noise(self, y, t, dt):
+        """Qd of the firings' force errors over a step of dt from t with the nominal y (module doc): dF held as white
         noise of psd S_F x the firing's duration on v_dot (inertial) and omega_dot, integrated into r and theta."""
-        errors = self._firing_errors(self._t)
-        q = np.zeros((N_ERR, N_ERR))
+        errors = self._firing_errors(y, t)
+        q = np.zeros((self._n, self._n))
         if not errors:
             return q
-        body = _BatchBody(self._y[None, :], self._m, self._i_t0)
-        c_inertial_from_body = quat_to_matrix_many(self._y[None, 6:10])[0]
+        body = _BatchBody(y[None, :], self._m, self._i_t0)
+        c_inertial_from_body = quat_to_matrix_many(y[None, 6:10])[0]
         rates = np.zeros((6, 6))
         for s_f, lever, duration in errors:
             g = np.vstack((c_inertial_from_body / body.mass[0], body.inertia_inv[0] @ skew(lever)))
@@ -441,19 +513,24 @@ class MassPropertyFilter(FilterBase):
         return q
 
     def _process_noise(self, dt):
-        q = np.zeros((N_ERR, N_ERR))
+        q = np.zeros((self._n, self._n))
         for sl_pos, sl_rate, psd in ((_SL_R, _SL_V, self.config.accel_psd_m2_s3),
                                      (_SL_TH, _SL_W, self.config.angular_accel_psd_rad2_s3)):
             q[sl_pos, sl_pos] = np.eye(3) * psd * dt ** 3 / 3.0
             q[sl_pos, sl_rate] = q[sl_rate, sl_pos] = np.eye(3) * psd * dt ** 2 / 2.0
             q[sl_rate, sl_rate] = np.eye(3) * psd * dt
-        q[12:, 12:] += np.eye(N_ERR - 12) * self.config.parameter_psd * dt
+        q[12:N_ERR, 12:N_ERR] += np.eye(N_ERR - 12) * self.config.parameter_psd * dt
         return q
 
     # --- measurement updates ---------------------------------------------------------------------------------
 
     def on_imu(self, t, gyro_rad_s, accel_mps2):
-        """Fuse a gyro rate and an accelerometer specific force (body axes) stamped t; an UpdateResult."""
+        """Fuse a gyro rate and an accelerometer specific force (body axes) stamped t; an UpdateResult.
+
+        Over an interval with a firing the update is iterated (module doc): Gauss-Newton on the error theta at the
+        last update's time t0 under its prior N(0, P0), the measurement z = h(f(x0 + theta)) + H w + v with f the
+        propagation to t re-run from each iterate, so the curvature of both the response to the firing and the
+        accelerometer's F/(m + M) in the parameters is seen; the last linearization gives the update."""
         z, rejected = self._finite_measurement(t, np.concatenate((np.ravel(gyro_rad_s), np.ravel(accel_mps2))), 6,
                                                'imu sample', self.imu_counts)
         if rejected is not None:
@@ -461,45 +538,46 @@ class MassPropertyFilter(FilterBase):
         stale = self._stale_measurement(t, self._t, 'imu sample', self.imu_counts)
         if stale is not None:
             return stale
-        self.propagate_to(t)
+        t0, y0, p0 = self._t, self._y, self._kf.P
         t_wrench = t - 0.5 * self.config.accel_interval_s
-        force, moment = wrench_about_chaser(self._firings, t_wrench)
         r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
-        errors = self._firing_errors(t_wrench)
+        errors = self._firing_errors(y0, t_wrench)
         if errors:  # the accelerometer reads the firings' force errors directly (module doc)
-            body = _BatchBody(self._y[None, :], self._m, self._i_t0)
+            body = _BatchBody(y0[None, :], self._m, self._i_t0)
             p_acc = self._p_acc - body.c[0]
             for s_f, lever, _ in errors:
                 h_f = np.eye(3) / body.mass[0] - skew(p_acc) @ body.inertia_inv[0] @ skew(lever)
                 r[3:, 3:] += h_f @ s_f @ h_f.T
-        p = self._kf.P
-        # Iterated update (Gauss-Newton on the measurement): h re-linearized at each iterate dx_i, dx_(i+1) =
-        # K_i (z - h(dx_i) + H_i dx_i), for the curvature of F/(m + M) in M while M is uncertain by percents; the
-        # propagation's curvature is not iterated (module doc: the filter's limit).
-        dx = np.zeros(N_ERR)
-        sigma = np.sqrt(np.diag(p))
-        for iteration in range(self.config.imu_iterations):
-            h, jac = self._imu_and_jacobian(dx, force, moment)
-            y_eff = z - h + jac @ dx
-            if iteration == 0:
-                innovation = z - h
-            s = jac @ p @ jac.T + r
-            dx_next = p @ jac.T @ np.linalg.solve(s, y_eff)
-            converged = np.max(np.abs(dx_next - dx) / sigma) < 1e-2  # the iterate moved by < 1 % of a sigma
-            dx = dx_next
-            if converged:
+        curved = any(f.t_start_s < t and f.t_start_s + f.duration_s > min(t0, t_wrench) for f in self._firings)
+        iterations = self.config.imu_iterations if curved else 1
+        sigma0 = np.sqrt(np.diag(p0))
+        sigma0 = np.where(sigma0 > 0.0, sigma0, np.inf)
+        theta = np.zeros(self._n)
+        for iteration in range(iterations):
+            y1, phi, q = self._transition(_perturb(y0, theta[None, :])[0], t0, t)
+            h, jac = self._imu_and_jacobian(y1, t_wrench)
+            m = -phi @ theta  # the prior's mean at t, from the nominal y1 = f(x0 + theta)
+            p_pred = phi @ p0 @ phi.T + q
+            residual = z - h - jac @ m
+            if iteration + 1 == iterations:
                 break
-        return self._fuse(t, innovation, jac, r, self.imu_counts, y_eff)
+            # theta' = P0 Phi' H' S^-1 (z - h(f(x0 + theta)) + H Phi theta)
+            theta_next = p0 @ phi.T @ jac.T @ np.linalg.solve(jac @ p_pred @ jac.T + r, residual)
+            if np.max(np.abs(theta_next - theta) / sigma0) < 1e-2:  # the iterate moved by < 1 % of a sigma
+                break
+            theta = theta_next
+        self._y, self._t = y1, float(t)
+        self._kf.P = p_pred
+        self._kf.x = m[:, None]
+        return self._fuse(t, residual, jac, r, self.imu_counts, z - h)
 
-    def _imu_and_jacobian(self, dx, force, moment):
-        """The IMU predicted at the nominal displaced by dx (6,) and its Jacobian (6, 22) there."""
-        e = np.zeros((2 * N_ERR + 1, N_ERR))
-        idx = np.arange(N_ERR)
-        e[1 + idx, idx] = _EPS
-        e[1 + N_ERR + idx, idx] = -_EPS
-        y0 = _perturb(self._y, dx[None, :])[0]
-        h = _imu_batch(_perturb(y0, e), force, moment, self._h_w, self._m, self._i_t0, self._p_acc)
-        return h[0], ((h[1:N_ERR + 1] - h[N_ERR + 1:]) / (2.0 * _EPS)[:, None]).T
+    def _imu_and_jacobian(self, y, t_wrench):
+        """The IMU predicted at the nominal y (24 + 3 n,) with the wrench at t_wrench, and its Jacobian in the error
+        state there."""
+        n = self._n
+        batch = _perturb(y, _central_offsets(self._eps))
+        h = _imu_batch(batch, *self._wrench(batch, t_wrench), self._h_w, self._m, self._i_t0, self._p_acc)
+        return h[0], ((h[1:n + 1] - h[n + 1:]) / (2.0 * self._eps)[:, None]).T
 
     def update(self, t, z):
         """Fuse a star-tracker attitude q_inertial_from_body (x, y, z, w) stamped t; an UpdateResult."""
@@ -510,10 +588,11 @@ class MassPropertyFilter(FilterBase):
         if stale is not None:
             return stale
         self.propagate_to(t)
-        jac = np.zeros((3, N_ERR))
+        jac = np.zeros((3, self._n))
         jac[:, _SL_TH] = np.eye(3)
         r = np.eye(3) * self.config.attitude_sigma_rad ** 2
-        return self._fuse(t, attitude_innovation(self._y[6:10], q), jac, r, self.counts)
+        innovation = attitude_innovation(self._y[6:10], q)
+        return self._fuse(t, innovation, jac, r, self.counts, innovation)
 
     def on_position(self, t, r_m):
         """Fuse a position of the combined CoM (inertial) stamped t; an UpdateResult."""
@@ -524,51 +603,51 @@ class MassPropertyFilter(FilterBase):
         if stale is not None:
             return stale
         self.propagate_to(t)
-        jac = np.zeros((3, N_ERR))
+        jac = np.zeros((3, self._n))
         jac[:, _SL_R] = np.eye(3)
         r = np.eye(3) * self.config.position_sigma_m ** 2
-        return self._fuse(t, z - self._y[0:3], jac, r, self.position_counts)
+        innovation = z - self._y[0:3]
+        return self._fuse(t, innovation, jac, r, self.position_counts, innovation)
 
-    def _fuse(self, t, innovation, jac, r, counts, y_eff=None):
-        """Gate on the innovation's NIS, then filterpy's update with the innovation (or the iterated update's
-        y_eff, so that K y_eff is the last iterate) and the fold."""
+    def _fuse(self, t, innovation, jac, r, counts, z):
+        """Gate on the innovation's NIS, then filterpy's update of the error (prior mean kf.x, measurement z from
+        the nominal, so that z - H x is the innovation) and the fold; a rejected sample folds the prior mean."""
         kf = self._kf
         s = jac @ kf.P @ jac.T + r
         nis = float(innovation @ np.linalg.solve(s, innovation))
         gate = self._gate_by_size[innovation.size]
         if nis > gate and self._consecutive_rejects + 1 < self.config.max_consecutive_outliers:
             self._consecutive_rejects += 1
+            self._fold(kf.x[:, 0])
             return self._outcome('outlier', t, nis, f'normalized innovation squared {nis:.4g} above the gate '
                                                      f'{gate:.4g}', innovation, counts)
         self._consecutive_rejects = 0
-        z = innovation if y_eff is None else y_eff
-        kf.update(z[:, None], HJacobian=lambda _x: jac, Hx=lambda x: jac @ x, R=r)
+        kf.update(z[:, None], HJacobian=lambda _x: jac, Hx=lambda x: jac @ x, R=r)  # Joseph form
         self._fold(kf.x[:, 0])
         return self._outcome('accepted', t, nis, '', innovation, counts)
 
     def _fold(self, dx):
         """The update's error folded into the nominal, both quaternions with Markley's reset, P <- G P G'."""
         self._y = _perturb(self._y, dx[None, :])[0]
-        g = np.eye(N_ERR)
+        g = np.eye(self._n)
         g[_SL_TH, _SL_TH] -= 0.5 * skew(dx[_SL_TH])
         g[_SL_PHI, _SL_PHI] -= 0.5 * skew(dx[_SL_PHI])
         p = g @ self._kf.P @ g.T
         self._kf.P = 0.5 * (p + p.T)
-        self._kf.x = np.zeros((N_ERR, 1))
+        self._kf.x = np.zeros((self._n, 1))
 
     # --- outputs ---------------------------------------------------------------------------------------------
 
     def predict(self, t):
-        """The nominal (24,) carried to t >= the filter time without changing the filter (r, v, q, omega, M, Q,
-        X_s, j)."""
+        """The nominal (24 + 3 n,) carried to t >= the filter time without changing the filter (r, v, q, omega, M,
+        Q, X_s, j, the thrusters' errors)."""
         y = self._y[None, :].copy()
         t_now = self._t
         cuts = [b for b in firing_breaks(self._firings) if t_now < b < t] + [t]
         for t_end in cuts:
             while t_now < t_end:
                 dt = min(self.config.max_step_s, t_end - t_now)
-                force, moment = wrench_about_chaser(self._firings, t_now)
-                y = _rk4_batch(y, dt, force, moment, self._h_w, self._m, self._i_t0)
+                y = _rk4_batch(y, dt, *self._wrench(y, t_now), self._h_w, self._m, self._i_t0)
                 t_now = t_end if t_end - (t_now + dt) < 1e-9 else t_now + dt
         return y[0]
 
@@ -588,7 +667,8 @@ class MassPropertyFilter(FilterBase):
         return MassPropertyEstimate(
             self._t, float(y[13]), y[18:21].copy(), quat_normalize(y[14:18]), moments,
             inertia_from_principal(moments, y[14:18]), float(sig[_I_M]), sig[_SL_X].copy(), sig[_SL_PHI].copy(),
-            np.sqrt(np.diag(moments_cov)), y[0:3].copy(), y[3:6].copy(), y[6:10].copy(), y[10:13].copy(), p.copy())
+            np.sqrt(np.diag(moments_cov)), y[0:3].copy(), y[3:6].copy(), y[6:10].copy(), y[10:13].copy(), p.copy(),
+            y[N_NOM:].reshape(-1, 3).copy())
 
 
 def principal_axis_errors_rad(q_body_from_principal_est, q_body_from_principal_true):

@@ -276,15 +276,18 @@ CANDIDATE_PSI_DEG = (-135.0, -90.0, -45.0, 0.0, 45.0, 90.0, 135.0, 180.0)
 
 
 def random_sequence(rng, n_firings, impulse_n_s, window_s, max_thrust_n=TABLE1_MAX_THRUST_N,
-                    position_body_m=TABLE1_THRUSTER_POSITION_BODY_M, first_s=1.0):
-    """n_firings firings at full thrust, each of impulse_n_s / n_firings, their directions drawn from the
-    candidate grid and their starts from a 0.5 s grid in [first_s, window_s - 5 s] (at least one firing
-    length apart), all from rng: one candidate of the design search."""
-    duration = impulse_n_s / n_firings / max_thrust_n
+                    position_body_m=TABLE1_THRUSTER_POSITION_BODY_M, first_s=1.0, ramp_levels=()):
+    """n_firings firings of equal duration and impulse_n_s in all, their directions drawn from the candidate grid
+    and their starts from a 0.5 s grid in [first_s, window_s - 5 s] (at least one firing length apart), all from
+    rng: one candidate of the design search. The first len(ramp_levels) fire at those levels [%], the rest at
+    full thrust: graded pulses keep the first responses inside the filter's linear range while the parameters
+    are uncertain by percents (docs/post_capture.md)."""
+    levels = [float(v) for v in ramp_levels] + [100.0] * (n_firings - len(ramp_levels))
+    duration = impulse_n_s / (max_thrust_n * sum(levels) / 100.0)
     slots = np.arange(first_s, window_s - 5.0, max(0.5, math.ceil(duration / 0.5) * 0.5 + 0.5))
     starts = np.sort(rng.choice(slots, size=n_firings, replace=False))
-    rows = [(float(t0), duration, 100.0, float(rng.choice(CANDIDATE_THETA_DEG)), float(rng.choice(CANDIDATE_PSI_DEG)))
-            for t0 in starts]
+    rows = [(float(t0), duration, level, float(rng.choice(CANDIDATE_THETA_DEG)), float(rng.choice(CANDIDATE_PSI_DEG)))
+            for t0, level in zip(starts, levels, strict=True)]
     return firings_from_rows(rows, max_thrust_n, position_body_m)
 
 
@@ -296,13 +299,15 @@ class DesignResult(NamedTuple):
     candidate_gains: tuple
 
 
-def choose_sequence(case, config, prior, rng, candidates=16, n_firings=9, impulse_n_s=None, window_s=25.0):
-    """The candidate sequence (``random_sequence``) of most information (``information_gain``) at Table 1's
-    impulse (or impulse_n_s) over window_s seconds: a D-optimal choice by random search."""
+def choose_sequence(case, config, prior, rng, candidates=16, n_firings=9, impulse_n_s=None, window_s=25.0,
+                    ramp_levels=()):
+    """The candidate sequence (``random_sequence``, graded by ramp_levels) of most information
+    (``information_gain``) at Table 1's impulse (or impulse_n_s) over window_s seconds: a D-optimal choice by
+    random search."""
     impulse = total_impulse_n_s(table1_firings()) if impulse_n_s is None else impulse_n_s
     best, gains = None, []
     for _ in range(candidates):
-        firings = random_sequence(rng, n_firings, impulse, window_s)
+        firings = random_sequence(rng, n_firings, impulse, window_s, ramp_levels=ramp_levels)
         gain = information_gain(case, firings, window_s, config, prior)
         gains.append(gain)
         if best is None or gain > best[1]:
