@@ -3,7 +3,7 @@
 Table 1's thruster sequence and with a sequence chosen for observability at the same impulse; then the grasp
 and the damping of the post-capture cores. Prints figures; asserts nothing (docs/post_capture.md).
 
-    .venv/bin/python scripts/benchmark_mass_estimation.py --runs 50 --candidates 16
+    .venv/bin/python scripts/benchmark_mass_estimation.py --runs 50 --candidates 16 --ramp-levels 10 10 10
 """
 
 import argparse
@@ -15,10 +15,12 @@ from scipy.stats import chi2
 
 from flyby_estimation.mass_properties import j_from_moments, principal_axis_errors_rad
 from flyby_estimation.mass_properties_excitation import (
+    CHOSEN_ROWS,
     PARAMETER_SLICE,
     TugrobotCase,
     choose_sequence,
     default_prior,
+    firings_from_rows,
     information_gain,
     run_filter,
     simulate_experiment,
@@ -60,7 +62,7 @@ def _defined_parameters(case):
 
 def campaign(case, firings, runs, prior_scale=1.0, label=''):
     config = tugrobot_filter_config(case)
-    rows, nees = [], []
+    rows, nees, z = [], [], []
     t0 = time.perf_counter()
     for seed in range(runs):
         rng = np.random.default_rng([16, seed])
@@ -81,6 +83,7 @@ def campaign(case, firings, runs, prior_scale=1.0, label=''):
         p = e.covariance[PARAMETER_SLICE, PARAMETER_SLICE]
         keep = _defined_parameters(case)
         nees.append(float(err[keep] @ np.linalg.solve(p[np.ix_(keep, keep)], err[keep])))
+        z.append(err / np.sqrt(np.diag(p)))
     rows = np.array(rows)
     wall = time.perf_counter() - t0
     p95 = np.percentile(rows, 95, axis=0)
@@ -93,6 +96,7 @@ def campaign(case, firings, runs, prior_scale=1.0, label=''):
     print(f'  median 1-sigma   mass {np.median(rows[:, 4]):.4f} %  moments {np.median(rows[:, 5]):.4f} %')
     print(f'  mean NEES ({dof} parameters) {np.mean(nees):.2f}, 95 % band [{lo:.2f}, {hi:.2f}], '
           f'runs above chi2({dof}) 99.9 %: {int(np.sum(np.array(nees) > chi2.ppf(0.999, dof)))}')
+    print(f'  RMS z (M, dphi, X_s, j) {np.round(np.sqrt(np.mean(np.square(z), axis=0)), 2).tolist()}')
     return rows, nees
 
 
@@ -129,19 +133,28 @@ def main():
     parser.add_argument('--runs', type=int, default=10, help='seeded runs per sequence')
     parser.add_argument('--candidates', type=int, default=16, help='random candidates of the design search')
     parser.add_argument('--wide-runs', type=int, default=3, help='runs from a ten times wider prior')
+    parser.add_argument('--ramp-levels', type=float, nargs='*', default=[],
+                        help='levels [%%] of the first firings of a graded design, also run (e.g. 10 10 10)')
+    parser.add_argument('--skip-design', action='store_true', help='campaigns of Table 1 and CHOSEN_ROWS only')
     args = parser.parse_args()
     case = TugrobotCase()
     config = tugrobot_filter_config(case)
-    t0 = time.perf_counter()
-    design = choose_sequence(case, config, default_prior(case), np.random.default_rng(2026), args.candidates)
-    table1_gain = information_gain(case, table1_firings(), WINDOW_S, config, default_prior(case))
-    print(f'design: {args.candidates} candidates in {time.perf_counter() - t0:.0f} s; information gain (log det '
-          f'P0/P of the parameters) Table 1 {table1_gain:.2f}, chosen {design.information_gain:.2f}, candidates '
-          f'{min(design.candidate_gains):.2f} to {max(design.candidate_gains):.2f}')
-    for f in design.firings:
-        print(f'  firing at {f.t_start_s:5.1f} s for {f.duration_s:.3f} s, force {np.round(f.force_body_n, 3)} N')
     campaign(case, table1_firings(), args.runs, label='Table 1')
-    campaign(case, design.firings, args.runs, label='chosen')
+    campaign(case, firings_from_rows(CHOSEN_ROWS), args.runs, label='chosen (CHOSEN_ROWS, on the 0.1 s grid)')
+    designs = [] if args.skip_design else [('chosen', ())] + ([('graded', tuple(args.ramp_levels))]
+                                                               if args.ramp_levels else [])
+    for label, ramp in designs:
+        t0 = time.perf_counter()
+        design = choose_sequence(case, config, default_prior(case), np.random.default_rng(2026), args.candidates,
+                                 ramp_levels=ramp)
+        table1_gain = information_gain(case, table1_firings(), WINDOW_S, config, default_prior(case))
+        print(f'design {label} (ramp {list(ramp)}): {args.candidates} candidates in {time.perf_counter() - t0:.0f} '
+              f's; information gain (log det P0/P of the parameters) Table 1 {table1_gain:.2f}, chosen '
+              f'{design.information_gain:.2f}, candidates {min(design.candidate_gains):.2f} to '
+              f'{max(design.candidate_gains):.2f}')
+        for f in design.firings:
+            print(f'  firing at {f.t_start_s:5.1f} s for {f.duration_s:.3f} s, force {np.round(f.force_body_n, 3)} N')
+        campaign(case, design.firings, args.runs, label=f'{label} design')
     if args.wide_runs:
         campaign(case, table1_firings(), args.wide_runs, prior_scale=10.0, label='Table 1, wide prior')
     grasp_and_damping()
