@@ -13,7 +13,7 @@ principal moments through j = (j1, j2, j3) (``moments_from_j``). The chaser's ma
 positions are known (seed 004: I_t0, m, X_f). The filter is multiplicative in both quaternions: its 22-element
 error state is
 
-    [dr (3), dv (3), dtheta (3), domega (3), dM (1), dphi (3), dX_s (3), dj (3)]
+    [dr (3), dv (3), dtheta (3), domega (3), dM (1), dphi (3), dX_s (3), dj (3), (de_i (3) per thruster)]
 
 with q_true = q * exp(dtheta) (body axes) and Q_true = Q * exp(dphi) (principal axes), every other error
 additive. Observations (seed 004: omega, x_t'', q): the gyro rate and the accelerometer's specific force at
@@ -35,19 +35,33 @@ thruster; it enters v_dot as C dF / (m + M) and omega_dot as I^-1 ((X_f - c) x d
 noise of psd S_F times the firing's duration (the error is constant over a firing: its velocity error at the
 firing's end has the right variance; that one thruster's errors recur from firing to firing is left out), and the
 accelerometer reads it directly, dF / (m + M) - p x I^-1 ((X_f - c) x dF), which is added to the IMU update's R.
-Without them (the default, 0) the firings are exact.
+Without them (the default, 0) the firings are exact. With ``thrust_error_states`` the errors are what the plant
+draws, constant per thruster over the run (``actuators.draw_thruster_errors``): each thruster (a distinct position
+and force direction u among the firings) gets a state e_i, its force error per newton of thrust (F_true = |F|
+(u + e_i), e_i = s u + delta x u to first order), prior N(0, s_m^2 u u' + s_d^2 (U - u u')), constant, in the
+wrench of every firing of that thruster (propagation and accelerometer); the white-noise terms are then off. The
+accelerometer sees the force errors at ten of its sigmas on a 1600 kg body (docs/post_capture.md), so they are
+estimated alongside the mass properties instead of washing out as noise that recurs firing to firing.
 
 Measurement update: filterpy's ``ExtendedKalmanFilter.update`` (Joseph form) with H the central difference of
 the measurement function (the IMU) or [.. I ..] (attitude, position), the innovation computed from the nominal
 (attitude: ``filter_interface.attitude_innovation``), gated on the chi-square of its size; then the error is
-folded into the nominal (both quaternions by Markley's reset, ``_fold``) and zeroed. The IMU update is iterated
-(Gauss-Newton, ``imu_iterations``): the specific force F/(m + M) is curved in M.
+folded into the nominal (both quaternions by Markley's reset, ``_fold``) and zeroed.
 
-Limit (measured, docs/post_capture.md): the filter is first order in the parameters. From a prior of a few
-percent (mass 2.5 %, moments 3 %, CoM 1 cm, axes 1 deg) it is consistent on Table 1's sequence; from a
-prior of tens of percent the first full-thrust pulse's response is too curved in the parameters and the
-filter ends overconfident (errors of 5-100 sigma), which the iterated IMU update does not cure (the curvature
-is in the propagation).
+Iterated IMU update over a firing (``imu_iterations``): seed 004's gyro (1e-5 rad/s) against a full-thrust
+pulse's response (~0.1 rad/s per IMU interval on the TugRobot) makes the response's curvature in a parameter
+error of a few percent (~(3 %)^2 x 0.1 rad/s) several gyro sigmas, in the propagation, not in the measurement.
+Over an interval in which a firing acts the update is Gauss-Newton on the error theta at the last update (prior
+N(0, P0)) with the measurement z = h(f(x0 + theta)) + H w + v, f the propagation re-run from each iterate:
+theta' = P0 Phi' H' S^-1 (z - h(f(x0 + theta)) + H Phi theta), to < 1 % of a sigma; the last linearization gives
+the update, its prior mean -Phi theta from the re-propagated nominal (the one-step maximum a posteriori, test
+``test_seed004_iterated_imu_update_over_a_firing_is_the_one_step_map_estimate``); it also takes the curvature of
+F/(m + M) in M. Between firings the plain EKF update (the torque-free response's curvature is below a gyro sigma).
+
+Limit (measured, docs/post_capture.md): the posterior after a full-thrust pulse is not quite Gaussian (the
+principal axes enter the inertia times the moments' differences, both uncertain), so from the default prior
+(mass 2.5 %, moments 3 %, CoM 1 cm, axes 1 deg) the axes' estimate stays somewhat overconfident; from a prior of
+tens of percent the filter ends overconfident by far.
 """
 
 import dataclasses

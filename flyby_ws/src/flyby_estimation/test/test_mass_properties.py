@@ -19,11 +19,14 @@ from flyby_estimation.mass_properties import (
     principal_axis_errors_rad,
 )
 from flyby_estimation.mass_properties_excitation import (
+    CHOSEN_ROWS,
     STATE_SIGMAS,
     TugrobotCase,
     choose_sequence,
     default_prior,
+    firings_from_rows,
     information_gain,
+    random_sequence,
     run_filter,
     simulate_experiment,
     table1_firings,
@@ -247,3 +250,18 @@ def test_thruster_errors_as_states_are_estimated_constant_per_thruster():
         assert np.all(np.abs(e.thrust_errors[i] - true_error) < 3.0 * sigma[i] + 1e-9)
     with pytest.raises(ValueError, match='no error state'):
         f.add_firings((Firing(30.0, 0.1, (0.3, 0.0, 0.0), (1.0, 0.0, 0.0)),))
+
+
+def test_graded_sequences_start_small_at_no_more_impulse():
+    """A graded candidate (ramp_levels) keeps the impulse and fires its first pulses at the ramp's levels, in time
+    order; the chosen sequence (CHOSEN_ROWS, graded) is within Table 1's impulse and 30 s, its first three pulses a
+    tenth of the rest."""
+    firings = random_sequence(np.random.default_rng(5), 9, 30.0, 25.0, ramp_levels=(10.0, 30.0))
+    assert math.isclose(total_impulse_n_s(firings), 30.0, rel_tol=1e-12)
+    thrusts = [math.hypot(*f.force_body_n) for f in firings]
+    np.testing.assert_allclose(thrusts, [1.0, 3.0] + [10.0] * 7, rtol=1e-12)
+    assert [f.t_start_s for f in firings] == sorted(f.t_start_s for f in firings)
+    chosen = firings_from_rows(CHOSEN_ROWS)
+    assert total_impulse_n_s(chosen) <= total_impulse_n_s(table1_firings())
+    assert max(f.t_start_s + f.duration_s for f in chosen) <= 30.0
+    assert max(f.impulse_n_s for f in chosen[:3]) <= 0.1 * min(f.impulse_n_s for f in chosen[3:]) + 1e-12
