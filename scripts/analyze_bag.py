@@ -161,14 +161,9 @@ def _inertial(chaser, target, scenario, j, k):
     return out
 
 
-def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):
-    """The post-capture figures of POST_CAPTURE_TOLERANCES by the module doc's second route."""
-    out = dict.fromkeys(POST_CAPTURE_TOLERANCES)
-    t_grasp, t_damping = phase_entered(events, c.PHASE_GRASP), phase_entered(events, c.PHASE_DAMPING)
-    if t_grasp is None:
-        return out
+def _grasp_peaks(scenario, chaser, target, events, common, i_c, i_t, t_grasp, t_damping):
+    """The arm's peak force and torque over GRASP, the impedance written out with scipy's rotations."""
     g = scenario.post_capture.grasp
-    common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
     r_g = np.array(scenario.target.grasp_point_body_m, dtype=float)  # writable: scipy's apply wants it
     t_end = t_damping if t_damping is not None else (phase_entered(events, c.PHASE_ESCAPE) or common[-1])
     window = np.flatnonzero((common >= t_grasp - 1e-9) & (common <= t_end + 1e-9))
@@ -183,10 +178,13 @@ def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace='
         forces.append(-g.stiffness_n_per_m * (p_g - r_c - rot_c.apply(r_ee)) - g.damping_n_s_per_m * dv)
         e = (rot_t * handle_in_target * rot_c.inv()).as_rotvec()
         torques.append(-g.rot_stiffness_n_m_per_rad * e - g.rot_damping_n_m_s_per_rad * (w_t - w_c))
-    out['peak_grasp_force_n'] = float(np.max(np.linalg.norm(forces, axis=1)))
-    out['peak_grasp_torque_n_m'] = float(np.max(np.linalg.norm(torques, axis=1)))
-    if t_damping is None:
-        return out
+    return {'peak_grasp_force_n': float(np.max(np.linalg.norm(forces, axis=1))),
+            'peak_grasp_torque_n_m': float(np.max(np.linalg.norm(torques, axis=1)))}
+
+
+def _damped_momentum(bag_dir, scenario, chaser, target, events, fuel_at, namespace, common, i_c, i_t):
+    """The combined body's angular momentum about its CoM at the end of DAMPING: both bodies' spin, their orbit about
+    the common CoM and the wheels'."""
     t_damped = phase_entered(events, c.PHASE_MASS_ESTIMATION) or common[-1]
     k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
     (r_c, v_c, rot_c, w_c), (r_t, v_t, rot_t, w_t) = _inertial(chaser, target, scenario, i_c[k], i_t[k])
@@ -201,7 +199,24 @@ def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace='
     momentum = sum(rot.apply(inertia @ rot.inv().apply(rate)) + mass * np.cross(r - r_cm, v - v_cm)
                    for rot, inertia, rate, mass, r, v in ((rot_c, scenario.chaser_inertia, w_c, m_c, r_c, v_c),
                                                           (rot_t, scenario.target_inertia, w_t, m_t, r_t, v_t)))
-    out['final_angular_momentum_kg_m2_s'] = float(np.linalg.norm(momentum + rot_c.apply(h_wheels_body)))
+    return float(np.linalg.norm(momentum + rot_c.apply(h_wheels_body)))
+
+
+def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):
+    """The post-capture figures of POST_CAPTURE_TOLERANCES by the module doc's second route (a run that starts
+    attached has no grasp and no damping: its estimates only)."""
+    out = dict.fromkeys(POST_CAPTURE_TOLERANCES)
+    t_grasp, t_damping = phase_entered(events, c.PHASE_GRASP), phase_entered(events, c.PHASE_DAMPING)
+    if t_grasp is None and scenario.post_capture.start != 'attached':
+        return out
+    common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
+    if t_grasp is not None:
+        out.update(_grasp_peaks(scenario, chaser, target, events, common, i_c, i_t, t_grasp, t_damping))
+    if t_damping is not None:
+        out['final_angular_momentum_kg_m2_s'] = _damped_momentum(bag_dir, scenario, chaser, target, events, fuel_at,
+                                                                 namespace, common, i_c, i_t)
+    elif t_grasp is not None:
+        return out
     inertia_topic = c.absolute(c.EST_TARGET_INERTIA, namespace)
     messages = read_bag(bag_dir, topics=[inertia_topic])[inertia_topic].messages
     if not messages:
@@ -219,7 +234,7 @@ def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace='
     out.update(target_mass_estimate_kg=float(i.m), target_com_estimate_m=com.tolist(),
                target_principal_moments_estimate_kg_m2=moments.tolist(),
                target_principal_axes_estimate_q=axes_est,  # compared by angle (compare)
-               target_mass_error_pct=100.0 * abs(i.m / m_t - 1.0),
+               target_mass_error_pct=100.0 * abs(i.m / scenario.target.mass_kg - 1.0),
                target_com_error_m=float(np.linalg.norm(com - rot_c.inv().apply(r_t - r_c))),
                target_principal_moments_error_pct=100.0 * float(np.max(np.abs(moments / true_moments - 1.0))),
                target_principal_axes_error_deg=float(np.degrees(np.max(np.arccos(np.clip(np.abs(np.sum(
@@ -270,6 +285,8 @@ def recompute(bag_dir, scenario, namespace=''):
         inside = np.linalg.norm(chaser.position[idx], axis=1) < scenario.planner.restriction_sphere_radius_m
         approach = np.ones(len(thrust.t), bool)  # up to the capture when the mission goes on after it
         t_capture = phase_entered(events, c.PHASE_GRASP) if scenario.post_capture is not None else None
+        if scenario.post_capture is not None and scenario.post_capture.start == 'attached':
+            t_capture = 0.0  # held from the start: no approach
         if t_capture is not None:
             approach = thrust.t <= t_capture + 1e-9
         out['delta_v_total_mps'] = float(np.sum((impulse / mass_mean)[approach[1:]]))

@@ -54,8 +54,10 @@ def test_the_graph_flies_what_the_headless_loop_flies_after_the_capture(run):
     after the capture are the same to the bit."""
     out, scenario = run
     graph, headless = read_summary(out), run_headless(load_scenario(scenario)).summary
-    for key in ('t_grasp_s', 'phase_sequence', 'capture_position_error_m', 'fuel_used_kg') + POST_CAPTURE_KEYS:
+    for key in ('t_grasp_s', 'phase_sequence', 'capture_position_error_m') + POST_CAPTURE_KEYS:
         assert graph[key] == headless[key], key
+    # The whole run's fuel sums the graph's few more steps after COMPLETE (none fires): pairwise summation's rounding.
+    assert graph['fuel_used_kg'] == pytest.approx(headless['fuel_used_kg'], rel=1e-12)
     topics = [c.absolute(t) for t in (c.MISSION_EVENTS, c.EST_TARGET_INERTIA, c.GUIDANCE_WRENCH)]
     bag = read_bag(out / 'bag', topics=topics)
     (done,) = [e['t'] for e in bag[topics[0]] if e['name'] == 'phase_changed' and e['values']['to'] == 'COMPLETE']

@@ -29,7 +29,10 @@ fixed in its own axes (the navigation estimate at the simulator's ``captured`` s
 estimate). At guidance's ``damping_complete`` the mass-property filter runs over the excitation
 (``post_capture.MassEstimationRun``), from the prior at the capture (``post_capture.mass_property_prior``); its
 estimates go out as ``TargetInertiaEstimate`` (estimation/target/inertia) with their 1-sigma on mission/events
-(``mass_properties_estimate``, the last ``mass_properties_estimated``).
+(``mass_properties_estimate``, the last ``mass_properties_estimated``). A run that starts attached (post_capture.start
+attached, seed 004 §3.1) is attached from t = 0: no free-flight navigation, the snapshot the attachment as known
+(``post_capture.attachment_snapshot``), its chaser estimates' position that geometry about the target's initial CoM
+(no position sensor), and the filter's run from guidance's ``excitation_scheduled``.
 
 The estimator node and the headless driver (flyby_guidance.closed_loop) both run ``EstimatorCore``;
 every input method returns the outputs to publish, in order.
@@ -47,6 +50,7 @@ from flyby_estimation.filters import filters_from_scenario
 from flyby_estimation.post_capture import (
     CaptureSnapshot,
     MassEstimationRun,
+    attachment_snapshot,
     imu_sample,
     mass_property_prior,
 )
@@ -57,6 +61,8 @@ from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_rotate, quat_to_matrix, skew
 
+# The variance [m^2, m^2/s^2] published for a chaser position and velocity that nothing measures (a start attached).
+_NOT_ESTIMATED_VARIANCE = 1e6
 # The category is re-evaluated this often once converged (it scans the attitude history) [s].
 CLASSIFY_PERIOD_S = 10.0
 # Attitude estimates kept for the force commands (computed from one of the last few).
@@ -140,6 +146,12 @@ class EstimatorCore:
             self.snapshot = None
             self.mass_run = None
             self.pending = []  # IMU samples after the capture that came before its stamp did
+            self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+            if scenario.post_capture.start == 'attached':  # held from t = 0 (module doc)
+                self.attached = True
+                self.snapshot = attachment_snapshot(scenario)
+                self.capture_covariance = _NOT_ESTIMATED_VARIANCE * np.eye(6)  # no position sensor
+                self.mass_run = MassEstimationRun(scenario, scenario.chaser.mass_kg)
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_phase(self, phase):
@@ -154,13 +166,17 @@ class EstimatorCore:
         """An event of mission/events (wire.Event): the capture's stamp and the excitation's start (module doc)."""
         if not self.post_capture or event.source == self.name:
             return []
-        if event.name == 'captured' and self.snapshot is None:
+        if event.name == 'captured' and self.snapshot is None and self.pending is not None:
             return self._take_snapshot(event.t)
+        if event.name == 'grasp_released':  # both fly freely: no combined body to estimate, no fixed relation
+            self.snapshot, self.pending, self.mass_run = None, None, None
+            return []
         if event.name == 'grasp_damped':
             self.arm_deflection = (json.loads(event.values['arm_displacement_body_m']),
                                    json.loads(event.values['arm_rotation_body_rad']))
             return []
-        if event.name == 'damping_complete' and self.mass_run is not None and self.mass_run.t_start is None:
+        if event.name in ('damping_complete', 'excitation_scheduled') and self.mass_run is not None \
+                and self.mass_run.t_start is None:
             return self._start_mass_estimation(event)
         return []
 
@@ -252,7 +268,7 @@ class EstimatorCore:
             if result is not None and not result.accepted:
                 out += self._reject(t, sensor, result.kind, result.reason)
         t_last, self.imu_t_last = self.imu_t_last, t
-        if not (self.attitude.ready and self.nav.initialized):
+        if not (self.attitude.ready and (self.nav.initialized or self.attached)):
             return out
         a = self.attitude.estimate()
         if self.attached:
@@ -270,11 +286,13 @@ class EstimatorCore:
     def _attached_imu(self, t, a, specific_force_body, q_star_hill):
         """An IMU sample after the capture (module doc): the chaser estimate, then the mass-property filter's."""
         if self.snapshot is None:
-            self.pending.append((t, a, specific_force_body, q_star_hill))
+            if self.pending is not None:  # None after the arm let go
+                self.pending.append((t, a, specific_force_body, q_star_hill))
             return []
         c_hill_from_body = quat_to_matrix(a.q_hill_from_body)
         r_hill, v_hill = body_point_state(c_hill_from_body, a.omega_body, self.snapshot.r_chaser_body,
                                           self.scenario.mean_motion_rad_s)
+        r_hill = r_hill + self.snapshot.r_target_hill
         out = [ChaserEstimate(a.t, r_hill, v_hill, self.capture_covariance, a.q_hill_from_body, a.omega_body,
                               a.attitude_covariance_hill, a.rate_covariance)]
         if specific_force_body is None:

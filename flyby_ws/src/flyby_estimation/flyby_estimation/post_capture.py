@@ -60,23 +60,45 @@ SAMPLES_KEPT = 600  # IMU samples after the capture kept for a late announcement
 _STATE_SIGMAS = (1.0, 0.1)  # r [m], v [m/s]
 _RATE_SIGMA_RAD_S = 1e-4
 _PRIOR_STREAM = 16  # the prior's random stream: numpy default_rng([seed, 16])
+_ATTACHMENT_STREAM = 17  # a start attached: the attachment's errors, default_rng([seed, 17])
 
 
 class CaptureSnapshot(NamedTuple):
     """The estimates stamped at the capture (the last at or before it): the chaser's position relative to the
     target's CoM in hill [m] and attitude, the target's attitude (q_hill_from_body each) and its covariance [rad^2,
-    about hill axes]."""
+    about hill axes]; the target's CoM in hill [m] (the origin at a capture)."""
 
     t: float
     r_chaser_hill: np.ndarray
     q_hill_from_chaser: np.ndarray
     q_hill_from_target: np.ndarray
     target_attitude_covariance_hill: np.ndarray
+    r_target_hill: tuple = (0.0, 0.0, 0.0)
 
     @property
     def r_chaser_body(self):
         """The chaser's position relative to the target's CoM in its own axes [m] (-X_s)."""
         return quat_rotate(quat_conjugate(self.q_hill_from_chaser), self.r_chaser_hill)
+
+
+def attachment_snapshot(scenario):
+    """The CaptureSnapshot of a run that starts attached (scenario post_capture.start attached, seed 004 §3.1): the
+    attachment of post_capture.attachment as the crew or the docking fixture knows it, its CoM X_s and the target's
+    axes each drawn with the prior's sigma (prior_com_sigma_m, prior_axes_sigma_deg) from a stream of the seed, at
+    the chaser's initial position and attitude."""
+    cfg = scenario.post_capture.mass_estimation
+    rng = np.random.default_rng([scenario.seed, _ATTACHMENT_STREAM])
+    z = rng.standard_normal(6)
+    x_s = np.asarray(scenario.post_capture.attachment.target_com_chaser_body_m, dtype=float)
+    x_s = x_s + cfg.prior_com_sigma_m * z[:3]
+    sigma_rad = math.radians(cfg.prior_axes_sigma_deg)
+    q_chaser = scenario.q_hill_from_chaser_body0
+    q_chaser_from_target = quat_multiply(scenario.q_chaser_from_target_attached,
+                                         quat_from_rotation_vector(sigma_rad * z[3:]))
+    r_chaser_hill = -quat_rotate(q_chaser, x_s)
+    return CaptureSnapshot(0.0, r_chaser_hill, q_chaser, quat_multiply(q_chaser, q_chaser_from_target),
+                           sigma_rad ** 2 * np.eye(3),
+                           tuple(np.asarray(scenario.chaser.initial_position_hill_m, dtype=float) - r_chaser_hill))
 
 
 def principal_axes(inertia_kg_m2):

@@ -37,8 +37,10 @@ publishes the target estimate of t after the chaser estimate of t, and a rule on
 came first, gives the same command at any pace and in the headless loop.
 
 After the capture with a post_capture section (issue 16, ``post_capture.PostCaptureControl``): nothing is commanded
-while the arm's impedance damps the contact; from the simulator's ``grasp_damped`` (the arm locked) every chaser
-estimate stamped at or after its stamp gets the damping law's command, then the excitation's, each applied one
+while the arm's impedance damps the contact, nor after it lets go (``grasp_released``: the plant takes no command, the
+chaser drifts off); from the simulator's ``grasp_damped`` (the arm locked) every chaser
+estimate stamped at or after its stamp (from t = 0 in a run that starts attached, which skips the damping) gets the
+damping law's command, then the excitation's, each applied one
 control period later (the simulator holds time for them as before the capture). The estimates that come before
 that event are kept until it does (the topics race), so the commands are the same at any pace.
 
@@ -127,7 +129,7 @@ def post_capture_config_from_scenario(scenario):
                                            dump_rate_per_s=d.dump_rate_per_s)
     m = pc.mass_estimation
     return PostCaptureConfig(gains, period_s, d.momentum_threshold_kg_m2_s, d.settle_s, m.excitation, m.start_delay_s,
-                             m.window_s)
+                             m.window_s, damping=pc.start != 'attached')
 
 
 def attitude_guidance_from_scenario(scenario):
@@ -174,6 +176,13 @@ class GuidanceCore:
             self.post = PostCaptureControl(post_capture_config_from_scenario(scenario),
                                            float(self.attitude.wheels.max_torque_n_m.min()))
             self.t_locked = None  # the arm's lock (the simulator's grasp_damped) [s]
+            # Between the two CoMs [m]: the chaser estimate's distance from the target's after a capture, the
+            # attachment's when the run starts attached (locked from t = 0; its position estimate is not measured).
+            self.post_distance_m = None
+            if scenario.post_capture.start == 'attached':
+                self.t_locked = 0.0
+                self.post_distance_m = float(np.linalg.norm(scenario.post_capture.attachment.target_com_chaser_body_m))
+            self.post_released = False  # the arm let go (grasp_released)
             self.post_waiting = collections.deque()  # (t, r_hill, q_hill_from_body, omega_body) not yet commanded
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
         self.next_reference = None  # a re-planned one, flown from its start
@@ -245,12 +254,15 @@ class GuidanceCore:
             self.t_locked = event.t
             return self._post_commands()
         if event.name == 'grasp_released':
-            self.post = None  # the chaser flies free, nothing to command
+            self.post_released = True  # the plant takes no command after the arm let go: the chaser drifts off
+            self.post_waiting.clear()
         return []
 
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
         """A chaser estimate (estimation/chaser/odom), with the rigid-body chaser's attitude and body rate."""
         r_hill, v_hill = np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)
+        if self.post is not None and self.post_released:
+            return []
         if self.post is not None and (self.t_locked is not None or self.phase in _ATTACHED_PHASES):
             self.post_waiting.append((t, r_hill, np.asarray(q_hill_from_body, dtype=float),
                                       np.asarray(omega_body, dtype=float)))
@@ -310,7 +322,8 @@ class GuidanceCore:
                                 -wheels.max_momentum_n_m_s, wheels.max_momentum_n_m_s)
             sc = self.scenario
             bound = inertia_upper_bound(sc.chaser_inertia, sc.target_inertia, sc.chaser.mass_kg, sc.target.mass_kg,
-                                        float(np.linalg.norm(r_hill)))
+                                        float(np.linalg.norm(r_hill)) if self.post_distance_m is None
+                                        else self.post_distance_m)
             cmd = self.post.command(t, omega_body, axes @ self.h_wheels_n_m_s, axes @ h_settled, bound)
             wheel_torque = np.linalg.pinv(axes) @ cmd.wheel_torque_body_n_m
             self.wheel_commands.append((t + period_s, wheel_torque))

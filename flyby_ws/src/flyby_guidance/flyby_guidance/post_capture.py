@@ -147,6 +147,7 @@ class PostCaptureConfig:
     excitation: str = 'table1'  # flyby_estimation.mass_properties_excitation.EXCITATIONS
     start_delay_s: float = 2.0
     window_s: float = 25.0
+    damping: bool = True  # False: a run that starts attached excites the body as it turns (seed 004 §3.1)
 
 
 class PostCaptureCommand(NamedTuple):
@@ -168,7 +169,8 @@ class PostCaptureControl:
       momentum, inertia_upper_bound |mean omega| + |A h| with the rate's mean over the last settle_s, is below
       MOMENTUM_MARGIN of the threshold (seed 004 §3.2): it needs no inertia, only a bound, and the mean keeps the
       gyro's noise out of it;
-      then ``damping_complete`` with the excitation's start t_x = its stamp + start_delay_s;
+      then ``damping_complete`` with the excitation's start t_x = its stamp + start_delay_s (without damping, a run
+      that starts attached: ``excitation_scheduled`` at the first estimate, t_x likewise);
     * from t_x the excitation's wrench (``mass_properties_excitation.excitation_firings``, each firing's wrench
       about the chaser CoM held over the control periods it covers), nothing on the wheels (the filter holds
       their momentum constant), and nothing after it, until the mission completes.
@@ -193,6 +195,14 @@ class PostCaptureControl:
             self.t_first = t
         if self.t_excitation is not None:
             return PostCaptureCommand(*self._excitation(t), zero, self._excitation_events(t))
+        if not cfg.damping:
+            self.t_excitation = t + cfg.start_delay_s
+            self.firings = excitation_firings(cfg.excitation, self.t_excitation)
+            return PostCaptureCommand(zero, zero, zero, [(
+                'OK', 'excitation_scheduled', f'{cfg.excitation} excitation from t = {self.t_excitation:.2f} s on the '
+                                              f'body as it turns (no damping)',
+                {'t_excitation_s': self.t_excitation, 'excitation': cfg.excitation,
+                 'h_wheels_body_n_m_s': np.asarray(h_wheels_settled_body_n_m_s, dtype=float)})])
         omega = np.asarray(omega_body, dtype=float)
         self.rates.append((t, omega))
         while self.rates[0][0] < t - cfg.settle_s - 1e-9:

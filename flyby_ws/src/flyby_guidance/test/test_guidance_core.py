@@ -72,3 +72,35 @@ def test_a_re_aim_keeps_the_offset_of_the_plan():
     assert refined.name == 'target_refined'
     offset = np.linalg.norm(refined.values['x_ft_hill_m']) - np.linalg.norm(refined.values['x_g_hill_m'])
     assert offset == pytest.approx(1.3, abs=1e-9) and refined.values['shift_m'] < 1e-6
+
+
+def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_first():
+    """Issue 16: nothing for the estimates before the simulator's grasp_damped stamp, the damping law's command for
+    each one from it on, one control period later; the same commands whether the event came before or after the
+    estimates (the topics race in the graph), and none after the arm lets go."""
+    from flyby_guidance.guidance_core import AttitudeCommandStamped
+
+    sc = load_scenario(SCENARIOS / 'paper_flyby_tug.yaml')
+    q, omega, r = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.01, -0.02, 0.03)), np.array((0.5, 3.07, 0.0))
+    stamps = [round(820.0 + 0.1 * k, 6) for k in range(6)]
+    locked = Event(820.2, 'OK', 'grasp_damped', 'the arm locks', {}, 'flyby_sim')
+
+    def commands(event_first):
+        core = GuidanceCore(sc)
+        core.on_phase(c.PHASE_CAPTURE)
+        out = core.on_event(locked) if event_first else []
+        for t in stamps:
+            out += core.on_chaser_estimate(t, r, np.zeros(3), q, omega)
+        out += [] if event_first else core.on_event(locked)
+        return [o for o in out if isinstance(o, AttitudeCommandStamped)]
+
+    first, late = commands(True), commands(False)
+    assert [cmd.t for cmd in first] == pytest.approx([t + 0.1 for t in stamps[2:]])
+    for a, b in zip(first, late, strict=True):
+        np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
+        np.testing.assert_array_equal(a.wheel_torque_n_m, b.wheel_torque_n_m)
+    assert np.all(first[0].thruster_torque_body_n_m * omega < 0.0)  # against the rate
+    core = GuidanceCore(sc)
+    core.on_phase(c.PHASE_CAPTURE)
+    core.on_event(Event(820.0, 'WARN', 'grasp_released', 'the arm lets go', {}, 'flyby_sim'))
+    assert core.on_chaser_estimate(820.1, r, np.zeros(3), q, omega) == []

@@ -92,9 +92,10 @@ def chaser_truth_from_odometry(odom):
                        odom.orientation_xyzw, odom.angular)
 
 
-def outcome_of(end_reason, phases, collided=False, refused=False):
+def outcome_of(end_reason, phases, collided=False, refused=False, held=False):
     """Outcome (DESIGN §10) from how the run ended, the phases it went through, whether the truth shows
-    a collision before any capture and whether the plan was refused before anything was flown."""
+    a collision before any capture and whether the plan was refused before anything was flown; held: the run
+    started with the chaser holding the target (post_capture.start attached), a capture from t = 0."""
     if collided:
         return c.OUTCOME_COLLISION
     if end_reason == 'interrupted':
@@ -107,7 +108,7 @@ def outcome_of(end_reason, phases, collided=False, refused=False):
         return c.OUTCOME_NO_SAFE_PLAN
     if c.PHASE_ESCAPE in phases:  # a decision to escape, or a grasp that let go (GRASP -> ESCAPE)
         return c.OUTCOME_ESCAPE
-    if c.PHASE_CAPTURE in phases:
+    if c.PHASE_CAPTURE in phases or held:
         return c.OUTCOME_CAPTURE
     return c.OUTCOME_TIME_LIMIT
 
@@ -330,21 +331,10 @@ def angular_momentum_about_com(bodies):
     return float(np.linalg.norm(h_origin - np.cross(r_cm, p)))
 
 
-def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
-    """After the capture (issue 16, DESIGN §10), from the truth: the grasp's peak contact force and torque (the arm's
-    impedance, ``grasp.Contact.at_first_contact`` of the truth at the capture, at every truth sample of GRASP), the
-    damping's time and fuel and the combined body's angular momentum about its CoM at its end (inertial, wheels
-    included), the estimator's final estimates of the target (its ``mass_properties_estimated``) and their errors
-    against the truth at their stamp (target CoM from the chaser CoM and principal axes in chaser_body; principal
-    moments and mass the scenario's). None where a phase did not run."""
-    out = dict.fromkeys(POST_CAPTURE_KEYS)
-    out['grasp_released'] = any(e['name'] == 'grasp_released' for e in events)
-    t_grasp, t_damping = phase_start(events, c.PHASE_GRASP), phase_start(events, c.PHASE_DAMPING)
-    t_mass = phase_start(events, c.PHASE_MASS_ESTIMATION)
-    if t_grasp is None or chaser is None or target is None or chaser.angular is None or target.position is None:
-        return out
-    t_end = float(chaser.t[-1])
-    t_grasp_end = t_damping if t_damping is not None else phase_start(events, c.PHASE_ESCAPE) or t_end
+def post_capture_truth(chaser, target, wheels, thrust, scenario):
+    """(common (N,) [s], i_c, i_t, bodies): the stamps both bodies' truth shares, their indices in the chaser's and the
+    target's series, and bodies(k), the (chaser, target) grasp.Body at common[k] (truth_bodies: the wheels' nearest
+    sample at or after it, the chaser's mass less the fuel burned by then)."""
     common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
     i_w = np.searchsorted(wheels.t, common).clip(0, len(wheels.t) - 1)
     fuel = np.concatenate(([0.0], np.cumsum(_fuel_steps(thrust, scenario)))) if thrust is not None and len(
@@ -355,24 +345,79 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
         mass = scenario.chaser.mass_kg - fuel[int(np.searchsorted(t_fuel, common[k], side='right')) - 1]
         return truth_bodies(i_c[k], i_t[k], chaser, target, wheels.velocity[i_w[k]], scenario, mass)
 
+    return common, i_c, i_t, bodies
+
+
+def grasp_contact_series(events, common, bodies, scenario):
+    """(t (N,) [s], force (N, 3) [N], torque (N, 3) [N m], stroke (N, 3) [m]) of the arm's impedance on the target,
+    inertial axes (``grasp.Contact.at_first_contact`` of the truth at GRASP's start), at every truth stamp of common
+    from GRASP's start to DAMPING's (else ESCAPE's, else the end); bodies(k) as post_capture_truth's. Empty without
+    GRASP or a stamp in it."""
+    t_grasp, t_damping = phase_start(events, c.PHASE_GRASP), phase_start(events, c.PHASE_DAMPING)
+    empty = np.zeros((0, 3))
+    if t_grasp is None:
+        return np.zeros(0), empty, empty, empty
+    t_grasp_end = t_damping if t_damping is not None else phase_start(events, c.PHASE_ESCAPE) or math.inf
     in_grasp = np.flatnonzero((common >= t_grasp - 1e-9) & (common <= t_grasp_end + 1e-9))
-    if len(in_grasp):
-        contact = Contact.at_first_contact(scenario.arm_impedance, *bodies(in_grasp[0]),
-                                           scenario.target.grasp_point_body_m)
-        wrenches = [contact.wrench(*bodies(k))[:2] for k in in_grasp]
-        out['peak_grasp_force_n'] = float(max(np.linalg.norm(f) for f, _ in wrenches))
-        out['peak_grasp_torque_n_m'] = float(max(np.linalg.norm(tau) for _, tau in wrenches))
+    if not len(in_grasp):
+        return common[in_grasp], empty, empty, empty
+    contact = Contact.at_first_contact(scenario.arm_impedance, *bodies(in_grasp[0]), scenario.target.grasp_point_body_m)
+    wrenches = [contact.wrench(*bodies(k))[:3] for k in in_grasp]
+    force, torque, stroke = (np.array([w[j] for w in wrenches]) for j in range(3))
+    return common[in_grasp], force, torque, stroke
+
+
+def damping_window(events, t_end):
+    """(t_damping, t_damped) [s]: DAMPING's start and its end (MASS_ESTIMATION's start, else t_end), or (None,
+    None) without DAMPING."""
+    t_damping, t_mass = phase_start(events, c.PHASE_DAMPING), phase_start(events, c.PHASE_MASS_ESTIMATION)
     if t_damping is None:
+        return None, None
+    return t_damping, t_mass if t_mass is not None else t_end
+
+
+def target_mass_properties_truth(chaser, target, i_c, i_t, scenario):
+    """The truth of what the estimator estimates (DESIGN §10 /estimation/target/inertia) at the truth samples i_c, i_t
+    of one stamp: (X_s (3,) [m], the target's CoM from the chaser's in chaser_body axes; its principal moments (3,)
+    [kg m^2], ascending, the scenario's; q_body_from_principal (x, y, z, w), its principal axes in chaser_body)."""
+    q_c, q_t = chaser.orientation_xyzw[i_c], target.orientation_xyzw[i_t]
+    x_s = quat_rotate(quat_conjugate(q_c), target.position[i_t] - chaser.position[i_c])
+    moments, q_target_from_principal = principal_axes(scenario.target_inertia)
+    return x_s, moments, quat_multiply(quat_multiply(quat_conjugate(q_c), q_t), q_target_from_principal)
+
+
+def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
+    """After the capture (issue 16, DESIGN §10), from the truth: the grasp's peak contact force and torque (the arm's
+    impedance, ``grasp.Contact.at_first_contact`` of the truth at the capture, at every truth sample of GRASP), the
+    damping's time and fuel and the combined body's angular momentum about its CoM at its end (inertial, wheels
+    included), the estimator's final estimates of the target (its ``mass_properties_estimated``) and their errors
+    against the truth at their stamp (target CoM from the chaser CoM and principal axes in chaser_body; principal
+    moments and mass the scenario's). None where a phase did not run."""
+    out = dict.fromkeys(POST_CAPTURE_KEYS)
+    out['grasp_released'] = any(e['name'] == 'grasp_released' for e in events)
+    t_grasp = phase_start(events, c.PHASE_GRASP)
+    attached = scenario.post_capture.start == 'attached'  # held from t = 0: no grasp, no damping
+    if (t_grasp is None and not attached) or chaser is None or target is None or chaser.angular is None \
+            or target.position is None:
         return out
-    out['grasp_damping_time_s'] = t_damping - t_grasp
-    t_damped = t_mass if t_mass is not None else t_end
-    out['damping_time_s'] = t_damped - t_damping
-    k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
-    out['final_angular_momentum_kg_m2_s'] = angular_momentum_about_com(bodies(k))
-    if thrust is not None and len(thrust.t) > 1:
-        steps = _fuel_steps(thrust, scenario)
-        t_step = thrust.t[1:]
-        out['damping_fuel_kg'] = float(np.sum(steps[(t_step > t_damping) & (t_step <= t_damped + 1e-9)]))
+    t_end = float(chaser.t[-1])
+    common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario)
+    t_contact, force, torque, _ = grasp_contact_series(events, common, bodies, scenario)
+    if len(t_contact):
+        out['peak_grasp_force_n'] = float(max(np.linalg.norm(f) for f in force))
+        out['peak_grasp_torque_n_m'] = float(max(np.linalg.norm(tau) for tau in torque))
+    t_damping, t_damped = damping_window(events, t_end)
+    if t_damping is None and not attached:
+        return out
+    if t_damping is not None:
+        out['grasp_damping_time_s'] = t_damping - t_grasp
+        out['damping_time_s'] = t_damped - t_damping
+        k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
+        out['final_angular_momentum_kg_m2_s'] = angular_momentum_about_com(bodies(k))
+        if thrust is not None and len(thrust.t) > 1:
+            steps = _fuel_steps(thrust, scenario)
+            t_step = thrust.t[1:]
+            out['damping_fuel_kg'] = float(np.sum(steps[(t_step > t_damping) & (t_step <= t_damped + 1e-9)]))
     final = [e for e in events if e['name'] == 'mass_properties_estimated']
     if not final:
         return out
@@ -386,10 +431,7 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
     k = int(np.searchsorted(common, float(e['t']) - 1e-9))
     if k >= len(common):
         return out
-    q_c, q_t = chaser.orientation_xyzw[i_c[k]], target.orientation_xyzw[i_t[k]]
-    x_s = quat_rotate(quat_conjugate(q_c), target.position[i_t[k]] - chaser.position[i_c[k]])
-    moments, q_target_from_principal = principal_axes(scenario.target_inertia)
-    q_true = quat_multiply(quat_multiply(quat_conjugate(q_c), q_t), q_target_from_principal)
+    x_s, moments, q_true = target_mass_properties_truth(chaser, target, i_c[k], i_t[k], scenario)
     out.update(target_mass_error_pct=100.0 * abs(mass_kg / scenario.target.mass_kg - 1.0),
                target_com_error_m=float(np.linalg.norm(np.asarray(values['com_body_m']) - x_s)),
                target_principal_moments_error_pct=100.0 * float(np.max(np.abs(
@@ -410,6 +452,18 @@ def least_clearance_index(gaps):
     return int(np.flatnonzero(gaps <= gaps.min() + CLEARANCE_TIE_M)[0])
 
 
+def thrust_truth(wrench, thrusters=None):
+    """The ThrustTruth of a bag's /sim/chaser/thrust series and, for the six-degree-of-freedom chaser, its
+    /sim/chaser/thrusters series (published together each step; a bag cut short may end one message apart: both are
+    cut to the shorter); None without thrust. ValueError if the two have different stamps."""
+    if thrusters is None:
+        return None if wrench is None else ThrustTruth(wrench.t, wrench.force)
+    n = min(len(wrench.t), len(thrusters.t))
+    if not np.array_equal(thrusters.t[:n], wrench.t[:n]):
+        raise ValueError('/sim/chaser/thrusters and /sim/chaser/thrust have different stamps')
+    return ThrustTruth(wrench.t[:n], wrench.force[:n], wrench.torque[:n], thrusters.effort[:n])
+
+
 def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s=float('nan'), namespace='',
                     **launcher):
     """The summary dict of a run from its bag; robust to a bag cut short by an interruption. ``launcher``:
@@ -425,17 +479,11 @@ def compute_summary(bag_dir, scenario, end_reason, final_phase=None, wall_time_s
     if rigid:
         chaser = chaser_truth_from_odometry(chaser)
     target = data.get(c.absolute(c.SIM_TARGET_ODOM))
-    wrench = data.get(c.absolute(c.SIM_CHASER_THRUST))
-    thrust = None
-    if rigid:
-        # Published together each step; a bag cut short may end one message apart.
-        thrusters = data[c.absolute(c.SIM_CHASER_THRUSTERS)]
-        n = min(len(wrench.t), len(thrusters.t))
-        if not np.array_equal(thrusters.t[:n], wrench.t[:n]):
-            raise ValueError(f'{bag_dir}: /sim/chaser/thrusters and /sim/chaser/thrust have different stamps')
-        thrust = ThrustTruth(wrench.t[:n], wrench.force[:n], wrench.torque[:n], thrusters.effort[:n])
-    elif wrench is not None:
-        thrust = ThrustTruth(wrench.t, wrench.force)
+    try:
+        thrust = thrust_truth(data.get(c.absolute(c.SIM_CHASER_THRUST)),
+                              data[c.absolute(c.SIM_CHASER_THRUSTERS)] if rigid else None)
+    except ValueError as err:
+        raise ValueError(f'{bag_dir}: {err}') from None
     phase_msgs = data.get(c.absolute(c.MISSION_PHASE))
     events = data.get(c.absolute(c.MISSION_EVENTS)) or []
     phases = list(phase_msgs.data) if phase_msgs is not None else []
@@ -462,10 +510,11 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     has_target = target is not None and len(target.t)
     sim_time_s = float(chaser.t[-1]) if has_chaser else 0.0
     sphere_m = scenario.planner.restriction_sphere_radius_m
+    held = scenario.post_capture is not None and scenario.post_capture.start == 'attached'
     delta_v = fuel = 0.0
     thrust_inside = False
     approach = thrust  # the thrust up to the capture (docstring)
-    t_capture = phase_start(events, c.PHASE_GRASP) if scenario.post_capture is not None else None
+    t_capture = 0.0 if held else phase_start(events, c.PHASE_GRASP) if scenario.post_capture is not None else None
     if thrust is not None and t_capture is not None:
         approach = ThrustTruth(*(None if a is None else a[:int(np.searchsorted(thrust.t, t_capture + 1e-9))]
                                  for a in thrust))
@@ -490,8 +539,9 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         gaps = clearance(r_from_target, target.orientation_xyzw[i_t], boxes, scenario.chaser.envelope_radius_m)
         k = least_clearance_index(gaps)
         min_clearance, t_min_clearance = float(gaps[k]), float(t_common[k])
-        # A collision is contact before a capture (afterwards the chaser holds the target, DESIGN §10).
-        free = t_common <= t_g if c.PHASE_CAPTURE in phases and t_g is not None else np.ones(len(gaps), bool)
+        # A collision is contact before a capture (afterwards the chaser holds the target, DESIGN §10; held from
+        # t = 0 in a run that starts attached).
+        free = t_common <= t_g if c.PHASE_CAPTURE in phases and t_g is not None else np.full(len(gaps), not held)
         collided = bool(np.any(gaps[free] < 0.0))
         if t_g is not None:
             x_target_body = capture_target_body(chosen_method(events), scenario.target.grasp_point_body_m,
@@ -505,7 +555,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         chaser if has_chaser else None, target if has_target else None, wheels, thrust, events, scenario)
 
     refused = no_safe_plan_reason(events)
-    outcome = outcome_of(end_reason, phases, collided, refused is not None)
+    outcome = outcome_of(end_reason, phases, collided, refused is not None, held)
     if outcome == c.OUTCOME_NO_SAFE_PLAN:
         end_reason = refused
 

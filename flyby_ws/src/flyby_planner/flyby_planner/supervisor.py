@@ -23,6 +23,8 @@ observable condition and carries its reason:
     DOCKING           -> CAPTURE | ESCAPE   at the first chaser estimate at or after the grasp time, against the final
                                             point (eq 20-21 with the final range) at that estimate's own stamp: the
                                             chaser holds it under thrust, so no coast carries the estimate
+    (start)           -> MASS_ESTIMATION    when the run starts attached (post_capture.start attached, seed 004
+                                            §3.1): the chaser holds the target from t = 0
     CAPTURE           -> COMPLETE           after capture_hold_s attached (no post_capture section)
     CAPTURE           -> GRASP              the simulator's ``captured``: the arm's impedance takes the contact
                                             (post_capture, DESIGN §10, seed 000 §2.2 (5))
@@ -86,6 +88,7 @@ class SupervisorConfig:
     watchdog_s: float
     watched_nodes: tuple = WATCHED_NODES
     post_capture: bool = False  # the scenario's post_capture section: the capture goes on to GRASP
+    start_attached: bool = False  # post_capture.start attached: the run starts in MASS_ESTIMATION (seed 004 §3.1)
 
 
 def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
@@ -96,7 +99,8 @@ def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
         position_tolerance_m=m.position_tolerance_m, velocity_tolerance_mps=m.velocity_tolerance_mps,
         capture_hold_s=s.capture_hold_s,
         escape_observation_s=scenario.planner.escape_check_orbits * scenario.orbit_period_s,
-        watchdog_s=s.watchdog_s, watched_nodes=tuple(watched_nodes), post_capture=scenario.post_capture is not None)
+        watchdog_s=s.watchdog_s, watched_nodes=tuple(watched_nodes), post_capture=scenario.post_capture is not None,
+        start_attached=scenario.post_capture is not None and scenario.post_capture.start == 'attached')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,7 +148,7 @@ class PhaseMachine:
 
     def __init__(self, config):
         self.config = config
-        self.phase = c.PHASE_ESTIMATION
+        self.phase = c.PHASE_MASS_ESTIMATION if config.start_attached else c.PHASE_ESTIMATION
         self.t_first_estimate = None
         self.converged = False
         self.t_i = None

@@ -17,7 +17,9 @@ moves by the relative orbital dynamics and whose thrusters act at their true pos
 (``chaser_body.SixDofChaser`` with ``com_body_m``); wrench and wheel commands stamped from one IMU period after the
 lock on apply to it (earlier ones, from before the capture, are ignored). The target's truth then carries its CoM
 off the hill origin (``TruthSample.r_target_hill``), and the IMU's accelerometer, at the chaser's CoM, reads the
-combined body's rotation too (seed 004 section 2.2: F/(m + M) + omega_dot x p + omega x (omega x p)).
+combined body's rotation too (seed 004 section 2.2: F/(m + M) + omega_dot x p + omega x (omega x p)). A run that
+starts attached (scenario ``post_capture.start: attached``, seed 004 section 3.1) is that combined body from t = 0
+(event ``attached``), the target's CoM at X_s from the chaser's and turning with it; commands from one IMU period on.
 
 Pure numpy/scipy, no ROS: the simulator node wraps it, Monte Carlo drives it directly.
 
@@ -90,6 +92,10 @@ class GraspConfig:
     velocity_tolerance_mps: float = 1e-3  # damped once the relative velocity ...
     rate_tolerance_rad_s: float = 1e-3  # ... and rate stay below these
     max_duration_s: float = 20.0  # the arm locks at the latest this long after the first contact
+    # Starting attached (scenario post_capture.start attached, seed 004 §3.1): the target's CoM X_s from the chaser's
+    # CoM [m] and its attitude in the chaser's, (x, y, z, w), from t = 0; None: the run starts free.
+    attached_target_com_body_m: tuple = None
+    q_chaser_from_target: tuple = None
 
     def __post_init__(self):
         if not isinstance(self.impedance, Impedance):
@@ -97,6 +103,19 @@ class GraspConfig:
         for name in ('target_mass_kg', 'velocity_tolerance_mps', 'rate_tolerance_rad_s', 'max_duration_s'):
             require_positive(name, getattr(self, name))
         object.__setattr__(self, 'grasp_point_body_m', finite_vector('grasp_point_body_m', self.grasp_point_body_m, 3))
+        if (self.attached_target_com_body_m is None) != (self.q_chaser_from_target is None):
+            raise ValueError('attached_target_com_body_m and q_chaser_from_target go together (start attached) or '
+                             'are both None')
+        if self.attached_target_com_body_m is not None:
+            object.__setattr__(self, 'attached_target_com_body_m',
+                               finite_vector('attached_target_com_body_m', self.attached_target_com_body_m, 3))
+            object.__setattr__(self, 'q_chaser_from_target', tuple(quat_normalize(
+                finite_vector('q_chaser_from_target', self.q_chaser_from_target, 4))))
+
+    @property
+    def start_attached(self):
+        """True when the run starts with the chaser holding the target."""
+        return self.attached_target_com_body_m is not None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -256,6 +275,8 @@ class Plant:
         if config.chaser_body is not None:
             self._init_rigid_body(root_seed, sensor_rng)
             self._last = self._truth_rigid(self._chaser.totals)
+            if config.grasp is not None and config.grasp.start_attached:
+                self._start_attached()
         else:
             self._last = self._truth(np.zeros(3), False)
 
@@ -373,7 +394,8 @@ class Plant:
 
     @property
     def captured(self):
-        """True once ``capture`` has grasped the target (or attached the chaser to it)."""
+        """True once ``capture`` has grasped the target (or attached the chaser to it), or from the start when the
+        run starts attached."""
         return self._mode != 'free'
 
     @property
@@ -439,6 +461,31 @@ class Plant:
         if self._grasp[2] == 0:  # beyond the arm's limits at the first contact
             self._end_grasp(result, 0)
 
+    def _start_attached(self):
+        """The run starts with the chaser holding the target as one rigid body (module doc): the chaser's initial
+        state, the target's CoM at X_s in its axes turning with it, welded at t = 0 in the inertial frame that is
+        hill now."""
+        g, chaser, last = self.config.grasp, self._chaser, self._last
+        self._q_eci_from_local = quat_eci_from_hill(self.t, self.mean_motion_rad_s)
+        r_c = np.array(self._y[:3])
+        v_c = self._inertial_velocity(r_c, np.array(self._y[3:]))
+        c_hill_from_chaser = quat_to_matrix(last.q_hill_from_chaser_body)
+        x_s_hill = c_hill_from_chaser @ np.asarray(g.attached_target_com_body_m)
+        omega_hill = c_hill_from_chaser @ last.omega_chaser_body
+        q_ct = np.asarray(g.q_chaser_from_target)
+        chaser_body = Body(self._mass_kg, np.array(self.config.chaser_body.inertia), r_c, v_c,
+                           last.q_hill_from_chaser_body, last.omega_chaser_body,
+                           chaser.wheels.axis_matrix @ chaser.h_wheels_n_m_s)
+        target_body = Body(g.target_mass_kg, np.array(self.config.target_inertia), r_c + x_s_hill,
+                           v_c + np.cross(omega_hill, x_s_hill), quat_multiply(last.q_hill_from_chaser_body, q_ct),
+                           quat_rotate(quat_conjugate(q_ct), last.omega_chaser_body))
+        props = self._lock(chaser_body, target_body)
+        self._events.append(Event(self.t, 'OK', 'attached',
+                                  f'the run starts with the chaser holding the target: one rigid body of '
+                                  f'{props.mass_kg:.2f} kg', dict(t=self.t)))
+        self._combined_state()
+        self._last = self._truth_rigid(self._body.totals, self._body)
+
     def _inertial_velocity(self, r_hill, v_hill):
         """The velocity in L (hill axes at the capture) of a point at r_hill moving at v_hill relative to hill."""
         return v_hill + np.cross((0.0, -self.mean_motion_rad_s, 0.0), r_hill)  # Omega^H = [0, -n, 0] (eq 11)
@@ -489,6 +536,18 @@ class Plant:
                                                                     f'{result.release_reason}',
                                       dict(t=t, reason=result.release_reason, **peaks)))
             return
+        props = self._lock(chaser_b, target_b)
+        displacement, rotation = self._arm_deflection(result.bodies_at(0), (chaser_b, target_b))
+        self._events.append(Event(t, 'OK', 'grasp_damped', f'the arm locks at t = {t:.3f} s: one rigid body of '
+                                                            f'{props.mass_kg:.2f} kg',
+                                  dict(t=t, damping_time_s=float(result.t_s[k]), arm_displacement_body_m=displacement,
+                                       arm_rotation_body_rad=rotation, **peaks)))
+
+    def _lock(self, chaser_b, target_b):
+        """Chaser and target (grasp Bodies in the local inertial frame) one rigid body from now on (``weld``): the
+        combined body integrated from here, its thrusters at their true positions about the combined CoM; returns
+        its CombinedMassProperties."""
+        t = self.t
         props, state = weld(chaser_b, target_b)
         c_local_from_chaser = quat_to_matrix(chaser_b.q_inertial_from_body)
         self._x_s_body = c_local_from_chaser.T @ (target_b.r_m - chaser_b.r_m)  # X_s, seed 004
@@ -510,11 +569,7 @@ class Plant:
         self._t_locked = t
         self._dv_before_lock = self._dv_total_mps
         self._imu_omega_last = None
-        displacement, rotation = self._arm_deflection(result.bodies_at(0), (chaser_b, target_b))
-        self._events.append(Event(t, 'OK', 'grasp_damped', f'the arm locks at t = {t:.3f} s: one rigid body of '
-                                                            f'{props.mass_kg:.2f} kg',
-                                  dict(t=t, damping_time_s=float(result.t_s[k]), arm_displacement_body_m=displacement,
-                                       arm_rotation_body_rad=rotation, **peaks)))
+        return props
 
     def _arm_deflection(self, contact_bodies, locked_bodies):
         """How far the arm's compliance moved the grasp handle from the first contact to the lock, in the chaser's
@@ -531,15 +586,20 @@ class Plant:
 
     def _step_combined(self):
         body = self._body
-        t = self.t
         self._step_index += 1
-        body.advance(t, self.t)
-        y = body.y_translation
-        self._mass_kg = body.mass_kg - self.config.grasp.target_mass_kg
-        self._dv_total_mps = self._dv_before_lock + body.dv_total_mps
+        body.advance(self.t - self.config.step_s, self.t)
         dv = body.totals.dv_thrust_hill
         for k in range(3):
             self._imu_dv_hill[k] += dv[k]
+        self._combined_state()
+        return self._rigid_truth_and_samples(body)
+
+    def _combined_state(self):
+        """The chaser's and the target's state from the combined body's now."""
+        body = self._body
+        y = body.y_translation
+        self._mass_kg = body.mass_kg - self.config.grasp.target_mass_kg
+        self._dv_total_mps = self._dv_before_lock + body.dv_total_mps
         q_hill = body.q_hill_from_body(self.t)
         c_hill = quat_to_matrix(q_hill)
         omega = body.omega_body
@@ -550,7 +610,6 @@ class Plant:
         q_t = quat_multiply(q_hill, self._q_chaser_from_target)
         self._target_now = (q_t, quat_rotate(quat_conjugate(self._q_chaser_from_target), omega),
                             np.array(y[:3]) + r_t, np.array(y[3:]) + v_t)
-        return self._rigid_truth_and_samples(body)
 
     def _step_released(self):
         self._step_index += 1
@@ -830,8 +889,11 @@ def plant_config_from_scenario(scenario):
 def grasp_config_from_scenario(scenario):
     """The GraspConfig of a validated scenario with a post_capture section."""
     g = scenario.post_capture.grasp
+    attachment = scenario.post_capture.attachment
     return GraspConfig(scenario.arm_impedance, scenario.target.mass_kg, tuple(scenario.target.grasp_point_body_m),
-                       g.velocity_tolerance_mps, g.rate_tolerance_rad_s, g.max_duration_s)
+                       g.velocity_tolerance_mps, g.rate_tolerance_rad_s, g.max_duration_s,
+                       None if attachment is None else tuple(attachment.target_com_chaser_body_m),
+                       None if attachment is None else tuple(scenario.q_chaser_from_target_attached))
 
 
 def rigid_chaser_config_from_scenario(scenario):

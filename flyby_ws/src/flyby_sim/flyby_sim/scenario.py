@@ -57,7 +57,14 @@ from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from flyby_sim.dynamics.grasp import Impedance
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate, quat_rotate_many, quat_shortest_arc
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_rotate,
+    quat_rotate_many,
+    quat_shortest_arc,
+)
 
 MAX_STEP_S = 0.05  # truth is published every step and must reach >= 20 Hz (DESIGN §4)
 
@@ -152,9 +159,14 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                'Inertia about the CoM in body axes; symmetric positive definite, '
                                'principal moments satisfy the triangle inequality.',
                                check=_check_inertia),
-        'initial_attitude': _initial_attitude('target_body', 'Attitude of target_body in hill at t = 0'),
+        'initial_attitude': _initial_attitude('target_body', 'Attitude of target_body in hill at t = 0; required '
+                                                             'unless post_capture.start is attached (then derived '
+                                                             'from the chaser\'s and post_capture.attachment)',
+                                              optional=True),
         'initial_rate': _initial_rate('target_body',
-                                      'Inertial angular velocity of the target at t = 0, in body or in hill axes'),
+                                      'Inertial angular velocity of the target at t = 0, in body or in hill axes; '
+                                      'required unless post_capture.start is attached (then the chaser\'s)',
+                                      optional=True),
         'geometry': ListOf(
             desc='Body-frame boxes making up the target shape (keep-out, markers)',
             check=_check_unique_names,
@@ -452,6 +464,21 @@ SCHEMA = Section(desc='A flyby scenario', fields={
              'docs/post_capture.md): the grasp, the damping of the combined body and the estimation of the target\'s '
              'mass properties; omitted: the capture ends the run supervisor.capture_hold_s later',
         optional=True, fields={
+            'start': Field(ENUM, 'capture', None,
+                           'capture: the phases follow a capture (GRASP, DAMPING, MASS_ESTIMATION); attached: the '
+                           'run starts with the chaser holding the target as one rigid body (seed 004 section 3.1) '
+                           'and goes straight to MASS_ESTIMATION, on the body as it turns.',
+                           choices=('capture', 'attached')),
+            'attachment': Section(desc='(start attached) How the chaser holds the target from t = 0', optional=True,
+                                  fields={
+                'target_com_chaser_body_m': Field(VEC3, REQUIRED, None,
+                                                  'X_s: the target\'s CoM from the chaser\'s CoM, chaser_body axes '
+                                                  '(seed 004 Table 1 "center of mass").'),
+                'target_rpy_in_chaser_rad': Field(VEC3, _VEC0, None,
+                                                  'Attitude of target_body in chaser_body, [roll, pitch, yaw]: '
+                                                  'R_chaser_from_target = Rz(yaw) Ry(pitch) Rx(roll) (seed 004 '
+                                                  'Table 1 "attitude angles").'),
+            }),
             'grasp': Section(desc='The arm: an impedance between its end effector and the grasp point '
                                   '(flyby_sim.dynamics.grasp)', fields={
                 'stiffness_n_per_m': Field(FLOAT, 200.0, '> 0', 'Translational stiffness K_p.'),
@@ -563,12 +590,37 @@ def _cross_checks(d):
     if d['post_capture'] is not None and d['chaser']['model'] != 'rigid_body':
         raise Invalid('post_capture', f"needs chaser.model rigid_body (attitude, thrusters and wheels to damp and "
                                       f"excite the combined body), got {d['chaser']['model']!r}")
+    _check_start(d)
     optimal = planner['optimal']
     if optimal['approach_time_max_s'] <= optimal['approach_time_min_s']:
         raise Invalid('planner.optimal.approach_time_max_s',
                       f"must be > planner.optimal.approach_time_min_s = {optimal['approach_time_min_s']!r}, "
                       f"got {optimal['approach_time_max_s']!r}")
 
+
+
+def _check_start(d):
+    """The target's initial state is the scenario's, or derived from the chaser's when the run starts attached."""
+    pc = d['post_capture']
+    attached = pc is not None and pc['start'] == 'attached'
+    for key in ('initial_attitude', 'initial_rate'):
+        if attached and d['target'][key] is not None:
+            raise Invalid(f'target.{key}', 'must be omitted when post_capture.start is attached (the target turns '
+                                           'with the chaser that holds it: derived from chaser.initial_attitude, '
+                                           'chaser.initial_rate and post_capture.attachment)')
+        if not attached and d['target'][key] is None:
+            raise Invalid(f'target.{key}', 'is required (unless post_capture.start is attached)')
+    if pc is None:
+        return
+    if attached and pc['attachment'] is None:
+        raise Invalid('post_capture.attachment', 'is required when post_capture.start is attached (where the '
+                                                 'target\'s CoM and axes are in chaser_body)')
+    if not attached and pc['attachment'] is not None:
+        raise Invalid('post_capture.attachment', f"is only for post_capture.start attached, got start "
+                                                 f"{pc['start']!r}")
+    if attached and pc['mass_estimation']['prior_axes_sigma_deg'] is None:
+        raise Invalid('post_capture.mass_estimation.prior_axes_sigma_deg',
+                      'is required when post_capture.start is attached (no target attitude estimate to take it from)')
 
 
 def _check_chaser_body(chaser):
@@ -699,13 +751,20 @@ class Scenario:
     # -- derived ----------------------------------------------------------------------------------
     def _derive(self):
         t = self._root.target
-        q = _q_hill_from_body(t.initial_attitude)
         chaser = self._root.chaser
         if chaser.initial_attitude is not None:
             q_chaser = _q_hill_from_body(chaser.initial_attitude)
         else:  # body +x at the target's CoM
             r0 = chaser.initial_position_hill_m
             q_chaser = _positive_w(quat_shortest_arc((1.0, 0.0, 0.0), -r0)) if any(r0) else np.array((0., 0., 0., 1.))
+        omega_chaser = np.zeros(3) if chaser.initial_rate is None else _omega_body(chaser.initial_rate, q_chaser)
+        if t.initial_attitude is not None:
+            q = _q_hill_from_body(t.initial_attitude)
+            omega = _omega_body(t.initial_rate, q)
+        else:  # post_capture.start attached: the target turns with the chaser that holds it
+            q_chaser_from_target = self.q_chaser_from_target_attached
+            q = _positive_w(quat_multiply(q_chaser, q_chaser_from_target))
+            omega = quat_rotate(quat_conjugate(q_chaser_from_target), omega_chaser)
         if chaser.inertia_kg_m2 is not None:
             chaser_inertia = np.array(chaser.inertia_kg_m2)
         else:  # a uniform sphere filling the envelope: 2/5 m r^2
@@ -714,10 +773,9 @@ class Scenario:
         radius = orbit.radius_m if orbit.radius_m is not None else EARTH_RADIUS_M + orbit.altitude_m
         return {
             'q': q,
-            'omega_body': _omega_body(t.initial_rate, q),
+            'omega_body': omega,
             'q_chaser': q_chaser,
-            'omega_chaser_body': np.zeros(3) if chaser.initial_rate is None else _omega_body(chaser.initial_rate,
-                                                                                              q_chaser),
+            'omega_chaser_body': omega_chaser,
             'chaser_inertia': chaser_inertia,
             'radius': float(radius),
             'n': mean_motion_rad_s(radius, orbit.mu_m3_s2),
@@ -784,6 +842,15 @@ class Scenario:
             return default_thruster_layout(th.max_thrust_n, th.isp_s, th.min_impulse_bit_ns)
         return ThrusterLayout([x.position_m for x in th.layout], [x.direction for x in th.layout], th.max_thrust_n,
                               th.isp_s, th.min_impulse_bit_ns)
+
+    @property
+    def q_chaser_from_target_attached(self):
+        """Unit quaternion (x, y, z, w) of target_body in chaser_body when the run starts attached
+        (post_capture.attachment), else None."""
+        pc = self.post_capture
+        if pc is None or pc.attachment is None:
+            return None
+        return Rotation.from_euler('xyz', pc.attachment.target_rpy_in_chaser_rad).as_quat()
 
     @property
     def arm_impedance(self):

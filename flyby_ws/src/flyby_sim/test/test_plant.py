@@ -493,3 +493,35 @@ def test_the_combined_body_takes_commands_from_one_imu_period_after_the_lock_and
     assert np.linalg.norm(force) == pytest.approx(10.0, rel=0.05)
     np.testing.assert_allclose(b.specific_force_body, expected, atol=1e-3)  # noise 1e-4 m/s^2 and the gyro's
     assert abs(b.specific_force_body[1]) > 1e-3  # omega_dot x p: the turn the force's moment about c gives
+
+
+TUGROBOT = Path(__file__).resolve().parents[4] / 'scenarios' / 'matsunaga_tugrobot.yaml'
+
+
+def test_seed004_section31_the_run_starts_attached_as_one_rigid_body():
+    """matsunaga_tugrobot: at t = 0 the chaser is where the scenario puts it and the target's CoM X_s from it in its
+    axes, both turning at the TugRobot's rate; with no command the combined body keeps its angular momentum about
+    the common CoM and X_s stays fixed in chaser_body; commands are taken from one IMU period on."""
+    plant = Plant(plant_config_from_scenario(load_scenario(TUGROBOT)))
+    assert plant.mode == 'combined' and plant.captured
+    assert [(e.name, e.t) for e in plant.drain_events()] == [('attached', 0.0)]
+    s = plant.truth()
+    np.testing.assert_allclose(s.r_hill, (10.0, 5.0, 5.0), atol=1e-12)
+    np.testing.assert_allclose(s.v_hill, (0.0, 0.1, 0.0), atol=1e-12)
+    np.testing.assert_allclose(s.omega_chaser_body, (0.0, 0.0, 0.1), atol=1e-12)
+    np.testing.assert_allclose(quat_to_matrix(s.q_hill_from_chaser_body).T @ (s.r_target_hill - s.r_hill),
+                               (0.5, 0.0, 0.0), atol=1e-12)
+    np.testing.assert_allclose(s.q_hill_from_body, s.q_hill_from_chaser_body, atol=1e-12)
+    h0 = _angular_momentum_about_com(plant, s)
+    assert h0 == pytest.approx((3.0 + 1.5 + 30.0 * 20.0 / 50.0 * 0.25) * 0.1, rel=1e-9)  # I_z of the pair x 0.1
+    assert plant.command_wrench(0.05, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)) is None
+    momenta = []
+    for _ in range(400):
+        s = plant.step()
+        momenta.append(_angular_momentum_about_com(plant, s))
+        assert not s.firing
+    # Over 20 s the orbit's tidal torque on a 0.5 m pair is ~1e-9 of it; the integrators' error likewise.
+    np.testing.assert_allclose(momenta, h0, rtol=1e-7)
+    np.testing.assert_allclose(quat_to_matrix(s.q_hill_from_chaser_body).T @ (s.r_target_hill - s.r_hill),
+                               (0.5, 0.0, 0.0), atol=1e-9)
+    assert plant.command_wrench(plant.t + 0.1, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)) is not None

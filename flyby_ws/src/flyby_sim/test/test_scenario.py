@@ -625,3 +625,53 @@ def test_error_post_capture_keys_name_themselves(tmp_path):
     for mutate, expected in cases:
         _, msg = error_of(tmp_path, mutate)
         assert expected in msg, (expected, msg)
+
+
+TUGROBOT = REPO / 'scenarios' / 'matsunaga_tugrobot.yaml'
+
+
+def test_seed004_section31_tugrobot_starts_attached_with_the_target_turning_with_it():
+    """Seed 004 Table 1 read into matsunaga_tugrobot: the target's attitude and rate are the TugRobot's (attitude angles
+    (0, 0, 0) relative to it), its attitude angles (20, 10, 0) deg successive body x, y, z rotations."""
+    from scipy.spatial.transform import Rotation
+
+    sc = load_scenario(TUGROBOT)
+    assert sc.post_capture.start == 'attached' and sc.target.initial_attitude is None
+    q_tug = Rotation.from_euler('XYZ', (20.0, 10.0, 0.0), degrees=True).as_quat()
+    np.testing.assert_allclose(sc.q_hill_from_chaser_body0, q_tug, atol=1e-8)
+    np.testing.assert_allclose(sc.q_hill_from_body0, q_tug, atol=1e-8)
+    np.testing.assert_allclose(sc.omega_body0_rad_s, (0.0, 0.0, 0.1), atol=1e-15)
+    np.testing.assert_allclose(sc.q_chaser_from_target_attached, (0.0, 0.0, 0.0, 1.0), atol=1e-15)
+    d = yaml.safe_load(TUGROBOT.read_text())
+    d['post_capture']['attachment']['target_rpy_in_chaser_rad'] = [0.0, 0.0, math.pi / 2]
+    turned = scenario_from_dict(d)  # target x along the chaser's y: its rate in target axes is the chaser's turned
+    np.testing.assert_allclose(turned.omega_body0_rad_s, (0.0, 0.0, 0.1), atol=1e-15)
+    np.testing.assert_allclose(quat_matrix(turned.q_chaser_from_target_attached) @ (1.0, 0.0, 0.0), (0.0, 1.0, 0.0),
+                               atol=1e-15)
+
+
+def test_error_start_attached_keys_name_themselves(tmp_path):
+    base = yaml.safe_load(TUGROBOT.read_text())
+    cases = [
+        (lambda d: d['target'].update(initial_rate={'omega_body_rad_s': [0.0, 0.0, 0.1]}),
+         'target.initial_rate: must be omitted when post_capture.start is attached'),
+        (lambda d: d['post_capture'].pop('attachment'),
+         'post_capture.attachment: is required when post_capture.start is attached'),
+        (lambda d: d['post_capture']['mass_estimation'].pop('prior_axes_sigma_deg'),
+         'post_capture.mass_estimation.prior_axes_sigma_deg: is required when post_capture.start is attached'),
+        (lambda d: d['post_capture'].update(start='capture'), 'target.initial_attitude: is required'),
+        (lambda d: d['post_capture'].update(start='docked'), "post_capture.start: must be one of ['capture', "
+                                                             "'attached'], got 'docked'"),
+    ]
+    for mutate, expected in cases:
+        d = copy.deepcopy(base)
+        mutate(d)
+        p = write(tmp_path, d)
+        with pytest.raises(ScenarioError) as info:
+            load_scenario(p)
+        assert expected in str(info.value), (expected, str(info.value))
+    d = paper_dict()
+    d['chaser']['model'] = 'rigid_body'
+    d['post_capture'] = {'attachment': {'target_com_chaser_body_m': [0.5, 0.0, 0.0]}}
+    _, msg = error_of(tmp_path, lambda x: x.update(d))
+    assert "post_capture.attachment: is only for post_capture.start attached, got start 'capture'" in msg
