@@ -38,6 +38,19 @@ reads rpy_rad:
 * seed001_fig7_kinetic_energy.png     Fig 7: translational (relative to hill) and rotational kinetic energy of both
                      bodies, and the chaser's wheels' spin energy
 
+and for a scenario with a post_capture section (docs/post_capture.md: CAPTURE -> GRASP -> DAMPING -> MASS_ESTIMATION),
+seed 004's Fig 5 (Matsunaga et al., the estimation results) and the phases before it, the truth from both bodies'
+truth by flyby_planner.summary's functions (the figures of summary.json):
+
+* seed004_fig5_motion.png             Fig 5 (a)-(d) during MASS_ESTIMATION: the combined CoM's position and velocity
+                     (truth only: the mission publishes no estimate of them), the combined body's attitude and rate,
+                     truth and the chaser attitude filter's estimate with +-3 sigma
+* seed004_fig5_mass_properties.png    Fig 5 (e)-(h): the target's principal moments, mass, principal axes and CoM
+                     from /estimation/target/inertia with +-3 sigma (the estimator's mass_properties_estimate events),
+                     the truth and the prior
+* post_capture_grasp_contact.png      the arm's contact force, torque and stroke during GRASP with its limits
+* post_capture_damping_momentum.png   the combined body's angular momentum during DAMPING, seed 004's 0.1 kg m^2/s
+
 and for a run of several chasers (a ``chasers:`` scenario, docs/two_robots.md) instead of the above:
 
 * chasers.png        every chaser's truth path in the hill x-z plane with the target's boxes at the least
@@ -70,12 +83,25 @@ import matplotlib.colors
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from flyby_estimation.mass_properties import principal_axis_errors_rad
 from flyby_msgs_py import contract as c
-from flyby_msgs_py.bag import BagError, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
+from flyby_msgs_py.bag import BagError, MessageList, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
+from flyby_msgs_py.convert import inertia_to_numpy
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S  # truth (every step) and estimate stamps: one instant
 from flyby_planner.keepout import swept_region
-from flyby_planner.summary import grasp_time, phase_windows, pointing_figures
+from flyby_planner.summary import (
+    angular_momentum_about_com,
+    chaser_truth_from_odometry,
+    damping_window,
+    grasp_contact_series,
+    grasp_time,
+    phase_windows,
+    pointing_figures,
+    post_capture_truth,
+    target_mass_properties_truth,
+    thrust_truth,
+)
 from flyby_sim.dynamics.attitude import kinetic_energy
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.geometry import clearance
@@ -113,6 +139,7 @@ TOPICS = (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.EST_CHASER_ODOM, c.EST_TARGET_
           c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.MISSION_PHASE,
           c.MISSION_EVENTS)
 RIGID_BODY_TOPICS = (c.SIM_CHASER_THRUST, c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS)  # read for rigid_body only
+POST_CAPTURE_TOPICS = (c.EST_TARGET_INERTIA,)  # read with a post_capture section only
 POINTING_REQUIREMENT_DEG = 1.0  # issue 13: p95 of the truth from the first terminal burn to the grasp
 
 
@@ -164,6 +191,8 @@ def _is_empty(series):
         return not len(series.positions)
     if isinstance(series, StringSeries):
         return not series.data
+    if isinstance(series, MessageList):
+        return not series.messages
     return not len(series.t)
 
 
@@ -228,7 +257,9 @@ class Run:
         present = _open_bag(self.run_dir / 'bag')
         self.scenario = self._load_scenario()
         self.rigid_body = self.scenario is not None and self.scenario.chaser.model == 'rigid_body'
-        wanted = [c.absolute(t) for t in TOPICS + (RIGID_BODY_TOPICS if self.rigid_body else ())]
+        self.post_capture = self.scenario is not None and self.scenario.post_capture is not None
+        wanted = [c.absolute(t) for t in TOPICS + (RIGID_BODY_TOPICS if self.rigid_body else ())
+                  + (POST_CAPTURE_TOPICS if self.post_capture else ())]
         data = read_bag(self.run_dir / 'bag', topics=[t for t in wanted if t in present])
         self.series = {t: s for t, s in data.items() if not _is_empty(s)}
         absent = [t for t in wanted if t not in self.series]
@@ -320,6 +351,22 @@ class Run:
         if not len(i_c):
             raise Skipped('no truth chaser and target samples at the same stamps')
         return chaser, target, i_c, i_t
+
+    def phase_window(self, phase):
+        """(t_start, t_end) [s] of the run's first window of phase (Run.phases); Skipped if it never ran."""
+        window = next(((t0, t1) for p, t0, t1 in self.phases if p == phase), None)
+        if window is None:
+            raise Skipped(f'no {phase} phase')
+        return window
+
+    @functools.cached_property
+    def bodies(self):
+        """flyby_planner.summary.post_capture_truth of the truth topics, read as compute_summary reads them: (common
+        stamps, i_chaser, i_target, bodies(k) -> (chaser, target) grasp.Body at common[k]); Skipped without them."""
+        odom, target, wheels = self.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_WHEELS)
+        wrench = self.get(c.SIM_CHASER_THRUST)
+        thrust = None if wrench is None else thrust_truth(wrench, self.get(c.SIM_CHASER_THRUSTERS))
+        return post_capture_truth(chaser_truth_from_odometry(odom), target, wheels, thrust, self.need_scenario())
 
     def truth_at(self, t):
         """Truth chaser position (3,) at time t, interpolated."""
@@ -651,8 +698,9 @@ def estimation_errors(run):
     return rows
 
 
-def _error_row(ax_row, run, name, unit, t, err, sig3):
-    """Estimate - truth err (N, 3) with its +-3 sigma sig3 (N, 3) at times t, one axis per component."""
+def _error_row(ax_row, run, name, unit, t, err, sig3, symlog=True):
+    """Estimate - truth err (N, 3) with its +-3 sigma sig3 (N, 3) at times t, one axis per component; symlog False:
+    a linear scale (a window in which the filter has settled)."""
     # Linear up to the decade above the typical 3 sigma of the second half of the run,
     # logarithmic beyond (the first estimates are far larger).
     typical = float(np.median(sig3[len(sig3) // 2:]))
@@ -660,7 +708,8 @@ def _error_row(ax_row, run, name, unit, t, err, sig3):
     for k, (ax, axis) in enumerate(zip(ax_row, 'xyz', strict=True)):
         ax.fill_between(t, -sig3[:, k], sig3[:, k], color='C0', alpha=0.2, lw=0, label='$\\pm 3\\sigma$')
         ax.plot(t, err[:, k], color='C3', lw=0.7, label='estimate - truth')
-        ax.set_yscale('symlog', linthresh=linthresh)
+        if symlog:
+            ax.set_yscale('symlog', linthresh=linthresh)
         ax.axhline(0.0, color='k', lw=0.5)
         _grasp_line(ax, run)
         ax.grid(alpha=0.3)
@@ -668,7 +717,7 @@ def _error_row(ax_row, run, name, unit, t, err, sig3):
         outside = np.mean(np.abs(err[:, k]) > sig3[:, k]) * 100.0
         ax.text(0.99, 0.03, f'{outside:.1f} % outside 3$\\sigma$', transform=ax.transAxes, ha='right',
                 fontsize=7)
-    ax_row[0].set_ylabel(f'[{unit}] (symlog,\nlinear below {linthresh:.2g})')
+    ax_row[0].set_ylabel(f'[{unit}] (symlog,\nlinear below {linthresh:.2g})' if symlog else f'[{unit}]')
 
 
 def fig_estimation(run, path):
@@ -1359,6 +1408,332 @@ def fig_sync_energy(run, path):
     plots.save(fig, path, DPI)
 
 
+# ---------------------------------------------------------------------------------------------
+# After the capture (scenario post_capture, docs/post_capture.md): seed 004 Fig 5, the grasp, the damping
+# ---------------------------------------------------------------------------------------------
+
+FIG5_MOMENT_NAMES = ('I$_1$ (smallest)', 'I$_2$', 'I$_3$ (largest)')
+
+
+class CombinedMotion(typing.NamedTuple):
+    """Seed 004 Fig 5 (a)-(d) (combined_motion): the combined body's motion during MASS_ESTIMATION."""
+
+    t: np.ndarray                  # (N,) [s] truth stamps of both bodies in the window
+    r_com_hill: np.ndarray         # (N, 3) [m] the combined CoM in hill (truth)
+    v_com_inertial: np.ndarray     # (N, 3) [m/s] its inertial velocity, hill axes of each instant (truth)
+    q_hill_from_body: np.ndarray   # (N, 4) chaser_body (the combined body's axes) in hill (truth)
+    omega_body: np.ndarray         # (N, 3) [rad/s] inertial, chaser_body axes (truth)
+    t_est: np.ndarray              # (K,) [s] /estimation/chaser/odom stamps with a truth sample, in the window
+    q_est: np.ndarray              # (K, 4) the attitude filter's q_hill_from_body, signs as the truth's
+    omega_est: np.ndarray          # (K, 3) [rad/s] its rate
+    attitude_error_hill: np.ndarray  # (K, 3) [rad] rotation vector of q_est q_true^-1 (hill axes)
+    attitude_sigma3_hill: np.ndarray  # (K, 3) [rad] its 3 sigma (the pose covariance's orientation block)
+    rate_error_body: np.ndarray    # (K, 3) [rad/s] estimate - truth
+    rate_sigma3_body: np.ndarray   # (K, 3) [rad/s] its 3 sigma
+
+
+def combined_motion(run):
+    """Seed 004 Fig 5 (a)-(d) over MASS_ESTIMATION: the combined body's CoM position and velocity from both bodies'
+    truth (their grasp.Body, flyby_planner.summary.post_capture_truth, the chaser's mass less its fuel), and its
+    attitude and rate, which are the chaser's (one rigid body), truth and the estimate the mission publishes: the
+    chaser's attitude filter on /estimation/chaser/odom. The mass-property filter's own r, v, q, omega are not
+    published: the combined CoM has no estimate (its chaser position stays the capture's, docs/post_capture.md)."""
+    t0, t1 = run.phase_window(c.PHASE_MASS_ESTIMATION)
+    common, i_c, _, bodies = run.bodies
+    ks = np.flatnonzero((common >= t0 - STAMP_TOLERANCE_S) & (common <= t1 + STAMP_TOLERANCE_S))
+    if not len(ks):
+        raise Skipped('no truth sample in MASS_ESTIMATION')
+    r_com, v_com = [], []
+    for k in ks:
+        pair = bodies(k)
+        mass_kg = sum(b.mass_kg for b in pair)
+        r_com.append(sum(b.mass_kg * b.r_m for b in pair) / mass_kg)
+        v_com.append(sum(b.mass_kg * b.v_mps for b in pair) / mass_kg)
+    chaser = run.need(c.SIM_CHASER_ODOM)
+    q_true = continuous_quaternions(chaser.orientation_xyzw[i_c[ks]])
+    estimate = chaser_attitude_estimate(run)
+    if isinstance(estimate, str):
+        raise Skipped(estimate)
+    e, tr, i, j = estimate
+    keep = (e.t[i] >= t0 - STAMP_TOLERANCE_S) & (e.t[i] <= t1 + STAMP_TOLERANCE_S)
+    i, j = i[keep], j[keep]
+    q_est = e.orientation_xyzw[i]
+    q_est = q_est * np.where(np.einsum('ij,ij->i', q_est, tr.orientation_xyzw[j]) < 0.0, -1.0, 1.0)[:, None]
+    q_est = q_est * np.where(q_est @ q_true[0] < 0.0, -1.0, 1.0)[:, None]  # the truth's continuous sign
+    dtheta = np.array([rotation_vector_from_quat(quat_multiply(a, quat_conjugate(b)))
+                       for a, b in zip(e.orientation_xyzw[i], tr.orientation_xyzw[j], strict=True)]).reshape(-1, 3)
+    return CombinedMotion(common[ks], np.array(r_com), np.array(v_com), q_true, chaser.angular[i_c[ks]],
+                          e.t[i], q_est, e.angular[i], dtheta, _sigma3(e.pose_covariance[i], slice(3, 6)),
+                          e.angular[i] - tr.angular[j], _sigma3(e.twist_covariance[i], slice(3, 6)))
+
+
+class MassPropertyEstimates(typing.NamedTuple):
+    """Seed 004 Fig 5 (e)-(h) (mass_property_estimates): the estimates with their 1-sigma and the truth."""
+
+    t: np.ndarray                       # (K,) [s] stamps of /estimation/target/inertia
+    mass_kg: np.ndarray                 # (K,) the message's target mass
+    mass_sigma_kg: np.ndarray           # (K,) the event's
+    com_body_m: np.ndarray              # (K, 3) the message's X_s: target CoM from the chaser CoM, chaser_body
+    com_sigma_m: np.ndarray             # (K, 3)
+    true_com_at_estimate_m: np.ndarray  # (K, 3) X_s from both bodies' truth at each estimate's stamp
+    moments_kg_m2: np.ndarray           # (K, 3) the event's principal moments, the filter's order (the truth's)
+    moments_sigma_kg_m2: np.ndarray     # (K, 3)
+    axes_error_rad: np.ndarray          # (K, 3) dphi: q_true^-1 q_est as a rotation vector in principal axes
+    axes_sigma_rad: np.ndarray          # (K, 3) the filter's sigma of dphi
+    axes_angle_rad: np.ndarray          # (K, 3) angle of each estimated principal axis from the true one
+    inertia_body_kg_m2: np.ndarray      # (K, 3, 3) the message's inertia about the target CoM, chaser_body
+    true_mass_kg: float                 # the scenario's (the plant's truth)
+    true_moments_kg_m2: np.ndarray      # (3,) the scenario's, ascending
+    t_truth: np.ndarray                 # (N,) [s] truth stamps in MASS_ESTIMATION
+    true_com_body_m: np.ndarray         # (N, 3) X_s from both bodies' truth
+    prior: dict | None                  # the estimator's mass_properties_prior values (no sigmas) and its t
+
+
+def _json_values(event, keys):
+    return {k: np.array(json.loads(event['values'][k]), dtype=float) for k in keys}
+
+
+def nearest_principal_axes_error(q_body_from_principal_est, q_body_from_principal_true):
+    """dphi (3,) [rad], the rotation vector of q_true^-1 q_est (principal axes: the mass-property filter's
+    Q = Q_ref exp(dphi), flyby_estimation.mass_properties), of the four sign choices of the true axes that keep them
+    right-handed the one nearest the estimate (an axis is a line: its sign is a convention)."""
+    c_est = quat_to_matrix_many(np.asarray(q_body_from_principal_est, dtype=float)[None, :])[0]
+    c_true = quat_to_matrix_many(np.asarray(q_body_from_principal_true, dtype=float)[None, :])[0]
+    candidates = [Rotation.from_matrix((c_true * np.array(signs)).T @ c_est).as_rotvec()
+                  for signs in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1))]
+    return min(candidates, key=np.linalg.norm)
+
+
+def mass_property_estimates(run):
+    """Seed 004 Fig 5 (e)-(h): the target's mass, CoM and inertia as /estimation/target/inertia gives them, their
+    1-sigma and principal form from the mass_properties_estimate(d) event of the same stamp (the estimator's
+    _mass_outputs), and the truth: mass and principal moments the scenario's, X_s and the principal axes in
+    chaser_body from both bodies' truth (flyby_planner.summary.target_mass_properties_truth, as summary.json's errors).
+    The principal axes' error is dphi (nearest_principal_axes_error) against the truth at the estimate's stamp (the
+    first truth stamp at or after it, as the summary takes it)."""
+    scenario = run.need_scenario()
+    messages = run.need(c.EST_TARGET_INERTIA).messages
+    t0, t1 = run.phase_window(c.PHASE_MASS_ESTIMATION)
+    chaser, target = run.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM)
+    common, i_c, i_t, _ = run.bodies
+    events = {round(e['t'], 6): e for e in run.events
+              if e['name'] in ('mass_properties_estimate', 'mass_properties_estimated')}
+    rows = []
+    for msg in messages:
+        t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        event = events.get(round(t, 6))
+        k = int(np.searchsorted(common, t - 1e-9))
+        if event is None or k >= len(common):
+            continue
+        mass_kg, com, inertia = inertia_to_numpy(msg.inertia)
+        v = _json_values(event, ('com_sigma_m', 'principal_moments_kg_m2', 'principal_moments_sigma_kg_m2',
+                                 'principal_axes_q', 'principal_axes_sigma_rad'))
+        x_s, true_moments, q_true = target_mass_properties_truth(chaser, target, i_c[k], i_t[k], scenario)
+        rows.append((t, mass_kg, float(event['values']['mass_sigma_kg']), com, v['com_sigma_m'], x_s,
+                     v['principal_moments_kg_m2'], v['principal_moments_sigma_kg_m2'],
+                     nearest_principal_axes_error(v['principal_axes_q'], q_true), v['principal_axes_sigma_rad'],
+                     principal_axis_errors_rad(v['principal_axes_q'], q_true), inertia))
+    if not rows:
+        raise Skipped(f'no {c.absolute(c.EST_TARGET_INERTIA)} message with its 1-sigma event and a truth sample')
+    window = np.flatnonzero((common >= t0 - STAMP_TOLERANCE_S) & (common <= t1 + STAMP_TOLERANCE_S))
+    true_com = np.array([target_mass_properties_truth(chaser, target, i_c[k], i_t[k], scenario)[0] for k in window])
+    prior = next((e for e in run.events if e['name'] == 'mass_properties_prior'), None)
+    if prior is not None:
+        prior = {'t': float(prior['t']), 'mass_kg': float(prior['values']['mass_kg']),
+                 **_json_values(prior, ('com_body_m', 'principal_moments_kg_m2'))}
+    columns = [np.array(col) for col in zip(*rows, strict=True)]
+    return MassPropertyEstimates(*columns, scenario.target.mass_kg, true_moments, common[window],
+                                 true_com.reshape(-1, 3), prior)
+
+
+def grasp_contact(run):
+    """(t (N,) [s], |force| (N,) [N], |torque| (N,) [N m], |stroke| (N,) [m]) of the arm on the target at every truth
+    stamp of GRASP: flyby_planner.summary.grasp_contact_series, the arm's impedance recomputed from both bodies'
+    truth (its peak is summary.json's peak_grasp_force_n and peak_grasp_torque_n_m); Skipped without GRASP."""
+    common, _, _, bodies = run.bodies
+    t, force, torque, stroke = grasp_contact_series(run.events, common, bodies, run.need_scenario())
+    if not len(t):
+        raise Skipped('no truth sample in GRASP')
+    return t, *(np.array([np.linalg.norm(v) for v in series]) for series in (force, torque, stroke))
+
+
+def damping_momentum(run):
+    """(t (N,) [s], |H| (N,) [kg m^2/s]) of the combined body about its CoM (inertial, wheels included:
+    flyby_planner.summary.angular_momentum_about_com of both bodies' truth) at every truth stamp of DAMPING, to the
+    sample summary.json's final_angular_momentum_kg_m2_s is taken at (seed 004 §3.2's condition 1)."""
+    common, _, _, bodies = run.bodies
+    t_damping, t_damped = damping_window(run.events, run.t_end)
+    if t_damping is None:
+        raise Skipped('no DAMPING phase')
+    ks = np.flatnonzero((common >= t_damping - 1e-9) & (common <= t_damped + 1e-9))
+    return common[ks], np.array([angular_momentum_about_com(bodies(k)) for k in ks])
+
+
+def _window_axis(ax, window, xlabel=True, margin=0.015):
+    """x from window[0] to window[1] [s] with a margin of its span each side (marks at its ends stay visible)."""
+    pad = margin * (window[1] - window[0])
+    ax.set_xlim(window[0] - pad, window[1] + pad)
+    ax.grid(alpha=0.3)
+    if xlabel:
+        ax.set_xlabel('simulation time [s]')
+
+
+def _estimate_band(ax, t, estimate, sigma, label='estimate'):
+    """An estimate (K,) at times t with its +-3 sigma (K,) as a band."""
+    ax.fill_between(t, estimate - 3.0 * sigma, estimate + 3.0 * sigma, color=ESTIMATE, alpha=0.25, lw=0,
+                    label='$\\pm 3\\sigma$')
+    ax.plot(t, estimate, '.-', color=ESTIMATE, lw=1.1, ms=4, label=label)
+
+
+def fig_seed004_motion(run, path):
+    """Seed 004 Fig 5 (a)-(d) (combined_motion)."""
+    d = combined_motion(run)
+    window = run.phase_window(c.PHASE_MASS_ESTIMATION)
+    deg = math.degrees(1.0)
+    fig = plt.figure(figsize=(17, 15))
+    grid = fig.add_gridspec(4, 4, width_ratios=(2.0, 1.0, 1.0, 1.0))
+    ax_r, ax_v = fig.add_subplot(grid[0, :]), fig.add_subplot(grid[1, :])
+    mm = 1e3
+    r0 = d.r_com_hill[0]
+    _xyz_and_norm(ax_r, d.t, (d.r_com_hill - r0) * mm, '[mm]')
+    ax_r.set_title(f'(a) position of the combined CoM in hill (truth), from its {np.array2string(r0, precision=3)} m '
+                   'at the phase\'s start', fontsize=10)
+    _xyz_and_norm(ax_v, d.t, d.v_com_inertial * mm, '[mm/s]')
+    ax_v.set_title('(b) inertial velocity of the combined CoM, hill axes of each instant (truth)', fontsize=10)
+    for ax in (ax_r, ax_v):
+        ax.legend(fontsize=8, ncol=4, loc='upper left', framealpha=0.9)
+        _window_axis(ax, window, xlabel=False)
+    ax_q = fig.add_subplot(grid[2, 0])
+    for k, name in enumerate('xyzw'):
+        ax_q.plot(d.t, d.q_hill_from_body[:, k], color=f'C{k}', lw=1.4, label=f'$q_{name}$ truth')
+        ax_q.plot(d.t_est, d.q_est[:, k], color='k', lw=0.7, ls=(0, (4, 4)), label='estimate' if k == 0 else None)
+    ax_q.set(ylabel='$q_{hill \\leftarrow body}$', title='(c) attitude of chaser_body (the combined body) in hill')
+    ax_w = fig.add_subplot(grid[3, 0], sharex=ax_q)
+    for k, name in enumerate('xyz'):
+        ax_w.plot(d.t, d.omega_body[:, k] * deg, color=f'C{k}', lw=1.4, label=f'$\\omega_{name}$ truth')
+        ax_w.plot(d.t_est, d.omega_est[:, k] * deg, color='k', lw=0.7, ls=(0, (4, 4)),
+                  label='estimate' if k == 0 else None)
+    ax_w.set(ylabel='[deg/s]', title='(d) inertial angular velocity, chaser_body axes')
+    for ax in (ax_q, ax_w):
+        ax.legend(fontsize=7, ncol=3, loc='best', framealpha=0.85)
+        _window_axis(ax, window, xlabel=ax is ax_w)
+    for row, name, unit, err, sig3 in ((2, '(c) attitude error (hill axes)', 'deg', d.attitude_error_hill * deg,
+                                        d.attitude_sigma3_hill * deg),
+                                       (3, '(d) rate error (body axes)', 'deg/s', d.rate_error_body * deg,
+                                        d.rate_sigma3_body * deg)):
+        ax_row = [fig.add_subplot(grid[row, k + 1], sharex=ax_q) for k in range(3)]
+        _error_row(ax_row, run, name, unit, d.t_est, err, sig3, symlog=False)
+        for ax in ax_row:
+            _window_axis(ax, window, xlabel=row == 3)
+    fig.suptitle(f'{run.title}: seed 004 Fig 5 (a)-(d), the combined body during MASS_ESTIMATION\n'
+                 '(a)-(b) truth only: the mission publishes no estimate of the combined CoM; (c)-(d) the estimate of '
+                 'the chaser\'s attitude filter (/estimation/chaser/odom):\nthe mass-property filter\'s own attitude '
+                 'and rate are not published')
+    fig.tight_layout(rect=(0, 0, 1, 0.98))
+    plots.save(fig, path, DPI)
+
+
+def fig_seed004_mass_properties(run, path):
+    """Seed 004 Fig 5 (e)-(h) (mass_property_estimates): each estimate with its +-3 sigma and the truth."""
+    d = mass_property_estimates(run)
+    window = run.phase_window(c.PHASE_MASS_ESTIMATION)
+    deg = math.degrees(1.0)
+    fig = plt.figure(figsize=(16, 15))
+    grid = fig.add_gridspec(4, 3)
+    prior = d.prior
+    for k, name in enumerate(FIG5_MOMENT_NAMES):
+        ax = fig.add_subplot(grid[0, k])
+        _estimate_band(ax, d.t, d.moments_kg_m2[:, k], d.moments_sigma_kg_m2[:, k])
+        ax.axhline(d.true_moments_kg_m2[k], color='k', ls='--', lw=1.0, label=f'truth {d.true_moments_kg_m2[k]:g}')
+        if prior is not None:
+            ax.plot(prior['t'], prior['principal_moments_kg_m2'][k], 'o', mfc='none', mec='k', label='prior')
+        error = (d.moments_kg_m2[-1, k] / d.true_moments_kg_m2[k] - 1.0) * 100.0
+        ax.set_title(f'(e) {name}: {d.moments_kg_m2[-1, k]:.1f} $\\pm$ {d.moments_sigma_kg_m2[-1, k]:.1f} kg m$^2$ '
+                     f'({error:+.2f} %)', fontsize=9)
+        ax.set_ylabel('principal moment [kg m$^2$]' if k == 0 else None)
+    ax_m = fig.add_subplot(grid[1, :])
+    _estimate_band(ax_m, d.t, d.mass_kg, d.mass_sigma_kg)
+    ax_m.axhline(d.true_mass_kg, color='k', ls='--', lw=1.0, label=f'truth {d.true_mass_kg:g} kg')
+    if prior is not None:
+        ax_m.plot(prior['t'], prior['mass_kg'], 'o', mfc='none', mec='k', label='prior (at the lock)')
+    ax_m.set(ylabel='target mass [kg]',
+             title=f'(f) mass: {d.mass_kg[-1]:.1f} $\\pm$ {d.mass_sigma_kg[-1]:.1f} kg '
+                   f'({(d.mass_kg[-1] / d.true_mass_kg - 1.0) * 100.0:+.2f} %)')
+    for k in range(3):
+        ax = fig.add_subplot(grid[2, k])
+        _estimate_band(ax, d.t, d.axes_error_rad[:, k] * deg, d.axes_sigma_rad[:, k] * deg, label='estimate - truth')
+        ax.axhline(0.0, color='k', ls='--', lw=1.0, label='truth')
+        ax.set_title(f'(g) principal axes, d$\\phi_{k + 1}$ (about axis {k + 1}); axis {k + 1} off by '
+                     f'{d.axes_angle_rad[-1, k] * deg:.3f} deg at the end', fontsize=9)
+        ax.set_ylabel('rotation of the axes [deg]' if k == 0 else None)
+    for k, axis in enumerate('xyz'):
+        ax = fig.add_subplot(grid[3, k])
+        _estimate_band(ax, d.t, d.com_body_m[:, k], d.com_sigma_m[:, k])
+        ax.plot(d.t_truth, d.true_com_body_m[:, k], color='k', ls='--', lw=1.0, label='truth')
+        if prior is not None:
+            ax.plot(prior['t'], prior['com_body_m'][k], 'o', mfc='none', mec='k', label='prior')
+        error_mm = (d.com_body_m[-1, k] - d.true_com_at_estimate_m[-1, k]) * 1e3
+        ax.set_title(f'(h) centre of mass, chaser_body {axis}: {d.com_body_m[-1, k]:.4f} m '
+                     f'$\\pm$ {d.com_sigma_m[-1, k] * 1e3:.1f} mm ({error_mm:+.1f} mm)', fontsize=9)
+        ax.set_ylabel('target CoM from the chaser CoM [m]' if k == 0 else None)
+    for ax in fig.axes:
+        ax.legend(fontsize=7, loc='best', framealpha=0.85, ncol=2)
+        _window_axis(ax, window, xlabel=ax in fig.axes[-3:])
+    fig.suptitle(f'{run.title}: seed 004 Fig 5 (e)-(h), the target\'s mass properties during MASS_ESTIMATION\n'
+                 '/estimation/target/inertia with the 1-sigma of the estimator\'s mass_properties_estimate events; '
+                 'truth: the scenario\'s mass and moments, CoM and axes from both bodies\' truth')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def fig_grasp_contact(run, path):
+    """The arm's contact force, torque and stroke during GRASP (grasp_contact) with the arm's limits, at which the
+    grasp lets go (docs/post_capture.md)."""
+    t, force, torque, stroke = grasp_contact(run)
+    g = run.need_scenario().post_capture.grasp
+    fig, axes = plt.subplots(3, 1, figsize=(12, 10), sharex=True)
+    for ax, values, unit, limit, name, what in (
+            (axes[0], force, 'N', g.max_force_n, '|force|', 'on the target'),
+            (axes[1], torque, 'N m', g.max_torque_n_m, '|torque|', 'on the target'),
+            (axes[2], stroke * 1e3, 'mm', g.max_stroke_m * 1e3, '|stroke|', 'the handle from the end effector')):
+        ax.plot(t, values, color=TRUTH, lw=1.4, label=f'{name}, {what} (truth)')
+        ax.axhline(limit, color='r', ls='--', lw=1.1, label=f"the arm's limit {limit:g} {unit}")
+        _peak(ax, t, values, unit)
+        ax.set(yscale='log', ylabel=f'{name} [{unit}]')
+        ax.legend(fontsize=8, loc='center right', framealpha=0.9)
+        _window_axis(ax, (t[0], t[-1]), xlabel=ax is axes[-1])
+    peaks = [run.summary.get(k) for k in ('peak_grasp_force_n', 'peak_grasp_torque_n_m')]
+    stated = f' (summary.json: {peaks[0]:.3g} N, {peaks[1]:.3g} N m)' if None not in peaks else ''
+    fig.suptitle(f'{run.title}: the arm\'s impedance during GRASP, recomputed from both bodies\' truth at every '
+                 f'sample\npeak {force.max():.3g} N and {torque.max():.3g} N m{stated}; '
+                 f'GRASP lasted {t[-1] - t[0]:.2f} s')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
+def fig_damping_momentum(run, path):
+    """The combined body's angular momentum during DAMPING (damping_momentum) against seed 004 §3.2's threshold."""
+    t, momentum = damping_momentum(run)
+    threshold = run.need_scenario().post_capture.damping.momentum_threshold_kg_m2_s
+    fig, ax = plt.subplots(figsize=(12, 6.5))
+    ax.plot(t, momentum, color=TRUTH, lw=1.4, label='|H| about the combined CoM, wheels included (truth)')
+    ax.axhline(threshold, color='r', ls='--', lw=1.1, label=f'threshold {threshold:g} kg m$^2$/s (seed 004 §3.2)')
+    ax.plot(t[-1], momentum[-1], 'kv', ms=8, label=f'at the end: {momentum[-1]:.3g} kg m$^2$/s')
+    done = next((e for e in run.events if e['name'] == 'damping_complete'), None)
+    if done is not None and 'momentum_bound_kg_m2_s' in done['values']:
+        ax.plot(done['t'], float(done['values']['momentum_bound_kg_m2_s']), 'D', color=ESTIMATE, mec='k',
+                label='guidance\'s bound from its estimates (damping_complete)')
+    below = np.flatnonzero(momentum < threshold)
+    first_below = f'first below the threshold at t = {t[below[0]]:.1f} s' if len(below) else 'never below the threshold'
+    ax.set(yscale='log', ylabel='angular momentum [kg m$^2$/s]',
+           title=f'from {momentum[0]:.4g} to {momentum[-1]:.3g} kg m$^2$/s in {t[-1] - t[0]:.1f} s; {first_below}')
+    ax.legend(fontsize=8, loc='upper right', framealpha=0.9)
+    _window_axis(ax, (t[0], t[-1]))
+    fig.suptitle(f'{run.title}: the combined body\'s angular momentum during DAMPING')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
+
 FIGURES = (
     ('trajectory_xz.png', fig_trajectory_xz),
     ('trajectory_3d.png', fig_trajectory_3d),
@@ -1378,6 +1753,12 @@ SYNC_FIGURES = (  # written for a run of the synchronized approach only (is_sync
     ('seed001_fig5_euler_sigma.png', fig_sync_estimation),
     ('seed001_fig6_attitude.png', fig_sync_attitude),
     ('seed001_fig7_kinetic_energy.png', fig_sync_energy),
+)
+POST_CAPTURE_FIGURES = (  # written for a scenario with a post_capture section only
+    ('seed004_fig5_motion.png', fig_seed004_motion),
+    ('seed004_fig5_mass_properties.png', fig_seed004_mass_properties),
+    ('post_capture_grasp_contact.png', fig_grasp_contact),
+    ('post_capture_damping_momentum.png', fig_damping_momentum),
 )
 
 
@@ -1478,7 +1859,8 @@ def _write(run_dir, out_dir):
         return _write_fleet(run_dir, out, scenario)
     run = Run(run_dir)
     written, failed = [], []
-    for name, draw in FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()) + (SYNC_FIGURES if run.sync else ()):
+    for name, draw in (FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()) + (SYNC_FIGURES if run.sync else ())
+                       + (POST_CAPTURE_FIGURES if run.post_capture else ())):
         path = out / name
         try:
             draw(run, path)

@@ -1,7 +1,9 @@
 """scripts/mission_report.py on real runs: one cut short before any plan, one that captures, one short run of the
-six-degree-of-freedom chaser through run_mission --report, one short synchronized approach (seed 001 Fig 4-7)."""
+six-degree-of-freedom chaser through run_mission --report, one short synchronized approach (seed 001 Fig 4-7), one
+short capture that goes on through the grasp, the damping and the mass-property estimation (seed 004 Fig 5)."""
 
 import importlib.util
+import math
 import subprocess
 import sys
 
@@ -10,8 +12,10 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 from test_run_mission_sync import _short as sync_short
+from test_run_mission_tug import _short as tug_short
 
 from flyby_msgs_py import contract as c
+from flyby_sim.scenario import load_scenario
 from flyby_testing import ROOT, read_summary, run_mission, with_duration, write_scenario
 
 SCRIPT = ROOT / 'scripts' / 'mission_report.py'
@@ -216,3 +220,62 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp
     table_1 = 0.5 * omega0 @ np.array(data['target']['inertia_kg_m2']) @ omega0  # 478.85 J
     assert np.allclose(energy.target_rotational, table_1, rtol=1e-9)
     assert np.all(energy.target_translational == 0.0)  # the hill origin is its centre of mass
+
+
+def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping(report, tmp_path):
+    """The short paper_flyby_tug of test_run_mission_tug flown in one process (to be quick), the four post-capture
+    figures drawn from its bag (write_report adds them for a post_capture scenario). What they plot: the truth mass and
+    moments are the scenario's; the estimates' final values and errors are summary.json's to the bit (the same truth
+    by the same functions); the target's CoM in chaser_body holds while welded; the principal axes' error dphi and the
+    per-axis angle agree; the message's inertia has the event's principal moments; the combined CoM's velocity changes
+    by the thrusters' net impulse over the total mass; the grasp's peak force and the momentum at the end of the
+    damping are summary.json's, within the arm's limit and below seed 004's 0.1 kg m^2/s."""
+    scenario_path = write_scenario(tmp_path, base='paper_flyby_tug', name='tug_short', edit=tug_short)
+    out = tmp_path / 'run'
+    result = run_mission('--scenario', scenario_path, '--out', out, '--in-process')
+    assert result.returncode == 0, result.stderr
+    summary = read_summary(out)
+    assert summary['outcome'] == 'CAPTURE' and summary['final_phase'] == c.PHASE_COMPLETE
+    scenario = load_scenario(scenario_path)
+
+    run = report.Run(out)
+    assert run.post_capture
+    written = []
+    for name, draw in report.POST_CAPTURE_FIGURES:
+        draw(run, tmp_path / name)
+        written.append(tmp_path / name)
+    check_pngs(written, largest=700_000)
+
+    d = report.mass_property_estimates(run)
+    assert d.true_mass_kg == scenario.target.mass_kg == 1500.0
+    assert d.true_moments_kg_m2.tolist() == pytest.approx([1000.0, 1200.0, 2000.0], rel=1e-12)
+    assert len(d.t) >= 20 and np.all(d.mass_sigma_kg > 0.0) and np.all(d.com_sigma_m > 0.0)
+    assert d.mass_kg[-1] == summary['target_mass_estimate_kg']
+    assert np.linalg.norm(d.com_body_m[-1] - d.true_com_at_estimate_m[-1]) == summary['target_com_error_m']
+    assert 100.0 * np.max(np.abs(d.moments_kg_m2[-1] / d.true_moments_kg_m2 - 1.0)) == \
+        summary['target_principal_moments_error_pct']
+    assert math.degrees(np.max(d.axes_angle_rad[-1])) == summary['target_principal_axes_error_deg']
+    assert np.ptp(d.true_com_body_m, axis=0).max() < 1e-9  # [m] one rigid body
+    # Axis 1 turns by the rotation about axes 2 and 3 (small angles).
+    assert np.hypot(*d.axes_error_rad[-1, 1:]) == pytest.approx(d.axes_angle_rad[-1, 0], rel=1e-3)
+    assert np.linalg.eigvalsh(d.inertia_body_kg_m2[-1]) == pytest.approx(np.sort(d.moments_kg_m2[-1]), rel=1e-9)
+
+    m = report.combined_motion(run)
+    thrust = run.need(c.SIM_CHASER_THRUST)
+    steps = (thrust.t[1:] > m.t[0] + 1e-9) & (thrust.t[1:] <= m.t[-1] + 1e-9)  # each step's mean force [N], hill
+    impulse = np.sum(thrust.force[1:][steps] * np.diff(thrust.t)[steps, None], axis=0)
+    total_kg = scenario.target.mass_kg + scenario.chaser.mass_kg - summary['fuel_used_kg']
+    assert np.linalg.norm(impulse / total_kg) > 5e-3  # [m/s] the excitation moves it
+    # Left out here: hill's turn (n t ~ 0.03 rad of ~15 mm/s) and the gravity gradient (3 n^2 r t), ~0.5 mm/s.
+    assert np.linalg.norm(m.v_com_inertial[-1] - m.v_com_inertial[0] - impulse / total_kg) < 1.5e-3
+    assert np.all(np.abs(m.attitude_error_hill) <= m.attitude_sigma3_hill)
+
+    t, force, torque, _ = report.grasp_contact(run)
+    assert t[0] == pytest.approx(summary['t_grasp_s'], abs=0.1)
+    assert force.max() == summary['peak_grasp_force_n'] < scenario.post_capture.grasp.max_force_n
+    assert torque.max() == summary['peak_grasp_torque_n_m'] < scenario.post_capture.grasp.max_torque_n_m
+
+    t, momentum = report.damping_momentum(run)
+    assert momentum[0] > 100.0  # [kg m^2/s] the target's 2000 kg m^2 at 5 deg/s, 175, and the chaser's orbit about it
+    assert momentum[-1] == summary['final_angular_momentum_kg_m2_s'] < 0.1
+    assert t[-1] - t[0] == pytest.approx(summary['damping_time_s'], abs=0.05)
