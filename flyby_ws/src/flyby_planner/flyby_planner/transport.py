@@ -27,17 +27,20 @@ The method (constructive, seed 004 §2.3's Fig 4 made systematic; the paper foun
 1. The push axis b: the body axis (of +-x, +-y, +-z) along which the allowed thrusters give the largest pure force
    about the combined CoM (``actuators.allocate_max_force`` on the layout moved to the combined CoM: max s with
    B_F f = s b, B_T f = 0, 0 <= f <= f_max). Every push is along b and turns nothing.
-2. A two-impulse transfer: the CW solution (seed 000 eq 22) gives the first guess of the two impulses (hill); the
-   first after a slew from the initial state, the second ending at the arrival time.
+2. A two-impulse transfer: the CW solution (seed 000 eq 22) gives the first guess of the two impulses (hill), the
+   first push's time searched for the least total delta-v (away from CW's singular transfer times), the second
+   push ending at the arrival time.
 3. Before each push a rest-to-rest slew aims b along the push's direction (inertial, at the push's middle): a spin-up
    burn, a torque-free coast, a spin-down burn; their body torques (six numbers) are found by Newton shooting on
    Euler's equation so that the rate is zero and b points along the push at the slew's end (roll about b left
-   free: the least-norm Newton step). Each torque is made by the allowed thrusters with the least side force (a
-   linear program); a layout without a pure torque (the default less its -x pair has none about z) pushes the
-   body while it turns.
+   free: the least-norm Newton step). The burns are made long enough that each torque needs no more side force
+   per unit than the least the thrusters allow along it (a pure torque where one exists), and each is allocated
+   with the least side force (a linear program); a layout without a pure torque (the default less its -x pair has
+   none about z) pushes the body while it turns.
 4. Newton on the two impulses (six numbers, hill) against the full propagation of the whole sequence (slews' side
    forces, finite pushes, hill's turn during a push, the nonlinear dynamics), with the CW Jacobian of the impulses
-   at the pushes' middles.
+   at the pushes' middles and Broyden's update (an out-of-plane aim turns the body about z, whose torque pushes).
+   A schedule that does not hold (a push or a torque beyond the thrusters) is lengthened and planned again.
 5. The three conditions checked on ``propagate``'s end state; ``TransportRefused`` names the bound otherwise.
 """
 
