@@ -38,7 +38,10 @@ different route than flyby_planner.summary takes, from truth alone:
   momentum about the common CoM and the wheels' (the summary: grasp.momentum about the origin, moved); the
   estimates from the last /estimation/target/inertia message (the summary reads the estimator's final event): its
   mass and CoM, and the principal moments and axes of its inertia by eigendecomposition; their errors against the
-  truth at that message's stamp.
+  truth at that message's stamp; a run that starts attached has only the estimates.
+* a transport (post_capture.transport, docs/transport.md): at guidance's transport_complete, the combined CoM's
+  distance from the goal and linear momentum relative to hill, and the angular momentum about it, by the same sum
+  of both bodies (the summary: grasp.Body pairs and grasp.momentum), and whether the three conditions hold.
 
 A run of several chasers (a ``chasers:`` scenario, docs/two_robots.md): every figure above per chaser from its
 own topics (``/<name>/sim/chaser/odom``, ``/<name>/sim/chaser/thrust``, ``/<name>/mission/events`` ..., the target's
@@ -80,6 +83,11 @@ POST_CAPTURE_TOLERANCES = {
     'target_mass_estimate_kg': 1e-6, 'target_com_estimate_m': 1e-9, 'target_principal_moments_estimate_kg_m2': 1e-6,
     'target_principal_axes_estimate_q': 1e-4, 'target_mass_error_pct': 1e-6, 'target_com_error_m': 1e-9,
     'target_principal_moments_error_pct': 1e-6, 'target_principal_axes_error_deg': 1e-4,
+}
+# a transport (post_capture.transport) -> tolerance
+TRANSPORT_TOLERANCES = {
+    'transport_final_position_error_m': 1e-6, 'transport_orbital_momentum_error_n_m_s': 1e-6,
+    'transport_final_angular_momentum_kg_m2_s': 1e-6, 'transport_conditions_met': 0,
 }
 # the figures of several chasers together -> tolerance
 FLEET_TOLERANCES = {'min_separation_m': 1e-3, 't_min_separation_s': 1e-3, 'min_clearance_m': 1e-3}
@@ -182,11 +190,9 @@ def _grasp_peaks(scenario, chaser, target, events, common, i_c, i_t, t_grasp, t_
             'peak_grasp_torque_n_m': float(np.max(np.linalg.norm(torques, axis=1)))}
 
 
-def _damped_momentum(bag_dir, scenario, chaser, target, events, fuel_at, namespace, common, i_c, i_t):
-    """The combined body's angular momentum about its CoM at the end of DAMPING: both bodies' spin, their orbit about
-    the common CoM and the wheels'."""
-    t_damped = phase_entered(events, c.PHASE_MASS_ESTIMATION) or common[-1]
-    k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
+def _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c, i_t, k):
+    """(|angular momentum| about the common CoM [kg m^2/s]: both bodies' spin, their orbit about the common CoM and
+    the wheels'; the total mass [kg], the common CoM [m] and its velocity relative to hill [m/s]) at common[k]."""
     (r_c, v_c, rot_c, w_c), (r_t, v_t, rot_t, w_t) = _inertial(chaser, target, scenario, i_c[k], i_t[k])
     m_c, m_t = scenario.chaser.mass_kg - fuel_at(common[k]), scenario.target.mass_kg
     r_cm, v_cm = (m_c * r_c + m_t * r_t) / (m_c + m_t), (m_c * v_c + m_t * v_t) / (m_c + m_t)
@@ -199,7 +205,29 @@ def _damped_momentum(bag_dir, scenario, chaser, target, events, fuel_at, namespa
     momentum = sum(rot.apply(inertia @ rot.inv().apply(rate)) + mass * np.cross(r - r_cm, v - v_cm)
                    for rot, inertia, rate, mass, r, v in ((rot_c, scenario.chaser_inertia, w_c, m_c, r_c, v_c),
                                                           (rot_t, scenario.target_inertia, w_t, m_t, r_t, v_t)))
-    return float(np.linalg.norm(momentum + rot_c.apply(h_wheels_body)))
+    omega_hill = np.array([0.0, -scenario.mean_motion_rad_s, 0.0])
+    return (float(np.linalg.norm(momentum + rot_c.apply(h_wheels_body))), m_c + m_t, r_cm,
+            v_cm - np.cross(omega_hill, r_cm))
+
+
+def transport(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):
+    """The transport figures of TRANSPORT_TOLERANCES at guidance's transport_complete (the bag's end without it), by
+    the same second route as the damping's momentum."""
+    out = dict.fromkeys(TRANSPORT_TOLERANCES)
+    if phase_entered(events, c.PHASE_TRANSPORT) is None:
+        return out
+    common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
+    done = [e['t'] for e in events if e['name'] == 'transport_complete']
+    t_end = done[-1] if done else common[-1]
+    k = max(int(np.searchsorted(common, t_end + 1e-9)) - 1, 0)
+    h, mass, r_cm, v_cm = _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c, i_t, k)
+    tr = scenario.post_capture.transport
+    miss = float(np.linalg.norm(r_cm - np.asarray(tr.goal_hill_m)))
+    momentum = mass * float(np.linalg.norm(v_cm))
+    return {'transport_final_position_error_m': miss, 'transport_orbital_momentum_error_n_m_s': momentum,
+            'transport_final_angular_momentum_kg_m2_s': h,
+            'transport_conditions_met': bool(done) and h < tr.max_angular_momentum_kg_m2_s
+            and miss < tr.max_position_error_m and momentum < tr.max_momentum_error_n_s}
 
 
 def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):
@@ -213,8 +241,10 @@ def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace='
     if t_grasp is not None:
         out.update(_grasp_peaks(scenario, chaser, target, events, common, i_c, i_t, t_grasp, t_damping))
     if t_damping is not None:
-        out['final_angular_momentum_kg_m2_s'] = _damped_momentum(bag_dir, scenario, chaser, target, events, fuel_at,
-                                                                 namespace, common, i_c, i_t)
+        t_damped = phase_entered(events, c.PHASE_MASS_ESTIMATION) or common[-1]
+        k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
+        out['final_angular_momentum_kg_m2_s'] = _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace,
+                                                         common, i_c, i_t, k)[0]
     elif t_grasp is not None:
         return out
     inertia_topic = c.absolute(c.EST_TARGET_INERTIA, namespace)
@@ -237,8 +267,11 @@ def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace='
                target_mass_error_pct=100.0 * abs(i.m / scenario.target.mass_kg - 1.0),
                target_com_error_m=float(np.linalg.norm(com - rot_c.inv().apply(r_t - r_c))),
                target_principal_moments_error_pct=100.0 * float(np.max(np.abs(moments / true_moments - 1.0))),
+               # only the axes the true moments define (two equal moments: the third alone, checked here by hand)
                target_principal_axes_error_deg=float(np.degrees(np.max(np.arccos(np.clip(np.abs(np.sum(
-                   axes_est * true_axes, axis=0)), 0.0, 1.0))))))
+                   axes_est * true_axes, axis=0)), 0.0, 1.0))[[
+                       min(abs(true_moments[k] - true_moments[j]) for j in range(3) if j != k) > 1e-9 * true_moments[2]
+                       for k in range(3)]], initial=0.0))))
     return out
 
 
@@ -336,6 +369,8 @@ def recompute(bag_dir, scenario, namespace=''):
                 n = int(np.searchsorted(fuel_t, t + 1e-9))
                 return float(fuel_cum[n - 1]) if n else 0.0
             out.update(post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace))
+            if scenario.post_capture.transport is not None:
+                out.update(transport(bag_dir, scenario, chaser, target, events, fuel_at, namespace))
     return out
 
 
@@ -448,8 +483,10 @@ def main(argv=None):
                 for key, a, b, agrees in compare(summary.get('chasers', {}).get(n, {}), recomputed[n])]
         rows += compare(summary, recomputed, FLEET_TOLERANCES)
     else:
-        rows = compare(summary, recomputed, {**TOLERANCES, **(POST_CAPTURE_TOLERANCES if scenario.post_capture
-                                                               is not None else {})})
+        pc = scenario.post_capture
+        rows = compare(summary, recomputed, {**TOLERANCES, **(POST_CAPTURE_TOLERANCES if pc is not None else {}),
+                                             **(TRANSPORT_TOLERANCES if pc is not None and pc.transport is not None
+                                                else {})})
     width = max(len(r[0]) for r in rows)
     for key, a, b, agrees in rows:
         print(f'{key:<{width}}  {a!s:>24}  {b!s:>24}  {"ok" if agrees else "DISAGREES"}')

@@ -6,6 +6,7 @@ from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 
 from flyby_msgs_py.domain import lease_domain
+from flyby_testing import fly_variant, tug_short
 
 
 @pytest.fixture
@@ -21,6 +22,13 @@ def ros_context(monkeypatch):
     finally:
         rclpy.try_shutdown(context=context)
         lease.release()
+
+
+@pytest.fixture(scope='session')
+def tug_short_run(tmp_path_factory):
+    """flyby_testing.tug_short flown once in the graph for the session (the post-capture tests and the report's):
+    (the run directory, the scenario file)."""
+    return fly_variant(tmp_path_factory.mktemp('tug'), 'paper_flyby_tug', 'tug_short', tug_short)
 
 
 @pytest.fixture

@@ -46,6 +46,18 @@ def fly_variant(tmp_dir, base, name, edit):
     return out, scenario
 
 
+def tug_short(data):
+    """A short variant of scenarios/paper_flyby_tug.yaml: 30 m ahead instead of 50, 20 s of observation, a 60 s
+    fly-by after a 40-80 s transfer (the grasp at about 309 s instead of 813 s), the wheels' momentum dumped at 0.2/s
+    and a 4 N m couple (about 70 s of damping instead of 190 s), 600 s at most: about 410 s of simulated time."""
+    data['chaser']['initial_position_hill_m'] = [30.0, 0.0, 0.0]
+    data['chaser']['initial_attitude']['body_axis_along_hill']['hill'] = [-1.0, 0.0, 0.0]
+    data['planner'].update(method='flyby', min_observation_s=20.0, flyby_duration_s=60.0, transfer_min_s=40.0,
+                           transfer_max_s=80.0)
+    data['post_capture']['damping'].update(max_thruster_torque_n_m=4.0, dump_rate_per_s=0.2)
+    data['simulation']['duration_s'] = 600.0
+
+
 def analyze_bag(run_dir):
     """scripts/analyze_bag.py on a run directory, as a user runs it; returns the CompletedProcess."""
     return subprocess.run([sys.executable, str(ROOT / 'scripts' / 'analyze_bag.py'), str(run_dir)],

@@ -12,7 +12,6 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 from test_run_mission_sync import _short as sync_short
-from test_run_mission_tug import _short as tug_short
 
 from flyby_msgs_py import contract as c
 from flyby_sim.scenario import load_scenario
@@ -222,18 +221,15 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp
     assert np.all(energy.target_translational == 0.0)  # the hill origin is its centre of mass
 
 
-def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping(report, tmp_path):
-    """The short paper_flyby_tug of test_run_mission_tug flown in one process (to be quick), the four post-capture
+def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping(report, tmp_path, tug_short_run):
+    """The short paper_flyby_tug of the post-capture tests (conftest.tug_short_run, flown once), the four post-capture
     figures drawn from its bag (write_report adds them for a post_capture scenario). What they plot: the truth mass and
     moments are the scenario's; the estimates' final values and errors are summary.json's to the bit (the same truth
     by the same functions); the target's CoM in chaser_body holds while welded; the principal axes' error dphi and the
     per-axis angle agree; the message's inertia has the event's principal moments; the combined CoM's velocity changes
     by the thrusters' net impulse over the total mass; the grasp's peak force and the momentum at the end of the
     damping are summary.json's, within the arm's limit and below seed 004's 0.1 kg m^2/s."""
-    scenario_path = write_scenario(tmp_path, base='paper_flyby_tug', name='tug_short', edit=tug_short)
-    out = tmp_path / 'run'
-    result = run_mission('--scenario', scenario_path, '--out', out, '--in-process')
-    assert result.returncode == 0, result.stderr
+    out, scenario_path = tug_short_run
     summary = read_summary(out)
     assert summary['outcome'] == 'CAPTURE' and summary['final_phase'] == c.PHASE_COMPLETE
     scenario = load_scenario(scenario_path)

@@ -1,8 +1,6 @@
 """After the capture in the graph (issue 16, DESIGN §10): the grasp, the damping of the combined body and the estimation
 of the target's mass properties, real processes over Fast DDS, a ROS domain of the run's own, full speed, the bag read
-back. A short variant of scenarios/paper_flyby_tug.yaml: 30 m ahead instead of 50, 20 s of observation, a 60 s fly-by
-after a 40-80 s transfer (the grasp at about 309 s instead of 813 s), the wheels' momentum dumped at 0.2/s and a
-4 N m couple (about 70 s of damping instead of 190 s), 600 s at most: about 410 s of simulated time."""
+back: flyby_testing.tug_short, flown once for the session (conftest.tug_short_run)."""
 
 import numpy as np
 import pytest
@@ -13,24 +11,15 @@ from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.convert import inertia_to_numpy
 from flyby_planner.summary import POST_CAPTURE_KEYS
 from flyby_sim.scenario import load_scenario
-from flyby_testing import analyze_bag, fly_variant, read_summary
+from flyby_testing import analyze_bag, read_summary
 
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY,
           c.PHASE_CAPTURE, c.PHASE_GRASP, c.PHASE_DAMPING, c.PHASE_MASS_ESTIMATION, c.PHASE_COMPLETE]
 
 
-def _short(data):
-    data['chaser']['initial_position_hill_m'] = [30.0, 0.0, 0.0]
-    data['chaser']['initial_attitude']['body_axis_along_hill']['hill'] = [-1.0, 0.0, 0.0]
-    data['planner'].update(method='flyby', min_observation_s=20.0, flyby_duration_s=60.0, transfer_min_s=40.0,
-                           transfer_max_s=80.0)
-    data['post_capture']['damping'].update(max_thruster_torque_n_m=4.0, dump_rate_per_s=0.2)
-    data['simulation']['duration_s'] = 600.0
-
-
 @pytest.fixture(scope='module')
-def run(tmp_path_factory):
-    return fly_variant(tmp_path_factory.mktemp('tug'), 'paper_flyby_tug', 'tug_short', _short)
+def run(tug_short_run):
+    return tug_short_run
 
 
 def test_the_capture_goes_on_through_grasp_damping_and_mass_estimation_in_the_graph(run):

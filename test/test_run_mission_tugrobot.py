@@ -1,7 +1,8 @@
 """A run that starts attached, in the graph (issue 16, seed 004 §3.1): scenarios/matsunaga_tugrobot.yaml as shipped,
 real processes over Fast DDS, a ROS domain of the run's own, full speed, the bag read back. The TugRobot holds the
 material satellite from t = 0; Table 1's firings excite the pair as it turns and the estimator's EKF estimates the
-target's mass properties: MASS_ESTIMATION -> COMPLETE after 26 s of simulated time."""
+target's mass properties: MASS_ESTIMATION -> COMPLETE after 85 s of simulated time (60 s for the gyro bias to
+settle, 25 s of estimation)."""
 
 import numpy as np
 import pytest

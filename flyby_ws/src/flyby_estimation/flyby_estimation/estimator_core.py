@@ -32,7 +32,10 @@ estimates go out as ``TargetInertiaEstimate`` (estimation/target/inertia) with t
 (``mass_properties_estimate``, the last ``mass_properties_estimated``). A run that starts attached (post_capture.start
 attached, seed 004 §3.1) is attached from t = 0: no free-flight navigation, the snapshot the attachment as known
 (``post_capture.attachment_snapshot``), its chaser estimates' position that geometry about the target's initial CoM
-(no position sensor), and the filter's run from guidance's ``excitation_scheduled``.
+(no position sensor), and the filter's run from guidance's ``excitation_scheduled``. With a transport
+(post_capture.transport, issue 17) the final estimate starts the combined body's navigation
+(``post_capture.TransportNavigation``: relative position and accelerometer), whose chaser position and velocity the
+chaser estimates carry from the next IMU sample on.
 
 The estimator node and the headless driver (flyby_guidance.closed_loop) both run ``EstimatorCore``;
 every input method returns the outputs to publish, in order.
@@ -50,6 +53,7 @@ from flyby_estimation.filters import filters_from_scenario
 from flyby_estimation.post_capture import (
     CaptureSnapshot,
     MassEstimationRun,
+    TransportNavigation,
     attachment_snapshot,
     imu_sample,
     mass_property_prior,
@@ -147,6 +151,7 @@ class EstimatorCore:
             self.mass_run = None
             self.pending = []  # IMU samples after the capture that came before its stamp did
             self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+            self.transport_nav = None  # from the final mass-property estimate on, with a transport (module doc)
             if scenario.post_capture.start == 'attached':  # held from t = 0 (module doc)
                 self.attached = True
                 self.snapshot = attachment_snapshot(scenario)
@@ -216,6 +221,10 @@ class EstimatorCore:
         out = []
         for e in estimates:
             f = e.estimate
+            if e.final and self.scenario.post_capture.transport is not None:
+                m = self.mass_run.chaser_mass_kg
+                self.transport_nav = TransportNavigation(
+                    self.scenario, f.target_mass_kg / (m + f.target_mass_kg) * np.asarray(f.target_com_body_m))
             out.append(e)
             out.append(self._event(e.t, 'OK', 'mass_properties_estimated' if e.final else 'mass_properties_estimate',
                                    f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '
@@ -248,6 +257,8 @@ class EstimatorCore:
     def on_position(self, t, r_hill):
         """A relative-position measurement at t."""
         if self.attached:
+            if self.post_capture and self.transport_nav is not None:
+                self.transport_nav.on_position(t, r_hill)
             return []
         result = self.nav.update(t, r_hill)
         if not result.accepted:
@@ -293,7 +304,11 @@ class EstimatorCore:
         r_hill, v_hill = body_point_state(c_hill_from_body, a.omega_body, self.snapshot.r_chaser_body,
                                           self.scenario.mean_motion_rad_s)
         r_hill = r_hill + self.snapshot.r_target_hill
-        out = [ChaserEstimate(a.t, r_hill, v_hill, self.capture_covariance, a.q_hill_from_body, a.omega_body,
+        covariance = self.capture_covariance
+        navigated = None if self.transport_nav is None else self.transport_nav.on_imu(t, a, specific_force_body)
+        if navigated is not None:
+            r_hill, v_hill, covariance = navigated
+        out = [ChaserEstimate(a.t, r_hill, v_hill, covariance, a.q_hill_from_body, a.omega_body,
                               a.attitude_covariance_hill, a.rate_covariance)]
         if specific_force_body is None:
             return out

@@ -685,6 +685,15 @@ class MassPropertyFilter(FilterBase):
             y[N_NOM:].reshape(-1, 3).copy())
 
 
+def defined_axes(principal_moments_kg_m2, rel_tol=1e-9):
+    """(3,) bool: the principal axes a body's moments define, those whose moment differs from both others (by more
+    than rel_tol of the largest); about two equal moments (a body symmetric about the third axis, seed 004's cylinder)
+    any pair of perpendicular axes in their plane is principal."""
+    m = np.asarray(principal_moments_kg_m2, dtype=float)
+    gaps = np.where(np.eye(3, dtype=bool), np.inf, np.abs(m[:, None] - m[None, :]))
+    return gaps.min(axis=1) > rel_tol * float(np.max(np.abs(m)))
+
+
 def principal_axis_errors_rad(q_body_from_principal_est, q_body_from_principal_true):
     """Angle [rad] between each estimated and true principal axis (3,), the axes' signs ignored (an axis is a
     line). Where two true moments are equal only the third axis is defined: the caller picks which to read."""

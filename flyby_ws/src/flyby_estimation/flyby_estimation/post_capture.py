@@ -43,7 +43,10 @@ from flyby_estimation.mass_properties import (
     j_from_moments,
 )
 from flyby_estimation.mass_properties_excitation import excitation_firings, thruster_firings
+from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
+from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
+from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.orbital import q_eci_from_body
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
@@ -51,6 +54,8 @@ from flyby_sim.dynamics.rotation import (
     quat_from_rotation_vector,
     quat_multiply,
     quat_rotate,
+    quat_to_matrix,
+    skew,
 )
 
 PUBLISH_EVERY = 10  # IMU samples between two published estimates (1 s at 10 Hz)
@@ -243,3 +248,61 @@ class MassEstimationRun:
         attitude_sigma = max(math.radians(imu.star_tracker_sigma_deg), 1e-6)
         return MassPropertyFilter(config, self.prior, s.t, np.zeros(3), np.zeros(3), s.q_eci_from_body, s.omega_body,
                                   (*_STATE_SIGMAS, attitude_sigma, _RATE_SIGMA_RAD_S), firings)
+
+
+class TransportNavigation:
+    """The combined body's translation in TRANSPORT (issue 17; seed 004 §2.2's x, v with its GPS read as the relative
+    position sensor): a ``RelativeNavFilter`` on the combined CoM, r_cm = r_chaser + C c with c the combined CoM from
+    the chaser's (the mass-property estimate's M/(m + M) X_s), driven by the accelerometer at the chaser less the
+    body's rotation there (seed 004 §2.2: f = a_cm + omega_dot x p + omega x (omega x p), p = -c, omega and omega_dot
+    from the attitude filter's rate), and updated by the relative position of the chaser's CoM at the same stamp.
+    Its velocity prior covers the drift the excitation left (a few cm/s)."""
+
+    VELOCITY_SIGMA_MPS = 0.05
+
+    def __init__(self, scenario, com_body_m):
+        self.com_body_m = np.asarray(com_body_m, dtype=float)
+        self.filter = RelativeNavFilter(relative_nav_config_from_scenario(
+            scenario, initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS, thrusters=None, chaser_mass_kg=None))
+        self.accel_sigma_mps2 = scenario.sensors.chaser_imu.accel_noise_sigma_mps2
+        self.n = scenario.mean_motion_rad_s
+        self.positions = StampedBuffer(8)  # relative positions of the chaser's CoM waiting for their IMU sample
+        self.last = None  # (t, omega_body) of the previous IMU sample
+
+    def on_position(self, t, r_chaser_hill):
+        self.positions.add(t, np.asarray(r_chaser_hill, dtype=float))
+
+    def on_imu(self, t, estimate, specific_force_body):
+        """One IMU sample: the attitude filter's estimate (``ChaserAttitudeEstimate``) and the accelerometer's mean
+        specific force since the previous sample [m/s^2, chaser_body] (or None); returns (r_hill, v_hill, covariance)
+        of the chaser's CoM, or None before the filter starts."""
+        c_hill = quat_to_matrix(estimate.q_hill_from_body)
+        p = -self.com_body_m
+        last, self.last = self.last, (t, np.asarray(estimate.omega_body, dtype=float))
+        f = self.filter
+        if f.initialized and last is not None and specific_force_body is not None:
+            dt = t - last[0]
+            omega = self.last[1]
+            omega_dot = (omega - last[1]) / dt
+            a_cm = np.asarray(specific_force_body, dtype=float) - np.cross(omega_dot, p) - np.cross(
+                omega, np.cross(omega, p))
+            dv_hill = c_hill @ a_cm * dt
+            dv_cross = skew(dv_hill)
+            cov = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
+                   + dv_cross @ estimate.attitude_covariance_hill @ dv_cross.T)
+            f.propagate_to(t)
+            f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
+        r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)  # the chaser's CoM from the combined
+        measured = self.positions.last_at_or_before(t + STAMP_TOLERANCE_S)
+        if measured is not None and abs(measured[0] - t) <= STAMP_TOLERANCE_S:
+            r_cm = measured[1] - r_point
+            if not f.initialized:
+                f.initialize(t, r_cm)
+            else:
+                f.update(t, r_cm)
+        if not f.initialized:
+            return None
+        if f.t < t:
+            f.propagate_to(t)
+        s = f.state()
+        return s.r_hill + r_point, s.v_hill + v_point, s.covariance

@@ -265,3 +265,13 @@ def test_graded_sequences_start_small_at_no_more_impulse():
     assert total_impulse_n_s(chosen) <= total_impulse_n_s(table1_firings())
     assert max(f.t_start_s + f.duration_s for f in chosen) <= 30.0
     assert max(f.impulse_n_s for f in chosen[:3]) <= 0.1 * min(f.impulse_n_s for f in chosen[3:]) + 1e-12
+
+
+def test_seed004_cylinder_defines_only_its_symmetry_axis():
+    """Seed 004 §3.1's material satellite, a uniform cylinder (2, 1.5, 1.5) kg m^2: any pair of perpendicular axes
+    about its symmetry axis is principal, so only the symmetry axis is defined; three distinct moments define all."""
+    from flyby_estimation.mass_properties import defined_axes
+
+    assert defined_axes((1.5, 1.5, 2.0)).tolist() == [False, False, True]
+    assert defined_axes((1000.0, 1200.0, 2000.0)).tolist() == [True, True, True]
+    assert defined_axes((3.0, 3.0, 3.0)).tolist() == [False, False, False]

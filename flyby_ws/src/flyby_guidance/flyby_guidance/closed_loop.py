@@ -181,6 +181,9 @@ class HeadlessGraph:
             if out.phase_to == c.PHASE_CAPTURE:
                 self.plant.capture()
                 self._publish_plant_events()
+            if out.phase_to == c.PHASE_TRANSPORT:
+                self.plant.start_transport()
+                self._publish_plant_events()
         elif isinstance(out, TargetEstimate):  # estimation/target/odom
             args = (wire_time(out.t), out.q_hill_from_body, out.omega_body)
             blocks = (out.attitude_covariance_hill, out.rate_covariance_body)  # as the planner and guidance nodes read

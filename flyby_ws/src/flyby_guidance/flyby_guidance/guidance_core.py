@@ -42,7 +42,9 @@ chaser drifts off); from the simulator's ``grasp_damped`` (the arm locked) every
 estimate stamped at or after its stamp (from t = 0 in a run that starts attached, which skips the damping) gets the
 damping law's command, then the excitation's, each applied one
 control period later (the simulator holds time for them as before the capture). The estimates that come before
-that event are kept until it does (the topics race), so the commands are the same at any pace.
+that event are kept until it does (the topics race), so the commands are the same at any pace. With a transport
+(issue 17, ``transport_control.TransportControl``) the estimates stamped from the end of the estimation's window on
+wait likewise for the estimator's ``mass_properties_estimated``, which starts TRANSPORT.
 
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
@@ -60,6 +62,7 @@ from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceC
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
 from flyby_guidance.post_capture import (
     DampingGains,
+    PostCaptureCommand,
     PostCaptureConfig,
     PostCaptureControl,
     inertia_upper_bound,
@@ -70,6 +73,11 @@ from flyby_guidance.tracking import (
     TrackingConfig,
     tracking_acceleration,
     tracking_config_from_scenario,
+)
+from flyby_guidance.transport_control import (
+    TransportControl,
+    transport_body,
+    transport_guidance_config_from_scenario,
 )
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
@@ -183,7 +191,13 @@ class GuidanceCore:
                 self.t_locked = 0.0
                 self.post_distance_m = float(np.linalg.norm(scenario.post_capture.attachment.target_com_chaser_body_m))
             self.post_released = False  # the arm let go (grasp_released)
-            self.post_waiting = collections.deque()  # (t, r_hill, q_hill_from_body, omega_body) not yet commanded
+            self.transport = None  # TRANSPORT after the estimation (issue 17, transport_control)
+            if scenario.post_capture.transport is not None:
+                self.transport = TransportControl(transport_guidance_config_from_scenario(
+                    scenario, self.attitude.config.control_period_s), self.n, self.post.config.gains,
+                    float(self.attitude.wheels.max_torque_n_m.min()))
+            # (t, r_hill, v_hill, q_hill_from_body, omega_body) not yet commanded
+            self.post_waiting = collections.deque()
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
         self.next_reference = None  # a re-planned one, flown from its start
         self.replan_asked = False
@@ -256,6 +270,12 @@ class GuidanceCore:
         if event.name == 'grasp_released':
             self.post_released = True  # the plant takes no command after the arm let go: the chaser drifts off
             self.post_waiting.clear()
+        if event.name == 'mass_properties_estimated' and self.transport is not None \
+                and self.transport.t_start is None:
+            tr = self.scenario.post_capture.transport
+            self.transport.start(event.t, transport_body(event.values, self.mass_kg, self.scenario.chaser_inertia,
+                                                         self.layout, tr.plume_cone_deg))
+            return self._post_commands()
         return []
 
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
@@ -264,7 +284,7 @@ class GuidanceCore:
         if self.post is not None and self.post_released:
             return []
         if self.post is not None and (self.t_locked is not None or self.phase in _ATTACHED_PHASES):
-            self.post_waiting.append((t, r_hill, np.asarray(q_hill_from_body, dtype=float),
+            self.post_waiting.append((t, r_hill, v_hill, np.asarray(q_hill_from_body, dtype=float),
                                       np.asarray(omega_body, dtype=float)))
             return self._post_commands()
         self.waiting.append((t, r_hill, v_hill))
@@ -305,12 +325,22 @@ class GuidanceCore:
                 h_max = self.attitude.wheels.max_momentum_n_m_s
                 self.h_wheels_n_m_s = np.clip(self.h_wheels_n_m_s, -h_max, h_max)
 
+    def _waits_for_transport(self, t):
+        """True for an estimate stamped at or after the mass-property estimate's end (the excitation's start plus its
+        window) while TRANSPORT has not started: its command depends on that estimate."""
+        if self.transport is None or self.transport.t_start is not None or self.post.t_excitation is None:
+            return False
+        return t >= self.post.t_excitation + self.post.config.window_s - STAMP_TOLERANCE_S
+
     def _post_commands(self):
         """The commands of the chaser estimates after the capture, from the arm's lock on (module doc)."""
         out = []
         while self.post is not None and self.t_locked is not None and self.post_waiting \
                 and self.phase != c.PHASE_COMPLETE:
-            t, r_hill, q_hill_from_body, omega_body = self.post_waiting.popleft()
+            t, r_hill, v_hill, q_hill_from_body, omega_body = self.post_waiting[0]
+            if self._waits_for_transport(t):
+                break  # the estimator's final estimate, stamped at this estimate's, is still on its way
+            self.post_waiting.popleft()
             if t < self.t_locked - STAMP_TOLERANCE_S:
                 continue  # the arm's impedance had it
             self._account_wheels(t)
@@ -325,6 +355,10 @@ class GuidanceCore:
                                         float(np.linalg.norm(r_hill)) if self.post_distance_m is None
                                         else self.post_distance_m)
             cmd = self.post.command(t, omega_body, axes @ self.h_wheels_n_m_s, axes @ h_settled, bound)
+            if self.transport is not None and self.transport.t_start is not None \
+                    and t >= self.transport.t_start - STAMP_TOLERANCE_S:
+                cmd = PostCaptureCommand(*self.transport.command(t, r_hill, v_hill, q_hill_from_body, omega_body,
+                                                                 axes @ self.h_wheels_n_m_s))
             wheel_torque = np.linalg.pinv(axes) @ cmd.wheel_torque_body_n_m
             self.wheel_commands.append((t + period_s, wheel_torque))
             out.append(AttitudeCommandStamped(t + period_s, period_s, wheel_torque, cmd.torque_body_n_m,

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from flyby_estimation.mass_properties import principal_axis_errors_rad
+from flyby_estimation.mass_properties import defined_axes, principal_axis_errors_rad
 from flyby_estimation.post_capture import principal_axes
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
@@ -39,6 +39,10 @@ POST_CAPTURE_KEYS = ('final_angular_momentum_kg_m2_s', 'peak_grasp_force_n', 'pe
                      'target_mass_estimate_kg', 'target_com_estimate_m', 'target_principal_moments_estimate_kg_m2',
                      'target_principal_axes_estimate_q', 'target_mass_error_pct', 'target_com_error_m',
                      'target_principal_moments_error_pct', 'target_principal_axes_error_deg')
+# With a transport (post_capture.transport, DESIGN §10, issue 17): the keys transport_figures adds.
+TRANSPORT_KEYS = ('transport_goal_hill_m', 'transport_final_position_error_m', 'transport_orbital_momentum_error_n_m_s',
+                  'transport_final_angular_momentum_kg_m2_s', 'transport_conditions_met', 'transport_fuel_kg',
+                  'transport_impulses', 'transport_time_s', 'transport_replans')
 
 
 class ChaserTruth(NamedTuple):
@@ -437,7 +441,50 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
                target_principal_moments_error_pct=100.0 * float(np.max(np.abs(
                    np.asarray(values['principal_moments_kg_m2']) / moments - 1.0))),
                target_principal_axes_error_deg=math.degrees(float(np.max(principal_axis_errors_rad(
-                   np.asarray(values['principal_axes_q']), q_true)))))
+                   np.asarray(values['principal_axes_q']), q_true)[defined_axes(moments)], initial=0.0))))
+    return out
+
+
+def transport_figures(chaser, target, wheels, thrust, events, scenario):
+    """TRANSPORT (issue 17, seed 004 §3.2), from the truth at guidance's ``transport_complete`` (the run's end
+    without it): the combined CoM's distance from the goal, its linear momentum relative to the goal's circular
+    motion (the goal fixed in hill: (m + M) |v_hill| of the CoM) [N s, DESIGN §10's ..._n_m_s key, docs/transport.md],
+    the angular momentum about it (wheels included), whether the three rendezvous conditions hold; the fuel, the
+    number of impulses (runs of consecutive firing steps) and the time from the start of TRANSPORT to the planned
+    arrival; None where TRANSPORT did not run."""
+    tr = scenario.post_capture.transport
+    out = dict.fromkeys(TRANSPORT_KEYS)
+    out['transport_goal_hill_m'] = list(map(float, tr.goal_hill_m))
+    t_start = phase_start(events, c.PHASE_TRANSPORT)
+    if t_start is None or chaser is None or target is None or chaser.angular is None or target.position is None:
+        return out
+    done = [e for e in events if e['name'] == 'transport_complete']
+    common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario)
+    t_end = float(done[-1]['t']) if done else float(common[-1])
+    k = max(int(np.searchsorted(common, t_end + 1e-9)) - 1, 0)
+    pair = bodies(k)
+    mass = sum(b.mass_kg for b in pair)
+    r_cm = sum(b.mass_kg * b.r_m for b in pair) / mass
+    n = scenario.mean_motion_rad_s
+    v_cm = sum(b.mass_kg * b.v_mps for b in pair) / mass - np.cross((0.0, -n, 0.0), r_cm)  # relative to hill
+    miss = float(np.linalg.norm(r_cm - np.asarray(tr.goal_hill_m)))
+    momentum = mass * float(np.linalg.norm(v_cm))
+    h = angular_momentum_about_com(pair)
+    out.update(transport_final_position_error_m=miss, transport_orbital_momentum_error_n_m_s=momentum,
+               transport_final_angular_momentum_kg_m2_s=h,
+               transport_conditions_met=bool(done) and h < tr.max_angular_momentum_kg_m2_s
+               and miss < tr.max_position_error_m and momentum < tr.max_momentum_error_n_s,
+               transport_replans=sum(1 for e in events if e['name'] == 'transport_replanned'))
+    planned = [e for e in events if e['name'] == 'transport_planned']
+    if planned:
+        out['transport_time_s'] = float(planned[0]['values']['t_arrival_s']) - t_start
+    if thrust is not None and len(thrust.t) > 1:
+        steps = _fuel_steps(thrust, scenario)
+        t_step = thrust.t[1:]
+        window = (t_step > t_start + 1e-9) & (t_step <= t_end + 1e-9)
+        out['transport_fuel_kg'] = float(np.sum(steps[window]))
+        firing = steps[window] > 0.0
+        out['transport_impulses'] = int(np.sum(firing[1:] & ~firing[:-1]) + (1 if len(firing) and firing[0] else 0))
     return out
 
 
@@ -553,6 +600,9 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     sync = sync_figures(chaser, target if has_target else None, approach, events, t_g) if has_chaser else {}
     post = {} if scenario.post_capture is None else post_capture_figures(
         chaser if has_chaser else None, target if has_target else None, wheels, thrust, events, scenario)
+    if scenario.post_capture is not None and scenario.post_capture.transport is not None:
+        post.update(transport_figures(chaser if has_chaser else None, target if has_target else None, wheels, thrust,
+                                      events, scenario))
 
     refused = no_safe_plan_reason(events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None, held)

@@ -32,6 +32,9 @@ observable condition and carries its reason:
     GRASP             -> ESCAPE             the simulator's ``grasp_released``: beyond the arm's limits
     DAMPING           -> MASS_ESTIMATION    guidance's ``damping_complete`` (seed 000 §2.2 (6), seed 004 §3.2)
     MASS_ESTIMATION   -> COMPLETE           the estimator's ``mass_properties_estimated`` (seed 004 §2.2)
+    MASS_ESTIMATION   -> TRANSPORT          the same, with a post_capture.transport section (seed 004 §2.3)
+    TRANSPORT         -> COMPLETE           guidance's ``transport_complete`` (the conditions judged settle_s after the
+                                            arrival) or ``transport_refused`` (no plan meets them: the body is held)
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
                                             fault (ERROR event) reported by a watched node
@@ -69,6 +72,10 @@ _POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, 'captured'): c.PHASE_GRASP,
                        (c.PHASE_GRASP, 'grasp_released'): c.PHASE_ESCAPE,
                        (c.PHASE_DAMPING, 'damping_complete'): c.PHASE_MASS_ESTIMATION,
                        (c.PHASE_MASS_ESTIMATION, 'mass_properties_estimated'): c.PHASE_COMPLETE}
+# With a transport (post_capture.transport) these come first: the estimation goes on to TRANSPORT.
+_TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, 'mass_properties_estimated'): c.PHASE_TRANSPORT,
+                    (c.PHASE_TRANSPORT, 'transport_complete'): c.PHASE_COMPLETE,
+                    (c.PHASE_TRANSPORT, 'transport_refused'): c.PHASE_COMPLETE}
 # Nodes whose silence or ERROR events abort the mission: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
@@ -89,6 +96,7 @@ class SupervisorConfig:
     watched_nodes: tuple = WATCHED_NODES
     post_capture: bool = False  # the scenario's post_capture section: the capture goes on to GRASP
     start_attached: bool = False  # post_capture.start attached: the run starts in MASS_ESTIMATION (seed 004 §3.1)
+    transport: bool = False  # post_capture.transport: the estimation goes on to TRANSPORT
 
 
 def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
@@ -100,7 +108,8 @@ def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
         capture_hold_s=s.capture_hold_s,
         escape_observation_s=scenario.planner.escape_check_orbits * scenario.orbit_period_s,
         watchdog_s=s.watchdog_s, watched_nodes=tuple(watched_nodes), post_capture=scenario.post_capture is not None,
-        start_attached=scenario.post_capture is not None and scenario.post_capture.start == 'attached')
+        start_attached=scenario.post_capture is not None and scenario.post_capture.start == 'attached',
+        transport=scenario.post_capture is not None and scenario.post_capture.transport is not None)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -229,6 +238,9 @@ class PhaseMachine:
             return []
         if name == 'thrusting_ended' and self.phase == c.PHASE_TRAJECTORY_ADJUST:
             return self._go(t, c.PHASE_FLYBY, 'guidance ended thrusting: passive fly-by')
+        if self.config.transport and (self.phase, name) in _TRANSPORT_STEPS:
+            return self._go(t, _TRANSPORT_STEPS[(self.phase, name)], values.get('reason', name),
+                            {k: v for k, v in values.items() if k != 'reason'})
         if self.config.post_capture and (self.phase, name) in _POST_CAPTURE_STEPS:
             return self._go(t, _POST_CAPTURE_STEPS[(self.phase, name)], values.get('reason', name),
                             {k: v for k, v in values.items() if k != 'reason'})

@@ -323,6 +323,39 @@ def _torque_burn_wrench(model, torque_com):
     return force, np.asarray(torque_com, dtype=float) + np.cross(model.com_body_m, force)  # T_chaser = T_com + c x F
 
 
+def torque_wrench(body, config, torque_com_body_n_m):
+    """(force [N], torque about the chaser's CoM [N m]), chaser_body, of the least side force that gives
+    torque_com_body_n_m about the combined CoM with the body's thrusters (a slew's burns, guidance's detumbling), or
+    None where they cannot."""
+    return _torque_burn_wrench(_Model(body, config), np.asarray(torque_com_body_n_m, dtype=float))
+
+
+def resolve_slew(body, config, state, slew_start, slew_stop, u_hill, t_aim_s, t_arrival_s):
+    """A planned slew's burns (slew_start, slew_stop) solved again from the state (the estimate before the slew)
+    so that the push axis ends along the hill direction u_hill at t_aim_s (the push's middle) at rest: the same
+    Newton shooting on Euler's equation as the plan's (guidance flies the slew from where the body really is).
+    Returns the two new Burns; TransportRefused where it does not converge or the thrusters cannot."""
+    model = _Model(body, config)
+    p = config.period_s
+    b_body, _ = push_axis(body)
+    k_start = round(slew_start.t_start_s / p)
+    slew = _Slew(k_start, round(slew_start.duration_s / p), round((slew_stop.t_start_s + slew_stop.duration_s) / p))
+    q_eci = q_eci_from_body(state.t, model.n, quat_normalize(state.q_hill_from_body))
+    q_eci, omega = _rotate(model, config, q_eci, np.asarray(state.omega_body, dtype=float), state.t, k_start * p, ())
+    u_eci = hill_axes_in_eci(t_aim_s, model.n) @ _unit(np.asarray(u_hill, dtype=float))
+    torques, _, _, _ = _solve_slew(model, config, slew, q_eci, omega, b_body, u_eci, t_arrival_s - k_start * p)
+    burns = []
+    for old, torque in ((slew_start, torques[:3]), (slew_stop, torques[3:])):
+        wrench = _torque_burn_wrench(model, torque)
+        if wrench is None:
+            raise TransportRefused(f'the {old.purpose} torque {np.round(torque, 4).tolist()} N m about the combined '
+                                   f'CoM at {old.t_start_s:.1f} s is beyond the thrusters')
+        burns.append(old._replace(force_body_n=wrench[0], torque_body_n_m=wrench[1]))
+    return tuple(burns)
+
+
+# A slew's shooting that asks its spin-up for more than this times the slew rate has diverged.
+_DIVERGED_RATE_FACTOR = 20.0
 # A slew ends with the push axis this close to its aim [rad], and its residual rate turns it less up to the arrival.
 _AIM_RAD = 1e-9
 
@@ -427,11 +460,14 @@ def _solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s
         z, jacobian = _slew_guess(model, q_eci, omega_body, b_body, u, d, t_b - t_a - 2 * d), None
     else:  # the last solution and its Jacobian (the Newton on the impulses moves the aim a little)
         z, jacobian = start
+    rate_bound = _DIVERGED_RATE_FACTOR * max(config.slew_rate_rad_s, float(np.linalg.norm(omega_body)))
     for iteration in range(30):
         r, q, w = residual(z)
         if (np.linalg.norm(w) < omega_tol and np.linalg.norm(r[3:]) < _AIM_RAD
                 and float(quat_rotate(q, b_body) @ u) > 0.0):
             return z, q, w, jacobian
+        if float(np.linalg.norm(model.inertia_inv @ z[:3])) * d > rate_bound:  # diverging: each step costs more
+            break
         if jacobian is None or iteration % 5 == 4:  # chord steps; a fresh Jacobian if they are slow
             step = 1e-6 * max(1.0, float(np.max(np.abs(z))))
             jacobian = np.column_stack([(residual(z + step * e)[0] - r) / step for e in np.eye(6)])

@@ -315,7 +315,20 @@ class SixDofChaser:
         self._wrench_share = (0.0,) * self.layout.count
         self._reported = set()  # (event name, source...) reported once
         self._allocated = (None, None, None)  # the last wrench allocated: (force, torque, hold), Allocation, Firing
+        self._allowed = None  # indices of the thrusters wrench commands may fire (None: all; restrict_thrusters)
         self._totals = self._zero_totals()
+
+    def restrict_thrusters(self, allowed):
+        """From now on wrench commands are allocated on the thrusters where allowed ((N,) bool) is True only (a tug
+        that must not fire at what it holds, seed 004 §2.3); a wrench they cannot give is reported undelivered."""
+        allowed = np.asarray(allowed, dtype=bool)
+        if allowed.shape != (self.layout.count,) or not allowed.any():
+            raise ValueError(f'allowed must be {self.layout.count} booleans, at least one True, got {allowed!r}')
+        idx = np.flatnonzero(allowed)
+        self._allowed = (idx, ThrusterLayout(self.layout.positions_body_m[idx], self.layout.force_directions_body[idx],
+                                             self.layout.max_thrust_n[idx], self.layout.isp_s,
+                                             self.layout.min_impulse_bit_n_s))
+        self._allocated = (None, None, None)
 
     # -- state ------------------------------------------------------------------------------------
     @property
@@ -382,7 +395,7 @@ class SixDofChaser:
         if any(force) or any(torque):
             key = (force, torque, hold_s)
             if self._allocated[0] != key:  # a command repeated (a held dumping torque): no new LP
-                allocation = allocate_wrench(self.layout, force, torque)
+                allocation = self._allocate(force, torque)
                 held = fire(self.layout, allocation.thrusts_n, hold_s)  # the minimum impulse bit over the hold
                 self._allocated = (key, allocation, held)
             _, allocation, held = self._allocated
@@ -406,6 +419,16 @@ class SixDofChaser:
                                       allocation.saturated), below_minimum_impulse=np.flatnonzero(below))))
         self._wrench_queue = sorted([*self._wrench_queue, command], key=_sort_key)
         return command
+
+    def _allocate(self, force, torque):
+        """allocate_wrench on every thruster, or on the allowed ones (their thrusts put back in the layout's order)."""
+        if self._allowed is None:
+            return allocate_wrench(self.layout, force, torque)
+        idx, sub = self._allowed
+        allocation = allocate_wrench(sub, force, torque)
+        thrusts = np.zeros(self.layout.count)
+        thrusts[idx] = allocation.thrusts_n
+        return allocation._replace(thrusts_n=thrusts)
 
     def command_wheels(self, t_now, t_stamp, torque_n_m):
         """Accept wheel motor torques [N m], one per wheel, held from t_stamp [s]; returns the WheelCommand

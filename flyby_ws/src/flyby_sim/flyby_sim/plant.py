@@ -50,6 +50,7 @@ import numpy as np
 
 from flyby_msgs_py.wire import Event
 from flyby_sim.chaser_body import ImuConfig, RigidChaserConfig, SixDofChaser
+from flyby_sim.dynamics.actuators import plume_free_thrusters
 from flyby_sim.dynamics.attitude import AttitudePropagator, body_point_state, validated_inertia
 from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
@@ -96,6 +97,9 @@ class GraspConfig:
     # CoM [m] and its attitude in the chaser's, (x, y, z, w), from t = 0; None: the run starts free.
     attached_target_com_body_m: tuple = None
     q_chaser_from_target: tuple = None
+    # Transport (scenario post_capture.transport): the half-angle of the cone about the target's CoM that no
+    # thruster's exhaust may point into once TRANSPORT starts [deg]; None: no transport.
+    transport_plume_cone_deg: float = None
 
     def __post_init__(self):
         if not isinstance(self.impedance, Impedance):
@@ -269,6 +273,7 @@ class Plant:
         self._r_body_captured = None
         self._mode = 'free'  # then 'attached' (welded where it is), or 'grasp' and 'combined' or 'released'
         self._target_now = None  # (q_hill_from_body, omega_body, r_hill, v_hill) of the target after a grasp
+        self._transport_mask = None  # the thrusters allowed in TRANSPORT (start_transport)
         self._events = []
         self._measurements = []
         self._chaser = self._imu = self._body = None
@@ -485,6 +490,22 @@ class Plant:
                                   f'{props.mass_kg:.2f} kg', dict(t=self.t)))
         self._combined_state()
         self._last = self._truth_rigid(self._body.totals, self._body)
+
+    def start_transport(self):
+        """TRANSPORT (seed 004 §2.3): from now on the combined body's wrench commands fire only the thrusters whose
+        exhaust misses the target (``actuators.plume_free_thrusters`` about the true target CoM); returns their
+        (N,) mask. Idempotent."""
+        if self._mode != 'combined' or self.config.grasp.transport_plume_cone_deg is None:
+            raise ValueError(f'start_transport: needs the combined body and a transport section, mode {self._mode!r}')
+        if self._transport_mask is None:
+            self._transport_mask = plume_free_thrusters(self._body.layout, self._x_s_body,
+                                                        self.config.grasp.transport_plume_cone_deg)
+            self._body.restrict_thrusters(self._transport_mask)
+            self._events.append(Event(self.t, 'OK', 'transport_thrusters',
+                                      f'transport: thrusters {np.flatnonzero(~self._transport_mask).tolist()} '
+                                      f'blocked (exhaust at the target)',
+                                      dict(blocked=np.flatnonzero(~self._transport_mask))))
+        return self._transport_mask
 
     def _inertial_velocity(self, r_hill, v_hill):
         """The velocity in L (hill axes at the capture) of a point at r_hill moving at v_hill relative to hill."""
@@ -888,12 +909,14 @@ def plant_config_from_scenario(scenario):
 
 def grasp_config_from_scenario(scenario):
     """The GraspConfig of a validated scenario with a post_capture section."""
-    g = scenario.post_capture.grasp
-    attachment = scenario.post_capture.attachment
+    pc = scenario.post_capture
+    g = pc.grasp
+    attachment = pc.attachment
     return GraspConfig(scenario.arm_impedance, scenario.target.mass_kg, tuple(scenario.target.grasp_point_body_m),
                        g.velocity_tolerance_mps, g.rate_tolerance_rad_s, g.max_duration_s,
                        None if attachment is None else tuple(attachment.target_com_chaser_body_m),
-                       None if attachment is None else tuple(scenario.q_chaser_from_target_attached))
+                       None if attachment is None else tuple(scenario.q_chaser_from_target_attached),
+                       None if pc.transport is None else pc.transport.plume_cone_deg)
 
 
 def rigid_chaser_config_from_scenario(scenario):

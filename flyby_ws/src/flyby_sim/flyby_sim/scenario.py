@@ -533,6 +533,34 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                               'estimate at the capture); omitted: that estimate\'s own, the largest '
                                               'of its attitude covariance.'),
             }),
+            'transport': Section(desc='(optional) After the mass estimation, the combined body moved to a goal on the '
+                                      'reference orbit by the tug\'s thrusters (seed 004 sections 2.3, 3.2; '
+                                      'docs/transport.md); omitted: the run completes after the estimation',
+                                 optional=True, fields={
+                'goal_hill_m': Field(VEC3, REQUIRED, None,
+                                     'Goal of the combined body\'s CoM, hill [m] (a point fixed on the reference '
+                                     'orbit, e.g. [1000, 0, 0]: 1 km ahead on V-bar).'),
+                'transfer_time_s': Field(FLOAT, REQUIRED, '> 0', 'From the start of TRANSPORT to the arrival at the '
+                                                                 'goal.'),
+                'plume_cone_deg': Field(FLOAT, 60.0, '[0, 90)',
+                                        'A thruster whose exhaust points within this half-angle of the target\'s '
+                                        'CoM is not fired in transport (its plume would hit what the tug holds): '
+                                        'the thrusters are direction-limited.'),
+                'replan_interval_s': Field(FLOAT, 20.0, '> 0', 'Guidance predicts the plan\'s arrival again from '
+                                                               'the latest estimate this often ...'),
+                'replan_position_m': Field(FLOAT, 2.0, '> 0', '... and plans again when it misses the goal by more '
+                                                              'than this ...'),
+                'replan_momentum_n_s': Field(FLOAT, 0.005, '> 0', '... or by more than this linear momentum.'),
+                'settle_s': Field(FLOAT, 60.0, '>= 0', 'After the arrival: trims, then the conditions are judged '
+                                                       'this long after it (TRANSPORT -> COMPLETE).'),
+                'max_angular_momentum_kg_m2_s': Field(FLOAT, 0.1, '> 0', 'Rendezvous condition 1 (seed 004 '
+                                                                         'section 3.2).'),
+                'max_position_error_m': Field(FLOAT, 10.0, '> 0', 'Rendezvous condition 2.'),
+                'max_momentum_error_n_s': Field(FLOAT, 0.01, '> 0',
+                                                'Rendezvous condition 3: the paper\'s "orbital momentum" error '
+                                                '0.01 N m s read as the body\'s linear momentum relative to the '
+                                                'goal\'s circular motion, m |v_hill| [N s].'),
+            }),
         }),
 
     'simulation': Section(desc='Plant integration', fields={

@@ -474,6 +474,9 @@ class SimNode(Node):
         if phase == c.PHASE_CAPTURE:
             ch.plant.capture()
             self.publish_plant_events()
+        if phase == c.PHASE_TRANSPORT:  # before any transport firing: guidance holds its first for a plan
+            ch.plant.start_transport()
+            self.publish_plant_events()
 
     def on_flyby_target(self, ch, msg):
         """The grasp time of the plan (a re-plan moves it): the capture decision is held for there."""

@@ -525,3 +525,29 @@ def test_seed004_section31_the_run_starts_attached_as_one_rigid_body():
     np.testing.assert_allclose(quat_to_matrix(s.q_hill_from_chaser_body).T @ (s.r_target_hill - s.r_hill),
                                (0.5, 0.0, 0.0), atol=1e-9)
     assert plant.command_wrench(plant.t + 0.1, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)) is not None
+
+
+ORBIT_ADVANCE = Path(__file__).resolve().parents[4] / 'scenarios' / 'matsunaga_orbit_advance.yaml'
+
+
+def test_seed004_transport_fires_only_the_thrusters_whose_exhaust_misses_the_target():
+    """Seed 004 §2.3's direction-limited thrusters: from TRANSPORT on the TugRobot's two -x pushers (exhaust along +x,
+    at the satellite 0.5 m ahead) are blocked, so a body -x force is not delivered and none of them fires; before it
+    the same command is (the detumbling and the excitation use every thruster)."""
+    plant = Plant(plant_config_from_scenario(load_scenario(ORBIT_ADVANCE)))
+    plant.drain_events()
+    t = plant.t + 0.1
+    assert plant.command_wrench(t, (-1.0, 0.0, 0.0), (0.0, 0.0, 0.0), hold_s=0.1) is not None
+    while plant.t < t + 0.1 - 1e-9:
+        s = plant.step()
+    assert s.thruster_thrust_n[[2, 3]].sum() > 0.0 and not plant.drain_events()
+    mask = plant.start_transport()
+    assert np.flatnonzero(~mask).tolist() == [2, 3]
+    assert [e.name for e in plant.drain_events()] == ['transport_thrusters']
+    t = plant.t + 0.1
+    plant.command_wrench(t, (-1.0, 0.0, 0.0), (0.0, 0.0, 0.0), hold_s=0.1)
+    assert [e.name for e in plant.drain_events()] == ['wrench_undelivered']
+    while plant.t < t + 0.1 - 1e-9:
+        s = plant.step()
+    assert s.thruster_thrust_n[[2, 3]].sum() == 0.0
+    assert np.array_equal(plant.start_transport(), mask)  # idempotent

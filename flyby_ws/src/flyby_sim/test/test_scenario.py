@@ -620,7 +620,10 @@ def test_error_post_capture_keys_name_themselves(tmp_path):
          'post_capture.mass_estimation.window_s: must be in [20, 600], got 10.0'),
         (rigid(lambda p: p.update(mass_estimation={'prior_mass_sigma': 0.0})),
          'post_capture.mass_estimation.prior_mass_sigma: must be in (0, 0.5), got 0.0'),
-        (rigid(lambda p: p.update(transport={})), 'post_capture.transport: unknown key'),
+        (rigid(lambda p: p.update(transport={})), 'post_capture.transport.goal_hill_m: missing required key'),
+        (rigid(lambda p: p.update(transport={'goal_hill_m': [100.0, 0.0, 0.0], 'transfer_time_s': 600.0,
+                                             'plume_cone_deg': 90.0})),
+         'post_capture.transport.plume_cone_deg: must be in [0, 90), got 90.0'),
     ]
     for mutate, expected in cases:
         _, msg = error_of(tmp_path, mutate)

@@ -106,6 +106,18 @@ def default_thruster_layout(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_n_s=
     return ThrusterLayout(positions, directions, max_thrust_n, isp_s, min_impulse_bit_n_s)
 
 
+def plume_free_thrusters(layout, toward_body, cone_half_angle_deg):
+    """(N,) bool: the thrusters whose exhaust (opposite their force direction) stays outside a cone of the given
+    half-angle about toward_body (chaser_body: the direction to what the plume must not hit, e.g. a captured target's
+    CoM), the ones a tug may fire without impinging on what it holds (seed 004 §2.3: direction-limited thrusters)."""
+    toward = np.asarray(toward_body, dtype=float)
+    norm = float(np.linalg.norm(toward))
+    if toward.shape != (3,) or not math.isfinite(norm) or norm == 0.0:
+        raise ValueError(f'toward_body must be a finite nonzero 3-vector, got {toward_body!r}')
+    exhaust = -layout.force_directions_body
+    return exhaust @ (toward / norm) < math.cos(math.radians(cone_half_angle_deg))
+
+
 def is_positively_spanning(wrench_matrix_):
     """True if the columns of a (6, N) wrench matrix have rank 6 and span R^6 with non-negative weights.
 
