@@ -51,6 +51,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linprog
 
+from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.actuators import ThrusterLayout, allocate_max_force, allocate_wrench
 from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
@@ -628,15 +629,13 @@ def _aimed(q_eci, b_body, u_eci):
 
 
 def _cw_two_impulse(n, r0, v0, goal, dt_s):
-    """The CW two-impulse transfer (seed 000 eq 22) from (r0, v0) to rest at goal after dt_s: (dv1, dv2) hill."""
-    phi = cw_transition_matrix(n, dt_s)
-    phi12 = phi[:3, 3:]
+    """The CW two-impulse transfer (seed 000 eq 28-29, ``transfer.terminal_impulses``) from (r0, v0) to rest at goal
+    after dt_s: [dv1, dv2] hill; refused near CW's singular transfer times, where the impulses blow up."""
+    phi12 = cw_transition_matrix(n, dt_s)[:3, 3:]
     if np.linalg.cond(phi12) > 1e6:
         raise TransportRefused(f'the transfer time {dt_s:.1f} s is too near a multiple of the orbit period '
                                f'({2 * math.pi / n:.1f} s): the CW transfer is singular')
-    v1 = np.linalg.solve(phi12, goal - phi[:3, :3] @ r0)
-    v_end = phi[3:, :3] @ r0 + phi[3:, 3:] @ v1
-    return [v1 - v0, -v_end]
+    return list(terminal_impulses(r0, v0, goal, np.zeros(3), dt_s, n))
 
 
 def _build(model, config, b_body, force_max_n, q0_eci, omega0, t_grid_s, schedule, x, t_arr, starts):
