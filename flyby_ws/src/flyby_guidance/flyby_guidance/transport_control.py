@@ -54,6 +54,7 @@ NAV_SETTLE_S = 30.0  # the combined body's navigation converges from its first p
 DETUMBLED_S = 5.0  # the detumbling's end: the momentum bound held this long [s]
 DETUMBLE_HALVINGS = 8  # a detumbling torque beyond the thrusters is halved at most this often
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned
+DIRECT_TRIM_S = 10.0  # a direct trim nulls the velocity over this long [s]
 SLEW_RATE_DOUBLINGS = 3  # a re-plan short of time for the configured slew rate doubles it at most this often
 
 
@@ -123,6 +124,7 @@ class TransportControl:
         self.rates = collections.deque()  # (t, omega_body) over the last DETUMBLED_S
         self.carried = np.zeros(3)  # the detumbling's angular impulse not yet fired [N m s]
         self.resolved = set()  # the start times of the slews solved again from the estimate
+        self.trimming = None  # the end of a direct trim in progress [s]
         self.goal = np.asarray(config.goal_hill_m, dtype=float)
         self.body = None
         self.t_start = None
@@ -172,6 +174,8 @@ class TransportControl:
             events.append(self._complete(t, state, h_wheels))
             return zero, zero, zero, events
         wheels = self._hold(omega) if at_rest else zero
+        if self.trimming is not None:
+            return (*self._direct_trim(t, state), wheels, events)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)
@@ -359,10 +363,46 @@ class TransportControl:
             return []  # the last burns of the plan are to come
         miss = float(np.linalg.norm(state.r_hill - self.goal))
         momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))
-        if (miss <= cfg.replan_position_m and momentum <= cfg.replan_momentum_n_s) \
-                or state.t + TRIM_TIME_S > self.t_arrival + cfg.settle_s:
+        if miss <= cfg.replan_position_m and momentum <= cfg.replan_momentum_n_s:
+            return []
+        if miss <= cfg.replan_position_m and self._pure_force(-state.v_hill, state) is not None:
+            self.trimming = state.t + DIRECT_TRIM_S  # the velocity within reach: nulled at once, no slew
+            return [('OK', 'transport_trim', f'momentum {momentum:.3g} N s nulled by a pure force in '
+                                             f'{DIRECT_TRIM_S:g} s (no slew)', {'momentum_n_s': momentum})]
+        if state.t + TRIM_TIME_S > self.t_arrival + cfg.settle_s:
             return []
         return self._plan(state, state.t + TRIM_TIME_S, 'transport_trim')
+
+    def _pure_force(self, direction_hill, state):
+        """(force, torque about the chaser's CoM), body axes, of a unit-newton force along direction_hill with no
+        torque about the combined CoM, scaled to what the allowed thrusters give at the least; None where they give
+        none along it at the body's attitude."""
+        d = np.asarray(direction_hill, dtype=float)
+        if not float(np.linalg.norm(d)) > 0.0:
+            return None
+        f_body = quat_to_matrix(state.q_hill_from_body).T @ (d / float(np.linalg.norm(d)))
+        allocation = allocate_wrench(self.body.layout, f_body, np.cross(self.body.com_body_m, f_body))
+        return None if allocation.saturated else (f_body, np.cross(self.body.com_body_m, f_body))
+
+    def _direct_trim(self, t, state):
+        """The direct trim's command: the force that nulls the estimated velocity over the rest of the trim, when
+        the thrusters give it as a pure force (else nothing, and the trim ends)."""
+        p = self.config.planner.period_s
+        remaining_s = self.trimming - (t + p)
+        zero = np.zeros(3)
+        if remaining_s < 0.5 * p:
+            self.trimming = None
+            self.t_check = t + self.config.replan_interval_s
+            return zero, zero
+        force_hill = -self.body.mass_kg * state.v_hill / remaining_s
+        unit = self._pure_force(force_hill, state)
+        if unit is None:
+            self.trimming = None
+            return zero, zero
+        size = float(np.linalg.norm(force_hill))
+        if allocate_wrench(self.body.layout, size * unit[0], size * unit[1]).saturated:
+            return zero, zero  # beyond the thrusters at once: wait for the rest of the trim
+        return size * unit[0], size * unit[1]
 
     def _complete(self, t, state, h_wheels):
         momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))

@@ -543,7 +543,7 @@ def _first_push(model, config, state, goal, k0, k_arr, force_max_n):
     half_turn_s = math.pi / config.slew_rate_rad_s
     best, reason = None, None
     for t1 in np.linspace(k0 * p + half_turn_s, t_arr - half_turn_s, 400):
-        if t1 <= k0 * p:
+        if t1 <= k0 * p or t1 >= t_arr:  # a window shorter than two half-turns: linspace runs backwards
             continue
         r1, v1 = np.split(cw_transition_matrix(model.n, t1 - state.t) @ r0v0, 2)
         try:
@@ -631,6 +631,8 @@ def _aimed(q_eci, b_body, u_eci):
 def _cw_two_impulse(n, r0, v0, goal, dt_s):
     """The CW two-impulse transfer (seed 000 eq 28-29, ``transfer.terminal_impulses``) from (r0, v0) to rest at goal
     after dt_s: [dv1, dv2] hill; refused near CW's singular transfer times, where the impulses blow up."""
+    if not dt_s > 0.0:
+        raise TransportRefused(f'no time for the transfer: {dt_s:.1f} s')
     phi12 = cw_transition_matrix(n, dt_s)[:3, 3:]
     if np.linalg.cond(phi12) > 1e6:
         raise TransportRefused(f'the transfer time {dt_s:.1f} s is too near a multiple of the orbit period '

@@ -188,3 +188,11 @@ def test_plans_from_small_random_rates_attitudes_and_offsets_meet_the_conditions
     assert plan.conditions['angular_momentum_kg_m2_s'] < 0.1
     assert plan.conditions['position_error_m'] < 10.0
     assert plan.conditions['momentum_error_n_s'] < 0.01
+
+
+
+def test_a_trim_shorter_than_one_slew_is_refused_naming_the_time_not_raised():
+    """A trim of 300 s, shorter than one half-turn slew (314 s at 0.01 rad/s): the candidate first pushes run past
+    the arrival, which is a TransportRefused naming the time, not an error of the CW transfer's arithmetic."""
+    with pytest.raises(TransportRefused, match='time'):
+        plan_transport(_tugrobot_body(), _at_rest(), np.array([100.0, 0.0, 0.0]), 300.0, _CONFIG)
