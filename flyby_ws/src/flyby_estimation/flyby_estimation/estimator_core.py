@@ -62,6 +62,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_sim.dynamics.attitude import body_point_state
+from flyby_sim.dynamics.combined_body import combined_mass_properties
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_rotate, quat_to_matrix, skew
 
@@ -222,9 +223,9 @@ class EstimatorCore:
         for e in estimates:
             f = e.estimate
             if e.final and self.scenario.post_capture.transport is not None:
-                m = self.mass_run.chaser_mass_kg
-                self.transport_nav = TransportNavigation(
-                    self.scenario, f.target_mass_kg / (m + f.target_mass_kg) * np.asarray(f.target_com_body_m))
+                self.transport_nav = TransportNavigation(self.scenario, combined_mass_properties(
+                    self.mass_run.chaser_mass_kg, self.scenario.chaser_inertia, f.target_mass_kg, f.target_com_body_m,
+                    f.target_inertia_body_kg_m2).com_body_m)
             out.append(e)
             out.append(self._event(e.t, 'OK', 'mass_properties_estimated' if e.final else 'mass_properties_estimate',
                                    f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '

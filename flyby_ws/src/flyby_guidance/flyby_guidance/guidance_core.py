@@ -272,9 +272,8 @@ class GuidanceCore:
             self.post_waiting.clear()
         if event.name == 'mass_properties_estimated' and self.transport is not None \
                 and self.transport.t_start is None:
-            tr = self.scenario.post_capture.transport
             self.transport.start(event.t, transport_body(event.values, self.mass_kg, self.scenario.chaser_inertia,
-                                                         self.layout, tr.plume_cone_deg))
+                                                         self.layout, self.transport.config.plume_cone_deg))
             return self._post_commands()
         return []
 
@@ -350,15 +349,16 @@ class GuidanceCore:
             h_settled = np.clip(self.h_wheels_n_m_s + period_s * sum((u for _, u in self.wheel_commands),
                                                                       np.zeros(wheels.count)),
                                 -wheels.max_momentum_n_m_s, wheels.max_momentum_n_m_s)
-            sc = self.scenario
-            bound = inertia_upper_bound(sc.chaser_inertia, sc.target_inertia, sc.chaser.mass_kg, sc.target.mass_kg,
-                                        float(np.linalg.norm(r_hill)) if self.post_distance_m is None
-                                        else self.post_distance_m)
-            cmd = self.post.command(t, omega_body, axes @ self.h_wheels_n_m_s, axes @ h_settled, bound)
             if self.transport is not None and self.transport.t_start is not None \
-                    and t >= self.transport.t_start - STAMP_TOLERANCE_S:
+                    and t >= self.transport.t_start - STAMP_TOLERANCE_S:  # the excitation is over by then
                 cmd = PostCaptureCommand(*self.transport.command(t, r_hill, v_hill, q_hill_from_body, omega_body,
                                                                  axes @ self.h_wheels_n_m_s))
+            else:
+                sc = self.scenario
+                bound = inertia_upper_bound(sc.chaser_inertia, sc.target_inertia, sc.chaser.mass_kg,
+                                            sc.target.mass_kg, float(np.linalg.norm(r_hill))
+                                            if self.post_distance_m is None else self.post_distance_m)
+                cmd = self.post.command(t, omega_body, axes @ self.h_wheels_n_m_s, axes @ h_settled, bound)
             wheel_torque = np.linalg.pinv(axes) @ cmd.wheel_torque_body_n_m
             self.wheel_commands.append((t + period_s, wheel_torque))
             out.append(AttitudeCommandStamped(t + period_s, period_s, wheel_torque, cmd.torque_body_n_m,

@@ -17,10 +17,11 @@ Timeline, every instant a stamp (DESIGN §5):
 * each estimate at t commands the wrench of the burn that covers the control period from t + period (the burns
   lie on that grid); where the plan has the body at rest (outside its slews) the wheels damp the rate its burns
   left (the estimated mass properties are not the true ones: an open-loop slew stops a little off); there, every
-  ``replan_interval_s`` the rest of the plan is propagated from the estimate and a miss of the goal by more than
-  ``replan_position_m`` or of the momentum by more than ``replan_momentum_n_s`` plans again to the same arrival
-  (``transport_replanned``); after the arrival the same check trims the body onto the goal with a short plan of
-  ``TRIM_TIME_S``;
+  ``replan_interval_s`` from the end of the first push on, the rest of the plan is propagated from the estimate and
+  a miss of the goal by more than ``replan_position_m`` plans again to the same arrival (``transport_replanned``);
+  after the arrival an estimate off the goal by more than ``replan_position_m`` or ``replan_momentum_n_s`` is
+  trimmed (``transport_trim``): a velocity the allowed thrusters reach as a pure force at once, else by a short plan
+  of ``TRIM_TIME_S``;
 * ``settle_s`` after the arrival, ``transport_complete`` with the estimated conditions (the summary judges them
   from the truth).
 """
@@ -43,7 +44,7 @@ from flyby_planner.transport import (
     resolve_slew,
     torque_wrench,
 )
-from flyby_sim.dynamics.actuators import ThrusterLayout, allocate_wrench, plume_free_thrusters
+from flyby_sim.dynamics.actuators import allocate_wrench, plume_free_thrusters
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.orbital import cw_transition_matrix
@@ -70,10 +71,8 @@ def transport_body(values, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_c
     x_s = number('com_body_m')
     inertia_target = inertia_from_principal(number('principal_moments_kg_m2'), number('principal_axes_q'))
     props = combined_mass_properties(chaser_mass_kg, chaser_inertia_kg_m2, target_mass, x_s, inertia_target)
-    allowed = plume_free_thrusters(layout, x_s, plume_cone_deg)
-    sub = ThrusterLayout(layout.positions_body_m[allowed], layout.force_directions_body[allowed],
-                         layout.max_thrust_n[allowed], layout.isp_s, layout.min_impulse_bit_n_s)
-    return TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2, sub)
+    return TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
+                         layout.subset(plume_free_thrusters(layout, x_s, plume_cone_deg)))
 
 
 def com_state(body, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, n):
@@ -111,8 +110,9 @@ def transport_guidance_config_from_scenario(scenario, period_s):
 
 class TransportControl:
     """Guidance's rules in TRANSPORT (module doc): ``start`` at the final mass-property estimate, then ``command`` at
-    every chaser estimate stamped from it on; each returns (force_body_n, torque_body_n_m, events) for the control
-    period that starts one period after the estimate's stamp (torque about the chaser's CoM, DESIGN §10)."""
+    every chaser estimate stamped from it on; each returns (force_body_n, torque_body_n_m, wheel_torque_body_n_m,
+    events) for the control period that starts one period after the estimate's stamp (torque about the chaser's CoM,
+    DESIGN §10)."""
 
     def __init__(self, config, n, gains, wheel_max_torque_n_m):
         """gains: the capture's DampingGains (the detumbling and, its wheel gain, the rest hold)."""
@@ -133,7 +133,6 @@ class TransportControl:
         self.plan_start = None  # the TransportState the plan was made from
         self.t_check = None
         self.done = False
-        self.burns_flown = 0
 
     def start(self, t_event, body):
         """TRANSPORT from the final estimate stamped t_event [s], for the TransportBody of that estimate."""
@@ -270,7 +269,7 @@ class TransportControl:
         mean = np.mean([w for _, w in self.rates], axis=0)
         momentum = float(np.linalg.norm(self.body.inertia_body_kg_m2 @ mean + h_wheels))
         bound = 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
-        if momentum < bound and t - self.rates[0][0] >= DETUMBLED_S - 0.2 - 1e-9 and t - self.t_start >= DETUMBLED_S:
+        if momentum < bound and t - self.t_start >= DETUMBLED_S:  # the mean over a whole window
             self.t_detumbled = t
             return np.zeros(3), np.zeros(3), np.zeros(3), [(
                 'OK', 'transport_detumbled', f'the combined body detumbled for the transport after '
@@ -330,14 +329,14 @@ class TransportControl:
         """plan_transport, and where the slews at the configured rate leave too little time, again with the rate
         doubled (at most SLEW_RATE_DOUBLINGS times): a correction late in the transfer turns faster."""
         planner = self.config.planner
-        for k in range(SLEW_RATE_DOUBLINGS + 1):
+        for _ in range(SLEW_RATE_DOUBLINGS):
             try:
                 return plan_transport(self.body, start, self.goal, t_arrival, planner)
             except TransportRefused as err:
-                if k == SLEW_RATE_DOUBLINGS or not err.reason.startswith('too little time'):
+                if not err.reason.startswith('too little time'):
                     raise
                 planner = dataclasses.replace(planner, slew_rate_rad_s=2.0 * planner.slew_rate_rad_s)
-        raise AssertionError('unreachable')
+        return plan_transport(self.body, start, self.goal, t_arrival, planner)
 
     def _check(self, state):
         """Before the arrival, from the end of the first push on: the rest of the plan predicted from the estimate,
@@ -374,9 +373,8 @@ class TransportControl:
         return self._plan(state, state.t + TRIM_TIME_S, 'transport_trim')
 
     def _pure_force(self, direction_hill, state):
-        """(force, torque about the chaser's CoM), body axes, of a unit-newton force along direction_hill with no
-        torque about the combined CoM, scaled to what the allowed thrusters give at the least; None where they give
-        none along it at the body's attitude."""
+        """(force, torque about the chaser's CoM), body axes, of a one-newton force along direction_hill with no
+        torque about the combined CoM; None where the allowed thrusters cannot give it at the body's attitude."""
         d = np.asarray(direction_hill, dtype=float)
         if not float(np.linalg.norm(d)) > 0.0:
             return None

@@ -324,10 +324,7 @@ class SixDofChaser:
         allowed = np.asarray(allowed, dtype=bool)
         if allowed.shape != (self.layout.count,) or not allowed.any():
             raise ValueError(f'allowed must be {self.layout.count} booleans, at least one True, got {allowed!r}')
-        idx = np.flatnonzero(allowed)
-        self._allowed = (idx, ThrusterLayout(self.layout.positions_body_m[idx], self.layout.force_directions_body[idx],
-                                             self.layout.max_thrust_n[idx], self.layout.isp_s,
-                                             self.layout.min_impulse_bit_n_s))
+        self._allowed = (np.flatnonzero(allowed), self.layout.subset(allowed))
         self._allocated = (None, None, None)
 
     # -- state ------------------------------------------------------------------------------------

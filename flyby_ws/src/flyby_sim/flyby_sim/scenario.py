@@ -549,8 +549,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                 'replan_interval_s': Field(FLOAT, 20.0, '> 0', 'Guidance predicts the plan\'s arrival again from '
                                                                'the latest estimate this often ...'),
                 'replan_position_m': Field(FLOAT, 2.0, '> 0', '... and plans again when it misses the goal by more '
-                                                              'than this ...'),
-                'replan_momentum_n_s': Field(FLOAT, 0.005, '> 0', '... or by more than this linear momentum.'),
+                                                              'than this; after the arrival it trims an estimate off '
+                                                              'the goal by more than this ...'),
+                'replan_momentum_n_s': Field(FLOAT, 0.005, '> 0', '... or moving with more than this linear momentum.'),
                 'settle_s': Field(FLOAT, 60.0, '>= 0', 'After the arrival: trims, then the conditions are judged '
                                                        'this long after it (TRANSPORT -> COMPLETE).'),
                 'max_angular_momentum_kg_m2_s': Field(FLOAT, 0.1, '> 0', 'Rendezvous condition 1 (seed 004 '

@@ -79,6 +79,11 @@ class ThrusterLayout:
         """Isp g0 [m/s]."""
         return self.isp_s * STANDARD_GRAVITY_M_S2
 
+    def subset(self, allowed):
+        """The ThrusterLayout of the thrusters where allowed ((N,) bool) is True, in the same order."""
+        return ThrusterLayout(self.positions_body_m[allowed], self.force_directions_body[allowed],
+                              self.max_thrust_n[allowed], self.isp_s, self.min_impulse_bit_n_s)
+
 
 def wrench_matrix(positions_body_m, force_directions_body):
     """B (6, N) of thrusters at positions_body_m (N, 3) pushing along unit force_directions_body (N, 3)."""
