@@ -23,12 +23,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 TRUTH = ['/sim/chaser/odom', '/sim/target/odom']
+EVENTS = c.absolute(c.MISSION_EVENTS)
 
 
 def run(scenario, out, rtf, *extra):
@@ -42,6 +44,23 @@ def run(scenario, out, rtf, *extra):
     return json.loads((out / 'summary.json').read_text()), wall
 
 
+def truth_identical(run_a, run_b):
+    """Whether two runs' truth (chaser and target odometry) is bit-identical up to the stamp of the supervisor's
+    change to the final phase (the mission's end, the same in both when they agree); past it the simulator steps on
+    until the launcher stops it, a wall-clock matter. Returns (identical, that stamp, each run's tail in s)."""
+    a, b = (read_bag(d / 'bag', topics=TRUTH + [EVENTS]) for d in (run_a, run_b))
+    ends = [max(e['t'] for e in bag[EVENTS] if e['name'] == 'phase_changed') for bag in (a, b)]
+    if ends[0] != ends[1]:
+        return False, ends, None
+    t_end, same = ends[0], True
+    for topic in TRUTH:
+        ka, kb = (int(np.searchsorted(bag[topic].t, t_end, side='right')) for bag in (a, b))
+        same = same and ka == kb and all(np.array_equal(getattr(a[topic], f)[:ka], getattr(b[topic], f)[:kb])
+                                         for f in ('t', 'position', 'linear', 'orientation_xyzw', 'angular'))
+    tails = [round(float(bag[TRUTH[0]].t[-1]) - t_end, 3) for bag in (a, b)]
+    return same, t_end, tails
+
+
 def plant_step_cost_us(scenario_path, steps=20000):
     plant = Plant(plant_config_from_scenario(load_scenario(scenario_path)))
     t0 = time.perf_counter()
@@ -53,7 +72,6 @@ def plant_step_cost_us(scenario_path, steps=20000):
 def codec_costs_us(n=2000):
     """Per-message cost [us] of the hot path's Odometry: built as a Python message, built as CDR bytes, read
     from CDR bytes (flyby_msgs_py.convert); best of five repeats."""
-    from flyby_msgs_py import contract as c
     from flyby_msgs_py import convert
     p, q, v, w = (1.0, 2.0, 3.0), (0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     raw = convert.odometry_cdr(12.35, c.FRAME_HILL, c.FRAME_CHASER_BODY, p, q, v, w)
@@ -90,14 +108,12 @@ def main():
                   f'summary real_time_factor {summary["real_time_factor"]:.1f}x')
         if args.compare_rtf:
             slow, slow_wall = run(scenario, tmp / 'paced', args.compare_rtf)
-            a = read_bag(tmp / 'max' / 'bag', topics=TRUTH)
-            b = read_bag(tmp / 'paced' / 'bag', topics=TRUTH)
-            same = all(np.array_equal(getattr(a[t], f), getattr(b[t], f)) for t in TRUTH
-                       for f in ('t', 'position', 'linear', 'orientation_xyzw', 'angular'))
+            same, t_end, tails = truth_identical(tmp / 'max', tmp / 'paced')
             errors = [(s['capture_position_error_m'], s['capture_velocity_error_mps']) for s in (summary, slow)]
-            print(f'paced at {args.compare_rtf}x: {slow_wall:.1f} s wall; the whole truth identical to the '
-                  f'full-speed run: {same}; capture errors (m, m/s) full speed {errors[0]}, paced {errors[1]}')
-
+            print(f'paced at {args.compare_rtf}x: {slow_wall:.1f} s wall; the whole truth to the mission\'s end '
+                  f'({t_end} s, the final phase\'s stamp) identical to the full-speed run: {same} (after it, '
+                  f'until the launcher stopped the simulator: {tails[0]} and {tails[1]} s); capture errors (m, m/s) '
+                  f'full speed {errors[0]}, paced {errors[1]}')
 
 if __name__ == '__main__':
     main()
