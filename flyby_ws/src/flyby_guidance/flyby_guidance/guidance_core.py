@@ -376,7 +376,7 @@ class GuidanceCore:
             return None
         period_s = self.attitude.config.control_period_s
         cmd = self.sync.command(t, t + period_s, period_s, r_hill, v_hill, q_hill_from_body, omega_body,
-                                (target[0], target[1][0], target[1][1]))
+                                (target[0], *target[1]))
         if cmd is None:
             return None
         events = [self._event(t, level, name, message, values) for level, name, message, values in cmd.events]

@@ -11,7 +11,11 @@ principal spin: its rate moves in the body, so the prediction integrates Euler's
   the port; chosen at the stage's start as the smallest rotation from the chaser's relative orientation then), its
   rate and acceleration the target's:
   ``attitude_control``'s tracking law on the wheels (seed 001 eq 3 with the wheels' momentum). Done when the
-  estimated relative attitude and rate errors stay within their tolerances for ``settle_s``; not done within
+  estimated relative attitude and rate errors stay within their tolerances for ``settle_s``: the configured ones
+  added in quadrature to the target estimate's own 3 sigma (the largest eigenvalue of its published attitude and
+  rate covariance; the goal is that estimate, which moves by its error from sample to sample, and the chaser cannot
+  sit closer to it than that: 0.3 deg and 0.07 deg/s for a 25 deg/s tumbler seen with 1.8 deg of vision noise,
+  1.1 deg and 0.5 deg/s for a spin about the intermediate axis); not done within
   ``attitude_sync_max_s`` of the arrival, a fault (ERROR ``attitude_sync_timeout``: the supervisor aborts) and the
   retreat (a target estimated too coarsely to synchronize with holds the station for nothing);
 * stage 3, orbiting (``ORBITING``): the same hold for ``orbiting_fraction`` of a rotation cycle 2 pi / |omega|
@@ -174,6 +178,18 @@ def sync_goal(q_hill_from_target, omega_target_body, omega_dot_target_body, q_ta
                         quat_rotate(q_hill_from_target, -np.asarray(u_body, dtype=float)), 0.0)
 
 
+def settling_tolerances(config, covariance):
+    """(attitude [rad], rate [rad/s]) tolerances of stage 2's end (module doc): config's added in quadrature to
+    the 3 sigma of the target estimate's covariance, (attitude [rad^2], rate [rad^2/s^2]) 3x3 blocks in any axes
+    (their largest eigenvalue); config's alone without one."""
+    if covariance is None:
+        return config.attitude_tolerance_rad, config.rate_tolerance_rad_s
+    three_sigma = [3.0 * math.sqrt(max(float(np.linalg.eigvalsh(np.asarray(p, dtype=float))[-1]), 0.0))
+                   for p in covariance]
+    return (math.hypot(config.attitude_tolerance_rad, three_sigma[0]),
+            math.hypot(config.rate_tolerance_rad_s, three_sigma[1]))
+
+
 def attitude_errors(goal, q_hill_from_chaser, omega_chaser_body):
     """(relative attitude error [rad], rate error [rad/s]) of the chaser against a PointingGoal."""
     angle = float(np.linalg.norm(rotation_vector_from_quat(
@@ -229,7 +245,8 @@ class SyncGuidance:
     def command(self, t, t_apply, hold_s, r_hill, v_hill, q_hill_from_chaser, omega_chaser_body, target):
         """SyncCommand for the estimate of t applied over [t_apply, t_apply + hold_s], or None in stage 1 before the
         arrival (the trajectory's tracking flies it) and after the retreat. target: (t, q_hill_from_body,
-        omega_body) of the latest target estimate."""
+        omega_body, (attitude covariance [rad^2], rate covariance [rad^2/s^2]) or None) of the latest target
+        estimate."""
         if self.stage is None or self.stage == STAGE_DRIFT:
             return None
         if self.stage == STAGE_APPROACH and t_apply < self.t_arrival:
@@ -240,7 +257,7 @@ class SyncGuidance:
             events.append(('OK', 'station_reached', f'station reached at t = {self.t_arrival:.2f} s: attitude '
                                                      'synchronization', {'t_arrival_s': self.t_arrival}))
         t_mid = t_apply + 0.5 * hold_s
-        t_t, q_t, w_t = target
+        t_t, q_t, w_t, covariance = target
         prediction = prediction_from_estimate(self.dynamics, self.config.n, t_t, q_t, w_t, max(t_mid, t_t))
         now, mid = prediction.state(max(t, t_t)), prediction.state(max(t_mid, t_t))
         if self.stage == STAGE_RETREAT:
@@ -252,7 +269,7 @@ class SyncGuidance:
         w_dot_mid = euler_rate(mid.omega_body, cfg.target_inertia, np.linalg.inv(cfg.target_inertia))
         goal = sync_goal(now.q_hill_from_body, now.omega_body, w_dot_mid, self.q_target_from_goal, geo.u_body)
         if self.stage == STAGE_ATTITUDE_SYNC:
-            events += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now)
+            events += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now, covariance)
             if self.stage == STAGE_RETREAT:
                 retreat = self._retreat(t, r_hill, v_hill, now)
                 return dataclasses.replace(retreat, events=tuple(events) + retreat.events)
@@ -282,20 +299,25 @@ class SyncGuidance:
         self.peak_accel_mps2[self.stage] = max(self.peak_accel_mps2.get(self.stage, 0.0), float(np.linalg.norm(a)))
         return SyncCommand(a, goal, tuple(events))
 
-    def _check_synchronized(self, t, t_apply, q_hill_from_chaser, omega_chaser_body, now):
-        """Stage 2's end (module doc): the errors of the estimate of t against the goal of t."""
+    def _check_synchronized(self, t, t_apply, q_hill_from_chaser, omega_chaser_body, now, covariance):
+        """Stage 2's end (module doc): the errors of the estimate of t against the goal of t, within the tolerances
+        of the target estimate's covariance (settling_tolerances)."""
         cfg = self.config
         w_dot = euler_rate(now.omega_body, cfg.target_inertia, np.linalg.inv(cfg.target_inertia))
         goal_now = sync_goal(now.q_hill_from_body, now.omega_body, w_dot, self.q_target_from_goal, self.geometry.u_body)
         angle, rate = attitude_errors(goal_now, q_hill_from_chaser, omega_chaser_body)
-        if angle > cfg.attitude_tolerance_rad or rate > cfg.rate_tolerance_rad_s:
+        angle_tol, rate_tol = settling_tolerances(cfg, covariance)
+        if angle > angle_tol or rate > rate_tol:
             self.t_settled = None
             if t_apply - self.t_arrival > cfg.attitude_sync_max_s:
                 self.abort(t)
                 return [('ERROR', 'attitude_sync_timeout',
                          f'attitude not synchronized {cfg.attitude_sync_max_s:g} s after the arrival (relative '
-                         f'attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s): retreating',
-                         {'attitude_error_deg': math.degrees(angle), 'rate_error_deg_s': math.degrees(rate)})]
+                         f'attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s; tolerances '
+                         f'{math.degrees(angle_tol):.3f} deg, {math.degrees(rate_tol):.4f} deg/s): retreating',
+                         {'attitude_error_deg': math.degrees(angle), 'rate_error_deg_s': math.degrees(rate),
+                          'attitude_tolerance_deg': math.degrees(angle_tol),
+                          'rate_tolerance_deg_s': math.degrees(rate_tol)})]
             return []
         if self.t_settled is None:
             self.t_settled = t
@@ -307,9 +329,11 @@ class SyncGuidance:
         self.t_grasp = self.t_docking + cfg.docking_duration_s
         return [('OK', 'attitude_synchronized',
                  f'relative attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s for '
-                 f'{cfg.settle_s:g} s: orbiting {cfg.orbiting_fraction:g} of a {period_s:.2f} s rotation cycle, '
+                 f'{cfg.settle_s:g} s (tolerances {math.degrees(angle_tol):.3f} deg, {math.degrees(rate_tol):.4f} '
+                 f'deg/s): orbiting {cfg.orbiting_fraction:g} of a {period_s:.2f} s rotation cycle, '
                  f'docking at t = {self.t_docking:.2f} s',
                  {'attitude_error_deg': math.degrees(angle), 'rate_error_deg_s': math.degrees(rate),
+                  'attitude_tolerance_deg': math.degrees(angle_tol), 'rate_tolerance_deg_s': math.degrees(rate_tol),
                   'rotation_period_s': period_s, 't_docking_s': self.t_docking, 't_grasp_s': self.t_grasp})]
 
     def _retreat(self, t, r_hill, v_hill, now):

@@ -22,6 +22,7 @@ from flyby_guidance.sync_control import (
     docking_profile,
     hold_acceleration,
     relative_goal_orientation,
+    settling_tolerances,
     sync_goal,
 )
 from flyby_msgs_py import contract as c
@@ -295,10 +296,10 @@ def test_attitude_sync_that_never_settles_is_a_fault_and_retreats_along_the_port
     q_off = quat_from_rotation_vector((0.0, 0.0, math.radians(5.0)))
     names = []
     for t in np.arange(10.0, 69.95, 1.0):
-        cmd = sync.command(t, t, 0.1, r, v, q_off, w_target, (t, q_target, w_target))
+        cmd = sync.command(t, t, 0.1, r, v, q_off, w_target, (t, q_target, w_target, None))
         names += [e[1] for e in cmd.events]
     assert names == ['station_reached'] and sync.stage == 'attitude_sync'
-    cmd = sync.command(70.5, 70.5, 0.1, r, v, q_off, w_target, (70.5, q_target, w_target))
+    cmd = sync.command(70.5, 70.5, 0.1, r, v, q_off, w_target, (70.5, q_target, w_target, None))
     assert [e[:2] for e in cmd.events] == [('ERROR', 'attitude_sync_timeout')] and sync.stage == 'retreat'
     assert cmd.goal is None and cmd.a_hill == pytest.approx(CONFIG.accel_max_mps2 * np.array((1.0, 0.0, 0.0)))
 
@@ -312,11 +313,46 @@ def test_a_hold_far_from_its_point_is_a_fault_and_retreats_away_from_the_centre_
     near = SyncGuidance(CONFIG)
     near.arm(10.0)
     cmd = near.command(10.0, 10.0, 0.1, (5.0, 0.9, 0.0), (0.0, 1.5, 0.0), (0.0, 0.0, 0.0, 1.0), w_target,
-                       (10.0, q_target, w_target))
+                       (10.0, q_target, w_target, None))
     assert near.stage == 'attitude_sync' and cmd.goal is not None
     far = SyncGuidance(CONFIG)
     far.arm(10.0)
     r = np.array((3.0, -4.0, 0.0))  # 5 m from the centre of mass, 4.5 m from the station (5, 0, 0)
-    cmd = far.command(10.0, 10.0, 0.1, r, np.zeros(3), (0.0, 0.0, 0.0, 1.0), w_target, (10.0, q_target, w_target))
+    cmd = far.command(10.0, 10.0, 0.1, r, np.zeros(3), (0.0, 0.0, 0.0, 1.0), w_target, (10.0, q_target, w_target, None))
     assert [e[1] for e in cmd.events][:2] == ['station_reached', 'station_lost'] and far.stage == 'retreat'
     assert cmd.a_hill == pytest.approx(CONFIG.accel_max_mps2 * r / 5.0)
+
+
+def test_settling_tolerances_add_the_target_estimates_three_sigma():
+    """Stage 2's tolerances: planner.sync's in quadrature with the 3 sigma of the target estimate's covariance in its
+    worst direction (any axes), planner.sync's alone without a covariance."""
+    assert settling_tolerances(CONFIG, None) == (CONFIG.attitude_tolerance_rad, CONFIG.rate_tolerance_rad_s)
+    turn = quat_to_matrix(quat_from_rotation_vector((0.3, -0.5, 0.8)))
+    sigma_att, sigma_rate = math.radians(0.1), math.radians(0.02)  # 3 sigma 0.3 deg and 0.06 deg/s
+    attitude = turn @ np.diag([sigma_att ** 2, 0.25 * sigma_att ** 2, 0.0]) @ turn.T
+    rate = np.diag([0.5 * sigma_rate ** 2, sigma_rate ** 2, 0.1 * sigma_rate ** 2])
+    angle_tol, rate_tol = settling_tolerances(CONFIG, (attitude, rate))
+    assert math.degrees(angle_tol) == pytest.approx(math.hypot(0.2, 0.3), rel=1e-12)
+    assert math.degrees(rate_tol) == pytest.approx(math.hypot(0.1, 0.06), rel=1e-12)
+
+
+def test_stage_two_ends_within_the_estimates_tolerance_and_not_within_the_configured_one():
+    """A chaser 0.3 deg off a goal whose estimate has 0.4 deg of 3 sigma settles (tolerance 0.45 deg), off the same
+    goal without a covariance it does not (0.2 deg)."""
+    q_target, w_target = (0.0, 0.0, 0.0, 1.0), np.array((0.0, 0.0, 0.3))  # the estimate each time, as it is
+    covariance = (np.eye(3) * math.radians(0.4 / 3.0) ** 2, np.eye(3) * math.radians(0.01) ** 2)
+    q_offset = quat_from_rotation_vector((math.radians(0.3), 0.0, 0.0))
+    stages = []
+    for blocks in (covariance, None):
+        sync = SyncGuidance(CONFIG)
+        sync.arm(0.0)
+        r = np.array((5.0, 0.0, 0.0))  # the station
+        q_chaser, w_chaser = (0.0, 0.0, 0.0, 1.0), ZERO
+        for k in range(40):
+            t = 0.1 * k
+            sync.command(t, t, 0.1, r, ZERO, q_chaser, w_chaser, (t, q_target, w_target, blocks))
+            q_goal_from_target = quat_conjugate(sync.q_target_from_goal)
+            q_chaser = quat_multiply(quat_multiply(q_target, sync.q_target_from_goal), q_offset)
+            w_chaser = quat_rotate(quat_conjugate(q_offset), quat_rotate(q_goal_from_target, w_target))
+        stages.append(sync.stage)
+    assert stages == ['orbiting', 'attitude_sync']

@@ -57,7 +57,7 @@ from flyby_planner.optimal.mutual import MovingObstacle, least_separation
 from flyby_planner.optimal.problem import GraspTerminal, TargetMotion
 from flyby_planner.optimal.scp import ScpSettings
 from flyby_planner.plan import plan_capture, planner_config_from_scenario
-from flyby_planner.sync.approach import HOLD_CHECK_S, arrival_window, is_category_iv, plan_sync
+from flyby_planner.sync.approach import HOLD_CHECK_S, arrival_window, is_category_iv, plan_sync, resolve_due
 from flyby_sim.dynamics.orbital import cw_coast
 
 # The request of a re-aim (``_check_aim``): its refusal keeps the plan flown.
@@ -268,9 +268,8 @@ class PlannerCore:
         blocks = (None if attitude_covariance_hill is None or rate_covariance_body is None else
                   (np.asarray(attitude_covariance_hill, dtype=float), np.asarray(rate_covariance_body, dtype=float)))
         self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float), blocks))
-        s = self.scenario.planner.sync
-        if self.method_flown == 'sync' and self.request is None and t >= self.flown.t_plan + s.resolve_interval_s \
-                and t < self.sync_arrival.t_arrival - s.resolve_cutoff_s:
+        if self.method_flown == 'sync' and self.request is None and resolve_due(
+                t, self.flown.t_plan, self.sync_arrival.t_arrival, self.scenario.planner.sync):
             self.request = (t, 're-solve of the synchronized approach')  # seed 001 section 2
         if self.method_flown == 'optimal':
             self._check_aim()
@@ -453,8 +452,10 @@ class PlannerCore:
 
     def _plan_sync(self, t, q_hill_from_body, omega_body, why, reason):
         """Stage 1 of the synchronized approach (flyby_planner.sync.approach) at the plan time t; a re-solve starts
-        from the estimate moved as the flown trajectory over the lead (as an optimal re-plan)."""
-        lead_s = self.scenario.planner.maneuver_lead_s
+        from the estimate moved as the flown trajectory over its lead (planner.sync.resolve_lead_s; the first plan's
+        is maneuver_lead_s), as an optimal re-plan."""
+        lead_s = (self.scenario.planner.sync.resolve_lead_s if self.flown is not None
+                  else self.scenario.planner.maneuver_lead_s)
         chaser_now = self._chaser_at(t)
         window = arrival_window(self.scenario, t + lead_s, self.sync_arrival)
         prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,

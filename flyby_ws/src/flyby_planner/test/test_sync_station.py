@@ -5,6 +5,7 @@ solution."""
 import collections
 import copy
 import math
+import types
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 
 from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
 from flyby_planner.grasp import capture_target_body
-from flyby_planner.sync.approach import sync_station_geometry
+from flyby_planner.sync.approach import resolve_due, sync_station_geometry
 from flyby_planner.sync.station import (
     PhaseSpaceLink,
     keepout_radius,
@@ -211,3 +212,25 @@ def test_a_late_plan_moves_the_arrival_window_and_a_resolve_keeps_it():
     assert late.ok, late.reason
     assert 533.2 <= late.arrival.t_arrival <= 643.2 and late.arrival.window_s == pytest.approx((533.2, 643.2))
     assert arrival_window(SCENARIO, 420.0, late.arrival) == pytest.approx((533.2, 643.2))
+
+
+def test_resolves_halve_the_horizon_down_to_the_cutoff():
+    """resolve_due: every interval, then halfway to the arrival, the last one the cutoff before it; none after it,
+    nor when the link would start (lead after the estimate) past the arrival."""
+    sync = SCENARIO.planner.sync
+    campaign = types.SimpleNamespace(resolve_interval_s=30.0, resolve_cutoff_s=5.0, resolve_lead_s=2.0)
+
+    def schedule(s, t_plan, t_arrival, step_s=0.1):
+        times, t0 = [], t_plan
+        for k in range(int(round((t_arrival - t0) / step_s)) + 1):
+            t = round(t0 + k * step_s, 6)
+            if resolve_due(t, t_plan, t_arrival, s):
+                times.append(t)
+                t_plan = t  # the re-solve keeps the arrival (the planner's reselect may move it)
+        return times
+
+    assert schedule(campaign, 200.0, 360.0) == [230.0, 260.0, 290.0, 320.0, 340.0, 350.0, 355.0]
+    # Table 1's settings: every 30 s while the arrival is farther than 60 s, then once at the cutoff
+    assert schedule(sync, 76.0, 361.2) == [106.0, 136.0, 166.0, 196.0, 226.0, 256.0, 286.0, 301.2]
+    assert not resolve_due(359.0, 300.0, 360.0, campaign)  # past the last, and the link would start after 360 s
+    assert not resolve_due(356.0, 355.0, 360.0, campaign)  # the plan flown is the last

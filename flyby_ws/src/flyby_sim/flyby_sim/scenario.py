@@ -403,7 +403,11 @@ SCHEMA = Section(desc='A flyby scenario', fields={
             'trajectory_step_s': Field(FLOAT, 0.5, '> 0', 'Spacing of the points of planner/trajectory.'),
             'resolve_interval_s': Field(FLOAT, 30.0, '> 0', 'Stage 1 is re-solved from the newest estimates this '
                                                             'often (the solution closest to the previous one).'),
-            'resolve_cutoff_s': Field(FLOAT, 60.0, '>= 0', 'No re-solve this close to the arrival.'),
+            'resolve_cutoff_s': Field(FLOAT, 60.0, '>= 0', 'The last re-solve this long before the arrival (they '
+                                                          'come every resolve_interval_s, or halfway to the '
+                                                          'arrival when that is sooner).'),
+            'resolve_lead_s': Field(FLOAT, 10.0, '> 0', 'A re-solve\'s link starts this long after its plan time '
+                                                        '(the first plan\'s maneuver_lead_s after).'),
             'docking_duration_s': Field(FLOAT, 40.0, '> 0', 'Stage 4, from the station range to the final range.'),
             'orbiting_fraction': Field(FLOAT, 0.5, '>= 0', 'Stage 3 lasts this fraction of a rotation cycle '
                                                           '2 pi / |omega| (seed 001: half).'),

@@ -117,6 +117,20 @@ def arrival_window(scenario, t_start, previous=None):
     return s.arrival_start_s + shift, s.arrival_end_s + shift
 
 
+def resolve_due(t, t_plan, t_arrival, sync):
+    """True when the target estimate of t [s] is due to re-solve stage 1 (seed 001 section 2), flown from the plan of
+    t_plan [s] to the arrival t_arrival [s]; sync: the scenario's planner.sync. Due at the sooner of
+    resolve_interval_s after the plan and halfway from it to the arrival, and last resolve_cutoff_s before the
+    arrival (none after it, nor once the link would start, resolve_lead_s after t, past the arrival). A station
+    fixed in a body spinning about its intermediate axis is predicted with an error growing e-fold every
+    1 / (0.377 |omega|) (6 s at 25 deg/s; the category IV campaign's runs 30, 33, 36 arrived 9.6 m off the station
+    predicted 37 s before): each re-solve halves the horizon the next one corrects, and the last predicts only
+    resolve_cutoff_s ahead."""
+    t_last = t_arrival - sync.resolve_cutoff_s
+    due = min(t_plan + sync.resolve_interval_s, 0.5 * (t_plan + t_arrival), t_last)
+    return t_plan < t_last and due <= t < t_arrival - sync.resolve_lead_s
+
+
 def docking_line_clearance(geometry, boxes, envelope_radius_m, samples=200):
     """The least gap [m] between the chaser's envelope on the docking line (station.StationGeometry: from the final
     point to the station, body axes) and the target's boxes ((center, size) pairs, body axes)."""
