@@ -191,6 +191,16 @@ def _difference(y, y_ref):
     return e
 
 
+def _folded(y, p, dx):
+    """(the nominal y displaced by the error dx, the covariance of the error about it): both quaternions with
+    Markley's reset, P <- G P G' with G = I - 1/2 [dtheta x] (and [dphi x]) on their blocks."""
+    g = np.eye(p.shape[0])
+    g[_SL_TH, _SL_TH] -= 0.5 * skew(dx[_SL_TH])
+    g[_SL_PHI, _SL_PHI] -= 0.5 * skew(dx[_SL_PHI])
+    p = g @ p @ g.T
+    return _perturb(y, dx[None, :])[0], 0.5 * (p + p.T)
+
+
 def _central_offsets(eps):
     """Error states (2 n + 1, n): zero, then +eps_i and -eps_i one component at a time (central differences)."""
     n = eps.size
@@ -422,6 +432,8 @@ class MassPropertyFilter(FilterBase):
         self._kf.P = p0
         self._t = float(t0)
         self._consecutive_rejects = 0
+        self._start = (self._t, self._y.copy(), p0.copy())  # the prior, for relinearize
+        self._fused = []  # (t, kind, z) of every measurement fused, in order, for relinearize
 
     def add_firings(self, firings):
         """More known inputs (combined_body.Firing); raises ValueError for one starting before the filter time or
@@ -554,14 +566,7 @@ class MassPropertyFilter(FilterBase):
             return stale
         t0, y0, p0 = self._t, self._y, self._kf.P
         t_wrench = t - 0.5 * self.config.accel_interval_s
-        r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
-        errors = self._firing_errors(y0, t_wrench)
-        if errors:  # the accelerometer reads the firings' force errors directly (module doc)
-            body = _BatchBody(y0[None, :], self._m, self._i_t0)
-            p_acc = self._p_acc - body.c[0]
-            for s_f, lever, _ in errors:
-                h_f = np.eye(3) / body.mass[0] - skew(p_acc) @ body.inertia_inv[0] @ skew(lever)
-                r[3:, 3:] += h_f @ s_f @ h_f.T
+        r = self._imu_noise(y0, t_wrench)
         curved = any(f.t_start_s < t and f.t_start_s + f.duration_s > min(t0, t_wrench) for f in self._firings)
         iterations = self.config.imu_iterations if curved else 1
         sigma0 = np.sqrt(np.diag(p0))
@@ -583,7 +588,20 @@ class MassPropertyFilter(FilterBase):
         self._y, self._t = y1, float(t)
         self._kf.P = p_pred
         self._kf.x = m[:, None]
-        return self._fuse(t, residual, jac, r, self.imu_counts, z - h)
+        return self._fuse(t, residual, jac, r, self.imu_counts, z - h, ('imu', z))
+
+    def _imu_noise(self, y, t_wrench):
+        """The IMU's R (6, 6) for the nominal y: the gyro's and accelerometer's noise, plus (white-noise execution
+        errors) the firings' force errors the accelerometer reads directly (module doc)."""
+        r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
+        errors = self._firing_errors(y, t_wrench)
+        if errors:
+            body = _BatchBody(y[None, :], self._m, self._i_t0)
+            p_acc = self._p_acc - body.c[0]
+            for s_f, lever, _ in errors:
+                h_f = np.eye(3) / body.mass[0] - skew(p_acc) @ body.inertia_inv[0] @ skew(lever)
+                r[3:, 3:] += h_f @ s_f @ h_f.T
+        return r
 
     def _imu_and_jacobian(self, y, t_wrench):
         """The IMU predicted at the nominal y (24 + 3 n,) with the wrench at t_wrench, and its Jacobian in the error
@@ -602,11 +620,8 @@ class MassPropertyFilter(FilterBase):
         if stale is not None:
             return stale
         self.propagate_to(t)
-        jac = np.zeros((3, self._n))
-        jac[:, _SL_TH] = np.eye(3)
-        r = np.eye(3) * self.config.attitude_sigma_rad ** 2
-        innovation = attitude_innovation(self._y[6:10], q)
-        return self._fuse(t, innovation, jac, r, self.counts, innovation)
+        innovation, jac, r = self._linearized('attitude', self._y, t, q)
+        return self._fuse(t, innovation, jac, r, self.counts, innovation, ('attitude', q))
 
     def on_position(self, t, r_m):
         """Fuse a position of the combined CoM (inertial) stamped t; an UpdateResult."""
@@ -617,15 +632,26 @@ class MassPropertyFilter(FilterBase):
         if stale is not None:
             return stale
         self.propagate_to(t)
-        jac = np.zeros((3, self._n))
-        jac[:, _SL_R] = np.eye(3)
-        r = np.eye(3) * self.config.position_sigma_m ** 2
-        innovation = z - self._y[0:3]
-        return self._fuse(t, innovation, jac, r, self.position_counts, innovation)
+        innovation, jac, r = self._linearized('position', self._y, t, z)
+        return self._fuse(t, innovation, jac, r, self.position_counts, innovation, ('position', z))
 
-    def _fuse(self, t, innovation, jac, r, counts, z):
+    def _linearized(self, kind, y, t, z):
+        """(z - h(y), H, R) of a measurement of kind 'imu', 'attitude' or 'position' stamped t at the nominal y."""
+        if kind == 'imu':
+            t_wrench = t - 0.5 * self.config.accel_interval_s
+            h, jac = self._imu_and_jacobian(y, t_wrench)
+            return z - h, jac, self._imu_noise(y, t_wrench)
+        jac = np.zeros((3, self._n))
+        if kind == 'attitude':
+            jac[:, _SL_TH] = np.eye(3)
+            return attitude_innovation(y[6:10], z), jac, np.eye(3) * self.config.attitude_sigma_rad ** 2
+        jac[:, _SL_R] = np.eye(3)
+        return z - y[0:3], jac, np.eye(3) * self.config.position_sigma_m ** 2
+
+    def _fuse(self, t, innovation, jac, r, counts, z, record):
         """Gate on the innovation's NIS, then filterpy's update of the error (prior mean kf.x, measurement z from
-        the nominal, so that z - H x is the innovation) and the fold; a rejected sample folds the prior mean."""
+        the nominal, so that z - H x is the innovation) and the fold; a rejected sample folds the prior mean. An
+        accepted one is recorded, (kind, raw measurement), for relinearize."""
         kf = self._kf
         s = jac @ kf.P @ jac.T + r
         nis = float(innovation @ np.linalg.solve(s, innovation))
@@ -638,31 +664,62 @@ class MassPropertyFilter(FilterBase):
         self._consecutive_rejects = 0
         kf.update(z[:, None], HJacobian=lambda _x: jac, Hx=lambda x: jac @ x, R=r)  # Joseph form
         self._fold(kf.x[:, 0])
+        self._fused.append((float(t), *record))
         return self._outcome('accepted', t, nis, '', innovation, counts)
 
     def _fold(self, dx):
         """The update's error folded into the nominal, both quaternions with Markley's reset, P <- G P G'."""
-        self._y = _perturb(self._y, dx[None, :])[0]
-        g = np.eye(self._n)
-        g[_SL_TH, _SL_TH] -= 0.5 * skew(dx[_SL_TH])
-        g[_SL_PHI, _SL_PHI] -= 0.5 * skew(dx[_SL_PHI])
-        p = g @ self._kf.P @ g.T
-        self._kf.P = 0.5 * (p + p.T)
+        self._y, self._kf.P = _folded(self._y, self._kf.P, dx)
         self._kf.x = np.zeros((self._n, 1))
+
+    # --- re-linearization over the whole run -------------------------------------------------------------------
+
+    def relinearize(self, iterations=2):
+        """Gauss-Newton on the whole run (module doc): each iteration carries the current estimate back to the
+        prior's time (the model without noise), re-runs the Kalman filter on every fused measurement linearized along
+        that one trajectory (the error from it, its prior mean the prior's), and takes its end as the estimate."""
+        t0, y_prior, p_prior = self._start
+        y, p = self._y, self._kf.P
+        for _ in range(iterations):
+            ref = self._propagate(y, self._t, t0)
+            dx = _difference(y_prior[None, :], ref)[0]
+            p, t = p_prior, t0
+            for t_k, kind, z in self._fused + [(self._t, None, None)]:
+                if t_k > t:
+                    ref, phi, q = self._transition(ref, t, t_k)
+                    dx, p, t = phi @ dx, phi @ p @ phi.T + q, t_k
+                if kind is None:
+                    break
+                innovation, jac, r = self._linearized(kind, ref, t_k, z)
+                gain = p @ jac.T @ np.linalg.inv(jac @ p @ jac.T + r)
+                dx = dx + gain @ (innovation - jac @ dx)
+                i_kh = np.eye(self._n) - gain @ jac
+                p = i_kh @ p @ i_kh.T + gain @ r @ gain.T  # Joseph form
+            y, p = _folded(ref, p, dx)
+        self._y, self._kf.P = y, p
 
     # --- outputs ---------------------------------------------------------------------------------------------
 
     def predict(self, t):
         """The nominal (24 + 3 n,) carried to t >= the filter time without changing the filter (r, v, q, omega, M,
         Q, X_s, j, the thrusters' errors)."""
-        y = self._y[None, :].copy()
-        t_now = self._t
-        cuts = [b for b in firing_breaks(self._firings) if t_now < b < t] + [t]
-        for t_end in cuts:
-            while t_now < t_end:
-                dt = min(self.config.max_step_s, t_end - t_now)
-                y = _rk4_batch(y, dt, *self._wrench(y, t_now), self._h_w, self._m, self._i_t0)
-                t_now = t_end if t_end - (t_now + dt) < 1e-9 else t_now + dt
+        if t < self._t:
+            raise ValueError(f'cannot predict back from {self._t} s to {t} s')
+        return self._propagate(self._y, self._t, t)
+
+    def _propagate(self, y, t_from, t_to):
+        """The nominal y (24 + 3 n,) carried from t_from to t_to [s], forward or back, by the model without noise:
+        RK4 steps of at most max_step_s cut at the firings' starts and ends, each under the wrench over it."""
+        sign = 1.0 if t_to >= t_from else -1.0
+        lo, hi = min(t_from, t_to), max(t_from, t_to)
+        cuts = [b for b in firing_breaks(self._firings) if lo < b < hi]
+        y, t = y[None, :].copy(), t_from
+        for t_end in (cuts if sign > 0.0 else cuts[::-1]) + [t_to]:
+            while sign * (t_end - t) > 0.0:
+                dt = min(self.config.max_step_s, sign * (t_end - t))
+                t_next = t_end if sign * (t_end - t) - dt < 1e-9 else t + sign * dt
+                y = _rk4_batch(y, t_next - t, *self._wrench(y, min(t, t_next)), self._h_w, self._m, self._i_t0)
+                t = t_next
         return y[0]
 
     def state(self):
