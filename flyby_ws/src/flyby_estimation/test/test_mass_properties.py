@@ -233,7 +233,7 @@ def test_seed004_relinearize_is_the_batch_map_estimate():
 
     def residuals(theta):
         y, t, out = _perturb(y_prior, theta[None, :])[0], t0, [chol_inv @ theta]
-        for t_k, kind, z in f._fused:
+        for t_k, kind, z in f._samples:
             y, t = f._propagate(y, t, t_k), t_k
             innovation, _, r = f._linearized(kind, y, t_k, z)
             out.append(innovation / np.sqrt(np.diag(r)))
@@ -242,7 +242,8 @@ def test_seed004_relinearize_is_the_batch_map_estimate():
     theta_map = least_squares(residuals, np.zeros(22), x_scale=np.sqrt(np.diag(p0)), xtol=1e-12, ftol=1e-12).x
     y_map = f._propagate(_perturb(y_prior, theta_map[None, :])[0], t0, f.t)
     np.testing.assert_allclose(f._propagate(y_map, f.t, t0), _perturb(y_prior, theta_map[None, :])[0], atol=1e-9)
-    f.relinearize(iterations=3)
+    assert f.imu_counts['outlier'] == 0 and f.counts['outlier'] == 0
+    assert f.relinearize() <= 3
     sigma = np.sqrt(np.diag(f.covariance))
     assert np.max(np.abs(_difference(f._y[None, :], y_map)[0] / sigma)) < 1e-3
 
