@@ -8,9 +8,11 @@ the plan's feed-forward plus a critically damped feedback on the navigation esti
 
 (the CW terms are the plan's: a is what the thrusters add to the relative motion, seed 000 eq 2), then
 
-* the plume rule (seed 003 metric 4 as a rule): within the plume radius (plus PLUME_MARGIN_M, for the estimate's
-  error and one control period's motion) of the target's centre of mass the component of a pointing away from
-  the target (the exhaust toward it) is removed;
+* the plume rule (seed 003 metric 4 as a rule): where the estimate, carried at its velocity to the end of the
+  command's hold, comes within the plume radius plus PLUME_MARGIN_M (the estimate's error;
+  flyby_planner.optimal.problem, whose plans keep the rule from twice that margin out) of the target's centre of
+  mass, the component of a pointing away from the target (the exhaust toward it) is removed, for the direction to
+  the target now and at the hold's end;
 * the acceleration bound: |a| <= accel_max (the plan keeps a share of it for this feedback, planner.optimal).
 
 The reference between two points is the cubic Hermite interpolant of the positions and velocities; the
@@ -28,8 +30,7 @@ import dataclasses
 
 import numpy as np
 
-# The plume rule applies this far outside the plume radius (by the estimate) [m].
-PLUME_MARGIN_M = 0.5
+from flyby_planner.optimal.problem import PLUME_MARGIN_M
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,16 +107,28 @@ class ReferenceTrajectory:
         return float(np.linalg.norm(np.asarray(r_hill, dtype=float) - self.at(t)[0]))
 
 
-def plume_rule(a_hill, r_hill, plume_radius_m):
-    """a_hill [m/s^2] without its component away from the target (along r_hill [m], from the target's centre of
-    mass) when within plume_radius_m + PLUME_MARGIN_M of it: no exhaust toward the target (seed 003 metric 4)."""
+def plume_rule(a_hill, r_hill, plume_radius_m, v_hill=(0.0, 0.0, 0.0), ahead_s=0.0):
+    """a_hill [m/s^2] without its component away from the target where the chaser at r_hill [m] (from the target's
+    centre of mass), moving at v_hill [m/s] for ahead_s [s] (the command's delay and hold), comes within
+    plume_radius_m + PLUME_MARGIN_M of it: no exhaust toward the target (seed 003 metric 4). The away component is
+    removed for the direction to the target now, then for the one at the end of ahead_s (after the first removal
+    the second leaves the first direction's component non-positive, the two being less than 90 deg apart)."""
     a = np.asarray(a_hill, dtype=float)
-    dist = float(np.linalg.norm(r_hill))
-    if dist >= plume_radius_m + PLUME_MARGIN_M or dist == 0.0:
+    r0 = np.asarray(r_hill, dtype=float)
+    r1 = r0 + np.asarray(v_hill, dtype=float) * ahead_s
+    step = r1 - r0
+    s = 0.0 if not step.any() else min(max(-float(r0 @ step) / float(step @ step), 0.0), 1.0)
+    if float(np.linalg.norm(r0 + s * step)) >= plume_radius_m + PLUME_MARGIN_M:
         return a
-    u = np.asarray(r_hill, dtype=float) / dist
-    away = float(a @ u)
-    return a - away * u if away > 0.0 else a
+    for r in (r0, r1):
+        dist = float(np.linalg.norm(r))
+        if dist == 0.0:
+            continue
+        u = r / dist
+        away = float(a @ u)
+        if away > 0.0:
+            a = a - away * u
+    return a
 
 
 def tracking_acceleration(reference, t_apply, hold_s, t_estimate, r_hill, v_hill, config):
@@ -128,7 +141,7 @@ def tracking_acceleration(reference, t_apply, hold_s, t_estimate, r_hill, v_hill
     a_ff = reference.mean_acceleration(t_apply, t_apply + hold_s)
     w = config.frequency_rad_s
     a = a_ff + w * w * (r_ref - r_hill) + 2.0 * w * (v_ref - v_hill)
-    a = plume_rule(a, r_hill, config.plume_radius_m)
+    a = plume_rule(a, r_hill, config.plume_radius_m, v_hill, t_apply + hold_s - t_estimate)
     norm = float(np.linalg.norm(a))
     if norm > config.accel_max_mps2:
         a = a * (config.accel_max_mps2 / norm)

@@ -10,7 +10,6 @@ import yaml
 
 from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
 from flyby_guidance.tracking import (
-    PLUME_MARGIN_M,
     ReferenceTrajectory,
     TrackingConfig,
     plume_rule,
@@ -18,6 +17,7 @@ from flyby_guidance.tracking import (
 )
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
+from flyby_planner.optimal.problem import PLUME_MARGIN_M, planning_plume_radius_m
 from flyby_sim.dynamics.rotation import quat_rotate
 from flyby_sim.scenario import scenario_from_dict
 
@@ -60,6 +60,26 @@ def test_plume_rule_removes_only_the_thrust_away_from_the_target_inside_the_radi
     assert plume_rule(-a, r, 5.0) == pytest.approx(-a)  # toward the target: unchanged
     far = r * (5.0 + PLUME_MARGIN_M + 0.01) / 5.0
     assert plume_rule(a, far, 5.0) == pytest.approx(a)
+
+
+def test_plume_rule_applies_where_the_hold_carries_the_chaser_within_the_margin():
+    """Outside the radius plus the margin now, but inside it by the hold's end: the rule applies, for the direction
+    to the target now and at the hold's end; the planner keeps its plans' rule from twice the margin out, so a plan's
+    braking there is flown."""
+    r = np.array((5.0 + PLUME_MARGIN_M + 0.05, 0.0, 0.0))
+    v = np.array((-0.5, 0.3, 0.0))  # 0.1 m inward over the 0.2 s of delay and hold
+    a = np.array((0.1, 0.05, 0.0))  # away from the target, and sideways
+    assert plume_rule(a, r, 5.0) == pytest.approx(a)  # by the position now alone: outside
+    kept = plume_rule(a, r, 5.0, v, 0.2)
+    end = r + 0.2 * v
+    assert kept @ r <= 1e-15 and kept @ end <= 1e-15
+    assert np.linalg.norm(kept) < np.linalg.norm(a)
+    # passing by: the closest point of the hold's segment counts, not only its ends
+    by = np.array((5.0 + PLUME_MARGIN_M - 0.02, 0.6, 0.0))  # both ends outside, the middle inside
+    assert np.linalg.norm(by) > 5.0 + PLUME_MARGIN_M
+    assert plume_rule(a, by, 5.0, (0.0, -6.0, 0.0), 0.2) @ by <= 1e-15
+    assert plume_rule(a, by, 5.0, (1.0, 0.0, 0.0), 0.2) == pytest.approx(a)  # moving out: untouched
+    assert planning_plume_radius_m(5.0) > 5.0 + PLUME_MARGIN_M
 
 
 def test_every_command_keeps_the_bound_and_the_plume_rule():

@@ -15,6 +15,7 @@ from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario
 from flyby_planner.optimal.scp import (
     ScpSettings,
     ZohPlan,
+    _model,
     _plume_violation,
     delta_v_lower_bound,
     plan_scp,
@@ -200,3 +201,21 @@ def test_scp_least_fuel_plans_keep_the_plume_rule_between_check_points():
     for steps in (40, 80):
         plan = plan_scp([lean], ScpSettings(steps=steps), duration_s=T_TABLE1_S).plans[0]
         assert _plume_violation([lean], [plan], rate_hz=200.0)[0] <= 1e-6
+
+
+def test_a_least_fuel_program_prices_fuel_alone():
+    """k_s = 0 (the mission's least-fuel mode): the program has no safety cones (two variables fewer per box), and
+    the converged objective is the fuel term k_f m / (Isp g0) sum |u_k| h, i.e. the plan's delta-v priced, with the
+    keep-out and the plume rule as constraints only. (Not asserted: less delta-v than the k_s = 1 plan; on 20 steps
+    the plume-constrained least-fuel optimum SCP lands in has more, docs/optimal.md.)"""
+    priced, lean_model = _model(1, 20, 3, [3], [], [True]), _model(1, 20, 3, [3], [], [False])
+    assert len(priced.program.variables()) - len(lean_model.program.variables()) == 2 * 3
+    _, problem = table1_problem()
+    lean = dataclasses.replace(problem, weights=dataclasses.replace(problem.weights, safety=0.0))
+    result = plan_scp([lean], ScpSettings(steps=20), duration_s=T_TABLE1_S)
+    plan = result.plans[0]
+    dv = float(np.linalg.norm(plan.u_hill, axis=1).sum()) * plan.step_s
+    ch = lean.chaser
+    assert result.objective == pytest.approx(lean.weights.fuel_per_kg * ch.mass_kg / ch.exhaust_velocity_mps * dv,
+                                             rel=1e-4)
+    assert plan_terms(lean, plan).safety == 0.0 and plan_terms(lean, plan).plume == 0.0

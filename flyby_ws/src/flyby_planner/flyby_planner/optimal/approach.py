@@ -3,7 +3,9 @@
 ``plan_approach`` plans from the estimates of the plan time: the chaser state carried to the start (the plan time
 plus ``planner.maneuver_lead_s``), the target-motion prediction of the estimate, the scenario's grasp point at
 ``planner.offset_m`` (the end state X_Ft, V_Ft of seed 000 eq 20-21 at the grasp time), then SCP
-(``scp.plan_scp``) with ``planner.optimal``'s settings. The plan's acceleration bound is
+(``scp.plan_scp``) with ``planner.optimal``'s settings, the plume rule kept from ``problem.planning_plume_radius_m``
+(the radius plus the tracking's margin twice, so that guidance flies the plan's braking). The plan's acceleration
+bound is
 accel_max (1 - feedback_share): the rest is kept for guidance's tracking feedback, so that what is flown stays
 within accel_max.
 
@@ -22,7 +24,7 @@ import numpy as np
 
 from flyby_planner.grasp import flyby_target_point
 from flyby_planner.optimal.cost import plan_terms
-from flyby_planner.optimal.problem import CostWeights, approach_problem, chaser_from_scenario
+from flyby_planner.optimal.problem import CostWeights, approach_problem, chaser_from_scenario, planning_plume_radius_m
 from flyby_planner.optimal.sampler import sample_trajectory
 from flyby_planner.optimal.scp import ScpSettings, plan_scp
 from flyby_planner.plan import _predicted_gaps
@@ -34,6 +36,10 @@ _CHECK_RATE_HZ = 20.0
 _ACCEL_TOLERANCE = 1e-3
 # Largest thrust away from the target inside the plume radius that counts as none [m/s^2] (the solver's tolerance).
 _PLUME_TOLERANCE_MPS2 = 1e-5
+# SCP's steps for a least-fuel plan (eq 5 without the safety term, k_s = 0): its braking ends at the plume sphere,
+# where no step may thrust away from the target once any of its check points is inside, so the sphere is met to
+# within a step's travel; a finer grid than ScpSettings' default lands nearer it (docs/optimal.md, measured).
+LEAST_FUEL_STEPS = 160
 
 
 @dataclasses.dataclass(frozen=True)
@@ -140,11 +146,15 @@ def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_c
     start = (cw_coast(np.asarray(r_now, dtype=float), np.asarray(v_now, dtype=float), settings.start_lead_s, n)
              if start_state is None else np.asarray(start_state, dtype=float))
     chaser = dataclasses.replace(chaser_from_scenario(scenario), accel_max_mps2=settings.plan_accel_max_mps2)
-    problem = approach_problem(scenario, prediction, start[:3], start[3:], t_start, settings.plume_radius_m,
+    problem = approach_problem(scenario, prediction, start[:3], start[3:], t_start,
+                               planning_plume_radius_m(settings.plume_radius_m),
                                offset_m=settings.offset_m, chaser=chaser, weights=settings.weights,
                                duration_min_s=settings.approach_time_min_s,
                                duration_max_s=settings.approach_time_max_s)
-    result = plan_scp([problem], scp_settings or ScpSettings(), duration_s=settings.approach_time_s,
+    if scp_settings is None:
+        scp_settings = (ScpSettings(steps=LEAST_FUEL_STEPS, substeps=1) if settings.weights.safety == 0.0
+                        else ScpSettings())
+    result = plan_scp([problem], scp_settings, duration_s=settings.approach_time_s,
                       obstacles=obstacles)
     if result.plans is None:
         span = (f'{settings.approach_time_s:g} s' if settings.approach_time_s is not None else

@@ -24,6 +24,19 @@ from flyby_planner.optimal.cost import box_contacts
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 
+# The plume rule's margin (seed 003 metric 4 as a rule), one home for the planner and the tracking: guidance applies
+# the rule where the estimate, carried over the command's delay and hold, comes within the plume radius plus this
+# (the estimate's error, 1 cm here), and the planner keeps its plan's thrust off the away side from the radius plus
+# twice this (``planning_plume_radius_m``): the tracking's margin and as much again for the tracking error, so that
+# the braking a plan ends at its sphere is flown, not removed by the rule [m].
+PLUME_MARGIN_M = 0.1
+
+
+def planning_plume_radius_m(plume_radius_m):
+    """The sphere [m] within which a plan has no thrust away from the target: the rule's radius plus twice
+    PLUME_MARGIN_M (its doc), zero for no rule."""
+    return plume_radius_m + 2.0 * PLUME_MARGIN_M if plume_radius_m > 0.0 else 0.0
+
 
 @dataclasses.dataclass(frozen=True)
 class CostWeights:

@@ -118,7 +118,7 @@ class ScpSettings:
     plume_trust_m: float = 0.05
     keepout_penalty: float = 1e3
     trust_shrink: float = 0.25
-    plume_margin_m: float = 1.0
+    plume_margin_m: float = 0.2
     solver: str = 'CLARABEL'
     solver_threads: int = 1
     duration_tolerance_s: float = 1.0
@@ -181,7 +181,7 @@ class _Model:
     every constraint is a parameter times a variable.
     """
 
-    def __init__(self, robots, steps, substeps, boxes_per_robot, pairs):
+    def __init__(self, robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot):
         n_check = [steps] * substeps + [1]
         self.phi, self.gamma = cp.Parameter((6, 6)), cp.Parameter((6, 3))
         self.phi_r = [cp.Parameter((3, 6)) for _ in range(substeps)]
@@ -192,7 +192,7 @@ class _Model:
         # times the parameters, so one object compiles several times faster than one per cone family
         cone_t, cone_x = [], []
         cost, constraints = 0.0, []
-        for k_boxes in boxes_per_robot:
+        for k_boxes, priced in zip(boxes_per_robot, safety_per_robot, strict=True):
             x, u = cp.Variable((steps + 1, 6)), cp.Variable((steps, 3))
             thrust = cp.Variable(steps)  # >= |u_k|, equal at the optimum (fuel prices it): one cone per step
             rc = [cp.Variable((steps, 3)) for _ in range(substeps)] + [x[steps:, :3]]
@@ -226,6 +226,8 @@ class _Model:
                 constraints += [cp.sum(cp.multiply(par['keep_n'][b][j], rc[j]), axis=1)
                                 >= par['keep_b'][b][j] - (keep_buffer[b] if j < substeps else keep_buffer[b, -1:])
                                 for j in range(substeps + 1)]
+                if not priced:  # k_s = 0: fuel alone, the keep-out constraints above keep it safe
+                    continue
                 # safety metric k_s h closing^2 / gap: closing >= the speed toward the box's closest point to first
                 # order in r and v, gap the supporting plane's distance (a lower bound of the gap: the box is convex)
                 closing, ratio = cp.Variable(steps + 1, nonneg=True), cp.Variable(steps + 1)
@@ -276,11 +278,12 @@ class _Model:
 _MODELS = {}
 
 
-def _model(robots, steps, substeps, boxes_per_robot, pairs):
-    """The _Model of this shape, built at its first use and kept (cvxpy compiles it once)."""
-    key = (robots, steps, substeps, tuple(boxes_per_robot), tuple(pairs))
+def _model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot):
+    """The _Model of this shape, built at its first use and kept (cvxpy compiles it once). safety_per_robot: whether
+    each robot's program prices the safety metric (k_s > 0); without it the program has no safety cones."""
+    key = (robots, steps, substeps, tuple(boxes_per_robot), tuple(pairs), tuple(safety_per_robot))
     if key not in _MODELS:
-        _MODELS[key] = _Model(robots, steps, substeps, boxes_per_robot, pairs)
+        _MODELS[key] = _Model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot)
     return _MODELS[key]
 
 
@@ -330,6 +333,8 @@ def _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, trus
                 for param_n, param_b, nn, bb in zip(par['keep_n'][b], par['keep_b'][b], normals + [last_n],
                                                     bounds + [last_b], strict=True):
                     param_n.value, param_b.value = nn, bb  # supporting plane of box b at the reference
+                if p.weights.safety == 0.0:  # no safety cones in the program (_Model)
+                    continue
                 n_node = normal[b, node]
                 # closing speed -n . (v - v_point) to first order: d/dv = -n, d/dr by differences (the normal and
                 # the closest point turn as the chaser moves)
@@ -380,7 +385,8 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
     iterations, converged, objective)."""
     grid = _Grid(problems[0].n, duration_s, settings.steps, settings.substeps)
     boxes = [(len(p.target.boxes) if p.target is not None else 0) + len(obstacles) for p in problems]
-    model = _model(len(problems), settings.steps, settings.substeps, boxes, pairs)
+    model = _model(len(problems), settings.steps, settings.substeps, boxes, pairs,
+                   [p.weights.safety > 0.0 for p in problems])
     model.phi.value, model.gamma.value = grid.phi, grid.gamma
     for j in range(settings.substeps):
         model.phi_r[j].value, model.gamma_r[j].value = grid.phi_r[j], grid.gamma_r[j]
