@@ -112,8 +112,11 @@ def plume_rule(a_hill, r_hill, plume_radius_m, v_hill=(0.0, 0.0, 0.0), ahead_s=0
     centre of mass), moving at v_hill [m/s] for ahead_s [s] (the command's delay and hold), comes within
     plume_radius_m + PLUME_MARGIN_M of it: no exhaust toward the target (seed 003 metric 4). The away component is
     removed for the direction to the target now, then for the one at the end of ahead_s (after the first removal
-    the second leaves the first direction's component non-positive, the two being less than 90 deg apart)."""
+    the second leaves the first direction's component non-positive, the two being less than 90 deg apart). A radius of
+    zero is no rule."""
     a = np.asarray(a_hill, dtype=float)
+    if plume_radius_m <= 0.0:  # no rule (the synchronized approach's link)
+        return a
     r0 = np.asarray(r_hill, dtype=float)
     r1 = r0 + np.asarray(v_hill, dtype=float) * ahead_s
     step = r1 - r0

@@ -80,6 +80,7 @@ def test_plume_rule_applies_where_the_hold_carries_the_chaser_within_the_margin(
     assert plume_rule(a, by, 5.0, (0.0, -6.0, 0.0), 0.2) @ by <= 1e-15
     assert plume_rule(a, by, 5.0, (1.0, 0.0, 0.0), 0.2) == pytest.approx(a)  # moving out: untouched
     assert planning_plume_radius_m(5.0) > 5.0 + PLUME_MARGIN_M
+    assert plume_rule(a, (0.01, 0.0, 0.0), 0.0) == pytest.approx(a)  # radius zero: no rule
 
 
 def test_every_command_keeps_the_bound_and_the_plume_rule():
