@@ -226,8 +226,9 @@ def transport(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):
     momentum = mass * float(np.linalg.norm(v_cm))
     return {'transport_final_position_error_m': miss, 'transport_orbital_momentum_error_n_m_s': momentum,
             'transport_final_angular_momentum_kg_m2_s': h,
-            'transport_conditions_met': bool(done) and h < tr.max_angular_momentum_kg_m2_s
-            and miss < tr.max_position_error_m and momentum < tr.max_momentum_error_n_s}
+            'transport_conditions_met': bool(done and h < tr.max_angular_momentum_kg_m2_s
+                                             and miss < tr.max_position_error_m
+                                             and momentum < tr.max_momentum_error_n_s)}
 
 
 def post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace=''):

@@ -256,14 +256,24 @@ class TransportNavigation:
     the chaser's (the mass-property estimate's M/(m + M) X_s), driven by the accelerometer at the chaser less the
     body's rotation there (seed 004 §2.2: f = a_cm + omega_dot x p + omega x (omega x p), p = -c, omega and omega_dot
     from the attitude filter's rate), and updated by the relative position of the chaser's CoM at the same stamp.
-    Its velocity prior covers the drift the excitation left (a few cm/s)."""
+    Its velocity prior covers the drift the excitation left (a few cm/s).
+
+    The accelerometer is taken only where it sees a thrust: a specific force at the CoM above ACCEL_GATE_SIGMA of
+    its noise (one firing thruster at its minimum impulse bit gives twenty on the TugRobot). Between firings the
+    body coasts on gravity alone, which the filter models (seed 000 eq 22), and integrating the accelerometer's noise
+    would only walk the velocity (1e-4 m/s^2 at 10 Hz: 0.1-0.4 mm/s of error, the size of seed 004 §3.2's third
+    condition on 50 kg); the filter's white acceleration is then COAST_ACCEL_PSD_M2_S3, what CW leaves out of the
+    nonlinear relative motion within a few km (n^2 x^2 / R, 2e-7 m/s^2 at 1 km, over the filter's ~30 s memory)."""
 
     VELOCITY_SIGMA_MPS = 0.05
+    ACCEL_GATE_SIGMA = 5.0
+    COAST_ACCEL_PSD_M2_S3 = 1e-11
 
     def __init__(self, scenario, com_body_m):
         self.com_body_m = np.asarray(com_body_m, dtype=float)
         self.filter = RelativeNavFilter(relative_nav_config_from_scenario(
-            scenario, initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS, thrusters=None, chaser_mass_kg=None))
+            scenario, initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS, thrusters=None, chaser_mass_kg=None,
+            accel_psd_m2_s3=self.COAST_ACCEL_PSD_M2_S3))
         self.accel_sigma_mps2 = scenario.sensors.chaser_imu.accel_noise_sigma_mps2
         self.n = scenario.mean_motion_rad_s
         self.positions = StampedBuffer(8)  # relative positions of the chaser's CoM waiting for their IMU sample
@@ -286,12 +296,13 @@ class TransportNavigation:
             omega_dot = (omega - last[1]) / dt
             a_cm = np.asarray(specific_force_body, dtype=float) - np.cross(omega_dot, p) - np.cross(
                 omega, np.cross(omega, p))
-            dv_hill = c_hill @ a_cm * dt
-            dv_cross = skew(dv_hill)
-            cov = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
-                   + dv_cross @ estimate.attitude_covariance_hill @ dv_cross.T)
             f.propagate_to(t)
-            f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
+            if float(np.linalg.norm(a_cm)) > self.ACCEL_GATE_SIGMA * self.accel_sigma_mps2:  # a thrust (class doc)
+                dv_hill = c_hill @ a_cm * dt
+                dv_cross = skew(dv_hill)
+                cov = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
+                       + dv_cross @ estimate.attitude_covariance_hill @ dv_cross.T)
+                f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
         r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)  # the chaser's CoM from the combined
         measured = self.positions.last_at_or_before(t + STAMP_TOLERANCE_S)
         if measured is not None and abs(measured[0] - t) <= STAMP_TOLERANCE_S:

@@ -15,13 +15,24 @@ Timeline, every instant a stamp (DESIGN §5):
   ``transfer_time_s`` after t_e (``transport_planned``, or ``transport_refused`` with the planner's reason: the
   supervisor completes the run with the body held where it is);
 * each estimate at t commands the wrench of the burn that covers the control period from t + period (the burns
-  lie on that grid); where the plan has the body at rest (outside its slews) the wheels damp the rate its burns
-  left (the estimated mass properties are not the true ones: an open-loop slew stops a little off); there, every
-  ``replan_interval_s`` from the end of the first push on, the rest of the plan is propagated from the estimate and
-  a miss of the goal by more than ``replan_position_m`` plans again to the same arrival (``transport_replanned``);
-  after the arrival an estimate off the goal by more than ``replan_position_m`` or ``replan_momentum_n_s`` is
-  trimmed (``transport_trim``): a velocity the allowed thrusters reach as a pure force at once, else by a short plan
-  of ``TRIM_TIME_S``;
+  lie on that grid); the wheels track the attitude the plan has at t (``transport.attitude_at`` of the planned
+  torques about the combined CoM on the estimated inertia, from the estimate where the plan or a slew was solved
+  again): the open-loop slews' coasts follow it though the estimated inertia is a few percent off, and a push, pure
+  about the estimated CoM but not about the true one, keeps its direction. A push gives the velocity the plan has at
+  its end and a spin-down takes out the estimated angular momentum, each less what the command already issued for
+  the period after the estimate gives. Between the first push and the next slew, every ``replan_interval_s``, the
+  estimate's deviation from the plan's coast is carried to the last push (CW, seed 000 eq 22); a miss there beyond
+  ``replan_position_m`` gets a one-impulse correction (``transport_correction``) where the thrusters give it at the
+  attitude held, keeping the last push, which nulls the velocity at the arrival whatever it is;
+* after the arrival and the plan's last burn, the trim (``_trim``, every ``replan_interval_s`` while nothing is
+  moving): the estimated angular momentum (wheels included) above DUMP_FRACTION of the first condition is dumped
+  by thruster couples (``transport_dump``); else a position off the goal by more than ``replan_position_m`` gets a
+  CW transfer back arriving TRIM_TIME_S later (seed 000 eq 28-29, ``transport_trim``); else the velocity error
+  beyond ``replan_momentum_n_s`` (from the velocity that coasts to rest at the judgement, CW: off the goal the body
+  is not at rest in hill) is nulled by a pulse (``transport_pulse``): a pure force along it where the allowed
+  thrusters give one with every firing thruster above the minimum impulse bit, else along the push axis, which the
+  wheels first turn onto it (a wheel slew changes no angular momentum and pushes nothing), by the thrusters along
+  it or, below a bit each, by one of them whose small couple the wheels take;
 * ``settle_s`` after the arrival, ``transport_complete`` with the estimated conditions (the summary judges them
   from the truth).
 """
@@ -39,23 +50,40 @@ from flyby_planner.transport import (
     TransportConfig,
     TransportRefused,
     TransportState,
+    attitude_at,
     plan_transport,
     propagate,
+    push_axis,
     resolve_slew,
     torque_wrench,
 )
 from flyby_sim.dynamics.actuators import allocate_wrench, plume_free_thrusters
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
-from flyby_sim.dynamics.orbital import cw_transition_matrix
-from flyby_sim.dynamics.rotation import quat_to_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_rotate,
+    quat_shortest_arc,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
 
 TRIM_TIME_S = 300.0  # a trim's transfer, after the arrival [s]
 NAV_SETTLE_S = 30.0  # the combined body's navigation converges from its first position [s]
 DETUMBLED_S = 5.0  # the detumbling's end: the momentum bound held this long [s]
 DETUMBLE_HALVINGS = 8  # a detumbling torque beyond the thrusters is halved at most this often
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned
-DIRECT_TRIM_S = 10.0  # a direct trim nulls the velocity over this long [s]
+TRACK_BANDWIDTH_RAD_S = 0.2  # the wheels' attitude tracking: natural frequency [rad/s] ...
+TRACK_DAMPING = 0.7  # ... and damping ratio
+TRIM_SLEW_RATE_RAD_S = 0.05  # a trim's wheel slew turns at most this fast ...
+WHEEL_SPINUP_S = 10.0  # ... and reaches its rate within this long at the wheels' torque
+TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
+DUMP_FRACTION = 0.3  # an angular momentum worth this much of the first condition is dumped after the arrival
+DUMP_S = 10.0  # a dump's couple takes the angular momentum out over this long [s]
+_FIRING_N = 1e-6  # an allocation's thrust above this fires (the LP leaves ~1e-12 N on the others)
 SLEW_RATE_DOUBLINGS = 3  # a re-plan short of time for the configured slew rate doubles it at most this often
 
 
@@ -115,16 +143,15 @@ class TransportControl:
     DESIGN §10)."""
 
     def __init__(self, config, n, gains, wheel_max_torque_n_m):
-        """gains: the capture's DampingGains (the detumbling and, its wheel gain, the rest hold)."""
+        """gains: the capture's DampingGains (the detumbling and, its wheel gain, the hold before the plan)."""
         self.config = config
         self.n = n
         self.gains = gains
         self.wheel_max_torque_n_m = wheel_max_torque_n_m
         self.t_detumbled = None
         self.rates = collections.deque()  # (t, omega_body) over the last DETUMBLED_S
-        self.carried = np.zeros(3)  # the detumbling's angular impulse not yet fired [N m s]
+        self.carried = np.zeros(3)  # a couple's angular impulse not yet fired [N m s]
         self.resolved = set()  # the start times of the slews solved again from the estimate
-        self.trimming = None  # the end of a direct trim in progress [s]
         self.goal = np.asarray(config.goal_hill_m, dtype=float)
         self.body = None
         self.t_start = None
@@ -132,6 +159,14 @@ class TransportControl:
         self.plan = None
         self.plan_start = None  # the TransportState the plan was made from
         self.t_check = None
+        # The attitude the wheels track: (t, q_eci_from_body, omega_body) of the plan's model, and after the arrival
+        # the trim's wheel slew (t0, q0_eci, axis_eci, angle [rad], rate [rad/s]).
+        self.reference = None
+        self.trim_slew = None
+        self.trim_arrival = None  # a trim's transfer back to the goal arrives then [s]
+        self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the trim's pulses, on the grid
+        self.dumping = None  # the end of a dump in progress [s]
+        self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t
         self.done = False
 
     def start(self, t_event, body):
@@ -139,13 +174,22 @@ class TransportControl:
         self.t_start = t_event
         self.t_arrival = t_event + self.config.transfer_time_s
         self.body = body
+        self.b_body = push_axis(body)[0]
         # A pulse: ten minimum impulse bits at the thrusters' mean lever arm about the combined CoM [N m s].
         arms = np.linalg.norm(body.layout.positions_body_m - body.com_body_m, axis=1)
         self.pulse_n_m_s = 10.0 * body.layout.min_impulse_bit_n_s * float(np.mean(arms))
+        # A trim's wheel slew: as fast as TRIM_SLEW_RATE_RAD_S, or as the wheels spin the body up in WHEEL_SPINUP_S.
+        self.trim_slew_rate = min(TRIM_SLEW_RATE_RAD_S, self.wheel_max_torque_n_m * WHEEL_SPINUP_S / float(
+            np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2))))
 
     def command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         """(force [N], torque about the chaser's CoM [N m], wheel motor torque [N m], chaser_body; events) for the
         control period from t + period."""
+        out = self._command(t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s)
+        self.issued = (t, out[0], out[1])
+        return out
+
+    def _command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         zero = np.zeros(3)
         cfg = self.config
         if self.done or self.t_start is None:
@@ -160,25 +204,28 @@ class TransportControl:
         if self.plan is None:
             if t < max(self.t_start + NAV_SETTLE_S, self.t_detumbled) - 1e-9:
                 return zero, zero, self._hold(omega), []
-            events += self._plan(state, self.t_arrival, 'transport_planned')
+            events += self._plan(state)
             if self.done:
                 return zero, zero, zero, events
         t_mid = t + 1.5 * period
-        at_rest = not any(a.t_start_s - period <= t_mid < b.t_start_s + b.duration_s + period
-                          for a, b in self._slews())
-        if at_rest and t >= self.t_check - 1e-9:
-            events += self._check(state)
         if t >= self.t_arrival + cfg.settle_s - 1e-9:
             self.done = True
             events.append(self._complete(t, state, h_wheels))
             return zero, zero, zero, events
-        wheels = self._hold(omega) if at_rest else zero
-        if self.trimming is not None:
-            return (*self._direct_trim(t, state), wheels, events)
+        at_rest = not any(a.t_start_s - period <= t_mid < b.t_start_s + b.duration_s + period
+                          for a, b in self._slews())
+        if at_rest and t >= self.t_check - 1e-9:
+            events += self._check(state, h_wheels)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)
                 break
+        wheels = self._track(state)
+        if self.dumping is not None:
+            return (*self._dump(t, state, h_wheels), wheels, events)
+        for t_a, t_b, force, torque in self.pulses:
+            if t_a <= t_mid < t_b:
+                return force, torque, wheels, events
         for burn in self.plan.burns:
             if burn.t_start_s <= t_mid < burn.t_start_s + burn.duration_s:
                 force, torque = (np.asarray(burn.force_body_n, dtype=float),
@@ -186,7 +233,7 @@ class TransportControl:
                 if burn.purpose == 'push':
                     force, torque = self._closed_loop_push(t, state, burn, force, torque)
                 elif burn.purpose == 'slew_stop':
-                    force, torque = self._closed_loop_stop(t, state, burn, force, torque)
+                    force, torque = self._closed_loop_stop(t, state, burn, force, torque, h_wheels)
                 return force, torque, wheels, events
         return zero, zero, wheels, events
 
@@ -214,19 +261,31 @@ class TransportControl:
         burns[i - 1], burns[i] = new_start, new_stop
         self.plan = self.plan._replace(burns=tuple(burns))
         self.resolved.add(new_start.t_start_s)
+        self._set_reference(state)
         return []
 
-    def _closed_loop_stop(self, t, state, burn, force, torque):
+    def _closed_loop_stop(self, t, state, burn, force, torque, h_wheels):
         """A slew's spin-down flown on the estimate: the torque about the combined CoM that takes out the estimated
-        angular momentum I omega over the rest of the burn (the open-loop slew, planned on the estimated inertia,
-        stops a little off), with the least side force; the planned wrench where the thrusters cannot."""
+        angular momentum I omega + h (the wheels', which track the plan's attitude, included) over the rest of the
+        burn (the open-loop slew, planned on the estimated inertia, stops a little off), with the least side force;
+        the planned wrench where the thrusters cannot."""
         p = self.config.planner.period_s
         remaining_s = burn.t_start_s + burn.duration_s - (t + p)
         if remaining_s < 0.5 * p:
             return force, torque
-        wrench = torque_wrench(self.body, self.config.planner,
-                               -self.body.inertia_body_kg_m2 @ state.omega_body / remaining_s)
+        _, issued_torque_com = self._in_flight(t)
+        wrench = torque_wrench(self.body, self.config.planner, -(self.body.inertia_body_kg_m2 @ state.omega_body
+                                                                 + h_wheels + p * issued_torque_com) / remaining_s)
         return (force, torque) if wrench is None else wrench
+
+    def _in_flight(self, t):
+        """(force [N], torque about the combined CoM [N m]), body axes, of the command issued at the previous estimate:
+        it acts over the period from t, which the estimate at t does not see yet."""
+        p = self.config.planner.period_s
+        if self.issued is None or abs(self.issued[0] - (t - p)) > 0.5 * p:
+            return np.zeros(3), np.zeros(3)
+        _, force, torque = self.issued
+        return force, torque - np.cross(self.body.com_body_m, force)
 
     def _closed_loop_push(self, t, state, burn, force, torque):
         """A push flown on the estimate (module doc): the force over the rest of the burn that gives the velocity the
@@ -239,7 +298,9 @@ class TransportControl:
         remaining_s = burn.t_start_s + burn.duration_s - t_from
         if remaining_s < 0.5 * p:
             return force, torque
-        dv_hill = self.push_velocity[round(burn.t_start_s / p)] - state.v_hill
+        issued_force, _ = self._in_flight(t)
+        dv_hill = (self.push_end[round(burn.t_start_s / p)].v_hill - state.v_hill
+                   - quat_to_matrix(state.q_hill_from_body) @ issued_force * (p / self.body.mass_kg))
         force_hill = self.body.mass_kg * dv_hill / remaining_s
         limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
         if float(np.linalg.norm(force_hill)) > limit:
@@ -260,6 +321,31 @@ class TransportControl:
         """The wheels against the rate (the damping law's wheel gain), within their torque."""
         return np.clip(self.gains.wheel_gain_n_m_s * omega, -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
 
+    def _track(self, state):
+        """The wheels' torque [N m] (body axes; the body feels its opposite) that holds the estimated attitude on the
+        reference: the plan's model advanced to the estimate's stamp (``transport.attitude_at``), or the trim's
+        wheel slew; PD on the attitude error (its rotation vector, body axes) and the rate error, scaled by the
+        estimated inertia (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING), within the wheels' torque."""
+        t_ref, q_ref, w_ref = self.reference
+        if self.trim_slew is not None:
+            t0, q0, axis, angle, rate = self.trim_slew
+            turned = min(rate * (state.t - t0), angle)
+            q_ref = quat_multiply(quat_from_rotation_vector(turned * axis), q0)
+            w_ref = quat_rotate(quat_conjugate(q_ref), axis * rate) if turned < angle else np.zeros(3)
+        elif state.t > t_ref:
+            q_ref, w_ref = attitude_at(self.body, self.config.planner, q_ref, w_ref, t_ref, state.t, self.plan.burns)
+            self.reference = (state.t, q_ref, w_ref)
+        q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
+        error = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est))
+        gain = self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
+                                               * TRACK_BANDWIDTH_RAD_S * (state.omega_body - w_ref))
+        return np.clip(gain, -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
+
+    def _set_reference(self, state):
+        """The plan's model restarts from the estimate (a new plan, a slew solved again)."""
+        self.reference = (state.t, q_eci_from_body(state.t, self.n, state.q_hill_from_body),
+                          np.asarray(state.omega_body, dtype=float))
+
     def _detumble(self, t, omega, h_wheels):
         """The damping law until the estimated angular momentum |I omega + h|, the rate its mean over DETUMBLED_S
         (the gyro's noise on a 3000 kg m^2 body is of the bound's size), is below half the condition's."""
@@ -271,55 +357,60 @@ class TransportControl:
         bound = 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
         if momentum < bound and t - self.t_start >= DETUMBLED_S:  # the mean over a whole window
             self.t_detumbled = t
+            self.carried = np.zeros(3)
             return np.zeros(3), np.zeros(3), np.zeros(3), [(
                 'OK', 'transport_detumbled', f'the combined body detumbled for the transport after '
                                              f'{t - self.t_start:.1f} s: {momentum:.3g} kg m^2/s (estimated)',
                 {'angular_momentum_kg_m2_s': momentum, 'detumbling_time_s': t - self.t_start})]
         tau, u = damping_command(omega, h_wheels, self.gains, self.wheel_max_torque_n_m)
-        # Below the thrusters' minimum impulse bit a small couple is not fired at all: its angular impulse is carried
-        # until it is worth a pulse (pulse-frequency modulation of the same mean torque).
+        return (*self._couple(tau, self.pulse_n_m_s), u, [])
+
+    def _couple(self, tau, pulse_n_m_s):
+        """(force, torque about the chaser's CoM) of a couple tau [N m] about the combined CoM fired in pulses: below
+        the thrusters' minimum impulse bit a small couple is not fired at all, so its angular impulse is carried
+        until it is worth pulse_n_m_s (pulse-frequency modulation of the same mean torque); the least side force
+        (``transport.torque_wrench``), halved where the thrusters cannot."""
         period = self.config.planner.period_s
-        self.carried = self.carried + tau * period
-        if float(np.linalg.norm(self.carried)) < self.pulse_n_m_s:
-            return np.zeros(3), np.zeros(3), u, []
+        self.carried = self.carried + np.asarray(tau, dtype=float) * period
+        if float(np.linalg.norm(self.carried)) < pulse_n_m_s:
+            return np.zeros(3), np.zeros(3)
         tau, self.carried = self.carried / period, np.zeros(3)
         for _ in range(DETUMBLE_HALVINGS):  # no pure couple about every axis: the least side force, within reach
             wrench = torque_wrench(self.body, self.config.planner, tau)
             if wrench is not None:
-                return wrench[0], wrench[1], u, []
+                return wrench
             tau = 0.5 * tau
-        return np.zeros(3), np.zeros(3), u, []
+        return np.zeros(3), np.zeros(3)
 
-    def _plan(self, state, t_arrival, name):
-        """A plan from the estimated state to the goal, arriving at t_arrival; its event (a refusal ends the
-        transport: the body is held where it is)."""
+    def _plan(self, state):
+        """The plan from the estimated state to the goal, arriving at the transport's arrival; its event (a refusal
+        ends the transport: the body is held where it is)."""
         cfg = self.config
         first = state.t + 2.0 * cfg.planner.period_s  # the first period a command of this estimate can still reach
         start = TransportState(first, *state[1:])
         try:
-            plan = self._plan_with_faster_slews(start, t_arrival)
+            plan = self._plan_with_faster_slews(start, self.t_arrival)
         except TransportRefused as err:
-            if self.plan is not None:  # keep flying the plan there is
-                self.t_check = state.t + cfg.replan_interval_s
-                return [('WARN', 'transport_replan_refused', f'no new transport plan: {err.reason}',
-                         {'reason': err.reason})]
             self.done = True
             return [('ERROR', 'transport_refused', f'no transport plan meets the conditions: {err.reason}',
                      {'reason': err.reason})]
         self.plan, self.plan_start = plan, start
-        # The velocity the plan has at each push's end (hill), by grid tick of its start: the closed-loop push's aim.
-        self.push_velocity = {}
+        self._set_reference(state)
+        # The plan's state at each push's end, by grid tick of its start: the closed-loop push's aim, and the first
+        # push's the nominal coast the mid-course corrections keep to.
+        self.push_end = {}
         for burn in plan.burns:
             if burn.purpose == 'push':
                 end = burn.t_start_s + burn.duration_s
-                self.push_velocity[round(burn.t_start_s / cfg.planner.period_s)] = propagate(
-                    self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner).v_hill
+                self.push_end[round(burn.t_start_s / cfg.planner.period_s)] = propagate(
+                    self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
         self.t_check = state.t + cfg.replan_interval_s
         c = plan.conditions
-        return [('OK', name, f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
-                             f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
-                             f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
-                             f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s',
+        return [('OK', 'transport_planned', f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} '
+                                            f'burns, {plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} '
+                                            f's; predicted {c["position_error_m"]:.3g} m, '
+                                            f'{c["momentum_error_n_s"]:.3g} N s, {c["angular_momentum_kg_m2_s"]:.3g} '
+                                            f'kg m^2/s',
                  {'t_arrival_s': plan.t_arrival_s, 'burns': len(plan.burns), 'fuel_kg': plan.fuel_kg,
                   'predicted_position_error_m': c['position_error_m'],
                   'predicted_momentum_error_n_s': c['momentum_error_n_s'],
@@ -338,69 +429,161 @@ class TransportControl:
                 planner = dataclasses.replace(planner, slew_rate_rad_s=2.0 * planner.slew_rate_rad_s)
         return plan_transport(self.body, start, self.goal, t_arrival, planner)
 
-    def _check(self, state):
-        """Before the arrival, from the end of the first push on: the rest of the plan predicted from the estimate,
-        planned again to the same arrival when it misses the goal by more than replan_position_m (the momentum at the
-        arrival is the last push's to match, planned from the state then); after it, a trim when the estimate is
-        off the goal by more than replan_position_m or replan_momentum_n_s, arriving TRIM_TIME_S later (module
-        doc). None that would end after the judgement."""
-        cfg = self.config
-        self.t_check = state.t + cfg.replan_interval_s
-        p = cfg.planner.period_s
-        pushes = [b for b in self.plan.burns if b.purpose == 'push']
-        if pushes and state.t < pushes[0].t_start_s + pushes[0].duration_s + p:
-            return []  # the first push not flown yet: the plan is as good as when it was made
-        remaining = [b for b in self.plan.burns if b.t_start_s + b.duration_s > state.t + 1.5 * p]
-        if remaining and remaining[0].t_start_s < state.t + 2.0 * p:
-            return []  # a burn is on: judged after it
-        if state.t < self.t_arrival - TRIM_TIME_S:
-            predicted = propagate(self.body, state, remaining, self.t_arrival, cfg.planner)
-            if float(np.linalg.norm(predicted.r_hill - self.goal)) <= cfg.replan_position_m:
-                return []
-            return self._plan(state, self.t_arrival, 'transport_replanned')
-        if remaining or state.t < self.plan.t_arrival_s:
-            return []  # the last burns of the plan are to come
-        miss = float(np.linalg.norm(state.r_hill - self.goal))
-        momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))
-        if miss <= cfg.replan_position_m and momentum <= cfg.replan_momentum_n_s:
-            return []
-        if miss <= cfg.replan_position_m and self._pure_force(-state.v_hill, state) is not None:
-            self.trimming = state.t + DIRECT_TRIM_S  # the velocity within reach: nulled at once, no slew
-            return [('OK', 'transport_trim', f'momentum {momentum:.3g} N s nulled by a pure force in '
-                                             f'{DIRECT_TRIM_S:g} s (no slew)', {'momentum_n_s': momentum})]
-        if state.t + TRIM_TIME_S > self.t_arrival + cfg.settle_s:
-            return []
-        return self._plan(state, state.t + TRIM_TIME_S, 'transport_trim')
-
-    def _pure_force(self, direction_hill, state):
-        """(force, torque about the chaser's CoM), body axes, of a one-newton force along direction_hill with no
-        torque about the combined CoM; None where the allowed thrusters cannot give it at the body's attitude."""
-        d = np.asarray(direction_hill, dtype=float)
-        if not float(np.linalg.norm(d)) > 0.0:
-            return None
-        f_body = quat_to_matrix(state.q_hill_from_body).T @ (d / float(np.linalg.norm(d)))
-        allocation = allocate_wrench(self.body.layout, f_body, np.cross(self.body.com_body_m, f_body))
-        return None if allocation.saturated else (f_body, np.cross(self.body.com_body_m, f_body))
-
-    def _direct_trim(self, t, state):
-        """The direct trim's command: the force that nulls the estimated velocity over the rest of the trim, when
-        the thrusters give it as a pure force (else nothing, and the trim ends)."""
+    def _check(self, state, h_wheels):
+        """Between the first push and the next slew, the mid-course correction (``_correct``); after the arrival and
+        the plan's last burn, the trim (``_trim``)."""
+        self.t_check = state.t + self.config.replan_interval_s
         p = self.config.planner.period_s
-        remaining_s = self.trimming - (t + p)
-        zero = np.zeros(3)
-        if remaining_s < 0.5 * p:
-            self.trimming = None
+        pushes = [b for b in self.plan.burns if b.purpose == 'push']
+        remaining = [b for b in self.plan.burns if b.t_start_s + b.duration_s > state.t + 1.5 * p]
+        if not remaining and state.t >= self.plan.t_arrival_s:
+            return self._trim(state, h_wheels)
+        if state.t >= pushes[0].t_start_s + pushes[0].duration_s + p and remaining and remaining[0] is not pushes[-1]:
+            return self._correct(state, pushes, remaining[0])
+        return []
+
+    def _correct(self, state, pushes, next_burn):
+        """The mid-course correction, keeping the last push (it nulls the velocity at the arrival, closed loop): the
+        estimate's deviation from the plan's coast after the first push (its state at the push's end coasted by CW,
+        seed 000 eq 22) carried to the last push's middle; beyond replan_position_m there, the one impulse now that
+        takes it out (Phi_rv dv = -miss), fired as a pulse when the allowed thrusters give it at the attitude the
+        wheels hold and it ends before the next burn (else at a later check, or the trim after the arrival)."""
+        p = self.config.planner.period_s
+        t = state.t
+        first, last = pushes[0], pushes[-1]
+        nominal = self.push_end[round(first.t_start_s / p)]
+        x_nominal = cw_transition_matrix(self.n, t - nominal.t) @ np.concatenate((nominal.r_hill, nominal.v_hill))
+        phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - t)
+        miss = (phi @ (np.concatenate((state.r_hill, state.v_hill)) - x_nominal))[:3]
+        if float(np.linalg.norm(miss)) <= self.config.replan_position_m:
+            return []
+        dv = -np.linalg.solve(phi[:3, 3:], miss)
+        impulse = self.body.mass_kg * float(np.linalg.norm(dv))
+        pulse = self._pulse(state, dv / float(np.linalg.norm(dv)), impulse)
+        k0 = round((t + 2.0 * p) / p)
+        if pulse is None or (k0 + pulse[2]) * p > next_burn.t_start_s - 1e-9:
+            return []
+        self.pulses = [(k0 * p, (k0 + pulse[2]) * p, pulse[0], pulse[1])]
+        return [('OK', 'transport_correction', f'{float(np.linalg.norm(miss)):.3g} m off at the last push: a '
+                                               f'correction of {impulse:.3g} N s', {'miss_m': float(np.linalg.norm(
+                                                   miss)), 'impulse_n_s': impulse})]
+
+    def _trim(self, state, h_wheels):
+        """After the arrival (module doc): a dump, a transfer back, a pulse or the wheel slew before it; nothing
+        while a wheel slew or a pulse is on."""
+        cfg = self.config
+        planner = cfg.planner
+        p = planner.period_s
+        t = state.t
+        if self.trim_slew is None:  # the plan's model at rest from now on: the trim's slews start there
+            _, q_ref, _ = self.reference
+            self.trim_slew = (t, q_ref, np.array([1.0, 0.0, 0.0]), 0.0, 0.0)
+        t0, _, _, angle, rate = self.trim_slew
+        if (angle > 0.0 and t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9) or any(t < t_b + p for _, t_b, _, _
+                                                                                    in self.pulses):
+            return []
+        body = self.body
+        h = float(np.linalg.norm(body.inertia_body_kg_m2 @ state.omega_body + h_wheels))
+        if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s:
+            self.dumping = t + DUMP_S
+            self.carried = np.zeros(3)
+            return [('OK', 'transport_dump', f'angular momentum {h:.3g} kg m^2/s dumped by couples over {DUMP_S:g} s',
+                     {'angular_momentum_kg_m2_s': h})]
+        events = []
+        if self.trim_arrival is not None and t >= self.trim_arrival:
+            self.trim_arrival = None  # the transfer back has arrived: from rest again
+        if self.trim_arrival is not None and t > self.trim_arrival - 0.5 * TRIM_TIME_S:
+            return events  # its last half coasts: a correction now would cost more than the miss it saves
+        miss = float(np.linalg.norm(state.r_hill - self.goal))
+        t_end = self.t_arrival + cfg.settle_s
+        arrival = self.trim_arrival
+        if arrival is None and miss > cfg.replan_position_m and t + TRIM_TIME_S < t_end:
+            arrival = t + 2.0 * p + TRIM_TIME_S  # a new transfer back, if its pulse fires now
+        if arrival is not None:  # the velocity wanted now (hill): the transfer back's (seed 000 eq 28-29) ...
+            dv1, _ = terminal_impulses(state.r_hill, state.v_hill, self.goal, np.zeros(3), arrival - t, self.n)
+            aim = state.v_hill + dv1
+        else:  # ... or the one that coasts to rest at the judgement (off the goal the body is not at rest in hill)
+            phi = cw_transition_matrix(self.n, t_end - t)
+            aim = -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ (state.r_hill - self.goal))
+        error = state.v_hill - aim
+        impulse = body.mass_kg * float(np.linalg.norm(error))
+        bit = body.layout.min_impulse_bit_n_s
+        if impulse <= max(cfg.replan_momentum_n_s, 0.5 * bit):
+            return events
+        d_hill = -error / float(np.linalg.norm(error))
+        pulse = self._pulse(state, d_hill, impulse)
+        if pulse is not None:
+            k0 = round((t + 2.0 * p) / p)
+            force, torque, k_len = pulse
+            self.pulses = [(k0 * p, (k0 + k_len) * p, force, torque)]
+            if arrival is not None and self.trim_arrival is None:
+                self.trim_arrival = arrival
+                return events + [('OK', 'transport_trim', f'{miss:.3g} m from the goal: a transfer back of '
+                                                          f'{impulse:.3g} N s arriving at t = {arrival:.1f} s',
+                                  {'position_error_m': miss, 'impulse_n_s': impulse, 't_arrival_s': arrival})]
+            return events + [('OK', 'transport_pulse', f'a pulse of {impulse:.3g} N s against the velocity error',
+                              {'impulse_n_s': impulse})]
+        # The push axis turned onto the velocity error by the wheels, from the reference where it is now, aimed at
+        # the error the body will have then (CW, seed 000 eq 22; hill turns meanwhile).
+        q_est = q_eci_from_body(t, self.n, state.q_hill_from_body)
+        b_eci = quat_rotate(q_est, self.b_body)
+        turn = float(np.arccos(np.clip(b_eci @ (hill_axes_in_eci(t, self.n) @ d_hill), -1.0, 1.0)))
+        t_fire = t + turn / self.trim_slew_rate + WHEEL_SPINUP_S
+        _, v = np.split(cw_transition_matrix(self.n, t_fire - t) @ np.concatenate((state.r_hill, error)), 2)
+        d_eci = -hill_axes_in_eci(t_fire, self.n) @ (v / float(np.linalg.norm(v)))
+        q_goal = quat_multiply(quat_shortest_arc(b_eci, d_eci), q_est)
+        q_now = self._reference_now(t)
+        arc = rotation_vector_from_quat(quat_multiply(q_goal, quat_conjugate(q_now)))
+        angle = float(np.linalg.norm(arc))
+        if angle > 0.0:
+            self.trim_slew = (t, q_now, arc / angle, angle, self.trim_slew_rate)
+            self.t_check = t + angle / self.trim_slew_rate + WHEEL_SPINUP_S  # the pulse as soon as it is turned
+        return events
+
+    def _reference_now(self, t):
+        """The trim's reference attitude (q_eci_from_body) at t."""
+        t0, q0, axis, angle, rate = self.trim_slew
+        return quat_multiply(quat_from_rotation_vector(min(rate * (t - t0), angle) * axis), q0)
+
+    def _pulse(self, state, d_hill, impulse):
+        """(force, torque about the chaser's CoM, periods) of a trim pulse of impulse [N s] along d_hill at the
+        estimated attitude: a pure force along it where every thruster the allocation fires gets at least the minimum
+        impulse bit; else, with the push axis within TRIM_POINTING_RAD of it, the thrusters along the push axis fired
+        alike (a pure force about an estimated CoM a few mm off their axis would ask the others for less than a bit),
+        or below a bit each the one with the least lever arm, the impulse at least one bit (their small couple the
+        wheels take); None where the push axis must be turned first."""
+        body = self.body
+        p = self.config.planner.period_s
+        bit = body.layout.min_impulse_bit_n_s
+        k_len = max(1, int(np.ceil(impulse / (self.config.planner.push_force_fraction * push_axis(body)[1] * p))))
+        d_body = quat_to_matrix(state.q_hill_from_body).T @ d_hill
+        force = impulse / (k_len * p) * d_body
+        allocation = allocate_wrench(body.layout, force, np.cross(body.com_body_m, force))
+        fired = allocation.thrusts_n[allocation.thrusts_n > _FIRING_N]
+        if not allocation.saturated and fired.size and float(fired.min()) * p >= bit * (1.0 + 1e-6):
+            return force, np.cross(body.com_body_m, force), k_len
+        if float(d_body @ self.b_body) < np.cos(TRIM_POINTING_RAD):
+            return None
+        along = np.flatnonzero(body.layout.force_directions_body @ self.b_body > 1.0 - 1e-9)
+        if impulse < along.size * bit:
+            arms = [float(np.linalg.norm(np.cross(body.layout.positions_body_m[i] - body.com_body_m, self.b_body)))
+                    for i in along]
+            along = along[[int(np.argmin(arms))]]
+            impulse = max(impulse, bit * (1.0 + 1e-6))
+        thrust = impulse / (k_len * p * along.size) * body.layout.force_directions_body[along]
+        return (np.sum(thrust, axis=0), np.sum(np.cross(body.layout.positions_body_m[along], thrust), axis=0),
+                k_len)
+
+    def _dump(self, t, state, h_wheels):
+        """The dump's command: couples against the estimated angular momentum I omega + h (the wheels hold the
+        attitude meanwhile), in pulses of two minimum impulse bits at the mean lever arm, until the dump's end."""
+        p = self.config.planner.period_s
+        if t + p >= self.dumping - 1e-9:
+            self.dumping = None
             self.t_check = t + self.config.replan_interval_s
-            return zero, zero
-        force_hill = -self.body.mass_kg * state.v_hill / remaining_s
-        unit = self._pure_force(force_hill, state)
-        if unit is None:
-            self.trimming = None
-            return zero, zero
-        size = float(np.linalg.norm(force_hill))
-        if allocate_wrench(self.body.layout, size * unit[0], size * unit[1]).saturated:
-            return zero, zero  # beyond the thrusters at once: wait for the rest of the trim
-        return size * unit[0], size * unit[1]
+            return np.zeros(3), np.zeros(3)
+        h = self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels
+        return self._couple(-h / DUMP_S, 0.2 * self.pulse_n_m_s)
 
     def _complete(self, t, state, h_wheels):
         momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))

@@ -82,10 +82,19 @@ def test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate():
     assert not allocate_wrench(body.layout, force, torque).saturated
     # Up to the Coriolis term over the push, which the closed loop takes at once: 2 n |dv| m ~ 0.14 N here.
     np.testing.assert_allclose(force, push.force_body_n, atol=0.2)
-    # A spin-down flown on the estimate takes out the estimated I omega over the burn, whatever the plan said.
+    # The push commanded at the previous estimate acts over the period the estimate has not seen yet: asked for once.
+    control.issued = (push.t_start_s - 0.2, force, torque)
+    again, _ = control._closed_loop_push(push.t_start_s - 0.1, planned_at, push, push.force_body_n,
+                                         push.torque_body_n_m)
+    np.testing.assert_allclose(again, force - force * 0.1 / push.duration_s, atol=1e-9)
+    control.issued = None
+    # A spin-down flown on the estimate takes out the estimated I omega + h (the wheels' included) over the burn,
+    # whatever the plan said.
     stop = next(b for b in control.plan.burns if b.purpose == 'slew_stop')
     spinning = planned_at._replace(omega_body=np.array([0.0, 0.0, 0.005]))
+    h_wheels = np.array([0.01, 0.0, -0.02])
     force, torque = control._closed_loop_stop(stop.t_start_s - 0.1, spinning, stop, stop.force_body_n,
-                                              stop.torque_body_n_m)
+                                              stop.torque_body_n_m, h_wheels)
     np.testing.assert_allclose(torque - np.cross(body.com_body_m, force),
-                               -body.inertia_body_kg_m2 @ spinning.omega_body / stop.duration_s, atol=1e-9)
+                               -(body.inertia_body_kg_m2 @ spinning.omega_body + h_wheels) / stop.duration_s,
+                               atol=1e-9)

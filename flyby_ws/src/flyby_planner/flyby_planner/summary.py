@@ -472,9 +472,10 @@ def transport_figures(chaser, target, wheels, thrust, events, scenario):
     h = angular_momentum_about_com(pair)
     out.update(transport_final_position_error_m=miss, transport_orbital_momentum_error_n_m_s=momentum,
                transport_final_angular_momentum_kg_m2_s=h,
-               transport_conditions_met=bool(done) and h < tr.max_angular_momentum_kg_m2_s
-               and miss < tr.max_position_error_m and momentum < tr.max_momentum_error_n_s,
-               transport_replans=sum(1 for e in events if e['name'] == 'transport_replanned'))
+               transport_conditions_met=bool(done and h < tr.max_angular_momentum_kg_m2_s
+                                             and miss < tr.max_position_error_m
+                                             and momentum < tr.max_momentum_error_n_s),
+               transport_replans=sum(1 for e in events if e['name'] in ('transport_correction', 'transport_trim')))
     planned = [e for e in events if e['name'] == 'transport_planned']
     if planned:
         out['transport_time_s'] = float(planned[0]['values']['t_arrival_s']) - t_start

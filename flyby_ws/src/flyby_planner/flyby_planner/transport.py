@@ -243,6 +243,22 @@ def propagate(body, state, burns, t_end_s, config, errors=None):
                           q_hill_from_body(float(t_end_s), model.n, y[6:10]), y[10:13].copy())
 
 
+def attitude_at(body, config, q_eci, omega_body, t_a, t_b, burns):
+    """(q_eci_from_body, omega_body) at t_b from (q_eci, omega_body) at t_a under the burns' torques about the
+    combined CoM (T_com = T_chaser - c x F, seed 004 §2.2; Euler's equation, torque-free between the burns): the
+    planner's attitude, which guidance's wheels track (``transport_control``)."""
+    model = _Model(body, config)
+    burns = tuple(burns)
+    q, w = np.asarray(q_eci, dtype=float), np.asarray(omega_body, dtype=float)
+    for s, e, i in _segments(burns, float(t_a), float(t_b)):
+        torque = np.zeros(3)
+        if i is not None:
+            force = np.asarray(burns[i].force_body_n, dtype=float)
+            torque = np.asarray(burns[i].torque_body_n_m, dtype=float) - np.cross(model.com_body_m, force)
+        q, w = _rotate(model, config, q, w, s, e, ((s, e, torque),))
+    return q, w
+
+
 def _check_burns(burns):
     for a, b in zip(burns[:-1], burns[1:], strict=False):
         if b.t_start_s < a.t_start_s + a.duration_s - 1e-9:
