@@ -8,14 +8,20 @@ import pytest
 
 from flyby_guidance.guidance_core import post_capture_config_from_scenario
 from flyby_guidance.transport_control import (
+    DUMP_S,
     NAV_SETTLE_S,
+    TRACK_BANDWIDTH_RAD_S,
+    TRIM_SLEW_RATE_RAD_S,
+    WHEEL_SPINUP_S,
     TransportControl,
     transport_body,
     transport_guidance_config_from_scenario,
 )
-from flyby_planner.transport import propagate
+from flyby_planner.transport import TransportState, propagate
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
+from flyby_sim.dynamics.orbital import cw_transition_matrix, q_hill_from_body
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_shortest_arc, quat_to_matrix
 from flyby_sim.scenario import load_scenario
 
 SCENARIO = Path(__file__).resolve().parents[4] / 'scenarios' / 'matsunaga_orbit_advance.yaml'
@@ -98,3 +104,118 @@ def test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate():
     np.testing.assert_allclose(torque - np.cross(body.com_body_m, force),
                                -(body.inertia_body_kg_m2 @ spinning.omega_body + h_wheels) / stop.duration_s,
                                atol=1e-9)
+
+
+def _planned():
+    """The control of test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate once planned, at rest
+    with the chaser's axes along hill's (the estimate it planned from)."""
+    sc, body, control = _control()
+    control.start(85.0, body)
+    q, r_chaser, t = np.array([0.0, 0.0, 0.0, 1.0]), np.array([10.0, 5.0, 5.0]) - body.com_body_m, 85.0
+    while control.plan is None:
+        control.command(t, r_chaser, np.zeros(3), q, np.zeros(3), np.zeros(3))
+        t += 0.1
+    return body, control
+
+
+def _state(t, q=(0.0, 0.0, 0.0, 1.0), r=(1000.0, 0.0, 0.0), v=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 0.0)):
+    return TransportState(t, np.asarray(r, dtype=float), np.asarray(v, dtype=float), np.asarray(q, dtype=float),
+                          np.asarray(omega, dtype=float))
+
+
+def test_the_wheels_hold_the_plans_attitude():
+    """On the reference the wheels do nothing; off it they turn the body back (the body feels -u): PD on the
+    attitude error and the rate error scaled by the estimated inertia, within the wheels' torque."""
+    body, control = _planned()
+    t_ref, q_ref, w_ref = control.reference
+    q_hill = q_hill_from_body(t_ref, control.n, q_ref)
+    np.testing.assert_allclose(control._track(_state(t_ref, q_hill, omega=w_ref)), 0.0, atol=1e-12)
+    tilted = quat_multiply(q_hill, quat_from_rotation_vector((0.0, 0.0, 0.01)))
+    u = control._track(_state(t_ref, tilted, omega=w_ref))
+    np.testing.assert_allclose(u, body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * np.array([0.0, 0.0, 0.01])),
+                               rtol=1e-6, atol=1e-12)
+    spinning = control._track(_state(t_ref, q_hill, omega=w_ref + np.array([0.5, 0.0, 0.0])))
+    assert spinning[0] == pytest.approx(0.1)  # the wheels' torque
+
+
+def test_trim_pulses_a_pure_force_in_reach_else_along_the_push_axis_else_turns_it_first():
+    """After the arrival a velocity error is nulled by a pulse: a pure force along it where the allowed thrusters
+    give one above the minimum impulse bit; along the push axis (+x) by its pair, or below two bits by one of them;
+    where neither, the wheels turn the push axis onto it first and the pulse waits for the turn."""
+    body, control = _planned()
+    state = _state(2000.0)
+    at_thirty = np.array([np.cos(0.5), np.sin(0.5), 0.0])
+    force, torque, periods = control._pulse(state, at_thirty, 1.0)
+    np.testing.assert_allclose(force, 10.0 * at_thirty, atol=1e-12)
+    np.testing.assert_allclose(torque, np.cross(body.com_body_m, force), atol=1e-12)  # none about the combined CoM
+    assert periods == 1
+    assert control._pulse(state, np.array([-1.0, 0.0, 0.0]), 1.0) is None  # no -x thrust
+    nearly_x = np.array([1.0, 0.01, 0.0]) / np.linalg.norm([1.0, 0.01, 0.0])
+    force, torque, _ = control._pulse(state, nearly_x, 0.05)
+    np.testing.assert_allclose(force, [0.5, 0.0, 0.0], atol=1e-12)  # the pair, 0.025 N s each
+    force, torque, _ = control._pulse(state, nearly_x, 0.004)
+    assert force[0] == pytest.approx(0.1, rel=1e-5) and abs(torque[2]) > 0.0  # one thruster, one bit
+    # A velocity along the push axis (to be nulled along -x): the wheels turn the body half round, then the pulse.
+    control._track(state)  # the plan's attitude at rest after its burns
+    q_held = q_hill_from_body(2000.0, control.n, control.reference[1])
+    v = 1e-3 * quat_to_matrix(q_held)[:, 0]
+    events = control._trim(_state(2000.0, q_held, v=v), np.zeros(3))
+    assert not events and not control.pulses
+    t0, q0, axis, angle, rate = control.trim_slew
+    assert angle == pytest.approx(np.pi, abs=0.2) and rate == TRIM_SLEW_RATE_RAD_S  # hill turns meanwhile
+    t_turned = t0 + angle / rate + WHEEL_SPINUP_S
+    assert control.t_check == pytest.approx(t_turned)
+    assert control._trim(_state(t_turned - 1.0, v=v), np.zeros(3)) == []  # still turning
+    q_turned = q_hill_from_body(t_turned, control.n, control._reference_now(t_turned))
+    x = cw_transition_matrix(control.n, t_turned - 2000.0) @ np.concatenate(([1000.0, 0.0, 0.0], v))  # coasted
+    events = control._trim(_state(t_turned, q_turned, r=x[:3], v=x[3:]), np.zeros(3))
+    assert events[0][1] == 'transport_pulse' and control.pulses
+    force_hill = quat_to_matrix(q_turned) @ control.pulses[0][2]
+    assert float(force_hill @ x[3:]) < -0.999 * np.linalg.norm(force_hill) * np.linalg.norm(x[3:])
+
+
+def test_trim_dumps_the_angular_momentum_first_and_aims_at_rest_at_the_judgement():
+    body, control = _planned()
+    t_end = control.t_arrival + control.config.settle_s
+    events = control._trim(_state(2000.0), np.array([0.0, 0.0, 0.05]))
+    assert events[0][1] == 'transport_dump' and control.dumping == pytest.approx(2000.0 + DUMP_S)
+    force, torque = control._dump(2000.0, _state(2000.0), np.array([0.0, 0.0, 0.05]))
+    assert float((torque - np.cross(body.com_body_m, force)) @ np.array([0.0, 0.0, 1.0])) <= 0.0
+    control.dumping = None
+    # 1 m off V-bar the body is not at rest in hill: the pulse gives the velocity that coasts to rest at the
+    # judgement (CW), not rest now; here along the push axis, the pair's.
+    phi = cw_transition_matrix(control.n, 100.0)
+    aim = -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ np.array([0.0, 0.0, 1.0]))
+    q_aim = quat_shortest_arc(np.array([1.0, 0.0, 0.0]), aim / np.linalg.norm(aim))
+    events = control._trim(_state(t_end - 100.0, q_aim, r=(1000.0, 0.0, 1.0)), np.zeros(3))
+    assert events and events[0][1] == 'transport_pulse'
+    force_hill = quat_to_matrix(q_aim) @ control.pulses[0][2]
+    np.testing.assert_allclose(force_hill * 0.1 / body.mass_kg, aim, rtol=1e-6, atol=1e-12)
+
+
+def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
+    """After the first push, the estimate's deviation from the plan's coast carried to the last push by CW: within
+    replan_position_m nothing; beyond it one impulse now that takes the miss out, where the thrusters give it."""
+    body, control = _planned()
+    p = control.config.planner.period_s
+    pushes = [b for b in control.plan.burns if b.purpose == 'push']
+    nominal = control.push_end[round(pushes[0].t_start_s / p)]
+    t = nominal.t + 30.0
+    x = cw_transition_matrix(control.n, 30.0) @ np.concatenate((nominal.r_hill, nominal.v_hill))
+    q_push = nominal.q_hill_from_body
+    on_plan = TransportState(t, x[:3], x[3:], q_push, np.zeros(3))
+    next_burn = next(b for b in control.plan.burns if b.t_start_s > t)
+    assert control._correct(on_plan, pushes, next_burn) == []
+    # 5 mm/s short along the push axis: the correction is along it, the pair gives it.
+    axis = quat_to_matrix(q_push)[:, 0]
+    short = on_plan._replace(v_hill=x[3:] - 5e-3 * axis)
+    events = control._correct(short, pushes, next_burn)
+    assert events[0][1] == 'transport_correction'
+    dv = control.pulses[0][2] * (control.pulses[0][1] - control.pulses[0][0]) / body.mass_kg
+    phi = cw_transition_matrix(control.n, pushes[-1].t_start_s + 0.5 * pushes[-1].duration_s - t)
+    corrected = np.concatenate((short.r_hill, short.v_hill + quat_to_matrix(q_push) @ dv)) - x
+    assert np.linalg.norm((phi @ corrected)[:3]) < 0.05
+    # 5 mm/s too fast: the correction brakes, along -x of the body: not now (the last push takes the velocity out).
+    control.pulses = []
+    fast = on_plan._replace(v_hill=x[3:] + 5e-3 * axis)
+    assert control._correct(fast, pushes, next_burn) == [] and not control.pulses

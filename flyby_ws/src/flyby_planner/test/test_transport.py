@@ -17,12 +17,14 @@ from flyby_planner.transport import (
     TransportConfig,
     TransportRefused,
     TransportState,
+    attitude_at,
     plan_transport,
     propagate,
 )
 from flyby_sim.dynamics.actuators import ThrusterLayout, allocate_wrench, default_thruster_layout
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
+from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_from_rotation_vector
 
 _CONFIG = TransportConfig()
@@ -196,3 +198,28 @@ def test_a_trim_shorter_than_one_slew_is_refused_naming_the_time_not_raised():
     the arrival, which is a TransportRefused naming the time, not an error of the CW transfer's arithmetic."""
     with pytest.raises(TransportRefused, match='time'):
         plan_transport(_tugrobot_body(), _at_rest(), np.array([100.0, 0.0, 0.0]), 300.0, _CONFIG)
+
+
+def test_attitude_at_is_the_plans_rotation_whatever_the_steps():
+    """The attitude guidance's wheels track (attitude_at, Euler's equation under the burns' torques about the combined
+    CoM): the plan's own rotation at its end, and the same whether advanced at once or a control period at a time."""
+    body = _tugrobot_body()
+    state = _at_rest()
+    plan = plan_transport(body, state, (1000.0, 0.0, 0.0), 3000.0, _CONFIG)
+    n = mean_motion_rad_s(_CONFIG.radius_m, _CONFIG.mu)
+    q0 = q_eci_from_body(0.0, n, state.q_hill_from_body)
+    q, w = attitude_at(body, _CONFIG, q0, np.zeros(3), 0.0, plan.t_arrival_s, plan.burns)
+    np.testing.assert_allclose(w, plan.predicted.omega_body, atol=1e-12)
+    error = Rotation.from_quat(q_hill_from_body(plan.t_arrival_s, n, q)).inv() * Rotation.from_quat(
+        plan.predicted.q_hill_from_body)
+    assert error.magnitude() < 1e-9
+    slew = next(b for b in plan.burns if b.purpose == 'slew_start')
+    t_a, t_b = slew.t_start_s - 0.3, slew.t_start_s + slew.duration_s + 5.0
+    q_a, w_a = attitude_at(body, _CONFIG, q0, np.zeros(3), 0.0, t_a, plan.burns)
+    q_step, w_step = q_a, w_a
+    for k in range(round((t_b - t_a) / 0.1)):
+        q_step, w_step = attitude_at(body, _CONFIG, q_step, w_step, t_a + 0.1 * k, t_a + 0.1 * (k + 1), plan.burns)
+    q_once, w_once = attitude_at(body, _CONFIG, q_a, w_a, t_a, t_b, plan.burns)
+    np.testing.assert_allclose(w_step, w_once, atol=1e-9)
+    assert (Rotation.from_quat(q_step).inv() * Rotation.from_quat(q_once)).magnitude() < 1e-7
+    assert np.linalg.norm(w_once) > 0.5 * _CONFIG.slew_rate_rad_s  # spun up
