@@ -13,7 +13,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event
 from flyby_planner.optimal.approach import (
-    LEAST_FUEL_STEPS,
+    LEAST_FUEL_SCP,
     approach_settings_from_scenario,
     check_approach,
     plan_approach,
@@ -89,7 +89,7 @@ def test_optimal_method_publishes_a_checked_trajectory_to_the_grasp():
 
 
 def test_a_least_fuel_plan_keeps_the_plume_rule_from_the_tracking_margin_out():
-    """jacobsen_optimal (k_s = 0): SCP on LEAST_FUEL_STEPS steps; no thrust away from the target inside the plume
+    """jacobsen_optimal (k_s = 0): SCP with LEAST_FUEL_SCP (160 steps); no thrust away from the target inside the plume
     radius plus twice the tracking's margin, where guidance would remove it (dense samples); delta-v within the
     issue 14 neighbourhood of the least found (docs/optimal.md: 2.55-2.58 m/s at 0.138 m/s^2, this plan at
     0.1283 m/s^2 keeps a share for the feedback)."""
@@ -99,7 +99,7 @@ def test_a_least_fuel_plan_keeps_the_plume_rule_from_the_tracking_margin_out():
     plan = plan_approach(sc, truth_prediction(sc, T_PLAN + settings.horizon_s), (50.0, 0.0, 0.0), np.zeros(3),
                          T_PLAN, settings, planner_config_from_scenario(sc))
     assert plan.ok, plan.reason
-    assert len(plan.plan.u_hill) == LEAST_FUEL_STEPS
+    assert len(plan.plan.u_hill) == LEAST_FUEL_SCP.steps
     assert planning_plume_radius_m(5.0) == pytest.approx(5.0 + 2.0 * PLUME_MARGIN_M)
     assert planning_plume_radius_m(0.0) == 0.0  # no rule: none planned either
     s = plan.plan.sample(np.linspace(0.0, plan.plan.duration_s, 12001))
