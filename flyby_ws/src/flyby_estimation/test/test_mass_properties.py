@@ -135,6 +135,8 @@ def test_a_firing_before_the_filter_time_and_a_bad_config_are_refused_by_name():
         f.add_firings(table1_firings()[:1])
     with pytest.raises(ValueError, match='cannot predict back'):
         f.predict(1.0)
+    with pytest.raises(ValueError, match='max_iterations'):
+        f.relinearize(max_iterations=0)
     with pytest.raises(ValueError, match='chaser_inertia_body_kg_m2'):
         MassPropertyFilterConfig(30.0, ((1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0)))
     with pytest.raises(ValueError, match='gyro_sigma_rad_s'):
