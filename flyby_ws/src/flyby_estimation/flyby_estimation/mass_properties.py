@@ -79,14 +79,14 @@ about the symmetry axis keeps its prior (test
 ``test_seed004_relinearized_cylinder_learns_nothing_of_its_rotation_about_its_axis``). Measured
 (docs/post_capture.md): over 50 TugRobot runs the relinearized NEES is inside its 95 % band for Table 1 and the
 chosen sequence, where the forward filter's is 1.4 to 2.9 times it; from a prior ten times wider (tens of
-percent, the forward gate rejecting most samples) six iterations bring the errors from percents to hundredths of a
-percent, but one run of three has not converged and the NEES is above its band.
+percent, the forward gate rejecting most samples) the errors go from percents to hundredths of a percent, but
+the runs need 6 to 8 iterations and the NEES stays above its band.
 
 Process noise and consistency: ``accel_psd_m2_s3`` and ``angular_accel_psd_rad2_s3`` must be what the truth has.
 A rate random walk the truth does not have makes P conservative where the information comes slowly: the split
 of two equal moments (j2) is told by the gyroscopic drift the torque-free turn accumulates after the firings
-(its sigma falls as ~t^-2.5), which 1e-12 rad^2/s^3 masks; on the TugRobot experiment (no unmodelled torque)
-j2's error was half its sigma with it.
+(its sigma keeps falling to the window's end), which 1e-12 rad^2/s^3 masks; on the TugRobot experiment (no
+unmodelled torque) j2's error was half its sigma with it.
 """
 
 import dataclasses
