@@ -150,6 +150,7 @@ class TransportControl:
         self.wheel_max_torque_n_m = wheel_max_torque_n_m
         self.t_detumbled = None
         self.rates = collections.deque()  # (t, omega_body) over the last DETUMBLED_S
+        self.momentum = None  # the estimated angular momentum, the rate averaged over DETUMBLED_S [kg m^2/s]
         self.carried = np.zeros(3)  # a couple's angular impulse not yet fired [N m s]
         self.resolved = set()  # the start times of the slews solved again from the estimate
         self.goal = np.asarray(config.goal_hill_m, dtype=float)
@@ -179,8 +180,12 @@ class TransportControl:
         arms = np.linalg.norm(body.layout.positions_body_m - body.com_body_m, axis=1)
         self.pulse_n_m_s = 10.0 * body.layout.min_impulse_bit_n_s * float(np.mean(arms))
         # A trim's wheel slew: as fast as TRIM_SLEW_RATE_RAD_S, or as the wheels spin the body up in WHEEL_SPINUP_S.
-        self.trim_slew_rate = min(TRIM_SLEW_RATE_RAD_S, self.wheel_max_torque_n_m * WHEEL_SPINUP_S / float(
-            np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2))))
+        spin_up_rad_s = self.wheel_max_torque_n_m * WHEEL_SPINUP_S / float(
+            np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2)))
+        self.trim_slew_rate = min(TRIM_SLEW_RATE_RAD_S, spin_up_rad_s)
+        # The wheels steer the body (track the plan's attitude, turn it for a trim) where they spin it up to the
+        # slews' rate within WHEEL_SPINUP_S; on a heavier body they only damp its rate at rest.
+        self.wheels_steer = spin_up_rad_s >= self.config.planner.slew_rate_rad_s
 
     def command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         """(force [N], torque about the chaser's CoM [N m], wheel motor torque [N m], chaser_body; events) for the
@@ -197,6 +202,13 @@ class TransportControl:
         period = cfg.planner.period_s
         omega = np.asarray(omega_body, dtype=float)
         h_wheels = np.asarray(h_wheels_body_n_m_s, dtype=float)
+        # The estimated angular momentum |I omega + h|, the rate its mean over DETUMBLED_S (the gyro's noise on a
+        # 3000 kg m^2 body is of the first condition's size).
+        self.rates.append((t, omega))
+        while self.rates[0][0] < t - DETUMBLED_S - 1e-9:
+            self.rates.popleft()
+        self.momentum = float(np.linalg.norm(self.body.inertia_body_kg_m2 @ np.mean([w for _, w in self.rates], axis=0)
+                                             + h_wheels))
         if self.t_detumbled is None:
             return self._detumble(t, omega, h_wheels)
         events = []
@@ -215,12 +227,12 @@ class TransportControl:
         at_rest = not any(a.t_start_s - period <= t_mid < b.t_start_s + b.duration_s + period
                           for a, b in self._slews())
         if at_rest and t >= self.t_check - 1e-9:
-            events += self._check(state, h_wheels)
+            events += self._check(state)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)
                 break
-        wheels = self._track(state)
+        wheels = self._track(state) if self.wheels_steer else (self._hold(omega) if at_rest else zero)
         if self.dumping is not None:
             return (*self._dump(t, state, h_wheels), wheels, events)
         for t_a, t_b, force, torque in self.pulses:
@@ -347,13 +359,8 @@ class TransportControl:
                           np.asarray(state.omega_body, dtype=float))
 
     def _detumble(self, t, omega, h_wheels):
-        """The damping law until the estimated angular momentum |I omega + h|, the rate its mean over DETUMBLED_S
-        (the gyro's noise on a 3000 kg m^2 body is of the bound's size), is below half the condition's."""
-        self.rates.append((t, omega))
-        while self.rates[0][0] < t - DETUMBLED_S - 1e-9:
-            self.rates.popleft()
-        mean = np.mean([w for _, w in self.rates], axis=0)
-        momentum = float(np.linalg.norm(self.body.inertia_body_kg_m2 @ mean + h_wheels))
+        """The damping law until the estimated angular momentum (its rate averaged) is below half the condition's."""
+        momentum = self.momentum
         bound = 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
         if momentum < bound and t - self.t_start >= DETUMBLED_S:  # the mean over a whole window
             self.t_detumbled = t
@@ -429,7 +436,7 @@ class TransportControl:
                 planner = dataclasses.replace(planner, slew_rate_rad_s=2.0 * planner.slew_rate_rad_s)
         return plan_transport(self.body, start, self.goal, t_arrival, planner)
 
-    def _check(self, state, h_wheels):
+    def _check(self, state):
         """Between the first push and the next slew, the mid-course correction (``_correct``); after the arrival and
         the plan's last burn, the trim (``_trim``)."""
         self.t_check = state.t + self.config.replan_interval_s
@@ -437,7 +444,7 @@ class TransportControl:
         pushes = [b for b in self.plan.burns if b.purpose == 'push']
         remaining = [b for b in self.plan.burns if b.t_start_s + b.duration_s > state.t + 1.5 * p]
         if not remaining and state.t >= self.plan.t_arrival_s:
-            return self._trim(state, h_wheels)
+            return self._trim(state)
         if state.t >= pushes[0].t_start_s + pushes[0].duration_s + p and remaining and remaining[0] is not pushes[-1]:
             return self._correct(state, pushes, remaining[0])
         return []
@@ -468,7 +475,7 @@ class TransportControl:
                                                f'correction of {impulse:.3g} N s', {'miss_m': float(np.linalg.norm(
                                                    miss)), 'impulse_n_s': impulse})]
 
-    def _trim(self, state, h_wheels):
+    def _trim(self, state):
         """After the arrival (module doc): a dump, a transfer back, a pulse or the wheel slew before it; nothing
         while a wheel slew or a pulse is on."""
         cfg = self.config
@@ -483,7 +490,7 @@ class TransportControl:
                                                                                     in self.pulses):
             return []
         body = self.body
-        h = float(np.linalg.norm(body.inertia_body_kg_m2 @ state.omega_body + h_wheels))
+        h = self.momentum
         if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s:
             self.dumping = t + DUMP_S
             self.carried = np.zeros(3)
@@ -523,6 +530,8 @@ class TransportControl:
                                   {'position_error_m': miss, 'impulse_n_s': impulse, 't_arrival_s': arrival})]
             return events + [('OK', 'transport_pulse', f'a pulse of {impulse:.3g} N s against the velocity error',
                               {'impulse_n_s': impulse})]
+        if not self.wheels_steer:
+            return events  # out of reach at this attitude
         # The push axis turned onto the velocity error by the wheels, from the reference where it is now, aimed at
         # the error the body will have then (CW, seed 000 eq 22; hill turns meanwhile).
         q_est = q_eci_from_body(t, self.n, state.q_hill_from_body)
