@@ -13,10 +13,14 @@ import time
 import numpy as np
 from scipy.stats import chi2
 
-from flyby_estimation.mass_properties import j_from_moments, principal_axis_errors_rad
+from flyby_estimation.mass_properties import (
+    defined_parameters,
+    parameter_error,
+    parameter_nees,
+    principal_axis_errors_rad,
+)
 from flyby_estimation.mass_properties_excitation import (
     CHOSEN_ROWS,
-    PARAMETER_SLICE,
     TugrobotCase,
     choose_sequence,
     default_prior,
@@ -32,32 +36,8 @@ from flyby_guidance.post_capture import DampingGains, simulate_damping
 from flyby_sim.dynamics.actuators import default_thruster_layout
 from flyby_sim.dynamics.grasp import Body, Impedance, simulate_grasp
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, ReactionWheels
-from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, rotation_vector_from_quat
 
 WINDOW_S = 25.0
-
-
-def parameter_error(case, estimate):
-    """The error state of the ten parameters (M, dphi, X_s, j), truth minus estimate, in the filter's coordinates."""
-    dphi = rotation_vector_from_quat(quat_multiply(quat_conjugate(estimate.q_body_from_principal),
-                                                   case.q_body_from_principal))
-    y = estimate
-    return np.concatenate(([case.target_mass_kg - y.target_mass_kg], dphi,
-                           np.asarray(case.target_com_body_m) - y.target_com_body_m,
-                           j_from_moments(case.target_principal_moments_kg_m2)
-                           - j_from_moments(y.principal_moments_kg_m2)))
-
-
-def _defined_parameters(case):
-    """Indices of the parameter error (M, dphi, X_s, j) that mean something: for a target with two equal principal
-    moments the rotation about its distinct axis changes nothing and is left out."""
-    moments = np.asarray(case.target_principal_moments_kg_m2)
-    keep = list(range(10))
-    for k in range(3):
-        others = np.delete(moments, k)
-        if math.isclose(others[0], others[1], rel_tol=1e-9) and not math.isclose(moments[k], others[0], rel_tol=1e-9):
-            keep.remove(1 + k)
-    return keep
 
 
 def _figures(case, estimate):
@@ -71,10 +51,8 @@ def _figures(case, estimate):
            math.degrees(principal_axis_errors_rad(e.q_body_from_principal, case.q_body_from_principal)[0]),
            e.mass_sigma_kg / case.target_mass_kg * 100.0,
            np.max(e.principal_moments_sigma_kg_m2 / truth_i) * 100.0)
-    err = parameter_error(case, e)
-    p = e.covariance[PARAMETER_SLICE, PARAMETER_SLICE]
-    keep = _defined_parameters(case)
-    return row, float(err[keep] @ np.linalg.solve(p[np.ix_(keep, keep)], err[keep])), err / np.sqrt(np.diag(p))
+    err = parameter_error(e, case.target_mass_kg, case.target_com_body_m, case.q_body_from_principal, truth_i)
+    return (row, *parameter_nees(e, err, truth_i))
 
 
 def campaign(case, firings, runs, prior_scale=1.0, label=''):
@@ -96,7 +74,7 @@ def campaign(case, firings, runs, prior_scale=1.0, label=''):
             for acc, value in zip(out[key], _figures(case, f.state()), strict=True):
                 acc.append(value)
     wall = time.perf_counter() - t0
-    dof = len(_defined_parameters(case))
+    dof = len(defined_parameters(case.target_principal_moments_kg_m2))
     lo, hi = chi2.ppf([0.025, 0.975], dof * runs) / runs
     print(f'{label}: {runs} runs, {wall / runs:.2f} s per run (both), impulse {total_impulse_n_s(firings):.1f} N s, '
           f'window {WINDOW_S:.0f} s, prior x{prior_scale:g}')

@@ -104,7 +104,14 @@ from flyby_sim.dynamics.combined_body import (
     inertia_from_principal,
     wrench_about_chaser,
 )
-from flyby_sim.dynamics.rotation import quat_multiply, quat_normalize, quat_to_matrix_many, skew
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_multiply,
+    quat_normalize,
+    quat_to_matrix_many,
+    rotation_vector_from_quat,
+    skew,
+)
 
 # The principal-moment re-map: corners of the physical cone {I_i < I_j + I_k}, each where two of the three
 # triangle inequalities are equalities.
@@ -113,6 +120,7 @@ _CONE_EDGES = np.ones((3, 3)) - np.eye(3)
 N_ERR = 22
 _SL_R, _SL_V, _SL_TH, _SL_W = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12)
 _I_M, _SL_PHI, _SL_X, _SL_J = 12, slice(13, 16), slice(16, 19), slice(19, 22)
+PARAMETER_SLICE = slice(_I_M, _SL_J.stop)  # the ten parameters M, dphi, X_s, j in the error state
 # Nominal layout: r 0:3, v 3:6, q 6:10, omega 10:13, M 13, Q 14:18, X_s 18:21, j 21:24.
 N_NOM = 24
 # Central-difference steps per error component (a fraction of each quantity's scale; truncation ~ eps^2).
@@ -809,3 +817,33 @@ def principal_axis_errors_rad(q_body_from_principal_est, q_body_from_principal_t
     c_true = quat_to_matrix_many(np.asarray(q_body_from_principal_true, dtype=float)[None, :])[0]
     cosines = np.clip(np.abs(np.einsum('ak,ak->k', c_est, c_true)), 0.0, 1.0)
     return np.arccos(cosines)
+
+
+def parameter_error(estimate, mass_kg, com_body_m, q_body_from_principal, principal_moments_kg_m2):
+    """The error (10,) of the ten parameters (M, dphi, X_s, j) of a MassPropertyEstimate, truth minus estimate in
+    the filter's coordinates (module doc): dphi = log(Q_est^-1 Q_true) about the estimate's principal axes, j of the
+    true moments less the estimate's; the true moments (in the order of the filter's principal axes) and axes
+    q_body_from_principal, mass [kg] and CoM X_s [m, chaser_body]."""
+    dphi = rotation_vector_from_quat(quat_multiply(quat_conjugate(estimate.q_body_from_principal),
+                                                   q_body_from_principal))
+    return np.concatenate(([mass_kg - estimate.target_mass_kg], dphi,
+                           np.asarray(com_body_m, dtype=float) - estimate.target_com_body_m,
+                           j_from_moments(principal_moments_kg_m2) - j_from_moments(estimate.principal_moments_kg_m2)))
+
+
+def defined_parameters(principal_moments_kg_m2, rel_tol=1e-9):
+    """Indices into the ten parameters (M, dphi, X_s, j) that the true moments define: all but a rotation dphi_k
+    about a principal axis k whose two other moments are equal (within rel_tol of the largest): it only turns two
+    equal axes into each other (seed 004 §3.1's cylinder: the rotation about its symmetry axis)."""
+    m = np.asarray(principal_moments_kg_m2, dtype=float)
+    scale = rel_tol * float(np.max(np.abs(m)))
+    return [0] + [1 + k for k in range(3) if abs(m[(k + 1) % 3] - m[(k + 2) % 3]) > scale] + list(range(4, 10))
+
+
+def parameter_nees(estimate, error, principal_moments_kg_m2):
+    """(NEES of the error (10,) over the defined parameters with the estimate's own covariance, each parameter's
+    z = error / sigma (10,)): the filter's consistency (docs/post_capture.md)."""
+    p = estimate.covariance[PARAMETER_SLICE, PARAMETER_SLICE]
+    keep = defined_parameters(principal_moments_kg_m2)
+    e = np.asarray(error, dtype=float)
+    return float(e[keep] @ np.linalg.solve(p[np.ix_(keep, keep)], e[keep])), e / np.sqrt(np.diag(p))

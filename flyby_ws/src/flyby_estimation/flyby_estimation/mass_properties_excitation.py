@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_estimation.mass_properties import (
+    PARAMETER_SLICE,
     MassPropertyFilter,
     MassPropertyFilterConfig,
     MassPropertyPrior,
@@ -84,7 +85,6 @@ CHOSEN_ROWS = (
     (13.0, 0.3, 100.0, 0.0, 0.0),
 )
 EXCITATIONS = {'table1': TABLE1_ROWS, 'chosen': CHOSEN_ROWS}  # scenario post_capture.mass_estimation.excitation
-PARAMETER_SLICE = slice(12, 22)  # M, dphi, X_s, j in the filter's error state
 PRIOR_AXES_SIGMA_RAD = math.radians(1.0)
 STATE_SIGMAS = (1.0, 0.1, math.radians(1.0), 0.01)  # r [m], v [m/s], attitude [rad], omega [rad/s] at the start
 

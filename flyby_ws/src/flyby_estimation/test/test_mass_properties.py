@@ -329,3 +329,37 @@ def test_seed004_cylinder_defines_only_its_symmetry_axis():
     assert defined_axes((1.5, 1.5, 2.0)).tolist() == [False, False, True]
     assert defined_axes((1000.0, 1200.0, 2000.0)).tolist() == [True, True, True]
     assert defined_axes((3.0, 3.0, 3.0)).tolist() == [False, False, False]
+
+
+def test_defined_parameters_leave_out_the_rotations_about_an_axis_between_two_equal_moments():
+    """The ten parameters (M, dphi, X_s, j): the cylinder (1.5, 1.5, 2) in ascending order loses the rotation about
+    its third (symmetry) axis, three distinct moments keep all ten, a sphere loses all three rotations."""
+    from flyby_estimation.mass_properties import defined_parameters
+
+    assert defined_parameters((1.5, 1.5, 2.0)) == [0, 1, 2, 4, 5, 6, 7, 8, 9]
+    assert defined_parameters((2.0, 1.5, 1.5)) == [0, 2, 3, 4, 5, 6, 7, 8, 9]
+    assert defined_parameters((1.0, 1.2, 2.0)) == list(range(10))
+    assert defined_parameters((3.0, 3.0, 3.0)) == [0, 4, 5, 6, 7, 8, 9]
+
+
+def test_parameter_error_and_nees_are_the_error_state_the_filter_would_fold_in():
+    """Truth minus estimate in the filter's coordinates: a known error state folded into an estimate's parameters
+    (``_perturb``) comes back from parameter_error, and its NEES with the filter's own P is e' P^-1 e over the
+    defined parameters."""
+    from flyby_estimation.mass_properties import PARAMETER_SLICE, parameter_error, parameter_nees
+
+    case = TugrobotCase()
+    config = tugrobot_filter_config(case)
+    f = MassPropertyFilter(config, default_prior(case), 0.0, np.zeros(3), np.zeros(3), case.q_inertial_from_body0,
+                           np.array(case.omega0_body), STATE_SIGMAS)
+    e = f.state()
+    dx = np.zeros(22)
+    dx[PARAMETER_SLICE] = [0.3, 0.0, 0.004, -0.002, 0.01, -0.005, 0.002, 0.02, -0.01, 0.005]
+    y_true = _perturb(f._y, dx[None, :])[0]
+    truth_moments = moments_from_j(y_true[21:24])
+    error = parameter_error(e, y_true[13], y_true[18:21], y_true[14:18], truth_moments)
+    np.testing.assert_allclose(error, dx[PARAMETER_SLICE], atol=1e-12)
+    nees, z = parameter_nees(e, error, truth_moments)
+    p = e.covariance[PARAMETER_SLICE, PARAMETER_SLICE]
+    np.testing.assert_allclose(z, error / np.sqrt(np.diag(p)))
+    assert nees == pytest.approx(float(np.sum(z ** 2)))  # P0 diagonal, every parameter defined
