@@ -30,7 +30,7 @@ from flyby_planner.optimal.approach import LEAST_FUEL_SCP
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.cost import midpoint_times, plan_terms, safety_metric, total_cost
 from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario
-from flyby_planner.optimal.scp import ScpSettings, delta_v_lower_bound, plan_scp
+from flyby_planner.optimal.scp import delta_v_lower_bound, plan_scp
 from flyby_planner.plan import truth_prediction
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.geometry import clearance
@@ -203,11 +203,11 @@ def main():
     # The least delta-v of a path that meets what the flown path must (keep-out, the plume rule, the time and the
     # acceleration bound): SCP minimizing fuel alone (= delta-v) on finer grids, the least it finds from two starts
     # (the plume-constrained least-fuel problem has many local optima): the heuristic route, and the plan of a
-    # smaller plume sphere (continuation); one check point per step (the mission's least-fuel setting), each plan
+    # smaller plume sphere (continuation); the mission's least-fuel settings but the grid, each plan
     # counted only if it keeps the plume rule and clears the true geometry on dense samples
     found = {}
     for steps in args.bound_steps:
-        settings = ScpSettings(steps=steps, substeps=1, max_iterations=30)
+        settings = dataclasses.replace(LEAST_FUEL_SCP, steps=steps)
         small = dataclasses.replace(least_fuel, plume_radius_m=0.7 * args.plume_radius)
         for label, initial in (('route', None),
                                (f'{small.plume_radius_m:g} m sphere', plan_scp([small], settings,

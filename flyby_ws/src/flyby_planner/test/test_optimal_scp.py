@@ -213,13 +213,14 @@ def test_scp_least_fuel_plans_keep_the_plume_rule_between_check_points():
 def test_a_least_fuel_program_prices_fuel_alone():
     """k_s = 0 (the mission's least-fuel mode): the program has no safety cones (two variables fewer per box), and
     the converged objective is the fuel term k_f m / (Isp g0) sum |u_k| h, i.e. the plan's delta-v priced, with the
-    keep-out and the plume rule as constraints only. (Not asserted: less delta-v than the k_s = 1 plan; on 20 steps
-    the plume-constrained least-fuel optimum SCP lands in has more, docs/optimal.md.)"""
+    keep-out and the plume rule as constraints only (the mission's least-fuel settings on 40 steps). Not asserted: less
+    delta-v than the k_s = 1 plan; on coarse grids the plume-constrained least-fuel optimum SCP lands in can have
+    more (docs/optimal.md)."""
     priced, lean_model = _model(1, 20, 3, [3], [], [True]), _model(1, 20, 3, [3], [], [False])
     assert len(priced.program.variables()) - len(lean_model.program.variables()) == 2 * 3
     _, problem = table1_problem()
     lean = dataclasses.replace(problem, weights=dataclasses.replace(problem.weights, safety=0.0))
-    result = plan_scp([lean], ScpSettings(steps=20), duration_s=T_TABLE1_S)
+    result = plan_scp([lean], dataclasses.replace(LEAST_FUEL_SCP, steps=40), duration_s=T_TABLE1_S)
     plan = result.plans[0]
     dv = float(np.linalg.norm(plan.u_hill, axis=1).sum()) * plan.step_s
     ch = lean.chaser

@@ -26,9 +26,9 @@ from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 
 # The plume rule's margin (seed 003 metric 4 as a rule), one home for the planner and the tracking: guidance applies
 # the rule where the estimate, carried over the command's delay and hold, comes within the plume radius plus this
-# (the estimate's error, 1 cm here), and the planner keeps its plan's thrust off the away side from the radius plus
-# twice this (``planning_plume_radius_m``): the tracking's margin and as much again for the tracking error, so that
-# the braking a plan ends at its sphere is flown, not removed by the rule [m].
+# (the estimate's error, 1 cm here), and the planner keeps a least-fuel plan's thrust (which brakes at the sphere) off
+# the away side from the radius plus twice this (``planning_plume_radius_m``): the tracking's margin and as much again
+# for the tracking error, so that the braking the plan ends at its sphere is flown, not removed by the rule [m].
 PLUME_MARGIN_M = 0.1
 
 

@@ -118,7 +118,7 @@ class ScpSettings:
     plume_trust_m: float = 0.05
     keepout_penalty: float = 1e3
     trust_shrink: float = 0.25
-    plume_margin_m: float = 0.2
+    plume_margin_m: float = 1.0
     solver: str = 'CLARABEL'
     solver_threads: int = 1
     duration_tolerance_s: float = 1.0
