@@ -28,7 +28,8 @@ Model, one robot (several are stacked with a common time grid):
   to first order in r and v (its position gradient by differences: the normal and the closest point turn as the
   chaser moves) and gap the distance to the box's supporting plane (a lower bound: the box is convex); the robots'
   mutual safety likewise. k_t T^2 is a constant for a given T, which an outer golden-section search chooses on the
-  exact eq 5 of each converged plan.
+  exact eq 5 of each converged plan. With k_s = 0 (least fuel) the program has no safety cones: its objective is the
+  delta-v priced, keep-out and plume constraints alone.
 * Trust region |r_k - r_ref,k| <= rho_k, rho_k = min(rho, max(trust_fraction |r_ref,k|, trust_min_m)) (near the
   target the linearizations hold over a shorter distance). Each iterate is judged on the exact eq 5
   (cost.total_cost): a lower cost is accepted and rho doubles, a higher one is rejected and rho shrinks; the
