@@ -254,9 +254,10 @@ def _thruster_key(firing):
 
 class _BatchBody:
     """The combined body's mass properties for a batch of nominal states (K, 24) (combined_body's equations,
-    vectorized over the batch)."""
+    vectorized over the batch); ``mass`` the total less the propellant burned_kg [kg] the firings have burned
+    (``MassPropertyFilterConfig.exhaust_velocity_mps``), the CoM and inertia the chaser's own mass's."""
 
-    def __init__(self, y, chaser_mass_kg, chaser_inertia_body):
+    def __init__(self, y, chaser_mass_kg, chaser_inertia_body, burned_kg=0.0):
         big_m = y[:, 13]
         c_body_from_principal = quat_to_matrix_many(y[:, 14:18])
         moments = moments_from_j(y[:, 21:24])
@@ -269,7 +270,7 @@ class _BatchBody:
                    + chaser_mass_kg * (np.einsum('ka,ka->k', c, c)[:, None, None] * eye - np.einsum('ka,kb->kab', c, c))
                    + big_m[:, None, None] * (np.einsum('ka,ka->k', y_s, y_s)[:, None, None] * eye
                                              - np.einsum('ka,kb->kab', y_s, y_s)))
-        self.mass = total
+        self.mass = total - burned_kg
         self.c = c
         self.inertia = inertia
         self.inertia_inv = np.linalg.inv(inertia)
@@ -294,9 +295,10 @@ class _BatchBody:
         return np.column_stack((x[:, 3:6], v_dot, q_dot, self.omega_dot(omega, force, moment, h_wheels)))
 
 
-def _rk4_batch(y, dt, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body):
-    """The nominal states (K, 24) after dt [s] of RK4 under a constant wrench, quaternions renormalized."""
-    body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body)
+def _rk4_batch(y, dt, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body, burned_kg):
+    """The nominal states (K, 24) after dt [s] of RK4 under a constant wrench and propellant burned_kg [kg] burned
+    (``_BatchBody``), quaternions renormalized."""
+    body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body, burned_kg)
     x = y[:, :13]
     k1 = body.rates(x, force, moment, h_wheels)
     k2 = body.rates(x + 0.5 * dt * k1, force, moment, h_wheels)
@@ -308,14 +310,34 @@ def _rk4_batch(y, dt, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_bo
     return out
 
 
-def _imu_batch(y, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body, accel_position_body):
-    """Gyro and accelerometer (K, 6) predicted for nominal states (K, 24): omega, and F/(m+M) + omega_dot x p
-    + omega x (omega x p) with p the accelerometer from the combined CoM (combined_body.specific_force_body)."""
-    body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body)
+def _imu_batch(y, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body, burned_kg, accel_position_body,
+               interval_s):
+    """Gyro and accelerometer (K, 6) predicted for nominal states (K, 24) at a sample: omega, and the specific force
+    F/(m+M) + omega_dot x p + omega x (omega x p) with p the accelerometer from the combined CoM
+    (combined_body.specific_force_body). interval_s > 0: the accelerometer of ``MassPropertyFilterConfig.
+    accel_interval_s``, the states carried back over the interval under the held wrench (two RK4 half-steps): the
+    thrust's mean acceleration over it resolved in the body axes at the sample, (1/T) int C_b(t)<-b(tau) F/(m+M)
+    dtau by Simpson's rule over the body's turn, and omega_dot x p as its interval mean (omega(t) - omega(t - T)) / T
+    x p; omega x (omega x p) at the sample."""
+    body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body, burned_kg)
     omega = y[:, 10:13]
     p = accel_position_body - body.c
-    w_dot = body.omega_dot(omega, force, moment, h_wheels)
-    accel = force / body.mass[:, None] + _cross(w_dot, p) + _cross(omega, _cross(omega, p))
+    thrust = np.broadcast_to(force, omega.shape) / body.mass[:, None]
+    if interval_s == 0.0:
+        w_dot = body.omega_dot(omega, force, moment, h_wheels)
+    else:
+        chaser = (chaser_mass_kg, chaser_inertia_body, burned_kg)
+        mid = _rk4_batch(y, -0.5 * interval_s, force, moment, h_wheels, *chaser)
+        start = _rk4_batch(mid, -0.5 * interval_s, force, moment, h_wheels, *chaser)
+        w_dot = (omega - start[:, 10:13]) / interval_s
+        c_end = quat_to_matrix_many(y[:, 6:10])  # C_inertial_from_body at the sample
+
+        def turned(states):  # the thrust at an earlier time resolved in the body axes at the sample
+            c_end_from_then = np.einsum('kba,kbc->kac', c_end, quat_to_matrix_many(states[:, 6:10]))
+            return np.einsum('kab,kb->ka', c_end_from_then, thrust)
+
+        thrust = (thrust + 4.0 * turned(mid) + turned(start)) / 6.0
+    accel = thrust + _cross(w_dot, p) + _cross(omega, _cross(omega, p))
     return np.column_stack((omega, accel))
 
 
@@ -340,10 +362,19 @@ class MassPropertyFilterConfig:
             magnitude; misalignment [rad] about each axis normal to its force) (module doc).
         thrust_error_states: the execution errors as states, three per thruster (constant over the run, as the
             plant draws them), instead of white input noise (module doc).
-        accel_interval_s: 0: the accelerometer reads the specific force at its stamp; > 0: the mean over the
-            interval of this length ending at its stamp (the plant's IMU, ``flyby_sim.sensors``), modelled with the
-            wrench held at the interval's middle: exact for firings that start and end on samples (the mean of
-            omega_dot x p over the interval is then that of the held wrench, to the gyroscopic term's change).
+        accel_interval_s: 0: the accelerometer reads the specific force at its stamp; > 0: as the plant's IMU
+            (``flyby_sim.plant``) gives it over the interval T of this length ending at its stamp: the thrust's
+            velocity increment over T (inertial) over T, resolved in the body axes at the stamp, the mean of
+            omega_dot x p over T, and omega x (omega x p) at the stamp (``_imu_batch``); the wrench held at the
+            interval's middle, exact for firings that start and end on samples. Over a full-thrust firing on the
+            TugRobot the body turns ~0.03 rad in an interval and its rate by ~0.04 rad/s: read at the stamp instead,
+            the thrust's turn and the gyroscopic term's change are tens of accelerometer sigmas
+            (docs/post_capture.md).
+        exhaust_velocity_mps: the thrusters' Isp g0 [m/s]: the propellant the firings burn (|F| / v_e per second of
+            each, known) leaves the combined body's mass in v_dot and the accelerometer's F/(m + M), as the plant
+            burns it (its share of the CoM and inertia left out, as there); None: the mass is constant (seed 004
+            §2.2's m). The chosen excitation burns 22 g of the TugRobot's 50 kg (4.4e-4 of F/(m + M), two of the
+            mass's sigmas).
     """
 
     chaser_mass_kg: float
@@ -365,6 +396,7 @@ class MassPropertyFilterConfig:
     thrust_misalignment_sigma_rad: float = 0.0
     thrust_error_states: bool = False
     accel_interval_s: float = 0.0
+    exhaust_velocity_mps: float = None
 
     def __post_init__(self):
         require_positive('chaser_mass_kg', self.chaser_mass_kg)
@@ -375,6 +407,8 @@ class MassPropertyFilterConfig:
                              f'got {self.chaser_inertia_body_kg_m2!r}')
         for name in ('gyro_sigma_rad_s', 'accel_sigma_mps2', 'attitude_sigma_rad', 'position_sigma_m', 'max_step_s'):
             require_positive(name, getattr(self, name))
+        if self.exhaust_velocity_mps is not None:
+            require_positive('exhaust_velocity_mps', self.exhaust_velocity_mps)
         for name in ('accel_psd_m2_s3', 'angular_accel_psd_rad2_s3', 'parameter_psd', 'accel_interval_s',
                      'thrust_magnitude_sigma', 'thrust_misalignment_sigma_rad'):
             require_positive(name, getattr(self, name), allow_zero=True)
@@ -493,6 +527,15 @@ class MassPropertyFilter(FilterBase):
     def _active(self, t):
         return [f for f in self._firings if f.t_start_s <= t < f.t_start_s + f.duration_s]
 
+    def _burned_kg(self, t):
+        """The propellant the firings have burned by t [kg]: |F| / v_e over each firing's time before t (0 without
+        ``exhaust_velocity_mps``); a step's integration takes it at the step's middle."""
+        v_e = self.config.exhaust_velocity_mps
+        if v_e is None:
+            return 0.0
+        return sum(math.hypot(*f.force_body_n) * min(max(t - f.t_start_s, 0.0), f.duration_s)
+                   for f in self._firings) / v_e
+
     def _wrench(self, y, t):
         """(force, moment about the chaser CoM) at t [s] of the firings for nominal states y (K, 24 + 3 n): the known
         wrench, plus (thrust_error_states) each firing thruster's error |F| e_i at its position, one per row."""
@@ -533,7 +576,8 @@ class MassPropertyFilter(FilterBase):
                 if t_end - (t + dt) < 1e-9:
                     dt = t_end - t
                 batch = _perturb(y, offsets)
-                out = _rk4_batch(batch, dt, *self._wrench(batch, t), self._h_w, self._m, self._i_t0)
+                out = _rk4_batch(batch, dt, *self._wrench(batch, t), self._h_w, self._m, self._i_t0,
+                                 self._burned_kg(t + 0.5 * dt))
                 d = _difference(out[1:], out[0])
                 phi_step = ((d[:n] - d[n:]) / (2.0 * self._eps)[:, None]).T  # column i: d(error')/d(error_i)
                 phi = phi_step @ phi
@@ -559,7 +603,7 @@ class MassPropertyFilter(FilterBase):
         q = np.zeros((self._n, self._n))
         if not errors:
             return q
-        body = _BatchBody(y[None, :], self._m, self._i_t0)
+        body = _BatchBody(y[None, :], self._m, self._i_t0, self._burned_kg(t + 0.5 * dt))
         c_inertial_from_body = quat_to_matrix_many(y[None, 6:10])[0]
         rates = np.zeros((6, 6))
         for s_f, lever, duration in errors:
@@ -630,7 +674,7 @@ class MassPropertyFilter(FilterBase):
         r = np.diag([self.config.gyro_sigma_rad_s ** 2] * 3 + [self.config.accel_sigma_mps2 ** 2] * 3)
         errors = self._firing_errors(y, t_wrench)
         if errors:
-            body = _BatchBody(y[None, :], self._m, self._i_t0)
+            body = _BatchBody(y[None, :], self._m, self._i_t0, self._burned_kg(t_wrench))
             p_acc = self._p_acc - body.c[0]
             for s_f, lever, _ in errors:
                 h_f = np.eye(3) / body.mass[0] - skew(p_acc) @ body.inertia_inv[0] @ skew(lever)
@@ -642,7 +686,8 @@ class MassPropertyFilter(FilterBase):
         state there."""
         n = self._n
         batch = _perturb(y, _central_offsets(self._eps))
-        h = _imu_batch(batch, *self._wrench(batch, t_wrench), self._h_w, self._m, self._i_t0, self._p_acc)
+        h = _imu_batch(batch, *self._wrench(batch, t_wrench), self._h_w, self._m, self._i_t0,
+                       self._burned_kg(t_wrench), self._p_acc, self.config.accel_interval_s)
         return h[0], ((h[1:n + 1] - h[n + 1:]) / (2.0 * self._eps)[:, None]).T
 
     def update(self, t, z):
@@ -777,7 +822,8 @@ class MassPropertyFilter(FilterBase):
             while sign * (t_end - t) > 0.0:
                 dt = min(self.config.max_step_s, sign * (t_end - t))
                 t_next = t_end if sign * (t_end - t) - dt < 1e-9 else t + sign * dt
-                y = _rk4_batch(y, t_next - t, *self._wrench(y, min(t, t_next)), self._h_w, self._m, self._i_t0)
+                y = _rk4_batch(y, t_next - t, *self._wrench(y, min(t, t_next)), self._h_w, self._m, self._i_t0,
+                               self._burned_kg(0.5 * (t + t_next)))
                 t = t_next
         return y[0]
 

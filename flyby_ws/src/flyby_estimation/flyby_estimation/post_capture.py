@@ -241,7 +241,8 @@ class MassEstimationRun:
             max_step_s=self.period_s, accel_interval_s=self.period_s,
             thrust_magnitude_sigma=sc.chaser.thrusters.magnitude_error_sigma,
             thrust_misalignment_sigma_rad=math.radians(sc.chaser.thrusters.direction_error_sigma_deg),
-            thrust_error_states=True)  # the plant draws them once per run: constant, estimated
+            thrust_error_states=True,  # the plant draws them once per run: constant, estimated
+            exhaust_velocity_mps=sc.thruster_layout.exhaust_velocity_mps)
         firings = thruster_firings(sc.thruster_layout,
                                    excitation_firings(sc.post_capture.mass_estimation.excitation, self.t_start),
                                    self.period_s)
