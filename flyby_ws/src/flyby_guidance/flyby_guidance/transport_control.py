@@ -167,6 +167,7 @@ class TransportControl:
         self.trim_arrival = None  # a trim's transfer back to the goal arrives then [s]
         self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the trim's pulses, on the grid
         self.dumping = None  # the end of a dump in progress [s]
+        self.dumped = None  # the estimated angular momentum at the last dump's start [kg m^2/s]
         self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t
         self.done = False
 
@@ -216,7 +217,7 @@ class TransportControl:
         if self.plan is None:
             if t < max(self.t_start + NAV_SETTLE_S, self.t_detumbled) - 1e-9:
                 return zero, zero, self._hold(omega), []
-            events += self._plan(state)
+            events += self._plan(state, self.t_arrival, 'transport_planned')
             if self.done:
                 return zero, zero, zero, events
         t_mid = t + 1.5 * period
@@ -389,15 +390,18 @@ class TransportControl:
             tau = 0.5 * tau
         return np.zeros(3), np.zeros(3)
 
-    def _plan(self, state):
-        """The plan from the estimated state to the goal, arriving at the transport's arrival; its event (a refusal
-        ends the transport: the body is held where it is)."""
+    def _plan(self, state, t_arrival, name):
+        """A plan from the estimated state to the goal arriving at t_arrival: the transport's (``transport_planned``;
+        a refusal ends the transport, the body held where it is), or a trim's on a body the wheels do not turn
+        (``transport_trim``; a refusal keeps the body as it is)."""
         cfg = self.config
         first = state.t + 2.0 * cfg.planner.period_s  # the first period a command of this estimate can still reach
         start = TransportState(first, *state[1:])
         try:
-            plan = self._plan_with_faster_slews(start, self.t_arrival)
+            plan = self._plan_with_faster_slews(start, t_arrival)
         except TransportRefused as err:
+            if self.plan is not None:
+                return [('WARN', 'transport_trim_refused', f'no trim: {err.reason}', {'reason': err.reason})]
             self.done = True
             return [('ERROR', 'transport_refused', f'no transport plan meets the conditions: {err.reason}',
                      {'reason': err.reason})]
@@ -413,11 +417,10 @@ class TransportControl:
                     self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
         self.t_check = state.t + cfg.replan_interval_s
         c = plan.conditions
-        return [('OK', 'transport_planned', f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} '
-                                            f'burns, {plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} '
-                                            f's; predicted {c["position_error_m"]:.3g} m, '
-                                            f'{c["momentum_error_n_s"]:.3g} N s, {c["angular_momentum_kg_m2_s"]:.3g} '
-                                            f'kg m^2/s',
+        return [('OK', name, f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
+                             f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
+                             f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
+                             f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s',
                  {'t_arrival_s': plan.t_arrival_s, 'burns': len(plan.burns), 'fuel_kg': plan.fuel_kg,
                   'predicted_position_error_m': c['position_error_m'],
                   'predicted_momentum_error_n_s': c['momentum_error_n_s'],
@@ -491,8 +494,9 @@ class TransportControl:
             return []
         body = self.body
         h = self.momentum
-        if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s:
-            self.dumping = t + DUMP_S
+        # Dumped until a dump no longer halves it: the estimate's floor (the gyro's bias and noise on the inertia).
+        if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s and (self.dumped is None or h < 0.5 * self.dumped):
+            self.dumping, self.dumped = t + DUMP_S, h
             self.carried = np.zeros(3)
             return [('OK', 'transport_dump', f'angular momentum {h:.3g} kg m^2/s dumped by couples over {DUMP_S:g} s',
                      {'angular_momentum_kg_m2_s': h})]
@@ -530,8 +534,8 @@ class TransportControl:
                                   {'position_error_m': miss, 'impulse_n_s': impulse, 't_arrival_s': arrival})]
             return events + [('OK', 'transport_pulse', f'a pulse of {impulse:.3g} N s against the velocity error',
                               {'impulse_n_s': impulse})]
-        if not self.wheels_steer:
-            return events  # out of reach at this attitude
+        if not self.wheels_steer:  # out of reach at this attitude: a short transport with the thrusters' slews
+            return events + (self._plan(state, t + TRIM_TIME_S, 'transport_trim') if t + TRIM_TIME_S < t_end else [])
         # The push axis turned onto the velocity error by the wheels, from the reference where it is now, aimed at
         # the error the body will have then (CW, seed 000 eq 22; hill turns meanwhile).
         q_est = q_eci_from_body(t, self.n, state.q_hill_from_body)
