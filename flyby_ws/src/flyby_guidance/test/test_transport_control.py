@@ -12,6 +12,7 @@ from flyby_guidance.transport_control import (
     NAV_SETTLE_S,
     TRACK_BANDWIDTH_RAD_S,
     TRIM_SLEW_RATE_RAD_S,
+    TRIM_TIME_S,
     WHEEL_SPINUP_S,
     TransportControl,
     transport_body,
@@ -220,3 +221,22 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     control.pulses = []
     fast = on_plan._replace(v_hill=x[3:] + 5e-3 * axis)
     assert control._correct(fast, pushes, next_burn) == [] and not control.pulses
+
+
+def test_dumps_stop_at_the_estimates_floor_and_a_body_the_wheels_cannot_turn_gets_a_planned_trim():
+    """A dump that has not halved the estimated angular momentum is at the estimate's floor: no more dumps. Where the
+    wheels cannot turn the body (paper_flyby_transport's), a velocity out of reach at the attitude held is trimmed by a
+    short transport with the thrusters' slews, arriving TRIM_TIME_S later."""
+    body, control = _planned()
+    control.momentum = 0.05
+    assert control._trim(_state(1400.0))[0][1] == 'transport_dump'
+    control.dumping, control.momentum = None, 0.04  # not halved
+    assert control._trim(_state(1430.0)) == [] and control.dumping is None
+    control.wheels_steer = False
+    control.t_check = 1450.0
+    q_held = q_hill_from_body(1450.0, control.n, control.reference[1])
+    events = control._trim(_state(1450.0, q_held, v=5e-3 * quat_to_matrix(q_held)[:, 0]))  # to be nulled along -x
+    assert events[0][1] == 'transport_trim'
+    assert control.trim_slew[3] == 0.0  # no wheel slew
+    assert control.plan.t_arrival_s == pytest.approx(1450.0 + TRIM_TIME_S, abs=0.2)
+    assert [b.purpose for b in control.plan.burns].count('push') == 2
