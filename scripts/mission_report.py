@@ -50,6 +50,9 @@ truth by flyby_planner.summary's functions (the figures of summary.json):
                      the truth and the prior
 * post_capture_grasp_contact.png      the arm's contact force, torque and stroke during GRASP with its limits
 * post_capture_damping_momentum.png   the combined body's angular momentum during DAMPING, seed 004's 0.1 kg m^2/s
+* seed004_fig7_transport.png          Fig 7 during TRANSPORT (docs/transport.md): the combined body's angular momentum,
+                     its CoM's distance to the goal and its speed relative to the goal's circular motion, each
+                     against seed 004 §3.2's rendezvous condition, with the thrusters' firings
 
 and for a run of several chasers (a ``chasers:`` scenario, docs/two_robots.md) instead of the above:
 
@@ -101,6 +104,7 @@ from flyby_planner.summary import (
     post_capture_truth,
     target_mass_properties_truth,
     thrust_truth,
+    transport_state,
 )
 from flyby_sim.dynamics.attitude import kinetic_energy
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
@@ -1569,6 +1573,25 @@ def damping_momentum(run):
     return common[ks], np.array([angular_momentum_about_com(bodies(k)) for k in ks])
 
 
+TRANSPORT_SAMPLE_S = 0.5  # Fig 7's sample period: a transport is thousands of seconds of 20 Hz truth
+
+
+def transport_series(run):
+    """(t (N,) [s], distance to the goal (N,) [m], speed relative to the goal's circular motion (N,) [m/s], linear
+    momentum (N,) [N s], angular momentum about the combined CoM (N,) [kg m^2/s]): flyby_planner.summary's
+    transport_state of both bodies' truth every TRANSPORT_SAMPLE_S from TRANSPORT's start to the run's end."""
+    common, _, _, bodies = run.bodies
+    t_start, _ = run.phase_window(c.PHASE_TRANSPORT)
+    ks = np.flatnonzero(common >= t_start - 1e-9)
+    if not len(ks):
+        raise Skipped('no truth sample in TRANSPORT')
+    step = max(1, int(round(TRANSPORT_SAMPLE_S / max(float(np.median(np.diff(common))), 1e-9))))
+    ks = np.unique(np.append(ks[::step], ks[-1]))
+    tr = run.need_scenario().post_capture.transport
+    rows = np.array([transport_state(bodies(k), tr.goal_hill_m, run.need_scenario().mean_motion_rad_s) for k in ks])
+    return common[ks], rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3]
+
+
 def _window_axis(ax, window, xlabel=True, margin=0.015):
     """x from window[0] to window[1] [s] with a margin of its span each side (marks at its ends stay visible)."""
     pad = margin * (window[1] - window[0])
@@ -1734,6 +1757,45 @@ def fig_damping_momentum(run, path):
     plots.save(fig, path, DPI)
 
 
+
+def fig_seed004_fig7(run, path):
+    """Seed 004 Fig 7's analogue during TRANSPORT (transport_series): (a) angular momentum, (b) distance to the goal,
+    (c) linear momentum relative to the goal's circular motion (the relative velocity times the combined mass, the
+    quantity of condition 3) with the speed in its title, each against its rendezvous condition, the
+    planned arrival and guidance's transport_complete marked, the thrusters' firing steps shaded."""
+    t, miss, speed, momentum, h = transport_series(run)
+    tr = run.need_scenario().post_capture.transport
+    fig, axes = plt.subplots(3, 1, figsize=(12, 10), sharex=True)
+    rows = ((axes[0], h, 'angular momentum [kg m$^2$/s]', tr.max_angular_momentum_kg_m2_s, 'kg m$^2$/s'),
+            (axes[1], miss, 'distance to the goal [m]', tr.max_position_error_m, 'm'),
+            (axes[2], momentum, 'linear momentum relative\nto the goal [N s]', tr.max_momentum_error_n_s, 'N s'))
+    for ax, values, label, bound, unit in rows:
+        ax.plot(t, values, color=TRUTH, lw=1.3, label='truth')
+        ax.axhline(bound, color='r', ls='--', lw=1.1, label=f'condition: below {bound:.3g} {unit}')
+        ax.plot(t[-1], values[-1], 'kv', ms=7, label=f'at the end: {values[-1]:.3g} {unit}')
+        ax.set(yscale='log', ylabel=label)
+    axes[2].set_title(f'the relative velocity: {speed[0] * 1e3:.3g} mm/s at the start, peak {speed.max() * 1e3:.3g} '
+                      f'mm/s, {speed[-1] * 1e3:.3g} mm/s at the end', fontsize=9)
+    planned = next((e for e in run.events if e['name'] == 'transport_planned'), None)
+    done = next((e for e in run.events if e['name'] == 'transport_complete'), None)
+    thrust = run.get(c.SIM_CHASER_THRUST)
+    for ax in axes:
+        if planned is not None:
+            ax.axvline(float(planned['values']['t_arrival_s']), color='0.4', ls=':', lw=1.0, label='planned arrival')
+        if done is not None:
+            ax.axvline(done['t'], color='g', ls='-.', lw=1.0, label='transport_complete')
+        if thrust is not None and len(thrust.t):
+            firing = (np.linalg.norm(thrust.force, axis=1) > 0) & (thrust.t >= t[0])
+            ax.fill_between(thrust.t, 0, 1, where=firing, color='orange', alpha=0.25, step='post',
+                            transform=ax.get_xaxis_transform(), label='thrusters firing')
+        ax.legend(fontsize=7, loc='upper right', framealpha=0.9)
+        ax.grid(True, which='both', alpha=0.3)
+    _window_axis(axes[-1], (t[0], t[-1]))
+    axes[-1].set_xlabel('t [s]')
+    fig.suptitle(f'{run.title}: TRANSPORT, seed 004 Fig 7 (truth)')
+    fig.tight_layout()
+    plots.save(fig, path, DPI)
+
 FIGURES = (
     ('trajectory_xz.png', fig_trajectory_xz),
     ('trajectory_3d.png', fig_trajectory_3d),
@@ -1759,6 +1821,7 @@ POST_CAPTURE_FIGURES = (  # written for a scenario with a post_capture section o
     ('seed004_fig5_mass_properties.png', fig_seed004_mass_properties),
     ('post_capture_grasp_contact.png', fig_grasp_contact),
     ('post_capture_damping_momentum.png', fig_damping_momentum),
+    ('seed004_fig7_transport.png', fig_seed004_fig7),
 )
 
 

@@ -445,6 +445,18 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
     return out
 
 
+def transport_state(pair, goal_hill_m, mean_motion_rad_s):
+    """Seed 004 §3.2's rendezvous quantities of the combined body, the (chaser, target) grasp.Body pair: the CoM's
+    distance from the goal [m], its speed relative to the goal's circular motion (the goal fixed in hill) [m/s], its
+    linear momentum (m + M) times that speed [N s], the angular momentum about the CoM, wheels included [kg m^2/s]."""
+    mass = sum(b.mass_kg for b in pair)
+    r_cm = sum(b.mass_kg * b.r_m for b in pair) / mass
+    v_cm = sum(b.mass_kg * b.v_mps for b in pair) / mass - np.cross((0.0, -mean_motion_rad_s, 0.0), r_cm)
+    speed = float(np.linalg.norm(v_cm))
+    return (float(np.linalg.norm(r_cm - np.asarray(goal_hill_m))), speed, mass * speed,
+            angular_momentum_about_com(pair))
+
+
 def transport_figures(chaser, target, wheels, thrust, events, scenario):
     """TRANSPORT (issue 17, seed 004 §3.2), from the truth at guidance's ``transport_complete`` (the run's end
     without it): the combined CoM's distance from the goal, its linear momentum relative to the goal's circular
@@ -462,14 +474,7 @@ def transport_figures(chaser, target, wheels, thrust, events, scenario):
     common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario)
     t_end = float(done[-1]['t']) if done else float(common[-1])
     k = max(int(np.searchsorted(common, t_end + 1e-9)) - 1, 0)
-    pair = bodies(k)
-    mass = sum(b.mass_kg for b in pair)
-    r_cm = sum(b.mass_kg * b.r_m for b in pair) / mass
-    n = scenario.mean_motion_rad_s
-    v_cm = sum(b.mass_kg * b.v_mps for b in pair) / mass - np.cross((0.0, -n, 0.0), r_cm)  # relative to hill
-    miss = float(np.linalg.norm(r_cm - np.asarray(tr.goal_hill_m)))
-    momentum = mass * float(np.linalg.norm(v_cm))
-    h = angular_momentum_about_com(pair)
+    miss, _, momentum, h = transport_state(bodies(k), tr.goal_hill_m, scenario.mean_motion_rad_s)
     out.update(transport_final_position_error_m=miss, transport_orbital_momentum_error_n_m_s=momentum,
                transport_final_angular_momentum_kg_m2_s=h,
                transport_conditions_met=bool(done and h < tr.max_angular_momentum_kg_m2_s
