@@ -82,6 +82,12 @@ chosen sequence, where the forward filter's is 1.4 to 2.9 times it; from a prior
 percent, the forward gate rejecting most samples) the errors go from percents to hundredths of a percent, but
 the runs need 6 to 8 iterations and the NEES stays above its band.
 
+The gyro's residual bias (``gyro_bias_covariance`` of the constructor): in a mission the gyro comes less an attitude
+filter's bias estimate, whose error (~2e-6 rad/s on the TugRobot after 60 s, a fifth of a gyro sigma on every
+sample, correlated over the run) the filter otherwise reads as dynamics; b is then a state after the thrusters'
+errors (additive, its prior that estimate's covariance, walking as ``gyro_bias_walk_rad_s_sqrt_s``), the gyro
+predicted as omega + b.
+
 Process noise and consistency: ``accel_psd_m2_s3`` and ``angular_accel_psd_rad2_s3`` must be what the truth has.
 A rate random walk the truth does not have makes P conservative where the information comes slowly: the split
 of two equal moments (j2) is told by the gyroscopic drift the torque-free turn accumulates after the firings
@@ -375,6 +381,8 @@ class MassPropertyFilterConfig:
             burns it (its share of the CoM and inertia left out, as there); None: the mass is constant (seed 004
             §2.2's m). The chosen excitation burns 22 g of the TugRobot's 50 kg (4.4e-4 of F/(m + M), two of the
             mass's sigmas).
+        gyro_bias_walk_rad_s_sqrt_s: the gyro bias's random walk, the bias state's process noise (the filter's
+            gyro_bias_covariance; module doc).
     """
 
     chaser_mass_kg: float
@@ -397,6 +405,7 @@ class MassPropertyFilterConfig:
     thrust_error_states: bool = False
     accel_interval_s: float = 0.0
     exhaust_velocity_mps: float = None
+    gyro_bias_walk_rad_s_sqrt_s: float = 0.0
 
     def __post_init__(self):
         require_positive('chaser_mass_kg', self.chaser_mass_kg)
@@ -410,7 +419,7 @@ class MassPropertyFilterConfig:
         if self.exhaust_velocity_mps is not None:
             require_positive('exhaust_velocity_mps', self.exhaust_velocity_mps)
         for name in ('accel_psd_m2_s3', 'angular_accel_psd_rad2_s3', 'parameter_psd', 'accel_interval_s',
-                     'thrust_magnitude_sigma', 'thrust_misalignment_sigma_rad'):
+                     'gyro_bias_walk_rad_s_sqrt_s', 'thrust_magnitude_sigma', 'thrust_misalignment_sigma_rad'):
             require_positive(name, getattr(self, name), allow_zero=True)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability!r}')
@@ -460,8 +469,11 @@ class MassPropertyFilter(FilterBase):
     """
 
     def __init__(self, config, prior, t0, r_m, v_mps, q_inertial_from_body, omega_body, state_sigmas,
-                 firings=()):
-        """state_sigmas: 1 sigma per axis of (r [m], v [m/s], attitude [rad], omega [rad/s]) at t0 [s]."""
+                 firings=(), gyro_bias_covariance=None):
+        """state_sigmas: 1 sigma per axis of (r [m], v [m/s], attitude [rad], omega [rad/s]) at t0 [s];
+        gyro_bias_covariance: (3, 3) [rad^2/s^2] the prior of the gyro's residual bias b (gyro = omega + b + noise,
+        a state after the thrusters' errors, walking as config.gyro_bias_walk_rad_s_sqrt_s; module doc), None: no
+        bias."""
         super().__init__(config.gate_probability, config.max_consecutive_outliers)
         self.config = config
         self._gate_by_size = {n: float(chi2.ppf(config.gate_probability, df=n)) for n in (3, 6)}
@@ -480,12 +492,14 @@ class MassPropertyFilter(FilterBase):
             for f in self._firings:
                 self._thrusters.setdefault(_thruster_key(f), len(self._thrusters))
         n_thr = len(self._thrusters)
-        self._n = N_ERR + 3 * n_thr
-        self._eps = np.concatenate((_EPS, np.full(3 * n_thr, 1e-6)))
+        n_bias = 0 if gyro_bias_covariance is None else 3
+        self._sl_bias = slice(N_ERR + 3 * n_thr, N_ERR + 3 * n_thr + n_bias)  # in the error state
+        self._n = N_ERR + 3 * n_thr + n_bias
+        self._eps = np.concatenate((_EPS, np.full(3 * n_thr + n_bias, 1e-6)))
         self._y = np.concatenate((r_m, v_mps, quat_normalize(q_inertial_from_body), omega_body,
                                   [prior.target_mass_kg], quat_normalize(prior.q_body_from_principal),
                                   prior.target_com_body_m, j_from_moments(prior.principal_moments_kg_m2),
-                                  np.zeros(3 * n_thr)))
+                                  np.zeros(3 * n_thr + n_bias)))
         sig_r, sig_v, sig_att, sig_w = state_sigmas
         sigmas = np.concatenate(([sig_r] * 3, [sig_v] * 3, [sig_att] * 3, [sig_w] * 3, [prior.mass_sigma_kg],
                                  [prior.axes_sigma_rad] * 3, [prior.com_sigma_m] * 3, prior.j_sigma))
@@ -494,6 +508,8 @@ class MassPropertyFilter(FilterBase):
         for (_, u), i in self._thrusters.items():
             k = N_ERR + 3 * i
             p0[k:k + 3, k:k + 3] = self._force_error_covariance(np.array(u))
+        if n_bias:
+            p0[self._sl_bias, self._sl_bias] = gyro_bias_covariance
         self._kf = ExtendedKalmanFilter(dim_x=self._n, dim_z=6)
         self._kf.x = np.zeros((self._n, 1))
         self._kf.P = p0
@@ -623,6 +639,8 @@ class MassPropertyFilter(FilterBase):
             q[sl_pos, sl_rate] = q[sl_rate, sl_pos] = np.eye(3) * psd * dt ** 2 / 2.0
             q[sl_rate, sl_rate] = np.eye(3) * psd * dt
         q[12:N_ERR, 12:N_ERR] += np.eye(N_ERR - 12) * self.config.parameter_psd * dt
+        bias = np.arange(self._sl_bias.start, self._sl_bias.stop)  # empty without the gyro bias state
+        q[bias, bias] += self.config.gyro_bias_walk_rad_s_sqrt_s ** 2 * dt
         return q
 
     # --- measurement updates ---------------------------------------------------------------------------------
@@ -688,6 +706,8 @@ class MassPropertyFilter(FilterBase):
         batch = _perturb(y, _central_offsets(self._eps))
         h = _imu_batch(batch, *self._wrench(batch, t_wrench), self._h_w, self._m, self._i_t0,
                        self._burned_kg(t_wrench), self._p_acc, self.config.accel_interval_s)
+        if self._sl_bias.stop > self._sl_bias.start:  # the gyro's bias state
+            h[:, :3] += batch[:, N_NOM + self._sl_bias.start - N_ERR:N_NOM + self._sl_bias.stop - N_ERR]
         return h[0], ((h[1:n + 1] - h[n + 1:]) / (2.0 * self._eps)[:, None]).T
 
     def update(self, t, z):
@@ -844,7 +864,7 @@ class MassPropertyFilter(FilterBase):
             self._t, float(y[13]), y[18:21].copy(), quat_normalize(y[14:18]), moments,
             inertia_from_principal(moments, y[14:18]), float(sig[_I_M]), sig[_SL_X].copy(), sig[_SL_PHI].copy(),
             np.sqrt(np.diag(moments_cov)), y[0:3].copy(), y[3:6].copy(), y[6:10].copy(), y[10:13].copy(), p.copy(),
-            y[N_NOM:].reshape(-1, 3).copy())
+            y[N_NOM:N_NOM + self._sl_bias.start - N_ERR].reshape(-1, 3).copy())
 
 
 def defined_axes(principal_moments_kg_m2, rel_tol=1e-9):

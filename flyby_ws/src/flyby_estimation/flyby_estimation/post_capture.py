@@ -22,11 +22,18 @@ The run (``MassEstimationRun``): guidance announces the excitation's start t_x (
 filter starts at the IMU sample stamped t_x from the attitude filter's estimate there, with the firings guidance
 commands from t_x (``mass_properties_excitation.thruster_firings``: each firing as the plant allocates it on the
 thrusters) and the wheels' momentum guidance accounts for (held: nothing commands the wheels during the
-excitation); it takes every later sample: the gyro less the attitude filter's bias estimate, the accelerometer's
-mean over the sample interval (``MassPropertyFilterConfig.accel_interval_s``) and the star tracker; the thrusters'
-execution errors of the scenario (unknown to the filter in each run) are its input's uncertainty. Samples that
+excitation); it takes every later sample: the gyro less the attitude filter's bias estimate at t_x (held: that
+estimate's error is the filter's gyro bias state, its prior the attitude filter's bias covariance there), the
+accelerometer's mean over the sample interval (``MassPropertyFilterConfig.accel_interval_s``) and the star tracker;
+the thrusters' execution errors of the scenario (unknown to the filter in each run) are its input's uncertainty,
+the propellant they burn leaves the mass (``exhaust_velocity_mps``). Its process noise is none: the plant's combined
+body feels no force or torque but the firings' (no environmental torque), and the orbit's differential gravity at
+the accelerometer, at most 3 n^2 |p|, is 7e-7 m/s^2 on the TugRobot (p 0.2 m) and 1e-5 m/s^2 on paper_flyby_tug's
+body (3 m): a hundredth and a tenth of the accelerometer's sigma. Samples that
 come before the announcement (the topics race) wait in a buffer of the samples after the capture. An estimate is
-given every ``PUBLISH_EVERY`` samples and the final one window_s after t_x.
+given every ``PUBLISH_EVERY`` samples and the final one window_s after t_x, relinearized
+(``MassPropertyFilter.relinearize``: the batch maximum a posteriori of the window, consistent where the forward
+filter's covariance keeps its early linearizations, docs/post_capture.md).
 """
 
 import collections
@@ -149,19 +156,23 @@ def mass_property_prior(scenario, snapshot, arm_displacement_body_m=(0.0, 0.0, 0
 class ImuSample(NamedTuple):
     """One chaser IMU sample after the capture as the filter takes it: stamp [s], the attitude filter's attitude
     (q_eci_from_body) and bias-corrected rate [rad/s] there, the accelerometer [m/s^2] and the star tracker's
-    attitude in ECI (or None)."""
+    attitude in ECI (or None); the attitude filter's gyro bias estimate [rad/s] and its covariance [rad^2/s^2]
+    (None: not known)."""
 
     t: float
     q_eci_from_body: np.ndarray
     omega_body: np.ndarray
     accel_body_mps2: np.ndarray
     q_star_eci: np.ndarray
+    gyro_bias_rad_s: np.ndarray = np.zeros(3)
+    gyro_bias_covariance: np.ndarray = None
 
 
 def imu_sample(t, estimate, specific_force_body, q_star_hill, n):
     """The ImuSample of an IMU sample at t from the attitude filter's estimate (``ChaserAttitudeEstimate``) there."""
     return ImuSample(t, estimate.q_eci_from_body, estimate.omega_body, np.asarray(specific_force_body, dtype=float),
-                     None if q_star_hill is None else q_eci_from_body(t, n, np.asarray(q_star_hill, dtype=float)))
+                     None if q_star_hill is None else q_eci_from_body(t, n, np.asarray(q_star_hill, dtype=float)),
+                     estimate.bias_rad_s, estimate.covariance[3:6, 3:6])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,6 +204,7 @@ class MassEstimationRun:
         self.t_start = None
         self.count = 0
         self.done = False
+        self.gyro_bias0 = None  # the attitude filter's gyro bias estimate at the start [rad/s]
 
     def start(self, t_start, h_wheels_body_n_m_s, prior):
         """The excitation starts at t_start [s] with the wheels holding h_wheels_body_n_m_s [N m s, chaser_body];
@@ -215,10 +227,12 @@ class MassEstimationRun:
         if s.t < self.t_start - STAMP_TOLERANCE_S:
             return []
         if self.filter is None:
+            self.gyro_bias0 = s.gyro_bias_rad_s
             self.filter = self._new_filter(s)
             return []
         f = self.filter
-        f.on_imu(s.t, s.omega_body, s.accel_body_mps2)
+        # the gyro less the attitude filter's bias estimate at the start, held (the filter's bias state, module doc)
+        f.on_imu(s.t, s.omega_body + s.gyro_bias_rad_s - self.gyro_bias0, s.accel_body_mps2)
         if s.q_star_eci is not None:
             f.update(s.t, s.q_star_eci)
         self.count += 1
@@ -226,6 +240,8 @@ class MassEstimationRun:
         if not (final or self.count % PUBLISH_EVERY == 0):
             return []
         self.done = final
+        if final:  # the batch maximum a posteriori of the whole window (module doc)
+            f.relinearize()
         e = f.state()
         return [TargetInertiaEstimate(s.t, e.target_mass_kg, e.target_com_body_m, e.target_inertia_body_kg_m2, e,
                                       final)]
@@ -242,13 +258,16 @@ class MassEstimationRun:
             thrust_magnitude_sigma=sc.chaser.thrusters.magnitude_error_sigma,
             thrust_misalignment_sigma_rad=math.radians(sc.chaser.thrusters.direction_error_sigma_deg),
             thrust_error_states=True,  # the plant draws them once per run: constant, estimated
-            exhaust_velocity_mps=sc.thruster_layout.exhaust_velocity_mps)
+            exhaust_velocity_mps=sc.thruster_layout.exhaust_velocity_mps,
+            gyro_bias_walk_rad_s_sqrt_s=imu.gyro_bias_walk_rad_s_sqrt_s,
+            accel_psd_m2_s3=0.0, angular_accel_psd_rad2_s3=0.0)  # what the combined body has (module doc)
         firings = thruster_firings(sc.thruster_layout,
                                    excitation_firings(sc.post_capture.mass_estimation.excitation, self.t_start),
                                    self.period_s)
         attitude_sigma = max(math.radians(imu.star_tracker_sigma_deg), 1e-6)
         return MassPropertyFilter(config, self.prior, s.t, np.zeros(3), np.zeros(3), s.q_eci_from_body, s.omega_body,
-                                  (*_STATE_SIGMAS, attitude_sigma, _RATE_SIGMA_RAD_S), firings)
+                                  (*_STATE_SIGMAS, attitude_sigma, _RATE_SIGMA_RAD_S), firings,
+                                  s.gyro_bias_covariance)
 
 
 class TransportNavigation:
