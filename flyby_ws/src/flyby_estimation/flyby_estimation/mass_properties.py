@@ -318,13 +318,13 @@ def _rk4_batch(y, dt, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_bo
 
 def _imu_batch(y, force, moment, h_wheels, chaser_mass_kg, chaser_inertia_body, burned_kg, accel_position_body,
                interval_s):
-    """Gyro and accelerometer (K, 6) predicted for nominal states (K, 24) at a sample: omega, and the specific force
-    F/(m+M) + omega_dot x p + omega x (omega x p) with p the accelerometer from the combined CoM
-    (combined_body.specific_force_body). interval_s > 0: the accelerometer of ``MassPropertyFilterConfig.
-    accel_interval_s``, the states carried back over the interval under the held wrench (two RK4 half-steps): the
-    thrust's mean acceleration over it resolved in the body axes at the sample, (1/T) int C_b(t)<-b(tau) F/(m+M)
-    dtau by Simpson's rule over the body's turn, and omega_dot x p as its interval mean (omega(t) - omega(t - T)) / T
-    x p; omega x (omega x p) at the sample."""
+    """Gyro and accelerometer (K, 6) predicted for nominal states (K, 24) at a sample (seed 004 §2.2's observations
+    omega and x_t'', its equations unnumbered): omega, and the specific force F/(m+M) + omega_dot x p
+    + omega x (omega x p) with p the accelerometer from the combined CoM (combined_body.specific_force_body).
+    interval_s > 0: the accelerometer of ``MassPropertyFilterConfig.accel_interval_s``, the states carried back over
+    the interval under the held wrench (two RK4 half-steps): the thrust's mean acceleration over it resolved in the
+    body axes at the sample, (1/T) int C_b(t)<-b(tau) F/(m+M) dtau by Simpson's rule over the body's turn, and
+    omega_dot x p as its interval mean (omega(t) - omega(t - T)) / T x p; omega x (omega x p) at the sample."""
     body = _BatchBody(y, chaser_mass_kg, chaser_inertia_body, burned_kg)
     omega = y[:, 10:13]
     p = accel_position_body - body.c
