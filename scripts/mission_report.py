@@ -262,6 +262,7 @@ class Run:
         self.scenario = self._load_scenario()
         self.rigid_body = self.scenario is not None and self.scenario.chaser.model == 'rigid_body'
         self.post_capture = self.scenario is not None and self.scenario.post_capture is not None
+        self.transport = self.post_capture and self.scenario.post_capture.transport is not None
         wanted = [c.absolute(t) for t in TOPICS + (RIGID_BODY_TOPICS if self.rigid_body else ())
                   + (POST_CAPTURE_TOPICS if self.post_capture else ())]
         data = read_bag(self.run_dir / 'bag', topics=[t for t in wanted if t in present])
@@ -1821,6 +1822,8 @@ POST_CAPTURE_FIGURES = (  # written for a scenario with a post_capture section o
     ('seed004_fig5_mass_properties.png', fig_seed004_mass_properties),
     ('post_capture_grasp_contact.png', fig_grasp_contact),
     ('post_capture_damping_momentum.png', fig_damping_momentum),
+)
+TRANSPORT_FIGURES = (  # written for a scenario with a post_capture.transport section only
     ('seed004_fig7_transport.png', fig_seed004_fig7),
 )
 
@@ -1923,7 +1926,8 @@ def _write(run_dir, out_dir):
     run = Run(run_dir)
     written, failed = [], []
     for name, draw in (FIGURES + (RIGID_BODY_FIGURES if run.rigid_body else ()) + (SYNC_FIGURES if run.sync else ())
-                       + (POST_CAPTURE_FIGURES if run.post_capture else ())):
+                       + (POST_CAPTURE_FIGURES if run.post_capture else ())
+                       + (TRANSPORT_FIGURES if run.transport else ())):
         path = out / name
         try:
             draw(run, path)
