@@ -15,7 +15,8 @@ key by dotted path (list items by index: ``target.geometry.0.size_m``), drawn in
         exclude_cone: {axis: [0, 1, 0], half_angle_deg: 10, both_ways: true}
       sensors.relative_position.noise_sigma_m: {kind: scale, factor: {kind: uniform, low: 0.5, high: 2}}
 
-Kinds (``KINDS``): ``uniform`` (low, high: scalars or one per component), ``normal`` (mean, sigma),
+Kinds (``KINDS``): ``uniform`` (low, high: scalars or one per component, of a vector or a matrix such as
+``target.inertia_kg_m2``), ``normal`` (mean, sigma),
 ``direction`` (uniform on the unit sphere, optional ``exclude_cone`` {axis, half_angle_deg,
 both_ways}, optional ``magnitude``: a number or a nested scalar dispersion, optional ``axis_probability``:
 the chance of one of +-x, +-y, +-z instead, e.g. a principal spin of a body with diagonal inertia; a 3-vector),
@@ -73,15 +74,16 @@ def _number_array(v, file, key, what):
         a = np.asarray(v, dtype=float)
     except (TypeError, ValueError):
         raise CampaignError(file, key, f'{what} must be a number or a list of numbers, got {v!r}') from None
-    if a.ndim > 1 or not np.all(np.isfinite(a)):
-        raise CampaignError(file, key, f'{what} must be a finite number or a list of finite numbers, got {v!r}')
+    if a.ndim > 2 or not np.all(np.isfinite(a)):
+        raise CampaignError(file, key, f'{what} must be a finite number, a list of finite numbers or a matrix (a '
+                                       f'list of equal lists, e.g. an inertia) of them, got {v!r}')
     return a
 
 
 def _plain(x):
-    """numpy scalars and arrays as plain Python floats and lists (YAML-dumpable, JSON-writable)."""
+    """numpy scalars, vectors and matrices as plain Python floats and (nested) lists (YAML-dumpable, JSON-writable)."""
     a = np.asarray(x, dtype=float)
-    return float(a) if a.ndim == 0 else [float(v) for v in a]
+    return float(a) if a.ndim == 0 else a.tolist()
 
 
 def _unit(v, file, key, what):

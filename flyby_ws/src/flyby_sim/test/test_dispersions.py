@@ -147,6 +147,24 @@ def test_scale_multiplies_the_base_value():
     np.testing.assert_array_equal(v, [[2.0, -4.0, 1.0]] * 3)
 
 
+
+def test_a_matrix_is_drawn_per_element_and_scaled_whole(tmp_path):
+    """An inertia (3x3) dispersed: uniform draws each element between its bounds (a zero-width bound keeps it), scale
+    multiplies the whole matrix; the run's scenario holds the drawn matrix."""
+    low, high = [[1.6, 0.0, 0.0], [0.0, 1.2, 0.0], [0.0, 0.0, 1.2]], [[2.4, 0.0, 0.0], [0.0, 1.8, 0.0], [0.0, 0.0, 1.8]]
+    m = _draws({'kind': 'uniform', 'low': low, 'high': high}, base_value=np.eye(3).tolist(), n=2000)
+    assert m.shape == (2000, 3, 3)
+    assert np.all(m >= np.array(low)) and np.all(m <= np.array(high))
+    assert np.all(m[:, 0, 1] == 0.0) and np.ptp(m[:, 1, 1]) > 0.5 and np.corrcoef(m[:, 1, 1], m[:, 2, 2])[0, 1] < 0.1
+    s = _draws({'kind': 'scale', 'factor': 2.0}, base_value=low, n=2)
+    np.testing.assert_array_equal(s, [2.0 * np.array(low)] * 2)
+    path = _campaign(tmp_path, {'target.inertia_kg_m2': {'kind': 'scale', 'factor': {'kind': 'uniform', 'low': 0.8,
+                                                                                     'high': 1.2}}})
+    scenario, values = load_campaign(path).draw(0)
+    np.testing.assert_allclose(scenario.target.inertia_kg_m2, values['target.inertia_kg_m2'])
+    factor = values['target.inertia_kg_m2'][0][0] / load_scenario(BASE).target.inertia_kg_m2[0][0]
+    assert 0.8 <= factor <= 1.2
+
 def test_run_drawn_alone_equals_run_drawn_in_sequence(tmp_path):
     path = _campaign(tmp_path, {
         'target.initial_rate.omega_body_deg_s': {'kind': 'uniform', 'low': [0, 0, 3], 'high': [0, 0, 8]},
