@@ -31,6 +31,7 @@ import distributed
 from flyby_guidance.campaign_report import write_report
 from flyby_guidance.closed_loop import run_headless
 from flyby_msgs_py import contract as c
+from flyby_planner.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
 from flyby_sim.dispersions import CampaignError, load_campaign
 from flyby_sim.scenario import scenario_from_dict
 
@@ -61,8 +62,12 @@ def run_indices(spec):
 
 
 def columns(campaign):
-    """The columns of results.csv: run, the dispersed keys in file order, the summary figures, the wall times."""
-    return ('run', *campaign.keys, *SUMMARY_COLUMNS, *TIMING_COLUMNS)
+    """The columns of results.csv: run, the dispersed keys in file order, the summary figures (with the
+    post-capture and transport keys where the base scenario has those phases), the wall times."""
+    post = campaign.base.post_capture
+    extra = (() if post is None else POST_CAPTURE_KEYS) + (() if post is None or post.transport is None
+                                                           else TRANSPORT_KEYS)
+    return ('run', *campaign.keys, *SUMMARY_COLUMNS, *extra, *TIMING_COLUMNS)
 
 
 def fly(run, scenario_dict):
@@ -94,12 +99,11 @@ def _cell(value):
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def row_of(run, values, summary):
-    """The results.csv row of a finished run, as text cells keyed by column."""
+def row_of(run, values, summary, cols):
+    """The results.csv row of a finished run, as text cells keyed by column (cols: ``columns(campaign)``)."""
     row = {'run': str(run)}
     row.update({key: _cell(v) for key, v in values.items()})
-    row.update({key: _cell(summary.get(key)) for key in SUMMARY_COLUMNS})
-    row.update({key: _cell(summary.get(key)) for key in TIMING_COLUMNS})
+    row.update({key: _cell(summary.get(key)) for key in cols if key not in row})
     return row
 
 
@@ -222,7 +226,7 @@ def run_campaign(campaign_file, out_dir, runs=None, scheduler=None, workers=None
                         except Exception as e:  # e.g. KilledWorker: an ERROR row
                             summary = error_summary(drawn[i][0]['seed'], e, None)
                         (out / 'runs' / str(i) / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
-                        done[i] = row_of(i, drawn[i][1], summary)
+                        done[i] = row_of(i, drawn[i][1], summary, cols)
                         writer.writerow(done[i])
                         f.flush()
                         if bar:

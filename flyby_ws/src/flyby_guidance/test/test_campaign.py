@@ -205,3 +205,15 @@ def test_refusals_are_counted_by_what_bound_them_and_captures_over_the_plans_flo
                                 'included, margin 0.1 m)') == 'optimal approach: clearance below the margin'
     assert refusal_class(both + ': no feasible program for an approach of 20-200 s at 0.09 m/s^2 (SCP, 24 '
                                 'programs)') == 'optimal approach: no feasible program'
+
+
+def test_a_transport_campaign_has_the_post_capture_and_transport_columns():
+    """results.csv of a campaign whose base scenario goes on after the capture carries the summary's post-capture
+    keys, and with a transport its transport keys (issue 17's campaign is judged on them); a fly-by campaign's
+    columns are the summary figures alone."""
+    from flyby_planner.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
+    transport = columns(load_campaign(ROOT / 'campaigns' / 'transport_orbit_advance.yaml', checked_draws=0))
+    assert set(POST_CAPTURE_KEYS) <= set(transport) and set(TRANSPORT_KEYS) <= set(transport)
+    assert transport[-len(TIMING_COLUMNS):] == TIMING_COLUMNS and len(set(transport)) == len(transport)
+    flyby = columns(load_campaign(ROOT / 'campaigns' / 'smoke.yaml', checked_draws=0))
+    assert not set(POST_CAPTURE_KEYS + TRANSPORT_KEYS) & set(flyby)
