@@ -96,7 +96,7 @@ def _cell(value):
         return ''
     if isinstance(value, (list, tuple, dict)):
         return json.dumps(value)
-    return repr(value) if isinstance(value, float) else str(value)
+    return repr(float(value)) if isinstance(value, float) else str(value)  # numpy's float64 too
 
 
 def row_of(run, values, summary, cols):

@@ -217,3 +217,10 @@ def test_a_transport_campaign_has_the_post_capture_and_transport_columns():
     assert transport[-len(TIMING_COLUMNS):] == TIMING_COLUMNS and len(set(transport)) == len(transport)
     flyby = columns(load_campaign(ROOT / 'campaigns' / 'smoke.yaml', checked_draws=0))
     assert not set(POST_CAPTURE_KEYS + TRANSPORT_KEYS) & set(flyby)
+
+
+def test_a_numpy_float_cell_is_written_as_a_number():
+    """A summary figure computed in numpy (np.float64, a float) is a plain number in results.csv, read back exactly."""
+    from flyby_guidance.campaign import _cell
+    value = np.float64(0.1) * 3.0
+    assert _cell(value) == repr(float(value)) and float(_cell(value)) == value

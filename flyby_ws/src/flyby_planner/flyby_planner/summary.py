@@ -453,7 +453,7 @@ def transport_state(pair, goal_hill_m, mean_motion_rad_s):
     r_cm = sum(b.mass_kg * b.r_m for b in pair) / mass
     v_cm = sum(b.mass_kg * b.v_mps for b in pair) / mass - np.cross((0.0, -mean_motion_rad_s, 0.0), r_cm)
     speed = float(np.linalg.norm(v_cm))
-    return (float(np.linalg.norm(r_cm - np.asarray(goal_hill_m))), speed, mass * speed,
+    return (float(np.linalg.norm(r_cm - np.asarray(goal_hill_m))), speed, float(mass) * speed,
             angular_momentum_about_com(pair))
 
 
