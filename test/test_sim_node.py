@@ -1,16 +1,19 @@
 """The simulator node in-process with a test node: time-tagged maneuvers and bad commands."""
 
+import json
 import math
+import time
 
 import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from std_msgs.msg import String
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import bag_topics
-from flyby_msgs_py.runtime import announce_ready, run_loop
+from flyby_msgs_py.runtime import READY_TOPIC, announce_ready, run_loop
 from flyby_sim.plant import Plant, plant_config_from_scenario
 from flyby_sim.scenario import load_scenario
 from flyby_sim.sim_node import SimNode
@@ -146,3 +149,29 @@ def test_a_namespaced_simulator_publishes_under_its_namespace(ros_context, execu
     assert sim.pubs[c.SIM_CHASER_ODOM].topic_name == '/chaser1/sim/chaser/odom'
     assert sim.pubs[c.CLOCK].topic_name == '/clock'
     assert len(odom) == 21
+
+
+def test_time_waits_until_each_announced_subscription_has_matched_its_publishers(ros_context, executor, tmp_path):
+    """Discovery is one-sided for a while: a publisher can match a reader that has not yet matched it, and
+    what it sends meanwhile is lost to that reader. The simulator starts only once both sides have matched."""
+    scenario_path = write_scenario(tmp_path, edit=zero_errors)
+    probe = Probe(ros_context)
+    ready = probe.create_publisher(String, READY_TOPIC, qos.QOS_EVENTS)
+    odom = c.absolute(c.SIM_CHASER_ODOM)
+    sim = SimNode(context=ros_context, parameter_overrides=[
+        Parameter('scenario_file', value=str(scenario_path)), Parameter('wait_for_nodes', value=['probe'])])
+    executor.add_node(sim)
+    executor.add_node(probe)
+
+    def announce(matched_publishers):
+        ready.publish(String(data=json.dumps({'node': 'probe', 'subscriptions': [odom], 'publications': {},
+                                              'subscribed': {odom: matched_publishers}})))
+    announce(0)
+    spin_until(executor, lambda: 'probe' in sim.subscriptions_of and sim.pubs[c.SIM_CHASER_ODOM]
+               .get_subscription_count() >= 1, 10.0, sim.tick)
+    deadline = time.monotonic() + 1.0
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=min(max(sim.tick(), 0.0), 0.05))
+    assert not sim.started
+    announce(1)
+    spin_until(executor, lambda: sim.started, 10.0, sim.tick)

@@ -104,12 +104,17 @@ class ProgressReporter:
 
 
 class ReadyAnnouncer:
-    """Publishes (latched) the node's name, the topics it subscribes and, per topic it publishes, how
-    many subscriptions its publisher has matched; again whenever a match count changes.
+    """Publishes (latched) the node's name, the topics it subscribes, per topic it publishes how many
+    subscriptions its publisher has matched and per topic it subscribes how many publishers its
+    subscription has matched; again whenever a match count changes.
 
     The simulator holds time until every publisher of the graph has matched every announced
-    subscription of its topic (not only its own publishers): a discovery that is slow between two
-    other processes would otherwise lose their first messages (e.g. the estimates in the bag).
+    subscription of its topic and every subscription every announced publisher (not only its own): a
+    discovery that is slow between two other processes would otherwise lose their first messages (e.g.
+    the estimates in the bag). Both sides, because matching is one-sided for a while: a writer that has
+    matched a reader which has not yet matched it sends samples the reader drops, resent only once the
+    reader's side of discovery completes (the supervisor's watchdog once missed the guidance's first
+    progress reports for more than 5 s of sim time that way on a loaded machine).
     """
 
     def __init__(self, node):
@@ -123,13 +128,18 @@ class ReadyAnnouncer:
         if self.publisher is None:
             return
         try:
-            matched = {p.topic_name: p.get_subscription_count() for p in self.node.publishers
-                       if p is not self.publisher}
+            publications = {p.topic_name: p.get_subscription_count() for p in self.node.publishers
+                            if p is not self.publisher}
+            subscribed = {}
+            for sub in self.node.subscriptions:  # the least matched of a topic's subscriptions
+                count = sub.get_publisher_count()
+                subscribed[sub.topic_name] = min(count, subscribed.get(sub.topic_name, count))
+            matched = (publications, subscribed)
             if matched != self.matched:
                 self.matched = matched
                 self.publisher.publish(String(data=json.dumps(
                     {'node': node_label(self.node), 'subscriptions': self.subscriptions,
-                     'publications': matched})))
+                     'publications': publications, 'subscribed': subscribed})))
         except InvalidHandle:  # the node was destroyed (a fault injected by the launcher)
             self.publisher = None
 

@@ -148,6 +148,7 @@ class SimNode(Node):
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM, raw=True)
         self.subscriptions_of = {}  # node name -> the topics it subscribes, as it announced them
         self.publications_of = {}  # node name -> {topic: subscriptions its publisher has matched}
+        self.subscribed_of = {}  # node name -> {topic: publishers its subscription has matched}
         self.create_subscription(String, READY_TOPIC, self.on_ready, qos.QOS_EVENTS)
 
         fleet = self.chasers[0].name is not None
@@ -294,10 +295,13 @@ class SimNode(Node):
         announced = json.loads(msg.data)
         self.subscriptions_of[announced['node']] = announced['subscriptions']
         self.publications_of[announced['node']] = announced.get('publications', {})
+        self.subscribed_of[announced['node']] = announced.get('subscribed', {})
 
     def graph_ready(self):
-        """True once every expected node has announced its subscriptions and every publisher of the
-        graph (ours and theirs) has matched each announced subscription of its topic."""
+        """True once every expected node has announced its subscriptions, every publisher of the
+        graph (ours and theirs) has matched each announced subscription of its topic, and every
+        announced subscription has matched each publisher of its topic in the other nodes (ours and the
+        announced ones)."""
         missing = [n for n in self.wait_for_nodes if n not in self.subscriptions_of]
         if time.monotonic() > self.startup_deadline:
             self.emit('WARN', 'startup_timeout',
@@ -309,12 +313,20 @@ class SimNode(Node):
         def expected(topic, publisher_node):
             return sum(topics.count(topic) for node, topics in self.subscriptions_of.items()
                        if node != publisher_node)
-        for pub in [*self.pubs.values(), *(p for ch in self.chasers if ch.pubs is not self.pubs
-                                            for p in ch.pubs.values())]:
+        for pub in self.publisher_handles():
             if pub.get_subscription_count() < expected(pub.topic_name, self.get_name()):
                 return False
-        return all(count >= expected(topic, node) for node in self.wait_for_nodes
-                   for topic, count in self.publications_of.get(node, {}).items())
+        if not all(count >= expected(topic, node) for node in self.wait_for_nodes
+                   for topic, count in self.publications_of.get(node, {}).items()):
+            return False
+        publishers = {**self.publications_of,  # node -> its topics, ours as our run loop announces them
+                      self.get_name(): {pub.topic_name: 0 for pub in self.publisher_handles()}}
+        return all(count >= sum(topic in topics for other, topics in publishers.items() if other != node)
+                   for node in self.wait_for_nodes for topic, count in self.subscribed_of.get(node, {}).items())
+
+    def publisher_handles(self):
+        """Our publishers, the chasers' included."""
+        return [*self.pubs.values(), *(p for ch in self.chasers if ch.pubs is not self.pubs for p in ch.pubs.values())]
 
     def start(self):
         self.started = True
