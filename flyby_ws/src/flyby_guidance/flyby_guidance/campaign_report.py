@@ -31,6 +31,10 @@ NOT_FLOWN = (c.OUTCOME_ERROR, c.OUTCOME_INTERRUPTED)
 UPPER_TAIL = ('capture_position_error_m', 'capture_velocity_error_mps', 'delta_v_total_mps', 'fuel_used_kg')
 MAX_LISTED = 20
 WORST_LISTED = 5
+# Transport's figures (issue 17; results.csv has them when the base scenario transports): upper tails.
+TRANSPORT_FIGURES = ('transport_final_position_error_m', 'transport_orbital_momentum_error_n_m_s',
+                     'transport_final_angular_momentum_kg_m2_s', 'transport_fuel_kg', 'transport_impulses',
+                     'transport_time_s')
 # Keys whose dispersion moves the spin axis or rate: then the outcome map is drawn.
 SPIN_KEYS = ('target.initial_rate.', 'target.initial_attitude.')
 
@@ -120,7 +124,7 @@ def statistics(rows):
     by_method = collections.defaultdict(collections.Counter)  # results.csv from before the column: ''
     for r in planned:
         by_method[r.get('method') or ''][r['outcome']] += 1
-    return {
+    out = {
         'runs': len(rows), 'flown': n, 'flew_a_plan': len(planned), 'outcome_counts': counts,
         'plans_flown_by_method': {m: dict(by_method[m].most_common()) for m in sorted(by_method)},
         'capture_rate': _rate('capture', captured, n),
@@ -130,6 +134,16 @@ def statistics(rows):
         'safe_rate': _rate('collision', safe, n),
         'percentiles': figures,
     }
+    if any(r.get('transport_conditions_met') for r in flown):
+        out['transport_rate'] = _rate('transport', sum(_met(r) for r in flown), n)
+        out['transport_percentiles'] = {key: _percentiles([_number(r.get(key)) for r in flown], 'upper')
+                                        for key in TRANSPORT_FIGURES}
+    return out
+
+
+def _met(row):
+    """The row's transport_conditions_met (results.csv writes it True or False)."""
+    return row.get('transport_conditions_met') == 'True'
 
 
 def _replay(out_dir, run):
@@ -143,12 +157,19 @@ def worst_runs(rows):
     def by(key, reverse):
         have = [(r, _number(row[key])) for r, row in rows.items() if _number(row[key]) is not None]
         return sorted(have, key=lambda x: x[1], reverse=reverse)[:WORST_LISTED]
+    transport = [('every transport that missed a condition',
+                  [(r, f'{_fmt(_number(row["transport_final_position_error_m"]))} m, '
+                       f'{_fmt(_number(row["transport_orbital_momentum_error_n_m_s"]))} N s, '
+                       f'{_fmt(_number(row["transport_final_angular_momentum_kg_m2_s"]))} kg m2/s')
+                   for r, row in sorted(rows.items()) if row.get('transport_conditions_met') and not _met(row)
+                   ][:MAX_LISTED])] if any(row.get('transport_conditions_met') for row in rows.values()) else []
     return [
         ('largest capture position error', [(r, f'{v:.4g} m') for r, v in by('capture_position_error_m', True)]),
         ('least clearance', [(r, f'{v:.4g} m') for r, v in by('min_clearance_m', False)]),
         ('every run that did not capture',
          [(r, f'{row["outcome"]}: {row["end_reason"][:160]}') for r, row in sorted(rows.items())
           if row['outcome'] != c.OUTCOME_CAPTURE][:MAX_LISTED]),
+        *transport,
     ]
 
 
@@ -225,13 +246,14 @@ def report_markdown(out_dir, header, stats, rows, images):
         lines += ['', '| NO_SAFE_PLAN, by what bound it | runs |', '|---|---|']
         lines += [f'| {k} | {n} |' for k, n in stats['refusals_by_class'].items()]
     lines += ['', '| rate | value | 95 % Clopper-Pearson |', '|---|---|---|']
-    for name in ('capture_rate', 'capture_rate_of_plans_flown', 'safe_rate'):
-        r = stats[name]
+    for name in ('capture_rate', 'capture_rate_of_plans_flown', 'safe_rate', 'transport_rate'):
+        r = stats.get(name, {'runs': 0})
         if r['runs']:
             lo, hi = r['ci95_clopper_pearson']
             lines.append(f'| {name} | {r["successes"]}/{r["runs"]} = {r["rate"]:.3f} | [{lo:.3f}, {hi:.3f}] |')
-    lines += [''] + [stats[n]['zero_failure_90'] + '.' for n in ('capture_rate_of_plans_flown', 'safe_rate')
-                     if 'zero_failure_90' in stats[n]]
+    lines += [''] + [stats[n]['zero_failure_90'] + '.' for n in ('capture_rate_of_plans_flown', 'safe_rate',
+                                                                 'transport_rate')
+                     if 'zero_failure_90' in stats.get(n, {})]
     truth = stats.get('captures_within_tolerance_in_truth')
     if truth and truth['runs']:
         lines += ['', f'Captures within the manipulator\'s tolerances in truth (the supervisor decides on the '
@@ -242,6 +264,11 @@ def report_markdown(out_dir, header, stats, rows, images):
         p = stats['percentiles'][key]
         lines.append(f'| {key} | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p95', 'p99', 'max'))
                      + ' |')
+    if 'transport_percentiles' in stats:
+        lines += ['', 'transport_rate: the runs that meet all three rendezvous conditions in truth (seed 004 §3.2).',
+                  '', '| transport figure (flown runs) | n | p50 | p95 | p99 | max |', '|---|---|---|---|---|---|']
+        lines += [f'| {key} | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p95', 'p99', 'max')) + ' |'
+                  for key, p in stats['transport_percentiles'].items()]
     p = stats['percentiles']['min_clearance_m']
     lines += ['', '| least clearance (flown runs) | n | p50 | p5 | p1 | min |', '|---|---|---|---|---|---|',
               f'| min_clearance_m | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p5', 'p1', 'min'))
@@ -257,8 +284,10 @@ def report_markdown(out_dir, header, stats, rows, images):
 def truth_within_tolerance(out_dir, rows):
     """The captures whose truth errors (capture_position_error_m, capture_velocity_error_mps) are within their
     run's manipulator tolerances: the supervisor decides a capture on the estimates, so a CAPTURE can lie outside
-    them in truth. (rate of the captures, [(run, position, velocity) of those outside])."""
-    captured = {r: row for r, row in rows.items() if row['outcome'] == c.OUTCOME_CAPTURE}
+    them in truth. A run that starts attached (post_capture.start) has no capture errors and is not counted.
+    (rate of the captures, [(run, position, velocity) of those outside])."""
+    captured = {r: row for r, row in rows.items() if row['outcome'] == c.OUTCOME_CAPTURE
+                and _number(row.get('capture_position_error_m')) is not None}  # not a run that starts attached
     outside = []
     for r, row in sorted(captured.items()):
         arm = load_scenario(Path(out_dir) / 'runs' / str(r) / 'scenario.yaml').chaser.manipulator
