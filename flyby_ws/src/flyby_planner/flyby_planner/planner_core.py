@@ -52,7 +52,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_planner.grasp import capture_target_body
-from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach
+from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach, prepare_approach
 from flyby_planner.optimal.mutual import MovingObstacle, least_separation
 from flyby_planner.optimal.problem import GraspTerminal, TargetMotion
 from flyby_planner.optimal.scp import ScpSettings
@@ -186,6 +186,8 @@ class PlannerCore:
         self.waiting_for = None  # the leaders a request waits for, once announced
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.approach = approach_settings_from_scenario(scenario)
+        if scenario.planner.method == 'optimal' or (scenario.planner.method == 'auto' and self.rigid):
+            prepare_approach(scenario, self.approach, obstacles=len(self.leaders))  # compiled now, not at the plan
         self.method_flown = None  # the method of the plan being flown: a re-plan keeps it
         self.flown = None  # the TrajectoryPublished being flown (an optimal or synchronized approach)
         self.sync_arrival = None  # the synchronized approach's ArrivalChoice being flown

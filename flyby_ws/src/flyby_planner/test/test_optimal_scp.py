@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from flyby_planner.grasp import flyby_target_from_attitude
+from flyby_planner.optimal import scp
 from flyby_planner.optimal.approach import LEAST_FUEL_SCP
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.cost import box_contacts, plan_terms, plume_metric
@@ -18,6 +19,7 @@ from flyby_planner.optimal.scp import (
     ZohPlan,
     _model,
     _plume_violation,
+    compile_program,
     delta_v_lower_bound,
     plan_scp,
     zoh_input_matrix,
@@ -175,6 +177,23 @@ def test_a_plan_does_not_depend_on_what_the_process_planned_before():
     tau = np.linspace(0.0, T_TABLE1_S, 600)
     assert np.array_equal(first.sample(tau).r_hill, again.sample(tau).r_hill)
     assert np.array_equal(first.sample(tau).a_hill, again.sample(tau).a_hill)
+
+
+def test_a_program_compiled_before_the_plan_gives_the_plan_compiled_at_its_first_solve(monkeypatch):
+    """compile_program (the planner's start) compiles with every parameter at zero: the plan is then the same, to the
+    bit, as one whose program compiled at its first solve, and that solve finds the program compiled."""
+    _, table1 = table1_problem()
+    settings = ScpSettings()
+    monkeypatch.setattr(scp, '_MODELS', {})
+    cold = plan_scp([table1], settings, duration_s=T_TABLE1_S).plans[0]
+    monkeypatch.setattr(scp, '_MODELS', {})
+    model = compile_program(1, settings, [len(table1.target.boxes)], safety_per_robot=[table1.weights.safety > 0.0])
+    assert model.compiled and list(scp._MODELS.values()) == [model]
+    compiled = plan_scp([table1], settings, duration_s=T_TABLE1_S).plans[0]
+    assert list(scp._MODELS.values()) == [model]  # the same program: no other shape was built
+    tau = np.linspace(0.0, T_TABLE1_S, 600)
+    assert np.array_equal(cold.sample(tau).r_hill, compiled.sample(tau).r_hill)
+    assert np.array_equal(cold.sample(tau).a_hill, compiled.sample(tau).a_hill)
 
 
 def test_plume_violation_counts_thrust_away_inside_the_sphere_only():

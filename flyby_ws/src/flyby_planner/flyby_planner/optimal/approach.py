@@ -27,7 +27,7 @@ from flyby_planner.grasp import flyby_target_point
 from flyby_planner.optimal.cost import plan_terms
 from flyby_planner.optimal.problem import CostWeights, approach_problem, chaser_from_scenario, planning_plume_radius_m
 from flyby_planner.optimal.sampler import sample_trajectory
-from flyby_planner.optimal.scp import ScpSettings, plan_scp
+from flyby_planner.optimal.scp import ScpSettings, compile_program, plan_scp
 from flyby_planner.plan import _predicted_gaps
 from flyby_sim.dynamics.orbital import cw_coast
 
@@ -115,6 +115,19 @@ class ApproachPlan:
     solver_time_s: float = 0.0
 
 
+def scp_settings_for(settings):
+    """The SCP settings of the plan of these ApproachSettings: LEAST_FUEL_SCP for a least-fuel plan (k_s = 0), else
+    ScpSettings' defaults."""
+    return LEAST_FUEL_SCP if settings.weights.safety == 0.0 else ScpSettings()
+
+
+def prepare_approach(scenario, settings, obstacles=0):
+    """Compile SCP's program for the plans ``plan_approach`` makes for this scenario with ``obstacles`` other robots
+    to keep off (scp.compile_program): at the planner's start, so that the plan time pays for the solves only."""
+    compile_program(1, scp_settings_for(settings), [len(scenario.boxes) + obstacles],
+                    safety_per_robot=[settings.weights.safety > 0.0])
+
+
 def check_approach(plan, prediction, t_grasp, settings, planner_config, rate_hz=_CHECK_RATE_HZ):
     """The checks of a plan before it is flown (module doc): (problems (list of one-line reasons), least gap less
     uncertainty [m])."""
@@ -159,7 +172,7 @@ def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_c
                                duration_min_s=settings.approach_time_min_s,
                                duration_max_s=settings.approach_time_max_s)
     if scp_settings is None:
-        scp_settings = LEAST_FUEL_SCP if least_fuel else ScpSettings()
+        scp_settings = scp_settings_for(settings)
     result = plan_scp([problem], scp_settings, duration_s=settings.approach_time_s,
                       obstacles=obstacles)
     if result.plans is None:

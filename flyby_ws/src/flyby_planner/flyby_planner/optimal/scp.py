@@ -274,6 +274,7 @@ class _Model:
             self.pairs.append(par)
         constraints.append(cp.SOC(cp.hstack(cone_t), cp.vstack(cone_x), axis=1))
         self.program = cp.Problem(cp.Minimize(cost), constraints)
+        self.compiled = False  # cvxpy has compiled the program (its first solve, or compile_program)
 
 
 _MODELS = {}
@@ -286,6 +287,22 @@ def _model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot):
     if key not in _MODELS:
         _MODELS[key] = _Model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot)
     return _MODELS[key]
+
+
+def compile_program(robots, settings, boxes_per_robot, pairs=(), safety_per_robot=None):
+    """Build and compile the program ``plan_scp`` solves for this shape (robots, settings' grid, keep-out boxes and
+    obstacles per robot, robot pairs, whether each prices safety; default none does), every parameter at zero:
+    cvxpy compiles a parametrized program once per process (0.5-0.9 s of the jacobsen_optimal plan's ~1.1 s cold),
+    so a planner that compiles at its start plans at the plan time with the solves alone, as a flight computer's
+    solver is generated before flight. The plans are the same either way (test)."""
+    safety = tuple(safety_per_robot) if safety_per_robot is not None else (False,) * robots
+    model = _model(robots, settings.steps, settings.substeps, boxes_per_robot, pairs, safety)
+    if not model.compiled:
+        for par in model.program.parameters():
+            par.value = np.zeros(par.shape)
+        model.program.get_problem_data(settings.solver, solver_opts=_solver_options(settings))
+        model.compiled = True
+    return model
 
 
 def _closing_and_gradient(r_hill, v_hill, c_hill_from_body, omega_rel_hill, boxes, step_m=1e-4):
@@ -415,6 +432,7 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
         _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, rhos, obstacles)
         try:
             model.program.solve(solver=settings.solver, **_solver_options(settings))
+            model.compiled = True
             solved = model.program.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
         except cp.error.SolverError:
             solved = False
