@@ -144,7 +144,10 @@ def attitude_guidance_from_scenario(scenario):
     """(AttitudeGuidance, wheels' initial momenta [N m s]) of a rigid-body chaser scenario."""
     w = scenario.chaser.wheels
     wheels = ReactionWheels(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.spin_inertia_kg_m2)
-    config = AttitudeGuidanceConfig(control_period_s=1.0 / scenario.sensors.chaser_imu.rate_hz)
+    g = scenario.guidance
+    config = AttitudeGuidanceConfig(control_period_s=1.0 / scenario.sensors.chaser_imu.rate_hz,
+                                    dump_start_n_m_s=g.momentum_dump_start_n_m_s,
+                                    dump_stop_n_m_s=g.momentum_dump_stop_n_m_s)
     h0 = np.zeros(wheels.count) if w.initial_momentum_n_m_s is None else np.array(w.initial_momentum_n_m_s, float)
     return AttitudeGuidance(config, scenario.chaser_inertia, wheels), h0
 

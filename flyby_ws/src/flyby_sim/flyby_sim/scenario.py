@@ -450,6 +450,11 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                        'trim.'),
         'refine_target': Field(BOOL, True, None,
                                'Re-aim each adjusting burn at the grasp re-solved from the latest target estimate.'),
+        'momentum_dump_start_n_m_s': Field(FLOAT, 1.0, '> 0',
+                                           '(rigid_body) The wheels\' momentum above which the attitude guidance '
+                                           'dumps it by thruster couples, outside the restriction sphere ...'),
+        'momentum_dump_stop_n_m_s': Field(FLOAT, 0.2, '>= 0', '... down to this on each body axis (below the '
+                                                              'start).'),
     }),
 
     'supervisor': Section(desc='Mission phases, capture decision, watchdog and abort', fields={
@@ -599,6 +604,11 @@ def _cross_checks(d):
                       f'must divide sensors.chaser_imu.rate_hz = {imu["rate_hz"]!r} a whole number of times (each '
                       f'star-tracker sample falls on a gyro sample), got {imu["star_tracker_rate_hz"]!r}')
     _check_chaser_body(d['chaser'])
+    g = d['guidance']
+    if g['momentum_dump_stop_n_m_s'] >= g['momentum_dump_start_n_m_s']:
+        raise Invalid('guidance.momentum_dump_stop_n_m_s', f'must be below guidance.momentum_dump_start_n_m_s = '
+                                                           f'{g["momentum_dump_start_n_m_s"]!r}, got '
+                                                           f'{g["momentum_dump_stop_n_m_s"]!r}')
     planner = d['planner']
     arm = d['chaser']['manipulator']
     usable = arm['reach_m'] - arm['position_tolerance_m']
