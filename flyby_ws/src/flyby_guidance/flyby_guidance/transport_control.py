@@ -189,10 +189,10 @@ class TransportControl:
         # The wheels steer the body (track the plan's attitude, turn it for a trim) where they spin it up to the
         # slews' rate within WHEEL_SPINUP_S; on a heavier body they only damp its rate at rest.
         self.wheels_steer = spin_up_rad_s >= self.config.planner.slew_rate_rad_s
-        # A transfer back must arrive this long before the judgement: two checks and a half turn of the push axis (by
-        # the wheels, or by the thrusters' slew) before the pulse that takes its arrival velocity out.
-        self.trim_stop_s = 2.0 * self.config.replan_interval_s + WHEEL_SPINUP_S + np.pi / (
-            self.trim_slew_rate if self.wheels_steer else self.config.planner.slew_rate_rad_s)
+        # A transfer back must arrive this long before the judgement: two checks and a half turn of the push axis by
+        # the wheels before the pulse that takes its arrival velocity out. (A trim planned with the thrusters' slews,
+        # where the wheels do not steer, ends at rest: its last push.)
+        self.trim_stop_s = 2.0 * self.config.replan_interval_s + WHEEL_SPINUP_S + np.pi / self.trim_slew_rate
 
     def command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         """(force [N], torque about the chaser's CoM [N m], wheel motor torque [N m], chaser_body; events) for the
@@ -546,8 +546,7 @@ class TransportControl:
             return events + [('OK', 'transport_pulse', f'a pulse of {impulse:.3g} N s against the velocity error',
                               {'impulse_n_s': impulse})]
         if not self.wheels_steer:  # out of reach at this attitude: a short transport with the thrusters' slews
-            return events + (self._plan(state, t + TRIM_TIME_S, 'transport_trim')
-                             if t + TRIM_TIME_S + self.trim_stop_s < t_end else [])
+            return events + (self._plan(state, t + TRIM_TIME_S, 'transport_trim') if t + TRIM_TIME_S < t_end else [])
         # The push axis turned onto the velocity error by the wheels, from the reference where it is now, aimed at
         # the error the body will have then (CW, seed 000 eq 22; hill turns meanwhile).
         q_est = q_eci_from_body(t, self.n, state.q_hill_from_body)
