@@ -247,7 +247,7 @@ def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_d
     """A transfer back starts only where it arrives trim_stop_s before the judgement, and its arrival is checked at
     once (four of 100 campaign runs ended moving at 0.36-0.46 N s: a transfer arrived 25-60 s before the judgement,
     its velocity never taken out). A dump at the estimate's floor is not repeated, but a momentum grown beyond twice
-    that is dumped again."""
+    that is dumped again, where a pulse can still follow."""
     body, control = _planned()
     p = control.config.planner.period_s
     t_end = control.t_arrival + control.config.settle_s
@@ -276,4 +276,7 @@ def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_d
     control.dumping, control.momentum = None, 0.04  # not halved: the floor
     assert control._trim(_state(1430.0)) == []
     control.momentum = 0.12  # a pulse's couple taken by the wheels
+    t_end = control.t_arrival + control.config.settle_s
+    late = t_end - DUMP_S - control.trim_stop_s + 1.0  # no time for a pulse after it: its couples push a little
+    assert control._trim(_state(late)) == [] and control.dumping is None
     assert control._trim(_state(1460.0))[0][1] == 'transport_dump'
