@@ -292,7 +292,7 @@ def _model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot):
 def compile_program(robots, settings, boxes_per_robot, pairs=(), safety_per_robot=None):
     """Build and compile the program ``plan_scp`` solves for this shape (robots, settings' grid, keep-out boxes and
     obstacles per robot, robot pairs, whether each prices safety; default none does), every parameter at zero:
-    cvxpy compiles a parametrized program once per process (0.5-0.9 s of the jacobsen_optimal plan's ~1.1 s cold),
+    cvxpy compiles a parametrized program once per process (jacobsen_optimal's: 0.2-0.5 s of CPU, docs/optimal.md),
     so a planner that compiles at its start plans at the plan time with the solves alone, as a flight computer's
     solver is generated before flight. The plans are the same either way (test)."""
     safety = tuple(safety_per_robot) if safety_per_robot is not None else (False,) * robots
