@@ -53,6 +53,7 @@ from flyby_planner.transport import (
     TransportRefused,
     TransportState,
     attitude_at,
+    missed_conditions,
     plan_transport,
     propagate,
     push_axis,
@@ -615,12 +616,10 @@ class TransportControl:
         momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))
         h = float(np.linalg.norm(self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels))
         miss = float(np.linalg.norm(state.r_hill - self.goal))
-        planner = self.config.planner
-        met = (h < planner.max_angular_momentum_kg_m2_s and miss < planner.max_position_error_m
-               and momentum < planner.max_momentum_error_n_s)
+        conditions = {'position_error_m': miss, 'momentum_error_n_s': momentum, 'angular_momentum_kg_m2_s': h}
+        met = not missed_conditions(conditions, self.config.planner)
         return ('OK' if met else 'WARN', 'transport_complete',
                 f'transport ended at t = {t:.1f} s: {miss:.3g} m from the goal, momentum {momentum:.3g} N s, angular '
                 f'momentum {h:.3g} kg m^2/s (estimated{"" if met else ", a condition missed"})',
-                {'position_error_m': miss, 'momentum_error_n_s': momentum, 'angular_momentum_kg_m2_s': h,
-                 't_arrival_s': self.t_arrival, 'goal_hill_m': self.goal})
+                {**conditions, 't_arrival_s': self.t_arrival, 'goal_hill_m': self.goal})
 

@@ -692,9 +692,16 @@ def _build(model, config, b_body, force_max_n, q0_eci, omega0, t_grid_s, schedul
     return burns, new_starts
 
 
+def missed_conditions(conditions, config):
+    """[(key, value, bound)] of seed 004 §3.2's conditions that the quantities (``conditions_of``'s keys) miss under
+    the TransportConfig's bounds, in the order angular momentum, position, momentum."""
+    return [(key, conditions[key], bound)
+            for key, bound in (('angular_momentum_kg_m2_s', config.max_angular_momentum_kg_m2_s),
+                               ('position_error_m', config.max_position_error_m),
+                               ('momentum_error_n_s', config.max_momentum_error_n_s))
+            if not conditions[key] < bound]
+
+
 def _check_conditions(conditions, config):
-    for key, bound in (('angular_momentum_kg_m2_s', config.max_angular_momentum_kg_m2_s),
-                       ('position_error_m', config.max_position_error_m),
-                       ('momentum_error_n_s', config.max_momentum_error_n_s)):
-        if not conditions[key] < bound:
-            raise TransportRefused(f'the plan ends with {key} {conditions[key]:.4g} above seed 004 §3.2\'s {bound}')
+    for key, value, bound in missed_conditions(conditions, config)[:1]:
+        raise TransportRefused(f'the plan ends with {key} {value:.4g} above seed 004 §3.2\'s {bound}')
