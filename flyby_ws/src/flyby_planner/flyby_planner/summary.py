@@ -21,6 +21,7 @@ from flyby_estimation.post_capture import principal_axes
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.grasp import capture_target_body, grasp_from_attitude
+from flyby_planner.transport import missed_conditions
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.dynamics.geometry import clearance
@@ -477,9 +478,8 @@ def transport_figures(chaser, target, wheels, thrust, events, scenario):
     miss, _, momentum, h = transport_state(bodies(k), tr.goal_hill_m, scenario.mean_motion_rad_s)
     out.update(transport_final_position_error_m=miss, transport_orbital_momentum_error_n_m_s=momentum,
                transport_final_angular_momentum_kg_m2_s=h,
-               transport_conditions_met=bool(done and h < tr.max_angular_momentum_kg_m2_s
-                                             and miss < tr.max_position_error_m
-                                             and momentum < tr.max_momentum_error_n_s),
+               transport_conditions_met=bool(done and not missed_conditions(
+                   {'position_error_m': miss, 'momentum_error_n_s': momentum, 'angular_momentum_kg_m2_s': h}, tr)),
                transport_replans=sum(1 for e in events if e['name'] in ('transport_correction', 'transport_trim')))
     planned = [e for e in events if e['name'] == 'transport_planned']
     if planned:
