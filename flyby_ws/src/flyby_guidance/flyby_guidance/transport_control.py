@@ -85,7 +85,8 @@ TRIM_SLEW_RATE_RAD_S = 0.05  # a trim's wheel slew turns at most this fast ...
 WHEEL_SPINUP_S = 10.0  # ... and reaches its rate within this long at the wheels' torque
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
 DUMP_FRACTION = 0.3  # an angular momentum worth this much of the first condition is dumped after the arrival
-DUMP_S = 10.0  # a dump's couple takes the angular momentum out over this long [s]
+DUMP_S = 10.0  # a dump's couple takes the angular momentum out over this long [s] ...
+DUMP_TAIL_S = 1.0  # ... aimed at its end, but never over less than this [s]
 _FIRING_N = 1e-6  # an allocation's thrust above this fires (the LP leaves ~1e-12 N on the others)
 SLEW_RATE_DOUBLINGS = 3  # a re-plan short of time for the configured slew rate doubles it at most this often
 
@@ -191,9 +192,12 @@ class TransportControl:
         # slews' rate within WHEEL_SPINUP_S; on a heavier body they only damp its rate at rest.
         self.wheels_steer = spin_up_rad_s >= self.config.planner.slew_rate_rad_s
         # A transfer back must arrive this long before the judgement: two checks and a half turn of the push axis by
-        # the wheels before the pulse that takes its arrival velocity out. (A trim planned with the thrusters' slews,
-        # where the wheels do not steer, ends at rest: its last push.)
-        self.trim_stop_s = 2.0 * self.config.replan_interval_s + WHEEL_SPINUP_S + np.pi / self.trim_slew_rate
+        # the wheels before the pulse that takes its arrival velocity out. Where the wheels do not steer, no half
+        # turn: a trim there is planned with the thrusters' slews and ends at rest (its last push), and a pulse is a
+        # pure force at the attitude held (with the half turn at their 5e-4 rad/s, paper_flyby_transport never
+        # dumped the last trim's 1 kg m^2/s).
+        self.trim_stop_s = 2.0 * self.config.replan_interval_s + WHEEL_SPINUP_S + (
+            np.pi / self.trim_slew_rate if self.wheels_steer else 0.0)
 
     def command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         """(force [N], torque about the chaser's CoM [N m], wheel motor torque [N m], chaser_body; events) for the
@@ -509,8 +513,11 @@ class TransportControl:
         # pulse can still follow the dump (its couples push a little: 0.03-0.04 N s on campaign runs 13 and 25).
         t_end = self.t_arrival + cfg.settle_s
         grown = h > 2.0 * self.dumped if self.dumped is not None else False
+        # Beyond the first condition it is dumped again whatever follows (a thruster trim's slews left 1.9 kg m^2/s
+        # on paper_flyby_transport with 57 s to go).
         if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s and (
-                self.dumped is None or h < 0.5 * self.dumped or (grown and t + DUMP_S + self.trim_stop_s < t_end)):
+                self.dumped is None or h < 0.5 * self.dumped or (grown and t + DUMP_S + self.trim_stop_s < t_end)
+                or (h > planner.max_angular_momentum_kg_m2_s and t + DUMP_S < t_end)):
             self.dumping, self.dumped = t + DUMP_S, h
             self.carried = np.zeros(3)
             return [('OK', 'transport_dump', f'angular momentum {h:.3g} kg m^2/s dumped by couples over {DUMP_S:g} s',
@@ -549,7 +556,8 @@ class TransportControl:
             return events + [('OK', 'transport_pulse', f'a pulse of {impulse:.3g} N s against the velocity error',
                               {'impulse_n_s': impulse})]
         if not self.wheels_steer:  # out of reach at this attitude: a short transport with the thrusters' slews
-            return events + (self._plan(state, t + TRIM_TIME_S, 'transport_trim') if t + TRIM_TIME_S < t_end else [])
+            return events + (self._plan(state, t + TRIM_TIME_S, 'transport_trim')
+                             if t + TRIM_TIME_S + self.trim_stop_s < t_end else [])
         # The push axis turned onto the velocity error by the wheels, from the reference where it is now, aimed at
         # the error the body will have then (CW, seed 000 eq 22; hill turns meanwhile).
         q_est = q_eci_from_body(t, self.n, state.q_hill_from_body)
@@ -603,14 +611,16 @@ class TransportControl:
 
     def _dump(self, t, state, h_wheels):
         """The dump's command: couples against the estimated angular momentum I omega + h (the wheels hold the
-        attitude meanwhile), in pulses of two minimum impulse bits at the mean lever arm, until the dump's end."""
+        attitude meanwhile), in pulses of two minimum impulse bits at the mean lever arm, that take it out by the
+        dump's end (over the time left, at least DUMP_TAIL_S: a couple of h / DUMP_S throughout would leave e^-1 of
+        it, and the next dump, which must halve it, would then not come: 1.6 kg m^2/s left on paper_flyby_transport)."""
         p = self.config.planner.period_s
         if t + p >= self.dumping - 1e-9:
             self.dumping = None
             self.t_check = t + self.config.replan_interval_s
             return np.zeros(3), np.zeros(3)
         h = self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels
-        return self._couple(-h / DUMP_S, 0.2 * self.pulse_n_m_s)
+        return self._couple(-h / max(self.dumping - t - p, DUMP_TAIL_S), 0.2 * self.pulse_n_m_s)
 
     def _complete(self, t, state, h_wheels):
         momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))

@@ -196,6 +196,25 @@ def test_trim_dumps_the_angular_momentum_first_and_aims_at_rest_at_the_judgement
     np.testing.assert_allclose(force_hill * 0.1 / body.mass_kg, aim, rtol=1e-6, atol=1e-12)
 
 
+def test_a_dump_takes_the_angular_momentum_out_by_its_end():
+    """The dump's couples aim at none left at its end, the time left shrinking (a couple of h / DUMP_S throughout
+    leaves e^-1 of it: paper_flyby_transport kept 1.6 of 2.7 kg m^2/s, and the next dump, which must halve it, never
+    came). Its couples about the combined CoM, pulse-modulated, integrated on the body held by the wheels."""
+    body, control = _planned()
+    p = control.config.planner.period_s
+    control.momentum = 0.09
+    t = 1400.0
+    assert control._trim(_state(t))[0][1] == 'transport_dump'
+    h0 = np.array([0.05, -0.04, 0.06])
+    h = h0.copy()
+    while control.dumping is not None:
+        force, torque = control._dump(t, _state(t), h)
+        h = h + (torque - np.cross(body.com_body_m, force)) * p
+        t += p
+    assert t == pytest.approx(1400.0 + DUMP_S, abs=1.5 * p)
+    assert np.linalg.norm(h) < 0.15 * np.linalg.norm(h0)
+
+
 def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     """After the first push, the estimate's deviation from the plan's coast carried to the last push by CW: within
     replan_position_m nothing; beyond it one impulse now that takes the miss out, where the thrusters give it."""
@@ -247,7 +266,7 @@ def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_d
     """A transfer back starts only where it arrives trim_stop_s before the judgement, and its arrival is checked at
     once (four of 100 campaign runs ended moving at 0.36-0.46 N s: a transfer arrived 25-60 s before the judgement,
     its velocity never taken out). A dump at the estimate's floor is not repeated, but a momentum grown beyond twice
-    that is dumped again, where a pulse can still follow."""
+    that is dumped again, where a pulse can still follow, and beyond the first condition whatever follows."""
     body, control = _planned()
     p = control.config.planner.period_s
     t_end = control.t_arrival + control.config.settle_s
@@ -271,12 +290,14 @@ def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_d
     before = control.trim_arrival - 5.0  # the last check before the arrival: the next one at the arrival
     assert control._check(early._replace(t=before)) == [] and control.t_check == control.trim_arrival
     body, control = _planned()
-    control.momentum = 0.05
+    control.momentum = 0.04
     assert control._trim(_state(1400.0))[0][1] == 'transport_dump'
-    control.dumping, control.momentum = None, 0.04  # not halved: the floor
+    control.dumping, control.momentum = None, 0.035  # not halved: the floor
     assert control._trim(_state(1430.0)) == []
-    control.momentum = 0.12  # a pulse's couple taken by the wheels
+    control.momentum = 0.09  # a pulse's couple taken by the wheels, within the first condition
     t_end = control.t_arrival + control.config.settle_s
     late = t_end - DUMP_S - control.trim_stop_s + 1.0  # no time for a pulse after it: its couples push a little
     assert control._trim(_state(late)) == [] and control.dumping is None
     assert control._trim(_state(1460.0))[0][1] == 'transport_dump'
+    control.dumping, control.dumped, control.momentum = None, 0.04, 0.12  # beyond it: dumped, late or not
+    assert control._trim(_state(late))[0][1] == 'transport_dump'

@@ -65,6 +65,7 @@ from flyby_sim.dynamics.orbital import (
     rk4_step,
 )
 from flyby_sim.dynamics.rotation import (
+    quat_from_axis_angle,
     quat_multiply,
     quat_normalize,
     quat_rotate,
@@ -371,6 +372,8 @@ def resolve_slew(body, config, state, slew_start, slew_stop, u_hill, t_aim_s, t_
     return tuple(burns)
 
 
+# A slew's shooting that lands on b = -u starts again from arcs about these axes, turned about b [rad].
+_SLEW_RESTART_TURNS_RAD = (0.5 * np.pi, -0.5 * np.pi)
 # A slew's shooting that asks its spin-up for more than this times the slew rate has diverged.
 _DIVERGED_RATE_FACTOR = 20.0
 # A slew ends with the push axis this close to its aim [rad], and its residual rate turns it less up to the arrival.
@@ -427,10 +430,14 @@ def _slew_ending(model, config, q_eci, omega_body, b_body, u_eci, k_end, burn_fa
     return _Slew(k_end - k_total, k_burn, k_end)
 
 
-def _slew_guess(model, q_eci, omega_body, b_body, u_eci, burn_s, coast_s):
-    """Spin-up and spin-down torques [N m] (6,) of a rigid rotation about the shortest arc, gyroscopic terms left
-    to the shooting: I (omega_c - omega_0) / d and -I omega_c / d, omega_c the arc over the coast."""
-    arc_eci = rotation_vector_from_quat(quat_shortest_arc(quat_rotate(q_eci, b_body), u_eci))
+def _slew_guess(model, q_eci, omega_body, b_body, u_eci, burn_s, coast_s, axis_turn_rad=0.0):
+    """Spin-up and spin-down torques [N m] (6,) of a rigid rotation about the shortest arc (its axis turned about b by
+    axis_turn_rad: another arc of the same angle, ending with b as far off u as the angle's sine times the turn's
+    chord), gyroscopic terms left to the shooting: I (omega_c - omega_0) / d and -I omega_c / d, omega_c the arc over
+    the coast."""
+    b_eci = quat_rotate(q_eci, b_body)
+    arc_eci = quat_rotate(quat_from_axis_angle(b_eci, axis_turn_rad),
+                          rotation_vector_from_quat(quat_shortest_arc(b_eci, u_eci)))
     arc_body = quat_rotate(np.concatenate((-np.asarray(q_eci[:3]), q_eci[3:])), arc_eci)
     omega_c = arc_body / (coast_s + burn_s)  # the burns each turn the body about half as far as a coast as long
     return np.concatenate((model.inertia @ (omega_c - omega_body), -model.inertia @ omega_c)) / burn_s
@@ -478,11 +485,19 @@ def _solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s
     else:  # the last solution and its Jacobian (the Newton on the impulses moves the aim a little)
         z, jacobian = start
     rate_bound = _DIVERGED_RATE_FACTOR * max(config.slew_rate_rad_s, float(np.linalg.norm(omega_body)))
-    for iteration in range(30):
+    restarts = list(_SLEW_RESTART_TURNS_RAD)
+    for iteration in range(30 * (1 + len(restarts))):
         r, q, w = residual(z)
-        if (np.linalg.norm(w) < omega_tol and np.linalg.norm(r[3:]) < _AIM_RAD
-                and float(quat_rotate(q, b_body) @ u) > 0.0):
-            return z, q, w, jacobian
+        if np.linalg.norm(w) < omega_tol and np.linalg.norm(r[3:]) < _AIM_RAD:
+            if float(quat_rotate(q, b_body) @ u) > 0.0:
+                return z, q, w, jacobian
+            if not restarts:
+                break
+            # b on -u, the residual's other root (its components across u vanish there too): again from an arc
+            # about another axis
+            z, jacobian = _slew_guess(model, q_eci, omega_body, b_body, u, d, t_b - t_a - 2 * d,
+                                      restarts.pop(0)), None
+            continue
         if float(np.linalg.norm(model.inertia_inv @ z[:3])) * d > rate_bound:  # diverging: each step costs more
             break
         if jacobian is None or iteration % 5 == 4:  # chord steps; a fresh Jacobian if they are slow
