@@ -216,7 +216,7 @@ def test_plume_violation_counts_thrust_away_inside_the_sphere_only():
 def test_scp_least_fuel_plans_keep_the_plume_rule_between_check_points():
     """Least-fuel plans brake at the plume sphere's edge; each one SCP returns keeps the rule on dense samples (a
     plan at 80 steps once braked at 4.99 m, between the reference's membership and the check points; the mission's
-    least-fuel settings, 160 steps, needed more than 12 iterations to leave it unbroken on this case)."""
+    least-fuel settings, 160 steps then, needed more than 12 iterations to leave it unbroken on this case)."""
     _, problem = table1_problem()
     lean = dataclasses.replace(problem, weights=dataclasses.replace(problem.weights, safety=0.0))
     for settings in (ScpSettings(steps=40), ScpSettings(steps=80)):
