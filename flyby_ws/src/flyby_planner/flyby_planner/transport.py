@@ -432,9 +432,8 @@ def _slew_ending(model, config, q_eci, omega_body, b_body, u_eci, k_end, burn_fa
 
 def _slew_guess(model, q_eci, omega_body, b_body, u_eci, burn_s, coast_s, axis_turn_rad=0.0):
     """Spin-up and spin-down torques [N m] (6,) of a rigid rotation about the shortest arc (its axis turned about b by
-    axis_turn_rad: another arc of the same angle, ending with b as far off u as the angle's sine times the turn's
-    chord), gyroscopic terms left to the shooting: I (omega_c - omega_0) / d and -I omega_c / d, omega_c the arc over
-    the coast."""
+    axis_turn_rad: an arc of the same angle that ends elsewhere, a restart's guess), gyroscopic terms left to the
+    shooting: I (omega_c - omega_0) / d and -I omega_c / d, omega_c the arc over the coast."""
     b_eci = quat_rotate(q_eci, b_body)
     arc_eci = quat_rotate(quat_from_axis_angle(b_eci, axis_turn_rad),
                           rotation_vector_from_quat(quat_shortest_arc(b_eci, u_eci)))
@@ -458,8 +457,8 @@ def _rotate(model, config, q_eci, omega_body, t_a, t_b, torque_segments):
 def _solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s, start=None):
     """The spin-up and spin-down torques about the combined CoM (body axes) that end the slew at rest with b along
     u_eci: Newton shooting on Euler's equation, the least-norm step of five conditions in six unknowns (the rate,
-    and b's two components across u; the roll about b is free). Returns (torques (6,), q_eci and omega_body at the
-    end, the Jacobian used)."""
+    and b's two components across u; the roll about b is free), again from the arcs of _SLEW_RESTART_TURNS_RAD where
+    it lands on b = -u. Returns (torques (6,), q_eci and omega_body at the end, the Jacobian used)."""
     p = config.period_s
     t_a, t_b = slew.k_start * p, slew.k_end * p
     d = slew.k_burn * p
