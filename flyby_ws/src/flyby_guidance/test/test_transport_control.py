@@ -157,6 +157,13 @@ def test_trim_pulses_a_pure_force_in_reach_else_along_the_push_axis_else_turns_i
     np.testing.assert_allclose(force, [0.5, 0.0, 0.0], atol=1e-12)  # the pair, 0.025 N s each
     force, torque, _ = control._pulse(state, nearly_x, 0.004)
     assert force[0] == pytest.approx(0.1, rel=1e-5) and abs(torque[2]) > 0.0  # one thruster, one bit
+    # 0.2 rad off the push axis: a small error is fired along it where what is left across is within the residual
+    # (its direction is the navigation's noise), a large one waits for the turn.
+    off = np.array([np.cos(0.2), 0.0, np.sin(0.2)])
+    assert control._pulse(state, off, 0.013) is None
+    force, _, _ = control._pulse(state, off, 0.013, residual_n_s=0.005)
+    np.testing.assert_allclose(force, [0.13, 0.0, 0.0], atol=1e-9)  # 0.013 * 2 sin(0.1) = 0.0026 N s left
+    assert control._pulse(state, off, 0.1, residual_n_s=0.005) is None
     # A velocity along the push axis (to be nulled along -x): the wheels turn the body half round, then the pulse.
     control._track(state)  # the plan's attitude at rest after its burns
     q_held = q_hill_from_body(2000.0, control.n, control.reference[1])
