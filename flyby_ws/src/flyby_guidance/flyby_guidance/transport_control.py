@@ -53,6 +53,7 @@ from flyby_planner.transport import (
     TransportRefused,
     TransportState,
     attitude_at,
+    conditions_of,
     missed_conditions,
     plan_transport,
     propagate,
@@ -627,10 +628,9 @@ class TransportControl:
         return self._couple(-h / max(self.dumping - t - p, DUMP_TAIL_S), 0.2 * self.pulse_n_m_s)
 
     def _complete(self, t, state, h_wheels):
-        momentum = self.body.mass_kg * float(np.linalg.norm(state.v_hill))
-        h = float(np.linalg.norm(self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels))
-        miss = float(np.linalg.norm(state.r_hill - self.goal))
-        conditions = {'position_error_m': miss, 'momentum_error_n_s': momentum, 'angular_momentum_kg_m2_s': h}
+        conditions = conditions_of(self.body, state, self.goal, h_wheels)
+        miss, momentum, h = (conditions[k] for k in ('position_error_m', 'momentum_error_n_s',
+                                                     'angular_momentum_kg_m2_s'))
         met = not missed_conditions(conditions, self.config.planner)
         return ('OK' if met else 'WARN', 'transport_complete',
                 f'transport ended at t = {t:.1f} s: {miss:.3g} m from the goal, momentum {momentum:.3g} N s, angular '

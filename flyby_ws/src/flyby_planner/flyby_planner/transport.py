@@ -267,9 +267,11 @@ def _check_burns(burns):
                              f'for {a.duration_s} s, then {b.purpose} at {b.t_start_s} s')
 
 
-def conditions_of(body, state, goal_r_hill):
-    """Seed 004 §3.2's three rendezvous quantities of a state (module doc): a dict."""
-    h = np.asarray(body.inertia_body_kg_m2, dtype=float) @ np.asarray(state.omega_body, dtype=float)
+def conditions_of(body, state, goal_r_hill, h_wheels_body_n_m_s=(0.0, 0.0, 0.0)):
+    """Seed 004 §3.2's three rendezvous quantities of a state (module doc), the wheels' angular momentum [N m s, body]
+    included: a dict."""
+    h = (np.asarray(body.inertia_body_kg_m2, dtype=float) @ np.asarray(state.omega_body, dtype=float)
+         + np.asarray(h_wheels_body_n_m_s, dtype=float))
     return {
         'angular_momentum_kg_m2_s': float(np.linalg.norm(h)),
         'position_error_m': float(np.linalg.norm(np.asarray(state.r_hill) - np.asarray(goal_r_hill, dtype=float))),
@@ -479,8 +481,11 @@ def _solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s
         q, w = end(z)
         return np.concatenate((w * scale_s, across @ quat_rotate(q, b_body))), q, w
 
+    def guess(axis_turn_rad=0.0):
+        return _slew_guess(model, q_eci, omega_body, b_body, u, d, t_b - t_a - 2 * d, axis_turn_rad)
+
     if start is None:
-        z, jacobian = _slew_guess(model, q_eci, omega_body, b_body, u, d, t_b - t_a - 2 * d), None
+        z, jacobian = guess(), None
     else:  # the last solution and its Jacobian (the Newton on the impulses moves the aim a little)
         z, jacobian = start
     rate_bound = _DIVERGED_RATE_FACTOR * max(config.slew_rate_rad_s, float(np.linalg.norm(omega_body)))
@@ -494,8 +499,7 @@ def _solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s
                 break
             # b on -u, the residual's other root (its components across u vanish there too): again from an arc
             # about another axis
-            z, jacobian = _slew_guess(model, q_eci, omega_body, b_body, u, d, t_b - t_a - 2 * d,
-                                      restarts.pop(0)), None
+            z, jacobian = guess(restarts.pop(0)), None
             continue
         if float(np.linalg.norm(model.inertia_inv @ z[:3])) * d > rate_bound:  # diverging: each step costs more
             break
@@ -717,5 +721,7 @@ def missed_conditions(conditions, config):
 
 
 def _check_conditions(conditions, config):
-    for key, value, bound in missed_conditions(conditions, config)[:1]:
+    missed = missed_conditions(conditions, config)
+    if missed:
+        key, value, bound = missed[0]
         raise TransportRefused(f'the plan ends with {key} {value:.4g} above seed 004 §3.2\'s {bound}')
