@@ -146,13 +146,13 @@ class EstimatorCore:
             self.measured_dv = {}
         # After the capture (module doc): the estimates around it by stamp, what the capture fixed, the filter's run.
         self.post_capture = scenario.post_capture is not None and self.attitude is not None
+        self.transport_nav = None  # from the final mass-property estimate on, with a transport (module doc)
         if self.post_capture:
             self.recent_chaser, self.recent_target = StampedBuffer(200), StampedBuffer(200)
             self.snapshot = None
             self.mass_run = None
             self.pending = []  # IMU samples after the capture that came before its stamp did
             self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-            self.transport_nav = None  # from the final mass-property estimate on, with a transport (module doc)
             if scenario.post_capture.start == 'attached':  # held from t = 0 (module doc)
                 self.attached = True
                 self.snapshot = attachment_snapshot(scenario)
@@ -223,9 +223,9 @@ class EstimatorCore:
         for e in estimates:
             f = e.estimate
             if e.final and self.scenario.post_capture.transport is not None:
-                self.transport_nav = TransportNavigation(self.scenario, combined_mass_properties(
-                    self.mass_run.chaser_mass_kg, self.scenario.chaser_inertia, f.target_mass_kg, f.target_com_body_m,
-                    f.target_inertia_body_kg_m2).com_body_m)
+                combined = combined_mass_properties(self.mass_run.chaser_mass_kg, self.scenario.chaser_inertia,
+                                                    f.target_mass_kg, f.target_com_body_m, f.target_inertia_body_kg_m2)
+                self.transport_nav = TransportNavigation(self.scenario, combined.com_body_m, combined.mass_kg)
             out.append(e)
             out.append(self._event(e.t, 'OK', 'mass_properties_estimated' if e.final else 'mass_properties_estimate',
                                    f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '
@@ -331,6 +331,8 @@ class EstimatorCore:
         known input of the navigation filter (module doc). One below the minimum impulse bit is left out (the
         thrusters do not give it either)."""
         force = np.asarray(force_body_n, dtype=float)
+        if self.transport_nav is not None:
+            self.transport_nav.on_command(t, force)
         if self.attitude is None or self.attached or not np.any(force):
             return []
         t_estimate = t - self.wrench_hold_s

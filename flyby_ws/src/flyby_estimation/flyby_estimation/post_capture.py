@@ -287,20 +287,32 @@ class TransportNavigation:
 
     VELOCITY_SIGMA_MPS = 0.05
     ACCEL_GATE_SIGMA = 5.0
-    COAST_ACCEL_PSD_M2_S3 = 1e-11
+    COMMAND_ERROR_SIGMA = 0.1  # a small firing's delta-v against its command (its thrusters' errors, sub-bit parts)
 
-    def __init__(self, scenario, com_body_m):
+    def __init__(self, scenario, com_body_m, mass_kg):
         self.com_body_m = np.asarray(com_body_m, dtype=float)
+        self.mass_kg = float(mass_kg)
         self.filter = RelativeNavFilter(relative_nav_config_from_scenario(
             scenario, initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS, thrusters=None, chaser_mass_kg=None,
-            accel_psd_m2_s3=self.COAST_ACCEL_PSD_M2_S3))
-        self.accel_sigma_mps2 = scenario.sensors.chaser_imu.accel_noise_sigma_mps2
+            accel_psd_m2_s3=scenario.post_capture.transport.nav_accel_psd_m2_s3))
+        imu = scenario.sensors.chaser_imu
+        # The gate: the accelerometer's noise, or the noise of the rotation term omega_dot x p with omega_dot from
+        # two gyro samples (on paper_flyby_transport's 3.1 m, 4e-4 m/s^2: above the accelerometer's, and the gate
+        # of that took the gyro's noise for thrust and walked the velocity by 0.2-0.6 N s).
+        self.accel_sigma_mps2 = max(imu.accel_noise_sigma_mps2, float(np.linalg.norm(self.com_body_m)) * np.sqrt(
+            2.0) * imu.gyro_noise_sigma_rad_s * imu.rate_hz)
         self.n = scenario.mean_motion_rad_s
         self.positions = StampedBuffer(8)  # relative positions of the chaser's CoM waiting for their IMU sample
+        self.commands = StampedBuffer(8)  # guidance's force commands [N, chaser_body] by the start of their period
         self.last = None  # (t, omega_body) of the previous IMU sample
 
     def on_position(self, t, r_chaser_hill):
         self.positions.add(t, np.asarray(r_chaser_hill, dtype=float))
+
+    def on_command(self, t, force_body_n):
+        """Guidance's force command held from t for one IMU interval: a known input where the accelerometer does
+        not see it (below the gate: a trim's small pulses on a heavy body, a dump's side forces)."""
+        self.commands.add(t, np.asarray(force_body_n, dtype=float))
 
     def on_imu(self, t, estimate, specific_force_body):
         """One IMU sample: the attitude filter's estimate (``ChaserAttitudeEstimate``) and the accelerometer's mean
@@ -317,12 +329,17 @@ class TransportNavigation:
             a_cm = np.asarray(specific_force_body, dtype=float) - np.cross(omega_dot, p) - np.cross(
                 omega, np.cross(omega, p))
             f.propagate_to(t)
+            command = self.commands.last_at_or_before(last[0] + STAMP_TOLERANCE_S)
             if float(np.linalg.norm(a_cm)) > self.ACCEL_GATE_SIGMA * self.accel_sigma_mps2:  # a thrust (class doc)
                 dv_hill = c_hill @ a_cm * dt
                 dv_cross = skew(dv_hill)
                 cov = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
                        + dv_cross @ estimate.attitude_covariance_hill @ dv_cross.T)
                 f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
+            elif command is not None and abs(command[0] - last[0]) <= STAMP_TOLERANCE_S and np.any(command[1]):
+                dv_hill = c_hill @ command[1] * (dt / self.mass_kg)  # the commanded delta-v, unseen
+                f.add_thrust_error(last[0], t, dv_hill, (self.COMMAND_ERROR_SIGMA * float(np.linalg.norm(
+                    dv_hill))) ** 2 * np.eye(3))
         r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)  # the chaser's CoM from the combined
         measured = self.positions.last_at_or_before(t + STAMP_TOLERANCE_S)
         if measured is not None and abs(measured[0] - t) <= STAMP_TOLERANCE_S:

@@ -20,7 +20,7 @@ def _fly(pulse_at_s=None, dv_mps=4e-4, duration_s=300.0, seed=3):
     fixed in hill: the chaser's CoM moves as the combined one)."""
     rng = np.random.default_rng(seed)
     n = SCENARIO.mean_motion_rad_s
-    nav = TransportNavigation(SCENARIO, COM)
+    nav = TransportNavigation(SCENARIO, COM, 50.0)
     sigma_r = SCENARIO.sensors.relative_position.noise_sigma_m
     sigma_a = SCENARIO.sensors.chaser_imu.accel_noise_sigma_mps2
     omega = np.array([0.0, -n, 0.0])  # fixed in hill: its inertial rate

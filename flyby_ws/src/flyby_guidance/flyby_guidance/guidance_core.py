@@ -98,6 +98,8 @@ _ATTACHED_PHASES = (c.PHASE_CAPTURE,) + c.POST_CAPTURE_PHASES
 # Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
 # one control period of motion stay well inside it.
 RESTRICTION_SPHERE_MARGIN_M = 1.0
+# The damping's couple is fired in pulses of this many minimum impulse bits (post_capture_config_from_scenario).
+DAMPING_PULSE_BITS = 4.0
 # A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
 # uncertainty [m]: the planner's clearance_margin_m is a planning margin, this is the floor (a plan
 # 0.137 m clear re-aimed 0.096 m clear is no reason to give up a capture).
@@ -136,8 +138,14 @@ def post_capture_config_from_scenario(scenario):
                                            max_thruster_torque_n_m=d.max_thruster_torque_n_m,
                                            dump_rate_per_s=d.dump_rate_per_s)
     m = pc.mass_estimation
+    layout = scenario.thruster_layout
+    # A pulse: DAMPING_PULSE_BITS minimum impulse bits at the thrusters' mean lever arm about the chaser's CoM (a
+    # wheel momentum of 0.26 N m s asks 0.013 N m of the thrusters, below the bit: paper_flyby_transport's damping
+    # stalled at 0.39 kg m^2/s with four more thrusters).
+    pulse = DAMPING_PULSE_BITS * layout.min_impulse_bit_n_s * float(np.mean(np.linalg.norm(
+        layout.positions_body_m, axis=1)))
     return PostCaptureConfig(gains, period_s, d.momentum_threshold_kg_m2_s, d.settle_s, m.excitation, m.start_delay_s,
-                             m.window_s, damping=pc.start != 'attached')
+                             m.window_s, damping=pc.start != 'attached', pulse_n_m_s=pulse)
 
 
 def attitude_guidance_from_scenario(scenario):

@@ -148,6 +148,20 @@ class PostCaptureConfig:
     start_delay_s: float = 2.0
     window_s: float = 25.0
     damping: bool = True  # False: a run that starts attached excites the body as it turns (seed 004 §3.1)
+    # The damping's couple is fired once its angular impulse is worth this (``pulse_modulated``; 0: every period):
+    # below the thrusters' minimum impulse bit it would not be fired at all [N m s].
+    pulse_n_m_s: float = 0.0
+
+
+def pulse_modulated(carried_n_m_s, torque_n_m, period_s, pulse_n_m_s):
+    """(torque to fire over the period [N m], angular impulse carried on [N m s]): a couple's angular impulse added
+    to what is carried and fired once it is worth pulse_n_m_s, the same mean torque in pulses (pulse-frequency
+    modulation: below the thrusters' minimum impulse bit a small couple would not be fired at all, and the wheels'
+    momentum it should take out would stay)."""
+    carried = np.asarray(carried_n_m_s, dtype=float) + np.asarray(torque_n_m, dtype=float) * period_s
+    if float(np.linalg.norm(carried)) < pulse_n_m_s:
+        return np.zeros(3), carried
+    return carried / period_s, np.zeros(3)
 
 
 class PostCaptureCommand(NamedTuple):
@@ -185,6 +199,7 @@ class PostCaptureControl:
         self.t_excitation = None
         self.firings = ()
         self.excitation_ended = False
+        self.carried = np.zeros(3)  # the damping couple's angular impulse not yet fired [N m s]
 
     def command(self, t, omega_body, h_wheels_body_n_m_s, h_wheels_settled_body_n_m_s, inertia_bound_kg_m2):
         """The PostCaptureCommand of the estimate stamped t [s] (rate [rad/s], wheels' momentum [N m s], both
@@ -223,6 +238,7 @@ class PostCaptureControl:
                     {'momentum_bound_kg_m2_s': bound, 'damping_time_s': t - self.t_first,
                      't_excitation_s': self.t_excitation, 'excitation': cfg.excitation, 'h_wheels_body_n_m_s': h})])
         tau, u = damping_command(omega, h_wheels_body_n_m_s, cfg.gains, self.wheel_max_torque_n_m)
+        tau, self.carried = pulse_modulated(self.carried, tau, cfg.period_s, cfg.pulse_n_m_s)
         return PostCaptureCommand(zero, tau, u, [])
 
     def _excitation(self, t):

@@ -84,12 +84,19 @@ TRACK_BANDWIDTH_RAD_S = 0.2  # the wheels' attitude tracking: natural frequency 
 TRACK_DAMPING = 0.7  # ... and damping ratio
 TRIM_SLEW_RATE_RAD_S = 0.05  # a trim's wheel slew turns at most this fast ...
 WHEEL_SPINUP_S = 10.0  # ... and reaches its rate within this long at the wheels' torque
+ARRIVAL_MARGIN_N_S = 10.0  # on a body the wheels do not steer the arrival push stops this short of rest ...
+PULSE_LEAVE_FRACTION = 0.3  # ... and a trim pulse there stops short along the push axis by this much of the error
+PULSE_LEAVE_N_S = 0.004  # ... or by this, at least [N s] ...
+PULSE_FORCE_TOLERANCE = 0.3  # ... and its thrusters below the bit may leave this much of its force ...
+PULSE_TORQUE_FRACTION = 5.0  # ... and this much of the first condition's angular momentum undelivered (dumped after)
+PULSE_LENGTHENINGS = 6  # ... made longer (its force halved) at most this often where the thrusters saturate
+NAV_COAST_S = 100.0  # ... each after a coast this long from the last firing (the navigation's velocity converges)
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
 DUMP_FRACTION = 0.3  # an angular momentum worth this much of the first condition is dumped after the arrival
 DUMP_S = 10.0  # a dump's couple takes the angular momentum out over this long [s] ...
 DUMP_TAIL_S = 1.0  # ... aimed at its end, but never over less than this [s]
+SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
 _FIRING_N = 1e-6  # an allocation's thrust above this fires (the LP leaves ~1e-12 N on the others)
-SLEW_RATE_DOUBLINGS = 3  # a re-plan short of time for the configured slew rate doubles it at most this often
 
 
 def transport_body(values, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_cone_deg):
@@ -194,9 +201,8 @@ class TransportControl:
         self.wheels_steer = spin_up_rad_s >= self.config.planner.slew_rate_rad_s
         # A transfer back must arrive this long before the judgement: two checks and a half turn of the push axis by
         # the wheels before the pulse that takes its arrival velocity out. Where the wheels do not steer, no half
-        # turn: a trim there is planned with the thrusters' slews and ends at rest (its last push), and a pulse is a
-        # pure force at the attitude held (with the half turn at their 5e-4 rad/s, paper_flyby_transport never
-        # dumped the last trim's 1 kg m^2/s).
+        # turn: a pulse there is a pure force at the attitude held (with the half turn at their 5e-4 rad/s,
+        # paper_flyby_transport never dumped its last trim's 1 kg m^2/s).
         self.trim_stop_s = 2.0 * self.config.replan_interval_s + WHEEL_SPINUP_S + (
             np.pi / self.trim_slew_rate if self.wheels_steer else 0.0)
 
@@ -229,7 +235,7 @@ class TransportControl:
         if self.plan is None:
             if t < max(self.t_start + NAV_SETTLE_S, self.t_detumbled) - 1e-9:
                 return zero, zero, self._hold(omega), []
-            events += self._plan(state, self.t_arrival, 'transport_planned')
+            events += self._plan(state, self.t_arrival)
             if self.done:
                 return zero, zero, zero, events
         t_mid = t + 1.5 * period
@@ -245,7 +251,12 @@ class TransportControl:
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)
                 break
-        wheels = self._track(state) if self.wheels_steer else (self._hold(omega) if at_rest else zero)
+        if self.wheels_steer:
+            wheels, hold = self._track(state), zero
+        else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
+            flying = t_mid < max(b.t_start_s + b.duration_s for b in self.plan.burns)
+            wheels, hold = (self._hold(omega) if at_rest else zero), (
+                -self._attitude_torque(state) if flying else zero)
         if self.dumping is not None:
             return (*self._dump(t, state, h_wheels), wheels, events)
         for t_a, t_b, force, torque in self.pulses:
@@ -255,11 +266,17 @@ class TransportControl:
             if burn.t_start_s <= t_mid < burn.t_start_s + burn.duration_s:
                 force, torque = (np.asarray(burn.force_body_n, dtype=float),
                                  np.asarray(burn.torque_body_n_m, dtype=float))
-                if burn.purpose == 'push':
+                if burn.purpose == 'push':  # the hold's couple from the push's own thrusters
                     force, torque = self._closed_loop_push(t, state, burn, force, torque)
-                elif burn.purpose == 'slew_stop':
+                    return force, torque + hold, wheels, events
+                if burn.purpose == 'slew_stop':
                     force, torque = self._closed_loop_stop(t, state, burn, force, torque, h_wheels)
+                wrench = torque_wrench(self.body, self.config.planner, hold) if any(hold) else None
+                if wrench is not None:
+                    force, torque = force + wrench[0], torque + wrench[1]
                 return force, torque, wheels, events
+        if any(hold):
+            return (*self._couple(hold, self.pulse_n_m_s), wheels, events)
         return zero, zero, wheels, events
 
     def _resolve(self, state, start, stop):
@@ -326,6 +343,11 @@ class TransportControl:
         issued_force, _ = self._in_flight(t)
         dv_hill = (self.push_end[round(burn.t_start_s / p)].v_hill - state.v_hill
                    - quat_to_matrix(state.q_hill_from_body) @ issued_force * (p / self.body.mass_kg))
+        if not self.wheels_steer and burn is [b for b in self.plan.burns if b.purpose == 'push'][-1]:
+            # Short of the goal's rest by ARRIVAL_MARGIN_N_S along the push: what it leaves across then lies in the
+            # pure forces the thrusters give about the combined CoM at the attitude held (the trim's pulses).
+            need = self.body.mass_kg * float(np.linalg.norm(dv_hill))
+            dv_hill = dv_hill * max(0.0, 1.0 - ARRIVAL_MARGIN_N_S / need) if need > 0.0 else dv_hill
         force_hill = self.body.mass_kg * dv_hill / remaining_s
         limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
         if float(np.linalg.norm(force_hill)) > limit:
@@ -348,9 +370,14 @@ class TransportControl:
 
     def _track(self, state):
         """The wheels' torque [N m] (body axes; the body feels its opposite) that holds the estimated attitude on the
-        reference: the plan's model advanced to the estimate's stamp (``transport.attitude_at``), or the trim's
-        wheel slew; PD on the attitude error (its rotation vector, body axes) and the rate error, scaled by the
-        estimated inertia (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING), within the wheels' torque."""
+        reference (``_attitude_torque``), within the wheels' torque."""
+        return np.clip(self._attitude_torque(state), -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
+
+    def _attitude_torque(self, state):
+        """The torque [N m] (body axes) against the estimated attitude's error from the reference: the plan's model
+        advanced to the estimate's stamp (``transport.attitude_at``), or the trim's wheel slew; PD on the attitude
+        error (its rotation vector, body axes) and the rate error, scaled by the estimated inertia
+        (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
         t_ref, q_ref, w_ref = self.reference
         if self.trim_slew is not None:
             t0, q0, axis, angle, rate = self.trim_slew
@@ -362,9 +389,8 @@ class TransportControl:
             self.reference = (state.t, q_ref, w_ref)
         q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
         error = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est))
-        gain = self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
+        return self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
                                                * TRACK_BANDWIDTH_RAD_S * (state.omega_body - w_ref))
-        return np.clip(gain, -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
 
     def _set_reference(self, state):
         """The plan's model restarts from the estimate (a new plan, a slew solved again)."""
@@ -402,18 +428,15 @@ class TransportControl:
             tau = 0.5 * tau
         return np.zeros(3), np.zeros(3)
 
-    def _plan(self, state, t_arrival, name):
-        """A plan from the estimated state to the goal arriving at t_arrival: the transport's (``transport_planned``;
-        a refusal ends the transport, the body held where it is), or a trim's on a body the wheels do not turn
-        (``transport_trim``; a refusal keeps the body as it is)."""
+    def _plan(self, state, t_arrival):
+        """The transport's plan from the estimated state to the goal arriving at t_arrival (``transport_planned``; a
+        refusal ends the transport, the body held where it is)."""
         cfg = self.config
         first = state.t + 2.0 * cfg.planner.period_s  # the first period a command of this estimate can still reach
         start = TransportState(first, *state[1:])
         try:
             plan = self._plan_with_faster_slews(start, t_arrival)
         except TransportRefused as err:
-            if self.plan is not None:
-                return [('WARN', 'transport_trim_refused', f'no trim: {err.reason}', {'reason': err.reason})]
             self.done = True
             return [('ERROR', 'transport_refused', f'no transport plan meets the conditions: {err.reason}',
                      {'reason': err.reason})]
@@ -429,10 +452,11 @@ class TransportControl:
                     self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
         self.t_check = state.t + cfg.replan_interval_s
         c = plan.conditions
-        return [('OK', name, f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
-                             f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
-                             f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
-                             f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s',
+        message = (f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
+                   f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
+                   f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
+                   f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s')
+        return [('OK', 'transport_planned', message,
                  {'t_arrival_s': plan.t_arrival_s, 'burns': len(plan.burns), 'fuel_kg': plan.fuel_kg,
                   'predicted_position_error_m': c['position_error_m'],
                   'predicted_momentum_error_n_s': c['momentum_error_n_s'],
@@ -440,7 +464,7 @@ class TransportControl:
 
     def _plan_with_faster_slews(self, start, t_arrival):
         """plan_transport, and where the slews at the configured rate leave too little time, again with the rate
-        doubled (at most SLEW_RATE_DOUBLINGS times): a correction late in the transfer turns faster."""
+        doubled (at most SLEW_RATE_DOUBLINGS times: paper_flyby_transport's first plan needs one doubling)."""
         planner = self.config.planner
         for _ in range(SLEW_RATE_DOUBLINGS):
             try:
@@ -504,7 +528,8 @@ class TransportControl:
             _, q_ref, _ = self.reference
             self.trim_slew = (t, q_ref, np.array([1.0, 0.0, 0.0]), 0.0, 0.0)
         t0, _, _, angle, rate = self.trim_slew
-        if (angle > 0.0 and t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9) or any(t < t_b + p for _, t_b, _, _
+        coast = p if self.wheels_steer else NAV_COAST_S
+        if (angle > 0.0 and t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9) or any(t < t_b + coast for _, t_b, _, _
                                                                                     in self.pulses):
             return []
         body = self.body
@@ -544,7 +569,19 @@ class TransportControl:
         if impulse <= max(cfg.replan_momentum_n_s, 0.5 * bit):
             return events
         d_hill = -error / float(np.linalg.norm(error))
-        pulse = self._pulse(state, d_hill, impulse, cfg.replan_momentum_n_s)
+        if not self.wheels_steer:
+            # Short along the push axis by PULSE_LEAVE_FRACTION of the error (at least PULSE_LEAVE_N_S): what is
+            # left is then within the next pulse's reach (an overshoot would need thrust against the push axis);
+            # no thrust against it (an overshoot's error: the rest, where it is most of it).
+            b_hill = quat_to_matrix(state.q_hill_from_body) @ self.b_body
+            wanted = -error * body.mass_kg - max(PULSE_LEAVE_FRACTION * impulse, PULSE_LEAVE_N_S) * b_hill
+            within = wanted - min(0.0, float(wanted @ b_hill)) * b_hill
+            impulse = float(np.linalg.norm(within))
+            pulse = (self._pulse(state, within / impulse, impulse, cfg.replan_momentum_n_s)
+                     if impulse > float(np.linalg.norm(wanted - within)) else None)
+        else:
+            pulse = self._pulse(state, d_hill, impulse, cfg.replan_momentum_n_s)
+
         if pulse is not None:
             k0 = round((t + 2.0 * p) / p)
             force, torque, k_len = pulse
@@ -556,9 +593,8 @@ class TransportControl:
                                   {'position_error_m': miss, 'impulse_n_s': impulse, 't_arrival_s': arrival})]
             return events + [('OK', 'transport_pulse', f'a pulse of {impulse:.3g} N s against the velocity error',
                               {'impulse_n_s': impulse})]
-        if not self.wheels_steer:  # out of reach at this attitude: a short transport with the thrusters' slews
-            return events + (self._plan(state, t + TRIM_TIME_S, 'transport_trim')
-                             if t + TRIM_TIME_S + self.trim_stop_s < t_end else [])
+        if not self.wheels_steer:  # out of reach at this attitude: the thrusters' slews would leave far more
+            return events
         # The push axis turned onto the velocity error by the wheels, from the reference where it is now, aimed at
         # the error the body will have then (CW, seed 000 eq 22; hill turns meanwhile).
         q_est = q_eci_from_body(t, self.n, state.q_hill_from_body)
@@ -598,8 +634,14 @@ class TransportControl:
         d_body = quat_to_matrix(state.q_hill_from_body).T @ d_hill
         force = impulse / (k_len * p) * d_body
         allocation = allocate_wrench(body.layout, force, np.cross(body.com_body_m, force))
+        for _ in range(PULSE_LENGTHENINGS if not self.wheels_steer else 0):
+            if not allocation.saturated:
+                break  # else longer: a force across the push axis needs couples several times its size
+            k_len, force = 2 * k_len, 0.5 * force
+            allocation = allocate_wrench(body.layout, force, np.cross(body.com_body_m, force))
         fired = allocation.thrusts_n[allocation.thrusts_n > _FIRING_N]
-        if not allocation.saturated and fired.size and float(fired.min()) * p >= bit * (1.0 + 1e-6):
+        if not allocation.saturated and fired.size and (float(fired.min()) * p >= bit * (1.0 + 1e-6) or (
+                not self.wheels_steer and self._within_bits(allocation.thrusts_n, force, k_len))):
             return force, np.cross(body.com_body_m, force), k_len
         off_rad = max(TRIM_POINTING_RAD, 2.0 * float(np.arcsin(min(1.0, 0.5 * residual_n_s / impulse))))
         if float(d_body @ self.b_body) < np.cos(off_rad):
@@ -613,6 +655,19 @@ class TransportControl:
         thrust = impulse / (k_len * p * along.size) * body.layout.force_directions_body[along]
         return (np.sum(thrust, axis=0), np.sum(np.cross(body.layout.positions_body_m[along], thrust), axis=0),
                 k_len)
+
+    def _within_bits(self, thrusts_n, force, k_len):
+        """A pure force about the estimated combined CoM whose thrusters below the minimum impulse bit (the small
+        couples that balance the CoM's few mm off the push axis), which the plant does not fire, leave at most
+        PULSE_FORCE_TOLERANCE of the force and PULSE_TORQUE_FRACTION of the first condition's angular momentum."""
+        body = self.body
+        p = self.config.planner.period_s
+        fired = np.where(np.asarray(thrusts_n) * p >= body.layout.min_impulse_bit_n_s, thrusts_n, 0.0)
+        wrench = body.layout.wrench_matrix @ fired
+        torque_com = wrench[3:] - np.cross(body.com_body_m, wrench[:3])
+        return (float(np.linalg.norm(wrench[:3] - force)) <= PULSE_FORCE_TOLERANCE * float(np.linalg.norm(force))
+                and float(np.linalg.norm(torque_com)) * k_len * p
+                <= PULSE_TORQUE_FRACTION * self.config.planner.max_angular_momentum_kg_m2_s)
 
     def _dump(self, t, state, h_wheels):
         """The dump's command: couples against the estimated angular momentum I omega + h (the wheels hold the

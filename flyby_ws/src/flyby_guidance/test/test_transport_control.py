@@ -10,6 +10,7 @@ from flyby_guidance.guidance_core import post_capture_config_from_scenario
 from flyby_guidance.transport_control import (
     DUMP_S,
     NAV_SETTLE_S,
+    PULSE_LEAVE_FRACTION,
     TRACK_BANDWIDTH_RAD_S,
     TRIM_SLEW_RATE_RAD_S,
     TRIM_TIME_S,
@@ -250,10 +251,11 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     assert control._correct(fast, pushes, next_burn) == [] and not control.pulses
 
 
-def test_dumps_stop_at_the_estimates_floor_and_a_body_the_wheels_cannot_turn_gets_a_planned_trim():
+def test_dumps_stop_at_the_estimates_floor_and_a_body_the_wheels_cannot_turn_trims_short_along_the_push_axis():
     """A dump that has not halved the estimated angular momentum is at the estimate's floor: no more dumps. Where the
-    wheels cannot turn the body (paper_flyby_transport's), a velocity out of reach at the attitude held is trimmed by a
-    short transport with the thrusters' slews, arriving TRIM_TIME_S later."""
+    wheels cannot turn the body (paper_flyby_transport's), a velocity error out of reach at the attitude held is left
+    (the thrusters' slews for it had left 35-110 N s each there), and a pulse in reach stops short along the push
+    axis by PULSE_LEAVE_FRACTION of the error: an overshoot would need thrust against the push axis."""
     body, control = _planned()
     control.momentum = 0.05
     assert control._trim(_state(1400.0))[0][1] == 'transport_dump'
@@ -262,11 +264,15 @@ def test_dumps_stop_at_the_estimates_floor_and_a_body_the_wheels_cannot_turn_get
     control.wheels_steer = False
     control.t_check = 1450.0
     q_held = q_hill_from_body(1450.0, control.n, control.reference[1])
-    events = control._trim(_state(1450.0, q_held, v=5e-3 * quat_to_matrix(q_held)[:, 0]))  # to be nulled along -x
-    assert events[0][1] == 'transport_trim'
-    assert control.trim_slew[3] == 0.0  # no wheel slew
-    assert control.plan.t_arrival_s == pytest.approx(1450.0 + TRIM_TIME_S, abs=0.2)
-    assert [b.purpose for b in control.plan.burns].count('push') == 2
+    x_hill = quat_to_matrix(q_held)[:, 0]
+    assert control._trim(_state(1450.0, q_held, v=5e-3 * x_hill)) == []  # to be nulled along -x
+    assert not control.pulses and control.trim_arrival is None
+    events = control._trim(_state(1470.0, q_held, v=-5e-3 * x_hill))  # along +x
+    assert [e[1] for e in events] == ['transport_pulse']
+    t_a, t_b, force, _ = control.pulses[0]
+    error_n_s = body.mass_kg * 5e-3
+    np.testing.assert_allclose(force * (t_b - t_a), [(1.0 - PULSE_LEAVE_FRACTION) * error_n_s, 0.0, 0.0],
+                               atol=1e-9)
 
 
 def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_dumped_again():

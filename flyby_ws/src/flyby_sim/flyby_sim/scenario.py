@@ -563,6 +563,10 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                 'replan_momentum_n_s': Field(FLOAT, 0.005, '> 0', '... or moving with more than this linear momentum.'),
                 'settle_s': Field(FLOAT, 60.0, '>= 0', 'After the arrival: trims, then the conditions are judged '
                                                        'this long after it (TRANSPORT -> COMPLETE).'),
+                'nav_accel_psd_m2_s3': Field(FLOAT, 1e-11, '> 0',
+                                             'The combined body\'s navigation coasting: the white acceleration its '
+                                             'filter allows for what it does not model (CW\'s linearization within '
+                                             'a few km, the errors of the commanded small firings) [m^2/s^3].'),
                 'max_angular_momentum_kg_m2_s': Field(FLOAT, 0.1, '> 0', 'Rendezvous condition 1 (seed 004 '
                                                                          'section 3.2).'),
                 'max_position_error_m': Field(FLOAT, 10.0, '> 0', 'Rendezvous condition 2.'),
