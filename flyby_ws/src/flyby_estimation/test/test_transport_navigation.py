@@ -12,15 +12,16 @@ from flyby_testing import SCENARIOS
 
 SCENARIO = load_scenario(SCENARIOS / 'matsunaga_orbit_advance.yaml')
 COM = np.array([0.2, 0.0, 0.0])  # the combined CoM from the chaser's, chaser_body axes
+NAV_MASS_KG = 50.0
 
 
-def _fly(pulse_at_s=None, dv_mps=4e-4, duration_s=300.0, seed=3):
+def _fly(pulse_at_s=None, dv_mps=4e-4, duration_s=300.0, seed=3, seen=True, commanded=False):
     """The body fixed in hill at rest on V-bar 1 km ahead (a CW equilibrium), 10 Hz samples with the scenario's
     sensor noise; optionally a one-sample pulse along hill x. Returns (t, v_estimate, v_truth) of the CoM (the body
     fixed in hill: the chaser's CoM moves as the combined one)."""
     rng = np.random.default_rng(seed)
     n = SCENARIO.mean_motion_rad_s
-    nav = TransportNavigation(SCENARIO, COM, 50.0)
+    nav = TransportNavigation(SCENARIO, COM, NAV_MASS_KG)
     sigma_r = SCENARIO.sensors.relative_position.noise_sigma_m
     sigma_a = SCENARIO.sensors.chaser_imu.accel_noise_sigma_mps2
     omega = np.array([0.0, -n, 0.0])  # fixed in hill: its inertial rate
@@ -34,7 +35,9 @@ def _fly(pulse_at_s=None, dv_mps=4e-4, duration_s=300.0, seed=3):
         accel = np.cross(omega, np.cross(omega, -COM)) + sigma_a * rng.standard_normal(3)
         if pulse_at_s is not None and abs(t - pulse_at_s) < 0.05:
             x[3] += dv_mps
-            accel[0] += dv_mps / 0.1
+            accel[0] += dv_mps / 0.1 if seen else 0.0
+            if commanded:  # guidance's command for the interval that ends at this sample
+                nav.on_command(t - 0.1, np.array([NAV_MASS_KG * dv_mps / 0.1, 0.0, 0.0]))
         nav.on_position(t, x[:3] - COM + sigma_r * rng.standard_normal(3))
         navigated = nav.on_imu(t, estimate, accel)
         if navigated is not None:
@@ -59,3 +62,16 @@ def test_a_thrust_is_taken_from_the_accelerometer_at_once():
     assert abs((after - before)[0] - 4e-4) < 3e-5
     errors = np.array([np.linalg.norm(v - truth) for t, v, truth in flown if t > 300.0])
     assert errors.max() < 1e-4
+
+
+def test_a_firing_the_accelerometer_does_not_see_is_taken_from_guidances_command():
+    """A small firing below the accelerometer's gate (a trim pulse on paper_flyby_transport's 1600 kg: one thruster
+    at its bit is 0.6 sigma) is a known input, guidance's command for that interval: in the estimate at the sample;
+    without the command only the positions show it, over tens of seconds."""
+    jumps = {}
+    for commanded in (True, False):
+        flown = _fly(pulse_at_s=250.0, seen=False, commanded=commanded)
+        before = [v for t, v, _ in flown if t < 249.95][-1]
+        after = next(v for t, v, _ in flown if t > 249.95)
+        jumps[commanded] = (after - before)[0]
+    assert abs(jumps[True] - 4e-4) < 3e-5 and abs(jumps[False]) < 1e-4

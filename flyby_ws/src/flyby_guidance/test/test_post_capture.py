@@ -11,6 +11,7 @@ from flyby_guidance.post_capture import (
     SEED004_MOMENTUM_BOUND_KG_M2_S,
     DampingGains,
     damping_command,
+    pulse_modulated,
     simulate_damping,
 )
 from flyby_sim.dynamics.actuators import default_thruster_layout
@@ -133,3 +134,18 @@ def test_damping_then_the_excitation_then_nothing():
         np.testing.assert_allclose(cmd.torque_body_n_m, expected[1], atol=1e-12)
         assert not np.any(cmd.wheel_torque_body_n_m)
     assert events == ['excitation_ended']  # once, at the last firing's end
+
+
+def test_a_couple_below_a_pulse_is_carried_until_it_is_worth_one():
+    """Pulse-frequency modulation of the damping's couple: a torque worth less than the pulse per period is not fired
+    but carried, and fired whole once the carried angular impulse reaches the pulse, so the mean torque is kept (a
+    wheel momentum of 0.26 N m s asked 0.013 N m of the thrusters, below their bit, and paper_flyby_transport's
+    damping stalled at 0.39 kg m^2/s); a torque above it fires at once, as without the modulation."""
+    carried, fired = np.zeros(3), []
+    for _ in range(10):
+        torque, carried = pulse_modulated(carried, (0.013, 0.0, 0.0), 0.1, 0.004)
+        fired.append(torque[0])
+    assert fired[:3] == [0.0, 0.0, 0.0] and fired[3] == pytest.approx(0.052)  # 4 x 0.0013 N m s >= 0.004
+    assert sum(fired) * 0.1 + carried[0] == pytest.approx(10 * 0.013 * 0.1)
+    torque, carried = pulse_modulated(np.zeros(3), (2.0, -1.0, 0.5), 0.1, 0.004)
+    np.testing.assert_allclose(torque, (2.0, -1.0, 0.5)) and not np.any(carried)

@@ -22,6 +22,7 @@ from flyby_guidance.transport_control import (
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import TransportState, propagate
 from flyby_sim.dynamics.actuators import allocate_wrench
+from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.orbital import cw_transition_matrix, q_hill_from_body
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_shortest_arc, quat_to_matrix
@@ -314,3 +315,31 @@ def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_d
     assert control._trim(_state(1460.0))[0][1] == 'transport_dump'
     control.dumping, control.dumped, control.momentum = None, 0.04, 0.12  # beyond it: dumped, late or not
     assert control._trim(_state(late))[0][1] == 'transport_dump'
+
+
+def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_attitude():
+    """Where the wheels cannot turn the body (paper_flyby_transport's 0.1 N m on 3000 kg m^2) the thrusters' couples
+    take the attitude error from the plan's model (the open-loop slews had ended 12 deg off there, and the arrival push
+    left 90 N s across), in pulses; where they can, the wheels do and the thrusters fire nothing at a coast."""
+    fired = {}
+    for steer in (True, False):
+        body, control = _planned()
+        control.wheels_steer = steer
+        pushes = [b for b in control.plan.burns if b.purpose == 'push']
+        t = pushes[0].t_start_s + pushes[0].duration_s + 5.0  # coasting to the next slew
+        planned = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < t], t,
+                            control.config.planner)
+        tilted = quat_multiply(planned.q_hill_from_body, quat_from_rotation_vector((0.0, 0.0, 0.1)))
+        r_point, v_point = body_point_state(quat_to_matrix(tilted), planned.omega_body, -body.com_body_m, control.n)
+        impulse, wheels = np.zeros(3), []
+        for k in range(50):
+            force, torque, u, _ = control.command(t + 0.1 * k, planned.r_hill + r_point, planned.v_hill + v_point,
+                                                  tilted, planned.omega_body, np.zeros(3))
+            impulse += 0.1 * (torque - np.cross(body.com_body_m, force))  # about the combined CoM
+            wheels.append(u)
+        fired[steer] = impulse
+        if steer:
+            assert not np.any(impulse) and all(float(u[2]) > 0.0 for u in wheels)  # the body feels -u
+        else:
+            assert impulse[2] < 0.0 and abs(impulse[2]) > 10.0 * np.linalg.norm(impulse[:2])
+            np.testing.assert_allclose(wheels, [control._hold(planned.omega_body)] * len(wheels))  # rate only
