@@ -35,6 +35,11 @@ Timeline, every instant a stamp (DESIGN §5):
   thrusters give one with every firing thruster above the minimum impulse bit, else along the push axis, which the
   wheels first turn onto it (a wheel slew changes no angular momentum and pushes nothing), by the thrusters along
   it or, below a bit each, by one of them whose small couple the wheels take;
+* on a body the wheels do not steer (they would spin it up to the slews' rate in more than WHEEL_SPINUP_S:
+  paper_flyby_transport's 1600 kg), the thrusters' couples track the plan's attitude instead, to its last burn; the
+  arrival push stops ARRIVAL_MARGIN_N_S short of rest and each trim pulse short along the push axis, so that what is
+  left stays within the pure forces the thrusters give about the combined CoM at the attitude held (none against
+  the push axis); an error out of reach waits, and pulses come NAV_COAST_S apart;
 * ``settle_s`` after the arrival, ``transport_complete`` with the estimated conditions, a WARN where the estimate
   misses one (the summary judges them from the truth).
 """
@@ -581,7 +586,6 @@ class TransportControl:
                      if impulse > float(np.linalg.norm(wanted - within)) else None)
         else:
             pulse = self._pulse(state, d_hill, impulse, cfg.replan_momentum_n_s)
-
         if pulse is not None:
             k0 = round((t + 2.0 * p) / p)
             force, torque, k_len = pulse
