@@ -297,7 +297,7 @@ class TransportNavigation:
             accel_psd_m2_s3=scenario.post_capture.transport.nav_accel_psd_m2_s3))
         imu = scenario.sensors.chaser_imu
         # The gate: the accelerometer's noise, or the noise of the rotation term omega_dot x p with omega_dot from
-        # two gyro samples (on paper_flyby_transport's 3.1 m, 4e-4 m/s^2: above the accelerometer's, and the gate
+        # two gyro samples (on paper_flyby_transport's 2.9 m, 4e-4 m/s^2: above the accelerometer's, and the gate
         # of that took the gyro's noise for thrust and walked the velocity by 0.2-0.6 N s).
         self.accel_sigma_mps2 = max(imu.accel_noise_sigma_mps2, float(np.linalg.norm(self.com_body_m)) * np.sqrt(
             2.0) * imu.gyro_noise_sigma_rad_s * imu.rate_hz)

@@ -50,7 +50,7 @@ import json
 
 import numpy as np
 
-from flyby_guidance.post_capture import damping_command
+from flyby_guidance.post_capture import damping_command, pulse_modulated
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import (
     TransportBody,
@@ -419,13 +419,11 @@ class TransportControl:
     def _couple(self, tau, pulse_n_m_s):
         """(force, torque about the chaser's CoM) of a couple tau [N m] about the combined CoM fired in pulses: below
         the thrusters' minimum impulse bit a small couple is not fired at all, so its angular impulse is carried
-        until it is worth pulse_n_m_s (pulse-frequency modulation of the same mean torque); the least side force
+        until it is worth pulse_n_m_s (``post_capture.pulse_modulated``); the least side force
         (``transport.torque_wrench``), halved where the thrusters cannot."""
-        period = self.config.planner.period_s
-        self.carried = self.carried + np.asarray(tau, dtype=float) * period
-        if float(np.linalg.norm(self.carried)) < pulse_n_m_s:
+        tau, self.carried = pulse_modulated(self.carried, tau, self.config.planner.period_s, pulse_n_m_s)
+        if not np.any(tau):
             return np.zeros(3), np.zeros(3)
-        tau, self.carried = self.carried / period, np.zeros(3)
         for _ in range(DETUMBLE_HALVINGS):  # no pure couple about every axis: the least side force, within reach
             wrench = torque_wrench(self.body, self.config.planner, tau)
             if wrench is not None:
