@@ -66,7 +66,7 @@ from flyby_planner.transport import (
     resolve_slew,
     torque_wrench,
 )
-from flyby_sim.dynamics.actuators import allocate_wrench, plume_free_thrusters
+from flyby_sim.dynamics.actuators import allocate_wrench, fire, plume_free_thrusters
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
@@ -660,14 +660,15 @@ class TransportControl:
 
     def _within_bits(self, thrusts_n, force, k_len):
         """A pure force about the estimated combined CoM whose thrusters below the minimum impulse bit (the small
-        couples that balance the CoM's few mm off the push axis), which the plant does not fire, leave at most
-        PULSE_FORCE_TOLERANCE of the force and PULSE_TORQUE_FRACTION of the first condition's angular momentum."""
+        couples that balance the CoM's few mm off the push axis), which the plant does not fire (``actuators.fire``),
+        leave at most PULSE_FORCE_TOLERANCE of the force and PULSE_TORQUE_FRACTION of the first condition's angular
+        momentum."""
         body = self.body
         p = self.config.planner.period_s
-        fired = np.where(np.asarray(thrusts_n) * p >= body.layout.min_impulse_bit_n_s, thrusts_n, 0.0)
-        wrench = body.layout.wrench_matrix @ fired
-        torque_com = wrench[3:] - np.cross(body.com_body_m, wrench[:3])
-        return (float(np.linalg.norm(wrench[:3] - force)) <= PULSE_FORCE_TOLERANCE * float(np.linalg.norm(force))
+        firing = fire(body.layout, thrusts_n, p)
+        torque_com = firing.torque_body_n_m - np.cross(body.com_body_m, firing.force_body_n)
+        return (float(np.linalg.norm(firing.force_body_n - force))
+                <= PULSE_FORCE_TOLERANCE * float(np.linalg.norm(force))
                 and float(np.linalg.norm(torque_com)) * k_len * p
                 <= PULSE_TORQUE_FRACTION * self.config.planner.max_angular_momentum_kg_m2_s)
 
