@@ -99,6 +99,7 @@ from flyby_planner.summary import (
     damping_window,
     grasp_contact_series,
     grasp_time,
+    lock_time,
     phase_windows,
     pointing_figures,
     post_capture_truth,
@@ -371,7 +372,9 @@ class Run:
         odom, target, wheels = self.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_WHEELS)
         wrench = self.get(c.SIM_CHASER_THRUST)
         thrust = None if wrench is None else thrust_truth(wrench, self.get(c.SIM_CHASER_THRUSTERS))
-        return post_capture_truth(chaser_truth_from_odometry(odom), target, wheels, thrust, self.need_scenario())
+        scenario = self.need_scenario()
+        return post_capture_truth(chaser_truth_from_odometry(odom), target, wheels, thrust, scenario,
+                                  lock_time(self.events, scenario))
 
     def truth_at(self, t):
         """Truth chaser position (3,) at time t, interpolated."""
@@ -1439,7 +1442,7 @@ class CombinedMotion(typing.NamedTuple):
 
 def combined_motion(run):
     """Seed 004 Fig 5 (a)-(d) over MASS_ESTIMATION: the combined body's CoM position and velocity from both bodies'
-    truth (their grasp.Body, flyby_planner.summary.post_capture_truth, the chaser's mass less its fuel), and its
+    truth (their grasp.Body, flyby_planner.summary.post_capture_truth, the masses of the lock), and its
     attitude and rate, which are the chaser's (one rigid body), truth and the estimate the mission publishes: the
     chaser's attitude filter on /estimation/chaser/odom. The mass-property filter's own r, v, q, omega are not
     published: the combined CoM has no estimate (its chaser position stays the capture's, docs/post_capture.md)."""

@@ -55,6 +55,7 @@ from flyby_estimation.post_capture import (
     MassEstimationRun,
     TransportNavigation,
     attachment_snapshot,
+    combined_com_covariance,
     imu_sample,
     mass_property_prior,
 )
@@ -225,7 +226,9 @@ class EstimatorCore:
             if e.final and self.scenario.post_capture.transport is not None:
                 combined = combined_mass_properties(self.mass_run.chaser_mass_kg, self.scenario.chaser_inertia,
                                                     f.target_mass_kg, f.target_com_body_m, f.target_inertia_body_kg_m2)
-                self.transport_nav = TransportNavigation(self.scenario, combined.com_body_m, combined.mass_kg)
+                self.transport_nav = TransportNavigation(
+                    self.scenario, e.t, combined.com_body_m,
+                    combined_com_covariance(self.mass_run.chaser_mass_kg, f), combined.mass_kg)
             out.append(e)
             out.append(self._event(e.t, 'OK', 'mass_properties_estimated' if e.final else 'mass_properties_estimate',
                                    f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '
@@ -306,11 +309,20 @@ class EstimatorCore:
                                           self.scenario.mean_motion_rad_s)
         r_hill = r_hill + self.snapshot.r_target_hill
         covariance = self.capture_covariance
-        navigated = None if self.transport_nav is None else self.transport_nav.on_imu(t, a, specific_force_body)
-        if navigated is not None:
-            r_hill, v_hill, covariance = navigated
-        out = [ChaserEstimate(a.t, r_hill, v_hill, covariance, a.q_hill_from_body, a.omega_body,
-                              a.attitude_covariance_hill, a.rate_covariance)]
+        out = []
+        if self.transport_nav is not None:
+            navigated, refined = self.transport_nav.on_imu(t, a, specific_force_body)
+            if navigated is not None:
+                r_hill, v_hill, covariance = navigated
+            if refined is not None:  # before the estimate: guidance waits for it at this stamp
+                com, sigma, coast_s = refined
+                coast = f' ({coast_s:.0f} s of coast)' if coast_s else ''
+                out.append(self._event(t, 'OK', 'transport_com_estimate',
+                                       f'combined CoM {np.round(com, 4).tolist()} m from the chaser\'s, +- '
+                                       f'{np.round(sigma * 1e3, 2).tolist()} mm{coast}',
+                                       {'com_body_m': com, 'com_sigma_m': sigma, 'coast_s': coast_s}))
+        out.append(ChaserEstimate(a.t, r_hill, v_hill, covariance, a.q_hill_from_body, a.omega_body,
+                                  a.attitude_covariance_hill, a.rate_covariance))
         if specific_force_body is None:
             return out
         sample = imu_sample(t, a, specific_force_body, q_star_hill, self.scenario.mean_motion_rad_s)
@@ -326,13 +338,13 @@ class EstimatorCore:
                                 f'not a known input of the navigation filter: {err}', {'t_stamp': t})]
         return []
 
-    def on_wrench(self, t, force_body_n):
-        """A commanded thruster force [N, chaser_body] held from t for one control period (guidance/wrench): a
-        known input of the navigation filter (module doc). One below the minimum impulse bit is left out (the
-        thrusters do not give it either)."""
+    def on_wrench(self, t, force_body_n, torque_body_n_m=(0.0, 0.0, 0.0)):
+        """A commanded thruster force [N, chaser_body] (and torque [N m]) held from t for one control period
+        (guidance/wrench): a known input of the navigation filter (module doc). One below the minimum impulse bit is
+        left out (the thrusters do not give it either)."""
         force = np.asarray(force_body_n, dtype=float)
         if self.transport_nav is not None:
-            self.transport_nav.on_command(t, force)
+            self.transport_nav.on_command(t, force, torque_body_n_m)
         if self.attitude is None or self.attached or not np.any(force):
             return []
         t_estimate = t - self.wrench_hold_s

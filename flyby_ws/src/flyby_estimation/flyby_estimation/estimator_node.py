@@ -94,7 +94,7 @@ class EstimatorNode(CoreNode):
 
     def on_wrench(self, data):
         w = convert.wrench_stamped_cdr_to_numpy(data)
-        self.publish(self.core.on_wrench(w.t, w.force))
+        self.publish(self.core.on_wrench(w.t, w.force, w.torque))
 
     def on_maneuver(self, msg):
         self.publish(self.core.on_maneuver(*convert.vector3_stamped_to_numpy(msg)))

@@ -54,7 +54,13 @@ from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_sim.dynamics.attitude import body_point_state
-from flyby_sim.dynamics.orbital import q_eci_from_body
+from flyby_sim.dynamics.orbital import (
+    cw_accel_components,
+    cw_transition_matrix,
+    nonlinear_relative_accel_components,
+    q_eci_from_body,
+    rk4_step_floats,
+)
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_from_matrix,
@@ -71,6 +77,10 @@ SAMPLES_KEPT = 600  # IMU samples after the capture kept for a late announcement
 # sigma covers the gyro's noise and bias error.
 _STATE_SIGMAS = (1.0, 0.1)  # r [m], v [m/s]
 _RATE_SIGMA_RAD_S = 1e-4
+# The combined CoM refined by the transport's coasts (``ComCoast``) is given at the stamps on this grid after the final
+# estimate (``on_com_grid``; guidance waits for it there), from a coast with nothing firing this long at least.
+COM_PERIOD_S = 50.0
+COM_COAST_MIN_S = 200.0
 _PRIOR_STREAM = 16  # the prior's random stream: numpy default_rng([seed, 16])
 _ATTACHMENT_STREAM = 17  # a start attached: the attachment's errors, default_rng([seed, 17])
 
@@ -270,6 +280,87 @@ class MassEstimationRun:
                                   s.gyro_bias_covariance)
 
 
+def combined_com_covariance(chaser_mass_kg, estimate):
+    """The covariance [m^2] of the combined CoM from the chaser's, c = M X_s / (m + M) (seed 004 §2.2,
+    ``combined_body.combined_mass_properties``), from a ``mass_properties.MassPropertyEstimate``'s 1-sigma of the
+    target's mass M and CoM X_s (to first order)."""
+    m, big_m = float(chaser_mass_kg), float(estimate.target_mass_kg)
+    total = m + big_m
+    x_s = np.asarray(estimate.target_com_body_m, dtype=float)
+    dc_dm = m / total**2 * x_s
+    return ((big_m / total) ** 2 * np.diag(np.asarray(estimate.com_sigma_m, dtype=float) ** 2)
+            + estimate.mass_sigma_kg**2 * np.outer(dc_dm, dc_dm))
+
+
+def on_com_grid(t, t_start):
+    """True for a stamp t [s] of COM_PERIOD_S's grid after t_start, the final mass-property estimate's."""
+    return t > t_start + STAMP_TOLERANCE_S and abs(t - round(t / COM_PERIOD_S) * COM_PERIOD_S) <= STAMP_TOLERANCE_S
+
+
+class ComCoast:
+    """The combined CoM from the chaser's, refined over a coast with nothing firing (issue 17, docs/transport.md).
+
+    The least squares, with the prior of p, of the relative positions of the chaser's CoM over the coast,
+    y_k = r(t_k) + C_k p + noise: r the combined CoM's position, coasted from its state at the coast's start x0 (a
+    reference coasted by the plant's relative dynamics, seed 000 eq 1 or eq 22, and the deviation from it by CW's
+    transition matrix, seed 000 eq 22), C_k the attitude estimate (hill from chaser_body), p the chaser's CoM from
+    the combined one [m, chaser_body]. Unknowns: x0's deviation (6, a weak prior) and p's (3).
+
+    Why it sees p: a body held at rest inertially turns in hill at the orbit's rate, so C_k p traces a circle, and
+    no CW coast does (CW's in-plane ellipse is twice as long along-track as it is radially, and its out-of-plane
+    motion has no constant): over a good part of an orbit the positions fix p to a fraction of a millimetre, where
+    the navigation filter, which takes p as known, would carry its error as a velocity n x C dp (seed 1 of
+    paper_flyby_transport: 3-9 mm, 0.007-0.015 N s on 1600 kg)."""
+
+    X0_PRIOR_SIGMAS = (1.0, 0.1)  # the weak prior of x0's deviation: r [m], v [m/s]
+
+    def __init__(self, t, x0, p_prior_m, p_covariance_m2, n, radius_m, dynamics, sigma_m):
+        self.t0 = self.t = float(t)
+        self.x_ref = [float(v) for v in x0]
+        self.p_prior = np.asarray(p_prior_m, dtype=float)
+        self.n, self.radius_m, self.linear = n, radius_m, dynamics == 'cw'
+        self.weight = 1.0 / sigma_m**2
+        sr, sv = self.X0_PRIOR_SIGMAS
+        self.info = np.zeros((9, 9))
+        self.info[:6, :6] = np.diag([sr**-2] * 3 + [sv**-2] * 3)
+        self.info[6:, 6:] = np.linalg.inv(np.asarray(p_covariance_m2, dtype=float))
+        self.b = np.zeros(9)
+        self.count = 0
+
+    @property
+    def duration_s(self):
+        return self.t - self.t0
+
+    def _rhs(self, _t, y):
+        r, v = y[:3], y[3:]
+        a = (cw_accel_components(r, v, self.n) if self.linear
+             else nonlinear_relative_accel_components(r, v, self.n, self.radius_m))
+        return [*v, *a]
+
+    def add(self, t, y_chaser_hill, c_hill_from_body):
+        """The relative position of the chaser's CoM at t [m, hill] with the attitude estimate then."""
+        while self.t < t - 1e-9:
+            h = min(1.0, t - self.t)
+            self.x_ref = rk4_step_floats(self._rhs, self.t, self.x_ref, h)
+            self.t += h
+        self.t = float(t)
+        c = np.asarray(c_hill_from_body, dtype=float)
+        h_row = np.hstack((cw_transition_matrix(self.n, self.t - self.t0)[:3], c))
+        residual = np.asarray(y_chaser_hill, dtype=float) - np.asarray(self.x_ref[:3]) - c @ self.p_prior
+        self.info += self.weight * (h_row.T @ h_row)
+        self.b += self.weight * (h_row.T @ residual)
+        self.count += 1
+
+    def solve(self):
+        """(p [m], its covariance, the combined CoM's (r_hill, v_hill) at the last sample and their 6x6 covariance)."""
+        scale = 1.0 / np.sqrt(np.diag(self.info))  # columns of m and m/s, over an orbit: scaled to unit diagonal
+        cov = scale[:, None] * np.linalg.inv(scale[:, None] * self.info * scale[None, :]) * scale[None, :]
+        delta = cov @ self.b
+        phi = cw_transition_matrix(self.n, self.t - self.t0)
+        x = np.asarray(self.x_ref) + phi @ delta[:6]
+        return (self.p_prior + delta[6:], cov[6:, 6:], x[:3], x[3:], phi @ cov[:6, :6] @ phi.T)
+
+
 class TransportNavigation:
     """The combined body's translation in TRANSPORT (issue 17; seed 004 §2.2's x, v with its GPS read as the relative
     position sensor): a ``RelativeNavFilter`` on the combined CoM, r_cm = r_chaser + C c with c the combined CoM from
@@ -289,9 +380,16 @@ class TransportNavigation:
     ACCEL_GATE_SIGMA = 5.0
     COMMAND_ERROR_SIGMA = 0.1  # a small firing's delta-v against its command (its thrusters' errors, sub-bit parts)
 
-    def __init__(self, scenario, com_body_m, mass_kg):
+    def __init__(self, scenario, t_start, com_body_m, com_covariance_m2, mass_kg):
+        """t_start: the final mass-property estimate's stamp [s]; com_body_m and its covariance: the combined CoM from
+        the chaser's [m, chaser_body] and its 3x3 [m^2]."""
+        self.t_start = float(t_start)
         self.com_body_m = np.asarray(com_body_m, dtype=float)
+        self.com_covariance_m2 = np.asarray(com_covariance_m2, dtype=float)
         self.mass_kg = float(mass_kg)
+        self.scenario = scenario
+        self.coast = None  # the ComCoast since the last firing
+        self.coast_s = 0.0  # the coast the last refinement took [s]
         self.filter = RelativeNavFilter(relative_nav_config_from_scenario(
             scenario, initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS, thrusters=None, chaser_mass_kg=None,
             accel_psd_m2_s3=scenario.post_capture.transport.nav_accel_psd_m2_s3))
@@ -309,19 +407,23 @@ class TransportNavigation:
     def on_position(self, t, r_chaser_hill):
         self.positions.add(t, np.asarray(r_chaser_hill, dtype=float))
 
-    def on_command(self, t, force_body_n):
-        """Guidance's force command held from t for one IMU interval: a known input where the accelerometer does
-        not see it (below the gate: a trim's small pulses on a heavy body, a dump's side forces)."""
-        self.commands.add(t, np.asarray(force_body_n, dtype=float))
+    def on_command(self, t, force_body_n, torque_body_n_m=(0.0, 0.0, 0.0)):
+        """Guidance's wrench command held from t for one IMU interval: its force a known input where the
+        accelerometer does not see it (below the gate: a trim's small pulses on a heavy body, a dump's side forces);
+        any firing, a couple's too, ends a coast (its thrusters' errors push)."""
+        self.commands.add(t, (np.asarray(force_body_n, dtype=float), bool(np.any(force_body_n) or np.any(
+            torque_body_n_m))))
 
     def on_imu(self, t, estimate, specific_force_body):
         """One IMU sample: the attitude filter's estimate (``ChaserAttitudeEstimate``) and the accelerometer's mean
         specific force since the previous sample [m/s^2, chaser_body] (or None); returns (r_hill, v_hill, covariance)
-        of the chaser's CoM, or None before the filter starts."""
+        of the chaser's CoM, or None before the filter starts, and on COM_PERIOD_S's grid the combined CoM refined
+        (``refine``) or None."""
         c_hill = quat_to_matrix(estimate.q_hill_from_body)
         p = -self.com_body_m
         last, self.last = self.last, (t, np.asarray(estimate.omega_body, dtype=float))
         f = self.filter
+        quiet = True
         if f.initialized and last is not None and specific_force_body is not None:
             dt = t - last[0]
             omega = self.last[1]
@@ -330,27 +432,51 @@ class TransportNavigation:
                 omega, np.cross(omega, p))
             f.propagate_to(t)
             command = self.commands.last_at_or_before(last[0] + STAMP_TOLERANCE_S)
+            commanded = command is not None and abs(command[0] - last[0]) <= STAMP_TOLERANCE_S
+            quiet = not (commanded and command[1][1])
             if float(np.linalg.norm(a_cm)) > self.ACCEL_GATE_SIGMA * self.accel_sigma_mps2:  # a thrust (class doc)
+                quiet = False
                 dv_hill = c_hill @ a_cm * dt
                 dv_cross = skew(dv_hill)
                 cov = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
                        + dv_cross @ estimate.attitude_covariance_hill @ dv_cross.T)
                 f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
-            elif command is not None and abs(command[0] - last[0]) <= STAMP_TOLERANCE_S and np.any(command[1]):
-                dv_hill = c_hill @ command[1] * (dt / self.mass_kg)  # the commanded delta-v, unseen
+            elif commanded and np.any(command[1][0]):
+                dv_hill = c_hill @ command[1][0] * (dt / self.mass_kg)  # the commanded delta-v, unseen
                 f.add_thrust_error(last[0], t, dv_hill, (self.COMMAND_ERROR_SIGMA * float(np.linalg.norm(
                     dv_hill))) ** 2 * np.eye(3))
+        if not quiet:
+            self.coast = None
         r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)  # the chaser's CoM from the combined
         measured = self.positions.last_at_or_before(t + STAMP_TOLERANCE_S)
         if measured is not None and abs(measured[0] - t) <= STAMP_TOLERANCE_S:
             r_cm = measured[1] - r_point
             if not f.initialized:
                 f.initialize(t, r_cm)
-            else:
-                f.update(t, r_cm)
+            elif f.update(t, r_cm).accepted:
+                if self.coast is None:
+                    s = f.state()
+                    self.coast = ComCoast(t, np.concatenate((s.r_hill, s.v_hill)), p, self.com_covariance_m2,
+                                          self.n, self.scenario.orbit_radius_m, self.scenario.simulation.dynamics,
+                                          self.scenario.sensors.relative_position.noise_sigma_m)
+                self.coast.add(t, measured[1], c_hill)
         if not f.initialized:
-            return None
+            return None, None
+        refined = self.refine(t) if on_com_grid(t, self.t_start) else None
+        if refined is not None:
+            p = -self.com_body_m
+            r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)
         if f.t < t:
             f.propagate_to(t)
         s = f.state()
-        return s.r_hill + r_point, s.v_hill + v_point, s.covariance
+        return (s.r_hill + r_point, s.v_hill + v_point, s.covariance), refined
+
+    def refine(self, t):
+        """At a stamp of COM_PERIOD_S's grid: the combined CoM from the chaser's [m, chaser_body], its 1-sigma per
+        axis [m] and the coast it is from [s] (zero: the estimate as it was). From a coast of COM_COAST_MIN_S or
+        more, ``ComCoast``'s, and the filter restarts from the coast's state of the combined CoM."""
+        if self.coast is not None and self.coast.duration_s >= COM_COAST_MIN_S - 1e-9 and self.coast.t >= t - 1e-9:
+            p, p_cov, r_hill, v_hill, x_cov = self.coast.solve()
+            self.com_body_m, self.com_covariance_m2, self.coast_s = -p, p_cov, self.coast.duration_s
+            self.filter.initialize(t, r_hill, v_hill, x_cov)
+        return self.com_body_m, np.sqrt(np.diag(self.com_covariance_m2)), self.coast_s

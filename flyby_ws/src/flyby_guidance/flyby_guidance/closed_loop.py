@@ -202,7 +202,7 @@ class HeadlessGraph:
             self.plant.command_wheels(t, out.wheel_torque_n_m)
             self.plant.command_wrench(t, out.force_body_n, out.thruster_torque_body_n_m, hold_s=out.hold_s)
             self._publish_plant_events()
-            self._queue.extend(self.estimator.on_wrench(t, out.force_body_n))
+            self._queue.extend(self.estimator.on_wrench(t, out.force_body_n, out.thruster_torque_body_n_m))
         elif isinstance(out, Maneuver):  # guidance/maneuver, from guidance
             self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), out.kind)
         elif isinstance(out, AvoidanceBurn):  # guidance/maneuver, from the supervisor after an abort

@@ -44,7 +44,8 @@ damping law's command, then the excitation's, each applied one
 control period later (the simulator holds time for them as before the capture). The estimates that come before
 that event are kept until it does (the topics race), so the commands are the same at any pace. With a transport
 (issue 17, ``transport_control.TransportControl``) the estimates stamped from the end of the estimation's window on
-wait likewise for the estimator's ``mass_properties_estimated``, which starts TRANSPORT.
+wait likewise for the estimator's ``mass_properties_estimated``, which starts TRANSPORT, and in TRANSPORT those on
+the grid of the refined combined CoM (``post_capture.on_com_grid``) for its ``transport_com_estimate``.
 
 The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
@@ -57,6 +58,7 @@ import math
 
 import numpy as np
 
+from flyby_estimation.post_capture import on_com_grid
 from flyby_estimation.target_motion import ErrorStateDynamics, covariance_from_published, prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
@@ -286,6 +288,10 @@ class GuidanceCore:
             self.transport.start(event.t, transport_body(event.values, self.mass_kg, self.scenario.chaser_inertia,
                                                          self.layout, self.transport.config.plume_cone_deg))
             return self._post_commands()
+        if event.name == 'transport_com_estimate' and self.transport is not None \
+                and self.transport.t_start is not None:
+            self.transport.refine_com(event.t, event.values)
+            return self._post_commands()
         return []
 
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
@@ -336,10 +342,14 @@ class GuidanceCore:
                 self.h_wheels_n_m_s = np.clip(self.h_wheels_n_m_s, -h_max, h_max)
 
     def _waits_for_transport(self, t):
-        """True for an estimate stamped at or after the mass-property estimate's end (the excitation's start plus its
-        window) while TRANSPORT has not started: its command depends on that estimate."""
-        if self.transport is None or self.transport.t_start is not None or self.post.t_excitation is None:
+        """True for an estimate whose command depends on an estimate of the estimator still on its way: stamped at or
+        after the mass-property estimate's end (the excitation's start plus its window) while TRANSPORT has not
+        started, or in TRANSPORT on the grid of the refined combined CoM (``transport_com_estimate``) before it."""
+        if self.transport is None or self.post.t_excitation is None:
             return False
+        if self.transport.t_start is not None:  # the combined CoM refined on its grid (estimator's transport nav)
+            return on_com_grid(t, self.transport.t_start) and (
+                self.transport.t_com is None or self.transport.t_com < t - STAMP_TOLERANCE_S)
         return t >= self.post.t_excitation + self.post.config.window_s - STAMP_TOLERANCE_S
 
     def _post_commands(self):

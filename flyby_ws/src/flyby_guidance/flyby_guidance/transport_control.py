@@ -95,6 +95,11 @@ PULSE_LEAVE_N_S = 0.004  # ... or by this, at least [N s] ...
 PULSE_FORCE_TOLERANCE = 0.3  # ... and its thrusters below the bit may leave this much of its force ...
 PULSE_TORQUE_FRACTION = 5.0  # ... and this much of the first condition's angular momentum undelivered (dumped after)
 PULSE_LENGTHENINGS = 6  # ... made longer (its force halved) at most this often where the thrusters saturate
+AIM_COST_RATIO = 2.0  # ... and waits while it costs more than this many times what it takes off the judgement's error
+COM_WAIT_FACTOR = 3.0  # the trim holds its fire from an error below this many times the CoM's worth in velocity ...
+COM_SHARP_FRACTION = 0.25  # ... until that worth is this fraction of the third condition ...
+COM_FINAL_S = 1200.0  # ... or the judgement is this close [s] ...
+COM_HOLD_LIMIT = 10.0  # ... unless the error grows beyond this many times the third condition
 NAV_COAST_S = 100.0  # ... each after a coast this long from the last firing (the navigation's velocity converges)
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
 DUMP_FRACTION = 0.3  # an angular momentum worth this much of the first condition is dumped after the arrival
@@ -104,13 +109,18 @@ SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate dou
 _FIRING_N = 1e-6  # an allocation's thrust above this fires (the LP leaves ~1e-12 N on the others)
 
 
+def event_array(values, key):
+    """An event's value (text or numbers) as a float array."""
+    value = values[key]
+    return np.asarray(json.loads(value) if isinstance(value, str) else value, dtype=float)
+
+
 def transport_body(values, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_cone_deg):
     """The TransportBody of the final mass-property estimate (the ``mass_properties_estimated`` event's values, as
     text or numbers): the combined body of the chaser and the estimated target, and the thrusters whose exhaust
     misses the estimated target CoM."""
     def number(key):
-        value = values[key]
-        return np.asarray(json.loads(value) if isinstance(value, str) else value, dtype=float)
+        return event_array(values, key)
 
     target_mass = float(number('mass_kg'))
     x_s = number('com_body_m')
@@ -187,6 +197,16 @@ class TransportControl:
         self.dumped = None  # the estimated angular momentum at the last dump's start [kg m^2/s]
         self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t
         self.done = False
+        self.t_com = None  # the stamp of the last refined combined CoM taken (``refine_com``) [s] ...
+        self.com_sigma_m = None  # ... and its 1-sigma per axis [m, chaser_body]
+        self.com_hold = False  # the trim holds its fire for the CoM (``_holds_for_com``)
+
+    def refine_com(self, t_event, values):
+        """The estimator's combined CoM, refined over the coasts, stamped t_event (``transport_com_estimate``'s
+        values): the body's CoM for the estimates from t_event on, and its 1-sigma."""
+        self.t_com = t_event
+        self.body = dataclasses.replace(self.body, com_body_m=event_array(values, 'com_body_m'))
+        self.com_sigma_m = event_array(values, 'com_sigma_m')
 
     def start(self, t_event, body):
         """TRANSPORT from the final estimate stamped t_event [s], for the TransportBody of that estimate."""
@@ -544,7 +564,9 @@ class TransportControl:
         grown = h > 2.0 * self.dumped if self.dumped is not None else False
         # Beyond the first condition it is dumped again whatever follows (a thruster trim's slews left 1.9 kg m^2/s
         # on paper_flyby_transport with 57 s to go).
+        holding = self.com_hold and self._com_worth(t, t_end) is not None  # a dump ends its coast: beyond the bound
         if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s and (
+                not holding or h > planner.max_angular_momentum_kg_m2_s) and (
                 self.dumped is None or h < 0.5 * self.dumped or (grown and t + DUMP_S + self.trim_stop_s < t_end)
                 or (h > planner.max_angular_momentum_kg_m2_s and t + DUMP_S < t_end)):
             self.dumping, self.dumped = t + DUMP_S, h
@@ -568,9 +590,18 @@ class TransportControl:
             aim = -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ (state.r_hill - self.goal))
         error = state.v_hill - aim
         impulse = body.mass_kg * float(np.linalg.norm(error))
+        # What the judgement sees of it if nothing fires (CW, seed 000 eq 22): the pulse's worth.
+        judged = impulse if arrival is not None else body.mass_kg * float(np.linalg.norm(phi[3:, 3:] @ error))
         bit = body.layout.min_impulse_bit_n_s
-        if impulse <= max(cfg.replan_momentum_n_s, 0.5 * bit):
+        if judged <= max(cfg.replan_momentum_n_s, 0.5 * bit):
             return events
+        if arrival is None:
+            # A pulse that costs more than AIM_COST_RATIO times what it saves waits: CW's velocity that coasts to rest
+            # at the judgement is out of all proportion a quarter orbit before it (out of plane, 1 / cos(n T)).
+            if impulse > AIM_COST_RATIO * judged:
+                return events
+            if self._holds_for_com(t, t_end, judged):
+                return events
         d_hill = -error / float(np.linalg.norm(error))
         if not self.wheels_steer:
             # Short along the push axis by PULSE_LEAVE_FRACTION of the error (at least PULSE_LEAVE_N_S): what is
@@ -613,6 +644,25 @@ class TransportControl:
             self.trim_slew = (t, q_now, arc / angle, angle, self.trim_slew_rate)
             self.t_check = t + angle / self.trim_slew_rate + WHEEL_SPINUP_S  # the pulse as soon as it is turned
         return events
+
+    def _holds_for_com(self, t, t_end, judged):
+        """The coast that sharpens the combined CoM (the estimator's ``transport_com_estimate``): the body turns in
+        hill at n, so an error dc of the CoM is an error n x C dc of the estimated velocity. Where that is worth more
+        than COM_SHARP_FRACTION of the third condition, the trim holds its fire from the first error below
+        COM_WAIT_FACTOR times it (firing ends a coast) until the CoM is that sharp or COM_FINAL_S before the
+        judgement, unless the error grows beyond COM_HOLD_LIMIT times the condition."""
+        worth = self._com_worth(t, t_end)
+        if worth is None or judged > COM_HOLD_LIMIT * self.config.planner.max_momentum_error_n_s:
+            return False
+        self.com_hold = self.com_hold or judged < COM_WAIT_FACTOR * worth
+        return self.com_hold
+
+    def _com_worth(self, t, t_end):
+        """The combined CoM's uncertainty in momentum [N s] (``_holds_for_com``), None where it is not worth a hold."""
+        if self.com_sigma_m is None or t >= t_end - COM_FINAL_S:
+            return None
+        worth = self.body.mass_kg * self.n * float(np.linalg.norm(self.com_sigma_m))
+        return worth if worth > COM_SHARP_FRACTION * self.config.planner.max_momentum_error_n_s else None
 
     def _reference_now(self, t):
         """The trim's reference attitude (q_eci_from_body) at t."""

@@ -336,10 +336,20 @@ def angular_momentum_about_com(bodies):
     return float(np.linalg.norm(h_origin - np.cross(r_cm, p)))
 
 
-def post_capture_truth(chaser, target, wheels, thrust, scenario):
+def lock_time(events, scenario):
+    """The stamp [s] the arm locked chaser and target into one rigid body: the simulator's ``grasp_damped``, t = 0 in
+    a run that starts attached; None before."""
+    if scenario.post_capture is not None and scenario.post_capture.start == 'attached':
+        return 0.0
+    return next((float(e['t']) for e in events if e['name'] == 'grasp_damped'), None)
+
+
+def post_capture_truth(chaser, target, wheels, thrust, scenario, t_lock=None):
     """(common (N,) [s], i_c, i_t, bodies): the stamps both bodies' truth shares, their indices in the chaser's and the
     target's series, and bodies(k), the (chaser, target) grasp.Body at common[k] (truth_bodies: the wheels' nearest
-    sample at or after it, the chaser's mass less the fuel burned by then)."""
+    sample at or after it, the chaser's mass less the fuel burned by then, or by t_lock (``lock_time``) after it: the
+    plant's combined body keeps the CoM and inertia of the lock, its propellant spent at the CoM
+    (``chaser_body.SixDofChaser``'s com_body_m), so the CoM of the pair is the plant's only with the lock's masses)."""
     common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
     i_w = np.searchsorted(wheels.t, common).clip(0, len(wheels.t) - 1)
     fuel = np.concatenate(([0.0], np.cumsum(_fuel_steps(thrust, scenario)))) if thrust is not None and len(
@@ -347,7 +357,8 @@ def post_capture_truth(chaser, target, wheels, thrust, scenario):
     t_fuel = thrust.t if thrust is not None and len(thrust.t) > 1 else np.zeros(1)
 
     def bodies(k):
-        mass = scenario.chaser.mass_kg - fuel[int(np.searchsorted(t_fuel, common[k], side='right')) - 1]
+        t = common[k] if t_lock is None else min(common[k], t_lock)
+        mass = scenario.chaser.mass_kg - fuel[int(np.searchsorted(t_fuel, t, side='right')) - 1]
         return truth_bodies(i_c[k], i_t[k], chaser, target, wheels.velocity[i_w[k]], scenario, mass)
 
     return common, i_c, i_t, bodies
@@ -406,7 +417,8 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
             or target.position is None:
         return out
     t_end = float(chaser.t[-1])
-    common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario)
+    common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario,
+                                                  lock_time(events, scenario))
     t_contact, force, torque, _ = grasp_contact_series(events, common, bodies, scenario)
     if len(t_contact):
         out['peak_grasp_force_n'] = float(max(np.linalg.norm(f) for f in force))
@@ -472,7 +484,8 @@ def transport_figures(chaser, target, wheels, thrust, events, scenario):
     if t_start is None or chaser is None or target is None or chaser.angular is None or target.position is None:
         return out
     done = [e for e in events if e['name'] == 'transport_complete']
-    common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario)
+    common, i_c, i_t, bodies = post_capture_truth(chaser, target, wheels, thrust, scenario,
+                                                  lock_time(events, scenario))
     t_end = float(done[-1]['t']) if done else float(common[-1])
     k = max(int(np.searchsorted(common, t_end + 1e-9)) - 1, 0)
     miss, _, momentum, h = transport_state(bodies(k), tr.goal_hill_m, scenario.mean_motion_rad_s)
