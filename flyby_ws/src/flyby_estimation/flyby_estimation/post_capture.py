@@ -297,6 +297,12 @@ def on_com_grid(t, t_start):
     return t > t_start + STAMP_TOLERANCE_S and abs(t - round(t / COM_PERIOD_S) * COM_PERIOD_S) <= STAMP_TOLERANCE_S
 
 
+def _scaled_inverse(a):
+    """The inverse of a symmetric positive definite matrix of mixed units, scaled to a unit diagonal first."""
+    scale = 1.0 / np.sqrt(np.diag(a))
+    return scale[:, None] * np.linalg.inv(scale[:, None] * a * scale[None, :]) * scale[None, :]
+
+
 class ComCoast:
     """The combined CoM from the chaser's, refined over a coast with nothing firing (issue 17, docs/transport.md).
 
@@ -304,7 +310,10 @@ class ComCoast:
     y_k = r(t_k) + C_k p + noise: r the combined CoM's position, coasted from its state at the coast's start x0 (a
     reference coasted by the plant's relative dynamics, seed 000 eq 1 or eq 22, and the deviation from it by CW's
     transition matrix, seed 000 eq 22), C_k the attitude estimate (hill from chaser_body), p the chaser's CoM from
-    the combined one [m, chaser_body]. Unknowns: x0's deviation (6, a weak prior) and p's (3).
+    the combined one [m, chaser_body]. Unknowns: x0's deviation and p's, with the navigation filter's knowledge as
+    their prior: its state at the coast's start, which it has for p's prior mean, is off by -J dp (J the derivative
+    of the body point's state by p, seed 000 eq 8-9) and by its own covariance; so the knowledge it carried across a
+    firing (a known input) is kept (a weak prior without it).
 
     Why it sees p: a body held at rest inertially turns in hill at the orbit's rate, so C_k p traces a circle, and
     no CW coast does (CW's in-plane ellipse is twice as long along-track as it is radially, and its out-of-plane
@@ -314,16 +323,27 @@ class ComCoast:
 
     X0_PRIOR_SIGMAS = (1.0, 0.1)  # the weak prior of x0's deviation: r [m], v [m/s]
 
-    def __init__(self, t, x0, p_prior_m, p_covariance_m2, n, radius_m, dynamics, sigma_m):
+    def __init__(self, t, x0, p_prior_m, p_covariance_m2, n, radius_m, dynamics, sigma_m, x0_covariance=None,
+                 sensitivity=None):
+        """x0: the combined CoM's state at t (hill, [m, m/s]) and its 6x6 covariance given p (None: the weak prior);
+        sensitivity: J (6x3), the derivative of the chaser's CoM state in hill by p."""
         self.t0 = self.t = float(t)
         self.x_ref = [float(v) for v in x0]
         self.p_prior = np.asarray(p_prior_m, dtype=float)
         self.n, self.radius_m, self.linear = n, radius_m, dynamics == 'cw'
         self.weight = 1.0 / sigma_m**2
-        sr, sv = self.X0_PRIOR_SIGMAS
-        self.info = np.zeros((9, 9))
-        self.info[:6, :6] = np.diag([sr**-2] * 3 + [sv**-2] * 3)
-        self.info[6:, 6:] = np.linalg.inv(np.asarray(p_covariance_m2, dtype=float))
+        p_cov = np.asarray(p_covariance_m2, dtype=float)
+        cov = np.zeros((9, 9))
+        if x0_covariance is None:
+            sr, sv = self.X0_PRIOR_SIGMAS
+            cov[:6, :6] = np.diag([sr**2] * 3 + [sv**2] * 3)
+        else:
+            j = np.asarray(sensitivity, dtype=float)
+            cov[:6, :6] = np.asarray(x0_covariance, dtype=float) + j @ p_cov @ j.T
+            cov[:6, 6:] = -j @ p_cov
+            cov[6:, :6] = cov[:6, 6:].T
+        cov[6:, 6:] = p_cov
+        self.info = _scaled_inverse(cov)
         self.b = np.zeros(9)
         self.count = 0
 
@@ -353,8 +373,7 @@ class ComCoast:
 
     def solve(self):
         """(p [m], its covariance, the combined CoM's (r_hill, v_hill) at the last sample and their 6x6 covariance)."""
-        scale = 1.0 / np.sqrt(np.diag(self.info))  # columns of m and m/s, over an orbit: scaled to unit diagonal
-        cov = scale[:, None] * np.linalg.inv(scale[:, None] * self.info * scale[None, :]) * scale[None, :]
+        cov = _scaled_inverse(self.info)
         delta = cov @ self.b
         phi = cw_transition_matrix(self.n, self.t - self.t0)
         x = np.asarray(self.x_ref) + phi @ delta[:6]
@@ -456,9 +475,11 @@ class TransportNavigation:
             elif f.update(t, r_cm).accepted:
                 if self.coast is None:
                     s = f.state()
+                    sensitivity = np.vstack((c_hill, c_hill @ skew(self.last[1]) - skew((0.0, -self.n, 0.0)) @ c_hill))
                     self.coast = ComCoast(t, np.concatenate((s.r_hill, s.v_hill)), p, self.com_covariance_m2,
                                           self.n, self.scenario.orbit_radius_m, self.scenario.simulation.dynamics,
-                                          self.scenario.sensors.relative_position.noise_sigma_m)
+                                          self.scenario.sensors.relative_position.noise_sigma_m, s.covariance,
+                                          sensitivity)
                 self.coast.add(t, measured[1], c_hill)
         if not f.initialized:
             return None, None

@@ -51,6 +51,7 @@ import json
 import numpy as np
 
 from flyby_guidance.post_capture import damping_command, pulse_modulated
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import (
     TransportBody,
@@ -96,9 +97,9 @@ PULSE_FORCE_TOLERANCE = 0.3  # ... and its thrusters below the bit may leave thi
 PULSE_TORQUE_FRACTION = 5.0  # ... and this much of the first condition's angular momentum undelivered (dumped after)
 PULSE_LENGTHENINGS = 6  # ... made longer (its force halved) at most this often where the thrusters saturate
 AIM_COST_RATIO = 2.0  # ... and waits while it costs more than this many times what it takes off the judgement's error
-COM_WAIT_FACTOR = 3.0  # the trim holds its fire from an error below this many times the CoM's worth in velocity ...
-COM_SHARP_FRACTION = 0.25  # ... until that worth is this fraction of the third condition ...
-COM_FINAL_S = 1200.0  # ... or the judgement is this close [s] ...
+COM_SHARP_FRACTION = 0.25  # where the CoM's uncertainty is worth more than this of the third condition in velocity ...
+COM_WAIT_FACTOR = 3.0  # ... the trim holds its fire from an error below this many times that worth ...
+COM_FINAL_RAD = 1.2  # ... until this much of an orbit before the judgement [rad] ...
 COM_HOLD_LIMIT = 10.0  # ... unless the error grows beyond this many times the third condition
 NAV_COAST_S = 100.0  # ... each after a coast this long from the last firing (the navigation's velocity converges)
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
@@ -198,15 +199,22 @@ class TransportControl:
         self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t
         self.done = False
         self.t_com = None  # the stamp of the last refined combined CoM taken (``refine_com``) [s] ...
-        self.com_sigma_m = None  # ... and its 1-sigma per axis [m, chaser_body]
+        self.com_sigma_m = None  # ... the 1-sigma per axis [m, chaser_body] of the one taken ...
+        self.com_pending = collections.deque()  # ... and (t, com_body_m, com_sigma_m) of those for later estimates
         self.com_hold = False  # the trim holds its fire for the CoM (``_holds_for_com``)
 
     def refine_com(self, t_event, values):
         """The estimator's combined CoM, refined over the coasts, stamped t_event (``transport_com_estimate``'s
-        values): the body's CoM for the estimates from t_event on, and its 1-sigma."""
+        values): the body's CoM, and its 1-sigma, for the estimates from t_event on (the topics race: it may come
+        before the estimates stamped earlier)."""
         self.t_com = t_event
-        self.body = dataclasses.replace(self.body, com_body_m=event_array(values, 'com_body_m'))
-        self.com_sigma_m = event_array(values, 'com_sigma_m')
+        self.com_pending.append((t_event, event_array(values, 'com_body_m'), event_array(values, 'com_sigma_m')))
+
+    def _take_com(self, t):
+        """The refined combined CoM for the estimate stamped t (``refine_com``)."""
+        while self.com_pending and self.com_pending[0][0] <= t + STAMP_TOLERANCE_S:
+            _, com, self.com_sigma_m = self.com_pending.popleft()
+            self.body = dataclasses.replace(self.body, com_body_m=com)
 
     def start(self, t_event, body):
         """TRANSPORT from the final estimate stamped t_event [s], for the TransportBody of that estimate."""
@@ -240,6 +248,7 @@ class TransportControl:
 
     def _command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         zero = np.zeros(3)
+        self._take_com(t)
         cfg = self.config
         if self.done or self.t_start is None:
             return zero, zero, zero, []
@@ -564,7 +573,7 @@ class TransportControl:
         grown = h > 2.0 * self.dumped if self.dumped is not None else False
         # Beyond the first condition it is dumped again whatever follows (a thruster trim's slews left 1.9 kg m^2/s
         # on paper_flyby_transport with 57 s to go).
-        holding = self.com_hold and self._com_worth(t, t_end) is not None  # a dump ends its coast: beyond the bound
+        holding = self.com_hold and self._before_final(t, t_end)  # a dump ends its coast: beyond the bound only
         if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s and (
                 not holding or h > planner.max_angular_momentum_kg_m2_s) and (
                 self.dumped is None or h < 0.5 * self.dumped or (grown and t + DUMP_S + self.trim_stop_s < t_end)
@@ -649,20 +658,21 @@ class TransportControl:
         """The coast that sharpens the combined CoM (the estimator's ``transport_com_estimate``): the body turns in
         hill at n, so an error dc of the CoM is an error n x C dc of the estimated velocity. Where that is worth more
         than COM_SHARP_FRACTION of the third condition, the trim holds its fire from the first error below
-        COM_WAIT_FACTOR times it (firing ends a coast) until the CoM is that sharp or COM_FINAL_S before the
-        judgement, unless the error grows beyond COM_HOLD_LIMIT times the condition."""
-        worth = self._com_worth(t, t_end)
-        if worth is None or judged > COM_HOLD_LIMIT * self.config.planner.max_momentum_error_n_s:
+        COM_WAIT_FACTOR times it (a firing ends the coast) until COM_FINAL_RAD of orbit before the judgement, unless
+        the error grows beyond COM_HOLD_LIMIT times the condition. Its pulses come after the coast, also because
+        further out CW amplifies them at the judgement (an along-track velocity by 4 cos(n T) - 3, up to 7 half an
+        orbit before: a 0.01 N s bit is 0.07 N s there)."""
+        bound = self.config.planner.max_momentum_error_n_s
+        if self.com_sigma_m is None or not self._before_final(t, t_end) or judged > COM_HOLD_LIMIT * bound:
             return False
-        self.com_hold = self.com_hold or judged < COM_WAIT_FACTOR * worth
+        if not self.com_hold:
+            worth = self.body.mass_kg * self.n * float(np.linalg.norm(self.com_sigma_m))
+            self.com_hold = worth > COM_SHARP_FRACTION * bound and judged < COM_WAIT_FACTOR * worth
         return self.com_hold
 
-    def _com_worth(self, t, t_end):
-        """The combined CoM's uncertainty in momentum [N s] (``_holds_for_com``), None where it is not worth a hold."""
-        if self.com_sigma_m is None or t >= t_end - COM_FINAL_S:
-            return None
-        worth = self.body.mass_kg * self.n * float(np.linalg.norm(self.com_sigma_m))
-        return worth if worth > COM_SHARP_FRACTION * self.config.planner.max_momentum_error_n_s else None
+    def _before_final(self, t, t_end):
+        """True before the trim's last COM_FINAL_RAD of orbit."""
+        return self.n * (t_end - t) > COM_FINAL_RAD
 
     def _reference_now(self, t):
         """The trim's reference attitude (q_eci_from_body) at t."""

@@ -104,3 +104,46 @@ def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_fir
     core.on_phase(c.PHASE_CAPTURE)
     core.on_event(Event(820.0, 'WARN', 'grasp_released', 'the arm lets go', {}, 'flyby_sim'))
     assert core.on_chaser_estimate(820.1, r, np.zeros(3), q, omega) == []
+
+
+def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_whatever_came_first():
+    """Issue 17: the estimator gives the combined CoM at every stamp of its grid after the final estimate
+    (``post_capture.on_com_grid``), before the chaser estimate of that stamp, but the topics race in the graph:
+    guidance keeps the estimate of a grid stamp until the CoM of that stamp has come, and flies the body of that CoM
+    from then on; the same commands whichever came first."""
+    from flyby_estimation.post_capture import COM_PERIOD_S
+    from flyby_guidance.guidance_core import AttitudeCommandStamped
+
+    sc = load_scenario(SCENARIOS / 'paper_flyby_transport.yaml')
+    q, omega, r = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.001, -0.002, 0.003)), np.array((0.5, 3.07, 0.0))
+    t_e = 1026.3
+    grid = COM_PERIOD_S * np.ceil(t_e / COM_PERIOD_S)
+    stamps = [round(grid - 0.2 + 0.1 * k, 6) for k in range(5)]
+    estimated = Event(t_e, 'OK', 'mass_properties_estimated', 'final', {
+        'mass_kg': 1480.0, 'com_body_m': [3.12, 0.0, 0.0], 'principal_moments_kg_m2': [1000.0, 1200.0, 2000.0],
+        'principal_axes_q': [0.0, 0.0, 0.0, 1.0]}, 'flyby_estimator')
+    refined = Event(grid, 'OK', 'transport_com_estimate', 'refined', {
+        'com_body_m': [2.9, 0.004, 0.0], 'com_sigma_m': [0.001, 0.001, 0.001], 'coast_s': 300.0}, 'flyby_estimator')
+
+    def commands(event_first):
+        core = GuidanceCore(sc)
+        core.on_phase(c.PHASE_CAPTURE)
+        core.on_event(Event(820.0, 'OK', 'grasp_damped', 'the arm locks', {}, 'flyby_sim'))
+        core.post.t_excitation = 990.0
+        core.on_event(estimated)
+        out, waited = core.on_event(refined) if event_first else [], None
+        for t in stamps:
+            out += core.on_chaser_estimate(t, r, np.zeros(3), q, omega)
+            if t == grid and not event_first:
+                waited = [o for o in out if isinstance(o, AttitudeCommandStamped)][-1].t
+        out += [] if event_first else core.on_event(refined)
+        np.testing.assert_array_equal(core.transport.body.com_body_m, [2.9, 0.004, 0.0])
+        return [o for o in out if isinstance(o, AttitudeCommandStamped)], waited
+
+    (first, _), (late, waited) = commands(True), commands(False)
+    assert waited == pytest.approx(grid)  # the last command before the grid stamp's estimate: the one of grid - 0.1
+    assert [cmd.t for cmd in first] == pytest.approx([t + 0.1 for t in stamps])
+    for a, b in zip(first, late, strict=True):
+        assert a.t == b.t
+        np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
+        np.testing.assert_array_equal(a.force_body_n, b.force_body_n)

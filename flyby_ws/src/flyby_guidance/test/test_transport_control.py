@@ -8,7 +8,7 @@ import pytest
 
 from flyby_guidance.guidance_core import post_capture_config_from_scenario
 from flyby_guidance.transport_control import (
-    COM_FINAL_S,
+    COM_FINAL_RAD,
     DUMP_S,
     NAV_SETTLE_S,
     PULSE_LEAVE_FRACTION,
@@ -346,16 +346,23 @@ def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_
             np.testing.assert_allclose(wheels, [control._hold(planned.omega_body)] * len(wheels))  # rate only
 
 
+def _refined(control, t, sigma_m):
+    """The estimator's refined combined CoM (the body's own) with sigma_m, taken at t."""
+    control.refine_com(t, {'com_body_m': control.body.com_body_m.tolist(), 'com_sigma_m': sigma_m})
+    control._take_com(t)
+
+
 def test_the_trim_holds_its_fire_while_the_coasts_sharpen_the_combined_com():
-    """The body turns in hill at n, so a CoM error dc is a velocity error n x C dc of the navigation: while the CoM's
-    1-sigma is worth more than a quarter of the third condition, an error below three times that worth waits (a pulse
-    would end the coast that sharpens it), and so does every later one up to ten times the condition, until the CoM
-    is sharp or COM_FINAL_S before the judgement."""
+    """The body turns in hill at n, so a CoM error dc is a velocity error n x C dc of the navigation: where the CoM's
+    1-sigma is worth more than a quarter of the third condition, from an error below three times that worth the trim
+    holds its fire (a pulse would end the coast that sharpens it), for every later one up to ten times the
+    condition, until COM_FINAL_RAD of orbit before the judgement; a CoM sharp from the start starts no hold."""
     body, control = _planned()
     control.momentum = 0.0
     t_end = control.t_arrival + control.config.settle_s
     bound = control.config.planner.max_momentum_error_n_s
-    t = t_end - COM_FINAL_S - 500.0
+    final_s = COM_FINAL_RAD / control.n
+    t = t_end - final_s - 500.0
 
     def judged(t, times):
         """At the goal, moving along hill x (the push axis: no turn) so that the judgement sees times the bound."""
@@ -363,17 +370,17 @@ def test_the_trim_holds_its_fire_while_the_coasts_sharpen_the_combined_com():
         return _state(t, v=(-times * bound / gain, 0.0, 0.0))
     state = judged(t, 2.0)
     sigma = 2.0 * bound / (body.mass_kg * control.n)  # a CoM worth twice the condition ...
-    control.refine_com(t, {'com_body_m': body.com_body_m.tolist(), 'com_sigma_m': [sigma, 0.0, 0.0]})
+    _refined(control, t, [sigma, 0.0, 0.0])
     assert control._trim(state) == [] and control.com_hold and not control.pulses
     assert control._trim(judged(t + 100.0, 8.0)) == []  # ... held: grown to eight times the condition, within ten
     assert [e[1] for e in control._trim(judged(t + 200.0, 12.0))] == ['transport_pulse']
-    control.pulses = []
-    control.refine_com(t + 300.0, {'com_body_m': body.com_body_m.tolist(), 'com_sigma_m': [0.1 * sigma, 0.0, 0.0]})
-    assert [e[1] for e in control._trim(judged(t + 300.0, 2.0))] == ['transport_pulse']  # sharp
-    control.pulses = []
-    control.refine_com(t + 400.0, {'com_body_m': body.com_body_m.tolist(), 'com_sigma_m': [sigma, 0.0, 0.0]})
-    assert control._trim(judged(t + 400.0, 2.0)) == []
-    assert [e[1] for e in control._trim(judged(t_end - COM_FINAL_S + 1.0, 2.0))] == ['transport_pulse']
+    _refined(control, t + 250.0, [0.1 * sigma, 0.0, 0.0])
+    assert control._trim(judged(t + 300.0, 2.0)) == []  # ... held as the CoM sharpens
+    assert [e[1] for e in control._trim(judged(t_end - final_s + 1.0, 2.0))] == ['transport_pulse']
+    body, control = _planned()
+    control.momentum = 0.0
+    _refined(control, t, [0.1 * sigma, 0.0, 0.0])
+    assert [e[1] for e in control._trim(judged(t, 2.0))] == ['transport_pulse'] and not control.com_hold
 
 
 def test_a_pulse_that_costs_more_than_twice_what_the_judgement_gains_waits():
