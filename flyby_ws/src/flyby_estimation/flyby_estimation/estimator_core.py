@@ -35,7 +35,9 @@ attached, seed 004 §3.1) is attached from t = 0: no free-flight navigation, the
 (no position sensor), and the filter's run from guidance's ``excitation_scheduled``. With a transport
 (post_capture.transport, issue 17) the final estimate starts the combined body's navigation
 (``post_capture.TransportNavigation``: relative position and accelerometer), whose chaser position and velocity the
-chaser estimates carry from the next IMU sample on.
+chaser estimates carry from the next IMU sample on; at every stamp of ``post_capture.on_com_grid`` after it, before
+that stamp's chaser estimate, the combined CoM it navigates with (``transport_com_estimate``: refined over the coasts
+with nothing firing, ``post_capture.ComCoast``), which guidance waits for.
 
 The estimator node and the headless driver (flyby_guidance.closed_loop) both run ``EstimatorCore``;
 every input method returns the outputs to publish, in order.

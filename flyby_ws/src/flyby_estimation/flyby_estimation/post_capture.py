@@ -392,8 +392,14 @@ class TransportNavigation:
     its noise (one firing thruster at its minimum impulse bit gives twenty on the TugRobot). Between firings the
     body coasts on gravity alone, which the filter models (seed 000 eq 22), and integrating the accelerometer's noise
     would only walk the velocity (1e-4 m/s^2 at 10 Hz: 0.1-0.4 mm/s of error, the size of seed 004 §3.2's third
-    condition on 50 kg); the filter's white acceleration is then COAST_ACCEL_PSD_M2_S3, what CW leaves out of the
-    nonlinear relative motion within a few km (n^2 x^2 / R, 2e-7 m/s^2 at 1 km, over the filter's ~30 s memory)."""
+    condition on 50 kg); the filter's white acceleration is then the scenario's transport.nav_accel_psd_m2_s3, what
+    CW leaves out of the nonlinear relative motion within a few km (n^2 x^2 / R, 2e-7 m/s^2 at 1 km, over the filter's
+    ~30 s memory).
+
+    The combined CoM c is refined over each coast with nothing firing (no force or torque commanded, no thrust seen):
+    ``ComCoast`` from the filter's state at the coast's start, at every stamp of COM_PERIOD_S's grid from
+    COM_COAST_MIN_S of coast on; the filter then restarts from the coast's state, and the next coast's prior is c with
+    its covariance (``refine``)."""
 
     VELOCITY_SIGMA_MPS = 0.05
     ACCEL_GATE_SIGMA = 5.0

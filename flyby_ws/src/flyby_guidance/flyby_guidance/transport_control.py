@@ -40,6 +40,12 @@ Timeline, every instant a stamp (DESIGN §5):
   arrival push stops ARRIVAL_MARGIN_N_S short of rest and each trim pulse short along the push axis, so that what is
   left stays within the pure forces the thrusters give about the combined CoM at the attitude held (none against
   the push axis); an error out of reach waits, and pulses come NAV_COAST_S apart;
+* where the combined CoM's uncertainty matters (``_coasting``: on paper_flyby_transport each mm is 0.0017 N s of
+  velocity error, the body turning in hill at n), the trim lets the estimator's coasts sharpen it
+  (``transport_com_estimate``, ``refine_com``) until COM_FINAL_RAD of orbit before the judgement: it aims at no
+  along-track drift, fires only for a drift beyond COM_WAIT_FACTOR times that uncertainty, starts no transfer back and
+  dumps only beyond the first condition; then it aims at rest at the judgement, where a pulse that costs more than
+  AIM_COST_RATIO times what it takes off the judged error waits;
 * ``settle_s`` after the arrival, ``transport_complete`` with the estimated conditions, a WARN where the estimate
   misses one (the summary judges them from the truth).
 """
@@ -98,9 +104,9 @@ PULSE_TORQUE_FRACTION = 5.0  # ... and this much of the first condition's angula
 PULSE_LENGTHENINGS = 6  # ... made longer (its force halved) at most this often where the thrusters saturate
 AIM_COST_RATIO = 2.0  # ... and waits while it costs more than this many times what it takes off the judgement's error
 COM_SHARP_FRACTION = 0.25  # where the CoM's uncertainty is worth more than this of the third condition in velocity ...
-COM_WAIT_FACTOR = 3.0  # ... the trim holds its fire from an error below this many times that worth ...
+COM_WAIT_FACTOR = 3.0  # ... the trim takes out only a drift beyond this many times that worth ...
 COM_FINAL_RAD = 1.2  # ... until this much of an orbit before the judgement [rad] ...
-COM_HOLD_LIMIT = 10.0  # ... unless the error grows beyond this many times the third condition
+DRIFT_ALONG_FRACTION = 0.2  # ... along the push axis where it is at least this much along the drift's gradient
 NAV_COAST_S = 100.0  # ... each after a coast this long from the last firing (the navigation's velocity converges)
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
 DUMP_FRACTION = 0.3  # an angular momentum worth this much of the first condition is dumped after the arrival
@@ -201,7 +207,7 @@ class TransportControl:
         self.t_com = None  # the stamp of the last refined combined CoM taken (``refine_com``) [s] ...
         self.com_sigma_m = None  # ... the 1-sigma per axis [m, chaser_body] of the one taken ...
         self.com_pending = collections.deque()  # ... and (t, com_body_m, com_sigma_m) of those for later estimates
-        self.com_hold = False  # the trim holds its fire for the CoM (``_holds_for_com``)
+        self.com_worth = None  # the CoM's uncertainty in momentum at the first trim where it matters [N s] (_coasting)
 
     def refine_com(self, t_event, values):
         """The estimator's combined CoM, refined over the coasts, stamped t_event (``transport_com_estimate``'s
@@ -573,9 +579,9 @@ class TransportControl:
         grown = h > 2.0 * self.dumped if self.dumped is not None else False
         # Beyond the first condition it is dumped again whatever follows (a thruster trim's slews left 1.9 kg m^2/s
         # on paper_flyby_transport with 57 s to go).
-        holding = self.com_hold and self._before_final(t, t_end)  # a dump ends its coast: beyond the bound only
+        coasting = self._coasting(t, t_end)  # a dump ends the CoM's coast: there, beyond the first condition only
         if h > DUMP_FRACTION * planner.max_angular_momentum_kg_m2_s and (
-                not holding or h > planner.max_angular_momentum_kg_m2_s) and (
+                not coasting or h > planner.max_angular_momentum_kg_m2_s) and (
                 self.dumped is None or h < 0.5 * self.dumped or (grown and t + DUMP_S + self.trim_stop_s < t_end)
                 or (h > planner.max_angular_momentum_kg_m2_s and t + DUMP_S < t_end)):
             self.dumping, self.dumped = t + DUMP_S, h
@@ -589,28 +595,29 @@ class TransportControl:
             return events  # its last half coasts: a correction now would cost more than the miss it saves
         miss = float(np.linalg.norm(state.r_hill - self.goal))
         arrival = self.trim_arrival
-        if arrival is None and miss > cfg.replan_position_m and t + TRIM_TIME_S + self.trim_stop_s < t_end:
+        if arrival is None and miss > cfg.replan_position_m and t + TRIM_TIME_S + self.trim_stop_s < t_end \
+                and not coasting:
             arrival = t + 2.0 * p + TRIM_TIME_S  # a new transfer back, if its pulse fires now
         if arrival is not None:  # the velocity wanted now (hill): the transfer back's (seed 000 eq 28-29) ...
             dv1, _ = terminal_impulses(state.r_hill, state.v_hill, self.goal, np.zeros(3), arrival - t, self.n)
             aim = state.v_hill + dv1
+        elif coasting:  # ... or on the CoM's coast the nearest with no along-track drift (module doc) ...
+            aim = state.v_hill + self._drift_free_change(state)
         else:  # ... or the one that coasts to rest at the judgement (off the goal the body is not at rest in hill)
             phi = cw_transition_matrix(self.n, t_end - t)
             aim = -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ (state.r_hill - self.goal))
         error = state.v_hill - aim
         impulse = body.mass_kg * float(np.linalg.norm(error))
         # What the judgement sees of it if nothing fires (CW, seed 000 eq 22): the pulse's worth.
-        judged = impulse if arrival is not None else body.mass_kg * float(np.linalg.norm(phi[3:, 3:] @ error))
+        judged = impulse if arrival is not None or coasting else body.mass_kg * float(np.linalg.norm(
+            phi[3:, 3:] @ error))
         bit = body.layout.min_impulse_bit_n_s
-        if judged <= max(cfg.replan_momentum_n_s, 0.5 * bit):
+        if judged <= max(cfg.replan_momentum_n_s, 0.5 * bit, COM_WAIT_FACTOR * self.com_worth if coasting else 0.0):
             return events
-        if arrival is None:
-            # A pulse that costs more than AIM_COST_RATIO times what it saves waits: CW's velocity that coasts to rest
-            # at the judgement is out of all proportion a quarter orbit before it (out of plane, 1 / cos(n T)).
-            if impulse > AIM_COST_RATIO * judged:
-                return events
-            if self._holds_for_com(t, t_end, judged):
-                return events
+        # A pulse that costs more than AIM_COST_RATIO times what it saves waits: CW's velocity that coasts to rest at
+        # the judgement is out of all proportion a quarter orbit before it (out of plane, 1 / cos(n T)).
+        if impulse > AIM_COST_RATIO * judged:
+            return events
         d_hill = -error / float(np.linalg.norm(error))
         if not self.wheels_steer:
             # Short along the push axis by PULSE_LEAVE_FRACTION of the error (at least PULSE_LEAVE_N_S): what is
@@ -654,25 +661,37 @@ class TransportControl:
             self.t_check = t + angle / self.trim_slew_rate + WHEEL_SPINUP_S  # the pulse as soon as it is turned
         return events
 
-    def _holds_for_com(self, t, t_end, judged):
-        """The coast that sharpens the combined CoM (the estimator's ``transport_com_estimate``): the body turns in
-        hill at n, so an error dc of the CoM is an error n x C dc of the estimated velocity. Where that is worth more
-        than COM_SHARP_FRACTION of the third condition, the trim holds its fire from the first error below
-        COM_WAIT_FACTOR times it (a firing ends the coast) until COM_FINAL_RAD of orbit before the judgement, unless
-        the error grows beyond COM_HOLD_LIMIT times the condition. Its pulses come after the coast, also because
-        further out CW amplifies them at the judgement (an along-track velocity by 4 cos(n T) - 3, up to 7 half an
-        orbit before: a 0.01 N s bit is 0.07 N s there)."""
-        bound = self.config.planner.max_momentum_error_n_s
-        if self.com_sigma_m is None or not self._before_final(t, t_end) or judged > COM_HOLD_LIMIT * bound:
-            return False
-        if not self.com_hold:
-            worth = self.body.mass_kg * self.n * float(np.linalg.norm(self.com_sigma_m))
-            self.com_hold = worth > COM_SHARP_FRACTION * bound and judged < COM_WAIT_FACTOR * worth
-        return self.com_hold
+    def _drift_free_change(self, state):
+        """The least velocity change [m/s, hill] after which the body's CW coast (seed 000 eq 22) is back at its
+        along-track position an orbit later: no drift away from the goal's V-bar. Where the wheels do not steer, one
+        the thrusters give at the attitude held: along the push axis where that takes the drift out (a pulse across it
+        needs couples several times its size), else across it."""
+        row = cw_transition_matrix(self.n, 2.0 * np.pi / self.n)[0]  # along-track after an orbit
+        offset = state.r_hill - self.goal
+        drift = float(row @ np.concatenate((offset, state.v_hill))) - offset[0]
+        g = row[3:]
+        if self.wheels_steer:
+            return -drift / float(g @ g) * g
+        b_hill = quat_to_matrix(state.q_hill_from_body) @ self.b_body
+        along = float(g @ b_hill)
+        if abs(along) > DRIFT_ALONG_FRACTION * float(np.linalg.norm(g)) and drift / along < 0.0:
+            return -drift / along * b_hill
+        across = g - along * b_hill
+        return -drift / float(across @ across) * across
 
-    def _before_final(self, t, t_end):
-        """True before the trim's last COM_FINAL_RAD of orbit."""
-        return self.n * (t_end - t) > COM_FINAL_RAD
+    def _coasting(self, t, t_end):
+        """True on the coast that sharpens the combined CoM (the estimator's ``transport_com_estimate``): the body
+        turns in hill at n, so an error dc of the CoM is an error n x C dc of the estimated velocity. Where that is
+        worth more than COM_SHARP_FRACTION of the third condition at the first trim, the trim aims until COM_FINAL_RAD
+        of orbit before the judgement at no along-track drift rather than at rest at the judgement (from a radial
+        offset of metres that arc ends beyond the second condition), takes out only a drift beyond COM_WAIT_FACTOR
+        times that worth, starts no transfer back and dumps only beyond the first condition: a firing ends the coast.
+        Its pulses come after the coast, also because further out CW amplifies them at the judgement (an along-track
+        velocity by 4 cos(n T) - 3, up to 7 half an orbit before: a 0.01 N s bit is 0.07 N s there)."""
+        if self.com_worth is None and self.com_sigma_m is not None:
+            worth = self.body.mass_kg * self.n * float(np.linalg.norm(self.com_sigma_m))
+            self.com_worth = worth if worth > COM_SHARP_FRACTION * self.config.planner.max_momentum_error_n_s else 0.0
+        return bool(self.com_worth) and self.n * (t_end - t) > COM_FINAL_RAD
 
     def _reference_now(self, t):
         """The trim's reference attitude (q_eci_from_body) at t."""

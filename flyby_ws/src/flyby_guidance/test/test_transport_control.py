@@ -352,35 +352,46 @@ def _refined(control, t, sigma_m):
     control._take_com(t)
 
 
-def test_the_trim_holds_its_fire_while_the_coasts_sharpen_the_combined_com():
+def test_on_the_coms_coast_the_trim_takes_out_only_a_drift_and_starts_no_transfer_back():
     """The body turns in hill at n, so a CoM error dc is a velocity error n x C dc of the navigation: where the CoM's
-    1-sigma is worth more than a quarter of the third condition, from an error below three times that worth the trim
-    holds its fire (a pulse would end the coast that sharpens it), for every later one up to ten times the
-    condition, until COM_FINAL_RAD of orbit before the judgement; a CoM sharp from the start starts no hold."""
+    1-sigma is worth more than a quarter of the third condition, the trim lets the estimator's coast sharpen it until
+    COM_FINAL_RAD of orbit before the judgement: it aims at no along-track drift (not at rest at the judgement, whose
+    arc from a radial offset of metres ends beyond the second condition), takes out only a drift beyond three times
+    that worth, and starts no transfer back; then it aims at rest at the judgement. A CoM sharp at the first trim
+    changes nothing."""
     body, control = _planned()
     control.momentum = 0.0
     t_end = control.t_arrival + control.config.settle_s
     bound = control.config.planner.max_momentum_error_n_s
     final_s = COM_FINAL_RAD / control.n
     t = t_end - final_s - 500.0
-
-    def judged(t, times):
-        """At the goal, moving along hill x (the push axis: no turn) so that the judgement sees times the bound."""
-        gain = float(np.linalg.norm(cw_transition_matrix(control.n, t_end - t)[3:, 3])) * body.mass_kg
-        return _state(t, v=(-times * bound / gain, 0.0, 0.0))
-    state = judged(t, 2.0)
-    sigma = 2.0 * bound / (body.mass_kg * control.n)  # a CoM worth twice the condition ...
+    sigma = 2.0 * bound / (body.mass_kg * control.n)  # a CoM worth twice the condition
     _refined(control, t, [sigma, 0.0, 0.0])
-    assert control._trim(state) == [] and control.com_hold and not control.pulses
-    assert control._trim(judged(t + 100.0, 8.0)) == []  # ... held: grown to eight times the condition, within ten
-    assert [e[1] for e in control._trim(judged(t + 200.0, 12.0))] == ['transport_pulse']
-    _refined(control, t + 250.0, [0.1 * sigma, 0.0, 0.0])
-    assert control._trim(judged(t + 300.0, 2.0)) == []  # ... held as the CoM sharpens
-    assert [e[1] for e in control._trim(judged(t_end - final_s + 1.0, 2.0))] == ['transport_pulse']
+    row = cw_transition_matrix(control.n, 2.0 * np.pi / control.n)[0]  # along-track after an orbit
+    offset = np.array([0.0, 0.0, 1.0])  # 1 m radially off the goal
+
+    def drifting(t, v_x, offset=offset):
+        """Along hill x (the push axis: no turn) at v_x beyond the velocity with no drift [m/s]."""
+        v0 = -(row[:3] @ offset - offset[0]) / row[3]
+        return _state(t, r=control.goal + offset, v=(v0 + v_x, 0.0, 0.0))
+    assert control._trim(drifting(t, 0.0)) == [] and not control.pulses  # at rest at the judgement would need a pulse
+    assert control._trim(drifting(t, -5.0 * bound / body.mass_kg)) == []  # 2.5 times the worth: left
+    events = control._trim(drifting(t, -7.0 * bound / body.mass_kg))
+    assert [e[1] for e in events] == ['transport_pulse']
+    t_a, t_b, force, _ = control.pulses[0]
+    v_after = drifting(t, -7.0 * bound / body.mass_kg).v_hill + force * (t_b - t_a) / body.mass_kg
+    assert abs(row @ np.concatenate((offset, v_after)) - offset[0]) < 1e-9  # no along-track drift left
+    control.pulses = []
+    far = np.array([0.0, 0.0, 8.0])  # beyond replan_position_m: no transfer back on the coast
+    assert [e[1] for e in control._trim(drifting(t + 100.0, -7.0 * bound / body.mass_kg, far))] == ['transport_pulse']
+    assert control.trim_arrival is None
+    control.pulses = []
+    late = drifting(t_end - final_s + 1.0, 0.0)  # no drift, but not at rest at the judgement: the wheels turn the
+    assert control._trim(late) == [] and control.trim_slew[3] > 0.0  # push axis onto the error for its pulse
     body, control = _planned()
     control.momentum = 0.0
     _refined(control, t, [0.1 * sigma, 0.0, 0.0])
-    assert [e[1] for e in control._trim(judged(t, 2.0))] == ['transport_pulse'] and not control.com_hold
+    assert control._trim(drifting(t, 0.0)) == [] and control.trim_slew[3] > 0.0 and control.com_worth == 0.0
 
 
 def test_a_pulse_that_costs_more_than_twice_what_the_judgement_gains_waits():
