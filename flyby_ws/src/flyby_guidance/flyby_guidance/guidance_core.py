@@ -208,7 +208,8 @@ class GuidanceCore:
             if scenario.post_capture.transport is not None:
                 self.transport = TransportControl(transport_guidance_config_from_scenario(
                     scenario, self.attitude.config.control_period_s), self.n, self.post.config.gains,
-                    float(self.attitude.wheels.max_torque_n_m.min()))
+                    float(self.attitude.wheels.max_torque_n_m.min()),
+                    float(np.min(self.attitude.wheels.max_momentum_n_m_s)))
             # (t, r_hill, v_hill, q_hill_from_body, omega_body) not yet commanded
             self.post_waiting = collections.deque()
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)

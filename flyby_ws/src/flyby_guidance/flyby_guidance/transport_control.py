@@ -106,6 +106,8 @@ AIM_COST_RATIO = 2.0  # ... and waits while it costs more than this many times w
 COM_SHARP_FRACTION = 0.25  # where the CoM's uncertainty is worth more than this of the third condition in velocity ...
 COM_WAIT_FACTOR = 3.0  # ... the trim takes out only a drift beyond this many times that worth ...
 COM_FINAL_RAD = 1.2  # ... until this much of an orbit before the judgement [rad] ...
+COAST_SLEW_MOMENTUM_FRACTION = 0.6  # ... meanwhile a wheel slew at this much of the wheels' momentum ...
+COAST_SLEW_MARGIN_S = 300.0  # ... done this long before its end [s] ...
 DRIFT_ALONG_FRACTION = 0.2  # ... along the push axis where it is at least this much along the drift's gradient
 NAV_COAST_S = 100.0  # ... each after a coast this long from the last firing (the navigation's velocity converges)
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
@@ -176,12 +178,14 @@ class TransportControl:
     events) for the control period that starts one period after the estimate's stamp (torque about the chaser's CoM,
     DESIGN §10)."""
 
-    def __init__(self, config, n, gains, wheel_max_torque_n_m):
-        """gains: the capture's DampingGains (the detumbling and, its wheel gain, the hold before the plan)."""
+    def __init__(self, config, n, gains, wheel_max_torque_n_m, wheel_max_momentum_n_m_s=None):
+        """gains: the capture's DampingGains (the detumbling and, its wheel gain, the hold before the plan); the
+        wheels' momentum bounds the CoM's coast slew (none without it)."""
         self.config = config
         self.n = n
         self.gains = gains
         self.wheel_max_torque_n_m = wheel_max_torque_n_m
+        self.wheel_max_momentum_n_m_s = wheel_max_momentum_n_m_s
         self.t_detumbled = None
         self.rates = collections.deque()  # (t, omega_body) over the last DETUMBLED_S
         self.momentum = None  # the estimated angular momentum, the rate averaged over DETUMBLED_S [kg m^2/s]
@@ -208,6 +212,7 @@ class TransportControl:
         self.com_sigma_m = None  # ... the 1-sigma per axis [m, chaser_body] of the one taken ...
         self.com_pending = collections.deque()  # ... and (t, com_body_m, com_sigma_m) of those for later estimates
         self.com_worth = None  # the CoM's uncertainty in momentum at the first trim where it matters [N s] (_coasting)
+        self.coast_slew = False  # the coast's wheel slew is planned (``_plan_coast_slew``)
 
     def refine_com(self, t_event, values):
         """The estimator's combined CoM, refined over the coasts, stamped t_event (``transport_com_estimate``'s
@@ -295,8 +300,8 @@ class TransportControl:
             wheels, hold = self._track(state), zero
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
             flying = t_mid < max(b.t_start_s + b.duration_s for b in self.plan.burns)
-            wheels, hold = (self._hold(omega) if at_rest else zero), (
-                -self._attitude_torque(state) if flying else zero)
+            wheels = self._track(state) if self.coast_slew else (self._hold(omega) if at_rest else zero)
+            hold = -self._attitude_torque(state) if flying else zero
         if self.dumping is not None:
             return (*self._dump(t, state, h_wheels), wheels, events)
         for t_a, t_b, force, torque in self.pulses:
@@ -613,6 +618,8 @@ class TransportControl:
             phi[3:, 3:] @ error))
         bit = body.layout.min_impulse_bit_n_s
         if judged <= max(cfg.replan_momentum_n_s, 0.5 * bit, COM_WAIT_FACTOR * self.com_worth if coasting else 0.0):
+            if coasting and not self.wheels_steer and not self.coast_slew:
+                events += self._plan_coast_slew(state, t_end)
             return events
         # A pulse that costs more than AIM_COST_RATIO times what it saves waits: CW's velocity that coasts to rest at
         # the judgement is out of all proportion a quarter orbit before it (out of plane, 1 / cos(n T)).
@@ -661,6 +668,46 @@ class TransportControl:
             self.t_check = t + angle / self.trim_slew_rate + WHEEL_SPINUP_S  # the pulse as soon as it is turned
         return events
 
+    def _plan_coast_slew(self, state, t_end):
+        """Where the wheels do not steer, on the CoM's coast once its drift is out: a wheel slew that turns the push
+        axis onto the velocity change the pulses after the coast need (CW, seed 000 eq 22: at rest at the judgement).
+        The body is at rest inertially, so the axis turns in hill at n, and a drift-free relative orbit's velocity
+        turns with it: a change against the axis at the coast's end would stay out of reach (paper_flyby_transport
+        seeds 2-3 ended at 0.8 and 0.5 N s so). At COAST_SLEW_MOMENTUM_FRACTION of the wheels' momentum (about 1e-3
+        rad/s on 3000 kg m^2), done COAST_SLEW_MARGIN_S before the coast's end, or none; the wheels then hold the
+        attitude. Nothing fires: the CoM's coast goes on, and sees the CoM better for the turn."""
+        self.coast_slew = True
+        t_f = t_end - COM_FINAL_RAD / self.n
+        phi_t = cw_transition_matrix(self.n, t_end - t_f)
+        to_rest = -np.linalg.solve(phi_t[3:, 3:], phi_t[3:, :3])  # the velocity at t_f that coasts to rest at t_end
+        x_f = cw_transition_matrix(self.n, t_f - state.t) @ np.concatenate((state.r_hill - self.goal, state.v_hill))
+        wanted = to_rest @ x_f[:3] - x_f[3:]
+        if self.wheel_max_momentum_n_m_s is None or not np.any(wanted):
+            self.coast_slew = False
+            return []
+        q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
+        d_eci = hill_axes_in_eci(t_f, self.n) @ (wanted / float(np.linalg.norm(wanted)))
+        q_goal = quat_multiply(quat_shortest_arc(quat_rotate(q_est, self.b_body), d_eci), q_est)
+        arc = rotation_vector_from_quat(quat_multiply(q_goal, quat_conjugate(q_est)))
+        angle = float(np.linalg.norm(arc))
+        if angle == 0.0:
+            return []
+        axis = arc / angle
+        axis_body = quat_rotate(quat_conjugate(q_est), axis)
+        rate = COAST_SLEW_MOMENTUM_FRACTION * self.wheel_max_momentum_n_m_s / float(
+            axis_body @ self.body.inertia_body_kg_m2 @ axis_body)
+        if state.t + angle / rate + COAST_SLEW_MARGIN_S > t_f:
+            self.coast_slew = False
+            return [('WARN', 'transport_coast_slew', f'no time on the coast for the wheels to turn the push axis '
+                                                     f'{np.degrees(angle):.0f} deg at {rate:.2g} rad/s',
+                     {'angle_deg': float(np.degrees(angle)), 'rate_rad_s': rate})]
+        self.trim_slew = (state.t, q_est, axis, angle, rate)
+        impulse = self.body.mass_kg * float(np.linalg.norm(wanted))
+        return [('OK', 'transport_coast_slew', f'the wheels turn the push axis {np.degrees(angle):.0f} deg at '
+                                               f'{rate:.2g} rad/s onto the {impulse:.3g} N s the pulses after the '
+                                               f'coast need', {'angle_deg': float(np.degrees(angle)),
+                                                               'rate_rad_s': rate, 'impulse_n_s': impulse})]
+
     def _drift_free_change(self, state):
         """The least velocity change [m/s, hill] after which the body's CW coast (seed 000 eq 22) is back at its
         along-track position an orbit later: no drift away from the goal's V-bar. Where the wheels do not steer, one
@@ -674,9 +721,10 @@ class TransportControl:
             return -drift / float(g @ g) * g
         b_hill = quat_to_matrix(state.q_hill_from_body) @ self.b_body
         along = float(g @ b_hill)
-        if abs(along) > DRIFT_ALONG_FRACTION * float(np.linalg.norm(g)) and drift / along < 0.0:
-            return -drift / along * b_hill
         across = g - along * b_hill
+        if abs(along) > DRIFT_ALONG_FRACTION * float(np.linalg.norm(g)) and (
+                drift / along <= 0.0 or float(across @ across) == 0.0):
+            return -drift / along * b_hill
         return -drift / float(across @ across) * across
 
     def _coasting(self, t, t_end):

@@ -1,6 +1,7 @@
 """Guidance in TRANSPORT (issue 17, transport_control): the body it plans for from the final mass-property estimate,
 the detumbling first, the plan once detumbled and navigated, the closed-loop push and spin-down."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 
 from flyby_guidance.guidance_core import post_capture_config_from_scenario
 from flyby_guidance.transport_control import (
+    COAST_SLEW_MOMENTUM_FRACTION,
     COM_FINAL_RAD,
     DUMP_S,
     NAV_SETTLE_S,
@@ -25,8 +27,15 @@ from flyby_planner.transport import TransportState, propagate
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
-from flyby_sim.dynamics.orbital import cw_transition_matrix, q_hill_from_body
-from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_shortest_arc, quat_to_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_hill_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_rotate,
+    quat_shortest_arc,
+    quat_to_matrix,
+)
 from flyby_sim.scenario import load_scenario
 
 SCENARIO = Path(__file__).resolve().parents[4] / 'scenarios' / 'matsunaga_orbit_advance.yaml'
@@ -392,6 +401,16 @@ def test_on_the_coms_coast_the_trim_takes_out_only_a_drift_and_starts_no_transfe
     control.momentum = 0.0
     _refined(control, t, [0.1 * sigma, 0.0, 0.0])
     assert control._trim(drifting(t, 0.0)) == [] and control.trim_slew[3] > 0.0 and control.com_worth == 0.0
+    # Where the wheels do not steer, the drift is taken out along the push axis (a pulse across it needs couples
+    # several times its size), here hill x turned 30 deg toward -z: along it, not along the drift's gradient.
+    control.wheels_steer = False
+    tilted = quat_from_rotation_vector((0.0, np.radians(30.0), 0.0))
+    state = drifting(t, -7.0 * bound / body.mass_kg)._replace(q_hill_from_body=tilted)
+    change = control._drift_free_change(state)
+    b_hill = quat_to_matrix(tilted) @ control.b_body
+    np.testing.assert_allclose(np.cross(change, b_hill), 0.0, atol=1e-12)
+    assert change @ b_hill > 0.0
+    assert abs(row @ np.concatenate((offset, state.v_hill + change)) - offset[0]) < 1e-9
 
 
 def test_a_pulse_that_costs_more_than_twice_what_the_judgement_gains_waits():
@@ -407,3 +426,38 @@ def test_a_pulse_that_costs_more_than_twice_what_the_judgement_gains_waits():
     assert control._trim(_state(quarter, q_y, v=(0.0, v_y, 0.0))) == [] and not control.pulses
     events = control._trim(_state(t_end - 100.0, q_y, v=(0.0, v_y, 0.0)))
     assert [e[1] for e in events] == ['transport_pulse']
+
+
+def test_on_the_coms_coast_the_wheels_turn_the_push_axis_onto_the_change_the_last_pulses_need():
+    """Where the wheels do not steer, the push axis is fixed inertially and turns in hill at n, and a drift-free
+    relative orbit's velocity turns with it: a change the pulses after the coast need against the axis would stay out
+    of reach (paper_flyby_transport seeds 2-3 ended at 0.8 and 0.5 N s so). Once the drift is out, the wheels turn the
+    axis onto that change (CW to the coast's end, then the velocity that coasts to rest at the judgement), at most
+    COAST_SLEW_MOMENTUM_FRACTION of their momentum, and hold it there; nothing fires."""
+    body, control = _planned()
+    control.momentum = 0.0
+    control.wheels_steer, control.wheel_max_momentum_n_m_s = False, 4.0
+    control.config = dataclasses.replace(control.config, settle_s=4000.0)  # the coast after the plan's last burn
+    t_end = control.t_arrival + control.config.settle_s
+    bound = control.config.planner.max_momentum_error_n_s
+    t = t_end - COM_FINAL_RAD / control.n - 500.0
+    _refined(control, t, [2.0 * bound / (body.mass_kg * control.n), 0.0, 0.0])
+    row = cw_transition_matrix(control.n, 2.0 * np.pi / control.n)[0]
+    offset = np.array([0.0, 0.0, 1.0])  # 1 m radially off the goal, with no drift
+    state = _state(t, r=control.goal + offset, v=(-(row[:3] @ offset - offset[0]) / row[3], 0.0, 0.0))
+    events = control._trim(state)
+    assert [e[1] for e in events] == ['transport_coast_slew'] and not control.pulses
+    t0, q0, axis, angle, rate = control.trim_slew
+    axis_body = quat_rotate(quat_conjugate(q0), axis)
+    assert rate == pytest.approx(COAST_SLEW_MOMENTUM_FRACTION * 4.0 / (axis_body @ body.inertia_body_kg_m2 @ axis_body))
+    t_f = t_end - COM_FINAL_RAD / control.n
+    x_f = cw_transition_matrix(control.n, t_f - t) @ np.concatenate((offset, state.v_hill))
+    phi_t = cw_transition_matrix(control.n, t_end - t_f)
+    wanted = -np.linalg.solve(phi_t[3:, 3:], phi_t[3:, :3] @ x_f[:3]) - x_f[3:]
+    b_f = quat_rotate(quat_multiply(quat_from_rotation_vector(angle * axis), q0), control.b_body)
+    np.testing.assert_allclose(b_f, hill_axes_in_eci(t_f, control.n) @ (wanted / np.linalg.norm(wanted)), atol=1e-9)
+    assert t + angle / rate < t_f
+    force, torque, wheels, _ = control.command(t + 1.0, state.r_hill - quat_to_matrix(state.q_hill_from_body)
+                                               @ body.com_body_m, state.v_hill, state.q_hill_from_body, np.zeros(3),
+                                               np.zeros(3))
+    assert not np.any(force) and not np.any(torque) and np.any(wheels)  # the wheels turn it, nothing fires
