@@ -35,7 +35,8 @@ different route than flyby_planner.summary takes, from truth alone:
   sphere up to the capture (the whole run's fuel); the grasp's peak contact force and torque from the two bodies'
   truth by the arm's impedance written out here with scipy's rotations (the summary: flyby_sim.dynamics.grasp), the
   combined body's angular momentum about its CoM at the end of DAMPING as the sum of both bodies' spin, orbital
-  momentum about the common CoM and the wheels' (the summary: grasp.momentum about the origin, moved); the
+  momentum about the common CoM and the wheels' (the summary: grasp.momentum about the origin, moved), the chaser's
+  mass less the fuel burned up to the arm's lock (the simulator's combined body keeps the lock's CoM); the
   estimates from the last /estimation/target/inertia message (the summary reads the estimator's final event): its
   mass and CoM, and the principal moments and axes of its inertia by eigendecomposition; their errors against the
   truth at that message's stamp; a run that starts attached has only the estimates.
@@ -365,9 +366,13 @@ def recompute(bag_dir, scenario, namespace=''):
         if scenario.post_capture is not None:
             fuel_t = thrust.t[1:] if thrust is not None and len(thrust.t) > 1 else np.zeros(0)
             fuel_cum = np.cumsum(fuel_steps) if len(fuel_t) else np.zeros(0)
+            # The simulator's combined body keeps the CoM and inertia of the arm's lock (its grasp_damped, t = 0 for
+            # a start attached) while its propellant burns: the pair's masses stay the lock's after it.
+            t_lock = 0.0 if scenario.post_capture.start == 'attached' else next(
+                (e['t'] for e in events if e['name'] == 'grasp_damped'), float('inf'))
 
             def fuel_at(t):
-                n = int(np.searchsorted(fuel_t, t + 1e-9))
+                n = int(np.searchsorted(fuel_t, min(t, t_lock) + 1e-9))
                 return float(fuel_cum[n - 1]) if n else 0.0
             out.update(post_capture(bag_dir, scenario, chaser, target, events, fuel_at, namespace))
             if scenario.post_capture.transport is not None:
