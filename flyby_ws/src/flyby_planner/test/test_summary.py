@@ -120,3 +120,34 @@ def test_sync_figures_peaks_by_phase_and_the_relative_attitude_drift_against_a_h
     assert out['relative_attitude_drift_max_deg'] == pytest.approx(1.0, abs=1e-9)
     events[0]['values']['method'] = 'optimal'
     assert set(sync_figures(chaser, target, ThrustTruth(t, force, torque), events, 20.0).values()) == {None}
+
+
+def test_after_the_arms_lock_the_pair_keeps_the_locks_masses():
+    """The simulator welds the pair at the arm's lock (grasp_damped; t = 0 for a start attached) into one rigid body
+    whose CoM and inertia stay the lock's while its propellant burns (chaser_body.SixDofChaser's com_body_m): the
+    truth's pair keeps the chaser's mass at the lock, or its CoM would be a point of the body off the plant's, turning
+    with it (on paper_flyby_transport 2.8 mm and 0.005 N s of the judged momentum). Before the lock the chaser's mass
+    is less the fuel burned by then."""
+    from flyby_planner.summary import WheelTruth, lock_time, post_capture_truth
+
+    sc = load_scenario(SCENARIOS / 'paper_flyby_transport.yaml')
+    t = np.arange(0.0, 10.0 + 1e-9, 1.0)
+    n_thrusters = len(sc.chaser.thrusters.layout)
+    chaser = ChaserTruth(t, np.zeros((len(t), 3)), np.zeros((len(t), 3)), np.tile((0.0, 0.0, 0.0, 1.0), (len(t), 1)),
+                         np.zeros((len(t), 3)))
+    target = TargetTruth(t, np.tile((0.0, 0.0, 0.0, 1.0), (len(t), 1)), np.zeros((len(t), 3)),
+                         np.tile((3.0, 0.0, 0.0), (len(t), 1)), np.zeros((len(t), 3)))
+    thrusters = np.zeros((len(t), n_thrusters))
+    thrusters[:, 0] = 10.0  # one thruster at 10 N all along: 10 N s a step
+    thrust = ThrustTruth(t, np.zeros((len(t), 3)), np.zeros((len(t), 3)), thrusters)
+    wheels = WheelTruth(t, np.zeros((len(t), 3)))
+    burnt = 10.0 / (sc.chaser.thrusters.isp_s * G0_MPS2)  # [kg] a step
+    events = [{'t': 4.0, 'name': 'grasp_damped', 'values': {}}]
+    assert lock_time(events, sc) == 4.0 and lock_time([], sc) is None
+    _, _, _, bodies = post_capture_truth(chaser, target, wheels, thrust, sc, lock_time(events, sc))
+    masses = [bodies(k)[0].mass_kg for k in range(len(t))]
+    np.testing.assert_allclose(masses, sc.chaser.mass_kg - burnt * np.minimum(t, 4.0), rtol=1e-12)
+    _, _, _, bodies = post_capture_truth(chaser, target, wheels, thrust, sc)
+    assert bodies(10)[0].mass_kg == pytest.approx(sc.chaser.mass_kg - 10.0 * burnt, rel=1e-12)
+    attached = load_scenario(SCENARIOS / 'matsunaga_orbit_advance.yaml')
+    assert lock_time([], attached) == 0.0
