@@ -345,7 +345,6 @@ class ComCoast:
         cov[6:, 6:] = p_cov
         self.info = _scaled_inverse(cov)
         self.b = np.zeros(9)
-        self.count = 0
 
     @property
     def duration_s(self):
@@ -369,7 +368,6 @@ class ComCoast:
         residual = np.asarray(y_chaser_hill, dtype=float) - np.asarray(self.x_ref[:3]) - c @ self.p_prior
         self.info += self.weight * (h_row.T @ h_row)
         self.b += self.weight * (h_row.T @ residual)
-        self.count += 1
 
     def solve(self):
         """(p [m], its covariance, the combined CoM's (r_hill, v_hill) at the last sample and their 6x6 covariance)."""
@@ -487,12 +485,11 @@ class TransportNavigation:
                                           self.scenario.sensors.relative_position.noise_sigma_m, s.covariance,
                                           sensitivity)
                 self.coast.add(t, measured[1], c_hill)
+        refined = self.refine(t) if on_com_grid(t, self.t_start) else None  # on its grid whatever (guidance waits)
         if not f.initialized:
-            return None, None
-        refined = self.refine(t) if on_com_grid(t, self.t_start) else None
+            return None, refined
         if refined is not None:
-            p = -self.com_body_m
-            r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)
+            r_point, v_point = body_point_state(c_hill, self.last[1], -self.com_body_m, self.n)
         if f.t < t:
             f.propagate_to(t)
         s = f.state()
