@@ -44,8 +44,9 @@ Timeline, every instant a stamp (DESIGN §5):
   velocity error, the body turning in hill at n), the trim lets the estimator's coasts sharpen it
   (``transport_com_estimate``, ``refine_com``) until COM_FINAL_RAD of orbit before the judgement: it aims at no
   along-track drift, fires only for a drift beyond COM_WAIT_FACTOR times that uncertainty, starts no transfer back and
-  dumps only beyond the first condition; then it aims at rest at the judgement, where a pulse that costs more than
-  AIM_COST_RATIO times what it takes off the judged error waits;
+  dumps only beyond the first condition, and where the wheels do not steer they turn the push axis onto the change
+  the pulses after the coast need (``_plan_coast_slew``); then it aims at rest at the judgement, where a pulse that
+  costs more than AIM_COST_RATIO times what it takes off the judged error waits;
 * ``settle_s`` after the arrival, ``transport_complete`` with the estimated conditions, a WARN where the estimate
   misses one (the summary judges them from the truth).
 """
@@ -102,13 +103,13 @@ PULSE_LEAVE_N_S = 0.004  # ... or by this, at least [N s] ...
 PULSE_FORCE_TOLERANCE = 0.3  # ... and its thrusters below the bit may leave this much of its force ...
 PULSE_TORQUE_FRACTION = 5.0  # ... and this much of the first condition's angular momentum undelivered (dumped after)
 PULSE_LENGTHENINGS = 6  # ... made longer (its force halved) at most this often where the thrusters saturate
-AIM_COST_RATIO = 2.0  # ... and waits while it costs more than this many times what it takes off the judgement's error
+AIM_COST_RATIO = 2.0  # a trim pulse waits while it costs more than this many times what it takes off the judged error
 COM_SHARP_FRACTION = 0.25  # where the CoM's uncertainty is worth more than this of the third condition in velocity ...
 COM_WAIT_FACTOR = 3.0  # ... the trim takes out only a drift beyond this many times that worth ...
+DRIFT_ALONG_FRACTION = 0.2  # ... along the push axis where it is at least this much along the drift's gradient ...
 COM_FINAL_RAD = 1.2  # ... until this much of an orbit before the judgement [rad] ...
 COAST_SLEW_MOMENTUM_FRACTION = 0.6  # ... meanwhile a wheel slew at this much of the wheels' momentum ...
-COAST_SLEW_MARGIN_S = 300.0  # ... done this long before its end [s] ...
-DRIFT_ALONG_FRACTION = 0.2  # ... along the push axis where it is at least this much along the drift's gradient
+COAST_SLEW_MARGIN_S = 300.0  # ... done this long before the coast's end [s]
 NAV_COAST_S = 100.0  # ... each after a coast this long from the last firing (the navigation's velocity converges)
 TRIM_POINTING_RAD = 0.05  # a trim pulse along the push axis fires with it this close to the velocity error
 DUMP_FRACTION = 0.3  # an angular momentum worth this much of the first condition is dumped after the arrival
