@@ -55,10 +55,9 @@ from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.orbital import (
-    cw_accel_components,
     cw_transition_matrix,
-    nonlinear_relative_accel_components,
     q_eci_from_body,
+    relative_accel_components,
     rk4_step_floats,
 )
 from flyby_sim.dynamics.rotation import (
@@ -330,7 +329,7 @@ class ComCoast:
         self.t0 = self.t = float(t)
         self.x_ref = [float(v) for v in x0]
         self.p_prior = np.asarray(p_prior_m, dtype=float)
-        self.n, self.radius_m, self.linear = n, radius_m, dynamics == 'cw'
+        self.n, self.accel = n, relative_accel_components(dynamics, n, radius_m)
         self.weight = 1.0 / sigma_m**2
         p_cov = np.asarray(p_covariance_m2, dtype=float)
         cov = np.zeros((9, 9))
@@ -351,10 +350,7 @@ class ComCoast:
         return self.t - self.t0
 
     def _rhs(self, _t, y):
-        r, v = y[:3], y[3:]
-        a = (cw_accel_components(r, v, self.n) if self.linear
-             else nonlinear_relative_accel_components(r, v, self.n, self.radius_m))
-        return [*v, *a]
+        return [*y[3:], *self.accel(y[:3], y[3:], (0.0, 0.0, 0.0))]
 
     def add(self, t, y_chaser_hill, c_hill_from_body):
         """The relative position of the chaser's CoM at t [m, hill] with the attitude estimate then."""
@@ -479,7 +475,9 @@ class TransportNavigation:
             elif f.update(t, r_cm).accepted:
                 if self.coast is None:
                     s = f.state()
-                    sensitivity = np.vstack((c_hill, c_hill @ skew(self.last[1]) - skew((0.0, -self.n, 0.0)) @ c_hill))
+                    # eq 8-9 are linear in the body point: at the unit vectors they give d(r, v)/dp, column by column
+                    r_unit, v_unit = body_point_state(c_hill, self.last[1], np.eye(3), self.n)
+                    sensitivity = np.vstack((r_unit.T, v_unit.T))
                     self.coast = ComCoast(t, np.concatenate((s.r_hill, s.v_hill)), p, self.com_covariance_m2,
                                           self.n, self.scenario.orbit_radius_m, self.scenario.simulation.dynamics,
                                           self.scenario.sensors.relative_position.noise_sigma_m, s.covariance,

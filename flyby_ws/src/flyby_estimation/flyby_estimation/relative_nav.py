@@ -74,7 +74,7 @@ from filterpy.kalman import KalmanFilter
 
 from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
 from flyby_sim.dynamics.checks import require_positive
-from flyby_sim.dynamics.orbital import cw_accel, cw_coast, cw_transition_matrix, nonlinear_relative_accel, rk4_step
+from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix, relative_accel_components, rk4_step
 from flyby_sim.dynamics.propulsion import (
     BurnRequest,
     ManeuverRejected,
@@ -499,11 +499,7 @@ class RelativeNavFilter(FilterBase):
         return phi_q
 
     def _accel_fn(self, linear):
-        n = self._n
-        if linear or self.config.dynamics == 'cw':
-            return lambda r, v, a: cw_accel(r, v, n, a)
-        radius_m = self.config.radius_m
-        return lambda r, v, a: nonlinear_relative_accel(r, v, n, radius_m, a)
+        return relative_accel_components('cw' if linear else self.config.dynamics, self._n, self.config.radius_m)
 
     def _integrate(self, x, t0, dt, burn, linear=False):
         """RK4 of the relative dynamics from (t0, x) over dt with the burn's thrust (or none)."""

@@ -129,12 +129,10 @@ def transport_body(values, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_c
     """The TransportBody of the final mass-property estimate (the ``mass_properties_estimated`` event's values, as
     text or numbers): the combined body of the chaser and the estimated target, and the thrusters whose exhaust
     misses the estimated target CoM."""
-    def number(key):
-        return event_array(values, key)
-
-    target_mass = float(number('mass_kg'))
-    x_s = number('com_body_m')
-    inertia_target = inertia_from_principal(number('principal_moments_kg_m2'), number('principal_axes_q'))
+    target_mass = float(event_array(values, 'mass_kg'))
+    x_s = event_array(values, 'com_body_m')
+    inertia_target = inertia_from_principal(event_array(values, 'principal_moments_kg_m2'),
+                                            event_array(values, 'principal_axes_q'))
     props = combined_mass_properties(chaser_mass_kg, chaser_inertia_kg_m2, target_mass, x_s, inertia_target)
     return TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
                          layout.subset(plume_free_thrusters(layout, x_s, plume_cone_deg)))
@@ -610,8 +608,7 @@ class TransportControl:
         elif coasting:  # ... or on the CoM's coast the nearest with no along-track drift (module doc) ...
             aim = state.v_hill + self._drift_free_change(state)
         else:  # ... or the one that coasts to rest at the judgement (off the goal the body is not at rest in hill)
-            phi = cw_transition_matrix(self.n, t_end - t)
-            aim = -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ (state.r_hill - self.goal))
+            aim, phi = self._to_rest(state.r_hill - self.goal, t_end - t)
         error = state.v_hill - aim
         impulse = body.mass_kg * float(np.linalg.norm(error))
         # What the judgement sees of it if nothing fires (CW, seed 000 eq 22): the pulse's worth.
@@ -679,10 +676,8 @@ class TransportControl:
         attitude. Nothing fires: the CoM's coast goes on, and sees the CoM better for the turn."""
         self.coast_slew = True
         t_f = t_end - COM_FINAL_RAD / self.n
-        phi_t = cw_transition_matrix(self.n, t_end - t_f)
-        to_rest = -np.linalg.solve(phi_t[3:, 3:], phi_t[3:, :3])  # the velocity at t_f that coasts to rest at t_end
         x_f = cw_transition_matrix(self.n, t_f - state.t) @ np.concatenate((state.r_hill - self.goal, state.v_hill))
-        wanted = to_rest @ x_f[:3] - x_f[3:]
+        wanted = self._to_rest(x_f[:3], t_end - t_f)[0] - x_f[3:]
         if self.wheel_max_momentum_n_m_s is None or not np.any(wanted):
             self.coast_slew = False
             return []
@@ -708,6 +703,12 @@ class TransportControl:
                                                f'{rate:.2g} rad/s onto the {impulse:.3g} N s the pulses after the '
                                                f'coast need', {'angle_deg': float(np.degrees(angle)),
                                                                'rate_rad_s': rate, 'impulse_n_s': impulse})]
+
+    def _to_rest(self, offset_hill_m, dt_s):
+        """(the velocity [m/s, hill] at offset_hill_m from the goal whose CW coast is at rest dt_s later, seed 000
+        eq 22; the transition matrix over dt_s)."""
+        phi = cw_transition_matrix(self.n, dt_s)
+        return -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ offset_hill_m), phi
 
     def _drift_free_change(self, state):
         """The least velocity change [m/s, hill] after which the body's CW coast (seed 000 eq 22) is back at its

@@ -56,13 +56,12 @@ from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.grasp import Body, Contact, Impedance, simulate_grasp, weld
 from flyby_sim.dynamics.orbital import (
-    cw_accel_components,
     mean_motion_rad_s,
-    nonlinear_relative_accel_components,
     q_eci_from_body,
     q_hill_from_body,
     q_hill_from_body_many,
     quat_eci_from_hill,
+    relative_accel_components,
     rk4_step_floats,
 )
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
@@ -249,11 +248,7 @@ class Plant:
         self.config = config
         n = mean_motion_rad_s(config.radius_m, config.mu)
         self.mean_motion_rad_s = n
-        if config.dynamics == 'nonlinear':
-            radius_m = config.radius_m
-            self._accel = lambda r, v, a: nonlinear_relative_accel_components(r, v, n, radius_m, a)
-        else:
-            self._accel = lambda r, v, a: cw_accel_components(r, v, n, a)
+        self._accel = relative_accel_components(config.dynamics, n, config.radius_m)
         root_seed = np.random.SeedSequence(config.seed)
         thruster_seed, sensor_seed = root_seed.spawn(2)
         self._thrusters = ThrusterModel(config.thrusters, np.random.default_rng(thruster_seed))

@@ -79,6 +79,14 @@ def nonlinear_relative_accel_components(r_hill, v_hill, n, radius_m, accel_ext_h
     )
 
 
+def relative_accel_components(dynamics, n, radius_m):
+    """The relative acceleration (r_hill, v_hill, accel_ext_hill) -> its 3 components of ``dynamics``: 'nonlinear'
+    (seed 000 eq 1, ``nonlinear_relative_accel_components``) or 'cw' (eq 2a-2c, ``cw_accel_components``)."""
+    if dynamics == 'nonlinear':
+        return lambda r, v, a: nonlinear_relative_accel_components(r, v, n, radius_m, a)
+    return lambda r, v, a: cw_accel_components(r, v, n, a)
+
+
 def cw_accel(r_hill, v_hill, n, accel_ext_hill=(0.0, 0.0, 0.0)):
     """Linearized (Hill / Clohessy-Wiltshire) relative acceleration [m/s^2], seed 000 eq 2a-2c."""
     return np.array(cw_accel_components(r_hill, v_hill, n, accel_ext_hill))
