@@ -6,7 +6,7 @@
 RUN_DIR is what scripts/run_mission.py leaves (bag/, scenario.yaml, summary.json); a bag directory
 alone also works with --scenario. A bag cut short by an interruption is repaired first (a copy is
 not needed: the repair only writes the missing metadata). Every figure is recomputed here by a
-different route than flyby_planner.summary takes, from truth alone:
+different route than flyby_mission.summary takes, from truth alone:
 
 * delta-v and fuel: the total impulse of /sim/chaser/thrust gives the fuel, each step's net impulse over
   the step's mean mass the delta-v (the summary: the rocket equation per step; a whole-run rocket equation with
@@ -63,11 +63,11 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 from scipy.spatial.transform import Rotation
 
+from flyby_mission.summary import least_clearance_index
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag, repair_bag
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.grasp import capture_target_body, grasp_from_attitude
-from flyby_planner.summary import least_clearance_index
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 from flyby_sim.scenario import load_scenario
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark: wall time of headless runs (flyby_guidance.closed_loop.run_headless), per run and mean.
+"""Benchmark: wall time of headless runs (flyby_mission.headless.run_headless), per run and mean.
 
     benchmark_headless.py SCENARIO.yaml [SCENARIO.yaml ...] [--save FILE.json] [--compare FILE.json]
     benchmark_headless.py --runs-dir DIR/runs --runs 0-19 [...]
@@ -19,8 +19,8 @@ import sys
 import time
 from pathlib import Path
 
-from flyby_guidance.campaign import run_indices
-from flyby_guidance.closed_loop import run_headless
+from flyby_mission.campaign.runner import run_indices
+from flyby_mission.headless import run_headless
 from flyby_sim.scenario import load_scenario
 
 # Figures that measure the wall clock, not the mission.

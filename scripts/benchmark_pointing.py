@@ -17,7 +17,7 @@ true line of sight), the peak wheel momentum and torque, and the cost of one gui
 * momentum dumping: the chaser held pointing from 30 m on V-bar (outside the sphere) with wheel momenta
   (1.5, -1.2, 0.8) N m s: how long until every axis is within 0.2 N m s, the pointing error meanwhile, and the
   thrusters' impulse and fuel (the dump torques allocated to the default layout and fired, ``actuators``);
-* with ``--mission``: the scenario flown headless (today's point-mass chaser, flyby_guidance.closed_loop), its
+* with ``--mission``: the scenario flown headless (today's point-mass chaser, flyby_mission.headless), its
   true relative path and its estimator's relative estimates replayed from the first terminal burn to the grasp
   (the issue's window), the chaser on its goal at the first burn.
 
@@ -137,7 +137,7 @@ def command_cost():
 
 def mission(scenario_path, periods):
     # imported here: the headless mission needs every package, the synthetic cases only the cores
-    import flyby_guidance.closed_loop as closed_loop
+    import flyby_mission.headless as closed_loop
     from flyby_estimation.estimator_core import ChaserEstimate
     from flyby_sim.scenario import load_scenario
 

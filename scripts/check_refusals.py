@@ -21,9 +21,9 @@ import json
 import sys
 from pathlib import Path
 
-from flyby_guidance.campaign import run_indices
-from flyby_guidance.campaign_report import refusal_class
-from flyby_guidance.closed_loop import HeadlessGraph, run_headless
+from flyby_mission.campaign.report import refusal_class
+from flyby_mission.campaign.runner import run_indices
+from flyby_mission.headless import HeadlessGraph, run_headless
 from flyby_planner.plan import exhaustive_check
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario

@@ -5,7 +5,7 @@
     .venv/bin/python scripts/closed_loop.py [--scenario S] --runs N [--first-seed K] [--nav-noise-scale F]
                                             [--jobs J] [--json FILE]
 
-With --out: one mission (flyby_guidance.closed_loop: the plant and the cores every node runs, wired as
+With --out: one mission (flyby_mission.headless: the plant and the cores every node runs, wired as
 the topics wire them); DIR receives scenario.yaml (the exact input) and summary.json with the keys and
 outcome classes of scripts/run_mission.py's, and the outcome table is printed. Exit code as
 run_mission.py's (0 capture, 3 safe without capture, 5 collision, 1 error).
@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_guidance.closed_loop import require_one_chaser, run_headless, scaled_navigation_noise
+from flyby_mission.headless import require_one_chaser, run_headless, scaled_navigation_noise
+from flyby_mission.summary import EXIT_CODES, format_summary
 from flyby_msgs_py.schema import ScenarioError
-from flyby_planner.summary import EXIT_CODES, format_summary
 from flyby_sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

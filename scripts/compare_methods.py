@@ -3,7 +3,7 @@
 
     compare_methods.py [--scenario scenarios/paper_flyby_6dof.yaml] [--figure docs/figures/seed003_fig14_methods.png]
 
-Flies the scenario headless (the graph's cores and rules, flyby_guidance.closed_loop) once with each
+Flies the scenario headless (the graph's cores and rules, flyby_mission.headless) once with each
 ``planner.method`` (flyby, optimal), same seed and everything else equal, and prints a Markdown table of what
 Table 2 compares in words, from truth: outcome and capture errors, approach time (the approach phase's start to
 the grasp), delta-v (net force) and fuel (every thruster's impulse), peak thrust acceleration (the mean over a
@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 
 import plots
-from flyby_guidance.closed_loop import HeadlessGraph, require_one_chaser, run_headless
+from flyby_mission.campaign.dispersions import set_values
+from flyby_mission.headless import HeadlessGraph, require_one_chaser, run_headless
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.schema import ScenarioError
-from flyby_sim.dispersions import set_values
 from flyby_sim.scenario import load_yaml_mapping, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]

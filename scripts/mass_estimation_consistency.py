@@ -23,9 +23,9 @@ from scipy.stats import chi2
 
 from flyby_estimation.mass_properties import defined_parameters, parameter_error, parameter_nees
 from flyby_estimation.post_capture import principal_axes
-from flyby_guidance.closed_loop import HeadlessGraph, run_headless
+from flyby_mission.headless import HeadlessGraph, run_headless
+from flyby_mission.summary import post_capture_truth, target_mass_properties_truth
 from flyby_msgs_py.schema import load_yaml_mapping
-from flyby_planner.summary import post_capture_truth, target_mass_properties_truth
 from flyby_sim.scenario import scenario_from_dict
 
 ACCURACY_KEYS = (('target_mass_error_pct', 'mass', '%', 1.0), ('target_com_error_m', 'CoM', 'mm', 1e3),

@@ -40,7 +40,7 @@ reads rpy_rad:
 
 and for a scenario with a post_capture section (docs/post_capture.md: CAPTURE -> GRASP -> DAMPING -> MASS_ESTIMATION),
 seed 004's Fig 5 (Matsunaga et al., the estimation results) and the phases before it, the truth from both bodies'
-truth by flyby_planner.summary's functions (the figures of summary.json):
+truth by flyby_mission.summary's functions (the figures of summary.json):
 
 * seed004_fig5_motion.png             Fig 5 (a)-(d) during MASS_ESTIMATION: the combined CoM's position and velocity
                      (truth only: the mission publishes no estimate of them), the combined body's attitude and rate,
@@ -87,13 +87,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from flyby_estimation.mass_properties import principal_axis_errors_rad
-from flyby_msgs_py import contract as c
-from flyby_msgs_py.bag import BagError, MessageList, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
-from flyby_msgs_py.convert import inertia_to_numpy
-from flyby_msgs_py.schema import ScenarioError
-from flyby_msgs_py.wire import STAMP_TOLERANCE_S  # truth (every step) and estimate stamps: one instant
-from flyby_planner.keepout import swept_region
-from flyby_planner.summary import (
+from flyby_mission.summary import (
     angular_momentum_about_com,
     chaser_truth_from_odometry,
     damping_window,
@@ -107,6 +101,12 @@ from flyby_planner.summary import (
     thrust_truth,
     transport_state,
 )
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.bag import BagError, MessageList, PathLatest, StringSeries, bag_topics, read_bag, repair_bag
+from flyby_msgs_py.convert import inertia_to_numpy
+from flyby_msgs_py.schema import ScenarioError
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S  # truth (every step) and estimate stamps: one instant
+from flyby_planner.keepout import swept_region
 from flyby_sim.dynamics.attitude import kinetic_energy
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.dynamics.geometry import clearance
@@ -367,7 +367,7 @@ class Run:
 
     @functools.cached_property
     def bodies(self):
-        """flyby_planner.summary.post_capture_truth of the truth topics, read as compute_summary reads them: (common
+        """flyby_mission.summary.post_capture_truth of the truth topics, read as compute_summary reads them: (common
         stamps, i_chaser, i_target, bodies(k) -> (chaser, target) grasp.Body at common[k]); Skipped without them."""
         odom, target, wheels = self.need(c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_WHEELS)
         wrench = self.get(c.SIM_CHASER_THRUST)
@@ -892,7 +892,7 @@ def fig_attitude(run, path):
 
 def pointing_window(run):
     """(t_start, t_end) [s] of the pointing requirement: the first burn's start to the grasp (else the end of
-    the truth), as flyby_planner.summary.pointing_figures; None before any burn."""
+    the truth), as flyby_mission.summary.pointing_figures; None before any burn."""
     if not run.burns:
         return None
     t_g = grasp_time(run.events)
@@ -993,7 +993,7 @@ def fig_wheels(run, path):
 def firing_inside_sphere(run, t, firing):
     """How many of the samples at times t with firing (N,) true fired inside the restriction sphere: the
     truth range below the radius at the sample or at the one before (a sample's thrust acted between
-    them), as flyby_planner.summary.thrust_figures counts; None without truth or scenario."""
+    them), as flyby_mission.summary.thrust_figures counts; None without truth or scenario."""
     chaser = run.get(c.SIM_CHASER_ODOM)
     if chaser is None or run.scenario is None or not len(t):
         return None
@@ -1442,7 +1442,7 @@ class CombinedMotion(typing.NamedTuple):
 
 def combined_motion(run):
     """Seed 004 Fig 5 (a)-(d) over MASS_ESTIMATION: the combined body's CoM position and velocity from both bodies'
-    truth (their grasp.Body, flyby_planner.summary.post_capture_truth, the masses of the lock), and its
+    truth (their grasp.Body, flyby_mission.summary.post_capture_truth, the masses of the lock), and its
     attitude and rate, which are the chaser's (one rigid body), truth and the estimate the mission publishes: the
     chaser's attitude filter on /estimation/chaser/odom. The mass-property filter's own r, v, q, omega are not
     published: the combined CoM has no estimate (its chaser position stays the capture's, docs/post_capture.md)."""
@@ -1516,7 +1516,7 @@ def mass_property_estimates(run):
     """Seed 004 Fig 5 (e)-(h): the target's mass, CoM and inertia as /estimation/target/inertia gives them, their
     1-sigma and principal form from the mass_properties_estimate(d) event of the same stamp (the estimator's
     _mass_outputs), and the truth: mass and principal moments the scenario's, X_s and the principal axes in
-    chaser_body from both bodies' truth (flyby_planner.summary.target_mass_properties_truth, as summary.json's errors).
+    chaser_body from both bodies' truth (flyby_mission.summary.target_mass_properties_truth, as summary.json's errors).
     The principal axes' error is dphi (nearest_principal_axes_error) against the truth at the estimate's stamp (the
     first truth stamp at or after it, as the summary takes it)."""
     scenario = run.need_scenario()
@@ -1556,7 +1556,7 @@ def mass_property_estimates(run):
 
 def grasp_contact(run):
     """(t (N,) [s], |force| (N,) [N], |torque| (N,) [N m], |stroke| (N,) [m]) of the arm on the target at every truth
-    stamp of GRASP: flyby_planner.summary.grasp_contact_series, the arm's impedance recomputed from both bodies'
+    stamp of GRASP: flyby_mission.summary.grasp_contact_series, the arm's impedance recomputed from both bodies'
     truth (its peak is summary.json's peak_grasp_force_n and peak_grasp_torque_n_m); Skipped without GRASP."""
     common, _, _, bodies = run.bodies
     t, force, torque, stroke = grasp_contact_series(run.events, common, bodies, run.need_scenario())
@@ -1567,7 +1567,7 @@ def grasp_contact(run):
 
 def damping_momentum(run):
     """(t (N,) [s], |H| (N,) [kg m^2/s]) of the combined body about its CoM (inertial, wheels included:
-    flyby_planner.summary.angular_momentum_about_com of both bodies' truth) at every truth stamp of DAMPING, to the
+    flyby_mission.summary.angular_momentum_about_com of both bodies' truth) at every truth stamp of DAMPING, to the
     sample summary.json's final_angular_momentum_kg_m2_s is taken at (seed 004 §3.2's condition 1)."""
     common, _, _, bodies = run.bodies
     t_damping, t_damped = damping_window(run.events, run.t_end)
@@ -1582,7 +1582,7 @@ TRANSPORT_SAMPLE_S = 0.5  # Fig 7's sample period: a transport is thousands of s
 
 def transport_series(run):
     """(t (N,) [s], distance to the goal (N,) [m], speed relative to the goal's circular motion (N,) [m/s], linear
-    momentum (N,) [N s], angular momentum about the combined CoM (N,) [kg m^2/s]): flyby_planner.summary's
+    momentum (N,) [N s], angular momentum about the combined CoM (N,) [kg m^2/s]): flyby_mission.summary's
     transport_state of both bodies' truth every TRANSPORT_SAMPLE_S from TRANSPORT's start to the run's end."""
     common, _, _, bodies = run.bodies
     t_start, _ = run.phase_window(c.PHASE_TRANSPORT)

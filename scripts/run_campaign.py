@@ -4,10 +4,10 @@
     .venv/bin/python scripts/run_campaign.py --campaign campaigns/smoke.yaml --out runs/smoke [--runs N]
                                              [--workers K | --scheduler ADDRESS]
 
-The campaign file (flyby_sim.dispersions) names the base scenario, the campaign seed and the dispersions;
+The campaign file (flyby_mission.campaign.dispersions) names the base scenario, the campaign seed and the dispersions;
 run i is drawn from [campaign seed, i] alone. Each run's scenario.yaml and summary.json go to
 DIR/runs/<i>/, one row per finished run to DIR/results.csv, and the statistics to DIR/campaign.json and
-DIR/report.md (flyby_guidance.campaign, campaign_report). Rerun the same command to resume. Without
+DIR/report.md (flyby_mission.campaign.runner, campaign_report). Rerun the same command to resume. Without
 --scheduler, a LocalCluster of K (default: one per core) single-threaded worker processes; with it, the
 workers of a running `dask scheduler` (`dask worker ADDRESS` on each machine).
 Exit code 0 when every run flew (whatever its outcome), 1 when a run raised (ERROR) or the campaign is invalid.
@@ -16,7 +16,7 @@ Exit code 0 when every run flew (whatever its outcome), 1 when a run raised (ERR
 import argparse
 import sys
 
-from flyby_guidance.campaign import CampaignMismatch, run_campaign
+from flyby_mission.campaign.runner import CampaignMismatch, run_campaign
 from flyby_msgs_py.schema import ScenarioError
 
 

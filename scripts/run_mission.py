@@ -26,15 +26,15 @@ from pathlib import Path
 
 import yaml
 
+from flyby_mission.fleet_summary import compute_fleet_summary
+from flyby_mission.summary import EXIT_CODES, compute_summary, format_summary
+from flyby_mission.supervisor import WATCHED_NODES
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import qos
 from flyby_msgs_py.bag import repair_bag
 from flyby_msgs_py.domain import lease_domain
 from flyby_msgs_py.runtime import FASTDDS_PROFILES, TICK_TOPIC
 from flyby_msgs_py.schema import ScenarioError
-from flyby_planner.fleet_summary import compute_fleet_summary
-from flyby_planner.summary import EXIT_CODES, compute_summary, format_summary
-from flyby_planner.supervisor import WATCHED_NODES
 from flyby_sim.scenario import load_scenario
 from flyby_sim.sim_node import COMMAND_CHAIN
 
@@ -91,7 +91,7 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=(), chasers=()):
               for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
                                         ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'),
                                         ('flyby_guidance', 'flyby_guidance.guidance_node', 'GuidanceNode'),
-                                        ('flyby_supervisor', 'flyby_planner.supervisor_node', 'SupervisorNode'))]
+                                        ('flyby_supervisor', 'flyby_mission.supervisor_node', 'SupervisorNode'))]
     others = [n for n in others if n.name not in without]
     names = [n.name for n in others]
     for n in others:

@@ -164,7 +164,7 @@ def envelope_run(values):
     """A scenario edit (for write_scenario) setting a run's values by their dotted scenario keys, as
     campaigns/flyby_envelope.yaml draws them (campaign seed 2026), and the campaign's override (no lighting)."""
     def edit(d):
-        from flyby_sim.dispersions import set_values
+        from flyby_mission.campaign.dispersions import set_values
         set_values(d, {'planner.sun_direction_hill': None, **values})
     return edit
 

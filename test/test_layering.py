@@ -18,7 +18,7 @@ from flyby_testing import ROOT
 
 SRC = ROOT / 'flyby_ws' / 'src'
 # Bottom to top: a module may import its own package and those before it.
-LAYERS = ('flyby_msgs_py', 'flyby_sim', 'flyby_estimation', 'flyby_planner', 'flyby_guidance')
+LAYERS = ('flyby_msgs_py', 'flyby_sim', 'flyby_estimation', 'flyby_planner', 'flyby_guidance', 'flyby_mission')
 # Modules that are ROS by purpose, besides the nodes (*_node.py).
 ROS_MODULES = {
     'flyby_msgs_py.runtime': 'runs nodes: executor loop, progress, readiness, signals',
@@ -27,7 +27,7 @@ ROS_MODULES = {
 }
 PLANT_MODULES = ('flyby_sim.plant', 'flyby_sim.sensors', 'flyby_sim.thrusters', 'flyby_sim.sim_node')
 # The headless driver wires the plant in, as the launcher wires the sim node in.
-DRIVERS = ('flyby_guidance.closed_loop',)
+DRIVERS = ('flyby_mission.headless',)
 
 
 def _modules():

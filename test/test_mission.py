@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from flyby_guidance.closed_loop import run_headless
+from flyby_mission.headless import run_headless
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_rotate_many, rotation_vector_from_quat

@@ -7,7 +7,7 @@ continuous commands in the loop that DESIGN §10's determinism rule is about.
 import numpy as np
 import pytest
 
-from flyby_guidance.closed_loop import HeadlessGraph
+from flyby_mission.headless import HeadlessGraph
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario

@@ -5,7 +5,7 @@ the capture at the grasp time; real processes over Fast DDS, a ROS domain of the
 import numpy as np
 import pytest
 
-from flyby_guidance.closed_loop import run_headless
+from flyby_mission.headless import run_headless
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario

@@ -6,7 +6,7 @@ so that it ends within about half a minute of wall time on a quiet machine."""
 
 import pytest
 
-from flyby_guidance.closed_loop import run_headless
+from flyby_mission.headless import run_headless
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario

@@ -7,10 +7,10 @@ settle, 25 s of estimation)."""
 import numpy as np
 import pytest
 
-from flyby_guidance.closed_loop import run_headless
+from flyby_mission.headless import run_headless
+from flyby_mission.summary import POST_CAPTURE_KEYS
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_planner.summary import POST_CAPTURE_KEYS
 from flyby_sim.scenario import load_scenario
 from flyby_testing import analyze_bag, fly_variant, read_summary
 

@@ -14,12 +14,11 @@ setup(
     zip_safe=True,
     maintainer='flyby developers',
     maintainer_email='flyby@example.org',
-    description='Capture task planning and the mission phase supervisor.',
+    description='Capture planning: the fly-by, optimization-based, synchronized and transport methods.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
             'flyby_planner = flyby_planner.planner_node:main',
-            'flyby_supervisor = flyby_planner.supervisor_node:main',
         ],
     },
 )

@@ -1,1 +1,2 @@
-"""flyby_estimation: placeholder package of the workspace; its capability arrives with its own issue."""
+"""flyby_estimation: the estimators: the target attitude MEKF and motion prediction, the relative-navigation filter, the
+batch fit, the mass-property estimation after the capture, and EstimatorCore with its node."""

@@ -39,7 +39,7 @@ chaser estimates carry from the next IMU sample on; at every stamp of ``post_cap
 that stamp's chaser estimate, the combined CoM it navigates with (``transport_com_estimate``: refined over the coasts
 with nothing firing, ``post_capture.ComCoast``), which guidance waits for.
 
-The estimator node and the headless driver (flyby_guidance.closed_loop) both run ``EstimatorCore``;
+The estimator node and the headless driver (flyby_mission.headless) both run ``EstimatorCore``;
 every input method returns the outputs to publish, in order.
 """
 

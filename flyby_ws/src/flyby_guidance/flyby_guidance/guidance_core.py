@@ -47,7 +47,7 @@ that event are kept until it does (the topics race), so the commands are the sam
 wait likewise for the estimator's ``mass_properties_estimated``, which starts TRANSPORT, and in TRANSPORT those on
 the grid of the refined combined CoM (``post_capture.on_com_grid``) for its ``transport_com_estimate``.
 
-The guidance node and the headless driver (flyby_guidance.closed_loop) both run ``GuidanceCore``;
+The guidance node and the headless driver (flyby_mission.headless) both run ``GuidanceCore``;
 every input method returns the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver),
 ``AttitudeCommandStamped`` (guidance/wheels and guidance/wrench) and ``wire.Event`` (mission/events).
 """

@@ -9,7 +9,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flyby_guidance.closed_loop import run_headless, scaled_navigation_noise
 from flyby_guidance.guidance import (
     FlybyGuidance,
     FlybyTarget,
@@ -18,6 +17,7 @@ from flyby_guidance.guidance import (
     burn_arc,
     predicted_miss,
 )
+from flyby_mission.headless import run_headless, scaled_navigation_noise
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_transition_matrix, mean_motion_rad_s
 from flyby_sim.scenario import load_scenario

@@ -37,7 +37,7 @@ safety in SCP, the dense separation checked before it is flown, at least planner
 predicted least separation goes on ``plan_selected`` (``separation_m``, ``t_separation_s``, ``separation_from``).
 A fly-by plan does not look at the leaders.
 
-The planner node and the headless driver (flyby_guidance.closed_loop) both run ``PlannerCore``;
+The planner node and the headless driver (flyby_mission.headless) both run ``PlannerCore``;
 every input method returns the outputs to publish, in order.
 """
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+from flyby_mission.supervisor import SupervisorCore
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event
@@ -22,7 +23,6 @@ from flyby_planner.optimal.problem import PLUME_MARGIN_M, planning_plume_radius_
 from flyby_planner.optimal.scp import ZohPlan
 from flyby_planner.plan import planner_config_from_scenario, truth_prediction
 from flyby_planner.planner_core import PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
-from flyby_planner.supervisor import SupervisorCore
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'

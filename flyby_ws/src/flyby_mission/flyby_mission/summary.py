@@ -1,7 +1,7 @@
 """The figures of a run (DESIGN §7, §10 ``summary.json``), computed from its truth.
 
 Both drivers write the same summary by the same function, ``summarize``: the graph from the truth
-topics of its bag (``compute_summary``), the headless driver (flyby_guidance.closed_loop) from the
+topics of its bag (``compute_summary``), the headless driver (flyby_mission.headless) from the
 plant's truth samples, stamped as the messages would be. Nothing here trusts what a node claimed
 about itself: delta-v and fuel come from the applied thrust (``/sim/chaser/thrust`` is the mean force
 over each step, so force x step is the exact impulse), clearance and collision from the truth poses

@@ -2,8 +2,8 @@
 
 from pathlib import Path
 
-from flyby_guidance.closed_loop import HeadlessGraph, run_headless
 from flyby_guidance.guidance_core import GuidanceCore
+from flyby_mission.headless import HeadlessGraph, run_headless
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 from flyby_testing import envelope_run_569
 

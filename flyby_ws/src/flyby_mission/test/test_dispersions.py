@@ -1,4 +1,4 @@
-"""Dispersions of a campaign (flyby_sim.dispersions): each law against its statement, per-run
+"""Dispersions of a campaign (flyby_mission.campaign.dispersions): each law against its statement, per-run
 reproducibility, one-of replacement, and every refusal's one-line message.
 
 Sample tests draw N = 20 000 values from a fixed seed and test them with a Kolmogorov-Smirnov or chi-square
@@ -13,7 +13,7 @@ import pytest
 import scipy.stats
 import yaml
 
-from flyby_sim.dispersions import CampaignError, Dispersion, load_campaign
+from flyby_mission.campaign.dispersions import CampaignError, Dispersion, load_campaign
 from flyby_sim.scenario import Boxes, load_scenario
 
 ROOT = Path(__file__).resolve().parents[4]

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_guidance.closed_loop import HeadlessGraph, run_headless
-from flyby_planner.summary import format_summary
+from flyby_mission.headless import HeadlessGraph, run_headless
+from flyby_mission.summary import format_summary
 from flyby_sim.dynamics.attitude_control import pointing_error_rad
 from flyby_sim.scenario import load_scenario
 

@@ -16,9 +16,9 @@ import itertools
 
 import numpy as np
 
+from flyby_mission.summary import chaser_truth_from_odometry, compute_summary
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_planner.summary import chaser_truth_from_odometry, compute_summary
 
 _SUMS = ('delta_v_total_mps', 'fuel_used_kg', 'maneuvers_executed', 'late_maneuvers', 'rejected_maneuvers',
          'planning_time_s')

@@ -41,7 +41,7 @@ observable condition and carries its reason:
 
 ``SupervisorCore`` adds what the node observes and decides around the phase machine (the estimates
 by stamp, the capture decision from them, the avoidance burn after an abort); the supervisor node and
-the headless driver (flyby_guidance.closed_loop) both run it.
+the headless driver (flyby_mission.headless) both run it.
 """
 
 import dataclasses

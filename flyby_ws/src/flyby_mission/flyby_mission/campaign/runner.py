@@ -1,7 +1,7 @@
 """Monte Carlo campaigns of headless missions on Dask distributed (issue 12 part 2).
 
-A campaign (``flyby_sim.dispersions``: base scenario, campaign seed, dispersions) is flown run by run,
-each run a headless mission (``flyby_guidance.closed_loop.run_headless``) on a Dask worker: a
+A campaign (``flyby_mission.campaign.dispersions``: base scenario, campaign seed, dispersions) is flown run by run,
+each run a headless mission (``flyby_mission.headless.run_headless``) on a Dask worker: a
 ``distributed.LocalCluster`` of one single-threaded worker process per core, or the scheduler at an
 address (``dask scheduler`` / ``dask worker ADDRESS``). The output directory holds::
 
@@ -9,7 +9,7 @@ address (``dask scheduler`` / ``dask worker ADDRESS``). The output directory hol
     results.csv            one row per finished run, in the order they finish, flushed row by row
     runs/<i>/scenario.yaml the full drawn scenario (replay it alone with scripts/run_mission.py)
     runs/<i>/summary.json  the run's summary.json
-    report.md, *.png       the report (flyby_guidance.campaign_report)
+    report.md, *.png       the report (flyby_mission.campaign.report)
 
 As in Basilisk's MonteCarlo controller, each run's parameters and seed are written beside its results,
 any run is redrawn alone (``Campaign.draw(i)``), and a run that raises is returned as a row with outcome
@@ -28,11 +28,11 @@ from pathlib import Path
 import dask
 import distributed
 
-from flyby_guidance.campaign_report import write_report
-from flyby_guidance.closed_loop import run_headless
+from flyby_mission.campaign.dispersions import CampaignError, load_campaign
+from flyby_mission.campaign.report import write_report
+from flyby_mission.headless import run_headless
+from flyby_mission.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
 from flyby_msgs_py import contract as c
-from flyby_planner.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
-from flyby_sim.dispersions import CampaignError, load_campaign
 from flyby_sim.scenario import scenario_from_dict
 
 # The summary.json figures of a row, under their summary.json names (the wall times last, after them).

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from flyby_guidance.closed_loop import HeadlessGraph, run_headless
+from flyby_mission.headless import HeadlessGraph, run_headless
 from flyby_msgs_py.schema import ScenarioError
 from flyby_sim.scenario import load_scenario
 

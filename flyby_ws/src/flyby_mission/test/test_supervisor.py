@@ -1,4 +1,4 @@
-"""Tests of flyby_planner.supervisor: the phase machine's transitions and reasons, the capture decision
+"""Tests of flyby_mission.supervisor: the phase machine's transitions and reasons, the capture decision
 from estimates carried to the grasp time, and the core the node and the headless driver run."""
 
 from pathlib import Path
@@ -8,10 +8,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from flyby_estimation.target_motion import ErrorStateDynamics
-from flyby_msgs_py import contract as c
-from flyby_msgs_py.wire import Event, wire_event
-from flyby_planner.grasp import capture_target_body, flyby_target_from_attitude
-from flyby_planner.supervisor import (
+from flyby_mission.supervisor import (
     AvoidanceBurn,
     PhaseMachine,
     SupervisorConfig,
@@ -20,6 +17,9 @@ from flyby_planner.supervisor import (
     capture_decision,
     decide_capture,
 )
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.grasp import capture_target_body, flyby_target_from_attitude
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast, q_eci_from_body, q_hill_from_body
 from flyby_sim.scenario import load_scenario
@@ -285,7 +285,7 @@ def test_post_capture_phases_follow_the_arm_the_damping_and_the_estimate():
 
 
 def test_a_grasp_that_lets_go_escapes_and_is_not_a_capture():
-    from flyby_planner.summary import outcome_of
+    from flyby_mission.summary import outcome_of
     m = _captured()
     m.event(813.1, 'OK', 'captured', 'flyby_sim', {})
     out = m.event(813.1, 'WARN', 'grasp_released', 'flyby_sim', {'reason': 'the arm lets go: |F| 77 N > 50 N'})

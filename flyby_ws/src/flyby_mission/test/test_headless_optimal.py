@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from flyby_guidance.closed_loop import run_headless
-from flyby_planner.summary import format_summary
+from flyby_mission.headless import run_headless
+from flyby_mission.summary import format_summary
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'

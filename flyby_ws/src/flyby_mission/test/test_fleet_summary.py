@@ -1,10 +1,10 @@
-"""The summary of several chasers (flyby_planner.fleet_summary; DESIGN §10, seed 003 Fig 12)."""
+"""The summary of several chasers (flyby_mission.fleet_summary; DESIGN §10, seed 003 Fig 12)."""
 
 import numpy as np
 import pytest
 
+from flyby_mission.fleet_summary import combine, separation
 from flyby_msgs_py import contract as c
-from flyby_planner.fleet_summary import combine, separation
 
 
 def test_two_robot_separation_by_hand():

@@ -1,6 +1,6 @@
 """The supervisor node: mission phases, the capture decision, the abort service and the watchdog.
 
-Converts messages for ``flyby_planner.supervisor.SupervisorCore`` (no ROS), which holds every rule:
+Converts messages for ``flyby_mission.supervisor.SupervisorCore`` (no ROS), which holds every rule:
 it is fed the target and chaser estimates, the events of the other nodes (``mission/events``), their
 progress reports (``/flyby/progress``, the watchdog's heartbeat) and ``/clock`` (through the run loop's
 subscription, runtime.ProgressReporter); the node publishes
@@ -12,11 +12,11 @@ reason, and after an abort outside the restriction sphere at most one collision-
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
+from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import PROGRESS_TOPIC, main_for, publish_event
-from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_sim.dynamics.rotation import quat_rotate
 from flyby_sim.scenario import scenario_of
 

@@ -7,7 +7,7 @@ stamps in whole nanoseconds, event values as text). The plant executes the comma
 its thruster errors (with the six-degree-of-freedom chaser also guidance's attitude commands, the wheels'
 torques and the thrusters' torque, each from its stamp) and attaches the chaser when the phase turns to
 CAPTURE; the run ends as the launcher ends it (at COMPLETE, abort_observation_s after ABORTED, or at
-simulation.duration_s), and its summary is ``flyby_planner.summary.summarize`` of the plant's truth,
+simulation.duration_s), and its summary is ``flyby_mission.summary.summarize`` of the plant's truth,
 stamped as the truth topics are: the same keys, outcome classes and figures as the graph's summary.json,
 so a Monte Carlo row is a statement about the graph. The six-degree-of-freedom chaser's velocities, truth and
 estimate, travel in chaser_body axes as its Odometry twists do (DESIGN §10), turned there and back by the same
@@ -28,11 +28,7 @@ from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, Targe
 from flyby_estimation.post_capture import TargetInertiaEstimate
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
-from flyby_msgs_py import contract as c
-from flyby_msgs_py.schema import ScenarioError
-from flyby_msgs_py.wire import Event, wire_event, wire_time
-from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
-from flyby_planner.summary import (
+from flyby_mission.summary import (
     ChaserTruth,
     TargetTruth,
     ThrustTruth,
@@ -40,7 +36,11 @@ from flyby_planner.summary import (
     chaser_truth_from_odometry,
     summarize,
 )
-from flyby_planner.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
+from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.schema import ScenarioError
+from flyby_msgs_py.wire import Event, wire_event, wire_time
+from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.dynamics.propulsion import ManeuverRejected

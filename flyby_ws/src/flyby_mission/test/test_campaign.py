@@ -1,4 +1,4 @@
-"""Campaigns on Dask (flyby_guidance.campaign) and their statistics (campaign_report).
+"""Campaigns on Dask (flyby_mission.campaign.runner) and their statistics (campaign_report).
 
 The campaign is campaign_short.yaml beside this file: paper_flyby cut to 40 s of simulated time
 (every run ends TIME_LIMIT in well under a second), so 20 runs on a LocalCluster of 2 workers take
@@ -22,9 +22,9 @@ import pytest
 import scipy.stats
 import yaml
 
-from flyby_guidance.campaign import TIMING_COLUMNS, CampaignMismatch, columns, fly, read_results, run_campaign
-from flyby_guidance.campaign_report import clopper_pearson, zero_failure_lower_bound
-from flyby_sim.dispersions import load_campaign
+from flyby_mission.campaign.dispersions import load_campaign
+from flyby_mission.campaign.report import clopper_pearson, zero_failure_lower_bound
+from flyby_mission.campaign.runner import TIMING_COLUMNS, CampaignMismatch, columns, fly, read_results, run_campaign
 from flyby_sim.scenario import load_scenario
 
 HERE = Path(__file__).resolve().parent
@@ -177,7 +177,7 @@ def test_a_scheduler_and_workers_as_processes_give_the_same_rows_even_when_a_wor
 
 
 def test_refusals_are_counted_by_what_bound_them_and_captures_over_the_plans_flown():
-    from flyby_guidance.campaign_report import refusal_class, statistics
+    from flyby_mission.campaign.report import refusal_class, statistics
 
     def row(outcome, reason, phases, method='flyby'):
         return {'outcome': outcome, 'end_reason': reason, 'phase_sequence': json.dumps(phases), 'method': method,
@@ -211,7 +211,7 @@ def test_a_transport_campaign_has_the_post_capture_and_transport_columns():
     """results.csv of a campaign whose base scenario goes on after the capture carries the summary's post-capture
     keys, and with a transport its transport keys (issue 17's campaign is judged on them); a fly-by campaign's
     columns are the summary figures alone."""
-    from flyby_planner.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
+    from flyby_mission.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
     transport = columns(load_campaign(ROOT / 'campaigns' / 'transport_orbit_advance.yaml', checked_draws=0))
     assert set(POST_CAPTURE_KEYS) <= set(transport) and set(TRANSPORT_KEYS) <= set(transport)
     assert transport[-len(TIMING_COLUMNS):] == TIMING_COLUMNS and len(set(transport)) == len(transport)
@@ -221,7 +221,7 @@ def test_a_transport_campaign_has_the_post_capture_and_transport_columns():
 
 def test_a_numpy_float_cell_is_written_as_a_number():
     """A summary figure computed in numpy (np.float64, a float) is a plain number in results.csv, read back exactly."""
-    from flyby_guidance.campaign import _cell
+    from flyby_mission.campaign.runner import _cell
     value = np.float64(0.1) * 3.0
     assert _cell(value) == repr(float(value)) and float(_cell(value)) == value
 
@@ -229,7 +229,7 @@ def test_a_numpy_float_cell_is_written_as_a_number():
 def test_a_transport_campaign_report_counts_the_three_conditions_and_skips_the_missing_capture_errors(tmp_path):
     """Runs that start attached have no capture errors (empty cells): the truth-within-tolerance count leaves them out
     instead of failing on them, and the report rates the transports that met all three conditions."""
-    from flyby_guidance.campaign_report import report_markdown, statistics, truth_within_tolerance
+    from flyby_mission.campaign.report import report_markdown, statistics, truth_within_tolerance
 
     def row(met, position_error_m):
         return {'outcome': 'CAPTURE', 'end_reason': 'phase COMPLETE', 'method': '',
