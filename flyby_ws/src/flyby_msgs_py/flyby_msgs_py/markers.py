@@ -13,7 +13,8 @@ from geometry_msgs.msg import Point
 from visualization_msgs.msg import Marker, MarkerArray
 
 from flyby_msgs_py.contract import FRAME_HILL
-from flyby_msgs_py.convert import _array, _frame, _quat, _scalar, _set_xyz, _set_xyzw, _stamp_into, _vec3
+from flyby_msgs_py.convert.fields import _array, _frame, _quat, _scalar, _set_xyz, _set_xyzw, _vec3
+from flyby_msgs_py.convert.stamps import _stamp_into
 
 NS_TARGET_GEOMETRY = 'target_geometry'
 NS_RESTRICTION_SPHERE = 'restriction_sphere'

@@ -7,12 +7,23 @@ messages. The inputs several cores share are converted here once: the estimates
 (``on_target_estimate(t, q_hill_from_body, omega_body)``, ``on_chaser_estimate(t, r_hill, v_hill)``, with the
 six-degree-of-freedom chaser's attitude and rate when asked),
 the mission phase (``on_phase(phase)``) and the events of ``mission/events`` (``on_event(wire.Event)``).
+
+Every callback that feeds the core (the subscriptions made here; a node's own subscriptions, services and
+timers through ``guard``) runs inside the core's guard (flyby_msgs_py.core_guard): an exception is logged with
+its traceback, published once on ``mission/events`` as an ERROR ``node_error`` stamped at the message being
+handled, and from then on the node gives its core nothing more, so nothing more is published from it. The node
+stays in the graph and keeps reporting its progress (runtime.ProgressReporter): the simulator is not held for it,
+and the supervisor takes the mission to ABORTED on the event (docs/runtime.md).
 """
+
+import traceback
 
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
+from flyby_msgs_py.core_guard import CoreGuard
+from flyby_msgs_py.runtime import publish_event
 from flyby_msgs_py.wire import Event
 
 
@@ -21,23 +32,75 @@ def _name(topic):
     return c.absolute(topic) if topic in c.GLOBAL_TOPICS else topic
 
 
+def _stamp_s(args):
+    """The sim time [s] of the input a callback was given: a time itself, a message's header stamp, or the stamp
+    that opens a raw message's CDR bytes (every raw contract message starts with its header); None without one."""
+    for a in reversed(args):
+        if isinstance(a, float):
+            return a
+        if isinstance(a, (bytes, bytearray, memoryview)):
+            try:
+                return convert.clock_cdr_to_ns(a) / 1e9
+            except ValueError:
+                return None
+        header = getattr(a, 'header', None)
+        if header is not None:
+            return convert.stamp_to_sec(header.stamp)
+    return None
+
+
 class CoreNode(Node):
     """A node around a core (module doc)."""
 
     core = None
+
+    def __init__(self, node_name, **kwargs):
+        super().__init__(node_name, **kwargs)
+        self.core_guard = CoreGuard(self.get_name())
+        self.events_publisher = None  # mission/events, once the node has made its publisher
+        self.progress_reporter = None  # the run loop's (runtime.ProgressReporter): the node's last known sim time
 
     def publish(self, outputs):
         raise NotImplementedError(f'{type(self).__name__} must turn its core outputs into messages')
 
     def publisher(self, topic):
         """A publisher of a contract topic with its type and QoS (a global topic at its root name, DESIGN §10)."""
-        return self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), _name(topic), qos.qos_for(topic))
+        pub = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), _name(topic), qos.qos_for(topic))
+        if topic == c.MISSION_EVENTS and self.events_publisher is None:
+            self.events_publisher = pub
+        return pub
+
+    def guard(self, callback, label, service=False):
+        """``callback`` run inside the core's guard (module doc); ``label``: the topic, service or timer it handles
+        (the event's ``callback``). Once the core has failed the callback is not run; a service then answers, as
+        when its callback raises, with the response unchanged but for ``success`` False and why."""
+        core_guard = self.core_guard
+
+        def guarded(*args):
+            if core_guard.failed is None:
+                try:
+                    return callback(*args)
+                except Exception as err:  # any fault of the core or of turning its outputs into messages
+                    self._core_failed(label, err, args)
+            return _refused(args[-1], core_guard.failed.message) if service else None
+        return guarded
+
+    def _core_failed(self, label, err, args):
+        """Log err with its traceback, fence the core off and publish the node_error event, stamped at the input
+        being handled (the node's last known sim time for an input without a stamp: a phase, a service call)."""
+        t = _stamp_s(args)
+        if t is None:
+            t = 0.0 if self.progress_reporter is None else self.progress_reporter.clock_ns / 1e9
+        event = self.core_guard.fail(t, label, err)
+        self.get_logger().error(f'{label}: the core raised; it is fed no more\n{traceback.format_exc()}')
+        publish_event(self, self.events_publisher or self.publisher(c.MISSION_EVENTS), event)
 
     def subscribe(self, topic, callback, raw=False):
-        """A subscription of a contract topic with its type and QoS (a global topic at its root name); ``raw``: the
-        callback takes the message's CDR bytes (no Python message is built; convert.*_cdr_to_numpy reads them)."""
-        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), _name(topic), callback,
-                                        qos.qos_for(topic), raw=raw)
+        """A subscription of a contract topic with its type and QoS (a global topic at its root name), its callback
+        in the core's guard; ``raw``: the callback takes the message's CDR bytes (no Python message is built;
+        convert.*_cdr_to_numpy reads them)."""
+        return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), _name(topic),
+                                        self.guard(callback, topic), qos.qos_for(topic), raw=raw)
 
     def subscribe_odometry(self, topic, core_input, *fields):
         """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays), read from its
@@ -84,3 +147,11 @@ class CoreNode(Node):
         for e in convert.events_from_msg(msg):
             self.publish(self.core.on_event(Event(e['t'], e['level'], e['name'], e['message'], e['values'],
                                                   e['source'])))
+
+
+def _refused(response, why):
+    """A service's response once the core has failed: ``success`` False and why, where the type has them."""
+    if hasattr(response, 'success'):
+        response.success = False
+        response.message = why
+    return response

@@ -68,16 +68,22 @@ class ProgressReporter:
     leave the simulator waiting forever. Reported every PROGRESS_PERIOD_NS of sim time, and whenever
     the node has gone idle with news to tell. It reads ``TICK_TOPIC`` (the time every PROGRESS_PERIOD_NS), from
     the CDR bytes; a node that acts on the clock (the supervisor's watchdog and holds) reads ``/clock`` instead,
-    every step, and has its ``on_clock(t)`` [s] called from it. Either is the node's only time subscription.
+    every step, and has its ``on_clock(t)`` [s] called from it, inside its core's guard (node_base.CoreNode.guard).
+    Either is the node's only time subscription. The reporter itself is outside the guard: a node whose core has
+    failed goes on reporting, so the simulator is not held for it. It is the node's ``progress_reporter``: its last
+    known sim time, for an input without a stamp.
     """
 
     def __init__(self, node):
         self.node = node
+        node.progress_reporter = self
         self.publisher = node.create_publisher(Header, PROGRESS_TOPIC, QOS_STREAM)
         self.clock_ns = 0
         self.reported_ns = -1
         self.due = None  # a Future the loop spins on: done once a report is due
         self.listener = getattr(node, 'on_clock', None)
+        if self.listener is not None:
+            self.listener = node.guard(self.listener, '/clock')
         node.create_subscription(Clock, '/clock' if self.listener is not None else TICK_TOPIC, self._on_clock,
                                  QOS_STREAM, raw=True)
 

@@ -13,7 +13,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-LEVELS = ('OK', 'WARN', 'ERROR', 'STALE')
+OK = 'OK'
+WARN = 'WARN'
+ERROR = 'ERROR'
+STALE = 'STALE'
+LEVELS = (OK, WARN, ERROR, STALE)  # an event's level, least severe first
 
 
 class Event(NamedTuple):

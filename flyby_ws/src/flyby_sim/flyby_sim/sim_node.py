@@ -20,7 +20,7 @@ simulator does not step past that stamp before the command is in (on both topics
 phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command). With a
-post_capture section (issue 16) the attitude control comes back when the arm locks (the plant's combined body,
+post_capture section the attitude control comes back when the arm locks (the plant's combined body,
 ``grasp_damped``, at a step the plant decides): from that step's IMU sample on, every sample announces its command
 again (guidance damps and excites the combined body), until COMPLETE; ``/sim/target/odom`` then carries the
 target's CoM off the hill origin (pose position, twist linear in target_body axes).
@@ -53,7 +53,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, qos
+from flyby_msgs_py import convert, events, qos
 from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
 from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPIC, TICK_TOPIC, main_for, publish_event
 from flyby_msgs_py.wire import Event, wire_time
@@ -251,7 +251,7 @@ class SimNode(Node):
             ch.decision_wait.reset()
             return False
         if ch.decision_wait.overdue():
-            self.emit('WARN', 'waiting_for_decision', f'no capture decision for the grasp time '
+            self.emit('WARN', events.WAITING_FOR_DECISION, f'no capture decision for the grasp time '
                       f'{ch.t_grasp:.2f} s after {SLOW_NODE_WARNING_S} s; going on',
                       {'t_grasp_s': repr(ch.t_grasp), 't_estimate_s': repr(ch.decision_stamp)}, ch)
             ch.decision_stamp = ch.t_grasp = None  # not held for again (a new plan's grasp time is)
@@ -278,10 +278,10 @@ class SimNode(Node):
             if gone:
                 ch.attitude_quiet = True
                 announced.clear()
-                self.emit('WARN', 'node_lost', f'{", ".join(gone)} left the graph; no longer waiting for '
+                self.emit('WARN', events.NODE_LOST, f'{", ".join(gone)} left the graph; no longer waiting for '
                           'attitude commands', {'nodes': ','.join(gone)}, ch)
                 return False
-            self.emit('WARN', 'waiting_for_command', f'holding time at {self.plant.t:.2f} s for the attitude '
+            self.emit('WARN', events.WAITING_FOR_COMMAND, f'holding time at {self.plant.t:.2f} s for the attitude '
                       f'command of t = {announced[0] * 1e-9:.2f} s',
                       {'t_command_s': repr(announced[0] * 1e-9), 'received_s': repr(received_ns * 1e-9)}, ch)
         return True
@@ -304,7 +304,7 @@ class SimNode(Node):
         announced ones)."""
         missing = [n for n in self.wait_for_nodes if n not in self.subscriptions_of]
         if time.monotonic() > self.startup_deadline:
-            self.emit('WARN', 'startup_timeout',
+            self.emit('WARN', events.STARTUP_TIMEOUT,
                       f'starting without a complete graph after {STARTUP_TIMEOUT_S} s',
                       {'waiting_for': ','.join(missing)})
             return True
@@ -332,7 +332,7 @@ class SimNode(Node):
         self.started = True
         self.wall_start = time.monotonic()
         sc = self.scenario
-        self.emit('OK', 'sim_started', f'scenario {sc.name}, seed {sc.seed}',
+        self.emit('OK', events.SIM_STARTED, f'scenario {sc.name}, seed {sc.seed}',
                   {'scenario': sc.name, 'seed': str(sc.seed), 'dynamics': sc.simulation.dynamics,
                    'step_s': repr(self.step_s), 'duration_s': repr(self.duration_s),
                    'rtf': repr(self.rtf)})
@@ -356,7 +356,7 @@ class SimNode(Node):
         self.publish_truth(samples)
         self.publish_plant_events()
         if sample.t >= self.duration_s - 0.5 * self.step_s:
-            self.emit('OK', 'time_limit', f'simulation reached its duration {self.duration_s} s',
+            self.emit('OK', events.TIME_LIMIT, f'simulation reached its duration {self.duration_s} s',
                       {'t': repr(sample.t)})
             self.ending = True
         self.publish_tick()
@@ -382,13 +382,13 @@ class SimNode(Node):
         gone = set(behind) - self._present_nodes()
         for name in gone:
             del self.progress_s[name]
-            self.emit('WARN', 'node_lost', f'{name} left the graph; no longer waiting for it',
+            self.emit('WARN', events.NODE_LOST, f'{name} left the graph; no longer waiting for it',
                       {'node': name})
         waiting = set(behind) - gone
         now = time.monotonic()
         if waiting and now - self.waiting_since > SLOW_NODE_WARNING_S:
             self.waiting_since = now
-            self.emit('WARN', 'waiting_for_nodes', f'holding time at {self.plant.t:.2f} s for '
+            self.emit('WARN', events.WAITING_FOR_NODES, f'holding time at {self.plant.t:.2f} s for '
                       f'{", ".join(sorted(waiting))}',
                       {name: f'{self.progress_s[name]:.3f}' for name in waiting})
         return not waiting
@@ -501,13 +501,13 @@ class SimNode(Node):
         wheels = convert.joint_state_cdr_to_numpy(data)
         t_stamp, torques = self._command_stamp(ch, c.GUIDANCE_WHEELS, wheels.t), wheels.effort.tolist()
         if len(torques) != len(ch.wheel_names):
-            self.emit('ERROR', 'command_rejected', f'guidance/wheels: {len(torques)} efforts for '
+            self.emit('ERROR', events.COMMAND_REJECTED, f'guidance/wheels: {len(torques)} efforts for '
                       f'{len(ch.wheel_names)} wheels', {'t_stamp': repr(t_stamp)}, ch)
             return
         try:
             ch.plant.command_wheels(t_stamp, torques)
         except ValueError as err:
-            self.emit('ERROR', 'command_rejected', f'guidance/wheels: {err}', {'t_stamp': repr(t_stamp)}, ch)
+            self.emit('ERROR', events.COMMAND_REJECTED, f'guidance/wheels: {err}', {'t_stamp': repr(t_stamp)}, ch)
         self.publish_plant_events()
 
     def on_wrench(self, ch, data):
@@ -516,7 +516,7 @@ class SimNode(Node):
         try:
             ch.plant.command_wrench(t_stamp, w.force, w.torque, hold_s=ch.command_period_s)
         except ValueError as err:
-            self.emit('ERROR', 'command_rejected', f'guidance/wrench: {err}', {'t_stamp': repr(t_stamp)}, ch)
+            self.emit('ERROR', events.COMMAND_REJECTED, f'guidance/wrench: {err}', {'t_stamp': repr(t_stamp)}, ch)
         self.publish_plant_events()
 
     @staticmethod

@@ -19,7 +19,8 @@ from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_from_rotation
 SEED001_SERVICER = np.diag([13.0, 38.0, 35.0])  # seed 001 Table 1, the servicing satellite S_r [kg m^2]
 WHEELS = ReactionWheels.orthogonal(max_torque_n_m=0.1, max_momentum_n_m_s=4.0, spin_inertia_kg_m2=0.01)
 PROPAGATOR = GyrostatPropagator(SEED001_SERVICER, WHEELS)
-# omega_n 0.2 rad/s, zeta 1, omega_max 0.05 rad/s: the settings of docs/chaser_6dof.md and scripts/benchmark_slew.py
+# omega_n 0.2 rad/s, zeta 1, omega_max 0.05 rad/s: the settings of docs/chaser_6dof.md and
+# scripts/bench/benchmark_slew.py
 CONTROLLER = QuaternionFeedbackController(SEED001_SERVICER, WHEELS, 0.2, 1.0, 0.05)
 
 

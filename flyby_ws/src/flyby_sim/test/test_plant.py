@@ -373,7 +373,7 @@ def test_capture_attaches_the_chaser_to_the_target_and_drops_maneuvers():
     np.testing.assert_allclose(s.v_hill, np.cross(omega_rel_hill, s.r_hill), atol=1e-12)
 
 
-# -- after the capture with a grasp (scenario post_capture, issue 16) ---------------------------------------------
+# -- after the capture with a grasp (scenario post_capture) -----------------------------------------------------------
 
 TUG = Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby_tug.yaml'
 

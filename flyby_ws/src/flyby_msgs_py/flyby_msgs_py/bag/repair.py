@@ -125,57 +125,16 @@ def repair_bag(bag_dir):
     if not bag_dir.is_dir():
         raise BagError(f'{bag_dir}: no such bag directory')
     if _bag_is_valid(bag_dir):
-        topics = bag_topics(bag_dir)
-        start, end = bag_time_range(bag_dir) or (None, None)
-        return {'bag_dir': str(bag_dir), 'status': 'valid', 'repaired': False,
-                'messages': {t: n for t, (_, n) in topics.items()},
-                'message_count': sum(n for _, n in topics.values()),
-                'first_timestamp_ns': start, 'last_timestamp_ns': end}
-
-    mcaps = _mcap_files(bag_dir)
-    if len(mcaps) > 1:
-        raise BagError(f'{bag_dir}: {len(mcaps)} MCAP files, repair handles one: '
-                       f'{", ".join(p.name for p in mcaps)}')
-    if mcaps:
-        source = mcaps[0]
-        damaged = _free_name(source.with_name(source.name + DAMAGED_SUFFIX))
-    else:
-        leftovers = sorted(bag_dir.glob('*.mcap' + DAMAGED_SUFFIX + '*'))
-        if not leftovers:
-            raise BagError(f'{bag_dir}: no MCAP file to repair')
-        source = damaged = leftovers[-1]
-
+        return _valid_report(bag_dir)
+    source, damaged = _repair_source(bag_dir)
     found = salvage_mcap(source)
     tmp_root = bag_dir / _REPAIR_TMP
     if tmp_root.exists():
         shutil.rmtree(tmp_root)
     tmp_root.mkdir()
     new_bag = tmp_root / bag_dir.name
-    counts, orphans, first, last = {}, 0, None, None
     try:
-        writer = Writer(new_bag, version=9, storage_plugin=StoragePlugin.MCAP)
-        writer.open()
-        connections = {}
-        for cid, (sid, topic, encoding, metadata) in sorted(found.channels.items()):
-            schema = found.schemas.get(sid)
-            if schema is None:
-                continue
-            name, schema_encoding, text = schema
-            connections[cid] = writer.add_connection(
-                topic, name, msgdef=text, rihs01=_rihs01(name, schema_encoding, text),
-                serialization_format=encoding,
-                offered_qos_profiles=parse_qos(metadata.get('offered_qos_profiles', '')))
-            counts.setdefault(topic, 0)
-        for cid, log_time, data in found.messages:
-            connection = connections.get(cid)
-            if connection is None:
-                orphans += 1
-                continue
-            writer.write(connection, log_time, data)
-            counts[connection.topic] += 1
-            first = log_time if first is None else min(first, log_time)
-            last = log_time if last is None else max(last, log_time)
-        writer.close()
+        counts, orphans, first, last = _write_salvaged(found, new_bag)
         new_mcap = new_bag / f'{new_bag.name}.mcap'
         if source != damaged:
             source.rename(damaged)
@@ -193,6 +152,61 @@ def repair_bag(bag_dir):
             'bytes_salvaged': found.complete_until, 'stop_reason': found.stop_reason,
             'orphan_messages': orphans}
 
+
+def _valid_report(bag_dir):
+    """The report of a bag that opens (left alone)."""
+    topics = bag_topics(bag_dir)
+    start, end = bag_time_range(bag_dir) or (None, None)
+    return {'bag_dir': str(bag_dir), 'status': 'valid', 'repaired': False,
+            'messages': {t: n for t, (_, n) in topics.items()},
+            'message_count': sum(n for _, n in topics.values()),
+            'first_timestamp_ns': start, 'last_timestamp_ns': end}
+
+
+def _repair_source(bag_dir):
+    """(the MCAP to salvage, the name the damaged file keeps): the bag's one MCAP, or the ``*.mcap.damaged`` an
+    interrupted repair left."""
+    mcaps = _mcap_files(bag_dir)
+    if len(mcaps) > 1:
+        raise BagError(f'{bag_dir}: {len(mcaps)} MCAP files, repair handles one: '
+                       f'{", ".join(p.name for p in mcaps)}')
+    if mcaps:
+        source = mcaps[0]
+        return source, _free_name(source.with_name(source.name + DAMAGED_SUFFIX))
+    leftovers = sorted(bag_dir.glob('*.mcap' + DAMAGED_SUFFIX + '*'))
+    if not leftovers:
+        raise BagError(f'{bag_dir}: no MCAP file to repair')
+    return leftovers[-1], leftovers[-1]
+
+
+def _write_salvaged(found, new_bag):
+    """Write what ``salvage_mcap`` found into a fresh bag at ``new_bag`` (raw bytes); returns (messages per topic,
+    orphan messages, first and last log time [ns])."""
+    counts, orphans, first, last = {}, 0, None, None
+    writer = Writer(new_bag, version=9, storage_plugin=StoragePlugin.MCAP)
+    writer.open()
+    connections = {}
+    for cid, (sid, topic, encoding, metadata) in sorted(found.channels.items()):
+        schema = found.schemas.get(sid)
+        if schema is None:
+            continue
+        name, schema_encoding, text = schema
+        connections[cid] = writer.add_connection(
+            topic, name, msgdef=text, rihs01=_rihs01(name, schema_encoding, text),
+            serialization_format=encoding,
+            offered_qos_profiles=parse_qos(metadata.get('offered_qos_profiles', '')))
+        counts.setdefault(topic, 0)
+    for cid, log_time, data in found.messages:
+        connection = connections.get(cid)
+        if connection is None:
+            orphans += 1
+            continue
+        writer.write(connection, log_time, data)
+        counts[connection.topic] += 1
+        first = log_time if first is None else min(first, log_time)
+        last = log_time if last is None else max(last, log_time)
+    writer.close()
+    return counts, orphans, first, last
 
 def _free_name(path):
     """``path`` if free, else ``path.1``, ``path.2`` ..."""

@@ -172,7 +172,7 @@ class GyrostatPropagator:
     Each step integrates the module's equations with scipy's DOP853 (8th order, rtol 1e-12, atol 1e-14 by
     default), restarted at every step and at every instant inside it where a wheel reaches its momentum
     limit, so no discontinuity falls inside an integration step; the quaternion is renormalized at the
-    end of each step. Measured (scripts/benchmark_slew.py, seed 001's servicer with wheel momentum): a
+    end of each step. Measured (scripts/bench/benchmark_slew.py, seed 001's servicer with wheel momentum): a
     torque-free body keeps its inertial angular momentum to 1e-13 and its rotational energy to 1e-14
     relative over 1000 s; a step costs about 0.5 ms (0.5 ms per simulated second in 1 s steps, 4.5 ms in
     0.1 s steps: the cost is per step, mostly DOP853's start-up).

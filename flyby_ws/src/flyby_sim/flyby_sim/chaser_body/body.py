@@ -1,251 +1,20 @@
-"""The plant's six-degree-of-freedom chaser: a rigid body with reaction wheels and body-fixed thrusters.
+"""``SixDofChaser``: the rigid-body chaser's state, command queues and integration (package doc)."""
 
-Issue 13, DESIGN §10, docs/chaser_6dof.md. Pure numpy/scipy, no ROS; ``flyby_sim.plant.Plant`` owns one when
-its configuration has a ``chaser_body`` (scenario ``chaser.model: rigid_body``).
-
-Frames and conventions are those of ``flyby_sim.dynamics.orbital``: quaternions (x, y, z, w), scalar last;
-``q_a_from_b`` rotates b vectors into a. The attitude is integrated in ECI, q_eci_from_body (seed 000 eq 4, as
-the target's), and reported in hill: q_hill_from_body(t) = q_hill_from_eci(t) * q_eci_from_body(t), the hill
-axes turning by n t about ECI +z. ``omega_body`` is the chaser's inertial angular velocity in chaser_body axes,
-h each wheel's axial angular momentum (``dynamics.rigid_body``).
-
-Equations (constant inputs over each integration segment):
-
-.. math::
-
-    \\ddot r = a_{orbit}(r, \\dot r) + C_{hill\\,eci}(t) C_{eci\\,body}(q) F_b / m(t)   \\quad
-        \\text{seed 000 eq 1-2 (seed 001 eq 2) with the thrust force}
-
-    I \\dot\\omega = M_b - \\omega \\times (I \\omega + A h) - A u, \\quad \\dot h = u, \\quad
-        \\dot q = \\tfrac12 q \\otimes (\\omega, 0)     \\quad \\text{seed 001 eq 3, seed 000 eq 4}
-
-    \\dot m = -\\textstyle\\sum_i f_i / (I_{sp} g_0)
-
-F_b, M_b: the firing thrusters' force and torque about the CoM in body axes (each thruster's own magnitude
-factor and misalignment, ``actuators.draw_thruster_errors``, drawn once per run: they are properties of the
-hardware); u: the wheel motor torques, limited as ``GyrostatPropagator`` does.
-
-Integration: fixed-step classical RK4 on Python floats (``orbital.rk4_step_floats``). A plant step is cut at
-every instant an input changes (a command's stamp, a burn's start and end, a wheel reaching its momentum
-limit), so no discontinuity falls inside an RK4 step. Inside a segment the attitude takes
-``rigid_body.substep_count`` substeps (no substep turns the body or its rate vector by more than
-max_substep_angle_rad, 0.01 rad by default: one substep per 0.05 s step below 11 deg/s). While no thruster
-fires the translation does not depend on the attitude and is integrated as the point-mass chaser's is, one
-RK4 step over the coast; while thrusters fire, translation, attitude, wheels and the hill impulse are
-integrated together (the hill force turns with the body). The quaternion is renormalized at each step end.
-
-Commands (time-tagged, zero-order hold, DESIGN §5 and §10) apply exactly from their stamp; one stamped before
-the current time applies at once and is reported (``late_command``), never dropped. Thrusts: a wrench command
-is allocated once (``actuators.allocate_wrench``, HiGHS, least fuel) and held; a thruster whose thrust would
-give less than the minimum impulse bit over the hold the controller announces with the command (its control
-period; one plant step if it announces none) stays off (``actuators.fire`` with that period); what the
-thrusters cannot give (saturation and the minimum impulse bit) is reported once per command
-(``wrench_undelivered``). An impulsive delta-v becomes a burn at the
-attitude the chaser holds when it starts: its body direction is allocated a pure force of the point-mass
-chaser's thrust (the navigation filter's burn model; the layout's largest if it gives less,
-``actuators.plan_burn``, every firing thruster at least its minimum impulse bit over the burn, small burns
-re-allocated for it) for the rocket equation's duration; a wrench held during a burn is added on top,
-each thruster limited to its maximum (the burn first, ``wrench_limited_by_burn``).
-"""
-
-import dataclasses
 import math
-from typing import NamedTuple
 
 import numpy as np
 
+from flyby_msgs_py import events
 from flyby_msgs_py.wire import Event
-from flyby_sim.dynamics.actuators import (
-    ThrusterLayout,
-    allocate_wrench,
-    default_thruster_layout,
-    draw_thruster_errors,
-    fire,
-    is_positively_spanning,
-    plan_burn,
-    wrench_matrix,
-)
-from flyby_sim.dynamics.attitude import validated_inertia
-from flyby_sim.dynamics.checks import finite_vector, require_positive
+from flyby_sim.chaser_body.records import ManeuverRequest, StepTotals, ThrusterBurn, WheelCommand, WrenchCommand
+from flyby_sim.dynamics.actuators import allocate_wrench, draw_thruster_errors, fire, plan_burn, wrench_matrix
+from flyby_sim.dynamics.checks import finite_vector
 from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body, rk4_step_floats
 from flyby_sim.dynamics.propulsion import ManeuverRejected, check_delta_v
-from flyby_sim.dynamics.rigid_body import ReactionWheels, gyrostat_rates_floats, substep_count
+from flyby_sim.dynamics.rigid_body import gyrostat_rates_floats, substep_count
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate
 
-MAX_SUBSTEP_ANGLE_RAD = 0.01
 _ZERO3 = (0.0, 0.0, 0.0)
-
-
-def _rows(name, value, width=3):
-    try:
-        rows = tuple(finite_vector(f'{name}[{i}]', row, width) for i, row in enumerate(value))
-    except TypeError as exc:
-        raise ValueError(f'{name} must be a list of {width}-vectors, got {value!r}') from exc
-    if not rows:
-        raise ValueError(f'{name} must not be empty')
-    return rows
-
-
-@dataclasses.dataclass(frozen=True)
-class ImuConfig:
-    """The chaser IMU's rates and noise (``sensors.ImuModel``; scenario sensors.chaser_imu)."""
-
-    rate_hz: float = 10.0  # gyro and accelerometer
-    star_tracker_rate_hz: float = 2.0  # rate_hz must be a whole multiple of it
-    star_tracker_sigma_rad: float = math.radians(0.01)
-    gyro_noise_sigma_rad_s: float = 1e-5
-    gyro_bias_sigma_rad_s: float = 1e-4
-    gyro_bias_walk_rad_s_sqrt_s: float = 1e-7
-    accel_noise_sigma_mps2: float = 1e-4
-
-    def __post_init__(self):
-        require_positive('rate_hz', self.rate_hz)
-        require_positive('star_tracker_rate_hz', self.star_tracker_rate_hz)
-        for name in ('star_tracker_sigma_rad', 'gyro_noise_sigma_rad_s', 'gyro_bias_sigma_rad_s',
-                     'gyro_bias_walk_rad_s_sqrt_s', 'accel_noise_sigma_mps2'):
-            require_positive(name, getattr(self, name), allow_zero=True)
-        ratio = self.rate_hz / self.star_tracker_rate_hz
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
-            raise ValueError(f'rate_hz {self.rate_hz} must be a whole multiple of star_tracker_rate_hz '
-                             f'{self.star_tracker_rate_hz}')
-
-    @property
-    def star_tracker_every(self):
-        """A star-tracker sample every this many IMU samples."""
-        return round(self.rate_hz / self.star_tracker_rate_hz)
-
-
-@dataclasses.dataclass(frozen=True)
-class RigidChaserConfig:
-    """The rigid-body chaser's own parameters; validated on construction (ValueError names the field).
-
-    The thrusters' maximum thrust, Isp, minimum impulse bit, largest delta-v and error sigmas are the
-    plant's ``ThrusterConfig`` (per thruster here; the sigmas per run, module doc).
-    """
-
-    inertia: tuple  # 3x3 [kg m^2] about the CoM, chaser_body axes, wheels' spin-axis inertia left out
-    q_hill_from_body0: tuple = (0.0, 0.0, 0.0, 1.0)
-    omega_body0: tuple = _ZERO3  # inertial angular velocity at t = 0, body axes [rad/s]
-    thruster_positions_body_m: tuple = None  # (N, 3); None: default_thruster_layout
-    thruster_directions_body: tuple = None  # (N, 3), normalized by ThrusterLayout
-    wheel_axes_body: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    wheel_max_torque_n_m: float = 0.1
-    wheel_max_momentum_n_m_s: float = 4.0
-    wheel_spin_inertia_kg_m2: float = 0.01
-    wheel_momentum0_n_m_s: tuple = None  # one per wheel; None: zero (stored as zeros)
-    imu: ImuConfig = ImuConfig()
-    max_substep_angle_rad: float = MAX_SUBSTEP_ANGLE_RAD
-
-    def __post_init__(self):
-        try:
-            inertia = validated_inertia(self.inertia)
-        except ValueError as exc:
-            raise ValueError(f'inertia: {exc}') from exc
-        object.__setattr__(self, 'inertia', tuple(map(tuple, inertia.tolist())))
-        object.__setattr__(self, 'q_hill_from_body0', finite_vector('q_hill_from_body0', self.q_hill_from_body0, 4))
-        try:
-            quat_normalize(self.q_hill_from_body0)
-        except ValueError as exc:
-            raise ValueError(f'q_hill_from_body0: {exc}') from exc
-        object.__setattr__(self, 'omega_body0', finite_vector('omega_body0', self.omega_body0, 3))
-        if (self.thruster_positions_body_m is None) != (self.thruster_directions_body is None):
-            raise ValueError('thruster_positions_body_m and thruster_directions_body must be given together')
-        if self.thruster_positions_body_m is not None:
-            object.__setattr__(self, 'thruster_positions_body_m',
-                               _rows('thruster_positions_body_m', self.thruster_positions_body_m))
-            object.__setattr__(self, 'thruster_directions_body',
-                               _rows('thruster_directions_body', self.thruster_directions_body))
-            if len(self.thruster_positions_body_m) != len(self.thruster_directions_body):
-                raise ValueError('thruster_positions_body_m and thruster_directions_body differ in length')
-            b = ThrusterLayout(self.thruster_positions_body_m, self.thruster_directions_body, 1.0, 1.0,
-                               0.0).wrench_matrix
-            if not is_positively_spanning(b):
-                raise ValueError('thruster layout must give every body force and torque (rank 6, positively '
-                                 'spanning)')
-        object.__setattr__(self, 'wheel_axes_body', _rows('wheel_axes_body', self.wheel_axes_body))
-        wheels = self.wheels()  # validates the axes and limits
-        h0 = (0.0,) * wheels.count if self.wheel_momentum0_n_m_s is None else \
-            finite_vector('wheel_momentum0_n_m_s', self.wheel_momentum0_n_m_s, wheels.count)
-        if any(abs(h) > h_max for h, h_max in zip(h0, wheels.max_momentum_n_m_s.tolist(), strict=True)):
-            raise ValueError(f'wheel_momentum0_n_m_s {h0} exceeds wheel_max_momentum_n_m_s '
-                             f'{self.wheel_max_momentum_n_m_s}')
-        object.__setattr__(self, 'wheel_momentum0_n_m_s', h0)
-        if not isinstance(self.imu, ImuConfig):
-            raise ValueError(f'imu must be an ImuConfig, got {self.imu!r}')
-        require_positive('max_substep_angle_rad', self.max_substep_angle_rad)
-
-    def layout(self, thrusters):
-        """The ThrusterLayout with the limits of thrusters (a propulsion.ThrusterConfig)."""
-        if self.thruster_positions_body_m is None:
-            return default_thruster_layout(thrusters.max_thrust_n, thrusters.isp_s, thrusters.min_impulse_bit_ns)
-        return ThrusterLayout(self.thruster_positions_body_m, self.thruster_directions_body, thrusters.max_thrust_n,
-                              thrusters.isp_s, thrusters.min_impulse_bit_ns)
-
-    def wheels(self):
-        """The ReactionWheels."""
-        return ReactionWheels(self.wheel_axes_body, self.wheel_max_torque_n_m, self.wheel_max_momentum_n_m_s,
-                              self.wheel_spin_inertia_kg_m2)
-
-
-class WrenchCommand(NamedTuple):
-    """A commanded body wrench as accepted: the nominal thrusts it holds and what they cannot give."""
-
-    seq: int  # command number, counting wrench commands from 0
-    t_stamp: float
-    t_apply: float  # the stamp, or the time it arrived if that was later
-    force_body_n: tuple
-    torque_body_n_m: tuple
-    thrusts_n: tuple  # nominal thrust of each thruster (allocation, minimum impulse bit applied)
-    wrench_undelivered_body: tuple  # commanded - nominal delivered (force [N], torque [N m])
-
-
-class WheelCommand(NamedTuple):
-    """A commanded set of wheel motor torques as accepted (clipped to the torque limit)."""
-
-    seq: int
-    t_stamp: float
-    t_apply: float
-    torque_commanded_n_m: tuple
-    torque_n_m: tuple
-
-
-class ManeuverRequest(NamedTuple):
-    """An accepted delta-v command waiting for its burn (start, direction and duration are fixed when it starts:
-    the ``burn_started`` event)."""
-
-    seq: int
-    t_cmd_s: float
-    request_s: float  # the stamp, or the time it arrived if that was later
-    dv_cmd_hill: tuple
-
-
-class ThrusterBurn(NamedTuple):
-    """A delta-v burn as started."""
-
-    seq: int
-    t_cmd_s: float
-    start_s: float
-    end_s: float
-    dv_cmd_hill: tuple
-    direction_body: tuple  # the delta-v's direction in chaser_body at the start
-    thrusts_n: tuple  # nominal thrusts held (minimum impulse bit applied)
-    force_n: float  # nominal force along direction_body
-    mass_start_kg: float
-    fuel_kg: float  # nominal fuel of the burn alone
-    late: bool
-
-
-class StepTotals(NamedTuple):
-    """Means over one plant step of what the thrusters and wheels did (TruthSample fields)."""
-
-    force_hill: np.ndarray
-    force_body_n: np.ndarray
-    torque_body_n_m: np.ndarray
-    torque_hill_n_m: np.ndarray
-    thruster_thrust_n: np.ndarray
-    wheel_torque_n_m: np.ndarray
-    firing: bool
-    dv_thrust_hill: np.ndarray = None  # integral of the thrust acceleration over the step, hill axes [m/s]
 
 
 def _sort_key(command):
@@ -406,7 +175,7 @@ class SixDofChaser:
                                 tuple(undelivered.tolist()))
         if (allocation is not None and allocation.saturated) or below.any():
             why = 'beyond the thrusters' if allocation.saturated else 'below the minimum impulse bit'
-            self._emit(Event(t_now, 'WARN', 'wrench_undelivered',
+            self._emit(Event(t_now, 'WARN', events.WRENCH_UNDELIVERED,
                              f'wrench command {seq} stamped {t_stamp:.3f} s: part {why} not delivered '
                              f'(force {np.linalg.norm(undelivered[:3]):.4g} N, torque '
                              f'{np.linalg.norm(undelivered[3:]):.4g} N m)',
@@ -436,7 +205,7 @@ class SixDofChaser:
         clipped = tuple(min(max(u, -u_max), u_max) for u, u_max in zip(torque, self._u_max, strict=True))
         if clipped != torque:
             limited = [i for i, (a, b) in enumerate(zip(torque, clipped, strict=True)) if a != b]
-            self._emit(Event(t_now, 'WARN', 'wheel_torque_limited',
+            self._emit(Event(t_now, 'WARN', events.WHEEL_TORQUE_LIMITED,
                              f'wheel command {seq} stamped {t_stamp:.3f} s exceeds the torque limit on wheels '
                              f'{limited}', dict(seq=seq, t_stamp=float(t_stamp), torque_commanded_n_m=torque,
                                                 torque_n_m=clipped, wheels=limited)))
@@ -471,7 +240,7 @@ class SixDofChaser:
             raise ValueError(f'{kind} command stamp {t_stamp!r} is not finite')
         if t_stamp < t_now:
             lateness = t_now - t_stamp
-            self._emit(Event(t_now, 'WARN', 'late_command',
+            self._emit(Event(t_now, 'WARN', events.LATE_COMMAND,
                              f'{kind} command {self._seq[kind]} stamped {t_stamp:.3f} s arrived {lateness:.3f} s '
                              f'late; applied from {t_now:.3f} s',
                              dict(command=kind, seq=self._seq[kind], t_stamp=float(t_stamp), t_applied=t_now,
@@ -548,12 +317,12 @@ class SixDofChaser:
 
     def _report_wheel_limit(self, i, t, t_event):
         """Record (once per wheel command and wheel) that wheel i's momentum limit stops its commanded torque."""
-        key = ('wheel_momentum_limited', self._wheel.seq, i)
+        key = (events.WHEEL_MOMENTUM_LIMITED, self._wheel.seq, i)
         if key in self._reported:
             return
         self._reported.add(key)
         limit = math.copysign(self._h_max[i], self._wheel.torque_n_m[i])
-        self._emit(Event(t_event, 'WARN', 'wheel_momentum_limited',
+        self._emit(Event(t_event, 'WARN', events.WHEEL_MOMENTUM_LIMITED,
                          f'wheel {i} at its momentum limit {limit:.4g} N m s at t = {t:.3f} s stops wheel command '
                          f'{self._wheel.seq}', dict(seq=self._wheel.seq, wheel=i, t=t, momentum_n_m_s=limit)))
 
@@ -577,10 +346,10 @@ class SixDofChaser:
         self._thrusts = tuple(total)
         if self._burn is not None and self._wrench is not None and t_event is not None:
             clipped = [i for i in range(n) if burn[i] + wrench[i] > self._max_thrust[i]]
-            key = ('wrench_limited_by_burn', self._wrench.seq, self._burn.seq)
+            key = (events.WRENCH_LIMITED_BY_BURN, self._wrench.seq, self._burn.seq)
             if clipped and key not in self._reported:
                 self._reported.add(key)
-                self._emit(Event(t_event, 'WARN', 'wrench_limited_by_burn',
+                self._emit(Event(t_event, 'WARN', events.WRENCH_LIMITED_BY_BURN,
                                  f'wrench command {self._wrench.seq} limited on thrusters {clipped} during burn '
                                  f'{self._burn.seq}', dict(seq=self._wrench.seq, burn_seq=self._burn.seq,
                                                            thrusters=clipped)))
@@ -604,7 +373,7 @@ class SixDofChaser:
         dv_body = force_actual / flow * math.log(self.mass_kg / (self.mass_kg - flow * plan.duration_s)) \
             if flow > 0.0 else np.zeros(3)
         dv_expected_hill = quat_rotate(self.q_hill_from_body(t), dv_body)
-        self._emit(Event(t_event, 'OK', 'burn_started', f'burn {burn.seq} started at t = {t:.3f} s',
+        self._emit(Event(t_event, 'OK', events.BURN_STARTED, f'burn {burn.seq} started at t = {t:.3f} s',
                          dict(seq=burn.seq, t_cmd=burn.t_cmd_s, t_start=burn.start_s, t_end=burn.end_s,
                               dv_cmd_hill=burn.dv_cmd_hill, dv_hill=dv_expected_hill,
                               direction_body=burn.direction_body,
@@ -613,7 +382,7 @@ class SixDofChaser:
                               minimum_impulse_allocated=plan.minimum_impulse_allocated)))
         if burn.late:
             lateness = burn.start_s - burn.t_cmd_s
-            self._emit(Event(t_event, 'WARN', 'late_maneuver',
+            self._emit(Event(t_event, 'WARN', events.LATE_MANEUVER,
                              f'burn {burn.seq} stamped {burn.t_cmd_s:.3f} s started {lateness:.3f} s late',
                              dict(seq=burn.seq, t_cmd=burn.t_cmd_s, t_start=burn.start_s, lateness_s=lateness)))
 
@@ -621,7 +390,7 @@ class SixDofChaser:
         burn, self._burn = self._burn, None
         self._last_burn_end = t
         self._update_thrusts(t_event)
-        self._emit(Event(t_event, 'OK', 'burn_ended', f'burn {burn.seq} ended at t = {t:.3f} s',
+        self._emit(Event(t_event, 'OK', events.BURN_ENDED, f'burn {burn.seq} ended at t = {t:.3f} s',
                          dict(seq=burn.seq, t_end=t, dv_cmd_hill=burn.dv_cmd_hill,
                               dv_delivered_hill=np.array(self._burn_dv_hill), fuel_kg=burn.fuel_kg,
                               mass_kg=self.mass_kg)))
@@ -765,15 +534,15 @@ class SixDofChaser:
         if self._wrench is not None and any(self._wrench_share):
             sources.append(('wrench', self._wrench.seq))
         for kind, seq in sources:
-            key = ('thrust_inside_restriction_sphere', kind, seq)
+            key = (events.THRUST_INSIDE_RESTRICTION_SPHERE, kind, seq)
             if key in self._reported:
                 continue
             self._reported.add(key)
             # Continuous thrust commands a wrench every control period: one event per run of consecutive
             # commands that fire inside the sphere, not one per command (thousands in a docking).
-            if kind == 'wrench' and ('thrust_inside_restriction_sphere', kind, seq - 1) in self._reported:
+            if kind == 'wrench' and (events.THRUST_INSIDE_RESTRICTION_SPHERE, kind, seq - 1) in self._reported:
                 continue
-            self._emit(Event(t_event, 'ERROR', 'thrust_inside_restriction_sphere',
+            self._emit(Event(t_event, 'ERROR', events.THRUST_INSIDE_RESTRICTION_SPHERE,
                              f'{kind} {seq} thrusts at {range_m:.3f} m, inside the {self._radius_m:.3f} m '
                              f'restriction sphere' + (' (its successors that fire there too are not reported '
                                                       'again)' if kind == 'wrench' else ''),

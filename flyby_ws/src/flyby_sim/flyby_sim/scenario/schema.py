@@ -1,32 +1,9 @@
-"""Scenario files (DESIGN §6): the flyby schema, a validating loader and a read-only Scenario.
+"""The flyby scenario schema: one line per key (type, default or REQUIRED, range, description).
 
-A scenario is one YAML file. ``SCHEMA`` below names every key with its type, default (or
-REQUIRED), validated range and a one-line description (the engine is ``flyby_msgs_py.schema``);
-``docs/scenario.md`` embeds the table that ``schema_markdown()`` renders from it (a test keeps the
-two identical). Adding a key is one line in ``SCHEMA``.
-
-    sc = load_scenario('scenarios/paper_flyby.yaml')
-    sc.chaser.thrusters.isp_s          # 220.0, defaults filled in, read-only
-    sc.q_hill_from_body0               # unit quaternion (x, y, z, w), scalar last
-    sc.omega_body0_rad_s               # inertial angular velocity of the target in body axes
-
-Every problem raises ``flyby_msgs_py.schema.ScenarioError`` (a ``ValueError``) whose message is one
-line naming the file, the dotted key path and the problem, e.g.
-``scenarios/x.yaml: chaser.mass_kg: must be > 0, got -5.0``.
-
-Quaternion convention: (x, y, z, w), scalar last, as ``flyby_sim.dynamics.rotation``.
-``q_hill_from_body`` rotates body components into hill components: ``v_hill = R(q_hill_from_body) @ v_body``.
+The engine is ``flyby_msgs_py.schema``; ``docs/scenario.md`` embeds the table ``schema_markdown()`` renders from
+``SCHEMA``. Checks a range cannot express are ``scenario.checks``.
 """
 
-import copy
-import math
-from pathlib import Path
-
-import numpy as np
-import yaml
-from scipy.spatial.transform import Rotation
-
-from flyby_msgs_py import schema
 from flyby_msgs_py.schema import (
     BOOL,
     ENUM,
@@ -40,67 +17,15 @@ from flyby_msgs_py.schema import (
     VEC3,
     VEC3_LIST,
     Field,
-    Invalid,
     ListOf,
-    Namespace,
-    ScenarioError,
     Section,
     check_nonempty,
     check_nonzero,
-    format_floats,
-    load_yaml_mapping,
-    validate,
-    validate_field,
 )
-from flyby_sim import chasers
-from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout, is_positively_spanning
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
-from flyby_sim.dynamics.grasp import Impedance
-from flyby_sim.dynamics.orbital import mean_motion_rad_s
-from flyby_sim.dynamics.rotation import (
-    quat_conjugate,
-    quat_multiply,
-    quat_normalize,
-    quat_rotate,
-    quat_rotate_many,
-    quat_shortest_arc,
-)
+from flyby_sim.scenario.checks import check_inertia, check_nonzero_rows, check_unique_names
 
 MAX_STEP_S = 0.05  # truth is published every step and must reach >= 20 Hz (DESIGN §4)
-
-
-# --------------------------------------------------------------------------------------------------
-# Checks that a range cannot express
-
-def _check_inertia(m):
-    a = np.asarray(m, dtype=float)
-    scale = np.max(np.abs(a))
-    for i, j in ((0, 1), (0, 2), (1, 2)):
-        if abs(a[i, j] - a[j, i]) > 1e-9 * scale:
-            return f'must be symmetric, got [{i}][{j}] = {a[i, j]!r} but [{j}][{i}] = {a[j, i]!r}'
-    moments = np.linalg.eigvalsh(0.5 * (a + a.T))
-    if moments[0] <= 0.0:
-        return f'must be positive definite, got principal moments {format_floats(moments)}'
-    if moments[0] + moments[1] < moments[2] * (1.0 - 1e-12):
-        return (f'principal moments {format_floats(moments)} violate the triangle inequality '
-                f'(I1 + I2 >= I3 for any rigid body)')
-    return None
-
-
-def _check_unique_names(items):
-    seen = {}
-    for i, item in enumerate(items):
-        if item['name'] in seen:
-            return i, 'name', f'duplicate box name {item["name"]!r} (also at index {seen[item["name"]]})'
-        seen[item['name']] = i
-    return None
-
-
-def _check_nonzero_rows(rows):
-    for i, row in enumerate(rows):
-        if not any(row):
-            return f'row {i} must be nonzero, got {row}'
-    return None
 
 
 # --------------------------------------------------------------------------------------------------
@@ -158,7 +83,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'inertia_kg_m2': Field(MAT3, REQUIRED, None,
                                'Inertia about the CoM in body axes; symmetric positive definite, '
                                'principal moments satisfy the triangle inequality.',
-                               check=_check_inertia),
+                               check=check_inertia),
         'initial_attitude': _initial_attitude('target_body', 'Attitude of target_body in hill at t = 0; required '
                                                              'unless post_capture.start is attached (then derived '
                                                              'from the chaser\'s and post_capture.attachment)',
@@ -169,7 +94,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                       optional=True),
         'geometry': ListOf(
             desc='Body-frame boxes making up the target shape (keep-out, markers)',
-            check=_check_unique_names,
+            check=check_unique_names,
             item=Section(desc='One box', fields={
                 'name': Field(STR, REQUIRED, None, 'Unique box name (marker namespace).', check=check_nonempty),
                 'center_m': Field(VEC3, REQUIRED, None, 'Box centre in target_body.'),
@@ -193,7 +118,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                '(rigid_body) Inertia about the CoM in chaser_body axes, wheels\' spin-axis inertia '
                                'left out; as target.inertia_kg_m2. Omitted: a uniform sphere filling the envelope, '
                                '0.4 mass_kg envelope_radius_m^2 per axis (10 kg m^2 for 100 kg, 0.5 m).',
-                               check=_check_inertia),
+                               check=check_inertia),
         'initial_attitude': _initial_attitude(
             'chaser_body', '(rigid_body) Attitude of chaser_body in hill at t = 0, as target.initial_attitude; '
                            'omitted: body +x at the target CoM (body_axis_along_hill, body [1, 0, 0], hill '
@@ -228,7 +153,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'wheels': Section(desc='(rigid_body) Reaction-wheel assembly', fields={
             'axes': Field(VEC3_LIST, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), None,
                           'Spin axis of each wheel in chaser_body (nonzero; normalized on load).',
-                          check=_check_nonzero_rows),
+                          check=check_nonzero_rows),
             'max_torque_n_m': Field(FLOAT, 0.1, '> 0', 'Motor torque limit of each wheel.'),
             'max_momentum_n_m_s': Field(FLOAT, 4.0, '> 0', 'Axial angular momentum limit of each wheel (its speed '
                                                            'limit).'),
@@ -322,9 +247,8 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'reaim_check': Field(BOOL, True, None,
                              'Also keep the margin on the arc guidance will fly once it re-aims at the grasp '
                              'solved from later estimates, with the plan estimate moved 3 sigma of its published '
-                             'covariance (plan._ReaimModel; a plan without that covariance, from the truth, has '
-                             'no re-aim check). Off, the fourth envelope campaign flew five plans whose re-aimed '
-                             'arcs crossed a panel (docs/campaigns.md).'),
+                             'covariance (flyby.reaim.ReaimModel; a plan without that covariance, from the truth, '
+                             'has no re-aim check). Why it is on: docs/campaigns.md.'),
         'escape_check_orbits': Field(FLOAT, 1.0, '>= 1',
                                      'Length of the passive escape checked after the grasp, in orbits.'),
         'geometry_window_s': Field(FLOAT, 300.0, '>= 0',
@@ -505,7 +429,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                                             'first contact.'),
             }),
             'damping': Section(desc='Detumbling of the combined body by rate feedback on the thrusters and wheels '
-                                    '(flyby_guidance.post_capture)', fields={
+                                    '(flyby_guidance.damping)', fields={
                 'momentum_threshold_kg_m2_s': Field(FLOAT, 0.1, '> 0',
                                                     'Damped when the estimated angular momentum (prior inertia) '
                                                     'stays below this (seed 004 section 3.2) ...'),
@@ -586,466 +510,3 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'duration_s': Field(FLOAT, REQUIRED, '> 0', 'Simulated time after which the run stops.'),
     }),
 })
-
-
-def _cross_checks(d):
-    """Checks across keys, on the resolved dict; raise Invalid."""
-    step = d['simulation']['step_s']
-    for sensor in ('relative_position', 'target_attitude'):
-        rate = d['sensors'][sensor]['rate_hz']
-        if rate * step > 1.0 + 1e-9:
-            raise Invalid(f'sensors.{sensor}.rate_hz',
-                          f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
-                          f'once per step), got {rate!r}')
-    imu = d['sensors']['chaser_imu']
-    if imu['rate_hz'] * step > 1.0 + 1e-9:
-        raise Invalid('sensors.chaser_imu.rate_hz',
-                      f'must be <= 1/simulation.step_s = {1.0 / step:g} Hz (a sensor samples at most '
-                      f'once per step), got {imu["rate_hz"]!r}')
-    ratio = imu['rate_hz'] / imu['star_tracker_rate_hz']
-    if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
-        raise Invalid('sensors.chaser_imu.star_tracker_rate_hz',
-                      f'must divide sensors.chaser_imu.rate_hz = {imu["rate_hz"]!r} a whole number of times (each '
-                      f'star-tracker sample falls on a gyro sample), got {imu["star_tracker_rate_hz"]!r}')
-    _check_chaser_body(d['chaser'])
-    g = d['guidance']
-    if g['momentum_dump_stop_n_m_s'] >= g['momentum_dump_start_n_m_s']:
-        raise Invalid('guidance.momentum_dump_stop_n_m_s', f'must be below guidance.momentum_dump_start_n_m_s = '
-                                                           f'{g["momentum_dump_start_n_m_s"]!r}, got '
-                                                           f'{g["momentum_dump_stop_n_m_s"]!r}')
-    planner = d['planner']
-    arm = d['chaser']['manipulator']
-    usable = arm['reach_m'] - arm['position_tolerance_m']
-    for key in ('offset_m', 'offset_max_m'):
-        if planner[key] is not None and planner[key] > usable + 1e-12:
-            raise Invalid(f'planner.{key}', f'must be <= chaser.manipulator.reach_m - position_tolerance_m = '
-                                            f'{usable!r} (the grasp point out of reach at the fly-by target point), '
-                                            f'got {planner[key]!r}')
-    if planner['offset_max_m'] is not None and planner['offset_max_m'] < planner['offset_m']:
-        raise Invalid('planner.offset_max_m', f"must be >= planner.offset_m = {planner['offset_m']!r}, "
-                                              f"got {planner['offset_max_m']!r}")
-    if planner['transfer_max_s'] < planner['transfer_min_s']:
-        raise Invalid('planner.transfer_max_s', f"must be >= planner.transfer_min_s = {planner['transfer_min_s']!r}, "
-                                                f"got {planner['transfer_max_s']!r}")
-    if planner['method'] in ('optimal', 'sync') and d['chaser']['model'] != 'rigid_body':
-        raise Invalid('planner.method', f"{planner['method']} needs chaser.model rigid_body (continuous thrust), got "
-                                        f"{d['chaser']['model']!r}")
-    sync = planner['sync']
-    if sync['arrival_end_s'] <= sync['arrival_start_s']:
-        raise Invalid('planner.sync.arrival_end_s', f"must be > planner.sync.arrival_start_s = "
-                                                    f"{sync['arrival_start_s']!r}, got {sync['arrival_end_s']!r}")
-    if d['post_capture'] is not None and d['chaser']['model'] != 'rigid_body':
-        raise Invalid('post_capture', f"needs chaser.model rigid_body (attitude, thrusters and wheels to damp and "
-                                      f"excite the combined body), got {d['chaser']['model']!r}")
-    _check_start(d)
-    optimal = planner['optimal']
-    if optimal['approach_time_max_s'] <= optimal['approach_time_min_s']:
-        raise Invalid('planner.optimal.approach_time_max_s',
-                      f"must be > planner.optimal.approach_time_min_s = {optimal['approach_time_min_s']!r}, "
-                      f"got {optimal['approach_time_max_s']!r}")
-
-
-
-def _check_start(d):
-    """The target's initial state is the scenario's, or derived from the chaser's when the run starts attached."""
-    pc = d['post_capture']
-    attached = pc is not None and pc['start'] == 'attached'
-    for key in ('initial_attitude', 'initial_rate'):
-        if attached and d['target'][key] is not None:
-            raise Invalid(f'target.{key}', 'must be omitted when post_capture.start is attached (the target turns '
-                                           'with the chaser that holds it: derived from chaser.initial_attitude, '
-                                           'chaser.initial_rate and post_capture.attachment)')
-        if not attached and d['target'][key] is None:
-            raise Invalid(f'target.{key}', 'is required (unless post_capture.start is attached)')
-    if pc is None:
-        return
-    if attached and pc['attachment'] is None:
-        raise Invalid('post_capture.attachment', 'is required when post_capture.start is attached (where the '
-                                                 'target\'s CoM and axes are in chaser_body)')
-    if not attached and pc['attachment'] is not None:
-        raise Invalid('post_capture.attachment', f"is only for post_capture.start attached, got start "
-                                                 f"{pc['start']!r}")
-    if attached and pc['mass_estimation']['prior_axes_sigma_deg'] is None:
-        raise Invalid('post_capture.mass_estimation.prior_axes_sigma_deg',
-                      'is required when post_capture.start is attached (no target attitude estimate to take it from)')
-
-
-def _check_chaser_body(chaser):
-    """Checks of the rigid-body chaser's keys across keys (validated whatever chaser.model says)."""
-    layout = chaser['thrusters']['layout']
-    if layout is not None:
-        th = chaser['thrusters']
-        b = ThrusterLayout([x['position_m'] for x in layout], [x['direction'] for x in layout], th['max_thrust_n'],
-                           th['isp_s'], th['min_impulse_bit_ns']).wrench_matrix
-        if not is_positively_spanning(b):
-            raise Invalid('chaser.thrusters.layout',
-                          f'the {len(layout)} thrusters must give every body force and torque (rank 6 and '
-                          f'positively spanning), got rank {np.linalg.matrix_rank(b)}'
-                          + ('' if np.linalg.matrix_rank(b) < 6 else ' but not positively spanning'))
-    wheels = chaser['wheels']
-    h0 = wheels['initial_momentum_n_m_s']
-    if h0 is not None:
-        if len(h0) != len(wheels['axes']):
-            raise Invalid('chaser.wheels.initial_momentum_n_m_s',
-                          f'must give one value per wheel axis ({len(wheels["axes"])}), got {len(h0)}')
-        for i, h in enumerate(h0):
-            if abs(h) > wheels['max_momentum_n_m_s']:
-                raise Invalid(f'chaser.wheels.initial_momentum_n_m_s[{i}]',
-                              f'must be within +-max_momentum_n_m_s = {wheels["max_momentum_n_m_s"]!r}, got {h!r}')
-
-
-def _resolve(data, seed):
-    """The resolved dict of a scenario mapping (defaults filled in, ``seed`` overriding the file's),
-    checked across keys; raises Invalid."""
-    resolved = validate(SCHEMA, data)
-    if seed is not None:
-        try:
-            resolved['seed'] = validate_field(SCHEMA.fields['seed'], seed, 'seed')
-        except Invalid as e:
-            raise Invalid('seed', f'{e.problem} (from the seed argument)') from None
-    _cross_checks(resolved)
-    return resolved
-
-
-# --------------------------------------------------------------------------------------------------
-# The read-only result
-
-class Boxes:
-    """The target geometry as arrays: ``names`` (tuple of str), ``center_body_m`` (N, 3), ``size_m`` (N, 3)."""
-
-    __slots__ = ('names', 'center_body_m', 'size_m')
-
-    def __init__(self, names, center_body_m, size_m):
-        self.names = names
-        self.center_body_m = center_body_m
-        self.size_m = size_m
-
-    def __len__(self):
-        return len(self.names)
-
-    def __repr__(self):
-        return f'Boxes({list(self.names)})'
-
-    def centers_hill_m(self, q_hill_from_body, r_com_hill_m=(0.0, 0.0, 0.0)):
-        """Box centres (N, 3) in hill for the target attitude ``q_hill_from_body`` and its CoM at
-        ``r_com_hill_m``: r_com_hill + R(q_hill_from_body) center_body (each box keeps the body's
-        orientation)."""
-        return np.asarray(r_com_hill_m, dtype=float) + quat_rotate_many(q_hill_from_body, self.center_body_m)
-
-
-class Scenario:
-    """A validated scenario: read-only sections by attribute (``sc.chaser.thrusters.isp_s``) plus
-    derived numpy values. Build it with ``load_scenario`` or ``scenario_from_dict``.
-
-    A scenario of several chasers (``chasers:``) is one such view per chaser: ``chaser_name`` (None for one
-    chaser), ``chaser_names`` (empty for one chaser) and ``for_chaser(name)``."""
-
-    _fleet = ()
-    chaser_name = None
-
-    def __init__(self, resolved, raw, path=None):
-        object.__setattr__(self, '_root', Namespace(resolved, SCHEMA))
-        object.__setattr__(self, '_raw', raw)
-        object.__setattr__(self, 'path', Path(path) if path is not None else None)
-        object.__setattr__(self, '_derived', self._derive())
-
-    # -- access -----------------------------------------------------------------------------------
-    def __getattr__(self, name):
-        return getattr(object.__getattribute__(self, '_root'), name)
-
-    def __setattr__(self, name, value):
-        raise AttributeError('a Scenario is read-only')
-
-    def __getitem__(self, name):
-        return self._root[name]
-
-    def __eq__(self, other):
-        return isinstance(other, Scenario) and self.to_dict() == other.to_dict()
-
-    def __reduce__(self):  # pickle / deepcopy (Monte Carlo workers)
-        return Scenario, (self.to_dict(), self._raw, self.path)
-
-    __hash__ = None
-
-    def __repr__(self):
-        return f'Scenario({self.name!r}, seed={self.seed}, path={str(self.path) if self.path else None!r})'
-
-    @property
-    def chaser_names(self):
-        """The chasers' names in the file's order (a ``chasers:`` scenario), else ()."""
-        return tuple(n for n, _ in self._fleet)
-
-    def for_chaser(self, name):
-        """The view of chaser ``name`` (a ``chasers:`` scenario); raises KeyError naming the choices."""
-        for n, view in self._fleet:
-            if n == name:
-                return view
-        raise KeyError(f'no chaser {name!r} in scenario {self.name!r} (chasers: {list(self.chaser_names)})')
-
-    @property
-    def raw(self):
-        """The parsed YAML mapping exactly as given (a copy)."""
-        return copy.deepcopy(self._raw)
-
-    def to_dict(self):
-        """Resolved values including defaults, plain Python (YAML-dumpable, loads to an equal Scenario)."""
-        return self._root.to_dict()
-
-    def to_yaml(self):
-        """``to_dict()`` as YAML text."""
-        return yaml.safe_dump(self.to_dict(), sort_keys=False, default_flow_style=None, width=100)
-
-    # -- derived ----------------------------------------------------------------------------------
-    def _derive(self):
-        t = self._root.target
-        chaser = self._root.chaser
-        if chaser.initial_attitude is not None:
-            q_chaser = _q_hill_from_body(chaser.initial_attitude)
-        else:  # body +x at the target's CoM
-            r0 = chaser.initial_position_hill_m
-            q_chaser = _positive_w(quat_shortest_arc((1.0, 0.0, 0.0), -r0)) if any(r0) else np.array((0., 0., 0., 1.))
-        omega_chaser = np.zeros(3) if chaser.initial_rate is None else _omega_body(chaser.initial_rate, q_chaser)
-        if t.initial_attitude is not None:
-            q = _q_hill_from_body(t.initial_attitude)
-            omega = _omega_body(t.initial_rate, q)
-        else:  # post_capture.start attached: the target turns with the chaser that holds it
-            q_chaser_from_target = self.q_chaser_from_target_attached
-            q = _positive_w(quat_multiply(q_chaser, q_chaser_from_target))
-            omega = quat_rotate(quat_conjugate(q_chaser_from_target), omega_chaser)
-        if chaser.inertia_kg_m2 is not None:
-            chaser_inertia = np.array(chaser.inertia_kg_m2)
-        else:  # a uniform sphere filling the envelope: 2/5 m r^2
-            chaser_inertia = 0.4 * chaser.mass_kg * chaser.envelope_radius_m ** 2 * np.eye(3)
-        orbit = self._root.orbit
-        radius = orbit.radius_m if orbit.radius_m is not None else EARTH_RADIUS_M + orbit.altitude_m
-        return {
-            'q': q,
-            'omega_body': omega,
-            'q_chaser': q_chaser,
-            'omega_chaser_body': omega_chaser,
-            'chaser_inertia': chaser_inertia,
-            'radius': float(radius),
-            'n': mean_motion_rad_s(radius, orbit.mu_m3_s2),
-        }
-
-    @property
-    def orbit_radius_m(self):
-        """Circular orbit radius [m]: radius_m, or EARTH_RADIUS_M + altitude_m."""
-        return self._derived['radius']
-
-    @property
-    def mean_motion_rad_s(self):
-        """Orbit rate Omega_t = sqrt(mu / r^3) [rad/s]."""
-        return self._derived['n']
-
-    @property
-    def orbit_period_s(self):
-        """2 pi / mean motion [s]."""
-        return 2.0 * math.pi / self._derived['n']
-
-    @property
-    def target_inertia(self):
-        """Target inertia [kg m^2] in body axes, a fresh (3, 3) array."""
-        return np.array(self._root.target.inertia_kg_m2)
-
-    @property
-    def rotation_hill_from_body0(self):
-        """scipy Rotation taking target_body components to hill components at t = 0."""
-        return Rotation.from_quat(self._derived['q'])
-
-    @property
-    def q_hill_from_body0(self):
-        """Unit quaternion (x, y, z, w) of target_body in hill at t = 0, w >= 0; a fresh array."""
-        return self._derived['q'].copy()
-
-    @property
-    def omega_body0_rad_s(self):
-        """Inertial angular velocity of the target in target_body axes at t = 0 [rad/s]; a fresh array."""
-        return self._derived['omega_body'].copy()
-
-    @property
-    def chaser_inertia(self):
-        """Chaser inertia [kg m^2] in chaser_body axes (chaser.inertia_kg_m2, or the envelope sphere's); a fresh
-        (3, 3) array."""
-        return self._derived['chaser_inertia'].copy()
-
-    @property
-    def q_hill_from_chaser_body0(self):
-        """Unit quaternion (x, y, z, w) of chaser_body in hill at t = 0, w >= 0 (chaser.initial_attitude, or body
-        +x at the target's CoM); a fresh array."""
-        return self._derived['q_chaser'].copy()
-
-    @property
-    def omega_chaser_body0_rad_s(self):
-        """Inertial angular velocity of the chaser in chaser_body axes at t = 0 [rad/s] (zero if omitted)."""
-        return self._derived['omega_chaser_body'].copy()
-
-    @property
-    def thruster_layout(self):
-        """The rigid-body chaser's nominal ThrusterLayout (chaser.thrusters.layout, or the default 12 thrusters), as
-        guidance allocates and the plant fires it (without the run's execution errors)."""
-        th = self.chaser.thrusters
-        if th.layout is None:
-            return default_thruster_layout(th.max_thrust_n, th.isp_s, th.min_impulse_bit_ns)
-        return ThrusterLayout([x.position_m for x in th.layout], [x.direction for x in th.layout], th.max_thrust_n,
-                              th.isp_s, th.min_impulse_bit_ns)
-
-    @property
-    def q_chaser_from_target_attached(self):
-        """Unit quaternion (x, y, z, w) of target_body in chaser_body when the run starts attached
-        (post_capture.attachment), else None."""
-        pc = self.post_capture
-        if pc is None or pc.attachment is None:
-            return None
-        return Rotation.from_euler('xyz', pc.attachment.target_rpy_in_chaser_rad).as_quat()
-
-    @property
-    def arm_impedance(self):
-        """The arm's impedance after the capture (post_capture.grasp as a ``dynamics.grasp.Impedance``), or None
-        without a post_capture section."""
-        if self.post_capture is None:
-            return None
-        g = self.post_capture.grasp
-        return Impedance(stiffness_n_m=g.stiffness_n_per_m, damping_n_s_m=g.damping_n_s_per_m,
-                         rot_stiffness_n_m_rad=g.rot_stiffness_n_m_per_rad,
-                         rot_damping_n_m_s_rad=g.rot_damping_n_m_s_per_rad, max_force_n=g.max_force_n,
-                         max_torque_n_m=g.max_torque_n_m, max_stroke_m=g.max_stroke_m)
-
-    @property
-    def offset_max_m(self):
-        """Largest fly-by offset delta r the planner searches [m] (planner.offset_max_m or the reach less
-        the position tolerance)."""
-        p, arm = self.planner, self.chaser.manipulator
-        return p.offset_max_m if p.offset_max_m is not None else arm.reach_m - arm.position_tolerance_m
-
-    @property
-    def boxes(self):
-        """Target geometry as arrays (``Boxes``: names, center_body_m (N, 3), size_m (N, 3))."""
-        g = self._root.target.geometry
-        return Boxes(tuple(b.name for b in g), np.array([b.center_m for b in g]), np.array([b.size_m for b in g]))
-
-
-def _positive_w(q):
-    """q or -q, whichever has w >= 0 (the same attitude)."""
-    return -q if q[3] < 0.0 else q
-
-
-def _q_hill_from_body(att):
-    """The unit quaternion (w >= 0) of an initial_attitude section (any of its three forms)."""
-    if att.q_hill_from_body is not None:
-        q = quat_normalize(att.q_hill_from_body)
-    elif att.rpy_rad is not None:
-        q = Rotation.from_euler('xyz', att.rpy_rad).as_quat()  # extrinsic x-y-z = Rz(yaw) Ry(pitch) Rx(roll)
-    else:
-        q = quat_shortest_arc(att.body_axis_along_hill.body, att.body_axis_along_hill.hill)
-    return _positive_w(q)  # q and -q are the same attitude: report w >= 0
-
-
-def _omega_body(rate, q_hill_from_body):
-    """The inertial angular velocity in body axes [rad/s] of an initial_rate section, given in body or hill axes."""
-    if rate.omega_body_rad_s is not None:
-        omega_body = np.array(rate.omega_body_rad_s)
-    elif rate.omega_body_deg_s is not None:
-        omega_body = np.radians(rate.omega_body_deg_s)
-    else:
-        omega_hill = (rate.omega_hill_rad_s if rate.omega_hill_rad_s is not None
-                      else np.radians(rate.omega_hill_deg_s))
-        omega_body = quat_rotate(quat_conjugate(q_hill_from_body), omega_hill)  # omega_B = R_BH omega_H
-    return np.asarray(omega_body, dtype=float)
-
-
-# --------------------------------------------------------------------------------------------------
-# Entry points
-
-def scenario_from_dict(data, name='<dict>', seed=None, path=None):
-    """Validate a scenario mapping (as parsed from YAML) into a Scenario; ``name`` labels errors.
-
-    With ``chasers:`` (several robots, flyby_sim.chasers) the result is the first chaser's view; every chaser's
-    view is ``for_chaser(name)``."""
-    if isinstance(data, dict) and 'chasers' in data:
-        return _fleet_from_dict(data, name, seed, path)
-    try:
-        resolved = _resolve(data, seed)
-    except Invalid as e:
-        raise ScenarioError(name, e.key, e.problem) from None
-    return Scenario(resolved, copy.deepcopy(data), path)
-
-
-def _fleet_from_dict(data, name, seed, path):
-    """The views of a ``chasers:`` scenario (flyby_sim.chasers), each a single-chaser Scenario; the first."""
-    try:
-        singles = chasers.single_chaser_dicts(data)
-    except Invalid as e:
-        raise ScenarioError(name, e.key, e.problem) from None
-    views = []
-    for chaser_name, single, i in singles:
-        try:
-            base_seed = _resolve(single, seed)['seed']
-            resolved = _resolve(single, chasers.chaser_seed(base_seed, i))
-        except Invalid as e:
-            raise ScenarioError(name, chasers.entry_key(e.key, i, data), e.problem) from None
-        views.append((chaser_name, Scenario(resolved, single, path)))
-    fleet = tuple(views)
-    for chaser_name, view in fleet:
-        object.__setattr__(view, '_fleet', fleet)
-        object.__setattr__(view, 'chaser_name', chaser_name)
-    return fleet[0][1]
-
-
-def load_scenario(path, seed=None):
-    """Load and validate a scenario YAML file; ``seed`` (int >= 0) overrides the file's seed.
-
-    Raises ScenarioError with a one-line message ``<path>: <key.path>: <problem>``.
-    """
-    return scenario_from_dict(load_yaml_mapping(path), name=str(path), seed=seed, path=path)
-
-
-def scenario_of(node):
-    """Declare the node's ``scenario_file``, ``seed`` and ``chaser`` parameters and load the scenario (seed < 0: the
-    file's); with ``chaser`` (a ``chasers:`` scenario) that chaser's view."""
-    node.declare_parameter('scenario_file', '')
-    node.declare_parameter('seed', -1)
-    node.declare_parameter('chaser', '')
-    seed = node.get_parameter('seed').value
-    path = node.get_parameter('scenario_file').value
-    scenario = load_scenario(path, seed=None if seed < 0 else seed)
-    chaser = node.get_parameter('chaser').value
-    if not chaser:
-        return scenario
-    try:
-        return scenario.for_chaser(chaser)
-    except KeyError as err:
-        raise ScenarioError(path, 'chasers', f'parameter chaser: {err.args[0]}') from None
-
-
-def schema_markdown():
-    """The key table of docs/scenario.md, rendered from SCHEMA."""
-    return schema.schema_markdown(SCHEMA)
-
-
-def main(argv=None):
-    """``python -m flyby_sim.scenario FILE [--seed N]`` prints the resolved scenario or the error;
-    ``--schema-markdown`` prints the key table of docs/scenario.md."""
-    import argparse
-    import sys
-    parser = argparse.ArgumentParser(description=main.__doc__)
-    parser.add_argument('file', nargs='?')
-    parser.add_argument('--seed', type=int)
-    parser.add_argument('--schema-markdown', action='store_true')
-    args = parser.parse_args(argv)
-    if args.schema_markdown:
-        sys.stdout.write(schema_markdown())
-        return 0
-    if not args.file:
-        parser.error('a scenario file is required')
-    try:
-        sc = load_scenario(args.file, seed=args.seed)
-    except ScenarioError as e:
-        print(e, file=sys.stderr)
-        return 2
-    sys.stdout.write(sc.to_yaml())
-    return 0
-
-
-if __name__ == '__main__':
-    raise SystemExit(main())

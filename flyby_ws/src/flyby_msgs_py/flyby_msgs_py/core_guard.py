@@ -1,0 +1,28 @@
+"""An exception in a core: reported once as an ERROR ``node_error`` event, the core fed no more (docs/runtime.md).
+
+A core (estimator, planner, guidance, supervisor) that raises while handling an input is left half-updated: what
+it would command next is not to be trusted. Its driver (``flyby_msgs_py.node_base.CoreNode`` in the graph; the
+headless driver alike) catches the exception, turns it into one ``node_error`` Event stamped at the input being
+handled, and from then on gives that core nothing more, so nothing more comes out of it. The supervisor reads a
+``node_error`` of any node as a fault and takes the mission to ABORTED (flyby_mission.supervisor). No ROS here:
+the headless driver uses the same guard.
+"""
+
+from flyby_msgs_py import events
+from flyby_msgs_py.wire import Event
+
+
+class CoreGuard:
+    """The guard of one node's core: ``failed`` is None until the core raises, then its node_error Event."""
+
+    def __init__(self, node):
+        self.node = node  # the node's name: the event's source
+        self.failed = None
+
+    def fail(self, t, callback, err):
+        """The node_error Event of ``err`` raised at sim time t [s] while ``callback`` (the topic, service or
+        timer whose input the core was handling) ran; the core is fenced off from now on."""
+        kind = type(err).__name__
+        self.failed = Event(t, 'ERROR', events.NODE_ERROR, f'{self.node}: {kind}: {err}',
+                            {'node': self.node, 'exception': kind, 'callback': callback}, self.node)
+        return self.failed
