@@ -1,8 +1,8 @@
-"""scripts/mission_report.py on real runs: one cut short before any plan, one that captures, one short run of the
-six-degree-of-freedom chaser through run_mission --report, one short synchronized approach (seed 001 Fig 4-7), one
-short capture that goes on through the grasp, the damping and the mass-property estimation (seed 004 Fig 5)."""
+"""The report library (flyby_mission.report) and scripts/mission_report.py on real runs: one cut short before any
+plan, one that captures, one short run of the six-degree-of-freedom chaser through run_mission --report, one short
+synchronized approach (seed 001 Fig 4-7), one short capture that goes on through the grasp, the damping and the
+mass-property estimation (seed 004 Fig 5)."""
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -13,6 +13,8 @@ import yaml
 from scipy.spatial.transform import Rotation
 from test_run_mission_sync import _short as sync_short
 
+from flyby_mission.report import analysis, loading, post_capture, post_capture_analysis, sync, sync_analysis
+from flyby_mission.report.writer import write_report
 from flyby_msgs_py import contract as c
 from flyby_sim.scenario import load_scenario
 from flyby_testing import ROOT, read_summary, run_mission, with_duration, write_scenario
@@ -24,18 +26,6 @@ RIGID_BODY_FIGURES = ('attitude.png', 'pointing.png', 'wheels.png', 'thrusters.p
 PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
 
 
-@pytest.fixture(scope='module')
-def report():
-    spec = importlib.util.spec_from_file_location('mission_report', SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up
-    try:
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        del sys.modules[spec.name]
-
-
 def check_pngs(paths, largest=400_000):
     for path in paths:
         data = path.read_bytes()
@@ -43,15 +33,15 @@ def check_pngs(paths, largest=400_000):
         assert 10_000 < len(data) < largest, (path, len(data))
 
 
-def test_match_stamps_pairs_the_same_instants_only(report):
+def test_match_stamps_pairs_the_same_instants_only():
     truth = np.arange(0.0, 2.0, 0.05)  # 20 Hz steps
     estimate = np.array([0.1 + 1e-9, 0.2, 0.25 + 1e-3, 1.95, 3.0])  # 10 Hz-ish, one off-grid, one beyond
-    i_est, i_truth = report.match_stamps(estimate, truth)
+    i_est, i_truth = loading.match_stamps(estimate, truth)
     assert i_est.tolist() == [0, 1, 3]
     assert np.allclose(truth[i_truth], [0.1, 0.2, 1.95])
 
 
-def test_report_of_a_run_cut_before_any_plan(report, tmp_path, capsys):
+def test_report_of_a_run_cut_before_any_plan(tmp_path, capsys):
     """40 s: the estimator runs, the planner has not planned yet (it waits 60 s of observation), so
     there is no path, grasp or burn. What can be drawn is, the rest is said on stderr."""
     run_dir = tmp_path / 'run'
@@ -60,7 +50,7 @@ def test_report_of_a_run_cut_before_any_plan(report, tmp_path, capsys):
     assert result.returncode == 3, result.stderr
     assert read_summary(run_dir)['outcome'] == 'TIME_LIMIT'
 
-    written = report.write_report(run_dir, tmp_path / 'report')
+    written = write_report(run_dir, tmp_path / 'report')
 
     assert [p.name for p in written] == [n for n in ALL_FIGURES if n != 'maneuvers.png']
     assert all(p.parent == tmp_path / 'report' for p in written)
@@ -92,22 +82,22 @@ def test_report_of_a_captured_run_from_the_command_line(tmp_path):
     assert 'skipped' not in cli.stderr and 'failed' not in cli.stderr
 
 
-def test_sphere_intervals_interpolate_entry_and_exit(report):
+def test_sphere_intervals_interpolate_entry_and_exit():
     t = np.arange(0.0, 10.0, 1.0)
     r = np.array([20.0, 16.0, 14.0, 12.0, 14.0, 17.0, 15.0, 13.0, 12.0, 11.0])  # in at 1.5 s, out 4.5, in 6
-    intervals = report.sphere_intervals(t, np.column_stack((r, np.zeros(10), np.zeros(10))), 15.0)
+    intervals = loading.sphere_intervals(t, np.column_stack((r, np.zeros(10), np.zeros(10))), 15.0)
     assert np.allclose(intervals, [(1.5, 4 + 1 / 3), (6.0, 9.0)])  # the last one open at the end
-    assert report.sphere_intervals(t, np.full((10, 3), 20.0), 15.0) == []
+    assert loading.sphere_intervals(t, np.full((10, 3), 20.0), 15.0) == []
 
 
-def test_continuous_quaternions_undo_sign_flips(report):
+def test_continuous_quaternions_undo_sign_flips():
     angle = np.linspace(0.0, 3.0 * np.pi, 50)  # more than a turn about z: w changes sign
     q = np.column_stack((np.zeros(50), np.zeros(50), np.sin(angle / 2), np.cos(angle / 2)))
     flipped = q * np.where(np.arange(50) % 3 == 0, -1.0, 1.0)[:, None]
-    assert np.allclose(report.continuous_quaternions(flipped), q)
+    assert np.allclose(analysis.continuous_quaternions(flipped), q)
 
 
-def test_report_of_a_rigid_body_run_from_run_mission(report, tmp_path):
+def test_report_of_a_rigid_body_run_from_run_mission(tmp_path):
     """paper_flyby_6dof cut at 40 s after 20 s of observation: the transfer burn (about 30 s) fires thrusters and
     opens the pointing window. run_mission --report writes the rigid-body figures besides the others, and the
     velocities the figures draw are in hill: the truth's range rate is the range's derivative."""
@@ -128,22 +118,22 @@ def test_report_of_a_rigid_body_run_from_run_mission(report, tmp_path):
     check_pngs(written)
     assert 'failed' not in result.stderr and 'skipped' not in result.stderr
 
-    run = report.Run(run_dir)
+    run = loading.Run(run_dir)
     assert run.rigid_body and run.sphere == []  # 50 m out: never inside the restriction sphere
     truth = run.need(c.SIM_CHASER_ODOM)
-    r, r_dot = report._range_and_rate(truth)
+    r, r_dot = analysis.range_and_rate(truth)
     coasting = np.abs(truth.t - run.burns[0].t_start) > 3.0  # the burn lasts about 1.5 s
     assert np.max(np.abs(np.gradient(r, truth.t) - r_dot)[coasting][1:-1]) < 1e-6  # [m/s]
     read_in_body_axes = truth._replace(orientation_xyzw=np.tile((0.0, 0.0, 0.0, 1.0), (len(r), 1)))
-    assert np.max(np.abs(report._range_and_rate(read_in_body_axes)[1] - r_dot)) > 1e-3  # what the check catches
+    assert np.max(np.abs(analysis.range_and_rate(read_in_body_axes)[1] - r_dot)) > 1e-3  # what the check catches
 
 
-def test_euler_angles_are_the_scenarios_and_their_derivative_is_right(report):
+def test_euler_angles_are_the_scenarios_and_their_derivative_is_right():
     """euler_rpy inverts the scenario's reading of rpy_rad, R = Rz(psi) Ry(theta) Rx(phi); euler_from_hill_rotation is
     how a small rotation about hill axes (the estimator's attitude error) moves them, as a finite difference shows."""
     rng = np.random.default_rng(15)
     q = Rotation.random(50, random_state=rng)
-    rpy = report.euler_rpy(q.as_quat())
+    rpy = sync_analysis.euler_rpy(q.as_quat())
     phi, theta, psi = rpy.T
     one, zero = np.ones(50), np.zeros(50)
     rx = np.stack((np.stack((one, zero, zero), -1), np.stack((zero, np.cos(phi), -np.sin(phi)), -1),
@@ -154,13 +144,13 @@ def test_euler_angles_are_the_scenarios_and_their_derivative_is_right(report):
                    np.stack((zero, zero, one), -1)), axis=1)
     assert np.allclose(rz @ ry @ rx, q.as_matrix(), atol=1e-12)
     dtheta_hill = 1e-7 * rng.standard_normal((50, 3))
-    moved = report.euler_rpy((Rotation.from_rotvec(dtheta_hill) * q).as_quat())
+    moved = sync_analysis.euler_rpy((Rotation.from_rotvec(dtheta_hill) * q).as_quat())
     step = (moved - rpy + np.pi) % (2.0 * np.pi) - np.pi
-    predicted = np.einsum('nij,nj->ni', report.euler_from_hill_rotation(rpy), dtheta_hill)
+    predicted = np.einsum('nij,nj->ni', sync_analysis.euler_from_hill_rotation(rpy), dtheta_hill)
     assert np.allclose(step, predicted, rtol=1e-4, atol=1e-13)
 
 
-def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp_path):
+def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(tmp_path):
     """The short synchronized approach of test_run_mission_sync flown by run_mission --report (every node in one
     process, to be quick): the report adds seed 001's Fig 4-7, and what they draw agrees with the truth computed here
     another way: the kinetic energies at a sample of stage 4 from the raw twist and wheel speeds and the scenario's
@@ -175,17 +165,17 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp
     assert summary['outcome'] == 'CAPTURE' and summary['method'] == 'sync'
 
     no_burn = tuple(n for n in ALL_FIGURES if n != 'maneuvers.png')  # the synchronized approach fires no impulse
-    written = [out / name for name in no_burn + RIGID_BODY_FIGURES + tuple(n for n, _ in report.SYNC_FIGURES)]
+    written = [out / name for name in no_burn + RIGID_BODY_FIGURES + tuple(n for n, _ in sync.FIGURES)]
     assert [f'report: {p}' for p in written] == [line for line in result.stderr.splitlines()
                                                   if line.startswith('report: ')]
     assert 'failed' not in result.stderr
     check_pngs(written[-4:], largest=700_000)
-    run = report.Run(out)
-    windows = report.stage_windows(run.phases)
+    run = loading.Run(out)
+    windows = sync_analysis.stage_windows(run.phases)
     (t1, t2), (t3, t4) = windows['stages 1-2'], windows['stages 3-4']
     assert t2 == t3 and t4 == summary['t_grasp_s']
 
-    attitude = report.sync_attitude(run)
+    attitude = sync_analysis.sync_attitude(run)
     assert attitude.t_stage3 == pytest.approx(t3, abs=0.05)
     synced = (attitude.t >= attitude.t_stage3) & (attitude.t <= t4)
     drift_deg = np.degrees(attitude.drift_rad[synced])
@@ -195,13 +185,13 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp
     assert relative_rate_deg_s[synced].max() < 0.5
     assert np.median(relative_rate_deg_s[(attitude.t >= t1) & (attitude.t < t1 + 10.0)]) > 10.0  # 21.4 deg/s tumble
 
-    translation = report.sync_translation(run)
+    translation = sync_analysis.sync_translation(run)
     orbiting = [(a, b) for phase, a, b in run.phases if phase == c.PHASE_ORBITING][0]
     held = translation.r_target_body[(translation.t >= orbiting[0]) & (translation.t <= orbiting[1])]
     assert np.ptp(held, axis=0).max() < 0.05  # [m] seed 001 Fig 2: constant in the target's frame
 
     data = yaml.safe_load(scenario_path.read_text())
-    energy = report.kinetic_energies(run)
+    energy = sync_analysis.kinetic_energies(run)
     chaser, wheels = run.need(c.SIM_CHASER_ODOM, c.SIM_CHASER_WHEELS)
     k = int(np.searchsorted(chaser.t, 0.5 * (t3 + t4)))
     (i,) = np.flatnonzero(energy.t == chaser.t[k])
@@ -221,7 +211,7 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(report, tmp
     assert np.all(energy.target_translational == 0.0)  # the hill origin is its centre of mass
 
 
-def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping(report, tmp_path, tug_short_run):
+def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping(tmp_path, tug_short_run):
     """The short paper_flyby_tug of the post-capture tests (conftest.tug_short_run, flown once), the four post-capture
     figures drawn from its bag (write_report adds them for a post_capture scenario). What they plot: the truth mass and
     moments are the scenario's; the estimates' final values and errors are summary.json's to the bit (the same truth
@@ -234,15 +224,15 @@ def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping
     assert summary['outcome'] == 'CAPTURE' and summary['final_phase'] == c.PHASE_COMPLETE
     scenario = load_scenario(scenario_path)
 
-    run = report.Run(out)
+    run = loading.Run(out)
     assert run.post_capture
     written = []
-    for name, draw in report.POST_CAPTURE_FIGURES:
+    for name, draw in post_capture.FIGURES:
         draw(run, tmp_path / name)
         written.append(tmp_path / name)
     check_pngs(written, largest=700_000)
 
-    d = report.mass_property_estimates(run)
+    d = post_capture_analysis.mass_property_estimates(run)
     assert d.true_mass_kg == scenario.target.mass_kg == 1500.0
     assert d.true_moments_kg_m2.tolist() == pytest.approx([1000.0, 1200.0, 2000.0], rel=1e-12)
     assert len(d.t) >= 20 and np.all(d.mass_sigma_kg > 0.0) and np.all(d.com_sigma_m > 0.0)
@@ -256,7 +246,7 @@ def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping
     assert np.hypot(*d.axes_error_rad[-1, 1:]) == pytest.approx(d.axes_angle_rad[-1, 0], rel=1e-3)
     assert np.linalg.eigvalsh(d.inertia_body_kg_m2[-1]) == pytest.approx(np.sort(d.moments_kg_m2[-1]), rel=1e-9)
 
-    m = report.combined_motion(run)
+    m = post_capture_analysis.combined_motion(run)
     thrust = run.need(c.SIM_CHASER_THRUST)
     steps = (thrust.t[1:] > m.t[0] + 1e-9) & (thrust.t[1:] <= m.t[-1] + 1e-9)  # each step's mean force [N], hill
     impulse = np.sum(thrust.force[1:][steps] * np.diff(thrust.t)[steps, None], axis=0)
@@ -266,12 +256,12 @@ def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping
     assert np.linalg.norm(m.v_com_inertial[-1] - m.v_com_inertial[0] - impulse / total_kg) < 1.5e-3
     assert np.all(np.abs(m.attitude_error_hill) <= m.attitude_sigma3_hill)
 
-    t, force, torque, _ = report.grasp_contact(run)
+    t, force, torque, _ = post_capture_analysis.grasp_contact(run)
     assert t[0] == pytest.approx(summary['t_grasp_s'], abs=0.1)
     assert force.max() == summary['peak_grasp_force_n'] < scenario.post_capture.grasp.max_force_n
     assert torque.max() == summary['peak_grasp_torque_n_m'] < scenario.post_capture.grasp.max_torque_n_m
 
-    t, momentum = report.damping_momentum(run)
+    t, momentum = post_capture_analysis.damping_momentum(run)
     assert momentum[0] > 100.0  # [kg m^2/s] the target's 2000 kg m^2 at 5 deg/s, 175, and the chaser's orbit about it
     assert momentum[-1] == summary['final_angular_momentum_kg_m2_s'] < 0.1
     assert t[-1] - t[0] == pytest.approx(summary['damping_time_s'], abs=0.05)

@@ -105,6 +105,7 @@ class _Chaser:
         self.announced_ns = collections.deque()
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
+        self.chain_failed = False  # a command-chain node's core failed: never waited for again
         self.locked = False  # the plant's combined body after a grasp: commanded again (module doc)
         self.command_wait = _Wait()
         self.chain = tuple(node if name is None else f'{name}/{node}' for node in COMMAND_CHAIN)
@@ -197,6 +198,9 @@ class SimNode(Node):
                                      lambda data: self.on_wrench(ch, data), qos.QOS_STREAM, raw=True)
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), ch.topic(c.MISSION_PHASE),
                                  lambda msg: self.on_phase(ch, msg), qos.QOS_LATCHED)
+        if ch.commands_expected:
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]), ch.topic(c.MISSION_EVENTS),
+                                     lambda msg: self.on_events(ch, msg), qos.qos_for(c.MISSION_EVENTS))
         self.create_subscription(c.message_class(c.TOPIC_TYPES[c.PLANNER_FLYBY_TARGET]),
                                  ch.topic(c.PLANNER_FLYBY_TARGET), lambda msg: self.on_flyby_target(ch, msg),
                                  qos.QOS_LATCHED)
@@ -345,7 +349,7 @@ class SimNode(Node):
         self.steps += 1
         for ch in self.chasers:
             if not ch.locked and ch.plant.mode == 'combined':
-                ch.locked, ch.attitude_quiet = True, False
+                ch.locked, ch.attitude_quiet = True, ch.chain_failed
         # The measurements first, the target's attitude last: the chaser's estimate (and with the rigid-body
         # chaser the command chain it starts) is worked on while the rest goes out. (The estimator's outputs
         # do not depend on the order of the two chains; a node that has handled the clock of t has handled
@@ -489,6 +493,17 @@ class SimNode(Node):
         if phase == c.PHASE_TRANSPORT:  # before any transport firing: guidance holds its first for a plan
             ch.plant.start_transport()
             self.publish_plant_events()
+
+    def on_events(self, ch, msg):
+        """A node of the command chain whose core failed (flyby_msgs_py.core_guard) commands no more: time is not held
+        for its announced commands, as for a node that left the graph."""
+        for e in convert.events_from_msg(msg):
+            node = e['values'].get('node')
+            if e['name'] == events.NODE_ERROR and node in COMMAND_CHAIN and not ch.chain_failed:
+                ch.attitude_quiet = ch.chain_failed = True
+                ch.announced_ns.clear()
+                self.emit('WARN', events.NODE_LOST, f'{node} failed ({e["message"]}); no longer waiting for attitude '
+                          'commands', {'nodes': node}, ch)
 
     def on_flyby_target(self, ch, msg):
         """The grasp time of the plan (a re-plan moves it): the capture decision is held for there."""

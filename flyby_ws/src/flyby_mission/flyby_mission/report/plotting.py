@@ -1,6 +1,7 @@
-"""Drawing shared by the figure scripts mission_report.py, plan_capture.py and paper_figures.py.
+"""Drawing shared by the report library (flyby_mission.report) and the figure scripts (plan_capture.py,
+compare_methods.py, the benchmarks).
 
-Matplotlib with the Agg backend: the scripts write files and need no display. Positions are hill
+Matplotlib with the Agg backend: the figures are files and need no display. Positions are hill
 positions [m] (flyby_sim.dynamics.orbital: x along-track, y orbit anti-normal, z toward Earth), one
 point per row (N, 3). The scripts draw them through a projection, points (N, 3) -> plot coordinates:
 ``xz`` for the hill x-z plane, ``cube_clip(half_width_m)`` for 3-D axes about the target.
@@ -70,7 +71,7 @@ def mark_points(ax, marks, project, **style):
 
 
 def cylinder_surfaces(region, axis_hill, samples=64):
-    """Per cylinder of a keep-out region (flyby_planner.keepout.SweptRegion) about its unit hill axis:
+    """Per cylinder of a keep-out region (flyby_planner.flyby.keepout.SweptRegion) about its unit hill axis:
     the closed surface as a (4, samples, 3) grid [m] (bottom centre, bottom rim, top rim, top centre)."""
     helper = np.eye(3)[int(np.argmin(np.abs(axis_hill)))]
     u = np.cross(axis_hill, helper)
