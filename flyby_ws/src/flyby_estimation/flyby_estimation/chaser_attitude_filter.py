@@ -1,7 +1,7 @@
 """Chaser attitude filter: a multiplicative EKF of the chaser's own attitude and gyro bias (no ROS).
 
 Estimates q_eci_from_body of ``chaser_body`` and the gyro bias from the chaser IMU
-(``/sensors/chaser/imu``, issue 13 part 4, DESIGN §10): the gyro drives the time update, the star
+(``/sensors/chaser/imu``, DESIGN §10): the gyro drives the time update, the star
 tracker's q_hill_from_body is the measurement. The body rate is not a state: it is the gyro minus the
 estimated bias (the usual gyro-driven attitude filter, Lefferts, Markley and Shuster 1982, ref. 3 of
 seed 004; Markley and Crassidis, "Fundamentals of Spacecraft Attitude Determination and Control",
@@ -15,7 +15,7 @@ x = [dtheta_body, dbias_body] (6) with q_true = q_ref * exp(dtheta_body) (a rota
 axes, as in the target filter) and bias_true = bias_ref + dbias_body [rad/s]. ``omega_body`` is the
 chaser's inertial angular velocity in body axes, the rate the gyro measures.
 
-Sensor model (the plant's, issue 13; sigma_g per sample, not a density):
+Sensor model (the plant's; sigma_g per sample, not a density):
 
     gyro, every 1/rate_hz:  omega_meas_k = omega_body(t_k) + b_k + sigma_g n_k,
                             b_k = b_(k-1) + sigma_bw sqrt(dt) m_k,  b_0 ~ N(0, sigma_b0^2 I)
@@ -33,7 +33,7 @@ Time update (``on_gyro``), from the filter time to the stamp of the new gyro sam
   ``gyro_interpolation='hold'`` option) lags the rate by h/2: for a tumbling or slewing chaser
   (|domega/dt| ~ 5e-4 rad/s^2 for seed 001's servicer at 3 deg/s) that is an error rate of ~2.5e-5 rad/s,
   a false bias 250 times the bias walk over 100 s, which the filter would take for a bias and be
-  inconsistent (docs/estimation.md, measured). The averaging needs the sample at the end of the step,
+  inconsistent (docs/estimation.md). The averaging needs the sample at the end of the step,
   which is the one that triggers it, so it costs no latency.
 * **Transition** of the error over the step, at the step's mean rate w = theta / h held constant
   (M&C §6.2, closed form; a = |theta|):
@@ -101,7 +101,7 @@ class ChaserAttitudeFilterConfig:
     """Parameters of ChaserAttitudeFilter (validated; ValueError names the field).
 
     The sensor fields are the scenario's ``sensors.chaser_imu`` keys in SI units
-    (``chaser_attitude_filter_config_from_scenario``); the defaults are issue 13's.
+    (``chaser_attitude_filter_config_from_scenario``); the defaults are the scenario schema's.
 
     Attributes:
         mean_motion_rad_s: orbital mean motion n [rad/s] of the hill frame.

@@ -22,22 +22,23 @@ sample is taken as the delta-v the accelerometer measured. A rejected measuremen
 running count of its kind. After the capture the chaser moves with the target, so its free-flight
 navigation stops.
 
-After the capture with a post_capture section (issue 16, ``post_capture``): the target filter stops too (the target
-is no longer torque-free), the chaser attitude filter goes on, and a ``ChaserEstimate`` is still given at every
-IMU sample (guidance damps and excites the combined body from it), its position the chaser's at the capture,
-fixed in its own axes (the navigation estimate at the simulator's ``captured`` stamp, turned with the attitude
-estimate). At guidance's ``damping_complete`` the mass-property filter runs over the excitation
-(``post_capture.MassEstimationRun``), from the prior at the capture (``post_capture.mass_property_prior``); its
-estimates go out as ``TargetInertiaEstimate`` (estimation/target/inertia) with their 1-sigma on mission/events
+After the capture with a post_capture section (DESIGN §10): the target filter stops too (the target is no longer
+torque-free), the chaser attitude filter goes on, and a ``ChaserEstimate`` is still given at every IMU sample
+(guidance damps and excites the combined body from it), its position the chaser's at the capture, fixed in its own
+axes (the navigation estimate at the simulator's ``captured`` stamp, turned with the attitude estimate). At guidance's
+``damping_complete`` the mass-property filter runs over the excitation (``mass_estimation_run.MassEstimationRun``),
+from the prior at the capture (``mass_estimation_run.mass_property_prior``); its estimates go out as
+``TargetInertiaEstimate`` (estimation/target/inertia) with their 1-sigma on mission/events
 (``mass_properties_estimate``, the last ``mass_properties_estimated``). A run that starts attached (post_capture.start
 attached, seed 004 §3.1) is attached from t = 0: no free-flight navigation, the snapshot the attachment as known
-(``post_capture.attachment_snapshot``), its chaser estimates' position that geometry about the target's initial CoM
-(no position sensor), and the filter's run from guidance's ``excitation_scheduled``. With a transport
-(post_capture.transport, issue 17) the final estimate starts the combined body's navigation
-(``post_capture.TransportNavigation``: relative position and accelerometer), whose chaser position and velocity the
-chaser estimates carry from the next IMU sample on; at every stamp of ``post_capture.on_com_grid`` after it, before
-that stamp's chaser estimate, the combined CoM it navigates with (``transport_com_estimate``: refined over the coasts
-with nothing firing, ``post_capture.ComCoast``), which guidance waits for.
+(``mass_estimation_run.attachment_snapshot``), its chaser estimates' position that geometry about the target's initial
+CoM (no position sensor), and the filter's run from guidance's ``excitation_scheduled``. With a transport
+(post_capture.transport) the final estimate starts the combined body's navigation
+(``transport_navigation.TransportNavigation``: relative position and accelerometer), whose chaser position and
+velocity the chaser estimates carry from the next IMU sample on; at every stamp of
+``transport_navigation.on_com_grid`` after it, before that stamp's chaser estimate, the combined CoM it navigates with
+(``transport_com_estimate``: refined over the coasts with nothing firing, ``transport_navigation.ComCoast``), which
+guidance waits for.
 
 The estimator node and the headless driver (flyby_mission.headless) both run ``EstimatorCore``;
 every input method returns the outputs to publish, in order.
@@ -52,16 +53,16 @@ import numpy as np
 
 from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser_attitude_filter_config_from_scenario
 from flyby_estimation.filters import filters_from_scenario
-from flyby_estimation.post_capture import (
+from flyby_estimation.mass_estimation_run import (
     CaptureSnapshot,
     MassEstimationRun,
-    TransportNavigation,
     attachment_snapshot,
-    combined_com_covariance,
     imu_sample,
     mass_property_prior,
 )
+from flyby_estimation.transport_navigation import TransportNavigation, combined_com_covariance
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_sim.dynamics.attitude import body_point_state
@@ -168,23 +169,23 @@ class EstimatorCore:
             return []
         self.attached = True
         t = self.nav.t if self.nav.initialized else 0.0
-        return [self._event(t, 'OK', 'navigation_suspended',
+        return [self._event(t, 'OK', events.NAVIGATION_SUSPENDED,
                             'captured: the chaser moves with the target, its free-flight navigation filter stops', {})]
 
     def on_event(self, event):
         """An event of mission/events (wire.Event): the capture's stamp and the excitation's start (module doc)."""
         if not self.post_capture or event.source == self.name:
             return []
-        if event.name == 'captured' and self.snapshot is None and self.pending is not None:
+        if event.name == events.CAPTURED and self.snapshot is None and self.pending is not None:
             return self._take_snapshot(event.t)
-        if event.name == 'grasp_released':  # both fly freely: no combined body to estimate, no fixed relation
+        if event.name == events.GRASP_RELEASED:  # both fly freely: no combined body to estimate, no fixed relation
             self.snapshot, self.pending, self.mass_run = None, None, None
             return []
-        if event.name == 'grasp_damped':
+        if event.name == events.GRASP_DAMPED:
             self.arm_deflection = (json.loads(event.values['arm_displacement_body_m']),
                                    json.loads(event.values['arm_rotation_body_rad']))
             return []
-        if event.name in ('damping_complete', 'excitation_scheduled') and self.mass_run is not None \
+        if event.name in (events.DAMPING_COMPLETE, events.EXCITATION_SCHEDULED) and self.mass_run is not None \
                 and self.mass_run.t_start is None:
             return self._start_mass_estimation(event)
         return []
@@ -193,7 +194,7 @@ class EstimatorCore:
         """The prior at the lock and the filter's run from the excitation's start (module doc)."""
         prior = mass_property_prior(self.scenario, self.snapshot, *self.arm_deflection)
         t_start = float(event.values['t_excitation_s'])
-        started = self._event(event.t, 'OK', 'mass_properties_prior',
+        started = self._event(event.t, 'OK', events.MASS_PROPERTIES_PRIOR,
                               f'prior of the target at the lock: {prior.target_mass_kg:.2f} kg, CoM '
                               f'{np.round(prior.target_com_body_m, 3).tolist()} m (chaser_body); the excitation from '
                               f't = {t_start:.2f} s',
@@ -209,7 +210,7 @@ class EstimatorCore:
         chaser = self.recent_chaser.last_at_or_before(t_capture + STAMP_TOLERANCE_S)
         target = self.recent_target.last_at_or_before(t_capture + STAMP_TOLERANCE_S)
         if chaser is None or target is None:
-            return [self._event(t_capture, 'WARN', 'mass_estimation_unavailable',
+            return [self._event(t_capture, 'WARN', events.MASS_ESTIMATION_UNAVAILABLE,
                                 'no chaser or target estimate at the capture: no prior for the mass properties', {})]
         estimate = chaser[1]
         self.snapshot = CaptureSnapshot(t_capture, estimate.r_hill, estimate.q_hill_from_body,
@@ -232,7 +233,8 @@ class EstimatorCore:
                     self.scenario, e.t, combined.com_body_m,
                     combined_com_covariance(self.mass_run.chaser_mass_kg, f), combined.mass_kg)
             out.append(e)
-            out.append(self._event(e.t, 'OK', 'mass_properties_estimated' if e.final else 'mass_properties_estimate',
+            name = events.MASS_PROPERTIES_ESTIMATED if e.final else events.MASS_PROPERTIES_ESTIMATE
+            out.append(self._event(e.t, 'OK', name,
                                    f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '
                                    f'{np.round(f.principal_moments_kg_m2, 1).tolist()} kg m^2'
                                    + (' (final)' if e.final else ''),
@@ -319,7 +321,7 @@ class EstimatorCore:
             if refined is not None:  # before the estimate: guidance waits for it at this stamp
                 com, sigma, coast_s = refined
                 coast = f' ({coast_s:.0f} s of coast)' if coast_s else ''
-                out.append(self._event(t, 'OK', 'transport_com_estimate',
+                out.append(self._event(t, 'OK', events.TRANSPORT_COM_ESTIMATE,
                                        f'combined CoM {np.round(com, 4).tolist()} m from the chaser\'s, +- '
                                        f'{np.round(sigma * 1e3, 2).tolist()} mm{coast}',
                                        {'com_body_m': com, 'com_sigma_m': sigma, 'coast_s': coast_s}))
@@ -336,7 +338,7 @@ class EstimatorCore:
             self.nav.add_maneuver(t, dv_hill)
         except (ManeuverRejected, ValueError) as err:
             # The simulator rejects it too; the filter must not expect it.
-            return [self._event(t, 'WARN', 'maneuver_ignored',
+            return [self._event(t, 'WARN', events.MANEUVER_IGNORED,
                                 f'not a known input of the navigation filter: {err}', {'t_stamp': t})]
         return []
 
@@ -364,7 +366,7 @@ class EstimatorCore:
         try:
             self.nav.add_maneuver(t, dv_hill, burn_duration_s=self.wrench_hold_s, execution_error=False)
         except (ManeuverRejected, ValueError) as err:
-            return [self._event(t, 'WARN', 'maneuver_ignored',
+            return [self._event(t, 'WARN', events.MANEUVER_IGNORED,
                                 f'force command not a known input of the navigation filter: {err}', {'t_stamp': t})]
         if measured is None:
             _put_bounded(self.commanded_dv, _key(t), dv_hill)
@@ -404,7 +406,7 @@ class EstimatorCore:
                 figures, out = self._batch_check(t)
                 bounds.update(figures)
             out.append(self._event(t, 'OK' if converged else 'WARN',
-                                   'target_converged' if converged else 'target_diverged',
+                                   events.TARGET_CONVERGED if converged else events.TARGET_DIVERGED,
                                    f'target estimate {"within" if converged else "outside"} the convergence bounds',
                                    bounds))
         if converged and t >= self.t_classified + CLASSIFY_PERIOD_S:
@@ -412,7 +414,7 @@ class EstimatorCore:
             motion = self.target.classify_motion(self.motion)
             if motion.category != self.category:
                 self.category = motion.category
-                out.append(self._event(t, 'OK', 'target_category', motion.reason,
+                out.append(self._event(t, 'OK', events.TARGET_CATEGORY, motion.reason,
                                        {'category': motion.category,
                                         'inertial_rate_deg_s': f'{math.degrees(motion.inertial_rate_rad_s):.4g}',
                                         'hill_relative_rate_deg_s':
@@ -425,13 +427,13 @@ class EstimatorCore:
         try:
             check = self.target.batch_check()
         except (RuntimeError, ValueError) as err:
-            return {}, [self._event(t, 'WARN', 'target_filter_check', f'batch check not done: {err}', {})]
+            return {}, [self._event(t, 'WARN', events.TARGET_FILTER_CHECK, f'batch check not done: {err}', {})]
         values = {'ml_gap_sigma': f'{check.gap_sigma:.3g}', 'crb_ratio_min': f'{check.ratio_min:.3g}',
                   'crb_ratio_max': f'{check.ratio_max:.3g}', 'chi2_per_dof': f'{check.chi2_per_dof:.4g}',
                   'window_samples': str(check.fit.samples)}
         if check.consistent:
             return values, []
-        return values, [self._event(t, 'WARN', 'target_filter_check',
+        return values, [self._event(t, 'WARN', events.TARGET_FILTER_CHECK,
                                     'the filter differs from the batch maximum-likelihood fit of its measurements '
                                     f'(gap {check.gap_sigma:.3g} sigma, covariance {check.ratio_min:.3g}-'
                                     f'{check.ratio_max:.3g} x the Cramer-Rao bound)', values)]
@@ -439,7 +441,7 @@ class EstimatorCore:
     # -- events ---------------------------------------------------------------------------------
     def _reject(self, t, sensor, kind, reason):
         self.rejected[(sensor, kind)] += 1
-        return [self._event(t, 'WARN', 'measurement_rejected', reason,
+        return [self._event(t, 'WARN', events.MEASUREMENT_REJECTED, reason,
                             {'sensor': sensor, 'kind': kind, 'count': str(self.rejected[(sensor, kind)]),
                              'total': str(sum(self.rejected.values()))})]
 

@@ -17,7 +17,7 @@ axes) and the inertial body rate with its covariance. The relative positions and
 in the plant's order (``measurement_order``), however DDS interleaves the two topics. The force guidance
 commands on ``guidance/wrench`` (an optimal approach's tracking) is a known input of the navigation filter.
 
-With a post_capture section (issue 16) the events of ``mission/events`` come in too (the capture's stamp, the arm's
+With a post_capture section (DESIGN §10) the events of ``mission/events`` come in too (the capture's stamp, the arm's
 lock, guidance's ``damping_complete``), and the mass-property filter's estimates go out on
 ``estimation/target/inertia`` (geometry_msgs/InertiaStamped, frame chaser_body: the target's mass, its CoM from the
 chaser's CoM, its inertia about its CoM), their 1-sigma on ``mission/events``.
@@ -26,8 +26,8 @@ chaser's CoM, its inertia about its CoM), their 1-sigma on ``mission/events``.
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
+from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
 from flyby_estimation.measurement_order import MeasurementOrder
-from flyby_estimation.post_capture import TargetInertiaEstimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode

@@ -2,13 +2,13 @@
 
 import math
 
+from flyby_estimation.motion_category import MotionThresholds
 from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
 from flyby_estimation.target_filter import (
     ConvergenceThresholds,
     TargetAttitudeFilter,
     target_filter_config_from_scenario,
 )
-from flyby_estimation.target_motion import MotionThresholds
 
 
 def filters_from_scenario(scenario):

@@ -19,7 +19,7 @@ information the filter gains on the ten target parameters (log det P0_params - l
 the window, P from the filter's own Riccati recursion along the nominal trajectory: a D-optimal design);
 every candidate uses the same total impulse (fuel = impulse / (Isp g0)).
 
-In a mission (scenario post_capture, issue 16) the chaser has no such gimballed thruster: each firing is the
+In a mission (scenario post_capture, DESIGN §10) the chaser has no such gimballed thruster: each firing is the
 wrench (F, X_f x F) about the chaser's CoM, commanded on /guidance/wrench and held in steps of the control period,
 which the plant allocates on the chaser's own thrusters (``actuators.allocate_wrench`` and ``fire`` with the
 minimum impulse bit over the hold); ``thruster_firings`` is that allocation as the filter's known input, each
@@ -32,14 +32,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flyby_estimation.mass_properties import (
-    PARAMETER_SLICE,
-    MassPropertyFilter,
-    MassPropertyFilterConfig,
-    MassPropertyPrior,
-    j_from_moments,
-    moments_from_j,
-)
+from flyby_estimation.mass_properties import MassPropertyFilter, MassPropertyFilterConfig
+from flyby_estimation.mass_properties_model import PARAMETER_SLICE, MassPropertyPrior, j_from_moments, moments_from_j
 from flyby_sim.dynamics.actuators import allocate_wrench, fire
 from flyby_sim.dynamics.combined_body import (
     CombinedState,
@@ -49,11 +43,7 @@ from flyby_sim.dynamics.combined_body import (
     simulate_combined_body,
     specific_force_body,
 )
-from flyby_sim.dynamics.rotation import (
-    quat_from_rotation_vector,
-    quat_multiply,
-    random_small_rotation,
-)
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, random_small_rotation
 
 TABLE1_MAX_THRUST_N = 10.0
 TABLE1_THRUSTER_POSITION_BODY_M = (-0.3, 0.1, 0.1)

@@ -14,7 +14,7 @@ Markley and Shuster 1982):
 
 - time update: the reference (q, omega) follows the torque-free Euler equation with the known inertia
   (seed 000 eq 4, seed 001 eq 3), RK4 substeps; P <- Phi P Phi' + Qd with Phi and Qd of each substep
-  in closed form (target_motion.ErrorStateDynamics.propagate), filterpy's KalmanFilter.predict arithmetic
+  in closed form (attitude_error_dynamics.ErrorStateDynamics.propagate), filterpy's KalmanFilter.predict arithmetic
   without its bookkeeping.
 - measurement: z = q_hill_from_body at stamp t, taken to inertial with quat_eci_from_hill(t, n);
   the innovation is the body-frame rotation vector nu = log(q_ref^-1 * q_meas), so H = [I 0] and
@@ -43,21 +43,18 @@ import math
 
 import numpy as np
 
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.batch import check_filter, fit_attitude_motion
 from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
-from flyby_estimation.target_motion import (
-    ErrorStateDynamics,
-    MotionPrediction,
-    MotionThresholds,
-    classify_motion,
-    make_state,
-    point_prediction,
+from flyby_estimation.motion_category import MotionThresholds, classify_motion
+from flyby_estimation.quaternion_floats import (
     q_eci_from_hill_floats,
     quat_exp_floats,
     quat_normalize_floats,
     quat_product_floats,
     rotation_vector_floats,
 )
+from flyby_estimation.target_motion import MotionPrediction, make_state, point_prediction
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import q_hill_from_body
 from flyby_sim.dynamics.rotation import (
@@ -89,7 +86,7 @@ class TargetFilterConfig:
         norm_tolerance: measurements with |norm - 1| above this are rejected as 'non_unit'.
         max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that
             measurement (a wrong initial measurement would otherwise lock it out); N >= 1.
-        max_step_angle_rad: substep limit, as a rotation angle (target_motion.ErrorStateDynamics.propagate).
+        max_step_angle_rad: substep limit, as a rotation angle (attitude_error_dynamics.ErrorStateDynamics.propagate).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
         check_window_max_samples: fused measurements kept for batch_check (default 36000: one hour at
             10 Hz); past that the window is dropped and batch_check refuses.
@@ -216,7 +213,7 @@ class TargetAttitudeFilter(FilterBase):
             return self._outcome('non_unit', t, reason=f'measurement at t = {t} s has norm {norm:.6g}, not within '
                                                        f'{self.config.norm_tolerance} of 1')
         z = z / norm
-        # orbital.q_eci_from_body(t, n, z) and the quaternion algebra below on floats (target_motion's *_floats:
+        # orbital.q_eci_from_body(t, n, z) and the quaternion algebra below on floats (quaternion_floats:
         # rotation's expressions, the same bits, without an array per product)
         q_eci_meas = quat_product_floats(q_eci_from_hill_floats(t, self._n), z.tolist())
         if not self.initialized:
@@ -346,7 +343,7 @@ class TargetAttitudeFilter(FilterBase):
         return float(rotation_angle_many(quat_multiply(q_now_inv, q_hill_from_body_then.T).T).max())
 
     def classify_motion(self, thresholds=DEFAULT_MOTION_THRESHOLDS):
-        """target_motion.MotionCategory (seed 000 section 2.1) from the estimated rate and attitude excursion.
+        """motion_category.MotionCategory (seed 000 section 2.1) from the estimated rate and attitude excursion.
 
         Meaningful once converged; the excursion covers the time since initialization, up to
         excursion_window_s.

@@ -1,10 +1,10 @@
-"""chaser_attitude_filter.py: the chaser's attitude and gyro-bias MEKF against a truth of its own (issue 13 part 4).
+"""chaser_attitude_filter.py: the chaser's attitude and gyro-bias MEKF against a truth of its own.
 
 The truth is a torque-free rigid body (``flyby_sim.dynamics.attitude.AttitudePropagator``, seed 001's
-servicer) sampled at the IMU rate; the measurements are drawn here from issue 13's sensor model with a
+servicer) sampled at the IMU rate; the measurements are drawn here from the plant's sensor model with a
 seeded Generator (``simulate_imu``), not by ``flyby_sim.sensors``, so the filter is checked against the
 model it was written for, independently of the plant's implementation.
-scripts/benchmark_chaser_attitude.py imports ``simulate_imu``, ``run_filter`` and ``campaign`` from here.
+scripts/bench/benchmark_chaser_attitude.py imports ``simulate_imu``, ``run_filter`` and ``campaign`` from here.
 """
 
 import dataclasses
@@ -49,7 +49,7 @@ from flyby_sim.scenario import load_scenario
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 SERVICER_INERTIA = np.diag([13.0, 38.0, 35.0])  # seed 001 Table 1 [kg m^2]
 N_RAD_S = mean_motion_rad_s(7.0e6)  # paper_flyby's orbit (radius 7000 km)
-CONFIG = ChaserAttitudeFilterConfig(mean_motion_rad_s=N_RAD_S)  # issue 13's sensor defaults
+CONFIG = ChaserAttitudeFilterConfig(mean_motion_rad_s=N_RAD_S)  # the scenario schema's sensor defaults
 TUMBLE_RATE_RAD_S = 0.05  # about 2.9 deg/s, the slew rate limit of docs/chaser_6dof.md
 NEES_RUNS = 50
 NEES_DURATION_S = 300.0

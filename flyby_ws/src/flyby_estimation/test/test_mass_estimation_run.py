@@ -1,4 +1,4 @@
-"""post_capture (estimation): the prior at the lock from the capture's estimates and the arm's deflection, and the
+"""mass_estimation_run: the prior at the lock from the capture's estimates and the arm's deflection, and the
 mass-property filter's run over the excitation on IMU samples as the plant gives them (interval means)."""
 
 import math
@@ -6,15 +6,15 @@ import math
 import numpy as np
 import pytest
 
-from flyby_estimation.mass_properties import principal_axis_errors_rad
-from flyby_estimation.mass_properties_excitation import excitation_firings, thruster_firings
-from flyby_estimation.post_capture import (
+from flyby_estimation.mass_estimation_run import (
     CaptureSnapshot,
     ImuSample,
     MassEstimationRun,
     mass_property_prior,
     principal_axes,
 )
+from flyby_estimation.mass_properties_errors import principal_axis_errors_rad
+from flyby_estimation.mass_properties_excitation import excitation_firings, thruster_firings
 from flyby_sim.dynamics.combined_body import (
     CombinedState,
     combined_mass_properties,

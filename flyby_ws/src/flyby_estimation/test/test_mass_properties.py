@@ -8,16 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from flyby_estimation.mass_properties import (
-    MassPropertyFilter,
-    MassPropertyFilterConfig,
-    _difference,
-    _perturb,
-    _thruster_key,
-    j_from_moments,
-    moments_from_j,
-    principal_axis_errors_rad,
-)
+from flyby_estimation.mass_properties import MassPropertyFilter, MassPropertyFilterConfig
+from flyby_estimation.mass_properties_errors import principal_axis_errors_rad
 from flyby_estimation.mass_properties_excitation import (
     CHOSEN_ROWS,
     STATE_SIGMAS,
@@ -33,6 +25,7 @@ from flyby_estimation.mass_properties_excitation import (
     total_impulse_n_s,
     tugrobot_filter_config,
 )
+from flyby_estimation.mass_properties_model import difference, j_from_moments, moments_from_j, perturb, thruster_key
 
 _J = st.floats(-30.0, 30.0)
 
@@ -147,7 +140,7 @@ def test_thruster_errors_enter_as_process_and_measurement_noise_during_a_firing(
     """The module doc's input noise, by hand for one firing: S_F = s_m^2 F F' + s_d^2 (|F|^2 U - F F'), the rates'
     psd G S_F G' x the firing's duration (G = [C / (m + M); I^-1 [X_f - c]x]) over the step; none between firings
     and none without the sigmas."""
-    from flyby_estimation.mass_properties import _BatchBody
+    from flyby_estimation.mass_properties_model import BatchBody
     from flyby_sim.dynamics.combined_body import Firing
     from flyby_sim.dynamics.rotation import quat_to_matrix, skew
 
@@ -166,7 +159,7 @@ def test_thruster_errors_enter_as_process_and_measurement_noise_during_a_firing(
     q = f._firing_noise(f._y, 1.2, 0.1)
     force = np.array(firing.force_body_n)
     s_f = 0.01 ** 2 * np.outer(force, force) + math.radians(0.5) ** 2 * (25.0 * np.eye(3) - np.outer(force, force))
-    body = _BatchBody(f._y[None, :], case.chaser_mass_kg, case.chaser_inertia_body)
+    body = BatchBody(f._y[None, :], case.chaser_mass_kg, case.chaser_inertia_body)
     g = np.vstack((quat_to_matrix(case.q_inertial_from_body0) / body.mass[0],
                    body.inertia_inv[0] @ skew(np.array(firing.position_body_m) - body.c[0])))
     rates = g @ s_f @ g.T * 0.5
@@ -187,7 +180,7 @@ def _one_step_problem(**overrides):
                            table1_firings())
     theta_true = np.zeros(22)
     theta_true[12:] = 2.0 * np.sqrt(np.diag(f.covariance))[12:] * np.array([1, -1, 1, -1, 1, -1, 1, 1, -1, 1])
-    y_true, _, _ = f._transition(_perturb(f._y, theta_true[None, :])[0], 1.0, 1.1)
+    y_true, _, _ = f._transition(perturb(f._y, theta_true[None, :])[0], 1.0, 1.1)
     z, _ = f._imu_and_jacobian(y_true, 1.1)
     return f, z
 
@@ -205,18 +198,18 @@ def test_seed004_iterated_imu_update_over_a_firing_is_the_one_step_map_estimate(
     r_inv_sqrt = np.diag(1.0 / np.array([f.config.gyro_sigma_rad_s] * 3 + [f.config.accel_sigma_mps2] * 3))
 
     def residuals(theta):
-        y1, _, _ = f._transition(_perturb(y0, theta[None, :])[0], 1.0, 1.1)
+        y1, _, _ = f._transition(perturb(y0, theta[None, :])[0], 1.0, 1.1)
         return np.concatenate((chol_inv @ theta, r_inv_sqrt @ (z - f._imu_and_jacobian(y1, 1.1)[0])))
 
     theta_map = least_squares(residuals, np.zeros(22), x_scale=np.sqrt(np.diag(p0)), xtol=1e-12, ftol=1e-12).x
-    y_map, _, _ = f._transition(_perturb(y0, theta_map[None, :])[0], 1.0, 1.1)
+    y_map, _, _ = f._transition(perturb(y0, theta_map[None, :])[0], 1.0, 1.1)
     assert f.on_imu(1.1, z[:3], z[3:]).kind == 'accepted'
     sigma = np.sqrt(np.diag(f.covariance))[12:]
-    iterated = _difference(f._y[None, :], y_map)[0, 12:] / sigma
+    iterated = difference(f._y[None, :], y_map)[0, 12:] / sigma
     assert np.max(np.abs(iterated)) < 0.1
     plain, _ = _one_step_problem(imu_iterations=1)
     plain.on_imu(1.1, z[:3], z[3:])
-    assert np.max(np.abs(_difference(plain._y[None, :], y_map)[0, 12:] / sigma)) > 1.0
+    assert np.max(np.abs(difference(plain._y[None, :], y_map)[0, 12:] / sigma)) > 1.0
 
 
 def test_seed004_relinearize_is_the_batch_map_estimate():
@@ -234,7 +227,7 @@ def test_seed004_relinearize_is_the_batch_map_estimate():
     chol_inv = np.linalg.inv(np.linalg.cholesky(p0))
 
     def residuals(theta):
-        y, t, out = _perturb(y_prior, theta[None, :])[0], t0, [chol_inv @ theta]
+        y, t, out = perturb(y_prior, theta[None, :])[0], t0, [chol_inv @ theta]
         for t_k, kind, z in f._samples:
             y, t = f._propagate(y, t, t_k), t_k
             innovation, _, r = f._linearized(kind, y, t_k, z)
@@ -242,12 +235,12 @@ def test_seed004_relinearize_is_the_batch_map_estimate():
         return np.concatenate(out)
 
     theta_map = least_squares(residuals, np.zeros(22), x_scale=np.sqrt(np.diag(p0)), xtol=1e-12, ftol=1e-12).x
-    y_map = f._propagate(_perturb(y_prior, theta_map[None, :])[0], t0, f.t)
-    np.testing.assert_allclose(f._propagate(y_map, f.t, t0), _perturb(y_prior, theta_map[None, :])[0], atol=1e-9)
+    y_map = f._propagate(perturb(y_prior, theta_map[None, :])[0], t0, f.t)
+    np.testing.assert_allclose(f._propagate(y_map, f.t, t0), perturb(y_prior, theta_map[None, :])[0], atol=1e-9)
     assert f.imu_counts['outlier'] == 0 and f.counts['outlier'] == 0
     assert f.relinearize() <= 3
     sigma = np.sqrt(np.diag(f.covariance))
-    assert np.max(np.abs(_difference(f._y[None, :], y_map)[0] / sigma)) < 1e-3
+    assert np.max(np.abs(difference(f._y[None, :], y_map)[0] / sigma)) < 1e-3
 
 
 def test_seed004_relinearized_cylinder_learns_nothing_of_its_rotation_about_its_axis():
@@ -283,9 +276,9 @@ def test_thruster_errors_as_states_are_estimated_constant_per_thruster():
                                     thrust_error_states=True)
     rng = np.random.default_rng(11)
     firings = table1_firings()
-    keys = list(dict.fromkeys(_thruster_key(f) for f in firings))
+    keys = list(dict.fromkeys(thruster_key(f) for f in firings))
     draws = {k: ((1.0 + s_m * rng.standard_normal()), random_small_rotation(rng, s_d)) for k in keys}
-    fired = tuple(f._replace(force_body_n=tuple(draws[_thruster_key(f)][0] * quat_rotate(draws[_thruster_key(f)][1],
+    fired = tuple(f._replace(force_body_n=tuple(draws[thruster_key(f)][0] * quat_rotate(draws[thruster_key(f)][1],
                                                                                           f.force_body_n)))
                   for f in firings)
     meas = simulate_experiment(case, fired, 25.0, config, rng)
@@ -324,7 +317,7 @@ def test_graded_sequences_start_small_at_no_more_impulse():
 def test_seed004_cylinder_defines_only_its_symmetry_axis():
     """Seed 004 §3.1's material satellite, a uniform cylinder (2, 1.5, 1.5) kg m^2: any pair of perpendicular axes
     about its symmetry axis is principal, so only the symmetry axis is defined; three distinct moments define all."""
-    from flyby_estimation.mass_properties import defined_axes
+    from flyby_estimation.mass_properties_errors import defined_axes
 
     assert defined_axes((1.5, 1.5, 2.0)).tolist() == [False, False, True]
     assert defined_axes((1000.0, 1200.0, 2000.0)).tolist() == [True, True, True]
@@ -334,7 +327,7 @@ def test_seed004_cylinder_defines_only_its_symmetry_axis():
 def test_defined_parameters_leave_out_the_rotations_about_an_axis_between_two_equal_moments():
     """The ten parameters (M, dphi, X_s, j): the cylinder (1.5, 1.5, 2) in ascending order loses the rotation about
     its third (symmetry) axis, three distinct moments keep all ten, a sphere loses all three rotations."""
-    from flyby_estimation.mass_properties import defined_parameters
+    from flyby_estimation.mass_properties_errors import defined_parameters
 
     assert defined_parameters((1.5, 1.5, 2.0)) == [0, 1, 2, 4, 5, 6, 7, 8, 9]
     assert defined_parameters((2.0, 1.5, 1.5)) == [0, 2, 3, 4, 5, 6, 7, 8, 9]
@@ -344,9 +337,10 @@ def test_defined_parameters_leave_out_the_rotations_about_an_axis_between_two_eq
 
 def test_parameter_error_and_nees_are_the_error_state_the_filter_would_fold_in():
     """Truth minus estimate in the filter's coordinates: a known error state folded into an estimate's parameters
-    (``_perturb``) comes back from parameter_error, and its NEES with the filter's own P is e' P^-1 e over the
+    (``perturb``) comes back from parameter_error, and its NEES with the filter's own P is e' P^-1 e over the
     defined parameters."""
-    from flyby_estimation.mass_properties import PARAMETER_SLICE, parameter_error, parameter_nees
+    from flyby_estimation.mass_properties_errors import parameter_error, parameter_nees
+    from flyby_estimation.mass_properties_model import PARAMETER_SLICE
 
     case = TugrobotCase()
     config = tugrobot_filter_config(case)
@@ -355,7 +349,7 @@ def test_parameter_error_and_nees_are_the_error_state_the_filter_would_fold_in()
     e = f.state()
     dx = np.zeros(22)
     dx[PARAMETER_SLICE] = [0.3, 0.0, 0.004, -0.002, 0.01, -0.005, 0.002, 0.02, -0.01, 0.005]
-    y_true = _perturb(f._y, dx[None, :])[0]
+    y_true = perturb(f._y, dx[None, :])[0]
     truth_moments = moments_from_j(y_true[21:24])
     error = parameter_error(e, y_true[13], y_true[18:21], y_true[14:18], truth_moments)
     np.testing.assert_allclose(error, dx[PARAMETER_SLICE], atol=1e-12)
@@ -424,7 +418,7 @@ def test_a_gyro_bias_state_takes_a_constant_offset_of_the_gyro():
     (two gyro sigmas; the mission's residual after the attitude filter is ~2e-6): with the bias a state of that
     prior the filter estimates it inside 3 sigma (its sigma below a third of the prior's), and the parameters'
     NEES over the nine defined ones below chi2(9)'s 99.9 % point; the thrusters' error rows stay empty."""
-    from flyby_estimation.mass_properties import parameter_error, parameter_nees
+    from flyby_estimation.mass_properties_errors import parameter_error, parameter_nees
 
     case = TugrobotCase()
     config = tugrobot_filter_config(case)

@@ -481,10 +481,9 @@ def test_the_estimator_skips_a_batch_check_over_more_samples_than_the_scenario_a
 
 
 class PreviousFilter(TargetAttitudeFilter):
-    """The measurement update and state() as they were before issue 12's throughput work (np.linalg.inv,
-    np.eye, np.linalg.norm, np.isfinite, make_state's symmetrization of P): the reference the filter must
-    equal to the bit. The time update is the filter's own (test_target_motion checks it against its previous
-    formulation)."""
+    """The measurement update and state() in their earlier formulation (np.linalg.inv, np.eye, np.linalg.norm,
+    np.isfinite, make_state's symmetrization of P): the reference the filter must equal to the bit. The time update
+    is the filter's own (test_attitude_error_dynamics checks it against its earlier formulation)."""
 
     def state(self):
         self._require_initialized()

@@ -1,11 +1,11 @@
-"""TransportNavigation (issue 17): the combined CoM's navigation in TRANSPORT takes the accelerometer only where it
+"""TransportNavigation: the combined CoM's navigation in TRANSPORT takes the accelerometer only where it
 sees a thrust; coasting, the velocity comes from the relative positions and the modelled gravity (CW)."""
 
 from types import SimpleNamespace
 
 import numpy as np
 
-from flyby_estimation.post_capture import ComCoast, TransportNavigation
+from flyby_estimation.transport_navigation import ComCoast, TransportNavigation
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel_components, rk4_step_floats
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_to_matrix
 from flyby_sim.scenario import load_scenario

@@ -16,7 +16,8 @@ import itertools
 
 import numpy as np
 
-from flyby_mission.summary import chaser_truth_from_odometry, compute_summary
+from flyby_mission.run_truth import chaser_truth_from_odometry
+from flyby_mission.summary import compute_summary
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 

@@ -25,22 +25,18 @@ import time
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
-from flyby_estimation.post_capture import TargetInertiaEstimate
+from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
-from flyby_mission.summary import (
-    ChaserTruth,
-    TargetTruth,
-    ThrustTruth,
-    WheelTruth,
-    chaser_truth_from_odometry,
-    summarize,
-)
+from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, WheelTruth, chaser_truth_from_odometry
+from flyby_mission.summary import summarize
 from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
-from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.plan_outputs import AimUpdate, PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.planner_core import PlannerCore
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.dynamics.propulsion import ManeuverRejected
@@ -259,7 +255,7 @@ def run_headless(scenario, graph=None):
     duration_s = scenario.simulation.duration_s
     step_s = scenario.simulation.step_s
     t_terminal = None
-    end_reason = 'time_limit'
+    end_reason = events.TIME_LIMIT  # the simulator's event: the run reached its duration
     while graph.plant.t < duration_s - 0.5 * step_s:
         s = graph.step()
         if graph.phase in c.TERMINAL_PHASES and t_terminal is None:

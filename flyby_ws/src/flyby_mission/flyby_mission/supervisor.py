@@ -37,7 +37,8 @@ observable condition and carries its reason:
                                             arrival) or ``transport_refused`` (no plan meets them: the body is held)
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
-                                            fault (ERROR event) reported by a watched node
+                                            fault (ERROR event) reported by a watched node, or a
+                                            ``node_error`` of any node (its core raised, core_guard)
 
 ``SupervisorCore`` adds what the node observes and decides around the phase machine (the estimates
 by stamp, the capture decision from them, the avoidance burn after an abort); the supervisor node and
@@ -49,33 +50,36 @@ import math
 
 import numpy as np
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
-from flyby_planner.grasp import capture_target_body, grasp_from_attitude
-from flyby_planner.keepout import swept_region
-from flyby_planner.plan import avoidance_burn, planner_config_from_scenario
+from flyby_planner.flyby.avoidance import avoidance_burn
+from flyby_planner.flyby.config import planner_config_from_scenario
+from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
+from flyby_planner.flyby.keepout import swept_region
 from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
 # Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
                  c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
 # Guidance's events that move the synchronized approach from one stage to the next (seed 001 section 2).
-_SYNC_STEPS = {'station_reached': (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
-               'attitude_synchronized': (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
-               'docking_started': (c.PHASE_ORBITING, c.PHASE_DOCKING)}
+_SYNC_STEPS = {events.STATION_REACHED: (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
+               events.ATTITUDE_SYNCHRONIZED: (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
+               events.DOCKING_STARTED: (c.PHASE_ORBITING, c.PHASE_DOCKING)}
 # After the capture (post_capture): (phase, event) -> the next phase; the events are the simulator's (the arm),
 # guidance's (the damping) and the estimator's (the mass properties).
-_POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, 'captured'): c.PHASE_GRASP,
-                       (c.PHASE_GRASP, 'grasp_damped'): c.PHASE_DAMPING,
-                       (c.PHASE_GRASP, 'grasp_released'): c.PHASE_ESCAPE,
-                       (c.PHASE_DAMPING, 'damping_complete'): c.PHASE_MASS_ESTIMATION,
-                       (c.PHASE_MASS_ESTIMATION, 'mass_properties_estimated'): c.PHASE_COMPLETE}
+_POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, events.CAPTURED): c.PHASE_GRASP,
+                       (c.PHASE_GRASP, events.GRASP_DAMPED): c.PHASE_DAMPING,
+                       (c.PHASE_GRASP, events.GRASP_RELEASED): c.PHASE_ESCAPE,
+                       (c.PHASE_DAMPING, events.DAMPING_COMPLETE): c.PHASE_MASS_ESTIMATION,
+                       (c.PHASE_MASS_ESTIMATION, events.MASS_PROPERTIES_ESTIMATED): c.PHASE_COMPLETE}
 # With a transport (post_capture.transport) these come first: the estimation goes on to TRANSPORT.
-_TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, 'mass_properties_estimated'): c.PHASE_TRANSPORT,
-                    (c.PHASE_TRANSPORT, 'transport_complete'): c.PHASE_COMPLETE,
-                    (c.PHASE_TRANSPORT, 'transport_refused'): c.PHASE_COMPLETE}
+_TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, events.MASS_PROPERTIES_ESTIMATED): c.PHASE_TRANSPORT,
+                    (c.PHASE_TRANSPORT, events.TRANSPORT_COMPLETE): c.PHASE_COMPLETE,
+                    (c.PHASE_TRANSPORT, events.TRANSPORT_REFUSED): c.PHASE_COMPLETE}
 # Nodes whose silence or ERROR events abort the mission: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
@@ -196,13 +200,13 @@ class PhaseMachine:
 
     def event(self, t, level, name, source, values):
         """An event from /mission/events (not our own)."""
-        if name == 'target_converged':
+        if name == events.TARGET_CONVERGED:
             self.converged = True
             return self._maybe_plan(t)
-        if name == 'target_diverged':
+        if name == events.TARGET_DIVERGED:
             self.converged = False
             return []
-        if name == 'plan_selected' and values.get('method') == 'optimal' and self.phase in (
+        if name == events.PLAN_SELECTED and values.get('method') == 'optimal' and self.phase in (
                 c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH):
             self.t_grasp = float(values['t_grasp_s'])
             self.method, self.offset_m = 'optimal', float(values['offset_m'])
@@ -210,7 +214,7 @@ class PhaseMachine:
                 return []
             return self._go(t, c.PHASE_OPTIMAL_APPROACH, f'optimal approach selected: grasp at t = '
                                                          f'{self.t_grasp:.2f} s', {'t_grasp_s': self.t_grasp})
-        if name == 'plan_selected' and values.get('method') == 'sync':
+        if name == events.PLAN_SELECTED and values.get('method') == 'sync':
             self.method, self.offset_m = 'sync', float(values['offset_m'])
             if self.phase != c.PHASE_PLANNING:
                 return []
@@ -222,7 +226,7 @@ class PhaseMachine:
                 self.t_grasp = float(values['t_grasp_s'])
             return self._go(t, _SYNC_STEPS[name][1], values.get('reason', name),
                             {k: float(values[k]) for k in ('t_grasp_s',) if k in values})
-        if name == 'plan_selected' and self.phase == c.PHASE_PLANNING:
+        if name == events.PLAN_SELECTED and self.phase == c.PHASE_PLANNING:
             self.t_i = float(values['t_i_s'])
             self.t_grasp = float(values['t_grasp_s'])
             self.method = values.get('method', 'flyby')
@@ -230,13 +234,13 @@ class PhaseMachine:
             return self._go(t, c.PHASE_TERMINAL_APPROACH, f'plan selected: grasp at t = {self.t_grasp:.2f} s, '
                                                           f'injection at {self.t_i:.2f} s',
                             {'t_grasp_s': self.t_grasp, 't_i_s': self.t_i})
-        if name == 'plan_refused' and self.phase == c.PHASE_PLANNING:
+        if name == events.PLAN_REFUSED and self.phase == c.PHASE_PLANNING:
             return self._go(t, c.PHASE_COMPLETE, NO_SAFE_PLAN_PREFIX + values.get('reason', 'the planner refused'),
                             {'no_safe_plan': True})
-        if name == 'target_refined' and 't_grasp_s' in values:
+        if name == events.TARGET_REFINED and 't_grasp_s' in values:
             self.t_grasp = float(values['t_grasp_s'])
             return []
-        if name == 'thrusting_ended' and self.phase == c.PHASE_TRAJECTORY_ADJUST:
+        if name == events.THRUSTING_ENDED and self.phase == c.PHASE_TRAJECTORY_ADJUST:
             return self._go(t, c.PHASE_FLYBY, 'guidance ended thrusting: passive fly-by')
         if self.config.transport and (self.phase, name) in _TRANSPORT_STEPS:
             return self._go(t, _TRANSPORT_STEPS[(self.phase, name)], values.get('reason', name),
@@ -244,6 +248,9 @@ class PhaseMachine:
         if self.config.post_capture and (self.phase, name) in _POST_CAPTURE_STEPS:
             return self._go(t, _POST_CAPTURE_STEPS[(self.phase, name)], values.get('reason', name),
                             {k: v for k, v in values.items() if k != 'reason'})
+        if name == events.NODE_ERROR and self.phase in ACTIVE_PHASES:  # any node's core raised (core_guard)
+            return self._go(t, c.PHASE_ABORTED, f'{name}: {values.get("reason", source)}',
+                            {'source': source, 'event': name})
         if level == 'ERROR' and source in self.config.watched_nodes and self.phase in ACTIVE_PHASES:
             return self._go(t, c.PHASE_ABORTED, f'fault reported by {source}: {name}',
                             {'source': source, 'event': name})
@@ -320,7 +327,7 @@ class SupervisorCore:
         """The outputs at start: the first phase and its event."""
         phase = self.machine.phase
         return [Transition(0.0, '', phase, f'mission starts in {phase}', {}),
-                self._event(0.0, 'OK', 'phase_changed', f'mission starts in {phase}', {'from': '', 'to': phase})]
+                self._event(0.0, 'OK', events.PHASE_CHANGED, f'mission starts in {phase}', {'from': '', 'to': phase})]
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_target_estimate(self, t, q_hill_from_body, omega_body):
@@ -384,17 +391,17 @@ class SupervisorCore:
         t_burn = max(t, t_c) + sc.guidance.command_lead_s
         state = cw_coast(r, v, t_burn - t_c, self.n)
         if np.linalg.norm(state[:3]) < sc.planner.restriction_sphere_radius_m + sc.guidance.sphere_margin_m:
-            return [self._event(t, 'WARN', 'no_avoidance_burn', 'inside the restriction sphere: coasting, never '
-                                                                 'thrusting', {})]
+            return [self._event(t, 'WARN', events.NO_AVOIDANCE_BURN, 'inside the restriction sphere: coasting, never '
+                                                                       'thrusting', {})]
         t_t, q_hb, omega_body = latest[1]
         region = swept_region(sc.boxes, sc.target_inertia, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
         dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, self.planner_config,
                                            sc.supervisor.avoidance_delta_v_mps)
         if dv is None:
-            return [self._event(t, 'OK', 'no_avoidance_burn', f'the coast is passively safe (least clearance '
-                                                              f'{before:.2f} m)', {'clearance_m': before})]
+            return [self._event(t, 'OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
+                                                                    f'{before:.2f} m)', {'clearance_m': before})]
         return [AvoidanceBurn(t_burn, dv),
-                self._event(t, 'WARN', 'avoidance_burn',
+                self._event(t, 'WARN', events.AVOIDANCE_BURN,
                             f'coast would come {before:.2f} m from the keep-out region; burn of '
                             f'{np.linalg.norm(dv):.3f} m/s at t = {t_burn:.2f} s keeps {after:.2f} m',
                             {'dv_hill_mps': [float(x) for x in dv]})]
@@ -404,7 +411,7 @@ class SupervisorCore:
         out = []
         for tr in transitions:
             out.append(tr)
-            out.append(self._event(tr.t, _LEVEL_OF.get(tr.phase_to, 'OK'), 'phase_changed',
+            out.append(self._event(tr.t, _LEVEL_OF.get(tr.phase_to, 'OK'), events.PHASE_CHANGED,
                                    f'{tr.phase_from} -> {tr.phase_to}: {tr.reason}',
                                    {'from': tr.phase_from, 'to': tr.phase_to, **tr.values}))
             if tr.phase_to == c.PHASE_ABORTED and tr.phase_from in (
@@ -428,7 +435,7 @@ def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, x_target_
     """The capture decision at the grasp time t_grasp from a chaser estimate (t, r_hill, v_hill) and a
     target estimate (t, q_hill_from_body, omega_body), both carried to t_g: the chaser along CW (eq 22),
     the target by its torque-free motion (eq 4); the target point is the body point x_target_body
-    (flyby_planner.grasp.capture_target_body: eq 20-21 for a fly-by) in hill by eq 8-9."""
+    (flyby_planner.flyby.grasp_search.capture_target_body: eq 20-21 for a fly-by) in hill by eq 8-9."""
     t_c, r, v = chaser
     state = cw_coast(r, v, t_grasp - t_c, n)
     t_t, q_hb, omega_body = target

@@ -35,8 +35,10 @@ class SupervisorNode(CoreNode):
         self.subscribe_events()
         ns = self.get_namespace().strip('/')
         self.progress_prefix = ns + '/' if ns else ''  # how our chaser's nodes label their progress
-        self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM, raw=True)
-        self.create_service(Trigger, c.MISSION_ABORT_SERVICE, self.on_abort)
+        self.create_subscription(Header, PROGRESS_TOPIC, self.guard(self.on_progress, PROGRESS_TOPIC), qos.QOS_STREAM,
+                                 raw=True)
+        self.create_service(Trigger, c.MISSION_ABORT_SERVICE,
+                            self.guard(self.on_abort, c.MISSION_ABORT_SERVICE, service=True))
         self.publish(self.core.start())
 
     def on_progress(self, data):

@@ -209,9 +209,9 @@ def test_refusals_are_counted_by_what_bound_them_and_captures_over_the_plans_flo
 
 def test_a_transport_campaign_has_the_post_capture_and_transport_columns():
     """results.csv of a campaign whose base scenario goes on after the capture carries the summary's post-capture
-    keys, and with a transport its transport keys (issue 17's campaign is judged on them); a fly-by campaign's
+    keys, and with a transport its transport keys (a transport campaign is judged on them); a fly-by campaign's
     columns are the summary figures alone."""
-    from flyby_mission.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
+    from flyby_mission.post_capture_figures import POST_CAPTURE_KEYS, TRANSPORT_KEYS
     transport = columns(load_campaign(ROOT / 'campaigns' / 'transport_orbit_advance.yaml', checked_draws=0))
     assert set(POST_CAPTURE_KEYS) <= set(transport) and set(TRANSPORT_KEYS) <= set(transport)
     assert transport[-len(TIMING_COLUMNS):] == TIMING_COLUMNS and len(set(transport)) == len(transport)

@@ -1,4 +1,4 @@
-"""The headless loop flies seed 003 Table 1's case by the optimization-based approach (issue 14): planned by SCP
+"""The headless loop flies seed 003 Table 1's case by the optimization-based approach (docs/optimal.md): planned by SCP
 from the estimates, tracked with continuous thrust by the six-degree-of-freedom chaser, captured at the grasp."""
 
 from pathlib import Path

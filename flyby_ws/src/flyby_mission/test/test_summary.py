@@ -5,15 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_mission.summary import (
-    ChaserTruth,
-    TargetTruth,
-    ThrustTruth,
-    outcome_of,
-    summarize,
-    sync_figures,
-    thrust_figures,
-)
+from flyby_mission.approach_figures import sync_figures, thrust_figures
+from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth
+from flyby_mission.summary import outcome_of, summarize
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2 as G0_MPS2
 from flyby_sim.scenario import load_scenario
 
@@ -85,7 +79,7 @@ def test_collision_is_contact_in_the_truth_before_any_capture():
 def test_the_least_clearance_time_is_the_first_of_its_plateau():
     """Attached after the grasp the clearance is flat to round-off: the summary and analyze_bag, computing the same
     gaps by two routes, take the first sample within CLEARANCE_TIE_M of the least, not either's argmin."""
-    from flyby_mission.summary import least_clearance_index
+    from flyby_mission.approach_figures import least_clearance_index
     assert least_clearance_index([0.5, 0.3, 0.3 + 1e-12, 0.3 - 1e-12, 0.4]) == 1
     assert least_clearance_index([0.5, 0.4, 0.3, 0.3 + 2e-6]) == 2
 
@@ -128,7 +122,9 @@ def test_after_the_arms_lock_the_pair_keeps_the_locks_masses():
     truth's pair keeps the chaser's mass at the lock, or its CoM would be a point of the body off the plant's, turning
     with it (on paper_flyby_transport 2.8 mm and 0.005 N s of the judged momentum). Before the lock the chaser's mass
     is less the fuel burned by then."""
-    from flyby_mission.summary import WheelTruth, lock_time, post_capture_truth
+    from flyby_mission.post_capture_figures import post_capture_truth
+    from flyby_mission.run_events import lock_time
+    from flyby_mission.run_truth import WheelTruth
 
     sc = load_scenario(SCENARIOS / 'paper_flyby_transport.yaml')
     t = np.arange(0.0, 10.0 + 1e-9, 1.0)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from flyby_estimation.target_motion import ErrorStateDynamics
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_mission.supervisor import (
     AvoidanceBurn,
     PhaseMachine,
@@ -19,7 +19,7 @@ from flyby_mission.supervisor import (
 )
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
-from flyby_planner.grasp import capture_target_body, flyby_target_from_attitude
+from flyby_planner.flyby.grasp_search import capture_target_body, flyby_target_from_attitude
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast, q_eci_from_body, q_hill_from_body
 from flyby_sim.scenario import load_scenario

@@ -1,4 +1,4 @@
-"""Monte Carlo dispersions of scenario keys (issue 12 part 1), after Basilisk's MonteCarlo ``Dispersions.py``.
+"""Monte Carlo dispersions of scenario keys (docs/campaigns.md), after Basilisk's MonteCarlo ``Dispersions.py``.
 
 A campaign file (YAML) names a base scenario, a campaign seed and the dispersions, one per scenario
 key by dotted path (list items by index: ``target.geometry.0.size_m``), drawn in file order::

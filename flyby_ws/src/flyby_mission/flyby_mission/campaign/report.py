@@ -1,4 +1,4 @@
-"""The statistics and report of a Monte Carlo campaign (issue 12 part 2): campaign.json, report.md, plots.
+"""The statistics and report of a Monte Carlo campaign (docs/campaigns.md): campaign.json, report.md, plots.
 
 Rates are binomial proportions with exact (Clopper-Pearson) two-sided 95 % bounds from the beta
 distribution: for k successes in n runs, lower = Beta(alpha/2; k, n - k + 1), upper = Beta(1 - alpha/2;
@@ -31,7 +31,7 @@ NOT_FLOWN = (c.OUTCOME_ERROR, c.OUTCOME_INTERRUPTED)
 UPPER_TAIL = ('capture_position_error_m', 'capture_velocity_error_mps', 'delta_v_total_mps', 'fuel_used_kg')
 MAX_LISTED = 20
 WORST_LISTED = 5
-# Transport's figures (issue 17; results.csv has them when the base scenario transports): upper tails.
+# Transport's figures (docs/transport.md; results.csv has them when the base scenario transports): upper tails.
 TRANSPORT_FIGURES = ('transport_final_position_error_m', 'transport_orbital_momentum_error_n_m_s',
                      'transport_final_angular_momentum_kg_m2_s', 'transport_fuel_kg', 'transport_impulses',
                      'transport_time_s')

@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns of headless missions on Dask distributed (issue 12 part 2).
+"""Monte Carlo campaigns of headless missions on Dask distributed (docs/campaigns.md).
 
 A campaign (``flyby_mission.campaign.dispersions``: base scenario, campaign seed, dispersions) is flown run by run,
 each run a headless mission (``flyby_mission.headless.run_headless``) on a Dask worker: a
@@ -31,7 +31,7 @@ import distributed
 from flyby_mission.campaign.dispersions import CampaignError, load_campaign
 from flyby_mission.campaign.report import write_report
 from flyby_mission.headless import run_headless
-from flyby_mission.summary import POST_CAPTURE_KEYS, TRANSPORT_KEYS
+from flyby_mission.post_capture_figures import POST_CAPTURE_KEYS, TRANSPORT_KEYS
 from flyby_msgs_py import contract as c
 from flyby_sim.scenario import scenario_from_dict
 
@@ -139,8 +139,8 @@ def _check_header(out_dir, header):
 
 # The LocalCluster's monitoring, which a campaign never reads (no dashboard): the workers' statistical profiler
 # samples the running task 100 times a second, the event-loop tick runs 50 times a second in every server, the
-# system and memory monitors 2-10 times. Idle, a 2-worker cluster spent 18 % of a core on them (driver 7.7 %,
-# each worker 5.1 %); with these, 1.8 % (docs/campaigns.md).
+# system and memory monitors 2-10 times: a fifth of a core on an idle 2-worker cluster, a tenth of that with these
+# (docs/campaigns.md).
 QUIET_CLUSTER = {
     'distributed.worker.profile.enabled': False,
     'distributed.admin.tick.interval': '1s',

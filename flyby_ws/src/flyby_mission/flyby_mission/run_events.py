@@ -1,0 +1,61 @@
+"""What a run's events on /mission/events say about it (DESIGN §10): the supervisor's phases and their times, the
+grasp time it decided at, the plan flown and its method; read by the run's figures (``flyby_mission.summary``).
+Events are dicts with t, level, name, message, values (text), hardware_id."""
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import events as ev
+
+
+def no_safe_plan_reason(events):
+    """The supervisor's reason for ending in NO_SAFE_PLAN ('no safe plan: ...', from its PLANNING -> COMPLETE
+    event), or None."""
+    for e in events:
+        if e['name'] == ev.PHASE_CHANGED and e['values'].get('no_safe_plan') == 'true':
+            return e['message'].split(': ', 1)[-1]
+    return None
+
+
+def chosen_method(events):
+    """The method of the plan flown (the planner's last method_chosen event, DESIGN §10), or None."""
+    chosen = [e['values']['method'] for e in events if e['name'] == ev.METHOD_CHOSEN]
+    return chosen[-1] if chosen else None
+
+
+def phase_windows(events, t_end):
+    """[(phase, t_from, t_to)] of the supervisor's phase_changed events, the last one to t_end [s]."""
+    changes = [(float(e['t']), e['values']['to']) for e in events
+               if e['name'] == ev.PHASE_CHANGED and e['values'].get('to')]
+    return [(phase, t0, changes[k + 1][0] if k + 1 < len(changes) else t_end)
+            for k, (t0, phase) in enumerate(changes)]
+
+
+def grasp_time(events):
+    """The grasp time t_g the supervisor decided at (its FLYBY -> CAPTURE / ESCAPE event), or None."""
+    for e in events:
+        if e['name'] == ev.PHASE_CHANGED and e['values'].get('to') in (c.PHASE_CAPTURE, c.PHASE_ESCAPE) \
+                and 't_grasp_s' in e['values']:
+            return float(e['values']['t_grasp_s'])
+    return None
+
+
+def planned_flyby(events):
+    """(offset delta r [m], fly-by duration [s]) of the last plan selected, or (None, None)."""
+    selected = [e['values'] for e in events if e['name'] == ev.PLAN_SELECTED and 'offset_m' in e['values']]
+    if not selected:
+        return None, None
+    duration = selected[-1].get('flyby_duration_s')  # none for an optimal approach
+    return float(selected[-1]['offset_m']), None if duration is None else float(duration)
+
+
+def phase_start(events, phase):
+    """The time [s] the supervisor entered phase (its first phase_changed to it), or None."""
+    return next((float(e['t']) for e in events if e['name'] == ev.PHASE_CHANGED and e['values'].get('to') == phase),
+                None)
+
+
+def lock_time(events, scenario):
+    """The stamp [s] the arm locked chaser and target into one rigid body: the simulator's ``grasp_damped``, t = 0 in
+    a run that starts attached; None before."""
+    if scenario.post_capture is not None and scenario.post_capture.start == 'attached':
+        return 0.0
+    return next((float(e['t']) for e in events if e['name'] == ev.GRASP_DAMPED), None)
