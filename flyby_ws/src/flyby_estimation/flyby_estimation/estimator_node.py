@@ -59,16 +59,14 @@ class EstimatorNode(CoreNode):
             self.order = MeasurementOrder(scenario.simulation.step_s,
                                           [('position', scenario.sensors.relative_position.rate_hz),
                                            ('imu', scenario.sensors.chaser_imu.rate_hz)])
-            self.subscribe(c.SENSOR_CHASER_IMU, self.on_imu, raw=True)
-            self.subscribe(c.GUIDANCE_WRENCH, self.on_wrench, raw=True)
-        # The measurements come as CDR bytes (convert.*_cdr_to_numpy: no Python messages on the hot path).
-        self.subscribe(c.SENSOR_TARGET_ATTITUDE, self.on_attitude, raw=True)
-        self.subscribe(c.SENSOR_RELATIVE_POSITION, self.on_position, raw=True)
-        self.subscribe(c.GUIDANCE_MANEUVER, self.on_maneuver)
-        self.subscribe_phase()
         if scenario.post_capture is not None:
             self.pub_inertia = self.publisher(c.EST_TARGET_INERTIA)
-            self.subscribe_events()
+        # The measurements come as CDR bytes (convert.*_cdr_to_numpy: no Python messages on the hot path).
+        self.subscribe_inputs(scenario, {
+            c.SENSOR_CHASER_IMU: (self.on_imu, True), c.GUIDANCE_WRENCH: (self.on_wrench, True),
+            c.SENSOR_TARGET_ATTITUDE: (self.on_attitude, True), c.SENSOR_RELATIVE_POSITION: (self.on_position, True),
+            c.GUIDANCE_MANEUVER: self.on_maneuver, c.MISSION_PHASE: self.on_phase_message,
+            c.MISSION_EVENTS: self.on_events_message})
 
     def on_attitude(self, data):
         self.publish(self.core.on_attitude(*convert.quaternion_stamped_cdr_to_numpy(data)))

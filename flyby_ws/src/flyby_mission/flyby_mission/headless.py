@@ -21,18 +21,22 @@ import collections
 import copy
 import dataclasses
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
 from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
 from flyby_guidance.guidance import Maneuver
-from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore, flyby_target_of_plan
+from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.modes.flyby import flyby_target_of_plan
+from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, WheelTruth, chaser_truth_from_odometry
 from flyby_mission.summary import summarize
 from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import events, wiring
+from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
 from flyby_planner.plan_outputs import AimUpdate, PlanPublished, PlanRefused, TrajectoryPublished
@@ -111,7 +115,10 @@ def require_one_chaser(scenario):
 
 
 class HeadlessGraph:
-    """The plant and the four cores, connected as the topics connect the nodes (module doc)."""
+    """The plant and the four cores, connected as the topics connect the nodes (module doc): each output is turned
+    into the messages its node publishes, and each message goes to the nodes ``flyby_msgs_py.wiring`` gives its
+    topic, in the table's order. Every core call runs inside that node's guard (flyby_msgs_py.core_guard), as in
+    the graph: an exception becomes its node_error event and the core is fed nothing more."""
 
     def __init__(self, scenario):
         require_one_chaser(scenario)
@@ -121,6 +128,9 @@ class HeadlessGraph:
         self.planner = PlannerCore(scenario)
         self.guidance = GuidanceCore(scenario)
         self.supervisor = SupervisorCore(scenario, WATCHED_NODES)
+        self.guards = {node: CoreGuard(node) for node in (wiring.ESTIMATOR, wiring.PLANNER, wiring.GUIDANCE,
+                                                          wiring.SUPERVISOR)}
+        self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
         self.phases = []
         self.truth = _Truth()
         self.run = HeadlessRun(summary={})
@@ -133,7 +143,7 @@ class HeadlessGraph:
 
     def start(self):
         self.truth.add(self.plant.truth())
-        self._publish(self.supervisor.start())
+        self._publish(self._guarded(wiring.SUPERVISOR, 'start', 0.0, self.supervisor.start))
 
     def step(self):
         """One plant step and everything it causes, as the nodes would handle it."""
@@ -141,17 +151,10 @@ class HeadlessGraph:
         self.truth.add(s)
         t = wire_time(s.t)
         for node in WATCHED_NODES:
-            self.supervisor.on_progress(node, t)
-        self._publish(self.supervisor.on_clock(t))
+            self._publish(self._guarded(wiring.SUPERVISOR, 'on_progress', t, self.supervisor.on_progress, node, t))
+        self._publish(self._guarded(wiring.SUPERVISOR, 'on_clock', t, self.supervisor.on_clock, t))
         for m in self.plant.measurements():
-            t_m = wire_time(m.t)
-            if m.kind == 'relative_position':
-                self._publish(self.estimator.on_position(t_m, m.value))
-            elif m.kind == 'target_attitude':
-                self._publish(self.estimator.on_attitude(t_m, m.value))
-            else:  # chaser_imu
-                self._publish(self.estimator.on_imu(t_m, m.value.q_hill_from_body, m.value.omega_body_meas,
-                                                     m.value.specific_force_body))
+            self._publish([_Message(MEASUREMENT_TOPICS[m.kind], wire_time(m.t), m.value)])
         self._publish_plant_events()
         return s
 
@@ -164,68 +167,60 @@ class HeadlessGraph:
     def _publish_plant_events(self):
         self._publish([Event(e.t, e.level, e.name, e.message, e.values, SIM_NODE) for e in self.plant.drain_events()])
 
+    def _guarded(self, node, callback, t, fn, *args):
+        """fn(*args) of a node's core inside its guard: its outputs, or its node_error event once (module doc)."""
+        guard = self.guards[node]
+        if guard.failed is not None:
+            return []
+        try:
+            return fn(*args) or []
+        except Exception as err:  # any fault of the core, as the node's guard catches it
+            return [guard.fail(t, callback, err)]
+
     def _deliver(self, out):
-        if isinstance(out, Event):  # mission/events
+        """One output: its messages to their subscribers (flyby_msgs_py.wiring), and what only this driver keeps: the
+        events and phases as the bag has them (before anything they cause), the burns and the ideal delta-v."""
+        if isinstance(out, Event):
             e = wire_event(out)
             self.events.append({'t': e.t, 'level': e.level, 'name': e.name, 'message': e.message,
                                 'values': e.values, 'hardware_id': e.source})
-            self._queue.extend(self.supervisor.on_event(e) + self.planner.on_event(e) + self.estimator.on_event(e)
-                               + self.guidance.on_event(e))
-        elif isinstance(out, Transition):  # mission/phase
+        elif isinstance(out, Transition):
             self.phases.append(out.phase_to)
-            self._queue.extend(self.guidance.on_phase(out.phase_to) + self.estimator.on_phase(out.phase_to))
-            if out.phase_to == c.PHASE_CAPTURE:
-                self.plant.capture()
-                self._publish_plant_events()
-            if out.phase_to == c.PHASE_TRANSPORT:
-                self.plant.start_transport()
-                self._publish_plant_events()
-        elif isinstance(out, TargetEstimate):  # estimation/target/odom
-            args = (wire_time(out.t), out.q_hill_from_body, out.omega_body)
-            blocks = (out.attitude_covariance_hill, out.rate_covariance_body)  # as the planner and guidance nodes read
-            self._queue.extend(self.supervisor.on_target_estimate(*args)
-                               + self.planner.on_target_estimate(*args, *blocks)
-                               + self.guidance.on_target_estimate(*args, *blocks))
-        elif isinstance(out, ChaserEstimate):  # estimation/chaser/odom
-            v_hill = out.v_hill
-            if out.q_hill_from_body is not None:  # the twist in chaser_body axes, and back (the nodes' turns)
-                v_hill = quat_rotate(out.q_hill_from_body, quat_rotate(quat_conjugate(out.q_hill_from_body), v_hill))
-            args = (wire_time(out.t), out.r_hill, v_hill)
-            self._queue.extend(self.supervisor.on_chaser_estimate(*args) + self.planner.on_chaser_estimate(*args)
-                               + self.guidance.on_chaser_estimate(*args, out.q_hill_from_body, out.omega_body))
-        elif isinstance(out, AttitudeCommandStamped):  # guidance/wheels and guidance/wrench
-            t = wire_time(out.t)
-            self.plant.command_wheels(t, out.wheel_torque_n_m)
-            self.plant.command_wrench(t, out.force_body_n, out.thruster_torque_body_n_m, hold_s=out.hold_s)
-            self._publish_plant_events()
-            self._queue.extend(self.estimator.on_wrench(t, out.force_body_n, out.thruster_torque_body_n_m))
-        elif isinstance(out, Maneuver):  # guidance/maneuver, from guidance
-            self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), out.kind)
-        elif isinstance(out, AvoidanceBurn):  # guidance/maneuver, from the supervisor after an abort
-            self._maneuver(wire_time(out.t), np.asarray(out.dv_hill, dtype=float), 'avoidance')
-        elif isinstance(out, PlanPublished):  # planner/flyby_target, planner/flyby_initial, planner/path
-            self._queue.extend(self.guidance.on_flyby_target(wire_time(out.t_f), out.x_ft, out.v_ft)
-                               + self.guidance.on_flyby_initial(wire_time(out.t_i), out.x_fi, out.v_fi)
-                               + self.guidance.on_path(wire_time(out.t_plan)))
+        for message in _messages(out):
+            for node in self.subscribers[message.topic]:
+                if node == wiring.SIM:
+                    self._to_plant(message)
+                else:
+                    handler = CORE_INPUTS[node, message.topic]
+                    self._queue.extend(self._guarded(node, message.topic, message.t, handler, self, message))
+        if isinstance(out, (Maneuver, AvoidanceBurn)):
+            dv_hill = np.asarray(out.dv_hill, dtype=float)
+            self.run.dv_commanded_mps += float(np.linalg.norm(dv_hill))
+            self.run.burns.append({'t': wire_time(out.t), 'kind': getattr(out, 'kind', 'avoidance'),
+                                   'dv_mps': float(np.linalg.norm(dv_hill))})
+        elif isinstance(out, PlanPublished):
             self._ideal_delta_v(out)
-        elif isinstance(out, TrajectoryPublished):  # planner/trajectory (and grasp, flyby_target, path, markers)
-            traj = out.trajectory
-            self._queue.extend(self.guidance.on_trajectory([wire_time(t) for t in traj.t_s], traj.r_hill,
-                                                           traj.v_hill, traj.a_hill))
-        elif isinstance(out, AimUpdate):  # planner/flyby_target again
-            self._queue.extend(self.guidance.on_flyby_target(wire_time(out.grasp.t), out.x_ft, out.v_ft))
-        elif not isinstance(out, (PlanRefused, TargetInertiaEstimate)):  # markers; estimation/target/inertia: recorded
-            raise TypeError(f'no topic for the output {out!r}')
 
-    def _maneuver(self, t, dv_hill, kind):
-        try:
-            self.plant.command_maneuver(t, dv_hill)
-        except ManeuverRejected:
-            pass  # the plant recorded why (an ERROR event); never applied
+    def _to_plant(self, message):
+        """A message the simulator takes: commands from their stamps, the phase's capture and transport."""
+        topic, t, value = message
+        if topic == c.GUIDANCE_WHEELS:
+            self.plant.command_wheels(t, value.wheel_torque_n_m)
+            return
+        if topic == c.GUIDANCE_WRENCH:
+            self.plant.command_wrench(t, value.force_body_n, value.thruster_torque_body_n_m, hold_s=value.hold_s)
+        elif topic == c.GUIDANCE_MANEUVER:
+            try:
+                self.plant.command_maneuver(t, value)
+            except ManeuverRejected:
+                pass  # the plant recorded why (an ERROR event); never applied
+        elif topic == c.MISSION_PHASE and value == c.PHASE_CAPTURE:
+            self.plant.capture()
+        elif topic == c.MISSION_PHASE and value == c.PHASE_TRANSPORT:
+            self.plant.start_transport()
+        else:  # the grasp time it holds its pace for, a node's failure it holds time for no more: graph pacing only
+            return
         self._publish_plant_events()
-        self._queue.extend(self.estimator.on_maneuver(t, dv_hill))
-        self.run.dv_commanded_mps += float(np.linalg.norm(dv_hill))
-        self.run.burns.append({'t': t, 'kind': kind, 'dv_mps': float(np.linalg.norm(dv_hill))})
 
     def _ideal_delta_v(self, plan):
         """Eq 28-29 impulses of the planned transfer (to X_Fi at t_i) from the TRUE chaser state at t_Ti."""
@@ -236,6 +231,102 @@ class HeadlessGraph:
         state = cw_coast(truth.r_hill, truth.v_hill, target.t_ti - truth.t, n)
         dv1, dv2 = terminal_impulses(state[:3], state[3:], target.x_fi, target.v_fi, target.t_i - target.t_ti, n)
         self.run.dv_ideal_mps = float(np.linalg.norm(dv1) + np.linalg.norm(dv2))
+
+
+class _Message(NamedTuple):
+    """A message of a contract topic as the subscribers' nodes read it: its stamp [s] and what they convert it to."""
+
+    topic: str
+    t: float
+    value: object
+
+
+MEASUREMENT_TOPICS = {'relative_position': c.SENSOR_RELATIVE_POSITION, 'target_attitude': c.SENSOR_TARGET_ATTITUDE,
+                      'chaser_imu': c.SENSOR_CHASER_IMU}
+
+
+def _chaser_message(out):
+    """estimation/chaser/odom: the six-degree-of-freedom chaser's twist in chaser_body axes and back (the nodes'
+    turns)."""
+    v_hill = out.v_hill
+    if out.q_hill_from_body is not None:
+        v_hill = quat_rotate(out.q_hill_from_body, quat_rotate(quat_conjugate(out.q_hill_from_body), v_hill))
+    t = wire_time(out.t)
+    return _Message(c.EST_CHASER_ODOM, t, ((t, out.r_hill, v_hill), (out.q_hill_from_body, out.omega_body)))
+
+
+def _messages(out):
+    """The messages the node that made ``out`` publishes for it, in the order it publishes them (a plant's
+    measurement is its message already)."""
+    if isinstance(out, _Message):
+        return [out]
+    if isinstance(out, Event):
+        e = wire_event(out)
+        return [_Message(c.MISSION_EVENTS, e.t, e)]
+    if isinstance(out, Transition):
+        return [_Message(c.MISSION_PHASE, wire_time(out.t), out.phase_to)]
+    if isinstance(out, TargetEstimate):
+        t = wire_time(out.t)
+        return [_Message(c.EST_TARGET_ODOM, t, ((t, out.q_hill_from_body, out.omega_body),
+                                                (out.attitude_covariance_hill, out.rate_covariance_body)))]
+    if isinstance(out, ChaserEstimate):
+        return [_chaser_message(out)]
+    if isinstance(out, AttitudeCommandStamped):
+        t = wire_time(out.t)
+        return [_Message(c.GUIDANCE_WHEELS, t, out), _Message(c.GUIDANCE_WRENCH, t, out)]
+    if isinstance(out, (Maneuver, AvoidanceBurn)):
+        return [_Message(c.GUIDANCE_MANEUVER, wire_time(out.t), np.asarray(out.dv_hill, dtype=float))]
+    if isinstance(out, PlanPublished):
+        return [_Message(c.PLANNER_FLYBY_TARGET, wire_time(out.t_f), (out.x_ft, out.v_ft)),
+                _Message(c.PLANNER_FLYBY_INITIAL, wire_time(out.t_i), (out.x_fi, out.v_fi)),
+                _Message(c.PLANNER_PATH, wire_time(out.t_plan), None)]
+    if isinstance(out, TrajectoryPublished):
+        traj = out.trajectory
+        return [_Message(c.PLANNER_TRAJECTORY, wire_time(traj.t_s[0]), traj)]
+    if isinstance(out, AimUpdate):
+        return [_Message(c.PLANNER_FLYBY_TARGET, wire_time(out.grasp.t), (out.x_ft, out.v_ft))]
+    if isinstance(out, TargetInertiaEstimate):
+        return [_Message(c.EST_TARGET_INERTIA, wire_time(out.t), out)]
+    if isinstance(out, PlanRefused):  # its event says it all; markers are for the viewers
+        return []
+    raise TypeError(f'no topic for the output {out!r}')
+
+
+def _imu(g, m):
+    v = m.value
+    return g.estimator.on_imu(m.t, v.q_hill_from_body, v.omega_body_meas, v.specific_force_body)
+
+
+def _trajectory(g, m):
+    traj = m.value
+    return g.guidance.on_trajectory([wire_time(t) for t in traj.t_s], traj.r_hill, traj.v_hill, traj.a_hill)
+
+
+# (node, topic) -> what the node's core does with a message of the topic (its node's callback, without ROS).
+CORE_INPUTS = {
+    (wiring.ESTIMATOR, c.SENSOR_RELATIVE_POSITION): lambda g, m: g.estimator.on_position(m.t, m.value),
+    (wiring.ESTIMATOR, c.SENSOR_TARGET_ATTITUDE): lambda g, m: g.estimator.on_attitude(m.t, m.value),
+    (wiring.ESTIMATOR, c.SENSOR_CHASER_IMU): _imu,
+    (wiring.ESTIMATOR, c.GUIDANCE_MANEUVER): lambda g, m: g.estimator.on_maneuver(m.t, m.value),
+    (wiring.ESTIMATOR, c.GUIDANCE_WRENCH): lambda g, m: g.estimator.on_wrench(
+        m.t, m.value.force_body_n, m.value.thruster_torque_body_n_m),
+    (wiring.ESTIMATOR, c.MISSION_PHASE): lambda g, m: g.estimator.on_phase(m.value),
+    (wiring.ESTIMATOR, c.MISSION_EVENTS): lambda g, m: g.estimator.on_event(m.value),
+    (wiring.SUPERVISOR, c.EST_TARGET_ODOM): lambda g, m: g.supervisor.on_target_estimate(*m.value[0]),
+    (wiring.SUPERVISOR, c.EST_CHASER_ODOM): lambda g, m: g.supervisor.on_chaser_estimate(*m.value[0]),
+    (wiring.SUPERVISOR, c.MISSION_EVENTS): lambda g, m: g.supervisor.on_event(m.value),
+    (wiring.PLANNER, c.EST_TARGET_ODOM): lambda g, m: g.planner.on_target_estimate(*m.value[0], *m.value[1]),
+    (wiring.PLANNER, c.EST_CHASER_ODOM): lambda g, m: g.planner.on_chaser_estimate(*m.value[0]),
+    (wiring.PLANNER, c.MISSION_EVENTS): lambda g, m: g.planner.on_event(m.value),
+    (wiring.GUIDANCE, c.EST_TARGET_ODOM): lambda g, m: g.guidance.on_target_estimate(*m.value[0], *m.value[1]),
+    (wiring.GUIDANCE, c.EST_CHASER_ODOM): lambda g, m: g.guidance.on_chaser_estimate(*m.value[0], *m.value[1]),
+    (wiring.GUIDANCE, c.PLANNER_FLYBY_TARGET): lambda g, m: g.guidance.on_flyby_target(m.t, *m.value),
+    (wiring.GUIDANCE, c.PLANNER_FLYBY_INITIAL): lambda g, m: g.guidance.on_flyby_initial(m.t, *m.value),
+    (wiring.GUIDANCE, c.PLANNER_PATH): lambda g, m: g.guidance.on_path(m.t),
+    (wiring.GUIDANCE, c.PLANNER_TRAJECTORY): _trajectory,
+    (wiring.GUIDANCE, c.MISSION_PHASE): lambda g, m: g.guidance.on_phase(m.value),
+    (wiring.GUIDANCE, c.MISSION_EVENTS): lambda g, m: g.guidance.on_event(m.value),
+}
 
 
 def scaled_navigation_noise(scenario, factor):

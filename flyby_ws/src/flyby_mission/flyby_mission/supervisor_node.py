@@ -28,11 +28,11 @@ class SupervisorNode(CoreNode):
         super().__init__('flyby_supervisor', **kwargs)
         self.declare_parameter('watched_nodes', list(WATCHED_NODES))
         watched = tuple(w for w in self.get_parameter('watched_nodes').value if w)
-        self.core = SupervisorCore(scenario_of(self), watched, self.get_name())
+        scenario = scenario_of(self)
+        self.core = SupervisorCore(scenario, watched, self.get_name())
         self.pub_phase, self.pub_events, self.pub_maneuver = (
             self.publisher(c.MISSION_PHASE), self.publisher(c.MISSION_EVENTS), self.publisher(c.GUIDANCE_MANEUVER))
-        self.subscribe_estimates(quat_rotate)
-        self.subscribe_events()
+        self.subscribe_inputs(scenario, {**self.estimate_inputs(quat_rotate), c.MISSION_EVENTS: self.on_events_message})
         ns = self.get_namespace().strip('/')
         self.progress_prefix = ns + '/' if ns else ''  # how our chaser's nodes label their progress
         self.create_subscription(Header, PROGRESS_TOPIC, self.guard(self.on_progress, PROGRESS_TOPIC), qos.QOS_STREAM,

@@ -21,7 +21,7 @@ import traceback
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, qos
+from flyby_msgs_py import convert, qos, wiring
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.runtime import publish_event
 from flyby_msgs_py.wire import Event
@@ -98,52 +98,72 @@ class CoreNode(Node):
     def subscribe(self, topic, callback, raw=False):
         """A subscription of a contract topic with its type and QoS (a global topic at its root name), its callback
         in the core's guard; ``raw``: the callback takes the message's CDR bytes (no Python message is built;
-        convert.*_cdr_to_numpy reads them)."""
+        convert.*_cdr_to_numpy reads them). A flyby node takes only the topics flyby_msgs_py.wiring gives it."""
+        name = self.get_name()
+        if name in wiring.NODES and all(node != name for node, _ in wiring.SUBSCRIPTIONS.get(topic, ())):
+            raise ValueError(f'{name} does not take {topic} (flyby_msgs_py.wiring.SUBSCRIPTIONS)')
         return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), _name(topic),
                                         self.guard(callback, topic), qos.qos_for(topic), raw=raw)
 
+    def subscribe_inputs(self, scenario, callbacks):
+        """A subscription of every contract topic flyby_msgs_py.wiring gives this node in the scenario, each to its
+        callback in ``callbacks`` (topic -> callback, or (callback, raw))."""
+        for topic in wiring.topics_of(self.get_name(), scenario):
+            callback, raw = callbacks[topic] if isinstance(callbacks[topic], tuple) else (callbacks[topic], False)
+            self.subscribe(topic, callback, raw=raw)
+
     def subscribe_odometry(self, topic, core_input, *fields):
-        """A contract Odometry into ``core_input(t, *fields)`` (fields of convert.OdometryArrays), read from its
-        CDR bytes (convert.odometry_cdr_to_numpy: about 85 us a message less than the Python message)."""
+        """A contract Odometry into ``core_input(t, *fields)`` (``odometry_input``)."""
+        return self.subscribe(topic, self.odometry_input(core_input, *fields), raw=True)
+
+    def odometry_input(self, core_input, *fields):
+        """The raw callback of a contract Odometry into ``core_input(t, *fields)`` (fields of
+        convert.OdometryArrays), read from its CDR bytes (convert.odometry_cdr_to_numpy: about 85 us a message less
+        than the Python message)."""
         def callback(data):
             o = convert.odometry_cdr_to_numpy(data)
             self.publish(core_input(o.t, *(getattr(o, f) for f in fields)))
-        return self.subscribe(topic, callback, raw=True)
+        return callback
 
     def subscribe_estimates(self, rotate, target_covariance=False, chaser_attitude=False):
-        """estimation/target/odom and estimation/chaser/odom into the core.
+        """estimation/target/odom and estimation/chaser/odom into the core (``estimate_inputs``)."""
+        for topic, (callback, raw) in self.estimate_inputs(rotate, target_covariance, chaser_attitude).items():
+            self.subscribe(topic, callback, raw=raw)
+
+    def estimate_inputs(self, rotate, target_covariance=False, chaser_attitude=False):
+        """The callbacks of estimation/target/odom and estimation/chaser/odom into the core, by topic, each with
+        raw True (it reads the CDR bytes).
 
         ``rotate(q_hill_from_body, v_body) -> v_hill`` (flyby_sim.dynamics.rotation.quat_rotate, which this
         package cannot import): the chaser's twist is in chaser_body axes (nav_msgs' rule, DESIGN §10), the
         cores take its velocity in hill. With target_covariance the target's attitude covariance about hill
         axes and rate covariance in body axes (the 3x3 angular blocks of the pose and twist covariances)
         follow the rate; with chaser_attitude the chaser's q_hill_from_body and omega_body follow its
-        velocity."""
-        if target_covariance:
-            def on_target(data):
-                o = convert.odometry_cdr_to_numpy(data)
-                self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular,
-                                                          o.pose_covariance[3:, 3:], o.twist_covariance[3:, 3:]))
-            self.subscribe(c.EST_TARGET_ODOM, on_target, raw=True)
-        else:
-            self.subscribe_odometry(c.EST_TARGET_ODOM, self.core.on_target_estimate, 'orientation_xyzw', 'angular')
+        velocity (convert.odometry_cdr_to_numpy: about 85 us a message less than the Python message)."""
+        def on_target(data):
+            o = convert.odometry_cdr_to_numpy(data)
+            blocks = (o.pose_covariance[3:, 3:], o.twist_covariance[3:, 3:]) if target_covariance else ()
+            self.publish(self.core.on_target_estimate(o.t, o.orientation_xyzw, o.angular, *blocks))
 
         def on_chaser(data):
             o = convert.odometry_cdr_to_numpy(data)
             v_hill = rotate(o.orientation_xyzw, o.linear)
             attitude = (o.orientation_xyzw, o.angular) if chaser_attitude else ()
             self.publish(self.core.on_chaser_estimate(o.t, o.position, v_hill, *attitude))
-        self.subscribe(c.EST_CHASER_ODOM, on_chaser, raw=True)
+        return {c.EST_TARGET_ODOM: (on_target, True), c.EST_CHASER_ODOM: (on_chaser, True)}
 
     def subscribe_phase(self):
         """mission/phase into the core's on_phase(phase)."""
-        self.subscribe(c.MISSION_PHASE, lambda msg: self.publish(self.core.on_phase(convert.string_to_str(msg))))
+        self.subscribe(c.MISSION_PHASE, self.on_phase_message)
+
+    def on_phase_message(self, msg):
+        self.publish(self.core.on_phase(convert.string_to_str(msg)))
 
     def subscribe_events(self):
         """mission/events into the core, one wire.Event per status."""
-        self.subscribe(c.MISSION_EVENTS, self._on_events)
+        self.subscribe(c.MISSION_EVENTS, self.on_events_message)
 
-    def _on_events(self, msg):
+    def on_events_message(self, msg):
         for e in convert.events_from_msg(msg):
             self.publish(self.core.on_event(Event(e['t'], e['level'], e['name'], e['message'], e['values'],
                                                   e['source'])))

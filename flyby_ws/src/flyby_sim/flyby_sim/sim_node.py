@@ -53,7 +53,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, events, qos
+from flyby_msgs_py import convert, events, qos, wiring
 from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
 from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPIC, TICK_TOPIC, main_for, publish_event
 from flyby_msgs_py.wire import Event, wire_time
@@ -182,8 +182,6 @@ class SimNode(Node):
                                            if ch.rigid else ()):
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic),
                                                 qos.qos_for(topic))
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_MANEUVER]), ch.topic(c.GUIDANCE_MANEUVER),
-                                 lambda msg: self.on_maneuver(ch, msg), qos.QOS_STREAM)
         ch.commands_expected = ch.rigid and all(name in self.progress_s for name in ch.chain)
         if ch.rigid:
             sc = ch.scenario
@@ -191,19 +189,19 @@ class SimNode(Node):
             ch.wheel_names = c.wheel_names(len(sc.chaser.wheels.axes))
             ch.thruster_names = c.thruster_names(len(ch.plant.truth().thruster_thrust_n))
             ch.imu_covariances = self._imu_covariances(sc)
-            # The continuous commands and the hot-path outputs go as CDR bytes (convert.*_cdr: no Python messages).
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WHEELS]), ch.topic(c.GUIDANCE_WHEELS),
-                                     lambda data: self.on_wheels(ch, data), qos.QOS_STREAM, raw=True)
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.GUIDANCE_WRENCH]), ch.topic(c.GUIDANCE_WRENCH),
-                                     lambda data: self.on_wrench(ch, data), qos.QOS_STREAM, raw=True)
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_PHASE]), ch.topic(c.MISSION_PHASE),
-                                 lambda msg: self.on_phase(ch, msg), qos.QOS_LATCHED)
-        if ch.commands_expected:
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]), ch.topic(c.MISSION_EVENTS),
-                                     lambda msg: self.on_events(ch, msg), qos.qos_for(c.MISSION_EVENTS))
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.PLANNER_FLYBY_TARGET]),
-                                 ch.topic(c.PLANNER_FLYBY_TARGET), lambda msg: self.on_flyby_target(ch, msg),
-                                 qos.QOS_LATCHED)
+        # The continuous commands go as CDR bytes (convert.*_cdr: no Python messages); the topics are the table's.
+        inputs = {c.GUIDANCE_MANEUVER: (lambda msg: self.on_maneuver(ch, msg), False),
+                  c.GUIDANCE_WHEELS: (lambda data: self.on_wheels(ch, data), True),
+                  c.GUIDANCE_WRENCH: (lambda data: self.on_wrench(ch, data), True),
+                  c.MISSION_PHASE: (lambda msg: self.on_phase(ch, msg), False),
+                  c.MISSION_EVENTS: (lambda msg: self.on_events(ch, msg), False),
+                  c.PLANNER_FLYBY_TARGET: (lambda msg: self.on_flyby_target(ch, msg), False)}
+        for topic in wiring.topics_of(wiring.SIM, ch.scenario):
+            if topic == c.MISSION_EVENTS and not ch.commands_expected:
+                continue  # a node_error matters only to a command chain the simulator waits for
+            callback, raw = inputs[topic]
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic), callback,
+                                     qos.qos_for(topic), raw=raw)
 
     def declare_node_list(self, name):
         """A string-array parameter of node names, empty when not given."""
