@@ -237,10 +237,6 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'flyby_duration_max_s': Field(FLOAT, 900.0, '> 0',
                                       'Longest fly-by searched (1, 1.5, 2 and 3 times flyby_duration_s up to this).'),
         'restriction_sphere_radius_m': Field(FLOAT, 15.0, '> 0', 'No thrusting inside this sphere about the target.'),
-        'max_unguided_coast_s': Field(FLOAT, 200.0, '> 0',
-                                      'Not read: the planner bounds the coast from the last adjusting burn to the '
-                                      'grasp by its predicted 3-sigma miss instead (docs/planner.md); accepted so '
-                                      'that scenario files written with it still load.'),
         'clearance_margin_m': Field(FLOAT, 0.1, '>= 0',
                                     'Least gap between the chaser envelope and the swept keep-out region on the '
                                     'passive path.'),
