@@ -74,23 +74,25 @@ def test_without_a_safe_arc_guidance_stops_and_the_supervisor_escapes():
 
 def test_the_planner_plans_from_the_target_filter_covariance_guidance_reads():
     """The headless loop hands the planner the estimate's covariance blocks as the planner node reads them from
-    estimation/target/odom (the re-aim check starts from them, plan._ReaimModel): at the plan time, the
+    estimation/target/odom (the re-aim check starts from them, flyby.reaim.ReaimModel): at the plan time, the
     covariance the fly-by planner gets is covariance_from_published of the blocks guidance stored for that stamp."""
     import numpy as np
 
     from flyby_estimation.target_motion import covariance_from_published
+    from flyby_planner.methods import FlybyMethod
     from flyby_planner.planner_core import PlannerCore
 
-    class _PlanTime(Exception):
+    class _PlanTime(BaseException):  # not an Exception: no core guard takes it for the core's fault
         pass
 
-    class _StopAtPlan(PlannerCore):
-        def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
+    class _StopAtPlan(FlybyMethod):
+        def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
             raise _PlanTime(t, q_hill_from_body, covariance_body)
 
     scenario = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     graph = HeadlessGraph(scenario)
-    graph.planner = _StopAtPlan(scenario)
+    graph.planner = PlannerCore(scenario)
+    graph.planner.methods['flyby'] = _StopAtPlan()
     try:
         run_headless(scenario, graph)
         raise AssertionError('the run never planned')

@@ -27,7 +27,8 @@ from flyby_msgs_py.markers import cylinder_marker, line_strip_marker, marker_arr
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
 from flyby_msgs_py.wire import Event
-from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.plan_outputs import AimUpdate, PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.planner_core import PlannerCore
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_shortest_arc
 from flyby_sim.scenario import scenario_of
 
@@ -48,7 +49,7 @@ def grasp_odometry(grasp):
 
 
 def plan_marker_array(t, m):
-    """MarkerArray of planner_core.PlanMarkers at t."""
+    """MarkerArray of plan_outputs.PlanMarkers at t."""
     markers = [sphere_marker(t, _ZERO, m.sphere_radius_m)]
     for i, (center, axis, radius, height) in enumerate(m.cylinders):
         markers.append(cylinder_marker(t, center, quat_shortest_arc(_Z_AXIS, axis), radius, height, marker_id=i))
@@ -71,12 +72,14 @@ class PlannerNode(CoreNode):
             c.MARKERS, c.MISSION_EVENTS)}
         self.subscribe_estimates(quat_rotate, target_covariance=True)  # the re-aim check starts from it
         self.subscribe_events()
-        self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE, self.on_replan)
+        self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE,
+                            self.guard(self.on_replan, c.PLANNER_REPLAN_SERVICE, service=True))
         for leader in self.core.leaders:  # another chaser's topics, by their absolute names
             for topic, callback in ((c.MISSION_EVENTS, self.on_leader_events),
                                     (c.PLANNER_TRAJECTORY, self.on_leader_trajectory)):
                 self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), f'/{leader}/{topic}',
-                                         partial(callback, leader), qos.qos_for(topic))
+                                         self.guard(partial(callback, leader), f'/{leader}/{topic}'),
+                                         qos.qos_for(topic))
 
     def on_leader_events(self, leader, msg):
         for e in convert.events_from_msg(msg):

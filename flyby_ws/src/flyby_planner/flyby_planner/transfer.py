@@ -1,6 +1,6 @@
 """CW two-impulse transfer of the terminal approach, seed 000 section 4.7 (eq 27-29).
 
-Pure numpy, no ROS. Frames and units as in flyby_planner.grasp (hill, velocities relative to the
+Pure numpy, no ROS. Frames and units as in flyby_planner.flyby.grasp_search (hill, velocities relative to the
 rotating frame, SI).
 """
 

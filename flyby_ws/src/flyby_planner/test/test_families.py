@@ -1,10 +1,10 @@
-"""Tests of flyby_planner.families: the coasting path families of seed 000 sections 3.2-3.3 (Fig. 5-8)."""
+"""Tests of flyby_planner.flyby.families: the coasting path families of seed 000 sections 3.2-3.3 (Fig. 5-8)."""
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from flyby_planner.families import SEED000_CASES, SEED000_SPEEDS_M_S, seed000_family, time_grid
+from flyby_planner.flyby.families import SEED000_CASES, SEED000_SPEEDS_M_S, seed000_family, time_grid
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
 
 N = mean_motion_rad_s(7.0e6)  # seed 000 section 5 orbit

@@ -1,4 +1,4 @@
-"""Tests of flyby_planner.grasp: seed 000 section 4.3 / 4.5 (eq 12-23) and the section 5 grasp values."""
+"""Tests of flyby_planner.flyby.grasp_search: seed 000 section 4.3 / 4.5 (eq 12-23) and the section 5 grasp values."""
 
 import math
 
@@ -7,8 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
-from flyby_planner.grasp import (
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import MotionPrediction
+from flyby_planner.flyby.grasp_search import (
     GraspCandidate,
     convex_condition_closed_form,
     convex_condition_value,

@@ -1,4 +1,5 @@
-"""Tests of flyby_planner.keepout: the swept region contains the rotating body, and is tight where it should be."""
+"""Tests of flyby_planner.flyby.keepout: the swept region contains the rotating body, and is tight where it should
+be."""
 
 import math
 from pathlib import Path
@@ -8,8 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
-from flyby_planner.keepout import swept_region
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import MotionPrediction
+from flyby_planner.flyby.keepout import swept_region
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import eci_vector_in_hill, quat_eci_from_hill
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_rotate

@@ -13,6 +13,7 @@ from flyby_mission.supervisor import SupervisorCore
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.flyby.config import planner_config_from_scenario, truth_prediction
 from flyby_planner.optimal.approach import (
     LEAST_FUEL_SCP,
     approach_settings_from_scenario,
@@ -21,8 +22,8 @@ from flyby_planner.optimal.approach import (
 )
 from flyby_planner.optimal.problem import PLUME_MARGIN_M, planning_plume_radius_m
 from flyby_planner.optimal.scp import ZohPlan
-from flyby_planner.plan import planner_config_from_scenario, truth_prediction
-from flyby_planner.planner_core import PlannerCore, PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.plan_outputs import PlanPublished, PlanRefused, TrajectoryPublished
+from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -240,7 +241,8 @@ def test_the_planner_re_aims_when_the_predicted_end_point_moves():
     """Every planner.optimal.reaim_interval_s from the plan time the end point X_Ft is predicted again from the target
     estimate of that time (the first stamped at or after it); within reaim_error_m of the plan's nothing happens,
     beyond it the approach is planned again to the same grasp time and the new end point."""
-    from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+    from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+    from flyby_estimation.target_motion import prediction_from_estimate
     from flyby_planner.optimal.problem import GraspTerminal
 
     sc = _scenario()

@@ -8,12 +8,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from flyby_planner.flyby.config import truth_prediction
 from flyby_planner.optimal.cost import box_contacts
 from flyby_planner.optimal.mutual import MovingObstacle, least_separation, obstacle_contacts, obstacle_cost
 from flyby_planner.optimal.problem import ApproachProblem, Chaser, CostWeights, FixedTerminal, approach_problem
 from flyby_planner.optimal.sampler import sample_trajectory
 from flyby_planner.optimal.scp import ScpSettings, ZohPlan, plan_scp
-from flyby_planner.plan import truth_prediction
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.scenario import load_scenario
 

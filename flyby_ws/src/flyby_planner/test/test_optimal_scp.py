@@ -8,23 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_planner.grasp import flyby_target_from_attitude
-from flyby_planner.optimal import scp
+from flyby_planner.flyby.config import truth_prediction
+from flyby_planner.flyby.grasp_search import flyby_target_from_attitude
+from flyby_planner.optimal import program
 from flyby_planner.optimal.approach import LEAST_FUEL_SCP
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.cost import box_contacts, plan_terms, plume_metric
+from flyby_planner.optimal.delta_v_bound import delta_v_lower_bound
 from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario, heuristic_route
-from flyby_planner.optimal.scp import (
-    ScpSettings,
-    ZohPlan,
-    _model,
-    _plume_violation,
-    compile_program,
-    delta_v_lower_bound,
-    plan_scp,
-    zoh_input_matrix,
-)
-from flyby_planner.plan import truth_prediction
+from flyby_planner.optimal.program import compile_program, program_for
+from flyby_planner.optimal.scp import ScpSettings, ZohPlan, _plume_violation, plan_scp, zoh_input_matrix
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import (
@@ -184,13 +177,13 @@ def test_a_program_compiled_before_the_plan_gives_the_plan_compiled_at_its_first
     bit, as one whose program compiled at its first solve, and that solve finds the program compiled."""
     _, table1 = table1_problem()
     settings = ScpSettings()
-    monkeypatch.setattr(scp, '_MODELS', {})
+    monkeypatch.setattr(program, '_MODELS', {})
     cold = plan_scp([table1], settings, duration_s=T_TABLE1_S).plans[0]
-    monkeypatch.setattr(scp, '_MODELS', {})
+    monkeypatch.setattr(program, '_MODELS', {})
     model = compile_program(1, settings, [len(table1.target.boxes)], safety_per_robot=[table1.weights.safety > 0.0])
-    assert model.compiled and list(scp._MODELS.values()) == [model]
+    assert model.compiled and list(program._MODELS.values()) == [model]
     compiled = plan_scp([table1], settings, duration_s=T_TABLE1_S).plans[0]
-    assert list(scp._MODELS.values()) == [model]  # the same program: no other shape was built
+    assert list(program._MODELS.values()) == [model]  # the same program: no other shape was built
     tau = np.linspace(0.0, T_TABLE1_S, 600)
     assert np.array_equal(cold.sample(tau).r_hill, compiled.sample(tau).r_hill)
     assert np.array_equal(cold.sample(tau).a_hill, compiled.sample(tau).a_hill)
@@ -235,7 +228,7 @@ def test_a_least_fuel_program_prices_fuel_alone():
     keep-out and the plume rule as constraints only (the mission's least-fuel settings on 40 steps). Not asserted: less
     delta-v than the k_s = 1 plan; on coarse grids the plume-constrained least-fuel optimum SCP lands in can have
     more (docs/optimal.md)."""
-    priced, lean_model = _model(1, 20, 3, [3], [], [True]), _model(1, 20, 3, [3], [], [False])
+    priced, lean_model = program_for(1, 20, 3, [3], [], [True]), program_for(1, 20, 3, [3], [], [False])
     assert len(priced.program.variables()) - len(lean_model.program.variables()) == 2 * 3
     _, problem = table1_problem()
     lean = dataclasses.replace(problem, weights=dataclasses.replace(problem.weights, safety=0.0))

@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flyby_planner.flyby.config import truth_prediction
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.problem import (
     ApproachProblem,
@@ -14,7 +15,6 @@ from flyby_planner.optimal.problem import (
     chaser_from_scenario,
 )
 from flyby_planner.optimal.scp import ScpSettings, plan_scp
-from flyby_planner.plan import truth_prediction
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'

@@ -1,4 +1,4 @@
-"""Tests of flyby_planner.plan: the seed 000 fly-by plan of paper_flyby, its safety, selection and refusals."""
+"""Tests of flyby_planner.flyby.search: the seed 000 fly-by plan of paper_flyby, its safety, selection and refusals."""
 
 import copy
 import json
@@ -9,16 +9,13 @@ import numpy as np
 import pytest
 import yaml
 
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction
-from flyby_planner.plan import (
-    _predicted_gaps,
-    _transfer_spread_m,
-    avoidance_burn,
-    check_passage,
-    plan_capture,
-    planner_config_from_scenario,
-    truth_prediction,
-)
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import MotionPrediction
+from flyby_planner.flyby.avoidance import avoidance_burn
+from flyby_planner.flyby.candidates import _transfer_spread_m
+from flyby_planner.flyby.config import planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.passive_safety import check_passage, predicted_gaps
+from flyby_planner.flyby.search import plan_capture
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import cw_transition_matrix, nonlinear_relative_accel, rk4_step
 from flyby_sim.scenario import load_scenario, scenario_from_dict
@@ -314,7 +311,7 @@ def test_check_passage_passes_the_planned_arc_and_fails_one_through_the_bus(pape
     gated = check_passage(tight, c.x_ft, c.v_ft, c.t_grasp, c.t_i, cfg, 0.0)
     assert gated.safe and gated.gap_m >= ok.gap_m
     at_grasp = (c.x_ft[None, :], np.array([c.t_grasp]), c.t_grasp, cfg)
-    planner_gap, gate_gap = _predicted_gaps(pred, *at_grasp)[0][0], _predicted_gaps(tight, *at_grasp)[0][0]
+    planner_gap, gate_gap = predicted_gaps(pred, *at_grasp)[0][0], predicted_gaps(tight, *at_grasp)[0][0]
     sigma = tight.attitude_sigma_rad([c.t_grasp])[0]
     assert gate_gap - planner_gap == pytest.approx(np.linalg.norm(c.x_ft) * (cfg.geometry_attitude_margin_rad
                                                                              - 3.0 * sigma), rel=1e-9)
@@ -322,7 +319,7 @@ def test_check_passage_passes_the_planned_arc_and_fails_one_through_the_bus(pape
 
 
 def test_transfer_spread_bounds_dispersed_impulses():
-    """The planner's 3-sigma spread of a transfer (plan._transfer_spread_m) against 4000 impulses drawn with
+    """The planner's 3-sigma spread of a transfer (candidates._transfer_spread_m) against 4000 impulses drawn with
     the thrusters' magnitude and pointing errors and coasted by the CW transition matrix: before the
     midcourse correction fewer than 1 % leave it (the 3-sigma norm of a 3-D error), and it grows with
     the impulse and the error."""

@@ -1,6 +1,6 @@
-"""Tests of the planner's uncertainty model (flyby_planner.plan, module doc step 4): the navigation and target
-estimate covariances it predicts, the predicted 3-sigma miss at the grasp, the chaser's dispersion on the passage,
-and the searches it enables (the extended grasp window, the short fly-by)."""
+"""Tests of the fly-by planner's uncertainty model (flyby_planner.flyby.uncertainty, the package doc's step 4): the
+navigation and target estimate covariances it predicts, the predicted 3-sigma miss at the grasp, the chaser's
+dispersion on the passage, and the searches it enables (the extended grasp window, the short fly-by)."""
 
 import copy
 import dataclasses
@@ -12,21 +12,19 @@ import numpy as np
 import pytest
 import yaml
 
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
 from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
-from flyby_estimation.target_motion import ErrorStateDynamics, MotionPrediction, prediction_from_estimate
-from flyby_planner.plan import (
-    _chaser_error_at_estimate,
-    _largest_eigenvalue,
-    _miss,
-    _passages,
-    _predicted_region,
-    _TargetUncertainty,
-    estimate_accuracy_from_scenario,
-    exhaustive_check,
-    plan_capture,
-    planner_config_from_scenario,
-    truth_prediction,
+from flyby_estimation.target_motion import MotionPrediction, prediction_from_estimate
+from flyby_planner.flyby.config import estimate_accuracy_from_scenario, planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.diagnostics import exhaustive_check
+from flyby_planner.flyby.passive_safety import passive_passages, predicted_region
+from flyby_planner.flyby.search import plan_capture
+from flyby_planner.flyby.uncertainty import (
+    TargetUncertainty,
+    chaser_error_at_estimate,
+    largest_eigenvalue,
+    predicted_miss,
 )
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
@@ -65,7 +63,7 @@ def test_largest_eigenvalue_closed_form_matches_eigvalsh():
     a = rng.normal(size=(500, 3, 3))
     a = a @ np.swapaxes(a, 1, 2)
     a[0], a[1], a[2] = 2.0 * np.eye(3), np.diag((1e-12, 0.0, 0.0)), np.zeros((3, 3))
-    np.testing.assert_allclose(_largest_eigenvalue(a), np.linalg.eigvalsh(a)[:, -1], rtol=1e-12, atol=1e-24)
+    np.testing.assert_allclose(largest_eigenvalue(a), np.linalg.eigvalsh(a)[:, -1], rtol=1e-12, atol=1e-24)
 
 
 def test_navigation_covariance_is_the_navigation_filters_steady_state():
@@ -88,7 +86,7 @@ def test_navigation_covariance_is_the_navigation_filters_steady_state():
 
 
 def test_predicted_target_covariance_follows_the_target_filter():
-    """_TargetUncertainty started from the target filter's covariance at 100 s of a 4.6 deg/s tumbler: after 150 s
+    """TargetUncertainty started from the target filter's covariance at 100 s of a 4.6 deg/s tumbler: after 150 s
     more of 1 deg vision at 10 Hz its filtered attitude and rate sigmas are the filter's own to 5 %, and carried
     60 s on without measurements they are the filter's prediction's."""
     sc = _scenario(lambda d: d['target']['initial_rate'].update(omega_body_deg_s=[2.0, 1.0, 4.0]))
@@ -108,7 +106,7 @@ def test_predicted_target_covariance_follows_the_target_filter():
     s0 = filt.state()
     pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, s0.t, s0.q_hill_from_body,
                                     s0.omega_body, s0.t + 220.0)
-    unc = _TargetUncertainty(pred, s0.t, cfg, covariance0=filt.covariance)
+    unc = TargetUncertainty(pred, s0.t, cfg, covariance0=filt.covariance)
     feed(100.1, 250.0)
 
     def sigmas(p):
@@ -127,12 +125,12 @@ def test_predicted_miss_matches_a_monte_carlo_of_the_last_burn_estimate(paper_pl
     plan, cfg, pred = paper_plan
     c = plan.selected
     n = cfg.mean_motion_rad_s
-    unc = _TargetUncertainty(pred, 0.0, cfg)
+    unc = TargetUncertainty(pred, 0.0, cfg)
     key = (c.t_grasp, c.offset_m)
-    ps = _passages([key], [np.concatenate((c.x_ft, c.v_ft))], pred, _predicted_region(pred, 0.0, cfg), cfg,
+    ps = passive_passages([key], [np.concatenate((c.x_ft, c.v_ft))], pred, predicted_region(pred, 0.0, cfg), cfg,
                    uncertainty=unc)[key]
-    chaser_cov = _chaser_error_at_estimate(c, ps.coast_s, cfg)
-    miss, miss_v, (_, _, target_3sigma) = _miss(c, ps, chaser_cov, c.unguided_coast_s, cfg)
+    chaser_cov = chaser_error_at_estimate(c, ps.coast_s, cfg)
+    miss, miss_v, (_, _, target_3sigma) = predicted_miss(c, ps, chaser_cov, c.unguided_coast_s, cfg)
     assert miss == pytest.approx(c.miss_3sigma_m, rel=1e-4) and miss <= cfg.position_tolerance_m
     assert miss_v <= cfg.velocity_tolerance_mps
 
@@ -168,7 +166,7 @@ def test_the_last_burn_is_the_injection_when_no_adjusting_burn_fits():
     c = types.SimpleNamespace(flyby_duration_s=300.0, dv_tf=np.array((0.0, 0.1, 0.0)))
     nav = cfg.accuracy.navigation_covariance
     for coast, k in ((300.0, 0), (290.0, 0), (275.0, 1), (255.0, 2)):
-        cov = _chaser_error_at_estimate(c, coast, cfg)
+        cov = chaser_error_at_estimate(c, coast, cfg)
         np.testing.assert_allclose(cov[:3, :], nav[:3, :])
         np.testing.assert_allclose(cov[3:, 3:] - nav[3:, 3:], (0.03 ** (k + 1) * 0.1) ** 2 * np.eye(3), rtol=1e-9)
 
@@ -178,12 +176,12 @@ def test_the_chaser_dispersion_narrows_the_passage(paper_plan):
     its position error (the larger of the swept-region and the predicted-geometry gap); beyond the window none."""
     plan, cfg, pred = paper_plan
     c = plan.selected
-    unc = _TargetUncertainty(pred, 0.0, cfg)
+    unc = TargetUncertainty(pred, 0.0, cfg)
     key = (c.t_grasp, c.offset_m)
-    ps = _passages([key], [np.concatenate((c.x_ft, c.v_ft))], pred, _predicted_region(pred, 0.0, cfg), cfg,
+    ps = passive_passages([key], [np.concatenate((c.x_ft, c.v_ft))], pred, predicted_region(pred, 0.0, cfg), cfg,
                    uncertainty=unc)[key]
     zero, _ = ps.profile(np.zeros((6, 6)), cfg.mean_motion_rad_s)
-    chaser_cov = _chaser_error_at_estimate(c, ps.coast_s, cfg)
+    chaser_cov = chaser_error_at_estimate(c, ps.coast_s, cfg)
     gap, _ = ps.profile(chaser_cov, cfg.mean_motion_rad_s)
     at_grasp = int(np.argmin(np.abs(ps.tau)))
     stm = cw_transition_matrix(cfg.mean_motion_rad_s, c.t_grasp - ps.t_estimate)[:3]
@@ -294,7 +292,7 @@ def test_envelope_run_323_from_the_convergence_bound_a_grasp_39_minutes_out_fail
     the filter's sigma) the plan estimate's 3-sigma motions over 2100-2400 s move the passage guidance would re-aim
     onto by a metre or more (or take the grasp's turn out of reach), so the extended window's candidates are refused
     by the re-aimed passage and run 323, which captures from its filter's covariance, would be refused."""
-    from flyby_planner.plan import REAIM_COVARIANCE_SCALE
+    from flyby_planner.flyby.reaim import REAIM_COVARIANCE_SCALE
     sc = _scenario(envelope_run_323)
     cfg = planner_config_from_scenario(sc)
     pred = truth_prediction(sc, 60.0 + cfg.prediction_span_s(sc.omega_body0_rad_s))
@@ -372,7 +370,7 @@ def test_a_refusal_leads_with_the_latest_check_that_bound_it():
     """The refusal's first class is what bound the candidates that came furthest (the passage and the miss before
     the transfer, the transfer before X_Fi, X_Fi before the grasp instant's conditions), not the most numerous:
     a slow target's half-length fly-bys put many X_Fi inside the sphere at once (envelope runs 82, 95, 302)."""
-    from flyby_planner.plan import _refusal_reason
+    from flyby_planner.flyby.selection import refusal_reason
 
     def rejected(reason, k):
         return [types.SimpleNamespace(reasons=[reason], clearance_approach_m=None)] * k
@@ -382,7 +380,7 @@ def test_a_refusal_leads_with_the_latest_check_that_bound_it():
                   + rejected('transfer passes 14.1 m from the target ...', 56)
                   + rejected('predicted 3-sigma miss at the grasp 0.126 m ...', 44)
                   + rejected('not convex: eq 15 value -1e-05 m^2/s^2 <= 0', 11))
-    reason = _refusal_reason(candidates, None, cfg)
+    reason = refusal_reason(candidates, None, cfg)
     assert reason == ('all 159 candidates rejected: 44 predicted miss above the tolerance; 56 transfer through the '
                       'restriction sphere; 48 X_Fi inside the restriction sphere; 11 not convex (eq 15)')
 
@@ -410,7 +408,7 @@ def _reaimed_at_truth(sc, cfg, c):
     """Least gap [m] of the chaser envelope from the TRUE target along the arc through X_Ft, V_Ft of the grasp
     re-solved from the true motion near c's grasp (what guidance flies once its estimate has converged), within
     the geometry window, by RK4 of the CW equations (independent of the planner's CW matrix)."""
-    from flyby_planner.grasp import REFINE_HORIZON_S, flyby_target_point, refine_grasp
+    from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, flyby_target_point, refine_grasp
     from flyby_sim.dynamics.geometry import signed_distance_to_box
     n = cfg.mean_motion_rad_s
     truth = truth_prediction(sc, c.t_grasp + cfg.geometry_window_s + 1.0)
@@ -465,7 +463,7 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
     covariance at the plan time, inflated by REAIM_COVARIANCE_SCALE (its measured NEES): row 0 the estimate, then
     +-3 sqrt(scale lambda_k) v_k, each motion starting from its perturbed state; a covariance that is not a finite
     6x6 matrix is refused."""
-    from flyby_planner.plan import REAIM_COVARIANCE_SCALE, _ReaimModel
+    from flyby_planner.flyby.reaim import REAIM_COVARIANCE_SCALE, ReaimModel
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
     pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, 60.0,
@@ -475,7 +473,7 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
     cov = a @ a.T
     for given, expected in ((cov, REAIM_COVARIANCE_SCALE * cov), (np.diag(np.diag(cov)),
                                                                  REAIM_COVARIANCE_SCALE * np.diag(np.diag(cov)))):
-        model = _ReaimModel(pred, 60.0, cfg, given)
+        model = ReaimModel(pred, 60.0, cfg, given)
         assert np.array_equal(model.errors[0], np.zeros(6)) and len(model.motions) == 13
         plus, minus = model.errors[1::2], model.errors[2::2]
         assert np.array_equal(plus, -minus)
@@ -488,7 +486,7 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
         assert np.allclose(start.omega_body, sc.omega_body0_rad_s + e[3:], rtol=0.0, atol=1e-15)
     for bad in (np.eye(3), None, np.full((6, 6), np.nan)):
         with pytest.raises(ValueError, match='finite 6x6'):
-            _ReaimModel(pred, 60.0, cfg, bad)
+            ReaimModel(pred, 60.0, cfg, bad)
 
 
 # Envelope run 810: 3.6 deg/s, grasp point on the -y face, panels near 5 m.
@@ -522,8 +520,8 @@ def test_envelope_run_810_the_reaim_check_refuses_where_its_motions_part():
     is within 0.5 sigma of the truth, yet 2288 s later, at the extended window's grasp the check used to pass
     (2348.6 s), its motion is 80 deg from the truth's and no convex grasp lies near it (flown: ESCAPE). Its 3-sigma
     motions part by more than REAIM_MAX_PARTING_RAD at every grasp the other checks pass, and the plan is refused."""
-    from flyby_planner.grasp import REFINE_HORIZON_S, refine_grasp
-    from flyby_planner.plan import REAIM_MAX_PARTING_RAD, _ReaimModel
+    from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, refine_grasp
+    from flyby_planner.flyby.reaim import REAIM_MAX_PARTING_RAD, ReaimModel
     sc = _scenario(_envelope_run_810)
     cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
     n = cfg.mean_motion_rad_s
@@ -534,7 +532,7 @@ def test_envelope_run_810_the_reaim_check_refuses_where_its_motions_part():
     assert math.degrees(math.acos((np.trace(c_est.T @ c_true) - 1.0) / 2.0)) > 60.0
     assert refine_grasp(estimate, cfg.x_grasp_body_m, 2348.56, n, t_latest=2348.56 + REFINE_HORIZON_S) is not None
     assert refine_grasp(truth, cfg.x_grasp_body_m, 2348.56, n, t_latest=2348.56 + REFINE_HORIZON_S) is None
-    model = _ReaimModel(estimate, t, cfg, cov)
+    model = ReaimModel(estimate, t, cfg, cov)
     c = [m.c_hill_from_body(np.array([2348.56]))[0] for m in model.motions]
     assert max(math.acos(np.clip((np.trace(c[0].T @ ck) - 1.0) / 2.0, -1.0, 1.0)) for ck in c[1:]) \
         > REAIM_MAX_PARTING_RAD

@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
-from flyby_planner.plan import plan_capture
-from flyby_planner.planner_core import AimUpdate, PlannerCore, PlanPublished
+from flyby_planner.flyby.search import plan_capture
+from flyby_planner.methods import FlybyMethod, Refusal
+from flyby_planner.plan_outputs import AimUpdate, PlanMarkers, PlanPublished
+from flyby_planner.planner_core import PlannerCore
 from flyby_sim.dynamics.orbital import cw_accel
 from flyby_sim.scenario import load_scenario
 from flyby_testing import envelope_run_323
@@ -75,7 +78,7 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
 
     import yaml
 
-    from flyby_planner.plan import truth_prediction
+    from flyby_planner.flyby.config import truth_prediction
     from flyby_sim.scenario import scenario_from_dict
     d = copy.deepcopy(yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text()))
     envelope_run_323(d)
@@ -97,13 +100,13 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
 def test_the_plan_starts_from_the_published_covariance_of_its_estimate():
     """estimation/target/odom's attitude covariance about hill axes and rate covariance in body axes reach the
     fly-by planner as the 6x6 body covariance of the plan's estimate (target_motion.covariance_from_published), for
-    the re-aim check (plan._ReaimModel); an estimate published without them plans with no re-aim check (None)."""
+    the re-aim check (flyby.reaim.ReaimModel); an estimate published without them plans with no re-aim check (None)."""
     from flyby_estimation.target_motion import covariance_from_published
 
-    class _Recording(PlannerCore):
-        def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
-            self.received = (t, covariance_body)
-            return [], ('recorded', [], 0.0)
+    class _RecordingFlyby(FlybyMethod):
+        def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
+            core.received = (t, covariance_body)
+            return [], Refusal('recorded', PlanMarkers(0.0, ()), 0.0)
 
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     q0, w0 = sc.q_hill_from_body0, sc.omega_body0_rad_s
@@ -111,7 +114,8 @@ def test_the_plan_starts_from_the_published_covariance_of_its_estimate():
     rate_body = np.diag((4e-8, 5e-8, 6e-8))
     for blocks, expected in (((attitude_hill, rate_body), covariance_from_published(q0, attitude_hill, rate_body)),
                              ((), None)):
-        core = _Recording(sc)
+        core = PlannerCore(sc)
+        core.methods['flyby'] = _RecordingFlyby()
         core.on_chaser_estimate(60.05, np.array((50.0, 0.1, -0.2)), np.zeros(3))
         core.on_event(_planning_event(59.95))
         core.on_target_estimate(59.9, q0, w0, 9.0 * attitude_hill, 9.0 * rate_body)  # before the request

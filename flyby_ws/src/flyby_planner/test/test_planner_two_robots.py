@@ -8,8 +8,9 @@ import pytest
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
-from flyby_planner.plan import truth_prediction
-from flyby_planner.planner_core import PlannerCore, TrajectoryPublished
+from flyby_planner.flyby.config import truth_prediction
+from flyby_planner.plan_outputs import TrajectoryPublished
+from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'

@@ -11,8 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
-from flyby_planner.grasp import capture_target_body
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import prediction_from_estimate
+from flyby_planner.flyby.grasp_search import capture_target_body
 from flyby_planner.sync.approach import resolve_due, sync_station_geometry
 from flyby_planner.sync.station import (
     PhaseSpaceLink,
@@ -144,7 +145,7 @@ def test_the_hold_check_against_the_closed_form_and_a_spinner_too_fast_for_the_t
     """approach.hold_acceleration_peak: a principal spin (omega' = 0) needs omega^2 times the distance from the spin
     axis, r omega^2 (0.7 m/s^2 at 5 m and 21.4 deg/s); a plan whose hold needs more than HOLD_SHARE of the bound is
     refused with the figures (the thrusters could not keep the chaser on the station)."""
-    from flyby_planner.plan import truth_prediction
+    from flyby_planner.flyby.config import truth_prediction
     from flyby_planner.sync.approach import HOLD_SHARE, hold_acceleration_peak, plan_sync
 
     state = collections.namedtuple('State', 'omega_body')
@@ -173,7 +174,7 @@ def test_a_port_off_the_middle_of_a_face_docks_along_the_faces_normal():
     0.75 m: Table 1's port in the middle of the +y face leaves 1 - 0.75 = 0.25 m. A port off the middle of the +x face
     (the campaign's run 6): 1 m out along its radial line x_port / |x_port| (seed 001's) the envelope would reach
     0.06 m into the box; along the face's normal +x it keeps 0.25 m, and the plan is flown."""
-    from flyby_planner.plan import truth_prediction
+    from flyby_planner.flyby.config import truth_prediction
     from flyby_planner.sync.approach import docking_line_clearance, plan_sync
 
     bus = [((0.0, 0.0, 0.0), (2.0, 4.0, 4.0))]
@@ -203,7 +204,7 @@ def test_a_late_plan_moves_the_arrival_window_and_a_resolve_keeps_it():
     """Table 1's window (260, 370) s for a plan starting at 90 s; an estimate converged late (the campaign's run 3
     planned at 383 s, past the window, and was refused) moves it to start min_transfer_s (150 s) after the plan's
     start, 110 s long; a re-solve keeps its previous solution's window; the late plan is flown."""
-    from flyby_planner.plan import truth_prediction
+    from flyby_planner.flyby.config import truth_prediction
     from flyby_planner.sync.approach import arrival_window, plan_sync
 
     assert arrival_window(SCENARIO, 90.0) == (260.0, 370.0)

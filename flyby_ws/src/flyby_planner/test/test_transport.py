@@ -11,17 +11,19 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from flyby_planner import transport
-from flyby_planner.transport import (
+from flyby_planner.transport import slew as transport_slew
+from flyby_planner.transport.model import (
     Burn,
     TransportBody,
     TransportConfig,
+    TransportModel,
     TransportRefused,
     TransportState,
     attitude_at,
-    plan_transport,
     propagate,
 )
+from flyby_planner.transport.plan import plan_transport
+from flyby_planner.transport.thrusters import push_axis
 from flyby_sim.dynamics.actuators import ThrusterLayout, allocate_wrench, default_thruster_layout
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
@@ -231,16 +233,16 @@ def test_a_slew_whose_shooting_lands_on_the_opposite_aim_starts_again_about_anot
     paper_flyby_tug's body from the shortest arc lands there (refused until 2026-11-28: paper_flyby_transport lost
     its last trims to it); from an arc about an axis turned about b it ends on u, at rest."""
     starts = []
-    guess = transport._slew_guess
-    monkeypatch.setattr(transport, '_slew_guess', lambda *a: starts.append(a[7:]) or guess(*a))
+    guess = transport_slew.slew_guess
+    monkeypatch.setattr(transport_slew, 'slew_guess', lambda *a: starts.append(a[7:]) or guess(*a))
     body = _tug_body()
-    model = transport._Model(body, _CONFIG)
-    b_body, _ = transport.push_axis(body)
+    model = TransportModel(body, _CONFIG)
+    b_body, _ = push_axis(body)
     q = np.array([-0.27545838770740894, -0.08382328338135454, -0.6391358100814386, 0.7131632001697418])
     u = np.array([-0.03898491664467288, 0.8733666046844681, -0.48550072100474895])
     assert math.degrees(math.acos(float(quat_rotate(q, b_body) @ u))) == pytest.approx(172.5, abs=0.1)
-    slew = transport._Slew(955, 17, 4000)
-    _, q_end, w_end, _ = transport._solve_slew(model, _CONFIG, slew, q, np.zeros(3), b_body, u, 1000.0)
+    slew = transport_slew.Slew(955, 17, 4000)
+    _, q_end, w_end, _ = transport_slew.solve_slew(model, _CONFIG, slew, q, np.zeros(3), b_body, u, 1000.0)
     assert len(starts) == 2 and starts[1] == (0.5 * np.pi,)  # the shortest arc's shooting ended on -u
     assert float(quat_rotate(q_end, b_body) @ u) == pytest.approx(1.0, abs=1e-12)
     assert np.linalg.norm(w_end) < 1e-9

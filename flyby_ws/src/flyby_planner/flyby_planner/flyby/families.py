@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from flyby_planner.keepout import SweptRegion
+from flyby_planner.flyby.keepout import SweptRegion
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci
 
 # Seed 000 Fig. 5 and section 3.3: targeted speeds v_i [m/s].

@@ -384,9 +384,9 @@ def refine_grasp(prediction, x_grasp_body, t_grasp_prev, n, t_latest=None):
 
     Without a convex root there, the planned root itself is followed (the root within
     _FOLLOW_TURNS of a turn of t_grasp_prev): the planner found it convex, and a newer estimate can
-    flip the sign of eq 15 where its value is near zero (envelope run 515: -3.4e-6 m^2/s^2 at every
-    re-aim, never re-aimed, a 0.18 m miss). The arc through it is checked for passive safety before
-    it is flown (plan.check_passage in flyby_guidance.guidance_core), as every re-aimed arc is.
+    flip the sign of eq 15 where its value is near zero (docs/planner.md, "How these rules were found"). The arc
+    through it is checked for passive safety before it is flown (passive_safety.check_passage in
+    flyby_guidance.guidance_core), as every re-aimed arc is.
     """
     omega = prediction.state(min(max(t_grasp_prev, prediction.t0), prediction.t_end)).omega_hill
     rate_rel = float(np.linalg.norm(np.asarray(omega) - np.array((0.0, -n, 0.0))))

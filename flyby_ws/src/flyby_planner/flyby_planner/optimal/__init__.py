@@ -1,4 +1,6 @@
-"""Optimization-based approach planning, seed 003 section 4 (eq 3-7), and a convex solver of the same problem.
+"""Optimization-based approach planning, seed 003 section 4 (eq 3-7), and a convex solver of the same problem:
+Jacobsen, Matsumoto, Dubowsky et al., *Planning of safe kinematic trajectories for free-flying robots approaching an
+uncontrolled spinning satellite* (seed 003).
 
 Pure numpy/scipy/cvxpy, no ROS. The modules:
 
@@ -9,9 +11,12 @@ Pure numpy/scipy/cvxpy, no ROS. The modules:
 * ``spline``: the parabolic-spline path through waypoints of seed 003 section 4.1 (eq 3).
 * ``baseline``: the paper's method -- Nelder-Mead on eq 5 (eq 6-7), one waypoint more while the cost improves.
 * ``scp``: sequential convex programming (cvxpy, Clarabel) on the Clohessy-Wiltshire dynamics, keep-out,
-  plume and mutual separation as linearized constraints; the least delta-v bound of a time and acceleration.
+  plume and mutual separation as linearized constraints; ``program``: the convex program of one iteration.
+* ``delta_v_bound``: the least delta-v bound of a time and acceleration, whatever the path.
+* ``mutual``: mutual safety against another robot's published plan (seed 003 section 4.2, Fig 12).
+* ``approach``: the approach as the mission plans it (settings, SCP from the estimates, the check before flight).
 * ``sampler``: a plan as time-stamped hill points (position, velocity, acceleration) for /planner/trajectory.
 
-Frames and units as in flyby_planner.grasp: ``hill`` of flyby_sim.dynamics.orbital, velocities relative to the
-rotating hill frame, SI units. Quaternions (x, y, z, w), scalar last.
+Frames and units as in flyby_planner.flyby.grasp_search: ``hill`` of flyby_sim.dynamics.orbital, velocities relative
+to the rotating hill frame, SI units. Quaternions (x, y, z, w), scalar last.
 """

@@ -13,22 +13,24 @@ within accel_max.
 Before it is flown the plan is checked, independently of the solver, on its dense samples: the peak acceleration
 within the plan's bound, no thrust away from the target inside the plume radius (seed 003 metric 4 as a rule), and
 the chaser envelope clear of the target's predicted real geometry less its uncertainty (the fly-by planner's model:
-geometry_attitude_margin + geometry_rate_margin |t - t_g| times the distance, ``plan._predicted_gaps``) by
-planner.clearance_margin_m. A plan that fails any of them is refused with the reason, as is no feasible program.
+geometry_attitude_margin + geometry_rate_margin |t - t_g| times the distance,
+``flyby.passive_safety.predicted_gaps``) by planner.clearance_margin_m. A plan that fails any of them is refused
+with the reason, as is no feasible program.
 
-Frames and units as in flyby_planner.grasp (hill, velocities relative to the rotating hill frame, SI).
+Frames and units as in flyby_planner.flyby.grasp_search (hill, velocities relative to the rotating hill frame, SI).
 """
 
 import dataclasses
 
 import numpy as np
 
-from flyby_planner.grasp import flyby_target_point
+from flyby_planner.flyby.grasp_search import flyby_target_point
+from flyby_planner.flyby.passive_safety import predicted_gaps
 from flyby_planner.optimal.cost import plan_terms
 from flyby_planner.optimal.problem import CostWeights, approach_problem, chaser_from_scenario, planning_plume_radius_m
+from flyby_planner.optimal.program import compile_program
 from flyby_planner.optimal.sampler import sample_trajectory
-from flyby_planner.optimal.scp import ScpSettings, compile_program, plan_scp
-from flyby_planner.plan import _predicted_gaps
+from flyby_planner.optimal.scp import ScpSettings, plan_scp
 from flyby_sim.dynamics.orbital import cw_coast
 
 # Samples per second of the plan's check (the plume rule and the clearance between SCP's check points).
@@ -125,7 +127,7 @@ def scp_settings_for(settings):
 
 def prepare_approach(scenario, settings, obstacles=0):
     """Compile SCP's program for the plans ``plan_approach`` makes for this scenario with ``obstacles`` other robots
-    to keep off (scp.compile_program): at the planner's start, so that the plan time pays for the solves only."""
+    to keep off (program.compile_program): at the planner's start, so that the plan time pays for the solves only."""
     compile_program(1, scp_settings_for(settings), [len(scenario.boxes) + obstacles],
                     safety_per_robot=[settings.weights.safety > 0.0])
 
@@ -146,7 +148,7 @@ def check_approach(plan, prediction, t_grasp, settings, planner_config, rate_hz=
         k = int(np.argmax(np.where(inside, away, -np.inf)))
         problems.append(f'thrust {away[k]:.2e} m/s^2 away from the target {dist[k]:.2f} m from it (plume radius '
                         f'{settings.plume_radius_m:g} m)')
-    gaps, names = _predicted_gaps(prediction, s.r_hill, s.t_s, t_grasp, planner_config)
+    gaps, names = predicted_gaps(prediction, s.r_hill, s.t_s, t_grasp, planner_config)
     k = int(np.argmin(gaps))
     if gaps[k] < settings.clearance_margin_m:
         problems.append(f'the envelope comes {gaps[k]:.3f} m from the {names[k]} at t = {s.t_s[k]:.1f} s '

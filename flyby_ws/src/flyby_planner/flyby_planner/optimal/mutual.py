@@ -1,4 +1,4 @@
-"""Mutual safety against another robot's published plan (seed 003 section 4.2, Fig 12; issue 14 item 4).
+"""Mutual safety against another robot's published plan (seed 003 section 4.2, Fig 12).
 
 The chasers of a ``chasers:`` scenario plan in the file's order: chaser i plans after chasers 0..i-1 have, with
 their published trajectories (``/<name>/planner/trajectory``) as known moving obstacles. Seed 003 section 4.2

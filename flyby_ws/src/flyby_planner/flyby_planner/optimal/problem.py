@@ -11,7 +11,7 @@ The thrust acceleration of a path is what the thrusters add to the Clohessy-Wilt
 flyby_sim.dynamics.orbital.cw_accel): a = r'' - cw_accel(r, r'). Over a one-minute approach the orbital terms are
 about 1 % of the thrust, but both solvers count them, so their figures compare.
 
-Frames and units as in flyby_planner.grasp (hill, velocities relative to the rotating hill frame, SI).
+Frames and units as in flyby_planner.flyby.grasp_search (hill, velocities relative to the rotating hill frame, SI).
 """
 
 import dataclasses
@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from flyby_planner.grasp import flyby_target_point
+from flyby_planner.flyby.grasp_search import flyby_target_point
 from flyby_planner.optimal.cost import box_contacts
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
@@ -102,7 +102,7 @@ class TargetMotion:
 
 class GraspTerminal:
     """End state of the approach at time t: X_Ft, V_Ft of the grasp point x_grasp_body [m] at offset_m [m],
-    seed 000 eq 20-21 (flyby_planner.grasp.flyby_target_point) on the predicted motion."""
+    seed 000 eq 20-21 (flyby_planner.flyby.grasp_search.flyby_target_point) on the predicted motion."""
 
     def __init__(self, prediction, x_grasp_body, offset_m):
         self.prediction = prediction
@@ -242,7 +242,8 @@ def chaser_from_scenario(scenario, accel_max_mps2=None):
 def approach_problem(scenario, prediction, r0_hill, v0_hill, t0_s, plume_radius_m, x_grasp_body=None, offset_m=None,
                      chaser=None, weights=CostWeights(), duration_min_s=20.0, duration_max_s=200.0):
     """ApproachProblem of a scenario's target (geometry, grasp point, planner.offset_m by default) from a
-    MotionPrediction (the estimator's, or flyby_planner.plan.truth_prediction) and the chaser's state at t0_s."""
+    MotionPrediction (the estimator's, or flyby_planner.flyby.config.truth_prediction) and the chaser's state at
+    t0_s."""
     n = scenario.mean_motion_rad_s
     grasp = scenario.target.grasp_point_body_m if x_grasp_body is None else x_grasp_body
     offset = scenario.planner.offset_m if offset_m is None else offset_m

@@ -35,8 +35,8 @@ Model, one robot (several are stacked with a common time grid):
   (cost.total_cost): a lower cost is accepted and rho doubles, a higher one is rejected and rho shrinks; the
   iterations stop when the nodes move less than the tolerance or the cost falls by less than merit_tolerance.
 
-``delta_v_lower_bound`` gives the least delta-v any path can have for a time and acceleration bound, whatever its
-shape (keep-out and plume only add constraints): module doc of that function.
+The program of one iteration is ``program.ScpProgram``; ``delta_v_bound.delta_v_lower_bound`` gives the least delta-v
+any path can have for a time and acceleration bound, whatever its shape (keep-out and plume only add constraints).
 """
 
 import dataclasses
@@ -45,11 +45,12 @@ import time
 
 import cvxpy as cp
 import numpy as np
-from scipy.optimize import minimize, minimize_scalar
+from scipy.optimize import minimize_scalar
 
 from flyby_planner.optimal import mutual
 from flyby_planner.optimal.cost import Trajectory, box_contacts, total_cost
 from flyby_planner.optimal.problem import heuristic_route
+from flyby_planner.optimal.program import program_for, solver_options
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(8)
@@ -174,137 +175,6 @@ def _reference_from_plan(plan, grid):
     return traj.r_hill, traj.v_hill[::grid.substeps]
 
 
-class _Model:
-    """The convex program of one SCP iteration, written once with cvxpy Parameters (disciplined parametrized
-    programming), so that every iteration and every approach time only sets parameters and re-solves.
-
-    Check-point positions are variables tied to the node states (rc_j = Phi_r(j h / M) x_k + Gamma_r u_k) so that
-    every constraint is a parameter times a variable.
-    """
-
-    def __init__(self, robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot):
-        n_check = [steps] * substeps + [1]
-        self.phi, self.gamma = cp.Parameter((6, 6)), cp.Parameter((6, 3))
-        self.phi_r = [cp.Parameter((3, 6)) for _ in range(substeps)]
-        self.gamma_r = [cp.Parameter((3, 3)) for _ in range(substeps)]
-        self.robots = []
-        # every second-order cone goes into one SOC constraint at the end (rows of dimension 4; the rotated cones
-        # padded with a zero): cvxpy's cone formatting costs per constraint object, in proportion to the variables
-        # times the parameters, so one object compiles several times faster than one per cone family
-        cone_t, cone_x = [], []
-        cost, constraints = 0.0, []
-        for k_boxes, priced in zip(boxes_per_robot, safety_per_robot, strict=True):
-            x, u = cp.Variable((steps + 1, 6)), cp.Variable((steps, 3))
-            thrust = cp.Variable(steps)  # >= |u_k|, equal at the optimum (fuel prices it): one cone per step
-            rc = [cp.Variable((steps, 3)) for _ in range(substeps)] + [x[steps:, :3]]
-            par = dict(x0=cp.Parameter(6), xf=cp.Parameter(6), accel_max=cp.Parameter(nonneg=True),
-                       fuel=cp.Parameter(nonneg=True), r_ref=cp.Parameter((steps + 1, 3)),
-                       trust=cp.Parameter((steps + 1, 1), nonneg=True),
-                       keep_n=[[cp.Parameter((m, 3)) for m in n_check] for _ in range(k_boxes)],
-                       keep_b=[[cp.Parameter(m) for m in n_check] for _ in range(k_boxes)],
-                       safety=cp.Parameter(nonneg=True), buffer=cp.Parameter(nonneg=True),
-                       keep_price=cp.Parameter(nonneg=True),
-                       safe_r=[cp.Parameter((steps + 1, 3)) for _ in range(k_boxes)],
-                       safe_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
-                       gap_c=[cp.Parameter(steps + 1) for _ in range(k_boxes)],
-                       plume=[cp.Parameter((steps, 3)) for _ in range(substeps + 1)],
-                       plume_sin=[cp.Parameter(steps, nonneg=True) for _ in range(substeps + 1)])
-            constraints += [
-                x[0] == par['x0'],  # the state now
-                x[steps] == par['xf'],  # X_Ft, V_Ft at t0 + T, seed 000 eq 20-21
-                x[1:] == x[:-1] @ self.phi.T + u @ self.gamma.T,  # CW with held thrust, seed 000 eq 22
-                thrust <= par['accel_max'],  # actuator limit
-                cp.abs(x[:, :3] - par['r_ref']) <= par['trust'],  # trust region, per node
-            ]
-            cone_t.append(thrust)  # |u_k| <= thrust_k
-            cone_x.append(u)
-            constraints += [rc[j] == x[:-1] @ self.phi_r[j].T + u @ self.gamma_r[j].T for j in range(substeps)]
-            # one buffer per box and step, shared by its check points (fewer variables: cvxpy's compile time grows
-            # with the variables times the parameters)
-            keep_buffer = cp.Variable((k_boxes, steps), nonneg=True) if k_boxes else None
-            for b in range(k_boxes):
-                # supporting plane of box b; the buffer (SCvx) lets a first reference through the geometry start
-                constraints += [cp.sum(cp.multiply(par['keep_n'][b][j], rc[j]), axis=1)
-                                >= par['keep_b'][b][j] - (keep_buffer[b] if j < substeps else keep_buffer[b, -1:])
-                                for j in range(substeps + 1)]
-                if not priced:  # k_s = 0: fuel alone, the keep-out constraints above keep it safe
-                    continue
-                # safety metric k_s h closing^2 / gap: closing >= the speed toward the box's closest point to first
-                # order in r and v, gap the supporting plane's distance (a lower bound of the gap: the box is convex)
-                closing, ratio = cp.Variable(steps + 1, nonneg=True), cp.Variable(steps + 1)
-                gap = cp.sum(cp.multiply(par['keep_n'][b][0], x[:-1, :3]), axis=1) - par['gap_c'][b][:-1]
-                gap = cp.hstack((gap, cp.sum(cp.multiply(par['keep_n'][b][substeps], x[steps:, :3]), axis=1)
-                                 - par['gap_c'][b][-1:]))
-                # d closing / dv = -n, the supporting plane's normal at the node
-                n_node = cp.vstack((par['keep_n'][b][0], par['keep_n'][b][substeps]))
-                constraints += [
-                    closing >= par['safe_c'][b] - cp.sum(cp.multiply(n_node, x[:, 3:]), axis=1)
-                    + cp.sum(cp.multiply(par['safe_r'][b], x[:, :3]), axis=1),
-                ]
-                cone_t.append(gap + ratio)  # ratio >= closing^2 / gap
-                cone_x.append(cp.vstack((2.0 * closing, gap - ratio, np.zeros(steps + 1))).T)
-                cost += par['safety'] * cp.sum(ratio)
-            # plume: no thrust component away from the target, for any direction to it within the trust region;
-            # a virtual buffer (SCvx) at an exact-penalty price keeps an early linearization feasible
-            buffer = cp.Variable(steps, nonneg=True)  # one per step, shared by its check points
-            constraints += [cp.multiply(par['plume_sin'][j], thrust)
-                            + cp.sum(cp.multiply(par['plume'][j], u), axis=1) <= buffer for j in range(substeps + 1)]
-            cost += par['buffer'] * cp.sum(buffer)
-            if k_boxes:
-                cost += par['keep_price'] * cp.sum(keep_buffer)
-            cost += par['fuel'] * cp.sum(thrust)  # fuel, k_f m / (Isp g0) h sum |u|
-            self.robots.append(dict(x=x, u=u, rc=rc, par=par))
-        self.pairs = []
-        for i, j in pairs:
-            par = dict(sep_n=[cp.Parameter((m, 3)) for m in n_check], sep_b=[cp.Parameter(m) for m in n_check],
-                       safe_n=cp.Parameter((steps + 1, 3)), safe_r=cp.Parameter((steps + 1, 3)),
-                       safe_c=cp.Parameter(steps + 1), need=cp.Parameter(nonneg=True),
-                       safety=cp.Parameter(nonneg=True))
-            rc_i, rc_j = self.robots[i]['rc'], self.robots[j]['rc']
-            constraints += [cp.sum(cp.multiply(par['sep_n'][c], rc_i[c] - rc_j[c]), axis=1) >= par['sep_b'][c]
-                            for c in range(substeps + 1)]  # the robots apart
-            dx = self.robots[i]['x'] - self.robots[j]['x']
-            closing, ratio = cp.Variable(steps + 1, nonneg=True), cp.Variable(steps + 1)
-            gap = cp.sum(cp.multiply(par['safe_n'], dx[:, :3]), axis=1) - par['need']
-            constraints += [closing >= par['safe_c'] - cp.sum(cp.multiply(par['safe_n'], dx[:, 3:]), axis=1)
-                            + cp.sum(cp.multiply(par['safe_r'], dx[:, :3]), axis=1)]
-            cone_t.append(gap + ratio)
-            cone_x.append(cp.vstack((2.0 * closing, gap - ratio, np.zeros(steps + 1))).T)
-            cost += par['safety'] * cp.sum(ratio)  # mutual safety, k_s h closing^2 / gap
-            self.pairs.append(par)
-        constraints.append(cp.SOC(cp.hstack(cone_t), cp.vstack(cone_x), axis=1))
-        self.program = cp.Problem(cp.Minimize(cost), constraints)
-        self.compiled = False  # cvxpy has compiled the program (its first solve, or compile_program)
-
-
-_MODELS = {}
-
-
-def _model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot):
-    """The _Model of this shape, built at its first use and kept (cvxpy compiles it once). safety_per_robot: whether
-    each robot's program prices the safety metric (k_s > 0); without it the program has no safety cones."""
-    key = (robots, steps, substeps, tuple(boxes_per_robot), tuple(pairs), tuple(safety_per_robot))
-    if key not in _MODELS:
-        _MODELS[key] = _Model(robots, steps, substeps, boxes_per_robot, pairs, safety_per_robot)
-    return _MODELS[key]
-
-
-def compile_program(robots, settings, boxes_per_robot, pairs=(), safety_per_robot=None):
-    """Build and compile the program ``plan_scp`` solves for this shape (robots, settings' grid, keep-out boxes and
-    obstacles per robot, robot pairs, whether each prices safety; default none does), every parameter at zero:
-    cvxpy compiles a parametrized program once per process (jacobsen_optimal's: 0.2-0.5 s of CPU, docs/optimal.md),
-    so a planner that compiles at its start plans at the plan time with the solves alone, as a flight computer's
-    solver is generated before flight. The plans are the same either way (test)."""
-    safety = tuple(safety_per_robot) if safety_per_robot is not None else (False,) * robots
-    model = _model(robots, settings.steps, settings.substeps, boxes_per_robot, pairs, safety)
-    if not model.compiled:
-        for par in model.program.parameters():
-            par.value = np.zeros(par.shape)
-        model.program.get_problem_data(settings.solver, solver_opts=_solver_options(settings))
-        model.compiled = True
-    return model
-
-
 def _closing_and_gradient(r_hill, v_hill, c_hill_from_body, omega_rel_hill, boxes, step_m=1e-4):
     """Closing speed (K, M) of points toward each box's closest point (safety metric, cost.safety_metric) and its
     gradient in the position (K, M, 3), by forward differences of step_m [m]."""
@@ -403,7 +273,7 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
     iterations, converged, objective)."""
     grid = _Grid(problems[0].n, duration_s, settings.steps, settings.substeps)
     boxes = [(len(p.target.boxes) if p.target is not None else 0) + len(obstacles) for p in problems]
-    model = _model(len(problems), settings.steps, settings.substeps, boxes, pairs,
+    model = program_for(len(problems), settings.steps, settings.substeps, boxes, pairs,
                    [p.weights.safety > 0.0 for p in problems])
     model.phi.value, model.gamma.value = grid.phi, grid.gamma
     for j in range(settings.substeps):
@@ -431,7 +301,7 @@ def _solve_fixed(problems, duration_s, settings, references, pairs, obstacles=()
             rhos.append(rho[:, None])
         _set_iteration(model, problems, grid, settings, attitudes, refs, pairs, rhos, obstacles)
         try:
-            model.program.solve(solver=settings.solver, **_solver_options(settings))
+            model.program.solve(solver=settings.solver, **solver_options(settings))
             model.compiled = True
             solved = model.program.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
         except cp.error.SolverError:
@@ -480,18 +350,6 @@ def _plume_violation(problems, plans, rate_hz=20.0):
         largest = max(largest, float(away.max()))
         impulse += float(away.sum()) * plan.duration_s / steps
     return largest, impulse
-
-
-def _solver_options(settings):
-    """Clarabel's thread count: one, since its worker threads cost more than they give on programs of this size
-    (1.5 ms per interior-point iteration) and, on a machine shared with other jobs, spin while they wait. No warm
-    start: cvxpy would hand the cached program's new data to the solver object of its last solve (Clarabel's
-    update), whose result then depended on what that process had solved before (a campaign run flown after
-    another differed from the same run flown alone by 4 mm and 1.4 mm/s at the grasp)."""
-    options = {'warm_start': False}
-    if settings.solver == 'CLARABEL':
-        options['max_threads'] = settings.solver_threads
-    return options
 
 
 def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, obstacles=(), initial=None):
@@ -550,65 +408,3 @@ def plan_scp(problems, settings=ScpSettings(), duration_s=None, separate=True, o
     return ScpResult(plans=best.get('plans'), iterations=best.get('iterations', 0),
                      converged=best.get('converged', False), objective=best.get('objective', math.inf),
                      solves=solves[0], wall_time_s=time.perf_counter() - start, durations_s=tuple(tried))
-
-
-@dataclasses.dataclass(frozen=True)
-class DeltaVBound:
-    """The least delta-v of a transfer in a given time under an acceleration bound (delta_v_lower_bound).
-
-    lower_mps: no thrust history a(t), |a| <= a_max, of any shape does it with less [m/s] (weak duality);
-    held_mps: the least delta-v of thrust held over ``steps`` equal steps [m/s], which a path reaches (without
-    keep-out or plume), so the true least delta-v lies between the two; multiplier: the dual vector used.
-    """
-
-    lower_mps: float
-    held_mps: float
-    steps: int
-    multiplier: np.ndarray
-
-
-def delta_v_lower_bound(r0_hill, v0_hill, r_f_hill, v_f_hill, duration_s, accel_max_mps2, n, steps=200,
-                        quadrature=6000):
-    """The least delta-v int |a| dt taking (r0, v0) to (r_f, v_f) in duration_s on the CW dynamics, |a| <= a_max.
-
-    Keep-out, the plume rule and the robots' separation only remove paths, so what holds without them bounds every
-    planner of the same time and acceleration bound from below. Two numbers bracket it:
-
-    * Held thrust (the relaxation as a second-order cone program, cvxpy Clarabel): with d = x_f - Phi(T) x_0 and
-      G_k = Phi(T - t_k+1) Gamma(h), min sum |u_k| h subject to sum G_k u_k = d, |u_k| <= a_max. Its optimum is
-      reached by a path, so it is at least the continuous-time least delta-v.
-    * Weak duality, valid for any thrust history: for every multiplier lambda (6,),
-      int |a| >= int |a| - lambda' (int Phi(T - s) B a ds - d)
-              >= lambda' d - a_max int max(0, |B' Phi(T - s)' lambda| - 1) ds
-      with B = [0; I], since min over |a| <= a_max of |a| - c' a is -a_max max(0, |c| - 1). lambda starts from the
-      cone program's equality multiplier (either sign convention) and is polished by Nelder-Mead on that concave
-      function; the integral is the midpoint rule on ``quadrature`` points.
-
-    Returns:
-        DeltaVBound.
-    """
-    phi_t = cw_transition_matrix(n, duration_s)
-    d = np.concatenate((r_f_hill, v_f_hill)) - phi_t @ np.concatenate((r0_hill, v0_hill))
-    h = duration_s / steps
-    g = np.einsum('kij,jl->kil', cw_transition_matrix(n, duration_s - (np.arange(steps) + 1) * h),
-                  zoh_input_matrix(n, h))  # (N, 6, 3)
-    u = cp.Variable((steps, 3))
-    reach = np.transpose(g, (1, 0, 2)).reshape(6, 3 * steps) @ cp.vec(u, order='C') == d  # sum G_k u_k = d
-    program = cp.Problem(cp.Minimize(h * cp.sum(cp.norm(u, 2, axis=1))),
-                         [reach, cp.norm(u, 2, axis=1) <= accel_max_mps2])
-    program.solve(solver='CLARABEL')
-    if program.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise ValueError(f'no thrust of at most {accel_max_mps2} m/s^2 makes the transfer in {duration_s} s '
-                         f'({program.status})')
-    s = (np.arange(quadrature) + 0.5) * duration_s / quadrature
-    psi = cw_transition_matrix(n, duration_s - s)[:, :, 3:]  # Phi(T - s) B, (Q, 6, 3)
-
-    def dual(lam):
-        c = np.linalg.norm(np.einsum('qij,i->qj', psi, lam), axis=1)
-        return float(lam @ d) - accel_max_mps2 * float(np.maximum(c - 1.0, 0.0).sum()) * duration_s / quadrature
-
-    lam0 = max((sign * np.asarray(reach.dual_value, dtype=float) for sign in (1.0, -1.0)), key=dual)
-    polished = minimize(lambda lam: -dual(lam), lam0, method='Nelder-Mead',
-                        options={'xatol': 1e-10, 'fatol': 1e-12, 'maxfev': 4000})
-    lam = polished.x if -polished.fun > dual(lam0) else lam0
-    return DeltaVBound(lower_mps=dual(lam), held_mps=float(program.value), steps=steps, multiplier=lam)

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from flyby_planner.grasp import docking_axis
+from flyby_planner.flyby.grasp_search import docking_axis
 from flyby_planner.sync.station import keepout_radius, reselect_arrival, select_arrival, station_geometry
 from flyby_sim.dynamics.attitude import euler_rate
 from flyby_sim.dynamics.geometry import signed_distance_to_box
@@ -123,9 +123,8 @@ def resolve_due(t, t_plan, t_arrival, sync):
     resolve_interval_s after the plan and halfway from it to the arrival, and last resolve_cutoff_s before the
     arrival (none after it, nor once the link would start, resolve_lead_s after t, past the arrival). A station
     fixed in a body spinning about its intermediate axis is predicted with an error growing e-fold every
-    1 / (0.377 |omega|) (6 s at 25 deg/s; the category IV campaign's runs 30, 33, 36 arrived 9.6 m off the station
-    predicted 37 s before): each re-solve halves the horizon the next one corrects, and the last predicts only
-    resolve_cutoff_s ahead."""
+    1 / (0.377 |omega|) (6 s at 25 deg/s; docs/synchronized.md, "How these rules were found"): each re-solve halves
+    the horizon the next one corrects, and the last predicts only resolve_cutoff_s ahead."""
     t_last = t_arrival - sync.resolve_cutoff_s
     due = min(t_plan + sync.resolve_interval_s, 0.5 * (t_plan + t_arrival), t_last)
     return t_plan < t_last and due <= t < t_arrival - sync.resolve_lead_s

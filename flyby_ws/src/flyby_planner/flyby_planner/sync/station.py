@@ -2,12 +2,12 @@
 phase-space link that reaches it.
 
 The station is the point of the target's body frame on the docking port's outward line (the line through the port
-along the outward normal of the face it sits on, flyby_planner.grasp.docking_axis) at ``station_range_m`` from the
-centre of mass: seed 001's circle of radius |r_alpha0,d| (5 m) that stage 3 orbits and stage 4 leaves along the
-line for the final range of 1 m from the port. Seed 001 docks radially: its port faces away from the centre of
-mass; for a port off the middle of a face the radial line is oblique to the face, and 1 m out along it the
-chaser's envelope (0.75 m) reaches into the face (issue 15's campaign: 58 of 100 ports), so the line is the face's
-normal, which is the radial line for a port in the middle of a face (Table 1's scenario).
+along the outward normal of the face it sits on, flyby_planner.flyby.grasp_search.docking_axis) at
+``station_range_m`` from the centre of mass: seed 001's circle of radius |r_alpha0,d| (5 m) that stage 3 orbits and
+stage 4 leaves along the line for the final range of 1 m from the port. Seed 001 docks radially: its port faces away
+from the centre of mass; for a port off the middle of a face the radial line is oblique to the face, and 1 m out
+along it the chaser's envelope (0.75 m) reaches into the face (docs/synchronized.md, "How these rules were found"),
+so the line is the face's normal, which is the radial line for a port in the middle of a face (Table 1's scenario).
 
 **Eq 1** as printed is garbled ("min_v min_r [ |r_alpha0,dorb;x(t)| / dt - v_alpha0,dorb(t) ] -> t_s_opt < t <
 t_f_opt"); we read it with the sentence before it ("a minimum difference between approaching and final velocity")

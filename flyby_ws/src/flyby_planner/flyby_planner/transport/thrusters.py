@@ -1,0 +1,81 @@
+"""What the direction-limited thrusters give the transport (package doc, step 1 and 3): the push axis of the
+largest pure force about the combined CoM and the burn wrench of a torque with the least side force.
+"""
+
+
+import numpy as np
+from scipy.optimize import linprog
+
+from flyby_planner.transport.model import TransportConfig, TransportModel, TransportRefused
+from flyby_sim.dynamics.actuators import allocate_max_force
+
+
+def push_axis(body):
+    """(b, largest pure force along it [N]): the body axis with the largest pure force about the combined CoM
+    (package doc, step 1). Raises TransportRefused if no body axis has one."""
+    layout_com = TransportModel(body, TransportConfig()).layout_com
+    best = None
+    for axis in np.vstack((np.eye(3), -np.eye(3))):
+        try:
+            force_n = allocate_max_force(layout_com, axis).force_n
+        except ValueError:
+            continue
+        if best is None or force_n > best[1]:
+            best = (axis, force_n)
+    if best is None:
+        raise TransportRefused('no thruster set gives a pure force about the combined CoM along any body axis '
+                               f'(CoM {np.round(body.com_body_m, 4).tolist()} m from the chaser CoM)')
+    return best
+
+
+def torque_capacity_n_m(model, direction_body):
+    """The largest torque [N m] about the combined CoM along a body direction at the least side force per unit
+    torque the thrusters allow along it (0 if they give none): two LPs, B about the combined CoM,
+
+    1. sigma = min sum s  s.t.  B_T f = u T_ref,  -s <= B_F f <= s,  f >= 0            (per T_ref = 0.01 N m)
+    2. max t  s.t.  B_T f = t u,  -s <= B_F f <= s,  sum s <= sigma t / T_ref,  0 <= f <= f_max
+
+    so a slew's burns are made long enough that its torque needs no more side force per unit than the least."""
+    b = model.layout_com.wrench_matrix
+    n = model.layout_com.count
+    u = np.asarray(direction_body, dtype=float) / float(np.linalg.norm(direction_body))
+    eye3 = np.eye(3)
+    side = np.vstack((np.hstack((b[:3], -eye3, np.zeros((3, 1)))), np.hstack((-b[:3], -eye3, np.zeros((3, 1))))))
+    f_bounds = [(0.0, f) for f in model.layout_com.max_thrust_n.tolist()]
+    torque_ref = 0.01
+    least = linprog(np.concatenate((np.zeros(n), np.ones(3))), A_ub=side[:, :-1], b_ub=np.zeros(6),
+                    A_eq=np.hstack((b[3:], np.zeros((3, 3)))), b_eq=torque_ref * u,
+                    bounds=f_bounds + [(0.0, None)] * 3, method='highs')
+    if least.status != 0:
+        return 0.0
+    ratio = least.fun / torque_ref * (1.0 + 1e-6) + 1e-9
+    budget = np.concatenate((np.zeros(n), np.ones(3), [-ratio]))[None, :]
+    largest = linprog(np.concatenate((np.zeros(n + 3), [-1.0])), A_ub=np.vstack((side, budget)), b_ub=np.zeros(7),
+                      A_eq=np.hstack((b[3:], np.zeros((3, 3)), -u[:, None])), b_eq=np.zeros(3),
+                      bounds=f_bounds + [(0.0, None)] * 4, method='highs')
+    return -largest.fun if largest.status == 0 else 0.0
+
+
+def torque_burn_wrench(model, torque_com):
+    """(force [N], torque about the chaser CoM [N m]) of the least side force making torque_com about the combined
+    CoM, or None if the thrusters cannot:  min sum s + 1e-3 sum f  s.t.  B_T f = T,  -s <= B_F f <= s,
+    0 <= f <= f_max (B about the combined CoM; the small fuel weight breaks ties)."""
+    b = model.layout_com.wrench_matrix
+    n = model.layout_com.count
+    eye3 = np.eye(3)
+    a_ub = np.vstack((np.hstack((b[:3], -eye3)), np.hstack((-b[:3], -eye3))))  # |B_F f| <= s component-wise
+    result = linprog(np.concatenate((np.full(n, 1e-3), np.ones(3))), A_ub=a_ub, b_ub=np.zeros(6),
+                     A_eq=np.hstack((b[3:], np.zeros((3, 3)))), b_eq=torque_com,
+                     bounds=[(0.0, f) for f in model.layout_com.max_thrust_n.tolist()] + [(0.0, None)] * 3,
+                     method='highs', options={'primal_feasibility_tolerance': 1e-10})
+    if result.status != 0:
+        return None
+    force = b[:3] @ result.x[:n]
+    return force, np.asarray(torque_com, dtype=float) + np.cross(model.com_body_m, force)  # T_chaser = T_com + c x F
+
+
+def torque_wrench(body, config, torque_com_body_n_m):
+    """(force [N], torque about the chaser's CoM [N m]), chaser_body, of the least side force that gives
+    torque_com_body_n_m about the combined CoM with the body's thrusters (a slew's burns, guidance's detumbling), or
+    None where they cannot."""
+    return torque_burn_wrench(TransportModel(body, config), np.asarray(torque_com_body_n_m, dtype=float))
