@@ -1,4 +1,4 @@
-"""The chaser's attitude in the fly-by (issue 13, part 5): body +x pointed at the target's centre of mass on
+"""The chaser's attitude in the fly-by: body +x pointed at the target's centre of mass on
 the reaction wheels, the wheels' momentum dumped by the thrusters outside the restriction sphere only.
 
 Pure numpy, no ROS: the guidance node and the headless loop call ``AttitudeGuidance.command`` once per control
@@ -75,7 +75,7 @@ also the default tau_max (half the default wheels' 0.1 N m), so at this period t
 dumping only uses the wheels' torque headroom: if the control torque plus the dump's share would exceed a
 wheel's limit, the dump is scaled down (and an axis below tau_min dropped), pointing first. Inside the
 restriction sphere the thruster torque is exactly zero and dumping stops (no thruster fires there,
-attitude control included: seed 000 section 4.1, issue 13).
+attitude control included: seed 000 section 4.1).
 
 **Integral action** (``integral_time_s``, off by default; the synchronized approach's hold sets it): a constant
 disturbance torque d (the thrusters' errors under a force held in the body) leaves the proportional-derivative

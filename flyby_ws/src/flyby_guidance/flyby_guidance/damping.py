@@ -1,6 +1,7 @@
-"""Relative-motion damping after the grasp (seed 000 §2.2 phase (6)): the chaser detumbles the combined body with
-its thrusters and wheels until the angular momentum is below seed 004's first rendezvous condition (0.1 kg m^2/s,
-§3.2), with rate feedback that needs no inertia (no ROS).
+"""Relative-motion damping after the grasp (seed 000 §2.2 phase (6)), then the mass-property excitation: the chaser
+detumbles the combined body with its thrusters and wheels until the angular momentum is below seed 004's first
+rendezvous condition (0.1 kg m^2/s, §3.2), with rate feedback that needs no inertia, and then fires the excitation
+the estimator observes (``PostCaptureControl``; no ROS).
 
 Law, from the gyro rate omega (body axes) and the wheels' momentum h (body axes, A h):
 
@@ -33,6 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_estimation.mass_properties_excitation import excitation_firings, firing_wrench
+from flyby_msgs_py import events
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator
@@ -176,7 +178,7 @@ class PostCaptureCommand(NamedTuple):
 
 
 class PostCaptureControl:
-    """Guidance's rules from the arm's lock on (issue 16), one command per chaser estimate, applied one control
+    """Guidance's rules from the arm's lock on, one command per chaser estimate, applied one control
     period after its stamp (DESIGN §10):
 
     * damping: ``damping_command`` on the estimated rate and the wheels' momentum, until the bound of the angular
@@ -214,8 +216,8 @@ class PostCaptureControl:
             self.t_excitation = t + cfg.start_delay_s
             self.firings = excitation_firings(cfg.excitation, self.t_excitation)
             return PostCaptureCommand(zero, zero, zero, [(
-                'OK', 'excitation_scheduled', f'{cfg.excitation} excitation from t = {self.t_excitation:.2f} s on the '
-                                              f'body as it turns (no damping)',
+                'OK', events.EXCITATION_SCHEDULED,
+                f'{cfg.excitation} excitation from t = {self.t_excitation:.2f} s on the body as it turns (no damping)',
                 {'t_excitation_s': self.t_excitation, 'excitation': cfg.excitation,
                  'h_wheels_body_n_m_s': np.asarray(h_wheels_settled_body_n_m_s, dtype=float)})])
         omega = np.asarray(omega_body, dtype=float)
@@ -230,7 +232,7 @@ class PostCaptureControl:
                 self.firings = excitation_firings(cfg.excitation, self.t_excitation)
                 h = np.asarray(h_wheels_settled_body_n_m_s, dtype=float)
                 return PostCaptureCommand(zero, zero, zero, [(
-                    'OK', 'damping_complete',
+                    'OK', events.DAMPING_COMPLETE,
                     f'angular momentum at most {bound:.4f} kg m^2/s (< {MOMENTUM_MARGIN:g} x '
                     f'{cfg.momentum_threshold_kg_m2_s:g}) after '
                     f'{t - self.t_first:.1f} s of damping; {cfg.excitation} excitation from t = '
@@ -256,5 +258,5 @@ class PostCaptureControl:
         if self.excitation_ended or t + self.config.period_s < t_end:
             return []
         self.excitation_ended = True
-        return [('OK', 'excitation_ended', f'{self.config.excitation} excitation ended at t = {t_end:.2f} s',
+        return [('OK', events.EXCITATION_ENDED, f'{self.config.excitation} excitation ended at t = {t_end:.2f} s',
                  {'t_end_s': t_end})]

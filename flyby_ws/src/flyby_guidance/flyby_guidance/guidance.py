@@ -45,8 +45,9 @@ import math
 
 import numpy as np
 
+from flyby_msgs_py import events
 from flyby_msgs_py.wire import Event
-from flyby_planner.plan import LAST_BURN_SLACK_M
+from flyby_planner.flyby.passive_safety import LAST_BURN_SLACK_M
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
@@ -256,7 +257,7 @@ class FlybyGuidance:
             # The interlock: no thrust near the sphere, ever again in this fly-by (seed 000 section 4.1).
             self.schedule = []
             self.thrust_ended = f'{kind} burn at t = {t_burn:.1f} s would thrust {closest:.2f} m from the target'
-            return [], [Event(t_burn, 'OK' if kind == 'adjust' else 'ERROR', 'thrusting_ended',
+            return [], [Event(t_burn, 'OK' if kind == 'adjust' else 'ERROR', events.THRUSTING_ENDED,
                                       f'{self.thrust_ended} (< sphere {cfg.restriction_sphere_radius_m:g} m + margin '
                                       f'{cfg.sphere_margin_m:g} m); coasting from here',
                                       {'closest_m': closest, **values})]
@@ -267,7 +268,7 @@ class FlybyGuidance:
             self._schedule_adjust(t_burn + cfg.adjust_interval_s)
             if small or np.linalg.norm(dv) < smallest:
                 why = 'predicted miss within tolerance' if small else f'|dv| below {smallest:.2g} m/s'
-                return [], [Event(t_burn, 'OK', 'adjust_skipped', why,
+                return [], [Event(t_burn, 'OK', events.ADJUST_SKIPPED, why,
                                           {**values, 'dv_mps': float(np.linalg.norm(dv))})]
         size = float(np.linalg.norm(dv))
         if size > cfg.max_delta_v_per_maneuver_mps:

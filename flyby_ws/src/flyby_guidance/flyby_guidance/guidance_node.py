@@ -17,7 +17,8 @@ after the estimate (the simulator holds time there until both are in); and on
 """
 
 from flyby_guidance.guidance import Maneuver
-from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
+from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode

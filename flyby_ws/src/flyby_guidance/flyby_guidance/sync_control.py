@@ -49,8 +49,10 @@ import math
 
 import numpy as np
 
-from flyby_estimation.target_motion import ErrorStateDynamics, prediction_from_estimate
+from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidanceConfig, PointingGoal
+from flyby_msgs_py import events
 from flyby_planner.sync.approach import sync_station_geometry
 from flyby_sim.dynamics.attitude import euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
@@ -74,8 +76,7 @@ SYNC_ATTITUDE = AttitudeGuidanceConfig(natural_frequency_rad_s=2.5, max_rate_rad
 
 # A hold whose estimate is farther than this from its reference [m] is a fault: the reference moved (a newer
 # estimate of an unstable tumble, whose prediction to the arrival was wrong) and the feedback's straight pull could
-# cross the body (the category IV campaign's run 95: 0.88 m into the bus 3 s after the arrival). Stages 2-4 hold within
-# centimetres.
+# cross the body. Stages 2-4 hold within centimetres.
 HOLD_ERROR_MAX_M = 1.0
 
 STAGE_APPROACH = 'approach'
@@ -251,11 +252,11 @@ class SyncGuidance:
             return None
         if self.stage == STAGE_APPROACH and t_apply < self.t_arrival:
             return None
-        events = []
+        emitted = []
         if self.stage == STAGE_APPROACH:
             self.stage = STAGE_ATTITUDE_SYNC
-            events.append(('OK', 'station_reached', f'station reached at t = {self.t_arrival:.2f} s: attitude '
-                                                     'synchronization', {'t_arrival_s': self.t_arrival}))
+            emitted.append(('OK', events.STATION_REACHED, f'station reached at t = {self.t_arrival:.2f} s: attitude '
+                                                          'synchronization', {'t_arrival_s': self.t_arrival}))
         t_mid = t_apply + 0.5 * hold_s
         t_t, q_t, w_t, covariance = target
         prediction = prediction_from_estimate(self.dynamics, self.config.n, t_t, q_t, w_t, max(t_mid, t_t))
@@ -269,15 +270,15 @@ class SyncGuidance:
         w_dot_mid = euler_rate(mid.omega_body, cfg.target_inertia, np.linalg.inv(cfg.target_inertia))
         goal = sync_goal(now.q_hill_from_body, now.omega_body, w_dot_mid, self.q_target_from_goal, geo.u_body)
         if self.stage == STAGE_ATTITUDE_SYNC:
-            events += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now, covariance)
+            emitted += self._check_synchronized(t, t_apply, q_hill_from_chaser, omega_chaser_body, now, covariance)
             if self.stage == STAGE_RETREAT:
                 retreat = self._retreat(t, r_hill, v_hill, now)
-                return dataclasses.replace(retreat, events=tuple(events) + retreat.events)
+                return dataclasses.replace(retreat, events=tuple(emitted) + retreat.events)
         if self.stage == STAGE_ORBITING and t_apply >= self.t_docking:
             self.stage = STAGE_DOCKING
-            events.append(('OK', 'docking_started', f'docking from {geo.station_offset_m:.3g} m to the final range '
-                                                     f'{geo.final_range_m:g} m from the port by t = '
-                                                     f'{self.t_grasp:.2f} s',
+            emitted.append(('OK', events.DOCKING_STARTED, f'docking from {geo.station_offset_m:.3g} m to the final '
+                                                          f'range {geo.final_range_m:g} m from the port by t = '
+                                                          f'{self.t_grasp:.2f} s',
                            {'t_docking_s': self.t_docking, 't_grasp_s': self.t_grasp,
                             'offset_m': geo.final_range_m}))
         profile = (lambda s: docking_profile(s, self.t_docking, cfg.docking_duration_s, geo.station_offset_m,
@@ -292,12 +293,12 @@ class SyncGuidance:
             self.abort(t)
             self.retreat_from_hold = False  # off the port's line: away from the centre of mass
             retreat = self._retreat(t, r_hill, v_hill, now)
-            return dataclasses.replace(retreat, events=tuple(events) + (
-                ('ERROR', 'station_lost', f'{miss_m:.2f} m from the body point held (> {HOLD_ERROR_MAX_M:g} m): '
-                                          'retreating', {'miss_m': miss_m}),) + retreat.events)
+            return dataclasses.replace(retreat, events=tuple(emitted) + (
+                ('ERROR', events.STATION_LOST, f'{miss_m:.2f} m from the body point held (> {HOLD_ERROR_MAX_M:g} m): '
+                                               'retreating', {'miss_m': miss_m}),) + retreat.events)
         a = hold_acceleration(ref_now, ref_mid, np.asarray(r_hill, float), np.asarray(v_hill, float), cfg)
         self.peak_accel_mps2[self.stage] = max(self.peak_accel_mps2.get(self.stage, 0.0), float(np.linalg.norm(a)))
-        return SyncCommand(a, goal, tuple(events))
+        return SyncCommand(a, goal, tuple(emitted))
 
     def _check_synchronized(self, t, t_apply, q_hill_from_chaser, omega_chaser_body, now, covariance):
         """Stage 2's end (module doc): the errors of the estimate of t against the goal of t, within the tolerances
@@ -311,7 +312,7 @@ class SyncGuidance:
             self.t_settled = None
             if t_apply - self.t_arrival > cfg.attitude_sync_max_s:
                 self.abort(t)
-                return [('ERROR', 'attitude_sync_timeout',
+                return [('ERROR', events.ATTITUDE_SYNC_TIMEOUT,
                          f'attitude not synchronized {cfg.attitude_sync_max_s:g} s after the arrival (relative '
                          f'attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s; tolerances '
                          f'{math.degrees(angle_tol):.3f} deg, {math.degrees(rate_tol):.4f} deg/s): retreating',
@@ -327,7 +328,7 @@ class SyncGuidance:
         self.stage = STAGE_ORBITING
         self.t_docking = t_apply + cfg.orbiting_fraction * period_s
         self.t_grasp = self.t_docking + cfg.docking_duration_s
-        return [('OK', 'attitude_synchronized',
+        return [('OK', events.ATTITUDE_SYNCHRONIZED,
                  f'relative attitude {math.degrees(angle):.3f} deg, rate {math.degrees(rate):.4f} deg/s for '
                  f'{cfg.settle_s:g} s (tolerances {math.degrees(angle_tol):.3f} deg, {math.degrees(rate_tol):.4f} '
                  f'deg/s): orbiting {cfg.orbiting_fraction:g} of a {period_s:.2f} s rotation cycle, '
@@ -346,7 +347,7 @@ class SyncGuidance:
         outward = float(np.asarray(v_hill, dtype=float) @ u)
         if outward >= cfg.retreat_speed_mps or t - self.t_retreat >= cfg.retreat_max_s:
             self.stage = STAGE_DRIFT
-            return SyncCommand(None, None, (('WARN', 'retreat_ended',
+            return SyncCommand(None, None, (('WARN', events.RETREAT_ENDED,
                                              f'outward speed {outward:.3f} m/s at {dist:.2f} m: drifting',
                                              {'outward_speed_mps': outward, 'range_m': dist}),))
         return SyncCommand(cfg.accel_max_mps2 * u, None)

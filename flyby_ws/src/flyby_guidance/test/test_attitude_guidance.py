@@ -162,7 +162,7 @@ def test_closed_loop_flyby_points_body_x_within_1_deg():
     of sight up to 2.3 deg/s), commands held 0.1 s and applied one period after the estimates they come from
     (attitude error 0.01 deg, rate error 1e-5 rad/s per axis), gravity gradient on: measured 95th percentile
     0.0150 deg, largest 0.0217 deg, peak wheel momentum 1.485 N m s, peak wheel torque 0.0416 N m
-    (scripts/benchmark_pointing.py prints them)."""
+    (scripts/bench/benchmark_pointing.py prints them)."""
     guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, WHEELS)
     run = simulate_pointing(guidance, GyrostatPropagator(SEED001_SERVICER, WHEELS), FLYBY, 0.0, 300.0, N,
                             rng=np.random.default_rng(13), attitude_sigma_rad=math.radians(0.01),
@@ -172,7 +172,7 @@ def test_closed_loop_flyby_points_body_x_within_1_deg():
           f'deg, peak LOS rate {math.degrees(run.los_rate_rad_s.max()):.2f} deg/s, peak wheel momentum '
           f'{np.abs(run.h_wheels_n_m_s).max():.3f} N m s, peak wheel torque {np.abs(run.wheel_torque_n_m).max():.4f}')
     assert math.degrees(run.los_rate_rad_s.max()) > 2.0
-    assert p95 <= 1.0  # issue 13's acceptance
+    assert p95 <= 1.0  # the pointing's requirement
     assert p95 < 0.02 and math.degrees(run.pointing_error_rad.max()) < 0.1  # what it does (regression)
     assert run.saturated_steps == run.torque_limited_steps == run.momentum_limited_steps == 0
     assert np.abs(run.h_wheels_n_m_s).max() < 2.0 and np.abs(run.wheel_torque_n_m).max() < 0.1

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flyby_guidance.post_capture import (
+from flyby_guidance.damping import (
     SEED004_MOMENTUM_BOUND_KG_M2_S,
     DampingGains,
     damping_command,
@@ -71,12 +71,12 @@ def test_paper_flyby_target_detumbled_with_the_chasers_thrusters_counts_fuel():
     assert result.fuel_kg >= h0 / 0.25 / layout.exhaust_velocity_mps * 0.99
 
 
-# -- guidance after the arm locks (PostCaptureControl, issue 16) -------------------------------------------------
+# -- guidance after the arm locks (PostCaptureControl) ----------------------------------------------------------
 
 def test_inertia_upper_bound_bounds_every_combined_body():
     """lambda_max of the combined inertia (combined_body.combined_mass_properties) never exceeds the bound, for
     random bodies, axes and CoM offsets."""
-    from flyby_guidance.post_capture import inertia_upper_bound
+    from flyby_guidance.damping import inertia_upper_bound
     from flyby_sim.dynamics.combined_body import combined_mass_properties
 
     rng = np.random.default_rng(16)
@@ -93,7 +93,7 @@ def test_inertia_upper_bound_bounds_every_combined_body():
 
 
 def _control(**changes):
-    from flyby_guidance.post_capture import PostCaptureConfig, PostCaptureControl
+    from flyby_guidance.damping import PostCaptureConfig, PostCaptureControl
     config = PostCaptureConfig(DampingGains.for_inertia_bound(500.0, 0.1), 0.1, settle_s=1.0, **changes)
     return PostCaptureControl(config, 0.1)
 
@@ -103,7 +103,7 @@ def test_damping_then_the_excitation_then_nothing():
     the excitation's start), then Table 1's firings as wrenches about the chaser CoM, each held over the control
     periods it covers (the one active at the middle of the period the command holds), the wheels idle."""
     from flyby_estimation.mass_properties_excitation import excitation_firings, firing_wrench
-    from flyby_guidance.post_capture import MOMENTUM_MARGIN
+    from flyby_guidance.damping import MOMENTUM_MARGIN
 
     control = _control()
     h = np.zeros(3)
@@ -139,8 +139,8 @@ def test_damping_then_the_excitation_then_nothing():
 def test_a_couple_below_a_pulse_is_carried_until_it_is_worth_one():
     """Pulse-frequency modulation of the damping's couple: a torque worth less than the pulse per period is not fired
     but carried, and fired whole once the carried angular impulse reaches the pulse, so the mean torque is kept (a
-    wheel momentum of 0.26 N m s asked 0.013 N m of the thrusters, below their bit, and paper_flyby_transport's
-    damping stalled at 0.39 kg m^2/s); a torque above it fires at once, as without the modulation."""
+    couple below the thrusters' bit would never fire); a torque above it fires at once, as without the
+    modulation."""
     carried, fired = np.zeros(3), []
     for _ in range(10):
         torque, carried = pulse_modulated(carried, (0.013, 0.0, 0.0), 0.1, 0.004)

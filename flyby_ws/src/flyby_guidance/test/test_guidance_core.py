@@ -30,7 +30,7 @@ def test_first_burn_is_the_maneuver_lead_after_the_plan_time():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     core = _started(sc)
     t_ti = 60.0 + sc.planner.maneuver_lead_s
-    assert core.guidance.target.t_ti == t_ti
+    assert core.flyby.guidance.target.t_ti == t_ti
     assert core.on_path(60.0) == []  # the same plan again starts nothing
     r, v = np.array((50.0, 0.0, 0.0)), np.zeros(3)
     lead = sc.guidance.command_lead_s
@@ -55,7 +55,7 @@ def test_nothing_is_commanded_after_the_fly_by():
 def test_a_re_aim_keeps_the_offset_of_the_plan():
     """The plan flies delta r = 1.3 m (|X_Ft| - |x_g|, eq 20); the grasp re-solved from a newer estimate is
     offset by the same 1.3 m, not by the scenario's preferred planner.offset_m."""
-    from flyby_planner.grasp import flyby_target_from_attitude
+    from flyby_planner.flyby.grasp_search import flyby_target_from_attitude
     from flyby_sim.dynamics.attitude import AttitudePropagator
     from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
@@ -68,17 +68,17 @@ def test_a_re_aim_keeps_the_offset_of_the_plan():
     core.on_flyby_target(741.0, x_ft, v_ft)
     core.on_flyby_initial(441.0, X_FI, V_FI)
     core.on_path(60.0)
-    (refined,) = core._refine(400.0, (400.0, (q_hill_from_body(400.0, n, q), w, None)))
+    (refined,) = core.flyby._refine(400.0, (400.0, (q_hill_from_body(400.0, n, q), w, None)))
     assert refined.name == 'target_refined'
     offset = np.linalg.norm(refined.values['x_ft_hill_m']) - np.linalg.norm(refined.values['x_g_hill_m'])
     assert offset == pytest.approx(1.3, abs=1e-9) and refined.values['shift_m'] < 1e-6
 
 
 def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_first():
-    """Issue 16: nothing for the estimates before the simulator's grasp_damped stamp, the damping law's command for
-    each one from it on, one control period later; the same commands whether the event came before or after the
+    """After the capture: nothing for the estimates before the simulator's grasp_damped stamp, the damping law's command
+    for each one from it on, one control period later; the same commands whether the event came before or after the
     estimates (the topics race in the graph), and none after the arm lets go."""
-    from flyby_guidance.guidance_core import AttitudeCommandStamped
+    from flyby_guidance.modes.interface import AttitudeCommandStamped
 
     sc = load_scenario(SCENARIOS / 'paper_flyby_tug.yaml')
     q, omega, r = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.01, -0.02, 0.03)), np.array((0.5, 3.07, 0.0))
@@ -107,12 +107,12 @@ def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_fir
 
 
 def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_whatever_came_first():
-    """Issue 17: the estimator gives the combined CoM at every stamp of its grid after the final estimate
-    (``post_capture.on_com_grid``), before the chaser estimate of that stamp, but the topics race in the graph:
+    """In TRANSPORT the estimator gives the combined CoM at every stamp of its grid after the final estimate
+    (``transport_navigation.on_com_grid``), before the chaser estimate of that stamp, but the topics race in the graph:
     guidance keeps the estimate of a grid stamp until the CoM of that stamp has come, and flies the body of that CoM
     from then on; the same commands whichever came first."""
-    from flyby_estimation.post_capture import COM_PERIOD_S
-    from flyby_guidance.guidance_core import AttitudeCommandStamped
+    from flyby_estimation.transport_navigation import COM_PERIOD_S
+    from flyby_guidance.modes.interface import AttitudeCommandStamped
 
     sc = load_scenario(SCENARIOS / 'paper_flyby_transport.yaml')
     q, omega, r = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.001, -0.002, 0.003)), np.array((0.5, 3.07, 0.0))
@@ -129,7 +129,7 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
         core = GuidanceCore(sc)
         core.on_phase(c.PHASE_CAPTURE)
         core.on_event(Event(820.0, 'OK', 'grasp_damped', 'the arm locks', {}, 'flyby_sim'))
-        core.post.t_excitation = 990.0
+        core.capture.post.t_excitation = 990.0
         core.on_event(estimated)
         out, waited = core.on_event(refined) if event_first else [], None
         for t in stamps:
@@ -137,7 +137,7 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
             if t == grid and not event_first:
                 waited = [o for o in out if isinstance(o, AttitudeCommandStamped)][-1].t
         out += [] if event_first else core.on_event(refined)
-        np.testing.assert_array_equal(core.transport.body.com_body_m, [2.9, 0.004, 0.0])
+        np.testing.assert_array_equal(core.capture.transport.body.com_body_m, [2.9, 0.004, 0.0])
         return [o for o in out if isinstance(o, AttitudeCommandStamped)], waited
 
     (first, _), (late, waited) = commands(True), commands(False)

@@ -12,7 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_guidance.attitude_guidance import AttitudeGuidance
-from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
+from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_guidance.sync_control import (
     SYNC_ATTITUDE,
     SyncConfig,
@@ -263,7 +264,7 @@ def test_escape_retreats_along_the_port_line_then_drifts():
     assert f_hold @ u_hill < 0.0  # the hold's centripetal pull
     core.on_phase(c.PHASE_ESCAPE)
     f_retreat, _ = force_hill(10.1, v)
-    accel_max = core.sync.config.accel_max_mps2
+    accel_max = core.chaser.sync_hold.sync.config.accel_max_mps2
     q_now, _ = AttitudePropagator(q_target, w_target, sc.target_inertia).state_at(0.1)  # the estimate carried to t
     u_now = quat_to_matrix(q_now) @ np.array((0.0, 1.0, 0.0))  # (hill's own 1e-4 rad turn in 0.1 s left out)
     assert f_retreat / np.linalg.norm(f_retreat) == pytest.approx(u_now, abs=1e-3)
@@ -305,10 +306,10 @@ def test_attitude_sync_that_never_settles_is_a_fault_and_retreats_along_the_port
 
 
 def test_a_hold_far_from_its_point_is_a_fault_and_retreats_away_from_the_centre_of_mass():
-    """The campaign's run 95 (an intermediate-axis spin, whose 70 s prediction to the arrival was wrong): the station
-    is elsewhere when the chaser arrives. 2 m from the held point, the first stage-2 command is an ERROR station_lost
-    and the retreat's full thrust along the line of sight away from the centre of mass, not the feedback's pull across
-    the body; within HOLD_ERROR_MAX_M the hold goes on."""
+    """An intermediate-axis spin whose 70 s prediction to the arrival was wrong: the station is elsewhere when the
+    chaser arrives. 2 m from the held point, the first stage-2 command is an ERROR station_lost and the retreat's full
+    thrust along the line of sight away from the centre of mass, not the feedback's pull across the body; within
+    HOLD_ERROR_MAX_M the hold goes on."""
     q_target, w_target = (0.0, 0.0, 0.0, 1.0), np.array((0.0, 0.0, 0.3))
     near = SyncGuidance(CONFIG)
     near.arm(10.0)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import yaml
 
-from flyby_guidance.guidance_core import AttitudeCommandStamped, GuidanceCore
+from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_guidance.tracking import (
     ReferenceTrajectory,
     TrackingConfig,

@@ -1,4 +1,4 @@
-"""Guidance in TRANSPORT (issue 17, transport_control): the body it plans for from the final mass-property estimate,
+"""Guidance in TRANSPORT (flyby_guidance.transport): the body it plans for from the final mass-property estimate,
 the detumbling first, the plan once detumbled and navigated, the closed-loop push and spin-down."""
 
 import dataclasses
@@ -7,23 +7,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_guidance.guidance_core import post_capture_config_from_scenario
-from flyby_guidance.transport_control import (
-    COAST_SLEW_MOMENTUM_FRACTION,
-    COM_FINAL_RAD,
-    DUMP_S,
+from flyby_guidance.modes.damping import post_capture_config_from_scenario
+from flyby_guidance.transport.attitude import TRACK_BANDWIDTH_RAD_S
+from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
-    PULSE_LEAVE_FRACTION,
-    TRACK_BANDWIDTH_RAD_S,
-    TRIM_SLEW_RATE_RAD_S,
-    TRIM_TIME_S,
-    WHEEL_SPINUP_S,
     TransportControl,
     transport_body,
     transport_guidance_config_from_scenario,
 )
+from flyby_guidance.transport.trim import (
+    COAST_SLEW_MOMENTUM_FRACTION,
+    COM_FINAL_RAD,
+    DUMP_S,
+    PULSE_LEAVE_FRACTION,
+    TRIM_SLEW_RATE_RAD_S,
+    TRIM_TIME_S,
+    WHEEL_SPINUP_S,
+)
 from flyby_planner.transfer import terminal_impulses
-from flyby_planner.transport import TransportState, propagate
+from flyby_planner.transport.model import TransportState, propagate
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
@@ -216,9 +218,9 @@ def test_trim_dumps_the_angular_momentum_first_and_aims_at_rest_at_the_judgement
 
 
 def test_a_dump_takes_the_angular_momentum_out_by_its_end():
-    """The dump's couples aim at none left at its end, the time left shrinking (a couple of h / DUMP_S throughout
-    leaves e^-1 of it: paper_flyby_transport kept 1.6 of 2.7 kg m^2/s, and the next dump, which must halve it, never
-    came). Its couples about the combined CoM, pulse-modulated, integrated on the body held by the wheels."""
+    """The dump's couples aim at none left at its end, the time left shrinking (a couple of h / DUMP_S throughout leaves
+    e^-1 of it, and the next dump, which must halve it, would never come). Its couples about the combined CoM,
+    pulse-modulated, integrated on the body held by the wheels."""
     body, control = _planned()
     p = control.config.planner.period_s
     control.momentum = 0.09
@@ -287,10 +289,10 @@ def test_dumps_stop_at_the_estimates_floor_and_a_body_the_wheels_cannot_turn_tri
 
 
 def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_dumped_again():
-    """A transfer back starts only where it arrives trim_stop_s before the judgement, and its arrival is checked at
-    once (four of 100 campaign runs ended moving at 0.36-0.46 N s: a transfer arrived 25-60 s before the judgement,
-    its velocity never taken out). A dump at the estimate's floor is not repeated, but a momentum grown beyond twice
-    that is dumped again, where a pulse can still follow, and beyond the first condition whatever follows."""
+    """A transfer back starts only where it arrives trim_stop_s before the judgement, and its arrival is checked at once
+    (a transfer arriving shortly before the judgement would leave its velocity there). A dump at the estimate's floor is
+    not repeated, but a momentum grown beyond twice that is dumped again, where a pulse can still follow, and beyond the
+    first condition whatever follows."""
     body, control = _planned()
     p = control.config.planner.period_s
     t_end = control.t_arrival + control.config.settle_s
@@ -431,7 +433,7 @@ def test_a_pulse_that_costs_more_than_twice_what_the_judgement_gains_waits():
 def test_on_the_coms_coast_the_wheels_turn_the_push_axis_onto_the_change_the_last_pulses_need():
     """Where the wheels do not steer, the push axis is fixed inertially and turns in hill at n, and a drift-free
     relative orbit's velocity turns with it: a change the pulses after the coast need against the axis would stay out
-    of reach (paper_flyby_transport seeds 2-3 ended at 0.8 and 0.5 N s so). Once the drift is out, the wheels turn the
+    of reach. Once the drift is out, the wheels turn the
     axis onto that change (CW to the coast's end, then the velocity that coasts to rest at the judgement), at most
     COAST_SLEW_MOMENTUM_FRACTION of their momentum, and hold it there; nothing fires."""
     body, control = _planned()

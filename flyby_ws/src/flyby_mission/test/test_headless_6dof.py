@@ -55,7 +55,7 @@ def test_the_chaser_attitude_estimate_and_commands_follow_the_truth():
     assert len(errors_deg) > 500  # 10 Hz
     assert np.percentile(errors_deg[100:], 95) < 5 * scenario.sensors.chaser_imu.star_tracker_sigma_deg
     assert np.max(pointing_deg[100:]) < 0.1
-    assert graph.guidance.h_wheels_n_m_s.shape == (3,)
+    assert graph.guidance.chaser.h_wheels_n_m_s.shape == (3,)
     # guidance's account of the wheels' momentum lags the truth by the commands in flight (two periods at most)
-    np.testing.assert_allclose(graph.guidance.h_wheels_n_m_s, graph.plant.truth().wheel_momentum_n_m_s,
+    np.testing.assert_allclose(graph.guidance.chaser.h_wheels_n_m_s, graph.plant.truth().wheel_momentum_n_m_s,
                                atol=2 * 0.1 * 0.1)

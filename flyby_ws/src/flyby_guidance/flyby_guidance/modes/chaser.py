@@ -1,0 +1,116 @@
+"""The chaser guidance commands: the rigid-body chaser's wheels and thrusters as guidance accounts them, whose
+estimates the synchronized hold or else the pointing and tracking command (``RigidBodyChaser``), or a point-mass
+chaser, which only translates by the fly-by's maneuvers (``PointMassChaser``).
+
+The wheels' momentum is the guidance's own account of the torques it commanded (what the wheels received, unless a
+wheel met its momentum limit, which the plant reports). The mass is counted down by the fuel of the forces
+commanded.
+"""
+
+import collections
+
+import numpy as np
+
+from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
+from flyby_guidance.modes.interface import GuidanceMode
+from flyby_guidance.modes.synchronized import SynchronizedHold
+from flyby_guidance.modes.tracking import TrackingApproach
+from flyby_guidance.tracking import ReferenceTrajectory
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
+from flyby_sim.dynamics.actuators import allocate_wrench, fire
+from flyby_sim.dynamics.rigid_body import ReactionWheels
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
+
+# Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
+# one control period of motion stay well inside it.
+RESTRICTION_SPHERE_MARGIN_M = 1.0
+
+
+def attitude_guidance_from_scenario(scenario):
+    """(AttitudeGuidance, wheels' initial momenta [N m s]) of a rigid-body chaser scenario."""
+    w = scenario.chaser.wheels
+    wheels = ReactionWheels(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.spin_inertia_kg_m2)
+    g = scenario.guidance
+    config = AttitudeGuidanceConfig(control_period_s=1.0 / scenario.sensors.chaser_imu.rate_hz,
+                                    dump_start_n_m_s=g.momentum_dump_start_n_m_s,
+                                    dump_stop_n_m_s=g.momentum_dump_stop_n_m_s)
+    h0 = np.zeros(wheels.count) if w.initial_momentum_n_m_s is None else np.array(w.initial_momentum_n_m_s, float)
+    return AttitudeGuidance(config, scenario.chaser_inertia, wheels), h0
+
+
+class PointMassChaser(GuidanceMode):
+    """A point-mass chaser: no attitude to command, no trajectory to track."""
+
+    def command(self, estimate, phase):
+        return []
+
+    def on_phase(self, phase):
+        """Nothing changes with the phase."""
+
+    def on_trajectory(self, t_s, r_hill, v_hill, a_hill, phase):
+        return [self._event(float(t_s[0]), 'ERROR', events.TRAJECTORY_IGNORED,
+                            'an optimal approach needs the rigid-body chaser (continuous thrust)', {})]
+
+
+class RigidBodyChaser(GuidanceMode):
+    """The six-degree-of-freedom chaser (``chaser.model: rigid_body``): its accounts (module doc), and ``command``
+    of each estimate by the first of its modes that has one: the synchronized hold, else the pointing and tracking."""
+
+    def __init__(self, scenario, source, targets):
+        super().__init__(source)
+        self.attitude, self.h_wheels_n_m_s = attitude_guidance_from_scenario(scenario)
+        self.wheel_commands = collections.deque()  # (t, wheel torques) commanded, not yet in h_wheels
+        self.sphere_radius_m = scenario.planner.restriction_sphere_radius_m + RESTRICTION_SPHERE_MARGIN_M
+        self.mass_kg = scenario.chaser.mass_kg  # less the fuel of the forces commanded
+        self.layout = scenario.thruster_layout
+        self.force_carried_hill = np.zeros(3)  # below the thrusters' minimum impulse bit so far [N]
+        self.wheels_clipped = False  # from the arm's lock on (``account_wheels``)
+        self.tracking = TrackingApproach(scenario, source, self)
+        self.sync_hold = SynchronizedHold(scenario, source, self, targets)
+        self.modes = (self.sync_hold, self.tracking)
+
+    def command(self, estimate, phase):
+        self.account_wheels(estimate.t)
+        for mode in self.modes:
+            out = mode.command(estimate, phase)
+            if out is not None:
+                return out
+        return []
+
+    def on_phase(self, phase):
+        """SYNC_APPROACH: stage 1's link tracked with planner.sync's bound and gain, the hold armed at its end."""
+        if phase == c.PHASE_SYNC_APPROACH:
+            self.tracking.track_sync_link(self.sync_hold.sync.config)
+            self.sync_hold.sync.arm(self.tracking.t_end())
+
+    def on_trajectory(self, t_s, r_hill, v_hill, a_hill, phase):
+        """planner/trajectory: a new trajectory to track (in a synchronized approach, the hold from its end)."""
+        ref = ReferenceTrajectory(t_s, r_hill, v_hill, a_hill)
+        out = self.tracking.on_trajectory(ref)
+        if phase in c.SYNC_PHASES:
+            self.sync_hold.sync.arm(ref.t_end)
+        return out
+
+    def account_wheels(self, t):
+        """The wheels' momentum with every wheel command whose hold ended by t (module doc). After the arm's lock a
+        wheel stops at its momentum limit as the plant's does (the damping drives them there: h + u dt, clipped, is
+        what the wheel holds at the hold's end)."""
+        period_s = self.attitude.config.control_period_s
+        while self.wheel_commands and self.wheel_commands[0][0] + period_s <= t + 1e-9:
+            self.h_wheels_n_m_s = self.h_wheels_n_m_s + period_s * self.wheel_commands.popleft()[1]
+            if self.wheels_clipped:
+                h_max = self.attitude.wheels.max_momentum_n_m_s
+                self.h_wheels_n_m_s = np.clip(self.h_wheels_n_m_s, -h_max, h_max)
+
+    def tracking_force(self, a_hill, q_hill_from_body, torque_body_n_m):
+        """The force [N, chaser_body] for the thrust acceleration a_hill [m/s^2]. The thrusters fire it with
+        torque_body_n_m as the plant allocates them (the nominal layout, least thrust); what a thruster below its
+        minimum impulse bit leaves out is carried into the next command, so the mean force is the one commanded
+        (otherwise the feedback's small corrections, about 0.1 N, are lost)."""
+        force_body = quat_rotate(quat_conjugate(q_hill_from_body), self.mass_kg * a_hill + self.force_carried_hill)
+        firing = fire(self.layout, allocate_wrench(self.layout, force_body, torque_body_n_m).thrusts_n,
+                      self.attitude.config.control_period_s)
+        self.force_carried_hill = quat_rotate(q_hill_from_body, force_body - firing.force_body_n)
+        self.mass_kg -= firing.fuel_kg
+        return tuple(force_body.tolist())

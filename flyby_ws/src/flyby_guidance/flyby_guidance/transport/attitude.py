@@ -1,0 +1,90 @@
+"""The attitude part of guidance in TRANSPORT (``control.TransportControl``'s methods on its state): the detumbling
+by the capture's damping law before the plan, the wheels' hold and their tracking of the plan's attitude, and the
+couples the thrusters fire in pulses about the combined CoM."""
+
+import numpy as np
+
+from flyby_guidance.damping import damping_command, pulse_modulated
+from flyby_msgs_py import events
+from flyby_planner.transport.model import attitude_at
+from flyby_planner.transport.thrusters import torque_wrench
+from flyby_sim.dynamics.orbital import q_eci_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_rotate,
+    rotation_vector_from_quat,
+)
+
+DETUMBLED_S = 5.0  # the detumbling ends once the momentum bound held this long: a whole window of the rate's mean [s]
+DETUMBLE_HALVINGS = 8  # a couple beyond the thrusters is halved at most this often: no pure couple about every axis
+TRACK_BANDWIDTH_RAD_S = 0.2  # the wheels' attitude tracking: natural frequency [rad/s], well below the control rate
+TRACK_DAMPING = 0.7  # ... and damping ratio: no overshoot of the slews' coasts
+
+
+class TransportAttitude:
+    """The attitude rules of ``TransportControl`` (the state they read and set is its)."""
+
+    def _hold(self, omega):
+        """The wheels against the rate (the damping law's wheel gain), within their torque."""
+        return np.clip(self.gains.wheel_gain_n_m_s * omega, -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
+
+    def _track(self, state):
+        """The wheels' torque [N m] (body axes; the body feels its opposite) that holds the estimated attitude on the
+        reference (``_attitude_torque``), within the wheels' torque."""
+        return np.clip(self._attitude_torque(state), -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
+
+    def _attitude_torque(self, state):
+        """The torque [N m] (body axes) against the estimated attitude's error from the reference: the plan's model
+        advanced to the estimate's stamp (``transport.model.attitude_at``), or the trim's wheel slew; PD on the attitude
+        error (its rotation vector, body axes) and the rate error, scaled by the estimated inertia
+        (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
+        t_ref, q_ref, w_ref = self.reference
+        if self.trim_slew is not None:
+            t0, q0, axis, angle, rate = self.trim_slew
+            turned = min(rate * (state.t - t0), angle)
+            q_ref = quat_multiply(quat_from_rotation_vector(turned * axis), q0)
+            w_ref = quat_rotate(quat_conjugate(q_ref), axis * rate) if turned < angle else np.zeros(3)
+        elif state.t > t_ref:
+            q_ref, w_ref = attitude_at(self.body, self.config.planner, q_ref, w_ref, t_ref, state.t, self.plan.burns)
+            self.reference = (state.t, q_ref, w_ref)
+        q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
+        error = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est))
+        return self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
+                                               * TRACK_BANDWIDTH_RAD_S * (state.omega_body - w_ref))
+
+    def _set_reference(self, state):
+        """The plan's model restarts from the estimate (a new plan, a slew solved again)."""
+        self.reference = (state.t, q_eci_from_body(state.t, self.n, state.q_hill_from_body),
+                          np.asarray(state.omega_body, dtype=float))
+
+    def _detumble(self, t, omega, h_wheels):
+        """The damping law until the estimated angular momentum (its rate averaged) is below half the condition's."""
+        momentum = self.momentum
+        bound = 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
+        if momentum < bound and t - self.t_start >= DETUMBLED_S:  # the mean over a whole window
+            self.t_detumbled = t
+            self.carried = np.zeros(3)
+            return np.zeros(3), np.zeros(3), np.zeros(3), [(
+                'OK', events.TRANSPORT_DETUMBLED, f'the combined body detumbled for the transport after '
+                                                 f'{t - self.t_start:.1f} s: {momentum:.3g} kg m^2/s (estimated)',
+                {'angular_momentum_kg_m2_s': momentum, 'detumbling_time_s': t - self.t_start})]
+        tau, u = damping_command(omega, h_wheels, self.gains, self.wheel_max_torque_n_m)
+        return (*self._couple(tau, self.pulse_n_m_s), u, [])
+
+    def _couple(self, tau, pulse_n_m_s):
+        """(force, torque about the chaser's CoM) of a couple tau [N m] about the combined CoM fired in pulses: below
+        the thrusters' minimum impulse bit a small couple is not fired at all, so its angular impulse is carried
+        until it is worth pulse_n_m_s (``damping.pulse_modulated``); the least side force
+        (``transport.thrusters.torque_wrench``), halved where the thrusters cannot."""
+        tau, self.carried = pulse_modulated(self.carried, tau, self.config.planner.period_s, pulse_n_m_s)
+        if not np.any(tau):
+            return np.zeros(3), np.zeros(3)
+        for _ in range(DETUMBLE_HALVINGS):  # no pure couple about every axis: the least side force, within reach
+            wrench = torque_wrench(self.body, self.config.planner, tau)
+            if wrench is not None:
+                return wrench
+            tau = 0.5 * tau
+        return np.zeros(3), np.zeros(3)
+

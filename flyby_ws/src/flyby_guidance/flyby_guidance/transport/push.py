@@ -1,0 +1,184 @@
+"""The push part of guidance in TRANSPORT (``control.TransportControl``'s methods on its state): the plan from the
+estimate to the goal, its pushes and slews' spin-downs flown closed loop on the estimates, each slew solved again
+from the estimate before it starts, and the mid-course correction between the first push and the next slew."""
+
+import dataclasses
+
+import numpy as np
+
+from flyby_msgs_py import events
+from flyby_planner.transfer import terminal_impulses
+from flyby_planner.transport.model import TransportRefused, TransportState, propagate
+from flyby_planner.transport.plan import plan_transport
+from flyby_planner.transport.slew import resolve_slew
+from flyby_planner.transport.thrusters import torque_wrench
+from flyby_sim.dynamics.actuators import allocate_wrench
+from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.rotation import quat_to_matrix
+
+PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned: a bad estimate stays mild
+ARRIVAL_MARGIN_N_S = 10.0  # where the wheels do not steer, the arrival push stops this short of rest: what it leaves
+#                            across the push axis is then within the pure forces of the attitude held [N s]
+SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
+
+
+class TransportPush:
+    """The plan and push rules of ``TransportControl`` (the state they read and set is its)."""
+
+    def _plan(self, state, t_arrival):
+        """The transport's plan from the estimated state to the goal arriving at t_arrival (``transport_planned``; a
+        refusal ends the transport, the body held where it is)."""
+        cfg = self.config
+        first = state.t + 2.0 * cfg.planner.period_s  # the first period a command of this estimate can still reach
+        start = TransportState(first, *state[1:])
+        try:
+            plan = self._plan_with_faster_slews(start, t_arrival)
+        except TransportRefused as err:
+            self.done = True
+            return [('ERROR', events.TRANSPORT_REFUSED, f'no transport plan meets the conditions: {err.reason}',
+                     {'reason': err.reason})]
+        self.plan, self.plan_start = plan, start
+        self._set_reference(state)
+        # The plan's state at each push's end, by grid tick of its start: the closed-loop push's aim, and the first
+        # push's the nominal coast the mid-course corrections keep to.
+        self.push_end = {}
+        for burn in plan.burns:
+            if burn.purpose == 'push':
+                end = burn.t_start_s + burn.duration_s
+                self.push_end[round(burn.t_start_s / cfg.planner.period_s)] = propagate(
+                    self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
+        self.t_check = state.t + cfg.replan_interval_s
+        c = plan.conditions
+        message = (f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
+                   f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
+                   f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
+                   f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s')
+        return [('OK', events.TRANSPORT_PLANNED, message,
+                 {'t_arrival_s': plan.t_arrival_s, 'burns': len(plan.burns), 'fuel_kg': plan.fuel_kg,
+                  'predicted_position_error_m': c['position_error_m'],
+                  'predicted_momentum_error_n_s': c['momentum_error_n_s'],
+                  'predicted_angular_momentum_kg_m2_s': c['angular_momentum_kg_m2_s']})]
+
+    def _plan_with_faster_slews(self, start, t_arrival):
+        """plan_transport, and where the slews at the configured rate leave too little time, again with the rate
+        doubled (at most SLEW_RATE_DOUBLINGS times)."""
+        planner = self.config.planner
+        for _ in range(SLEW_RATE_DOUBLINGS):
+            try:
+                return plan_transport(self.body, start, self.goal, t_arrival, planner)
+            except TransportRefused as err:
+                if not err.reason.startswith('too little time'):
+                    raise
+                planner = dataclasses.replace(planner, slew_rate_rad_s=2.0 * planner.slew_rate_rad_s)
+        return plan_transport(self.body, start, self.goal, t_arrival, planner)
+
+    def _resolve(self, state, start, stop):
+        """The slew about to start solved again from the estimate (``slew.resolve_slew``), to aim the push axis
+        where the push after it must go from the trajectory the body is really on: the first impulse of eq 28-29 at
+        that push, or at the last push the velocity it must null (the state coasted by CW to the push's middle)."""
+        burns = list(self.plan.burns)
+        i = next(k for k, b in enumerate(burns) if b is stop)
+        push = burns[i + 1]
+        t_aim = push.t_start_s + 0.5 * push.duration_s
+        r, v = np.split(cw_transition_matrix(self.n, t_aim - state.t) @ np.concatenate((state.r_hill, state.v_hill)),
+                        2)
+        if push is [b for b in burns if b.purpose == 'push'][-1]:
+            u_hill = -v
+        else:
+            u_hill, _ = terminal_impulses(r, v, self.goal, np.zeros(3), self.plan.t_arrival_s - t_aim, self.n)
+        try:
+            new_start, new_stop = resolve_slew(self.body, self.config.planner, state, start, stop, u_hill, t_aim,
+                                               self.plan.t_arrival_s)
+        except TransportRefused as err:
+            self.resolved.add(start.t_start_s)
+            return [('WARN', events.TRANSPORT_SLEW_KEPT, f'the slew at {start.t_start_s:.1f} s flown as planned: '
+                                                        f'{err.reason}', {'reason': err.reason})]
+        burns[i - 1], burns[i] = new_start, new_stop
+        self.plan = self.plan._replace(burns=tuple(burns))
+        self.resolved.add(new_start.t_start_s)
+        self._set_reference(state)
+        return []
+
+    def _closed_loop_stop(self, t, state, burn, force, torque, h_wheels):
+        """A slew's spin-down flown on the estimate: the torque about the combined CoM that takes out the estimated
+        angular momentum I omega + h (the wheels', which track the plan's attitude, included) over the rest of the
+        burn (the open-loop slew, planned on the estimated inertia, stops a little off), with the least side force;
+        the planned wrench where the thrusters cannot."""
+        p = self.config.planner.period_s
+        remaining_s = burn.t_start_s + burn.duration_s - (t + p)
+        if remaining_s < 0.5 * p:
+            return force, torque
+        _, issued_torque_com = self._in_flight(t)
+        wrench = torque_wrench(self.body, self.config.planner, -(self.body.inertia_body_kg_m2 @ state.omega_body
+                                                                 + h_wheels + p * issued_torque_com) / remaining_s)
+        return (force, torque) if wrench is None else wrench
+
+    def _in_flight(self, t):
+        """(force [N], torque about the combined CoM [N m]), body axes, of the command issued at the previous estimate:
+        it acts over the period from t, which the estimate at t does not see yet."""
+        p = self.config.planner.period_s
+        if self.issued is None or abs(self.issued[0] - (t - p)) > 0.5 * p:
+            return np.zeros(3), np.zeros(3)
+        _, force, torque = self.issued
+        return force, torque - np.cross(self.body.com_body_m, force)
+
+    def _closed_loop_push(self, t, state, burn, force, torque):
+        """A push flown on the estimate (module doc): the force over the rest of the burn that gives the velocity the
+        plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
+        rest), turned into the body by the attitude estimate, with no torque about the combined CoM; the planned
+        wrench where the allowed thrusters cannot give it (an attitude far off its plan). Pointing and execution
+        errors of the push are taken out; a miss of the position is the re-plans' and trims'."""
+        p = self.config.planner.period_s
+        t_from = t + p
+        remaining_s = burn.t_start_s + burn.duration_s - t_from
+        if remaining_s < 0.5 * p:
+            return force, torque
+        issued_force, _ = self._in_flight(t)
+        dv_hill = (self.push_end[round(burn.t_start_s / p)].v_hill - state.v_hill
+                   - quat_to_matrix(state.q_hill_from_body) @ issued_force * (p / self.body.mass_kg))
+        if not self.wheels_steer and burn is [b for b in self.plan.burns if b.purpose == 'push'][-1]:
+            # Short of the goal's rest by ARRIVAL_MARGIN_N_S along the push: what it leaves across then lies in the
+            # pure forces the thrusters give about the combined CoM at the attitude held (the trim's pulses).
+            need = self.body.mass_kg * float(np.linalg.norm(dv_hill))
+            dv_hill = dv_hill * max(0.0, 1.0 - ARRIVAL_MARGIN_N_S / need) if need > 0.0 else dv_hill
+        force_hill = self.body.mass_kg * dv_hill / remaining_s
+        limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
+        if float(np.linalg.norm(force_hill)) > limit:
+            force_hill = force_hill * (limit / float(np.linalg.norm(force_hill)))
+        force_body = quat_to_matrix(state.q_hill_from_body).T @ force_hill
+        torque_body = np.cross(self.body.com_body_m, force_body)  # about the chaser's CoM: none about the combined
+        if allocate_wrench(self.body.layout, force_body, torque_body).saturated:
+            return force, torque
+        return force_body, torque_body
+
+    def _slews(self):
+        """(start, stop) burn pairs of the plan: the body turns between them."""
+        starts = [b for b in self.plan.burns if b.purpose == 'slew_start']
+        stops = [b for b in self.plan.burns if b.purpose == 'slew_stop']
+        return list(zip(starts, stops, strict=True))
+
+    def _correct(self, state, pushes, next_burn):
+        """The mid-course correction, keeping the last push (it nulls the velocity at the arrival, closed loop): the
+        estimate's deviation from the plan's coast after the first push (its state at the push's end coasted by CW,
+        seed 000 eq 22) carried to the last push's middle; beyond replan_position_m there, the one impulse now that
+        takes it out (Phi_rv dv = -miss), fired as a pulse when the allowed thrusters give it at the attitude the
+        wheels hold and it ends before the next burn (else at a later check, or the trim after the arrival)."""
+        p = self.config.planner.period_s
+        t = state.t
+        first, last = pushes[0], pushes[-1]
+        nominal = self.push_end[round(first.t_start_s / p)]
+        x_nominal = cw_transition_matrix(self.n, t - nominal.t) @ np.concatenate((nominal.r_hill, nominal.v_hill))
+        phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - t)
+        miss = (phi @ (np.concatenate((state.r_hill, state.v_hill)) - x_nominal))[:3]
+        miss_m = float(np.linalg.norm(miss))
+        if miss_m <= self.config.replan_position_m:
+            return []
+        dv = -np.linalg.solve(phi[:3, 3:], miss)
+        impulse = self.body.mass_kg * float(np.linalg.norm(dv))
+        pulse = self._pulse(state, dv / float(np.linalg.norm(dv)), impulse)
+        k0 = round((t + 2.0 * p) / p)
+        if pulse is None or (k0 + pulse[2]) * p > next_burn.t_start_s - 1e-9:
+            return []
+        self.pulses = [(k0 * p, (k0 + pulse[2]) * p, pulse[0], pulse[1])]
+        return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off at the last push: a correction of '
+                                                   f'{impulse:.3g} N s', {'miss_m': miss_m, 'impulse_n_s': impulse})]
