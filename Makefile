@@ -33,7 +33,7 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 
 benchmark: $(STAMP)
-	$(PY) scripts/benchmark_sim.py
+	$(PY) scripts/bench/benchmark_sim.py
 
 clean-runs:
 	rm -rf runs

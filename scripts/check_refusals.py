@@ -5,7 +5,7 @@
 
 For each run (default: every NO_SAFE_PLAN row of CAMPAIGN_DIR/results.csv) the run's scenario.yaml is flown
 headless up to the planner's first plan, and at that plan time, from the same estimates and covariance,
-flyby_planner.plan.exhaustive_check tries every grasp instant of the grasp and extended windows, every
+flyby_planner.flyby.diagnostics.exhaustive_check tries every grasp instant of the grasp and extended windows, every
 offset and every fly-by duration for passive clearance and the predicted 3-sigma miss. One JSON line per run
 (the RefusalCheck's fields, the run, the plan time and the class of refusal the row gives), and a table of
 the classes. A refusal is shown to hold no safe and capturable fly-by of seed 000's form when n_both is 0:
@@ -24,12 +24,13 @@ from pathlib import Path
 from flyby_mission.campaign.report import refusal_class
 from flyby_mission.campaign.runner import run_indices
 from flyby_mission.headless import HeadlessGraph, run_headless
-from flyby_planner.plan import exhaustive_check
+from flyby_planner.flyby.diagnostics import exhaustive_check
+from flyby_planner.methods import FlybyMethod
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario
 
 
-class _PlanTime(Exception):
+class _PlanTime(BaseException):  # not an Exception: the headless core guard does not take it for a fault
     """Stops the flight at the planner's first plan, with what it would plan from."""
 
     def __init__(self, t, chaser_now, prediction, covariance_body):
@@ -38,15 +39,16 @@ class _PlanTime(Exception):
         self.covariance_body = covariance_body
 
 
-class _StopAtPlan(PlannerCore):
-    def _plan_flyby(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
-        raise _PlanTime(t, *self.plan_inputs(t, q_hill_from_body, omega_body, extended=True), covariance_body)
+class _StopAtPlan(FlybyMethod):
+    def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
+        raise _PlanTime(t, *core.plan_inputs(t, q_hill_from_body, omega_body, extended=True), covariance_body)
 
 
 def check_run(scenario):
     """The RefusalCheck at the run's first plan time, and that time (None, None: it never planned)."""
     graph = HeadlessGraph(scenario)
-    graph.planner = _StopAtPlan(scenario)
+    graph.planner = PlannerCore(scenario)
+    graph.planner.methods['flyby'] = _StopAtPlan()
     try:
         run_headless(scenario, graph=graph)
     except _PlanTime as at:

@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-import plots
 from flyby_mission.campaign.dispersions import set_values
 from flyby_mission.headless import HeadlessGraph, require_one_chaser, run_headless
+from flyby_mission.report import plotting as plots
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
 from flyby_msgs_py.schema import ScenarioError
 from flyby_sim.scenario import load_yaml_mapping, scenario_from_dict
 
@@ -41,7 +42,8 @@ def fly(scenario_path, method):
     graph = HeadlessGraph(scenario)
     run = run_headless(scenario, graph)
     chaser, _target, thrust, _wheels = graph.truth.series()
-    starts = [e['t'] for e in run.events if e['name'] == 'phase_changed' and e['values'].get('to') == APPROACH[method]]
+    starts = [e['t'] for e in run.events
+              if e['name'] == events.PHASE_CHANGED and e['values'].get('to') == APPROACH[method]]
     return run.summary, chaser, thrust, (starts[0] if starts else None), scenario
 
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""The mission's mass-property filter against the truth over seeded headless runs (issue 16's consistency):
-the final estimate the estimator publishes (``post_capture.MassEstimationRun``), truth minus estimate in the
-filter's coordinates (``mass_properties.parameter_error``) with the filter's own covariance; prints the mean NEES
+"""The mission's mass-property filter against the truth over seeded headless runs (its consistency):
+the final estimate the estimator publishes (``mass_estimation_run.MassEstimationRun``), truth minus estimate in the
+filter's coordinates (``mass_properties_errors.parameter_error``) with the filter's own covariance; prints the mean NEES
 over the defined parameters with its 95 % band, the RMS z per parameter, and the accuracy figures of summary.json
 (95th percentile). Asserts nothing (docs/post_capture.md).
 
@@ -21,10 +21,10 @@ import numpy as np
 import yaml
 from scipy.stats import chi2
 
-from flyby_estimation.mass_properties import defined_parameters, parameter_error, parameter_nees
-from flyby_estimation.post_capture import principal_axes
+from flyby_estimation.mass_estimation_run import principal_axes
+from flyby_estimation.mass_properties_errors import defined_parameters, parameter_error, parameter_nees
 from flyby_mission.headless import HeadlessGraph, run_headless
-from flyby_mission.summary import post_capture_truth, target_mass_properties_truth
+from flyby_mission.post_capture_figures import post_capture_truth, target_mass_properties_truth
 from flyby_msgs_py.schema import load_yaml_mapping
 from flyby_sim.scenario import scenario_from_dict
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fly a Monte Carlo campaign of headless missions on Dask distributed (issue 12).
+"""Fly a Monte Carlo campaign of headless missions on Dask distributed.
 
     .venv/bin/python scripts/run_campaign.py --campaign campaigns/smoke.yaml --out runs/smoke [--runs N]
                                              [--workers K | --scheduler ADDRESS]

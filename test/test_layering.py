@@ -24,6 +24,7 @@ ROS_MODULES = {
     'flyby_msgs_py.runtime': 'runs nodes: executor loop, progress, readiness, signals',
     'flyby_msgs_py.qos': 'the QoS profiles are rclpy objects',
     'flyby_msgs_py.node_base': 'the base class of the nodes is an rclpy Node',
+    'flyby_mission.launcher': 'runs the node graph: the nodes as processes or on one executor, its monitor node',
 }
 PLANT_MODULES = ('flyby_sim.plant', 'flyby_sim.sensors', 'flyby_sim.thrusters', 'flyby_sim.sim_node')
 # The headless driver wires the plant in, as the launcher wires the sim node in.

@@ -12,7 +12,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 from flyby_testing import analyze_bag, launch_and_wait, read_summary, run_mission, with_duration, write_scenario
 
@@ -82,7 +82,7 @@ def test_coasting_run_leaves_bag_and_summary(tmp_path):
     assert list((out / 'bag').glob('*.mcap'))
 
     # What the bag decodes to is what the simulator published: the core's truth, to the bit.
-    plant = Plant(plant_config_from_scenario(load_scenario(scenario)))
+    plant = Plant(PlantConfig.from_scenario(load_scenario(scenario)))
     truth = [plant.truth()] + [plant.step() for _ in range(1200)]
     data = read_bag(out / 'bag', topics=['/sim/chaser/odom', '/sim/target/odom'])
     chaser, target = data['/sim/chaser/odom'], data['/sim/target/odom']

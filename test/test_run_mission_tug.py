@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from flyby_mission.headless import run_headless
-from flyby_mission.summary import POST_CAPTURE_KEYS
+from flyby_mission.post_capture_figures import POST_CAPTURE_KEYS
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_msgs_py.convert import inertia_to_numpy

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Benchmark of the chaser's attitude filter (issue 13 part 4): accuracy, consistency and cost.
+"""Benchmark of the chaser's attitude filter: accuracy, consistency and cost.
 
     benchmark_chaser_attitude.py [--runs 50] [--duration 300] [--hold-runs 10]
 
-Runs the filter (flyby_estimation.chaser_attitude_filter, issue 13's default IMU: gyro 10 Hz with
+Runs the filter (flyby_estimation.chaser_attitude_filter, the default IMU: gyro 10 Hz with
 1e-5 rad/s noise, 1e-4 rad/s initial bias and 1e-7 rad/s/sqrt(s) bias walk, star tracker 2 Hz with
 0.01 deg) over seeded torque-free tumbles of seed 001's servicer (2.9 deg/s about a random axis), the
 truth and measurements drawn by the test module's generator (test_chaser_attitude_filter.simulate_imu,
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / 'flyby_ws' / 'src' / 'flyby_estimation' / 'test'))  # the generator lives there
 
 import test_chaser_attitude_filter as model  # noqa: E402

@@ -16,15 +16,15 @@ from pathlib import Path
 import numpy as np
 
 from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def record_measurements(scenario, count):
     """The first `count` vision attitude measurements (t, q_hill_from_body) of the scenario's plant."""
-    plant = Plant(plant_config_from_scenario(scenario))
+    plant = Plant(PlantConfig.from_scenario(scenario))
     out = []
     while len(out) < count:
         plant.step()

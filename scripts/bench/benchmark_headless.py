@@ -25,7 +25,7 @@ from flyby_sim.scenario import load_scenario
 
 # Figures that measure the wall clock, not the mission.
 WALL_CLOCK_KEYS = ('wall_time_s', 'real_time_factor', 'planning_time_s')
-# The figures issue 12's campaign rows are judged by.
+# The figures a campaign's rows are judged by.
 KEY_FIGURES = ('outcome', 'capture_position_error_m', 'capture_velocity_error_mps', 'delta_v_total_mps',
                'min_clearance_m', 't_grasp_s')
 

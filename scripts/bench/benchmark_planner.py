@@ -4,9 +4,9 @@
     benchmark_planner.py [--scenario scenarios/paper_flyby.yaml] [--repeat 20]
 
 Plans as scripts/plan_capture.py does at t = 0 (plan_capture.timed_plan): the prediction of the true
-target motion over the grasp-time search window (flyby_planner.plan.truth_prediction) and
+target motion over the grasp-time search window (flyby_planner.flyby.config.truth_prediction) and
 plan_capture on it (grasp search eq 13-15, candidates, one-orbit nonlinear passive-safety check,
-selection). One untimed plan first (imports, caches); then `--repeat` timed plans. The issue's
+selection). One untimed plan first (imports, caches); then `--repeat` timed plans. The planner's
 target is < 100 ms for the whole.
 """
 
@@ -19,10 +19,10 @@ import numpy as np
 from flyby_msgs_py.schema import ScenarioError
 from flyby_sim.scenario import load_scenario
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))  # scripts/ is not a package
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # scripts/ is not a package
 from plan_capture import timed_plan  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TARGET_MS = 100.0
 
 

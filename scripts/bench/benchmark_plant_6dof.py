@@ -24,10 +24,10 @@ import math
 import time
 from pathlib import Path
 
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def cost_us(config, steps, commands=None, blocks=5):
@@ -53,8 +53,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--steps', type=int, default=6000)
     args = ap.parse_args()
-    point = plant_config_from_scenario(load_scenario(ROOT / 'scenarios' / 'paper_flyby.yaml'))
-    rigid = plant_config_from_scenario(load_scenario(ROOT / 'scenarios' / 'paper_flyby_6dof.yaml'))
+    point = PlantConfig.from_scenario(load_scenario(ROOT / 'scenarios' / 'paper_flyby.yaml'))
+    rigid = PlantConfig.from_scenario(load_scenario(ROOT / 'scenarios' / 'paper_flyby_6dof.yaml'))
     body = rigid.chaser_body
     nominal = dataclasses.replace(rigid, chaser_body=dataclasses.replace(
         body, omega_body0=(0.0, math.radians(0.5), 0.0), wheel_momentum0_n_m_s=(1.0, 1.0, 1.0)))

@@ -24,11 +24,12 @@ import numpy as np
 import yaml
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
 from flyby_msgs_py.bag import read_bag
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TRUTH = ['/sim/chaser/odom', '/sim/target/odom']
 EVENTS = c.absolute(c.MISSION_EVENTS)
 
@@ -49,7 +50,7 @@ def truth_identical(run_a, run_b):
     change to the final phase (the mission's end, the same in both when they agree); past it the simulator steps on
     until the launcher stops it, a wall-clock matter. Returns (identical, that stamp, each run's tail in s)."""
     a, b = (read_bag(d / 'bag', topics=TRUTH + [EVENTS]) for d in (run_a, run_b))
-    ends = [max(e['t'] for e in bag[EVENTS] if e['name'] == 'phase_changed') for bag in (a, b)]
+    ends = [max(e['t'] for e in bag[EVENTS] if e['name'] == events.PHASE_CHANGED) for bag in (a, b)]
     if ends[0] != ends[1]:
         return False, ends, None
     t_end, same = ends[0], True
@@ -62,7 +63,7 @@ def truth_identical(run_a, run_b):
 
 
 def plant_step_cost_us(scenario_path, steps=20000):
-    plant = Plant(plant_config_from_scenario(load_scenario(scenario_path)))
+    plant = Plant(PlantConfig.from_scenario(load_scenario(scenario_path)))
     t0 = time.perf_counter()
     for _ in range(steps):
         plant.step()

@@ -1,24 +1,19 @@
-"""Issue 17 item 2: the transport planner on its two cases, figures printed (not asserted).
+"""The transport planner on its two cases, figures printed (not asserted).
 
 Seed 004 §3.2's V-bar advance (7000 km orbit, from rest, 3000 s): the TugRobot's combined satellite (seed 004 §3.1,
 50 kg) by 1 km and paper_flyby_tug's combined body (1600 kg, CoM ~2.9 m out on +x) by 100 m, each with its layout
 less the thrusters pushing along -x; then two refusals and their reasons.
 
-    .venv/bin/python scripts/benchmark_transport.py
+    .venv/bin/python scripts/bench/benchmark_transport.py
 """
 
 import time
 
 import numpy as np
 
-from flyby_planner.transport import (
-    TransportBody,
-    TransportConfig,
-    TransportRefused,
-    TransportState,
-    plan_transport,
-    push_axis,
-)
+from flyby_planner.transport.model import TransportBody, TransportConfig, TransportRefused, TransportState
+from flyby_planner.transport.plan import plan_transport
+from flyby_planner.transport.thrusters import push_axis
 from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.rotation import quat_from_axis_angle
