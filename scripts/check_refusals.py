@@ -26,6 +26,7 @@ from flyby_mission.campaign.runner import run_indices
 from flyby_mission.headless import HeadlessGraph, run_headless
 from flyby_planner.flyby.diagnostics import exhaustive_check
 from flyby_planner.methods import FlybyMethod
+from flyby_planner.params import PlannerParams
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario
 
@@ -47,12 +48,12 @@ class _StopAtPlan(FlybyMethod):
 def check_run(scenario):
     """The RefusalCheck at the run's first plan time, and that time (None, None: it never planned)."""
     graph = HeadlessGraph(scenario)
-    graph.planner = PlannerCore(scenario)
+    graph.planner = PlannerCore(PlannerParams.from_scenario(scenario))
     graph.planner.methods['flyby'] = _StopAtPlan()
     try:
         run_headless(scenario, graph=graph)
     except _PlanTime as at:
-        return exhaustive_check(at.prediction, at.chaser_now[:3], at.chaser_now[3:], at.t, graph.planner.config,
+        return exhaustive_check(at.prediction, at.chaser_now[:3], at.chaser_now[3:], at.t, graph.planner.params.flyby,
                                 at.covariance_body), at.t
     return None, None
 

@@ -28,7 +28,7 @@ from pathlib import Path
 from plan_figures import write_plots
 
 from flyby_msgs_py.schema import ScenarioError
-from flyby_planner.flyby.config import planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.config import PlannerConfig, truth_prediction
 from flyby_planner.flyby.search import plan_capture
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.scenario import load_scenario
@@ -49,7 +49,7 @@ def chaser_state_at(scenario, t_plan_s):
 
 def timed_plan(scenario, t_plan_s):
     """(CapturePlan, PlannerConfig, prediction time [s], plan_capture time [s]) from the true initial state."""
-    config = planner_config_from_scenario(scenario)
+    config = PlannerConfig.from_scenario(scenario)
     r_hill, v_hill = chaser_state_at(scenario, t_plan_s)
     t0 = time.perf_counter()
     prediction = truth_prediction(scenario, t_plan_s + config.prediction_span_s(scenario.omega_body0_rad_s))

@@ -8,7 +8,8 @@ from std_srvs.srv import Trigger
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
-from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.config import PlannerConfig, truth_prediction
+from flyby_planner.flyby.search import plan_capture
 from flyby_planner.planner_node import PlannerNode
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.dynamics.rotation import quat_rotate
@@ -88,7 +89,7 @@ def test_plans_on_planning_phase_and_on_replan_like_the_core(ros_context, execut
     t_plan = selected['t']
     assert t_plan == pytest.approx(30.0)  # the first target estimate stamped at or after the request
     sc = load_scenario(scenario_path)
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     x = probe.chaser_state(t_plan)
     truth = truth_prediction(sc, t_plan + cfg.prediction_span_s(sc.omega_body0_rad_s))
     core = plan_capture(truth, x[:3], x[3:], t_plan, cfg)

@@ -28,9 +28,9 @@ from optimal_figures import write_figures
 
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.flyby.config import truth_prediction
-from flyby_planner.optimal.approach import LEAST_FUEL_SCP
+from flyby_planner.optimal.approach import LEAST_FUEL_SCP, ApproachSettings
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
-from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario
+from flyby_planner.optimal.problem import approach_problem
 from flyby_planner.optimal.scp import plan_scp
 from flyby_sim.scenario import load_scenario
 
@@ -102,9 +102,10 @@ def main():
         print(f'error: {err}', file=sys.stderr)
         return 2
     prediction = truth_prediction(sc, args.t0 + 400.0)
-    chaser = chaser_from_scenario(sc, ACCEL_TABLE1_MPS2)
-    problem = approach_problem(sc, prediction, sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps,
-                               args.t0, args.plume_radius, chaser=chaser)
+    settings = ApproachSettings.from_scenario(sc)
+    chaser = dataclasses.replace(settings.chaser, accel_max_mps2=ACCEL_TABLE1_MPS2)
+    problem = approach_problem(settings, prediction, sc.chaser.initial_position_hill_m,
+                               sc.chaser.initial_velocity_hill_mps, args.t0, args.plume_radius, chaser=chaser)
     w = problem.weights
     print(f'{sc.name}: chaser {chaser.mass_kg:g} kg, Isp {chaser.isp_s:g} s, a_max {chaser.accel_max_mps2:g} m/s^2, '
           f'envelope {chaser.envelope_radius_m:g} m; plume radius {args.plume_radius:g} m; grasp point '

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from flyby_planner.optimal.approach import LEAST_FUEL_SCP
+from flyby_planner.optimal.approach import LEAST_FUEL_SCP, ApproachSettings
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.cost import plan_terms, total_cost
 from flyby_planner.optimal.delta_v_bound import delta_v_lower_bound
@@ -106,8 +106,8 @@ def free_time(sc, problem, waypoints_max):
 def two_robots(sc, prediction, problem, chaser, plume_radius_m):
     """The +-50 m V-bar pair of seed 003 Fig 12 by both solvers: eq 5's cost and the least gaps."""
     print('\ntwo robots (+-50 m V-bar, grasp points [1.5, 0, 1.5] and [-1.5, 0, -1.5] body), T 58.9 s:')
-    minus = approach_problem(sc, prediction, [-50.0, 0.0, 0.0], np.zeros(3), 0.0, plume_radius_m,
-                             x_grasp_body=[-1.5, 0.0, -1.5], chaser=chaser)
+    minus = approach_problem(ApproachSettings.from_scenario(sc), prediction, [-50.0, 0.0, 0.0], np.zeros(3), 0.0,
+                             plume_radius_m, x_grasp_body=[-1.5, 0.0, -1.5], chaser=chaser)
     pair = [problem, minus]
     tau = np.linspace(0.0, T_TABLE1_S, 5891)
     for label, solve in (('Nelder-Mead', lambda: plan_nelder_mead(pair, NelderMeadSettings(waypoints_max=2),

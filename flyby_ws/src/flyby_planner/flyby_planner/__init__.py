@@ -7,6 +7,7 @@
 * ``transfer``: the terminal transfer's two CW impulses (seed 000 eq 28-29), shared by the fly-by, the transport
   plan and guidance.
 * ``methods``: each method behind one protocol for the mission's planner, and the choice among them (``auto``).
+* ``params``: PlannerParams, the planner's parameter record of a scenario, one sub-record per method.
 * ``planner_core`` / ``planner_node``: the planner of the mission and its ROS node; ``plan_outputs``: what it
   publishes.
 """

@@ -22,7 +22,7 @@ from flyby_msgs_py import events
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_planner.flyby.grasp_search import capture_target_body
 from flyby_planner.flyby.search import plan_capture
-from flyby_planner.optimal.approach import approach_settings_from_scenario, plan_approach, prepare_approach
+from flyby_planner.optimal.approach import plan_approach, prepare_approach
 from flyby_planner.optimal.mutual import least_separation
 from flyby_planner.optimal.problem import GraspTerminal
 from flyby_planner.plan_outputs import (
@@ -71,11 +71,10 @@ class CaptureMethod(Protocol):
         """The outputs of a mission event that concerns the plan flown, or None."""
 
 
-def may_plan_optimal(scenario):
-    """Whether the scenario's planner.method may fly the optimization-based approach (its program is compiled at
+def may_plan_optimal(params):
+    """Whether PlannerParams' planner.method may fly the optimization-based approach (its program is compiled at
     the planner's start): ``optimal``, or ``auto`` with a rigid-body chaser."""
-    return scenario.planner.method == 'optimal' or (scenario.planner.method == 'auto'
-                                                    and scenario.chaser.model == 'rigid_body')
+    return params.method == 'optimal' or (params.method == 'auto' and params.chaser_model == 'rigid_body')
 
 
 def choose(core, omega_body):
@@ -83,15 +82,16 @@ def choose(core, omega_body):
     body rate omega_body [rad/s]: the method flown (a re-plan keeps it), else planner.method. ``auto``: the
     synchronized approach for a category IV target, else the fly-by and, when it finds no safe plan, the
     optimization-based approach; both only with a rigid-body chaser."""
-    method = core.method_flown or core.scenario.planner.method
+    method = core.method_flown or core.params.method
     if method == 'optimal':
         return 'optimal', 'a re-plan of the approach flown' if core.method_flown else 'planner.method optimal', None
-    if method == 'sync' or (method == 'auto' and core.rigid and is_category_iv(omega_body, core.scenario)):
+    spin_rate_deg_s = core.params.sync.spin_rate_deg_s
+    if method == 'sync' or (method == 'auto' and core.rigid and is_category_iv(omega_body, spin_rate_deg_s)):
         reason = ('a re-solve of the approach flown' if core.method_flown else 'planner.method sync'
                   if method == 'sync' else 'auto: category IV (condition (a): the rate is at or above '
-                                           f'{core.scenario.estimation.spin_rate_deg_s:g} deg/s)')
+                                           f'{spin_rate_deg_s:g} deg/s)')
         return 'sync', reason, None
-    reason = 'a safe fly-by exists' if core.scenario.planner.method == 'auto' else 'planner.method flyby'
+    reason = 'a safe fly-by exists' if core.params.method == 'auto' else 'planner.method flyby'
     return 'flyby', reason, 'optimal' if method == 'auto' and core.rigid else None
 
 
@@ -102,7 +102,7 @@ class FlybyMethod:
 
     def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
         """The fly-by at the plan time t: the candidates' events, and the selected plan or the Refusal."""
-        cfg = core.config
+        cfg = core.params.flyby
         chaser_now, prediction = core.plan_inputs(t, q_hill_from_body, omega_body)
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
         plan = plan_capture(prediction, chaser_now[:3], chaser_now[3:], t, cfg, covariance_body)
@@ -150,10 +150,10 @@ class OptimalMethod:
 
     name = 'optimal'
 
-    def __init__(self, scenario, obstacles):
-        self.settings = approach_settings_from_scenario(scenario)
-        if may_plan_optimal(scenario):
-            prepare_approach(scenario, self.settings, obstacles=obstacles)  # compiled now, not at the plan
+    def __init__(self, params, obstacles):
+        self.settings = params.optimal
+        if may_plan_optimal(params):
+            prepare_approach(self.settings, obstacles=obstacles)  # compiled now, not at the plan
         self.flown = None  # the TrajectoryPublished being flown
         self.aim_checked_t = None  # the time of the last re-aim check (the plan's first) [s]
 
@@ -162,7 +162,7 @@ class OptimalMethod:
         trajectory); a re-aim that finds no safe plan keeps the plan flown (a WARN reaim_refused)."""
         settings = self.settings
         chaser_now = core.chaser_at(t)
-        prediction = prediction_from_estimate(core.dynamics, core.config.mean_motion_rad_s, t, q_hill_from_body,
+        prediction = prediction_from_estimate(core.dynamics, core.params.flyby.mean_motion_rad_s, t, q_hill_from_body,
                                               omega_body, t + settings.horizon_s)
         start_state = None
         if self.flown is not None:  # a re-plan: to the same grasp, from the estimate moved as the flown trajectory
@@ -173,19 +173,19 @@ class OptimalMethod:
             start_state = chaser_now + ref[1] - ref[0]
         obstacles = core.leader_obstacles(t, prediction)
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
-        plan = plan_approach(core.scenario, prediction, chaser_now[:3], chaser_now[3:], t, settings, core.config,
+        plan = plan_approach(prediction, chaser_now[:3], chaser_now[3:], t, settings, core.params.flyby,
                              start_state=start_state, obstacles=obstacles)
         planning_time_s = time.perf_counter() - started
         separation, mutual_values = None, {}
         if plan.ok and obstacles:  # the dense separation from the leaders' plans, before it is flown
-            separation = least_separation(plan.plan, obstacles, core.scenario.chaser.envelope_radius_m)
+            separation = least_separation(plan.plan, obstacles, core.params.flyby.envelope_radius_m)
             mutual_values = {'separation_m': separation.distance_m, 't_separation_s': separation.t_s,
                              'separation_from': separation.name}
-            if separation.distance_m < core.config.clearance_margin_m:
+            if separation.distance_m < core.params.flyby.clearance_margin_m:
                 plan = dataclasses.replace(plan, ok=False, reason=(
                     f'optimal approach refused: the envelope comes {separation.distance_m:.3f} m from '
                     f'{separation.name}\'s at t = {separation.t_s:.1f} s '
-                    f'(margin {core.config.clearance_margin_m:g} m)'))
+                    f'(margin {core.params.flyby.clearance_margin_m:g} m)'))
         if not plan.ok and why.startswith(REAIM):
             return [core.event(t, 'WARN', events.REAIM_REFUSED, f'{why}: {plan.reason}; the plan flown stays',
                                {'request': why, 'plan': str(core.plans), 'planning_time_s': planning_time_s})], None
@@ -215,7 +215,7 @@ class OptimalMethod:
         """Request a re-aim when X_Ft predicted from the target estimate has moved from the plan's. The checks fall
         every reaim_interval_s from the plan time, each on the first target estimate stamped at or after its time:
         the same estimates whenever they arrive."""
-        o, flown = core.scenario.planner.optimal, self.flown
+        o, flown = self.settings, self.flown
         while core.request is None:
             t_check = self.aim_checked_t + o.reaim_interval_s
             target = core.targets.first_at_or_after(t_check)
@@ -234,9 +234,9 @@ class OptimalMethod:
         """(the motion predicted from a buffered target estimate (t, (q, omega, blocks)) to t_f, the end point X_Ft,
         V_Ft of the grasp point at offset_m at t_f, eq 20-21)."""
         t, (q_hill_from_body, omega_body, _) = target
-        prediction = prediction_from_estimate(core.dynamics, core.config.mean_motion_rad_s, t, q_hill_from_body,
+        prediction = prediction_from_estimate(core.dynamics, core.params.flyby.mean_motion_rad_s, t, q_hill_from_body,
                                               omega_body, t_f)
-        return prediction, GraspTerminal(prediction, core.config.x_grasp_body_m, offset_m)(t_f)
+        return prediction, GraspTerminal(prediction, core.params.flyby.x_grasp_body_m, offset_m)(t_f)
 
     def on_event(self, core, event):
         """Guidance's replan_requested (the tracking error grew beyond its bound): plan again."""
@@ -260,40 +260,41 @@ class SyncMethod:
         """Stage 1 at the plan time t; a re-solve starts from the estimate moved as the flown trajectory over its
         lead (planner.sync.resolve_lead_s; the first plan's is maneuver_lead_s), as an optimal re-plan, and when it
         fails keeps the plan flown (a WARN plan_kept)."""
-        lead_s = (core.scenario.planner.sync.resolve_lead_s if self.flown is not None
-                  else core.scenario.planner.maneuver_lead_s)
+        sync = core.params.sync
+        lead_s = sync.resolve_lead_s if self.flown is not None else sync.maneuver_lead_s
         chaser_now = core.chaser_at(t)
-        window = arrival_window(core.scenario, t + lead_s, self.arrival)
-        prediction = prediction_from_estimate(core.dynamics, core.config.mean_motion_rad_s, t, q_hill_from_body,
+        window = arrival_window(sync, t + lead_s, self.arrival)
+        prediction = prediction_from_estimate(core.dynamics, core.params.flyby.mean_motion_rad_s, t, q_hill_from_body,
                                               omega_body, max(t, window[1]) + 1.0 + HOLD_CHECK_S)
-        start = cw_coast(chaser_now[:3], chaser_now[3:], lead_s, core.config.mean_motion_rad_s)
+        start = cw_coast(chaser_now[:3], chaser_now[3:], lead_s, core.params.flyby.mean_motion_rad_s)
         if self.flown is not None:
             traj = self.flown.trajectory
             ref = np.array([[np.interp(s, traj.t_s, x[:, k]) for x in (traj.r_hill, traj.v_hill) for k in range(3)]
                             for s in (t, t + lead_s)])
             start = chaser_now + ref[1] - ref[0]
         started = time.perf_counter()  # measured for the record only; nothing here acts on it
-        plan = plan_sync(core.scenario, prediction, t + lead_s, start[:3], start[3:], self.arrival)
+        plan = plan_sync(sync, prediction, t + lead_s, start[:3], start[3:], self.arrival)
         planning_time_s = time.perf_counter() - started
         if not plan.ok:
             if self.flown is not None:  # a failed re-solve keeps the plan flown
                 return [core.event(t, 'WARN', events.PLAN_KEPT, plan.reason, {'request': why})], None
-            return [], Refusal(plan.reason, PlanMarkers(core.config.restriction_sphere_radius_m, ()), planning_time_s)
+            return [], Refusal(plan.reason, PlanMarkers(core.params.flyby.restriction_sphere_radius_m, ()),
+                               planning_time_s)
         arrival, traj = plan.arrival, plan.trajectory
         at = prediction.state(arrival.t_arrival)
-        x_port = np.array(core.scenario.target.grasp_point_body_m)
+        x_port = np.array(sync.x_port_body_m)
         port = prediction.track(x_port, (arrival.t_arrival,))
         grasp = GraspState(arrival.t_arrival, port.r_hill[0], port.v_hill[0], at.q_hill_from_body, at.omega_body)
         self.arrival = arrival
         self.flown = TrajectoryPublished(t, grasp, arrival.t_arrival, arrival.r_hill, arrival.v_hill, t + lead_s,
-                                         traj, PlanMarkers(core.config.restriction_sphere_radius_m, (), grasp.x_g,
+                                         traj, PlanMarkers(core.params.flyby.restriction_sphere_radius_m, (), grasp.x_g,
                                                            (arrival.r_hill,), traj.r_hill))
         out = [] if core.method_flown == 'sync' else [core.method_chosen(t, 'sync', reason)]
         return out + [
             self.flown,
             core.event(t, 'OK', events.PLAN_SELECTED, plan.reason,
                        {'request': why, 'plan': str(core.plans), 'method': 'sync', 't_arrival_s': arrival.t_arrival,
-                        't_start_s': t + lead_s, 'offset_m': core.scenario.planner.offset_m,
+                        't_start_s': t + lead_s, 'offset_m': sync.offset_m,
                         'approach_time_s': arrival.t_arrival - t - lead_s, 'dv_total_mps': arrival.delta_v_mps,
                         'peak_accel_mps2': plan.peak_accel_mps2, 'closest_m': arrival.closest_m,
                         'x_station_hill_m': arrival.r_hill, 'v_station_hill_mps': arrival.v_hill,
@@ -302,7 +303,7 @@ class SyncMethod:
     def follow_up(self, core, t):
         """Request a re-solve of stage 1 when the target estimate of t is due (seed 001 section 2)."""
         if core.request is None and resolve_due(t, self.flown.t_plan, self.arrival.t_arrival,
-                                                core.scenario.planner.sync):
+                                                core.params.sync):
             core.request = (t, 're-solve of the synchronized approach')  # seed 001 section 2
 
     def on_event(self, core, event):
@@ -320,12 +321,11 @@ class SyncMethod:
         if target is None:
             return []
         t_t, (q_hill_from_body, omega_body, _) = target
-        prediction = prediction_from_estimate(core.dynamics, core.config.mean_motion_rad_s, t_t, q_hill_from_body,
+        prediction = prediction_from_estimate(core.dynamics, core.params.flyby.mean_motion_rad_s, t_t, q_hill_from_body,
                                               omega_body, t_grasp)
-        sc = core.scenario
-        x_final_body = capture_target_body('sync', core.config.x_grasp_body_m, sc.planner.offset_m,
-                                           [(b.center_m, b.size_m) for b in sc.target.geometry])
-        port = prediction.track(core.config.x_grasp_body_m, (t_grasp,))
+        sync = core.params.sync
+        x_final_body = capture_target_body('sync', core.params.flyby.x_grasp_body_m, sync.offset_m, sync.boxes_body)
+        port = prediction.track(core.params.flyby.x_grasp_body_m, (t_grasp,))
         final = prediction.track(x_final_body, (t_grasp,))
         at = prediction.state(t_grasp)
         return [AimUpdate(GraspState(t_grasp, port.r_hill[0], port.v_hill[0], at.q_hill_from_body, at.omega_body),

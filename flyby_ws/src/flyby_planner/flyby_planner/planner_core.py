@@ -38,8 +38,8 @@ safety in SCP, the dense separation checked before it is flown, at least planner
 predicted least separation goes on ``plan_selected`` (``separation_m``, ``t_separation_s``, ``separation_from``).
 A fly-by plan does not look at the leaders.
 
-The planner node and the headless driver (flyby_mission.headless) both run ``PlannerCore``;
-every input method returns the outputs to publish, in order.
+The planner node and the headless driver (flyby_mission.headless) both run ``PlannerCore`` with the scenario's
+``PlannerParams`` (flyby_planner.params); every input method returns the outputs to publish, in order.
 """
 
 import json
@@ -52,11 +52,11 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import events
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
-from flyby_planner.flyby.config import planner_config_from_scenario
 from flyby_planner.methods import FlybyMethod, OptimalMethod, SyncMethod, choose
 from flyby_planner.optimal.mutual import MovingObstacle
 from flyby_planner.optimal.problem import TargetMotion
 from flyby_planner.optimal.scp import ScpSettings
+from flyby_planner.params import PlannerParams
 from flyby_planner.plan_outputs import AimUpdate, GraspState, PlanRefused
 from flyby_sim.dynamics.orbital import cw_coast
 
@@ -68,22 +68,20 @@ def _vector_value(values, key):
 class PlannerCore:
     """The planner's rules (module doc)."""
 
-    def __init__(self, scenario, name='flyby_planner'):
-        self.scenario = scenario
+    def __init__(self, params: PlannerParams, name='flyby_planner'):
+        self.params = params
         self.name = name
-        self.config = planner_config_from_scenario(scenario)
-        self.dynamics = ErrorStateDynamics(scenario.target_inertia)
+        self.dynamics = ErrorStateDynamics(params.flyby.inertia_kg_m2)
         self.request = None  # (t_request, why) until the plan is made
         self.targets = StampedBuffer()  # (q_hill_from_body, omega_body, covariance blocks or None) by stamp
         self.chasers = StampedBuffer()  # (r_hill, v_hill) by stamp
         self.plans = 0
-        names = scenario.chaser_names
-        self.leaders = names[:names.index(scenario.chaser_name)] if names else ()  # chasers that plan before this
+        self.leaders = tuple(params.leader_envelope_radius_m)  # chasers that plan before this
         self.leader_decisions = {name: [] for name in self.leaders}  # [(t_plan, t_start or None)] as they came
         self.leader_trajectories = {name: [] for name in self.leaders}  # [(t_s, r_hill, v_hill)]
         self.waiting_for = None  # the leaders a request waits for, once announced
-        self.rigid = scenario.chaser.model == 'rigid_body'
-        self.methods = {m.name: m for m in (FlybyMethod(), OptimalMethod(scenario, len(self.leaders)), SyncMethod())}
+        self.rigid = params.chaser_model == 'rigid_body'
+        self.methods = {m.name: m for m in (FlybyMethod(), OptimalMethod(params, len(self.leaders)), SyncMethod())}
         self.method_flown = None  # the name of the method of the plan being flown: a re-plan keeps it
 
     # -- inputs ---------------------------------------------------------------------------------
@@ -185,30 +183,29 @@ class PlannerCore:
     def leader_obstacles(self, t, prediction):
         """The leaders' planned motion a plan at t keeps off (mutual.MovingObstacle, carried with the target after
         their end as a captured robot is), with the joint planner's separation margin."""
-        attitude = TargetMotion(prediction, self.scenario.boxes, self.config.mean_motion_rad_s).attitude
+        flyby = self.params.flyby
+        attitude = TargetMotion(prediction, flyby.boxes, flyby.mean_motion_rad_s).attitude
         obstacles = []
         for name in self.leaders:
             decision = self._leader_decision(name, t)
             if decision is not None and decision[1] is not None:
                 t_s, r_hill, v_hill = decision[1]
-                obstacles.append(MovingObstacle(name, t_s, r_hill, v_hill,
-                                                self.scenario.for_chaser(name).chaser.envelope_radius_m,
-                                                ScpSettings.separation_margin_m, self.config.mean_motion_rad_s,
-                                                attitude))
+                obstacles.append(MovingObstacle(name, t_s, r_hill, v_hill, self.params.leader_envelope_radius_m[name],
+                                                ScpSettings.separation_margin_m, flyby.mean_motion_rad_s, attitude))
         return obstacles
 
     def plan_inputs(self, t, q_hill_from_body, omega_body, extended=False):
         """What a plan at the target estimate of time t starts from: the chaser's estimated state carried to t
         (eq 22) and the target motion predicted from the estimate over the grasp window (extended: and the
         extended window, as flyby.diagnostics.exhaustive_check needs)."""
-        prediction = prediction_from_estimate(self.dynamics, self.config.mean_motion_rad_s, t, q_hill_from_body,
-                                              omega_body, t + self.config.prediction_span_s(omega_body, extended))
+        prediction = prediction_from_estimate(self.dynamics, self.params.flyby.mean_motion_rad_s, t, q_hill_from_body,
+                                              omega_body, t + self.params.flyby.prediction_span_s(omega_body, extended))
         return self.chaser_at(t), prediction
 
     def chaser_at(self, t):
         """The chaser's estimated state (r_hill, v_hill stacked) carried to t by CW (eq 22)."""
         t_c, (r_c, v_c) = self.chasers.last_at_or_before(t) or self.chasers.first_at_or_after(t)
-        return cw_coast(r_c, v_c, t - t_c, self.config.mean_motion_rad_s)
+        return cw_coast(r_c, v_c, t - t_c, self.params.flyby.mean_motion_rad_s)
 
     def _plan(self, t, q_hill_from_body, omega_body, why, covariance_body=None):
         """Plan at the target estimate of time t (the plan time) by the method of planner.method (module doc);

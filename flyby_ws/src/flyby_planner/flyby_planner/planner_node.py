@@ -27,6 +27,7 @@ from flyby_msgs_py.markers import cylinder_marker, line_strip_marker, marker_arr
 from flyby_msgs_py.node_base import CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
 from flyby_msgs_py.wire import Event
+from flyby_planner.params import PlannerParams
 from flyby_planner.plan_outputs import AimUpdate, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_shortest_arc
@@ -66,12 +67,14 @@ class PlannerNode(CoreNode):
 
     def __init__(self, **kwargs):
         super().__init__('flyby_planner', **kwargs)
-        self.core = PlannerCore(scenario_of(self), self.get_name())
+        scenario = scenario_of(self)
+        self.core = PlannerCore(PlannerParams.from_scenario(scenario), self.get_name())
         self.pubs = {topic: self.publisher(topic) for topic in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.PLANNER_TRAJECTORY,
             c.MARKERS, c.MISSION_EVENTS)}
-        self.subscribe_estimates(quat_rotate, target_covariance=True)  # the re-aim check starts from it
-        self.subscribe_events()
+        # The target estimate's covariance: the re-aim check starts from it.
+        self.subscribe_inputs(scenario, {**self.estimate_inputs(quat_rotate, target_covariance=True),
+                                         c.MISSION_EVENTS: self.on_events_message})
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE,
                             self.guard(self.on_replan, c.PLANNER_REPLAN_SERVICE, service=True))
         for leader in self.core.leaders:  # another chaser's topics, by their absolute names

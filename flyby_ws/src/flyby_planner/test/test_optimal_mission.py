@@ -9,19 +9,20 @@ import numpy as np
 import pytest
 import yaml
 
-from flyby_mission.supervisor import SupervisorCore
+from flyby_mission.supervisor import SupervisorCore, SupervisorParams
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event
-from flyby_planner.flyby.config import planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.config import PlannerConfig, truth_prediction
 from flyby_planner.optimal.approach import (
     LEAST_FUEL_SCP,
-    approach_settings_from_scenario,
+    ApproachSettings,
     check_approach,
     plan_approach,
 )
 from flyby_planner.optimal.problem import PLUME_MARGIN_M, planning_plume_radius_m
 from flyby_planner.optimal.scp import ZohPlan
+from flyby_planner.params import PlannerParams
 from flyby_planner.plan_outputs import PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario, scenario_from_dict
@@ -45,7 +46,7 @@ def _scenario(name='jacobsen_optimal.yaml', **planner):
 def _plan(scenario, r_chaser=(50.0, 0.0, 0.0)):
     """PlannerCore's outputs planning at T_PLAN from the true target state and a chaser at rest."""
     truth = truth_prediction(scenario, T_PLAN + 1.0).state(T_PLAN)
-    core = PlannerCore(scenario)
+    core = PlannerCore(PlannerParams.from_scenario(scenario))
     core.on_chaser_estimate(T_PLAN, np.array(r_chaser), np.zeros(3))
     core.on_target_estimate(T_PLAN, truth.q_hill_from_body, truth.omega_body)
     return core, core.on_event(wire_event(Event(T_PLAN, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING',
@@ -84,7 +85,7 @@ def test_optimal_method_publishes_a_checked_trajectory_to_the_grasp():
     assert t.r_hill[-1] == pytest.approx(traj.x_ft, abs=1e-6) and t.v_hill[-1] == pytest.approx(traj.v_ft, abs=1e-6)
     # X_Ft is the grasp point pushed out by the offset along its direction from the centre of mass (eq 20)
     assert np.linalg.norm(traj.x_ft) - np.linalg.norm(traj.grasp.x_g) == pytest.approx(sc.planner.offset_m)
-    share = approach_settings_from_scenario(sc).plan_accel_max_mps2
+    share = ApproachSettings.from_scenario(sc).plan_accel_max_mps2
     assert np.linalg.norm(t.a_hill, axis=1).max() <= share * (1 + 1e-3)
     assert selected.values['method'] == 'optimal' and selected.values['t_grasp_s'] == traj.t_f
 
@@ -95,10 +96,10 @@ def test_a_least_fuel_plan_keeps_the_plume_rule_from_the_tracking_margin_out():
     issue 14 neighbourhood of the least found (docs/optimal.md: 2.55-2.58 m/s at 0.138 m/s^2, this plan at
     0.1283 m/s^2 keeps a share for the feedback)."""
     sc = _scenario()
-    settings = approach_settings_from_scenario(sc)
+    settings = ApproachSettings.from_scenario(sc)
     assert settings.weights.safety == 0.0
-    plan = plan_approach(sc, truth_prediction(sc, T_PLAN + settings.horizon_s), (50.0, 0.0, 0.0), np.zeros(3),
-                         T_PLAN, settings, planner_config_from_scenario(sc))
+    plan = plan_approach(truth_prediction(sc, T_PLAN + settings.horizon_s), (50.0, 0.0, 0.0), np.zeros(3),
+                         T_PLAN, settings, PlannerConfig.from_scenario(sc))
     assert plan.ok, plan.reason
     assert len(plan.plan.u_hill) == LEAST_FUEL_SCP.steps
     assert planning_plume_radius_m(5.0) == pytest.approx(5.0 + 2.0 * PLUME_MARGIN_M)
@@ -152,7 +153,7 @@ def test_no_safe_plan_when_scp_finds_no_feasible_program():
     fly_by, optimal = refused.message.split('; ')
     assert fly_by.startswith('fly-by: ') and 'condition (b)' in fly_by
     assert optimal.startswith('optimal approach: no feasible')
-    supervisor = SupervisorCore(_scenario())
+    supervisor = SupervisorCore(SupervisorParams.from_scenario(_scenario()))
     supervisor.machine.phase = c.PHASE_PLANNING
     out = supervisor.on_event(wire_event(refused))
     assert supervisor.phase == c.PHASE_COMPLETE
@@ -163,7 +164,7 @@ def test_the_check_refuses_a_plan_that_fires_at_the_target_or_cuts_the_geometry(
     """check_approach judges the plan on its own samples, whatever the solver claimed: a thrust away from the target
     inside the plume radius, a path through the bus and a thrust above the bound are each named."""
     sc = _scenario()
-    settings = approach_settings_from_scenario(sc)
+    settings = ApproachSettings.from_scenario(sc)
     prediction = truth_prediction(sc, T_PLAN + 30.0)
     n = sc.mean_motion_rad_s
     # Straight through the centre of mass at 1 m/s from 10 m, thrusting away from the target (+x) all along.
@@ -171,7 +172,7 @@ def test_the_check_refuses_a_plan_that_fires_at_the_target_or_cuts_the_geometry(
     x[:, 0] = np.linspace(10.0, -10.0, 11)
     x[:, 3] = -1.0
     plan = ZohPlan(T_PLAN, 20.0, x, np.tile((0.2, 0.0, 0.0), (10, 1)), n)
-    problems, gap = check_approach(plan, prediction, T_PLAN + 20.0, settings, planner_config_from_scenario(sc))
+    problems, gap = check_approach(plan, prediction, T_PLAN + 20.0, settings, PlannerConfig.from_scenario(sc))
     text = ' | '.join(problems)
     assert 'peak acceleration 0.2' in text and 'away from the target' in text and 'from the bus' in text
     assert gap < 0.0
@@ -182,7 +183,7 @@ def test_supervisor_decides_the_capture_of_an_optimal_approach_at_its_grasp_time
     _, out = _plan(sc)
     (selected,) = _events(out, 'plan_selected')
     (traj,) = [o for o in out if isinstance(o, TrajectoryPublished)]
-    supervisor = SupervisorCore(sc)
+    supervisor = SupervisorCore(SupervisorParams.from_scenario(sc))
     supervisor.machine.phase = c.PHASE_PLANNING
     supervisor.on_event(wire_event(selected))
     assert supervisor.phase == c.PHASE_OPTIMAL_APPROACH
@@ -204,9 +205,9 @@ def test_plan_approach_from_the_far_side_of_the_panels():
     """From -50 m V-bar (the panels' sweep between the chaser and the grasp point) the approach is planned around
     the target and passes the check."""
     sc = _scenario()
-    settings = approach_settings_from_scenario(sc)
-    plan = plan_approach(sc, truth_prediction(sc, T_PLAN + settings.horizon_s), (-50.0, 0.0, 0.0), np.zeros(3),
-                         T_PLAN, settings, planner_config_from_scenario(sc))
+    settings = ApproachSettings.from_scenario(sc)
+    plan = plan_approach(truth_prediction(sc, T_PLAN + settings.horizon_s), (-50.0, 0.0, 0.0), np.zeros(3),
+                         T_PLAN, settings, PlannerConfig.from_scenario(sc))
     assert plan.ok, plan.reason
     assert plan.clearance_m >= sc.planner.clearance_margin_m
 

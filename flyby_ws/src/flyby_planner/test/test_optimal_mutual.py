@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_planner.flyby.config import truth_prediction
+from flyby_planner.optimal.approach import ApproachSettings
 from flyby_planner.optimal.cost import box_contacts
 from flyby_planner.optimal.mutual import MovingObstacle, least_separation, obstacle_contacts, obstacle_cost
 from flyby_planner.optimal.problem import ApproachProblem, Chaser, CostWeights, FixedTerminal, approach_problem
@@ -156,9 +157,10 @@ def test_seed003_fig12_second_robot_planned_against_the_first():
     sc = load_scenario(SCENARIOS / 'jacobsen_two_robots.yaml')
     prediction = truth_prediction(sc, 200.0)
     chaser = Chaser(mass_kg=100.0, isp_s=220.0, accel_max_mps2=0.1242, envelope_radius_m=0.5)
-    plus = approach_problem(sc, prediction, [50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0, x_grasp_body=[1.5, 0.0, 1.5],
+    settings = ApproachSettings.from_scenario(sc)
+    plus = approach_problem(settings, prediction, [50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0, x_grasp_body=[1.5, 0.0, 1.5],
                             chaser=chaser)
-    minus = approach_problem(sc, prediction, [-50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0,
+    minus = approach_problem(settings, prediction, [-50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0,
                              x_grasp_body=[-1.5, 0.0, -1.5], chaser=chaser)
     first = plan_scp([plus], ScpSettings(), duration_s=58.9).plans[0]
     obstacle = _obstacle_of(first, 'chaser1', attitude=plus.target.attitude)

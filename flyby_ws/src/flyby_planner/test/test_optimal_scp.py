@@ -11,11 +11,11 @@ import pytest
 from flyby_planner.flyby.config import truth_prediction
 from flyby_planner.flyby.grasp_search import flyby_target_from_attitude
 from flyby_planner.optimal import program
-from flyby_planner.optimal.approach import LEAST_FUEL_SCP
+from flyby_planner.optimal.approach import LEAST_FUEL_SCP, ApproachSettings
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.cost import box_contacts, plan_terms, plume_metric
 from flyby_planner.optimal.delta_v_bound import delta_v_lower_bound
-from flyby_planner.optimal.problem import approach_problem, chaser_from_scenario, heuristic_route
+from flyby_planner.optimal.problem import approach_problem, heuristic_route
 from flyby_planner.optimal.program import compile_program, program_for
 from flyby_planner.optimal.scp import ScpSettings, ZohPlan, _plume_violation, plan_scp, zoh_input_matrix
 from flyby_sim.dynamics.attitude import AttitudePropagator
@@ -40,8 +40,10 @@ PLUME_RADIUS_M = 5.0
 def table1_problem():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     prediction = truth_prediction(sc, 200.0)
-    problem = approach_problem(sc, prediction, sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps,
-                               0.0, PLUME_RADIUS_M, chaser=chaser_from_scenario(sc, ACCEL_TABLE1_MPS2))
+    settings = ApproachSettings.from_scenario(sc)
+    chaser = dataclasses.replace(settings.chaser, accel_max_mps2=ACCEL_TABLE1_MPS2)
+    problem = approach_problem(settings, prediction, sc.chaser.initial_position_hill_m,
+                               sc.chaser.initial_velocity_hill_mps, 0.0, PLUME_RADIUS_M, chaser=chaser)
     return sc, problem
 
 

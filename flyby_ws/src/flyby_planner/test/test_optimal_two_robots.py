@@ -1,18 +1,19 @@
 """Two robots approaching together (seed 003 section 4.2, Fig 12): mutual safety in both solvers."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from flyby_planner.flyby.config import truth_prediction
+from flyby_planner.optimal.approach import ApproachSettings
 from flyby_planner.optimal.baseline import NelderMeadSettings, plan_nelder_mead
 from flyby_planner.optimal.problem import (
     ApproachProblem,
     Chaser,
     FixedTerminal,
     approach_problem,
-    chaser_from_scenario,
 )
 from flyby_planner.optimal.scp import ScpSettings, plan_scp
 from flyby_sim.scenario import load_scenario
@@ -27,10 +28,11 @@ def pair():
     """Chasers at +50 m and -50 m V-bar at rest; grasp points on opposite corners of the bus, each 1 m out."""
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     prediction = truth_prediction(sc, 200.0)
-    chaser = chaser_from_scenario(sc, 0.138)
-    plus = approach_problem(sc, prediction, [50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0, x_grasp_body=[1.5, 0.0, 1.5],
+    settings = ApproachSettings.from_scenario(sc)
+    chaser = dataclasses.replace(settings.chaser, accel_max_mps2=0.138)
+    plus = approach_problem(settings, prediction, [50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0, x_grasp_body=[1.5, 0.0, 1.5],
                             chaser=chaser)
-    minus = approach_problem(sc, prediction, [-50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0,
+    minus = approach_problem(settings, prediction, [-50.0, 0.0, 0.0], np.zeros(3), 0.0, 5.0,
                              x_grasp_body=[-1.5, 0.0, -1.5], chaser=chaser)
     return prediction, [plus, minus]
 

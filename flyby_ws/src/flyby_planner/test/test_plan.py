@@ -1,6 +1,7 @@
 """Tests of flyby_planner.flyby.search: the seed 000 fly-by plan of paper_flyby, its safety, selection and refusals."""
 
 import copy
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -13,7 +14,7 @@ from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import MotionPrediction
 from flyby_planner.flyby.avoidance import avoidance_burn
 from flyby_planner.flyby.candidates import _transfer_spread_m
-from flyby_planner.flyby.config import planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.config import PlannerConfig, truth_prediction
 from flyby_planner.flyby.passive_safety import check_passage, predicted_gaps
 from flyby_planner.flyby.search import plan_capture
 from flyby_sim.dynamics.geometry import clearance
@@ -32,7 +33,7 @@ def _scenario(edit=None):
 
 
 def _plan(sc, **config_overrides):
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     if config_overrides:
         cfg = type(cfg)(**{**cfg.__dict__, **config_overrides})
     pred = truth_prediction(sc, cfg.prediction_span_s(sc.omega_body0_rad_s))
@@ -169,7 +170,7 @@ def test_lighting_angle_is_the_same_at_every_convex_instant_of_a_principal_spin(
         d['planner'].update(transfer_max_s=2000.0)
         d['simulation'].update(duration_s=4000.0)  # the mission lasts past the window
     sc = _scenario(edit)
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     plan = plan_capture(truth_prediction(sc, cfg.prediction_span_s(sc.omega_body0_rad_s)),
                         np.array(sc.chaser.initial_position_hill_m), np.zeros(3), 0.0, cfg)
     convex = [c for c in plan.candidates if c.convex_value > 0.0]
@@ -268,7 +269,7 @@ def test_predicted_geometry_admits_a_grasp_point_inside_the_panels_sweep():
 
 def test_prediction_must_cover_the_window():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     with pytest.raises(ValueError, match='needs it up to'):
         plan_capture(truth_prediction(sc, 100.0), np.ones(3), np.zeros(3), 0.0, cfg)
     with pytest.raises(ValueError, match='chaser state'):
@@ -324,8 +325,7 @@ def test_transfer_spread_bounds_dispersed_impulses():
     midcourse correction fewer than 1 % leave it (the 3-sigma norm of a 3-D error), and it grows with
     the impulse and the error."""
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    cfg = type(planner_config_from_scenario(sc))(**{**planner_config_from_scenario(sc).__dict__,
-                                                    'impulse_error_sigma': math.hypot(0.03, math.radians(1.5))})
+    cfg = dataclasses.replace(PlannerConfig.from_scenario(sc), impulse_error_sigma=math.hypot(0.03, math.radians(1.5)))
     n, span = cfg.mean_motion_rad_s, 400.0
     taus = np.linspace(0.0, span, 41)
     stm = cw_transition_matrix(n, taus)

@@ -13,14 +13,16 @@ import pytest
 import yaml
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
-from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
-from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
+from flyby_estimation.params import RelativeNavParams, TargetFilterParams
+from flyby_estimation.relative_nav import RelativeNavFilter
+from flyby_estimation.target_filter import TargetAttitudeFilter
 from flyby_estimation.target_motion import MotionPrediction, prediction_from_estimate
-from flyby_planner.flyby.config import estimate_accuracy_from_scenario, planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.config import PlannerConfig, truth_prediction
 from flyby_planner.flyby.diagnostics import exhaustive_check
 from flyby_planner.flyby.passive_safety import passive_passages, predicted_region
 from flyby_planner.flyby.search import plan_capture
 from flyby_planner.flyby.uncertainty import (
+    EstimateAccuracy,
     TargetUncertainty,
     chaser_error_at_estimate,
     largest_eigenvalue,
@@ -43,7 +45,7 @@ def _scenario(edit=None):
 
 
 def _plan(sc, t_plan=0.0, **config_overrides):
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     if config_overrides:
         cfg = type(cfg)(**{**cfg.__dict__, **config_overrides})
     pred = truth_prediction(sc, t_plan + cfg.prediction_span_s(sc.omega_body0_rad_s))
@@ -70,9 +72,8 @@ def test_navigation_covariance_is_the_navigation_filters_steady_state():
     """EstimateAccuracy.navigation_covariance against flyby_estimation's RelativeNavFilter after 60 s of 10 Hz
     measurements of a chaser at rest on V-bar (a CW equilibrium)."""
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    acc = estimate_accuracy_from_scenario(sc)
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc, accel_psd_m2_s3=sc.estimation.accel_psd_m2_s3,
-                                                              initial_velocity_sigma_mps=0.1))
+    acc = EstimateAccuracy.from_scenario(sc)
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config(initial_velocity_sigma_mps=0.1))
     rng = np.random.default_rng(7)
     r0 = np.array(sc.chaser.initial_position_hill_m)
     for k in range(601):
@@ -90,10 +91,10 @@ def test_predicted_target_covariance_follows_the_target_filter():
     more of 1 deg vision at 10 Hz its filtered attitude and rate sigmas are the filter's own to 5 %, and carried
     60 s on without measurements they are the filter's prediction's."""
     sc = _scenario(lambda d: d['target']['initial_rate'].update(omega_body_deg_s=[2.0, 1.0, 4.0]))
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     n = cfg.mean_motion_rad_s
     truth = truth_prediction(sc, 320.0)
-    filt = TargetAttitudeFilter(target_filter_config_from_scenario(sc, torque_psd=sc.estimation.torque_psd_n2m2s))
+    filt = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
     rng = np.random.default_rng(11)
     sigma = math.radians(sc.sensors.target_attitude.noise_sigma_deg)
 
@@ -161,7 +162,7 @@ def test_the_last_burn_is_the_injection_when_no_adjusting_burn_fits():
     """With no adjusting burn between the injection (eq 29) and the last burnable instant the injection's execution
     error is flown through the coast; each adjusting burn before the last corrects it to the thrusters' relative
     error: sigma^(k + 1) |dV_Tf| after k of them."""
-    cfg = planner_config_from_scenario(_scenario(lambda d: d['chaser']['thrusters'].update(
+    cfg = PlannerConfig.from_scenario(_scenario(lambda d: d['chaser']['thrusters'].update(
         magnitude_error_sigma=0.03, direction_error_sigma_deg=0.0)))
     c = types.SimpleNamespace(flyby_duration_s=300.0, dv_tf=np.array((0.0, 0.1, 0.0)))
     nav = cfg.accuracy.navigation_covariance
@@ -216,8 +217,7 @@ def test_the_exhaustive_check_confirms_a_refusal_and_finds_what_the_planner_flie
     some are, and a transfer flies one of them; a grasp point by a panel root has no clear offset at all."""
     def check(edit):
         sc = _scenario(edit)
-        cfg = type(planner_config_from_scenario(sc))(**{**planner_config_from_scenario(sc).__dict__,
-                                                       'latest_grasp_s': 900.0})
+        cfg = dataclasses.replace(PlannerConfig.from_scenario(sc), latest_grasp_s=900.0)
         pred = truth_prediction(sc, cfg.prediction_span_s(sc.omega_body0_rad_s, extended=True))
         return exhaustive_check(pred, sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps, 0.0,
                                 cfg), cfg
@@ -294,7 +294,7 @@ def test_envelope_run_323_from_the_convergence_bound_a_grasp_39_minutes_out_fail
     by the re-aimed passage and run 323, which captures from its filter's covariance, would be refused."""
     from flyby_planner.flyby.reaim import REAIM_COVARIANCE_SCALE
     sc = _scenario(envelope_run_323)
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     pred = truth_prediction(sc, 60.0 + cfg.prediction_span_s(sc.omega_body0_rad_s))
     state = cw_transition_matrix(cfg.mean_motion_rad_s, 60.0) @ np.concatenate(
         (sc.chaser.initial_position_hill_m, sc.chaser.initial_velocity_hill_mps))
@@ -313,7 +313,7 @@ def test_envelope_run_340_the_extended_window_is_searched_past_its_first_stage()
     every passage; the safe plans are at offset 1.4 m in the second stage, past 60 other candidates of that stage,
     where the search budget of 6 batches stopped (a NO_SAFE_PLAN in the campaign; docs/campaigns.md)."""
     sc = _scenario(envelope_run_340)
-    cfg = planner_config_from_scenario(sc)
+    cfg = PlannerConfig.from_scenario(sc)
     t_plan = 60.1
     q_hill_from_body = np.array((0.47829610276537565, 0.7952445157384633, 0.2456465105172925, -0.28013709168553214))
     omega_body = np.array((0.00698193707587852, 0.09309856268109427, 0.04322210967191846))
@@ -375,7 +375,7 @@ def test_a_refusal_leads_with_the_latest_check_that_bound_it():
     def rejected(reason, k):
         return [types.SimpleNamespace(reasons=[reason], clearance_approach_m=None)] * k
 
-    cfg = planner_config_from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+    cfg = PlannerConfig.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
     candidates = (rejected('X_Fi at 12.00 m is inside the restriction sphere (15 m)', 48)
                   + rejected('transfer passes 14.1 m from the target ...', 56)
                   + rejected('predicted 3-sigma miss at the grasp 0.126 m ...', 44)
@@ -443,7 +443,7 @@ def test_envelope_run_569_the_reaimed_passage_rejects_the_plan_it_flew_and_the_n
     (plan._ReaimModel) from that estimate's published covariance rejects it, and the plan it selects instead keeps
     the margin from the TRUE target once re-aimed at the true grasp."""
     sc = _scenario(_envelope_run_569)
-    cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
+    cfg = dataclasses.replace(PlannerConfig.from_scenario(sc), reaim_check=True)
     t, q, w, chaser = _RUN_569_PLAN
     pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, t, q, w,
                                     t + cfg.prediction_span_s(w))
@@ -465,7 +465,7 @@ def test_seed000_eq4_the_reaim_check_starts_from_the_plan_estimate_covariance():
     6x6 matrix is refused."""
     from flyby_planner.flyby.reaim import REAIM_COVARIANCE_SCALE, ReaimModel
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
+    cfg = dataclasses.replace(PlannerConfig.from_scenario(sc), reaim_check=True)
     pred = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), cfg.mean_motion_rad_s, 60.0,
                                     sc.q_hill_from_body0, sc.omega_body0_rad_s, 90.0)
     rng = np.random.default_rng(12)
@@ -523,7 +523,7 @@ def test_envelope_run_810_the_reaim_check_refuses_where_its_motions_part():
     from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, refine_grasp
     from flyby_planner.flyby.reaim import REAIM_MAX_PARTING_RAD, ReaimModel
     sc = _scenario(_envelope_run_810)
-    cfg = dataclasses.replace(planner_config_from_scenario(sc), reaim_check=True)
+    cfg = dataclasses.replace(PlannerConfig.from_scenario(sc), reaim_check=True)
     n = cfg.mean_motion_rad_s
     t, q, w, cov, chaser = _RUN_810_PLAN
     estimate = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, t, q, w, 2400.0)

@@ -13,6 +13,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
 from flyby_planner.flyby.search import plan_capture
 from flyby_planner.methods import FlybyMethod, Refusal
+from flyby_planner.params import PlannerParams
 from flyby_planner.plan_outputs import AimUpdate, PlanMarkers, PlanPublished
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.dynamics.orbital import cw_accel
@@ -30,7 +31,7 @@ def _planning_event(t):
 def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_chaser():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     n = sc.mean_motion_rad_s
-    core = PlannerCore(sc)
+    core = PlannerCore(PlannerParams.from_scenario(sc))
     q0, w0 = sc.q_hill_from_body0, sc.omega_body0_rad_s
     r_c, v_c = np.array((50.0, 0.1, -0.2)), np.array((0.001, 0.0, -0.002))
     assert core.on_chaser_estimate(59.9, r_c, v_c) == []
@@ -47,8 +48,8 @@ def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_ch
     y = solve_ivp(lambda _t, s: np.concatenate((s[3:], cw_accel(s[:3], s[3:], n))), (59.9, 60.0),
                   np.concatenate((r_c, v_c)), rtol=1e-12, atol=1e-12).y[:, -1]
     prediction = prediction_from_estimate(ErrorStateDynamics(sc.target_inertia), n, 60.0, q0, w0,
-                                          60.0 + core.config.prediction_span_s(w0))
-    expected = plan_capture(prediction, y[:3], y[3:], 60.0, core.config).selected
+                                          60.0 + core.params.flyby.prediction_span_s(w0))
+    expected = plan_capture(prediction, y[:3], y[3:], 60.0, core.params.flyby).selected
     assert plan.t_f == pytest.approx(expected.t_grasp, abs=1e-6)
     assert plan.x_fi == pytest.approx(expected.x_fi, abs=1e-6)
     assert plan.grasp.x_g == pytest.approx(expected.x_g, abs=1e-9)
@@ -57,7 +58,7 @@ def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_ch
 
 
 def test_a_re_aimed_grasp_is_published_again():
-    core = PlannerCore(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+    core = PlannerCore(PlannerParams.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml')))
     refined = wire_event(Event(733.0, 'OK', 'target_refined', 'grasp re-solved', {
         't_grasp_s': 813.004, 'shift_m': 0.002, 'x_g_hill_m': np.array((0.3, 2.0, 0.1)),
         'v_g_hill_mps': np.array((0.0, 0.01, 0.13)), 'x_ft_hill_m': np.array((0.45, 3.0, 0.15)),
@@ -84,14 +85,14 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
     envelope_run_323(d)
     sc = scenario_from_dict(d, name='envelope run 323 (test)')
     truth = truth_prediction(sc, 3000.0)
-    core = PlannerCore(sc)
+    core = PlannerCore(PlannerParams.from_scenario(sc))
     s60 = truth.state(60.0)
     r_c = np.array(sc.chaser.initial_position_hill_m)
     core.on_chaser_estimate(60.0, r_c, np.zeros(3))
     core.on_event(_planning_event(60.0))
     out = core.on_target_estimate(60.0, s60.q_hill_from_body, s60.omega_body)
     (plan,) = [o for o in out if isinstance(o, PlanPublished)]
-    assert plan.t_f > 60.0 + core.config.prediction_span_s(s60.omega_body)
+    assert plan.t_f > 60.0 + core.params.flyby.prediction_span_s(s60.omega_body)
     at_grasp = truth.state(plan.t_f)
     assert abs(np.dot(plan.grasp.q_hill_from_body, at_grasp.q_hill_from_body)) == pytest.approx(1.0, abs=1e-9)
     assert plan.grasp.omega_body == pytest.approx(at_grasp.omega_body, abs=1e-8)
@@ -114,7 +115,7 @@ def test_the_plan_starts_from_the_published_covariance_of_its_estimate():
     rate_body = np.diag((4e-8, 5e-8, 6e-8))
     for blocks, expected in (((attitude_hill, rate_body), covariance_from_published(q0, attitude_hill, rate_body)),
                              ((), None)):
-        core = PlannerCore(sc)
+        core = PlannerCore(PlannerParams.from_scenario(sc))
         core.methods['flyby'] = _RecordingFlyby()
         core.on_chaser_estimate(60.05, np.array((50.0, 0.1, -0.2)), np.zeros(3))
         core.on_event(_planning_event(59.95))

@@ -9,6 +9,7 @@ import pytest
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
 from flyby_planner.flyby.config import truth_prediction
+from flyby_planner.params import PlannerParams
 from flyby_planner.plan_outputs import TrajectoryPublished
 from flyby_planner.planner_core import PlannerCore
 from flyby_sim.scenario import load_scenario
@@ -29,7 +30,7 @@ def _planning(t):
 def _core(view, r_chaser, times):
     """A planner of the view fed the true target state and the chaser at rest (V-bar) at the times."""
     truth = truth_prediction(view, max(times) + 1.0)
-    core = PlannerCore(view)
+    core = PlannerCore(PlannerParams.from_scenario(view))
     for t in times:
         core.on_chaser_estimate(t, np.array(r_chaser), np.zeros(3))
         s = truth.state(t)
@@ -49,8 +50,8 @@ def fleet():
 
 def test_the_first_chaser_plans_alone_and_the_second_follows_it(fleet):
     view, _, _ = fleet
-    assert PlannerCore(view.for_chaser('chaser1')).leaders == ()
-    assert PlannerCore(view).leaders == ('chaser1',)
+    assert PlannerCore(PlannerParams.from_scenario(view.for_chaser('chaser1'))).leaders == ()
+    assert PlannerCore(PlannerParams.from_scenario(view)).leaders == ('chaser1',)
 
 
 @pytest.fixture(scope='module')

@@ -14,7 +14,7 @@ import pytest
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_planner.flyby.grasp_search import capture_target_body
-from flyby_planner.sync.approach import resolve_due, sync_station_geometry
+from flyby_planner.sync.approach import SyncParams, resolve_due, sync_station_geometry
 from flyby_planner.sync.station import (
     PhaseSpaceLink,
     keepout_radius,
@@ -30,7 +30,8 @@ from flyby_sim.scenario import load_scenario, load_yaml_mapping, scenario_from_d
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 SCENARIO = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
 N, RADIUS = SCENARIO.mean_motion_rad_s, SCENARIO.orbit_radius_m
-GEOMETRY = sync_station_geometry(SCENARIO)
+SYNC = SyncParams.from_scenario(SCENARIO)
+GEOMETRY = sync_station_geometry(SYNC)
 KEEPOUT = keepout_radius([(b.center_m, b.size_m) for b in SCENARIO.target.geometry], SCENARIO.chaser.envelope_radius_m,
                          0.1)
 R0, V0, T0 = np.array((-1000.0, 0.0, 0.0)), np.zeros(3), 65.0
@@ -163,7 +164,8 @@ def test_the_hold_check_against_the_closed_form_and_a_spinner_too_fast_for_the_t
     d = copy.deepcopy(load_yaml_mapping(SCENARIOS / 'seweryn_tumbling.yaml'))
     d['target']['initial_rate']['omega_body_rad_s'] = [0.0, 0.0, math.radians(30.0)]  # 1.37 m/s^2 at 5 m
     sc = scenario_from_dict(d, name='seweryn 30 deg/s')
-    plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
+    plan = plan_sync(SyncParams.from_scenario(sc), truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)),
+                     np.zeros(3))
     bound = 2.0 * sc.chaser.thrusters.max_thrust_n / sc.chaser.mass_kg
     assert not plan.ok and 'holding the station 5 m out' in plan.reason
     assert f'> {HOLD_SHARE:g} x {bound:.3f} m/s^2' in plan.reason
@@ -188,14 +190,16 @@ def test_a_port_off_the_middle_of_a_face_docks_along_the_faces_normal():
     d = copy.deepcopy(load_yaml_mapping(SCENARIOS / 'seweryn_tumbling.yaml'))
     d['target']['grasp_point_body_m'] = port.tolist()
     sc = scenario_from_dict(d, name='seweryn, a port off the middle of a face')
-    plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
+    plan = plan_sync(SyncParams.from_scenario(sc), truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)),
+                     np.zeros(3))
     assert plan.ok, plan.reason
-    geometry = sync_station_geometry(sc)
+    geometry = sync_station_geometry(SyncParams.from_scenario(sc))
     assert geometry.u_body == pytest.approx(x) and geometry.x_final_body == pytest.approx(port + x)
     assert geometry.x_final_body == pytest.approx(capture_target_body('sync', port, 1.0, bus))  # DESIGN §10's point
     d['target']['grasp_point_body_m'] = [0.5, 0.0, 0.0]  # inside the bus
     sc = scenario_from_dict(d, name='seweryn, a port inside the bus')
-    plan = plan_sync(sc, truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)), np.zeros(3))
+    plan = plan_sync(SyncParams.from_scenario(sc), truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)),
+                     np.zeros(3))
     assert not plan.ok and 'the docking port (target.grasp_point_body_m) [0.5, 0.0, 0.0] m is not on the outer' \
         in plan.reason
 
@@ -207,12 +211,12 @@ def test_a_late_plan_moves_the_arrival_window_and_a_resolve_keeps_it():
     from flyby_planner.flyby.config import truth_prediction
     from flyby_planner.sync.approach import arrival_window, plan_sync
 
-    assert arrival_window(SCENARIO, 90.0) == (260.0, 370.0)
-    assert arrival_window(SCENARIO, 383.2) == pytest.approx((533.2, 643.2))
-    late = plan_sync(SCENARIO, truth_prediction(SCENARIO, 720.0), 383.2, R0, V0)
+    assert arrival_window(SYNC, 90.0) == (260.0, 370.0)
+    assert arrival_window(SYNC, 383.2) == pytest.approx((533.2, 643.2))
+    late = plan_sync(SYNC, truth_prediction(SCENARIO, 720.0), 383.2, R0, V0)
     assert late.ok, late.reason
     assert 533.2 <= late.arrival.t_arrival <= 643.2 and late.arrival.window_s == pytest.approx((533.2, 643.2))
-    assert arrival_window(SCENARIO, 420.0, late.arrival) == pytest.approx((533.2, 643.2))
+    assert arrival_window(SYNC, 420.0, late.arrival) == pytest.approx((533.2, 643.2))
 
 
 def test_resolves_halve_the_horizon_down_to_the_cutoff():

@@ -9,7 +9,7 @@ fly-by target point X_Ft (eq 20-21), the fly-by initial point X_Fi (eq 23), the 
 impulses (eq 28-29), the predicted passive path and, for every candidate considered, why it was kept
 or rejected. The modules, along its steps:
 
-* ``config``: PlannerConfig (the search's bounds, margins, limits) and how a scenario sets it.
+* ``config``: PlannerConfig (the search's bounds, margins, limits), the fly-by's parameter record of a scenario.
 * ``grasp_search``: the grasp instants (eq 13-15), the grasp point's closed forms (eq 12, 16-19), X_Ft and X_Fi
   (eq 20-23), the re-solved grasp guidance re-aims at, the capture target of each method.
 * ``keepout``: the region the target sweeps about its angular momentum (the passive-safety bound at any timing).

@@ -1,16 +1,16 @@
 """What the fly-by planner is configured with (``PlannerConfig``: the search's bounds, margins and limits, seed 000
-sections 4.3-4.5) and how a scenario sets it, and the target's true motion for a plan from the truth.
+sections 4.3-4.5), a parameter record of the scenario, and the target's true motion for a plan from the truth.
 
 Pure numpy, no ROS. SI units, angles in rad.
 """
 
-import dataclasses
 import math
 
 import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import MotionPrediction
+from flyby_msgs_py import params
 from flyby_planner.flyby.uncertainty import EstimateAccuracy
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import hill_axes_in_eci, q_eci_from_body
@@ -25,13 +25,28 @@ _WINDOW_TURNS = 2.0
 _TRANSFER_CAP_ORBITS = 0.4
 
 
-@dataclasses.dataclass(frozen=True)
+def _sun_direction_eci(scenario):
+    """planner.sun_direction_hill turned to eci at t = 0 (inertially fixed), or None: lighting not checked."""
+    p = scenario.planner
+    if p.sun_direction_hill is None:
+        return None
+    return hill_axes_in_eci(0.0, scenario.mean_motion_rad_s) @ np.asarray(p.sun_direction_hill, dtype=float)
+
+
+def _impulse_error_sigma(scenario):
+    """The thrusters' 1-sigma impulse error [-]: magnitude and direction errors combined."""
+    t = scenario.chaser.thrusters
+    return math.hypot(t.magnitude_error_sigma, math.radians(t.direction_error_sigma_deg))
+
+
+@params.record
 class PlannerConfig:
-    """Everything ``plan_capture`` needs besides the prediction and the chaser state.
+    """Everything ``plan_capture`` needs besides the prediction and the chaser state: the fly-by's record.
 
     Attributes (SI; angles in rad): see the ``planner`` section of docs/scenario.md for the meaning
-    and the seed 000 example defaults; ``boxes`` is flyby_sim.scenario.Boxes. offset_min_m,
-    offset_max_m and flyby_duration_max_s None: offset_m and flyby_duration_s only (no search).
+    and the seed 000 example defaults; ``boxes`` is flyby_sim.scenario.Boxes. offset_min_m is at most offset_m,
+    flyby_duration_max_s at least flyby_duration_s; offset_max_m is the scenario's (the manipulator's reach less its
+    position tolerance unless planner.offset_max_m says otherwise).
     accuracy (EstimateAccuracy, from the sensors and estimation sections) turns on the planner's uncertainty
     model (package doc, step 4), with the manipulator's position_tolerance_m and velocity_tolerance_mps as the bound
     on the predicted miss, guidance's adjust_interval_s and command_lead_s for the last burn; None keeps the fixed
@@ -39,45 +54,49 @@ class PlannerConfig:
     covariance passed to plan_capture): check the passage guidance flies once it re-aims at 3 sigma of the plan
     estimate's covariance (ReaimModel). A caller without the estimate's covariance (a plan from the truth) gets no
     re-aim check: the convergence bound instead is 2-5 times the filter's sigma and its motions part by more than
-    REAIM_MAX_PARTING_RAD 453 s out on paper_flyby, refusing what flies (docs/campaigns.md).
+    REAIM_MAX_PARTING_RAD 453 s out on paper_flyby, refusing what flies (docs/campaigns.md). latest_grasp_s: the
+    run's duration less the supervisor's capture hold [s].
     """
 
-    mean_motion_rad_s: float
-    orbit_radius_m: float
-    x_grasp_body_m: np.ndarray
-    boxes: object
-    inertia_kg_m2: np.ndarray
-    envelope_radius_m: float
-    offset_m: float = 1.0
-    offset_min_m: float | None = None
-    offset_max_m: float | None = None
-    flyby_duration_s: float = 300.0
-    flyby_duration_max_s: float | None = None
-    restriction_sphere_radius_m: float = 15.0
-    sphere_margin_m: float = 1.0
-    clearance_margin_m: float = 0.1
-    escape_check_orbits: float = 1.0
-    geometry_window_s: float = 300.0
-    geometry_attitude_margin_rad: float = math.radians(2.0)
-    geometry_rate_margin_rad_s: float = math.radians(0.02)
-    max_rate_rad_s: float = math.radians(18.0)
-    min_spin_axis_angle_from_orbit_normal_rad: float = math.radians(10.0)
-    sun_direction_eci: np.ndarray | None = None
-    max_sun_angle_from_grasp_velocity_rad: float = math.radians(100.0)
-    maneuver_lead_s: float = 10.0
-    transfer_min_s: float = 150.0
-    transfer_max_s: float = 450.0
-    delta_v_tie_mps: float = 0.001
-    max_delta_v_per_maneuver_mps: float = math.inf
-    impulse_error_sigma: float = 0.0
-    midcourse_corrections: int = 1
-    accuracy: EstimateAccuracy | None = None
-    position_tolerance_m: float = math.inf
-    velocity_tolerance_mps: float = math.inf
-    adjust_interval_s: float = 20.0
-    command_lead_s: float = 5.0
-    latest_grasp_s: float = math.inf
-    reaim_check: bool = True
+    mean_motion_rad_s: float = params.key('mean_motion_rad_s')
+    orbit_radius_m: float = params.key('orbit_radius_m')
+    x_grasp_body_m: np.ndarray = params.key('target.grasp_point_body_m', np.array)
+    boxes: object = params.key('boxes')
+    inertia_kg_m2: np.ndarray = params.key('target_inertia')
+    envelope_radius_m: float = params.key('chaser.envelope_radius_m')
+    offset_m: float = params.key('planner.offset_m')
+    offset_min_m: float = params.derived(lambda sc: min(sc.planner.offset_min_m, sc.planner.offset_m))
+    offset_max_m: float = params.key('offset_max_m')
+    flyby_duration_s: float = params.key('planner.flyby_duration_s')
+    flyby_duration_max_s: float = params.derived(lambda sc: max(sc.planner.flyby_duration_max_s,
+                                                                sc.planner.flyby_duration_s))
+    restriction_sphere_radius_m: float = params.key('planner.restriction_sphere_radius_m')
+    sphere_margin_m: float = params.key('guidance.sphere_margin_m')
+    clearance_margin_m: float = params.key('planner.clearance_margin_m')
+    escape_check_orbits: float = params.key('planner.escape_check_orbits')
+    geometry_window_s: float = params.key('planner.geometry_window_s')
+    geometry_attitude_margin_rad: float = params.key('planner.geometry_attitude_margin_deg', math.radians)
+    geometry_rate_margin_rad_s: float = params.key('planner.geometry_rate_margin_deg_s', math.radians)
+    max_rate_rad_s: float = params.key('estimation.spin_rate_deg_s', math.radians)
+    min_spin_axis_angle_from_orbit_normal_rad: float = params.key('planner.min_spin_axis_angle_from_orbit_normal_deg',
+                                                                  math.radians)
+    sun_direction_eci: np.ndarray | None = params.derived(_sun_direction_eci)
+    max_sun_angle_from_grasp_velocity_rad: float = params.key('planner.max_sun_angle_from_grasp_velocity_deg',
+                                                              math.radians)
+    maneuver_lead_s: float = params.key('planner.maneuver_lead_s')
+    transfer_min_s: float = params.key('planner.transfer_min_s')
+    transfer_max_s: float = params.key('planner.transfer_max_s')
+    delta_v_tie_mps: float = params.key('planner.delta_v_tie_mps')
+    max_delta_v_per_maneuver_mps: float = params.key('chaser.thrusters.max_delta_v_per_maneuver_mps')
+    impulse_error_sigma: float = params.derived(_impulse_error_sigma)
+    midcourse_corrections: int = params.key('guidance.midcourse_corrections')
+    accuracy: EstimateAccuracy | None = params.sub(EstimateAccuracy)
+    position_tolerance_m: float = params.key('chaser.manipulator.position_tolerance_m')
+    velocity_tolerance_mps: float = params.key('chaser.manipulator.velocity_tolerance_mps')
+    adjust_interval_s: float = params.key('guidance.adjust_interval_s')
+    command_lead_s: float = params.key('guidance.command_lead_s')
+    latest_grasp_s: float = params.derived(lambda sc: sc.simulation.duration_s - sc.supervisor.capture_hold_s)
+    reaim_check: bool = params.key('planner.reaim_check')
 
     def __post_init__(self):
         for name in ('mean_motion_rad_s', 'orbit_radius_m', 'envelope_radius_m', 'offset_m', 'flyby_duration_s',
@@ -95,15 +114,14 @@ class PlannerConfig:
         lo, hi = self.offsets_range_m
         if not 0.0 < lo <= self.offset_m <= hi:
             raise ValueError(f'need 0 < offset_min_m {lo} <= offset_m {self.offset_m} <= offset_max_m {hi} [m]')
-        if self.flyby_duration_max_s is not None and self.flyby_duration_max_s < self.flyby_duration_s:
+        if self.flyby_duration_max_s < self.flyby_duration_s:
             raise ValueError(f'flyby_duration_max_s {self.flyby_duration_max_s} s < flyby_duration_s '
                              f'{self.flyby_duration_s} s')
 
     @property
     def offsets_range_m(self):
         """(least, largest) offset delta r searched [m]."""
-        return (self.offset_m if self.offset_min_m is None else self.offset_min_m,
-                self.offset_m if self.offset_max_m is None else self.offset_max_m)
+        return self.offset_min_m, self.offset_max_m
 
     @property
     def offsets_m(self):
@@ -115,7 +133,7 @@ class PlannerConfig:
     @property
     def flyby_durations_s(self):
         """The searched fly-by durations [s], flyby_duration_s first."""
-        top = self.flyby_duration_s if self.flyby_duration_max_s is None else self.flyby_duration_max_s
+        top = self.flyby_duration_max_s
         return tuple(f * self.flyby_duration_s for f in _DURATION_FACTORS if f * self.flyby_duration_s <= top + 1e-9)
 
     @property
@@ -162,52 +180,6 @@ class PlannerConfig:
     @property
     def escape_duration_s(self):
         return self.escape_check_orbits * 2.0 * math.pi / self.mean_motion_rad_s
-
-
-def planner_config_from_scenario(scenario):
-    """PlannerConfig of a flyby_msgs_py Scenario (planner section, chaser, target, estimation.spin_rate_deg_s)."""
-    p = scenario.planner
-    n = scenario.mean_motion_rad_s
-    sun = None
-    if p.sun_direction_hill is not None:
-        sun = hill_axes_in_eci(0.0, n) @ np.asarray(p.sun_direction_hill, dtype=float)
-    return PlannerConfig(
-        mean_motion_rad_s=n, orbit_radius_m=scenario.orbit_radius_m,
-        x_grasp_body_m=np.array(scenario.target.grasp_point_body_m), boxes=scenario.boxes,
-        inertia_kg_m2=scenario.target_inertia, envelope_radius_m=scenario.chaser.envelope_radius_m,
-        offset_m=p.offset_m, offset_min_m=min(p.offset_min_m, p.offset_m), offset_max_m=scenario.offset_max_m,
-        flyby_duration_s=p.flyby_duration_s, flyby_duration_max_s=max(p.flyby_duration_max_s, p.flyby_duration_s),
-        restriction_sphere_radius_m=p.restriction_sphere_radius_m, sphere_margin_m=scenario.guidance.sphere_margin_m,
-        clearance_margin_m=p.clearance_margin_m, reaim_check=p.reaim_check,
-        escape_check_orbits=p.escape_check_orbits, geometry_window_s=p.geometry_window_s,
-        geometry_attitude_margin_rad=math.radians(p.geometry_attitude_margin_deg),
-        geometry_rate_margin_rad_s=math.radians(p.geometry_rate_margin_deg_s),
-        max_rate_rad_s=math.radians(scenario.estimation.spin_rate_deg_s),
-        min_spin_axis_angle_from_orbit_normal_rad=math.radians(p.min_spin_axis_angle_from_orbit_normal_deg),
-        sun_direction_eci=sun,
-        max_sun_angle_from_grasp_velocity_rad=math.radians(p.max_sun_angle_from_grasp_velocity_deg),
-        maneuver_lead_s=p.maneuver_lead_s, transfer_min_s=p.transfer_min_s, transfer_max_s=p.transfer_max_s,
-        delta_v_tie_mps=p.delta_v_tie_mps,
-        max_delta_v_per_maneuver_mps=scenario.chaser.thrusters.max_delta_v_per_maneuver_mps,
-        impulse_error_sigma=math.hypot(scenario.chaser.thrusters.magnitude_error_sigma,
-                                       math.radians(scenario.chaser.thrusters.direction_error_sigma_deg)),
-        midcourse_corrections=scenario.guidance.midcourse_corrections,
-        accuracy=estimate_accuracy_from_scenario(scenario),
-        position_tolerance_m=scenario.chaser.manipulator.position_tolerance_m,
-        velocity_tolerance_mps=scenario.chaser.manipulator.velocity_tolerance_mps,
-        adjust_interval_s=scenario.guidance.adjust_interval_s, command_lead_s=scenario.guidance.command_lead_s,
-        latest_grasp_s=scenario.simulation.duration_s - scenario.supervisor.capture_hold_s)
-
-
-def estimate_accuracy_from_scenario(scenario):
-    """EstimateAccuracy of a scenario's sensors and estimation sections."""
-    s, e = scenario.sensors, scenario.estimation
-    return EstimateAccuracy(
-        position_sigma_m=s.relative_position.noise_sigma_m, position_rate_hz=s.relative_position.rate_hz,
-        accel_psd_m2_s3=e.accel_psd_m2_s3, attitude_sigma_rad=math.radians(s.target_attitude.noise_sigma_deg),
-        attitude_rate_hz=s.target_attitude.rate_hz, torque_psd_n2m2s=e.torque_psd_n2m2s,
-        converged_attitude_3sigma_rad=math.radians(e.convergence_attitude_3sigma_deg),
-        converged_rate_3sigma_rad_s=math.radians(e.convergence_rate_3sigma_deg_s))
 
 
 def truth_prediction(scenario, t_end):

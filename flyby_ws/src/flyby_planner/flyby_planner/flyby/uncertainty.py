@@ -8,7 +8,6 @@ predicted 3-sigma miss at the grasp (``predicted_miss``).
 Pure numpy/scipy, no ROS. Frames and units as in flyby_planner.flyby.grasp_search (hill, SI).
 """
 
-import dataclasses
 import functools
 import math
 
@@ -16,6 +15,7 @@ import numpy as np
 from scipy.linalg import solve_discrete_are
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_msgs_py import params
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 
@@ -28,7 +28,7 @@ _COVARIANCE_STEP_RAD = 0.3
 _COVARIANCE_STEP_S = 20.0
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class EstimateAccuracy:
     """What the planner predicts the estimators will know at the last burn, from their sensors and tuning
     (scenario sections sensors and estimation; package doc, step 4).
@@ -42,14 +42,14 @@ class EstimateAccuracy:
             plan's estimate is converged, so its covariance is within them.
     """
 
-    position_sigma_m: float
-    position_rate_hz: float
-    accel_psd_m2_s3: float
-    attitude_sigma_rad: float
-    attitude_rate_hz: float
-    torque_psd_n2m2s: float
-    converged_attitude_3sigma_rad: float
-    converged_rate_3sigma_rad_s: float
+    position_sigma_m: float = params.key('sensors.relative_position.noise_sigma_m')
+    position_rate_hz: float = params.key('sensors.relative_position.rate_hz')
+    accel_psd_m2_s3: float = params.key('estimation.accel_psd_m2_s3')
+    attitude_sigma_rad: float = params.key('sensors.target_attitude.noise_sigma_deg', math.radians)
+    attitude_rate_hz: float = params.key('sensors.target_attitude.rate_hz')
+    torque_psd_n2m2s: float = params.key('estimation.torque_psd_n2m2s')
+    converged_attitude_3sigma_rad: float = params.key('estimation.convergence_attitude_3sigma_deg', math.radians)
+    converged_rate_3sigma_rad_s: float = params.key('estimation.convergence_rate_3sigma_deg_s', math.radians)
 
     def __post_init__(self):
         for name in ('position_sigma_m', 'position_rate_hz', 'attitude_sigma_rad', 'attitude_rate_hz',

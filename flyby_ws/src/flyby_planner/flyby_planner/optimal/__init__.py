@@ -14,7 +14,8 @@ Pure numpy/scipy/cvxpy, no ROS. The modules:
   plume and mutual separation as linearized constraints; ``program``: the convex program of one iteration.
 * ``delta_v_bound``: the least delta-v bound of a time and acceleration, whatever the path.
 * ``mutual``: mutual safety against another robot's published plan (seed 003 section 4.2, Fig 12).
-* ``approach``: the approach as the mission plans it (settings, SCP from the estimates, the check before flight).
+* ``approach``: the approach as the mission plans it (ApproachSettings, its parameter record of a scenario; SCP
+  from the estimates, the check before flight).
 * ``sampler``: a plan as time-stamped hill points (position, velocity, acceleration) for /planner/trajectory.
 
 Frames and units as in flyby_planner.flyby.grasp_search: ``hill`` of flyby_sim.dynamics.orbital, velocities relative

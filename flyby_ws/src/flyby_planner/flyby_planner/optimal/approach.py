@@ -24,10 +24,11 @@ import dataclasses
 
 import numpy as np
 
+from flyby_msgs_py import params
 from flyby_planner.flyby.grasp_search import flyby_target_point
 from flyby_planner.flyby.passive_safety import predicted_gaps
 from flyby_planner.optimal.cost import plan_terms
-from flyby_planner.optimal.problem import CostWeights, approach_problem, chaser_from_scenario, planning_plume_radius_m
+from flyby_planner.optimal.problem import Chaser, CostWeights, approach_problem, planning_plume_radius_m
 from flyby_planner.optimal.program import compile_program
 from flyby_planner.optimal.sampler import sample_trajectory
 from flyby_planner.optimal.scp import ScpSettings, plan_scp
@@ -51,23 +52,46 @@ _PLUME_TOLERANCE_MPS2 = 1e-5
 LEAST_FUEL_SCP = ScpSettings(steps=180, substeps=1, max_iterations=30, plume_margin_m=0.2)
 
 
-@dataclasses.dataclass(frozen=True)
-class ApproachSettings:
-    """planner.optimal of a scenario, resolved: the largest acceleration flown [m/s^2], the plan's share of it,
-    plume radius [m], approach time [s] or None (free) within its bounds, eq 5 weights, the trajectory's point
-    spacing [s], the lead from the plan time to the start [s], the offset [m] and the clearance margin [m]."""
+def _accel_max_mps2(scenario):
+    """planner.optimal.accel_max_mps2, or the full thrust over the mass."""
+    o, c = scenario.planner.optimal, scenario.chaser
+    return c.thrusters.max_thrust_n / c.mass_kg if o.accel_max_mps2 is None else o.accel_max_mps2
 
-    accel_max_mps2: float
-    feedback_share: float
-    plume_radius_m: float
-    approach_time_s: float | None
-    approach_time_min_s: float
-    approach_time_max_s: float
-    weights: CostWeights
-    trajectory_step_s: float
-    start_lead_s: float
-    offset_m: float
-    clearance_margin_m: float
+
+def _weights(scenario):
+    """CostWeights of planner.optimal's weight_* (eq 5)."""
+    o = scenario.planner.optimal
+    return CostWeights(actuator=o.weight_actuator, fuel_per_kg=o.weight_fuel, safety=o.weight_safety,
+                       plume=o.weight_plume, time=o.weight_time)
+
+
+@params.record
+class ApproachSettings:
+    """The optimization-based approach's record (planner.optimal of a scenario, resolved): the largest acceleration
+    flown [m/s^2], the plan's share of it, plume radius [m], approach time [s] or None (free) within its bounds, eq 5
+    weights, the trajectory's point spacing [s], the lead from the plan time to the start [s], the offset [m] and the
+    clearance margin [m]; the re-aim's interval [s], bound [m] and cutoff before the grasp [s] (the planner's module
+    doc); the chaser (problem.Chaser), the orbit's mean motion [rad/s], the target's grasp point [m, body] and boxes
+    (flyby_sim.scenario.Boxes)."""
+
+    accel_max_mps2: float = params.derived(_accel_max_mps2)
+    feedback_share: float = params.key('planner.optimal.feedback_share')
+    plume_radius_m: float = params.key('planner.optimal.plume_radius_m')
+    approach_time_s: float | None = params.key('planner.optimal.approach_time_s')
+    approach_time_min_s: float = params.key('planner.optimal.approach_time_min_s')
+    approach_time_max_s: float = params.key('planner.optimal.approach_time_max_s')
+    weights: CostWeights = params.derived(_weights)
+    trajectory_step_s: float = params.key('planner.optimal.trajectory_step_s')
+    start_lead_s: float = params.key('planner.maneuver_lead_s')
+    offset_m: float = params.key('planner.offset_m')
+    clearance_margin_m: float = params.key('planner.clearance_margin_m')
+    reaim_interval_s: float = params.key('planner.optimal.reaim_interval_s')
+    reaim_error_m: float = params.key('planner.optimal.reaim_error_m')
+    replan_cutoff_s: float = params.key('planner.optimal.replan_cutoff_s')
+    chaser: Chaser = params.sub(Chaser)
+    mean_motion_rad_s: float = params.key('mean_motion_rad_s')
+    x_grasp_body_m: np.ndarray = params.key('target.grasp_point_body_m', np.array)
+    boxes: object = params.key('boxes')
 
     @property
     def plan_accel_max_mps2(self):
@@ -78,21 +102,6 @@ class ApproachSettings:
         """How far past the plan time the target prediction must reach [s]."""
         return self.start_lead_s + (self.approach_time_max_s if self.approach_time_s is None
                                     else self.approach_time_s) + 1.0
-
-
-def approach_settings_from_scenario(scenario):
-    """ApproachSettings of a scenario (planner, planner.optimal, chaser.thrusters)."""
-    p, o = scenario.planner, scenario.planner.optimal
-    accel = (scenario.chaser.thrusters.max_thrust_n / scenario.chaser.mass_kg if o.accel_max_mps2 is None
-             else o.accel_max_mps2)
-    return ApproachSettings(
-        accel_max_mps2=accel, feedback_share=o.feedback_share, plume_radius_m=o.plume_radius_m,
-        approach_time_s=o.approach_time_s, approach_time_min_s=o.approach_time_min_s,
-        approach_time_max_s=o.approach_time_max_s,
-        weights=CostWeights(actuator=o.weight_actuator, fuel_per_kg=o.weight_fuel, safety=o.weight_safety,
-                            plume=o.weight_plume, time=o.weight_time),
-        trajectory_step_s=o.trajectory_step_s, start_lead_s=p.maneuver_lead_s, offset_m=p.offset_m,
-        clearance_margin_m=p.clearance_margin_m)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,10 +134,11 @@ def scp_settings_for(settings):
     return LEAST_FUEL_SCP if settings.weights.safety == 0.0 else ScpSettings()
 
 
-def prepare_approach(scenario, settings, obstacles=0):
-    """Compile SCP's program for the plans ``plan_approach`` makes for this scenario with ``obstacles`` other robots
-    to keep off (program.compile_program): at the planner's start, so that the plan time pays for the solves only."""
-    compile_program(1, scp_settings_for(settings), [len(scenario.boxes) + obstacles],
+def prepare_approach(settings, obstacles=0):
+    """Compile SCP's program for the plans ``plan_approach`` makes with these ApproachSettings and ``obstacles`` other
+    robots to keep off (program.compile_program): at the planner's start, so that the plan time pays for the solves
+    only."""
+    compile_program(1, scp_settings_for(settings), [len(settings.boxes) + obstacles],
                     safety_per_robot=[settings.weights.safety > 0.0])
 
 
@@ -156,20 +166,20 @@ def check_approach(plan, prediction, t_grasp, settings, planner_config, rate_hz=
     return problems, float(gaps[k])
 
 
-def plan_approach(scenario, prediction, r_now, v_now, t_now, settings, planner_config, scp_settings=None,
-                  start_state=None, obstacles=()):
+def plan_approach(prediction, r_now, v_now, t_now, settings, planner_config, scp_settings=None, start_state=None,
+                  obstacles=()):
     """Plan the optimization-based approach from the chaser state (r_now [m], v_now [m/s], hill) at the plan time
     t_now [s] with the target-motion prediction (a MotionPrediction covering [t_now, t_now + settings.horizon_s]);
     an ApproachPlan (module doc). scp_settings: scp.ScpSettings (default: its defaults). start_state: the chaser's
     state (6,) at the start, t_now + start_lead_s, where it is not a coast from now (a re-plan while thrusting).
     obstacles: other robots' planned motion the plan keeps off (mutual.MovingObstacle, scp.plan_scp)."""
-    n = scenario.mean_motion_rad_s
+    n = settings.mean_motion_rad_s
     t_start = t_now + settings.start_lead_s
     start = (cw_coast(np.asarray(r_now, dtype=float), np.asarray(v_now, dtype=float), settings.start_lead_s, n)
              if start_state is None else np.asarray(start_state, dtype=float))
-    chaser = dataclasses.replace(chaser_from_scenario(scenario), accel_max_mps2=settings.plan_accel_max_mps2)
+    chaser = dataclasses.replace(settings.chaser, accel_max_mps2=settings.plan_accel_max_mps2)
     least_fuel = settings.weights.safety == 0.0
-    problem = approach_problem(scenario, prediction, start[:3], start[3:], t_start,
+    problem = approach_problem(settings, prediction, start[:3], start[3:], t_start,
                                planning_plume_radius_m(settings.plume_radius_m) if least_fuel
                                else settings.plume_radius_m,
                                offset_m=settings.offset_m, chaser=chaser, weights=settings.weights,

@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from flyby_msgs_py import params
 from flyby_planner.flyby.grasp_search import flyby_target_point
 from flyby_planner.optimal.cost import box_contacts
 from flyby_sim.dynamics.checks import require_positive
@@ -58,14 +59,15 @@ class CostWeights:
             require_positive(name, getattr(self, name), allow_zero=True)
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class Chaser:
-    """The robot: mass [kg], specific impulse [s], largest thrust acceleration [m/s^2], envelope radius [m]."""
+    """The robot: mass [kg], specific impulse [s], largest thrust acceleration [m/s^2] (of a scenario: the full
+    thrust over the mass, thrusters.max_thrust_n / mass_kg), envelope radius [m]."""
 
-    mass_kg: float
-    isp_s: float
-    accel_max_mps2: float
-    envelope_radius_m: float
+    mass_kg: float = params.key('chaser.mass_kg')
+    isp_s: float = params.key('chaser.thrusters.isp_s')
+    accel_max_mps2: float = params.derived(lambda sc: sc.chaser.thrusters.max_thrust_n / sc.chaser.mass_kg)
+    envelope_radius_m: float = params.key('chaser.envelope_radius_m')
 
     def __post_init__(self):
         for name in ('mass_kg', 'isp_s', 'accel_max_mps2'):
@@ -230,25 +232,16 @@ def heuristic_route(problem, duration_s, samples=200):
     return best
 
 
-def chaser_from_scenario(scenario, accel_max_mps2=None):
-    """Chaser of a scenario's chaser section: mass, Isp, envelope, and the largest acceleration (default the full
-    thrust over the mass, thrusters.max_thrust_n / mass_kg)."""
-    c = scenario.chaser
-    accel = c.thrusters.max_thrust_n / c.mass_kg if accel_max_mps2 is None else accel_max_mps2
-    return Chaser(mass_kg=c.mass_kg, isp_s=c.thrusters.isp_s, accel_max_mps2=accel,
-                  envelope_radius_m=c.envelope_radius_m)
-
-
-def approach_problem(scenario, prediction, r0_hill, v0_hill, t0_s, plume_radius_m, x_grasp_body=None, offset_m=None,
+def approach_problem(settings, prediction, r0_hill, v0_hill, t0_s, plume_radius_m, x_grasp_body=None, offset_m=None,
                      chaser=None, weights=CostWeights(), duration_min_s=20.0, duration_max_s=200.0):
-    """ApproachProblem of a scenario's target (geometry, grasp point, planner.offset_m by default) from a
-    MotionPrediction (the estimator's, or flyby_planner.flyby.config.truth_prediction) and the chaser's state at
-    t0_s."""
-    n = scenario.mean_motion_rad_s
-    grasp = scenario.target.grasp_point_body_m if x_grasp_body is None else x_grasp_body
-    offset = scenario.planner.offset_m if offset_m is None else offset_m
+    """ApproachProblem of the target of ``settings`` (optimal.approach.ApproachSettings: its boxes, grasp point,
+    offset and chaser by default) from a MotionPrediction (the estimator's, or
+    flyby_planner.flyby.config.truth_prediction) and the chaser's state at t0_s."""
+    n = settings.mean_motion_rad_s
+    grasp = settings.x_grasp_body_m if x_grasp_body is None else x_grasp_body
+    offset = settings.offset_m if offset_m is None else offset_m
     return ApproachProblem(
         r0_hill=np.asarray(r0_hill, dtype=float), v0_hill=np.asarray(v0_hill, dtype=float), t0_s=float(t0_s),
-        terminal=GraspTerminal(prediction, grasp, offset), target=TargetMotion(prediction, scenario.boxes, n),
-        chaser=chaser_from_scenario(scenario) if chaser is None else chaser, n=n, plume_radius_m=plume_radius_m,
+        terminal=GraspTerminal(prediction, grasp, offset), target=TargetMotion(prediction, settings.boxes, n),
+        chaser=settings.chaser if chaser is None else chaser, n=n, plume_radius_m=plume_radius_m,
         weights=weights, duration_min_s=duration_min_s, duration_max_s=duration_max_s)
