@@ -14,7 +14,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import bag_topics
 from flyby_msgs_py.runtime import READY_TOPIC, announce_ready, run_loop
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 from flyby_sim.sim_node import SimNode
 from flyby_testing import collect, run_mission, spin_until, with_duration, write_scenario
@@ -89,7 +89,7 @@ def test_time_tagged_maneuver_starts_at_its_stamp_and_delivers_its_dv(started, e
 
     # The node's truth is the core's: a twin plant given the same command agrees to the bit.
     scenario = load_scenario(scenario_path)
-    twin = Plant(plant_config_from_scenario(scenario))
+    twin = Plant(PlantConfig.from_scenario(scenario))
     twin.command_maneuver(t_burn, dv_cmd)
     while twin.t < 15.0 - 1e-9:
         sample = twin.step()

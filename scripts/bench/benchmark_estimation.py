@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
+from flyby_estimation.params import TargetFilterParams
+from flyby_estimation.target_filter import TargetAttitudeFilter
 from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 
@@ -43,7 +44,7 @@ def main():
     for path in scenarios:
         sc = load_scenario(path)
         measurements = record_measurements(sc, args.updates)
-        filt = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+        filt = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
         filt.update(*measurements[0])
         costs = np.empty(len(measurements) - 1)
         for k, (t, q) in enumerate(measurements[1:]):

@@ -15,7 +15,8 @@ import numpy as np
 
 from flyby_estimation.batch import error_between
 from flyby_estimation.filter_interface import REJECTION_KINDS
-from flyby_estimation.target_filter import TargetAttitudeFilter, target_filter_config_from_scenario
+from flyby_estimation.params import TargetFilterParams
+from flyby_estimation.target_filter import TargetAttitudeFilter
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import quat_to_matrix
@@ -29,7 +30,7 @@ def run_one(path, seed, duration_s, horizon_s, accuracy_time_s=60.0):
     config = PlantConfig.from_scenario(sc)
     plant = Plant(config)
     n = plant.mean_motion_rad_s
-    filt = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+    filt = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
     times, nees = [], []
     accuracy = None
     t_first = None

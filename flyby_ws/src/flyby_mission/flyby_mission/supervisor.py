@@ -42,7 +42,8 @@ observable condition and carries its reason:
 
 ``SupervisorCore`` adds what the node observes and decides around the phase machine (the estimates
 by stamp, the capture decision from them, the avoidance burn after an abort); the supervisor node and
-the headless driver (flyby_mission.headless) both run it.
+the headless driver (flyby_mission.headless) both run it, each building its ``SupervisorParams`` (the record of what
+it reads of the scenario, flyby_msgs_py.params) from the scenario.
 """
 
 import dataclasses
@@ -53,11 +54,11 @@ import numpy as np
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import events, params
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.flyby.avoidance import avoidance_burn
-from flyby_planner.flyby.config import planner_config_from_scenario
+from flyby_planner.flyby.config import PlannerConfig
 from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
 from flyby_planner.flyby.keepout import swept_region
 from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
@@ -87,33 +88,55 @@ NO_SAFE_PLAN_PREFIX = 'no safe plan: '
 _LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN'}
 
 
-@dataclasses.dataclass(frozen=True)
-class SupervisorConfig:
-    min_observation_s: float
-    restriction_sphere_radius_m: float
-    reach_m: float
-    position_tolerance_m: float
-    velocity_tolerance_mps: float
-    capture_hold_s: float
-    escape_observation_s: float
-    watchdog_s: float
-    watched_nodes: tuple = WATCHED_NODES
-    post_capture: bool = False  # the scenario's post_capture section: the capture goes on to GRASP
-    start_attached: bool = False  # post_capture.start attached: the run starts in MASS_ESTIMATION (seed 004 §3.1)
-    transport: bool = False  # post_capture.transport: the estimation goes on to TRANSPORT
+def _has_post_capture(scenario):
+    return scenario.post_capture is not None
 
 
-def supervisor_config_from_scenario(scenario, watched_nodes=WATCHED_NODES):
-    m, s = scenario.chaser.manipulator, scenario.supervisor
-    return SupervisorConfig(
-        min_observation_s=scenario.planner.min_observation_s,
-        restriction_sphere_radius_m=scenario.planner.restriction_sphere_radius_m, reach_m=m.reach_m,
-        position_tolerance_m=m.position_tolerance_m, velocity_tolerance_mps=m.velocity_tolerance_mps,
-        capture_hold_s=s.capture_hold_s,
-        escape_observation_s=scenario.planner.escape_check_orbits * scenario.orbit_period_s,
-        watchdog_s=s.watchdog_s, watched_nodes=tuple(watched_nodes), post_capture=scenario.post_capture is not None,
-        start_attached=scenario.post_capture is not None and scenario.post_capture.start == 'attached',
-        transport=scenario.post_capture is not None and scenario.post_capture.transport is not None)
+def _starts_attached(scenario):
+    return scenario.post_capture is not None and scenario.post_capture.start == 'attached'
+
+
+def _has_transport(scenario):
+    return scenario.post_capture is not None and scenario.post_capture.transport is not None
+
+
+def _escape_observation_s(scenario):
+    return scenario.planner.escape_check_orbits * scenario.orbit_period_s
+
+
+def _target_boxes(scenario):
+    """The target's boxes as (center_m, size_m) body-frame pairs (the docking axis of a synchronized approach)."""
+    return [(b.center_m, b.size_m) for b in scenario.target.geometry]
+
+
+@params.record
+class SupervisorParams:
+    """What the supervisor reads of the scenario (flyby_msgs_py.params): the phase machine's thresholds and timers,
+    the capture tolerances (seed 000 section 4.1), the target's model for the capture decision and what the
+    avoidance burn of an abort needs. ``offset_m`` is the preferred fly-by offset, the decision's only where no
+    plan has said its own (SupervisorCore._try_decision)."""
+
+    min_observation_s: float = params.key('planner.min_observation_s')
+    restriction_sphere_radius_m: float = params.key('planner.restriction_sphere_radius_m')
+    sphere_margin_m: float = params.key('guidance.sphere_margin_m')
+    command_lead_s: float = params.key('guidance.command_lead_s')
+    reach_m: float = params.key('chaser.manipulator.reach_m')
+    position_tolerance_m: float = params.key('chaser.manipulator.position_tolerance_m')
+    velocity_tolerance_mps: float = params.key('chaser.manipulator.velocity_tolerance_mps')
+    capture_hold_s: float = params.key('supervisor.capture_hold_s')
+    escape_observation_s: float = params.derived(_escape_observation_s)
+    watchdog_s: float = params.key('supervisor.watchdog_s')
+    avoidance_delta_v_mps: float = params.key('supervisor.avoidance_delta_v_mps')
+    offset_m: float = params.key('planner.offset_m')
+    x_grasp_body_m: np.ndarray = params.key('target.grasp_point_body_m', np.array)
+    target_boxes: list = params.derived(_target_boxes)  # (center_m, size_m) per box, target_body
+    boxes: object = params.key('boxes')  # flyby_sim.scenario.Boxes: the keep-out region the avoidance burn clears
+    target_inertia_kg_m2: np.ndarray = params.key('target_inertia')
+    n_rad_s: float = params.key('mean_motion_rad_s')
+    planner: PlannerConfig = params.sub(PlannerConfig)  # the avoidance burn's passive-safety check
+    post_capture: bool = params.derived(_has_post_capture)  # the capture goes on to GRASP
+    start_attached: bool = params.derived(_starts_attached)  # the run starts in MASS_ESTIMATION (seed 004 §3.1)
+    transport: bool = params.derived(_has_transport)  # the estimation goes on to TRANSPORT
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,24 +155,25 @@ class CaptureDecision:
     values: dict
 
 
-def capture_decision(r_hill, v_hill, x_g, x_ft, v_ft, config):
+def capture_decision(r_hill, v_hill, x_g, x_ft, v_ft, tolerances):
     """Capture if the manipulator can absorb the estimated error (seed 000 section 4.1).
 
     The chaser, estimated at (r, v) at the grasp time, must be within position_tolerance_m and
     velocity_tolerance_mps of the fly-by target point (X_Ft, V_Ft: where it should be, moving as the
-    grasp point's offset does, eq 20-21) and the grasp point x_g within reach_m. Otherwise escape.
+    grasp point's offset does, eq 20-21) and the grasp point x_g within reach_m (``tolerances``: SupervisorParams).
+    Otherwise escape.
     """
     e_pos = float(np.linalg.norm(np.asarray(r_hill) - x_ft))
     e_vel = float(np.linalg.norm(np.asarray(v_hill) - v_ft))
     reach = float(np.linalg.norm(np.asarray(x_g) - r_hill))
     values = {'position_error_m': e_pos, 'velocity_error_mps': e_vel, 'grasp_distance_m': reach}
     problems = []
-    if e_pos > config.position_tolerance_m:
-        problems.append(f'position error {e_pos:.3f} m > {config.position_tolerance_m:g} m')
-    if e_vel > config.velocity_tolerance_mps:
-        problems.append(f'velocity error {e_vel * 1e3:.1f} mm/s > {config.velocity_tolerance_mps * 1e3:g} mm/s')
-    if reach > config.reach_m:
-        problems.append(f'grasp point {reach:.3f} m away > reach {config.reach_m:g} m')
+    if e_pos > tolerances.position_tolerance_m:
+        problems.append(f'position error {e_pos:.3f} m > {tolerances.position_tolerance_m:g} m')
+    if e_vel > tolerances.velocity_tolerance_mps:
+        problems.append(f'velocity error {e_vel * 1e3:.1f} mm/s > {tolerances.velocity_tolerance_mps * 1e3:g} mm/s')
+    if reach > tolerances.reach_m:
+        problems.append(f'grasp point {reach:.3f} m away > reach {tolerances.reach_m:g} m')
     if problems:
         return CaptureDecision(False, 'escape: ' + '; '.join(problems), values)
     return CaptureDecision(True, f'capture: position error {e_pos * 100:.1f} cm, velocity error '
@@ -159,9 +183,12 @@ def capture_decision(r_hill, v_hill, x_g, x_ft, v_ft, config):
 class PhaseMachine:
     """The phase logic (module doc). Each input method returns the list of transitions it caused."""
 
-    def __init__(self, config):
-        self.config = config
-        self.phase = c.PHASE_MASS_ESTIMATION if config.start_attached else c.PHASE_ESTIMATION
+    def __init__(self, params, watched_nodes=WATCHED_NODES):
+        """params: SupervisorParams; watched_nodes: the nodes whose silence or faults abort (the node's parameter,
+        not the scenario's)."""
+        self.params = params
+        self.watched_nodes = tuple(watched_nodes)
+        self.phase = c.PHASE_MASS_ESTIMATION if params.start_attached else c.PHASE_ESTIMATION
         self.t_first_estimate = None
         self.converged = False
         self.t_i = None
@@ -193,7 +220,7 @@ class PhaseMachine:
         if self.phase != c.PHASE_ESTIMATION or not self.converged or self.t_first_estimate is None:
             return []
         observed = t - self.t_first_estimate
-        if observed < self.config.min_observation_s:
+        if observed < self.params.min_observation_s:
             return []
         return self._go(t, c.PHASE_PLANNING, f'target estimate converged; {observed:.1f} s of attitude data',
                         {'observation_s': observed})
@@ -221,7 +248,7 @@ class PhaseMachine:
             return self._go(t, c.PHASE_SYNC_APPROACH, f'synchronized approach selected: station at t = '
                                                       f"{float(values['t_arrival_s']):.2f} s",
                             {'t_arrival_s': float(values['t_arrival_s'])})
-        if name in _SYNC_STEPS and self.phase == _SYNC_STEPS[name][0] and source in self.config.watched_nodes:
+        if name in _SYNC_STEPS and self.phase == _SYNC_STEPS[name][0] and source in self.watched_nodes:
             if 't_grasp_s' in values:
                 self.t_grasp = float(values['t_grasp_s'])
             return self._go(t, _SYNC_STEPS[name][1], values.get('reason', name),
@@ -242,16 +269,16 @@ class PhaseMachine:
             return []
         if name == events.THRUSTING_ENDED and self.phase == c.PHASE_TRAJECTORY_ADJUST:
             return self._go(t, c.PHASE_FLYBY, 'guidance ended thrusting: passive fly-by')
-        if self.config.transport and (self.phase, name) in _TRANSPORT_STEPS:
+        if self.params.transport and (self.phase, name) in _TRANSPORT_STEPS:
             return self._go(t, _TRANSPORT_STEPS[(self.phase, name)], values.get('reason', name),
                             {k: v for k, v in values.items() if k != 'reason'})
-        if self.config.post_capture and (self.phase, name) in _POST_CAPTURE_STEPS:
+        if self.params.post_capture and (self.phase, name) in _POST_CAPTURE_STEPS:
             return self._go(t, _POST_CAPTURE_STEPS[(self.phase, name)], values.get('reason', name),
                             {k: v for k, v in values.items() if k != 'reason'})
         if name == events.NODE_ERROR and self.phase in ACTIVE_PHASES:  # any node's core raised (core_guard)
             return self._go(t, c.PHASE_ABORTED, f'{name}: {values.get("reason", source)}',
                             {'source': source, 'event': name})
-        if level == 'ERROR' and source in self.config.watched_nodes and self.phase in ACTIVE_PHASES:
+        if level == 'ERROR' and source in self.watched_nodes and self.phase in ACTIVE_PHASES:
             return self._go(t, c.PHASE_ABORTED, f'fault reported by {source}: {name}',
                             {'source': source, 'event': name})
         return []
@@ -260,7 +287,7 @@ class PhaseMachine:
         """Transitions due at a chaser estimate; the capture decision is ``decide`` (it needs the target)."""
         if self.phase == c.PHASE_TERMINAL_APPROACH and t >= self.t_i:
             return self._go(t, c.PHASE_TRAJECTORY_ADJUST, f'injection time t_i = {self.t_i:.2f} s reached')
-        if self.phase == c.PHASE_TRAJECTORY_ADJUST and np.linalg.norm(r_hill) < self.config.restriction_sphere_radius_m:
+        if self.phase == c.PHASE_TRAJECTORY_ADJUST and np.linalg.norm(r_hill) < self.params.restriction_sphere_radius_m:
             return self._go(t, c.PHASE_FLYBY, 'inside the restriction sphere: passive fly-by')
         return []
 
@@ -275,22 +302,22 @@ class PhaseMachine:
                         {'t_grasp_s': self.t_grasp, **decision.values})
 
     def node_progress(self, node, t):
-        if node in self.config.watched_nodes:
+        if node in self.watched_nodes:
             self.progress[node] = max(t, self.progress.get(node, -math.inf))
         return []
 
     def clock(self, t):
         """Timers: the watchdog in the active phases, the holds before COMPLETE."""
         if self.phase in ACTIVE_PHASES:
-            for node in self.config.watched_nodes:
+            for node in self.watched_nodes:
                 last = self.progress.get(node, 0.0)
-                if t - last > self.config.watchdog_s:
+                if t - last > self.params.watchdog_s:
                     return self._go(t, c.PHASE_ABORTED, f'watchdog: {node} silent for {t - last:.1f} s',
                                     {'node': node, 'last_progress_s': last})
-        if self.phase == c.PHASE_CAPTURE and not self.config.post_capture and \
-                t - self.t_entered >= self.config.capture_hold_s:
+        if self.phase == c.PHASE_CAPTURE and not self.params.post_capture and \
+                t - self.t_entered >= self.params.capture_hold_s:
             return self._go(t, c.PHASE_COMPLETE, f'attached for {t - self.t_entered:.1f} s')
-        if self.phase == c.PHASE_ESCAPE and t - self.t_entered >= self.config.escape_observation_s:
+        if self.phase == c.PHASE_ESCAPE and t - self.t_entered >= self.params.escape_observation_s:
             return self._go(t, c.PHASE_COMPLETE, f'passive escape observed for {t - self.t_entered:.1f} s')
         return []
 
@@ -305,15 +332,18 @@ class SupervisorCore:
     events, progress and clock, the capture decision at the grasp time and the avoidance burn after
     an abort (module doc). Every input method returns the outputs to publish, in order: Transition
     (mission/phase), Event (mission/events) and guidance.Maneuver-like (t, dv_hill) commands
-    (``AvoidanceBurn``, on guidance/maneuver)."""
+    (``AvoidanceBurn``, on guidance/maneuver).
 
-    def __init__(self, scenario, watched_nodes=WATCHED_NODES, name='flyby_supervisor'):
-        self.scenario = scenario
+    The capture is decided against the offset of the plan flown: the plan_selected event's (a re-plan may pick
+    another than the preferred one, and the decision must judge the passage guidance flies), the record's
+    preferred ``offset_m`` only while no plan has said one."""
+
+    def __init__(self, params: SupervisorParams, watched_nodes=WATCHED_NODES, name='flyby_supervisor'):
+        self.params = params
         self.name = name
-        self.machine = PhaseMachine(supervisor_config_from_scenario(scenario, watched_nodes))
-        self.planner_config = planner_config_from_scenario(scenario)
-        self.dynamics = ErrorStateDynamics(scenario.target_inertia)
-        self.n = scenario.mean_motion_rad_s
+        self.machine = PhaseMachine(params, watched_nodes)
+        self.dynamics = ErrorStateDynamics(params.target_inertia_kg_m2)
+        self.n = params.n_rad_s
         self.targets = StampedBuffer()  # (t, q_hill_from_body, omega_body) of the target estimates
         self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
         self.decision_at = None  # the chaser estimate the capture decision waits to be made at
@@ -373,12 +403,11 @@ class SupervisorCore:
             self.machine.t_grasp = self.decision_at[0]
         target = self.targets.last_at_or_before(self.machine.t_grasp) or self.targets.first_at_or_after(
             self.machine.t_grasp)
-        sc = self.scenario
-        x_target_body = capture_target_body(self.machine.method, self.planner_config.x_grasp_body_m,
-                                            self.machine.offset_m or sc.planner.offset_m,
-                                            [(b.center_m, b.size_m) for b in sc.target.geometry])
+        p = self.params
+        offset_m = self.machine.offset_m if self.machine.offset_m is not None else p.offset_m
+        x_target_body = capture_target_body(self.machine.method, p.x_grasp_body_m, offset_m, p.target_boxes)
         decision = decide_capture(self.decision_at, target[1], self.machine.t_grasp, self.dynamics, self.n,
-                                  self.planner_config.x_grasp_body_m, x_target_body, self.machine.config)
+                                  p.x_grasp_body_m, x_target_body, p)
         return self._apply(self.machine.decide(self.decision_at[0], decision))
 
     def _escape_burn(self, t):
@@ -386,17 +415,16 @@ class SupervisorCore:
         latest = self.targets.latest
         if self.chaser is None or latest is None:
             return []
-        sc = self.scenario
+        p = self.params
         t_c, r, v = self.chaser
-        t_burn = max(t, t_c) + sc.guidance.command_lead_s
+        t_burn = max(t, t_c) + p.command_lead_s
         state = cw_coast(r, v, t_burn - t_c, self.n)
-        if np.linalg.norm(state[:3]) < sc.planner.restriction_sphere_radius_m + sc.guidance.sphere_margin_m:
+        if np.linalg.norm(state[:3]) < p.restriction_sphere_radius_m + p.sphere_margin_m:
             return [self._event(t, 'WARN', events.NO_AVOIDANCE_BURN, 'inside the restriction sphere: coasting, never '
                                                                        'thrusting', {})]
         t_t, q_hb, omega_body = latest[1]
-        region = swept_region(sc.boxes, sc.target_inertia, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
-        dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, self.planner_config,
-                                           sc.supervisor.avoidance_delta_v_mps)
+        region = swept_region(p.boxes, p.target_inertia_kg_m2, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
+        dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, p.planner, p.avoidance_delta_v_mps)
         if dv is None:
             return [self._event(t, 'OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
                                                                     f'{before:.2f} m)', {'clearance_m': before})]
@@ -431,7 +459,7 @@ class AvoidanceBurn:
     dv_hill: np.ndarray
 
 
-def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, x_target_body, config):
+def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, x_target_body, tolerances):
     """The capture decision at the grasp time t_grasp from a chaser estimate (t, r_hill, v_hill) and a
     target estimate (t, q_hill_from_body, omega_body), both carried to t_g: the chaser along CW (eq 22),
     the target by its torque-free motion (eq 4); the target point is the body point x_target_body
@@ -443,4 +471,4 @@ def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, x_target_
     s = prediction_from_estimate(dynamics, n, t_t, q_hb, omega_body, t_at).state(t_at)
     x_g, _ = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_grasp_body, n)
     x_ft, v_ft = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_target_body, n)
-    return capture_decision(state[:3], state[3:], x_g, x_ft, v_ft, config)
+    return capture_decision(state[:3], state[3:], x_g, x_ft, v_ft, tolerances)

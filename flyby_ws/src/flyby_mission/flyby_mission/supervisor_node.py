@@ -12,7 +12,7 @@ reason, and after an abort outside the restriction sphere at most one collision-
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
+from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.node_base import CoreNode
@@ -29,7 +29,7 @@ class SupervisorNode(CoreNode):
         self.declare_parameter('watched_nodes', list(WATCHED_NODES))
         watched = tuple(w for w in self.get_parameter('watched_nodes').value if w)
         scenario = scenario_of(self)
-        self.core = SupervisorCore(scenario, watched, self.get_name())
+        self.core = SupervisorCore(SupervisorParams.from_scenario(scenario), watched, self.get_name())
         self.pub_phase, self.pub_events, self.pub_maneuver = (
             self.publisher(c.MISSION_PHASE), self.publisher(c.MISSION_EVENTS), self.publisher(c.GUIDANCE_MANEUVER))
         self.subscribe_inputs(scenario, {**self.estimate_inputs(quat_rotate), c.MISSION_EVENTS: self.on_events_message})

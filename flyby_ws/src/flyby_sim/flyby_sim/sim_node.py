@@ -59,7 +59,7 @@ from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPI
 from flyby_msgs_py.wire import Event, wire_time
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import scenario_of
 
 STARTUP_TIMEOUT_S = 30.0
@@ -99,7 +99,7 @@ class _Chaser:
     def __init__(self, name, scenario):
         self.name = name
         self.scenario = scenario
-        self.plant = Plant(plant_config_from_scenario(scenario))
+        self.plant = Plant(PlantConfig.from_scenario(scenario))
         self.rigid = scenario.chaser.model == 'rigid_body'
         self.pubs = {}
         self.announced_ns = collections.deque()

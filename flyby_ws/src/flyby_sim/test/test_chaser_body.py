@@ -29,16 +29,29 @@ from flyby_sim.dynamics.rotation import (
     quat_to_matrix,
     rotation_vector_from_quat,
 )
-from flyby_sim.plant import Plant, PlantConfig, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 REPO = Path(__file__).resolve().parents[4]
 RADIUS_M = 7.0e6
 N = mean_motion_rad_s(RADIUS_M)
-EXACT = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.0, max_delta_v_per_maneuver_mps=2.0)
+EXACT = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.0, max_delta_v_per_maneuver_mps=2.0,
+                       magnitude_error_sigma=0.0, direction_error_sigma_rad=0.0)
 NOISY = dataclasses.replace(EXACT, min_impulse_bit_ns=0.01, magnitude_error_sigma=0.05,
                             direction_error_sigma_rad=math.radians(1.0))
-BODY = RigidChaserConfig(inertia=((10.0, 0.3, -0.2), (0.3, 12.0, 0.1), (-0.2, 0.1, 9.0)))
+# paper_flyby: seed 000 section 5; its chaser's rigid-body keys are the schema's defaults (wheels, IMU, layout).
+PAPER_FLYBY = load_scenario(REPO / 'scenarios' / 'paper_flyby.yaml')
+SCHEMA_BODY = RigidChaserConfig.from_scenario(PAPER_FLYBY)
+
+
+def rigid_body(**fields):
+    """The schema's rigid-body chaser at rest, aligned with hill, its wheels at zero momentum, with ``fields``."""
+    return dataclasses.replace(SCHEMA_BODY, **{'q_hill_from_body0': (0.0, 0.0, 0.0, 1.0),
+                                               'omega_body0': (0.0, 0.0, 0.0), 'wheel_momentum0_n_m_s': None,
+                                               **fields})
+
+
+BODY = rigid_body(inertia=((10.0, 0.3, -0.2), (0.3, 12.0, 0.1), (-0.2, 0.1, 9.0)))
 PYRAMID_AXES = ((1.0, 0.0, 1.0 / math.sqrt(2)), (0.0, 1.0, 1.0 / math.sqrt(2)), (-1.0, 0.0, 1.0 / math.sqrt(2)),
                 (0.0, -1.0, 1.0 / math.sqrt(2)))
 
@@ -50,7 +63,7 @@ def plant_config(body=BODY, **changes):
                 omega_body0=(0.0, 0.0, math.radians(5.0)), thrusters=EXACT, step_s=0.05, position_sigma_m=0.01,
                 attitude_sigma_rad=math.radians(1.0), restriction_sphere_radius_m=15.0, seed=1, chaser_body=body)
     base.update(changes)
-    return PlantConfig(**base)
+    return dataclasses.replace(PlantConfig.from_scenario(PAPER_FLYBY), **base)
 
 
 def step_to(plant, t_end):
@@ -79,8 +92,8 @@ def test_seed001_eq3_torque_free_chaser_keeps_momentum_and_energy(moments, axes_
     """No command for 1000 s (20000 plant steps): the inertial angular momentum (body + wheels) and 1/2 omega.I omega
     stay to 1e-9 relative; the wheels keep their momentum."""
     inertia = inertia_from(moments, axes_rotvec)
-    body = RigidChaserConfig(inertia=inertia, q_hill_from_body0=tuple(quat_normalize([0.3, -0.1, 0.5, 0.8])),
-                             omega_body0=omega0, wheel_momentum0_n_m_s=h_wheels0)
+    body = rigid_body(inertia=inertia, q_hill_from_body0=tuple(quat_normalize([0.3, -0.1, 0.5, 0.8])),
+                     omega_body0=omega0, wheel_momentum0_n_m_s=h_wheels0)
     plant = Plant(plant_config(body, dynamics='cw'))
     axes = body.wheel_axes_body
     h0 = inertial_momentum(plant.truth(), inertia, axes)
@@ -106,8 +119,8 @@ def test_wheel_motor_torques_exchange_momentum_with_the_body_and_keep_the_total(
     """Four pyramid wheels under held motor torques for 100 s, past their momentum limits: the total inertial momentum
     stays to 1e-9 while the wheels' share changes; a wheel stops exactly at its limit and that is reported."""
     inertia = inertia_from(moments, axes_rotvec)
-    body = RigidChaserConfig(inertia=inertia, omega_body0=omega0, wheel_axes_body=PYRAMID_AXES,
-                             wheel_momentum0_n_m_s=(0.5, -0.5, 0.2, 0.0))
+    body = rigid_body(inertia=inertia, omega_body0=omega0, wheel_axes_body=PYRAMID_AXES,
+                     wheel_momentum0_n_m_s=(0.5, -0.5, 0.2, 0.0))
     plant = Plant(plant_config(body, dynamics='cw'))
     plant.command_wheels(0.0, torques)
     axes = [np.array(a) / np.linalg.norm(a) for a in PYRAMID_AXES]
@@ -130,8 +143,8 @@ def test_wheel_motor_torques_exchange_momentum_with_the_body_and_keep_the_total(
 def test_wheel_limits_and_motion_agree_with_gyrostat_propagator():
     """Against the independent DOP853 propagator (rtol 1e-12) with the same held torques, limits included: the body
     rate and the wheel momenta agree to 1e-9 over 60 s, attitude to 1e-9 rad."""
-    body = RigidChaserConfig(inertia=((10.0, 0.3, -0.2), (0.3, 12.0, 0.1), (-0.2, 0.1, 9.0)),
-                             omega_body0=(0.05, -0.02, 0.03), wheel_momentum0_n_m_s=(3.5, -1.0, 0.0))
+    body = rigid_body(inertia=((10.0, 0.3, -0.2), (0.3, 12.0, 0.1), (-0.2, 0.1, 9.0)),
+                     omega_body0=(0.05, -0.02, 0.03), wheel_momentum0_n_m_s=(3.5, -1.0, 0.0))
     plant = Plant(plant_config(body, dynamics='cw'))
     u = (0.1, -0.04, 0.2)  # wheel 2 is clipped to 0.1 N m; wheel 0 reaches 4 N m s at t = 5 s, wheel 2 at 40 s
     plant.command_wheels(0.0, u)
@@ -346,8 +359,8 @@ def test_small_burn_off_the_body_axes_delivers_its_delta_v_despite_the_minimum_i
 def test_burn_in_orbit_with_the_attitude_held_in_hill_delivers_dv_along_its_hill_direction():
     """On the real orbit, a spherical chaser turning with hill (omega = (0, -n, 0)) holds its attitude in hill: the
     delivered thrust acceleration, integrated in hill, is dv to 1e-6 and the sum of |dv| is |dv|."""
-    body = RigidChaserConfig(inertia=np.diag([10.0, 10.0, 10.0]), q_hill_from_body0=(0.0, 0.0, 1.0, 0.0),
-                             omega_body0=tuple(quat_rotate((0.0, 0.0, -1.0, 0.0), (0.0, -N, 0.0))))
+    body = rigid_body(inertia=np.diag([10.0, 10.0, 10.0]), q_hill_from_body0=(0.0, 0.0, 1.0, 0.0),
+                     omega_body0=tuple(quat_rotate((0.0, 0.0, -1.0, 0.0), (0.0, -N, 0.0))))
     plant = Plant(plant_config(body))
     dv = np.array([-0.1, 0.05, 0.2])
     plant.command_maneuver(1.0, dv)
@@ -454,7 +467,8 @@ def test_imu_accelerometer_senses_a_burn_shorter_than_its_interval_in_full():
     interval, so its value times 0.1 s is the burn's delta-v in chaser_body (noise off); the next interval, with
     nothing firing, reads zero. The body is turned 90 deg from hill, so the increment is resolved in body axes."""
     q0 = tuple(quat_from_axis_angle([0.0, 0.0, 1.0], math.pi / 2).tolist())
-    body = dataclasses.replace(BODY, q_hill_from_body0=q0, imu=ImuConfig(accel_noise_sigma_mps2=0.0))
+    quiet = dataclasses.replace(BODY.imu, accel_noise_sigma_mps2=0.0)
+    body = dataclasses.replace(BODY, q_hill_from_body0=q0, imu=quiet)
     plant = Plant(plant_config(body, mu=1e-6))
     dv = np.array([2e-4, -1e-4, 1.5e-4])
     plant.command_maneuver(0.52, dv)  # 0.52 s to 0.52 s + 2.7 ms, inside the interval (0.5, 0.6]
@@ -525,8 +539,8 @@ def test_rigid_body_keys_leave_a_point_mass_run_identical():
                         strict=True)]
     with_keys['sensors']['chaser_imu']['gyro_noise_sigma_rad_s'] = 0.1
     with_keys['name'], with_keys['description'] = data['name'], data['description']
-    a_config = plant_config_from_scenario(scenario_from_dict(data))
-    b_config = plant_config_from_scenario(scenario_from_dict(with_keys))
+    a_config = PlantConfig.from_scenario(scenario_from_dict(data))
+    b_config = PlantConfig.from_scenario(scenario_from_dict(with_keys))
     assert a_config == b_config and b_config.chaser_body is None
     runs = []
     for config in (a_config, b_config):
@@ -539,7 +553,7 @@ def test_rigid_body_keys_leave_a_point_mass_run_identical():
 
 def test_paper_flyby_6dof_builds_the_rigid_body_chaser_at_its_documented_defaults():
     sc = load_scenario(REPO / 'scenarios' / 'paper_flyby_6dof.yaml')
-    config = plant_config_from_scenario(sc)
+    config = PlantConfig.from_scenario(sc)
     body = config.chaser_body
     assert body.inertia == ((10.0, 0.0, 0.0), (0.0, 10.0, 0.0), (0.0, 0.0, 10.0))
     plant = Plant(config)
@@ -547,13 +561,13 @@ def test_paper_flyby_6dof_builds_the_rigid_body_chaser_at_its_documented_default
     np.testing.assert_allclose(quat_rotate(s.q_hill_from_chaser_body, [1.0, 0.0, 0.0]), [-1.0, 0.0, 0.0], atol=1e-15)
     assert s.omega_chaser_body.tolist() == [0.0, 0.0, 0.0]
     assert plant.chaser.layout.count == 12 and plant.chaser.wheels.count == 3
-    assert body.imu == ImuConfig()
+    assert body.imu == SCHEMA_BODY.imu
     # The file writes out the defaults: without the rigid-body keys it is the same chaser.
     data = yaml.safe_load((REPO / 'scenarios' / 'paper_flyby_6dof.yaml').read_text())
     for key in ('inertia_kg_m2', 'initial_attitude', 'initial_rate', 'wheels'):
         del data['chaser'][key]
     del data['sensors']['chaser_imu']
-    assert plant_config_from_scenario(scenario_from_dict(data)) == config
+    assert PlantConfig.from_scenario(scenario_from_dict(data)) == config
 
 
 def test_capture_carries_the_chaser_attitude_with_the_target():

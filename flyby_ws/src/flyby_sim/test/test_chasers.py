@@ -6,7 +6,7 @@ import pytest
 import yaml
 
 from flyby_msgs_py.schema import ScenarioError
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[4]
@@ -41,7 +41,7 @@ def test_first_chaser_draws_as_alone():
     """chaser1 of the two-robot file is jacobsen_optimal's chaser with the same seed: the same plant, to the bit."""
     one = load_scenario(TWO).for_chaser('chaser1')
     alone = load_scenario(ONE)
-    a, b = Plant(plant_config_from_scenario(one)), Plant(plant_config_from_scenario(alone))
+    a, b = Plant(PlantConfig.from_scenario(one)), Plant(PlantConfig.from_scenario(alone))
     for _ in range(40):
         sa, sb = a.step(), b.step()
         assert (sa.r_hill == sb.r_hill).all() and (sa.q_hill_from_body == sb.q_hill_from_body).all()
@@ -52,7 +52,7 @@ def test_first_chaser_draws_as_alone():
 
 def test_target_truth_is_the_same_in_every_chasers_plant():
     sc = load_scenario(TWO)
-    plants = [Plant(plant_config_from_scenario(sc.for_chaser(n))) for n in sc.chaser_names]
+    plants = [Plant(PlantConfig.from_scenario(sc.for_chaser(n))) for n in sc.chaser_names]
     for _ in range(100):
         s1, s2 = (p.step() for p in plants)
         assert (s1.q_hill_from_body == s2.q_hill_from_body).all() and (s1.omega_body == s2.omega_body).all()

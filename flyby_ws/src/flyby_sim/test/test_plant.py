@@ -26,22 +26,26 @@ from flyby_sim.dynamics.orbital import (
 )
 from flyby_sim.dynamics.propulsion import ManeuverRejected, ThrusterConfig
 from flyby_sim.dynamics.rotation import quat_from_axis_angle, quat_multiply, quat_normalize, quat_to_matrix
-from flyby_sim.plant import Plant, PlantConfig, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 RADIUS_M = 7.0e6
 N = mean_motion_rad_s(RADIUS_M)
 PERIOD_S = 2 * math.pi / N
 EXACT_THRUSTERS = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.01,
-                                 max_delta_v_per_maneuver_mps=2.0)
+                                 max_delta_v_per_maneuver_mps=2.0, magnitude_error_sigma=0.0,
+                                 direction_error_sigma_rad=0.0)
 NOISY_THRUSTERS = dataclasses.replace(EXACT_THRUSTERS, magnitude_error_sigma=0.01,
                                       direction_error_sigma_rad=math.radians(0.5))
-# Seed 000 section 5 / scenarios/paper_flyby.yaml: 50 m ahead on V-bar, 5 deg/s spin about body z.
-PAPER = PlantConfig(radius_m=RADIUS_M, chaser_mass_kg=100.0, r0_hill=(50.0, 0.0, 0.0), v0_hill=(0.0, 0.0, 0.0),
-                    target_inertia=np.diag([1200.0, 1000.0, 2000.0]),
-                    q_hill_from_body0=(0.0, 0.0, 0.0, 1.0), omega_body0=(0.0, 0.0, math.radians(5.0)),
-                    thrusters=EXACT_THRUSTERS, step_s=0.05, position_sigma_m=0.01,
-                    attitude_sigma_rad=math.radians(1.0), restriction_sphere_radius_m=15.0, seed=1)
+# Seed 000 section 5 / scenarios/paper_flyby.yaml: 50 m ahead on V-bar, 5 deg/s spin about body z (here with body z
+# along hill z), the thrusters exact; what is not given is the scenario's (mu, nonlinear dynamics, 10 Hz sensors).
+PAPER = dataclasses.replace(PlantConfig.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml')),
+                            radius_m=RADIUS_M, chaser_mass_kg=100.0, r0_hill=(50.0, 0.0, 0.0), v0_hill=(0.0, 0.0, 0.0),
+                            target_inertia=np.diag([1200.0, 1000.0, 2000.0]),
+                            q_hill_from_body0=(0.0, 0.0, 0.0, 1.0), omega_body0=(0.0, 0.0, math.radians(5.0)),
+                            thrusters=EXACT_THRUSTERS, step_s=0.05, position_sigma_m=0.01,
+                            attitude_sigma_rad=math.radians(1.0), restriction_sphere_radius_m=15.0, seed=1)
 
 
 def coarse(step_s, **changes):
@@ -354,7 +358,7 @@ def test_coasting_step_cost():
 def test_capture_attaches_the_chaser_to_the_target_and_drops_maneuvers():
     """After capture the chaser stays at its body-frame point (moves with the tumbling target, eq 8-9)."""
     sc = load_scenario(Path(__file__).resolve().parents[4] / 'scenarios' / 'paper_flyby.yaml')
-    plant = Plant(plant_config_from_scenario(sc))
+    plant = Plant(PlantConfig.from_scenario(sc))
     for _ in range(20):
         plant.step()
     plant.command_maneuver(plant.t + 5.0, (0.01, 0.0, 0.0))
@@ -384,7 +388,7 @@ def _at_the_flyby_target_point(**grasp_changes):
     from flyby_sim.dynamics.attitude import body_point_state
     from flyby_sim.dynamics.rotation import quat_shortest_arc
 
-    config = plant_config_from_scenario(load_scenario(TUG))
+    config = PlantConfig.from_scenario(load_scenario(TUG))
     c = quat_to_matrix(config.q_hill_from_body0)
     x_g = np.array(config.grasp.grasp_point_body_m)
     x_ft_body = x_g * (1.0 + 1.0 / np.linalg.norm(x_g))
@@ -502,7 +506,7 @@ def test_seed004_section31_the_run_starts_attached_as_one_rigid_body():
     """matsunaga_tugrobot: at t = 0 the chaser is where the scenario puts it and the target's CoM X_s from it in its
     axes, both turning at the TugRobot's rate; with no command the combined body keeps its angular momentum about
     the common CoM and X_s stays fixed in chaser_body; commands are taken from one IMU period on."""
-    plant = Plant(plant_config_from_scenario(load_scenario(TUGROBOT)))
+    plant = Plant(PlantConfig.from_scenario(load_scenario(TUGROBOT)))
     assert plant.mode == 'combined' and plant.captured
     assert [(e.name, e.t) for e in plant.drain_events()] == [('attached', 0.0)]
     s = plant.truth()
@@ -534,7 +538,7 @@ def test_seed004_transport_fires_only_the_thrusters_whose_exhaust_misses_the_tar
     """Seed 004 §2.3's direction-limited thrusters: from TRANSPORT on the TugRobot's two -x pushers (exhaust along +x,
     at the satellite 0.5 m ahead) are blocked, so a body -x force is not delivered and none of them fires; before it
     the same command is (the detumbling and the excitation use every thruster)."""
-    plant = Plant(plant_config_from_scenario(load_scenario(ORBIT_ADVANCE)))
+    plant = Plant(PlantConfig.from_scenario(load_scenario(ORBIT_ADVANCE)))
     plant.drain_events()
     t = plant.t + 0.1
     assert plant.command_wrench(t, (-1.0, 0.0, 0.0), (0.0, 0.0, 0.0), hold_s=0.1) is not None

@@ -17,7 +17,8 @@ from flyby_sim.dynamics.propulsion import (
     insert_request,
 )
 
-CONFIG = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.01, max_delta_v_per_maneuver_mps=1.0)
+CONFIG = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.01, max_delta_v_per_maneuver_mps=1.0,
+                        magnitude_error_sigma=0.0, direction_error_sigma_rad=0.0)
 
 REQUESTS = st.lists(st.tuples(st.floats(0.0, 100.0), st.floats(0.001, 0.5), st.sampled_from((-1.0, 1.0))),
                     min_size=1, max_size=6)

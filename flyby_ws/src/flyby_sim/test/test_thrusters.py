@@ -15,7 +15,7 @@ CONFIG = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.01,
                         max_delta_v_per_maneuver_mps=2.0, magnitude_error_sigma=SIGMA_MAG,
                         direction_error_sigma_rad=SIGMA_DIR)
 EXACT = ThrusterConfig(max_thrust_n=10.0, isp_s=220.0, min_impulse_bit_ns=0.01,
-                       max_delta_v_per_maneuver_mps=2.0)
+                       max_delta_v_per_maneuver_mps=2.0, magnitude_error_sigma=0.0, direction_error_sigma_rad=0.0)
 
 
 def model(config=CONFIG, seed=1):
@@ -45,7 +45,7 @@ def test_rejected_commands_draw_no_random_numbers():
 
 def test_config_validation_names_the_field():
     with pytest.raises(ValueError, match='isp_s'):
-        ThrusterConfig(10.0, 0.0, 0.01, 2.0)
+        ThrusterConfig(10.0, 0.0, 0.01, 2.0, 0.0, 0.0)
     with pytest.raises(ValueError, match='direction_error_sigma_rad'):
         ThrusterConfig(10.0, 220.0, 0.01, 2.0, 0.01, -1.0)
 

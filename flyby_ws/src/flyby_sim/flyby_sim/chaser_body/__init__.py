@@ -29,7 +29,7 @@ Integration: fixed-step classical RK4 on Python floats (``orbital.rk4_step_float
 every instant an input changes (a command's stamp, a burn's start and end, a wheel reaching its momentum
 limit), so no discontinuity falls inside an RK4 step. Inside a segment the attitude takes
 ``rigid_body.substep_count`` substeps (no substep turns the body or its rate vector by more than
-max_substep_angle_rad, 0.01 rad by default: one substep per 0.05 s step below 11 deg/s). While no thruster
+MAX_SUBSTEP_ANGLE_RAD, 0.01 rad: one substep per 0.05 s step below 11 deg/s). While no thruster
 fires the translation does not depend on the attitude and is integrated as the point-mass chaser's is, one
 RK4 step over the coast; while thrusters fire, translation, attitude, wheels and the hill impulse are
 integrated together (the hill force turns with the body). The quaternion is renormalized at each step end.

@@ -6,6 +6,7 @@ import numpy as np
 
 from flyby_msgs_py import events
 from flyby_msgs_py.wire import Event
+from flyby_sim.chaser_body.config import MAX_SUBSTEP_ANGLE_RAD
 from flyby_sim.chaser_body.records import ManeuverRequest, StepTotals, ThrusterBurn, WheelCommand, WrenchCommand
 from flyby_sim.dynamics.actuators import allocate_wrench, draw_thruster_errors, fire, plan_burn, wrench_matrix
 from flyby_sim.dynamics.checks import finite_vector
@@ -421,7 +422,7 @@ class SixDofChaser:
             hx += ax * h
             hy += ay * h
             hz += az * h
-        substeps = substep_count(w, (hx, hy, hz), self._inertia_min, dt, self.config.max_substep_angle_rad)
+        substeps = substep_count(w, (hx, hy, hz), self._inertia_min, dt, MAX_SUBSTEP_ANGLE_RAD)
         h_sub = dt / substeps
         thrusts = self._thrusts
         if any(thrusts):

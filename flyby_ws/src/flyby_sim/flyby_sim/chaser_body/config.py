@@ -1,17 +1,18 @@
-"""The rigid-body chaser's configuration: inertia, initial attitude and rate, thruster layout, wheels, IMU;
-validated on construction (ValueError names the field)."""
+"""The rigid-body chaser's configuration: inertia, initial attitude and rate, thruster layout, wheels, IMU; records
+of the scenario (flyby_msgs_py.params: the schema holds the defaults), validated on construction (ValueError names
+the field)."""
 
-import dataclasses
 import math
 
+from flyby_msgs_py import params
 from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout, is_positively_spanning
 from flyby_sim.dynamics.attitude import validated_inertia
 from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.rigid_body import ReactionWheels
 from flyby_sim.dynamics.rotation import quat_normalize
 
+# No attitude substep turns the body or its rate vector by more than this (chaser_body module doc).
 MAX_SUBSTEP_ANGLE_RAD = 0.01
-_ZERO3 = (0.0, 0.0, 0.0)
 
 
 def _rows(name, value, width=3):
@@ -24,17 +25,35 @@ def _rows(name, value, width=3):
     return rows
 
 
-@dataclasses.dataclass(frozen=True)
+def _vector(array):
+    return tuple(array.tolist())
+
+
+def _matrix(array):
+    return tuple(map(tuple, array.tolist()))
+
+
+def _layout_positions(scenario):
+    layout = scenario.chaser.thrusters.layout
+    return None if layout is None else tuple(tuple(x.position_m.tolist()) for x in layout)
+
+
+def _layout_directions(scenario):
+    layout = scenario.chaser.thrusters.layout
+    return None if layout is None else tuple(tuple(x.direction.tolist()) for x in layout)
+
+
+@params.record
 class ImuConfig:
     """The chaser IMU's rates and noise (``sensors.ImuModel``; scenario sensors.chaser_imu)."""
 
-    rate_hz: float = 10.0  # gyro and accelerometer
-    star_tracker_rate_hz: float = 2.0  # rate_hz must be a whole multiple of it
-    star_tracker_sigma_rad: float = math.radians(0.01)
-    gyro_noise_sigma_rad_s: float = 1e-5
-    gyro_bias_sigma_rad_s: float = 1e-4
-    gyro_bias_walk_rad_s_sqrt_s: float = 1e-7
-    accel_noise_sigma_mps2: float = 1e-4
+    rate_hz: float = params.key('sensors.chaser_imu.rate_hz')  # gyro and accelerometer
+    star_tracker_rate_hz: float = params.key('sensors.chaser_imu.star_tracker_rate_hz')  # rate_hz a whole multiple
+    star_tracker_sigma_rad: float = params.key('sensors.chaser_imu.star_tracker_sigma_deg', math.radians)
+    gyro_noise_sigma_rad_s: float = params.key('sensors.chaser_imu.gyro_noise_sigma_rad_s')
+    gyro_bias_sigma_rad_s: float = params.key('sensors.chaser_imu.gyro_bias_sigma_rad_s')
+    gyro_bias_walk_rad_s_sqrt_s: float = params.key('sensors.chaser_imu.gyro_bias_walk_rad_s_sqrt_s')
+    accel_noise_sigma_mps2: float = params.key('sensors.chaser_imu.accel_noise_sigma_mps2')
 
     def __post_init__(self):
         require_positive('rate_hz', self.rate_hz)
@@ -53,26 +72,29 @@ class ImuConfig:
         return round(self.rate_hz / self.star_tracker_rate_hz)
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class RigidChaserConfig:
-    """The rigid-body chaser's own parameters; validated on construction (ValueError names the field).
+    """The rigid-body chaser's own parameters (its rigid-body keys, whatever chaser.model says); validated on
+    construction (ValueError names the field).
 
     The thrusters' maximum thrust, Isp, minimum impulse bit, largest delta-v and error sigmas are the
     plant's ``ThrusterConfig`` (per thruster here; the sigmas per run, module doc).
     """
 
-    inertia: tuple  # 3x3 [kg m^2] about the CoM, chaser_body axes, wheels' spin-axis inertia left out
-    q_hill_from_body0: tuple = (0.0, 0.0, 0.0, 1.0)
-    omega_body0: tuple = _ZERO3  # inertial angular velocity at t = 0, body axes [rad/s]
-    thruster_positions_body_m: tuple = None  # (N, 3); None: default_thruster_layout
-    thruster_directions_body: tuple = None  # (N, 3), normalized by ThrusterLayout
-    wheel_axes_body: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    wheel_max_torque_n_m: float = 0.1
-    wheel_max_momentum_n_m_s: float = 4.0
-    wheel_spin_inertia_kg_m2: float = 0.01
-    wheel_momentum0_n_m_s: tuple = None  # one per wheel; None: zero (stored as zeros)
-    imu: ImuConfig = ImuConfig()
-    max_substep_angle_rad: float = MAX_SUBSTEP_ANGLE_RAD
+    # 3x3 [kg m^2] about the CoM, chaser_body axes, wheels' spin-axis inertia left out
+    inertia: tuple = params.key('chaser_inertia', _matrix)
+    q_hill_from_body0: tuple = params.key('q_hill_from_chaser_body0', _vector)
+    # inertial angular velocity at t = 0, body axes [rad/s]
+    omega_body0: tuple = params.key('omega_chaser_body0_rad_s', _vector)
+    thruster_positions_body_m: tuple = params.derived(_layout_positions)  # (N, 3); None: default_thruster_layout
+    thruster_directions_body: tuple = params.derived(_layout_directions)  # (N, 3), normalized by ThrusterLayout
+    wheel_axes_body: tuple = params.key('chaser.wheels.axes', _matrix)
+    wheel_max_torque_n_m: float = params.key('chaser.wheels.max_torque_n_m')
+    wheel_max_momentum_n_m_s: float = params.key('chaser.wheels.max_momentum_n_m_s')
+    wheel_spin_inertia_kg_m2: float = params.key('chaser.wheels.spin_inertia_kg_m2')
+    # one per wheel; None: zero (stored as zeros)
+    wheel_momentum0_n_m_s: tuple = params.key('chaser.wheels.initial_momentum_n_m_s', _vector)
+    imu: ImuConfig = params.sub(ImuConfig)
 
     def __post_init__(self):
         try:
@@ -110,7 +132,6 @@ class RigidChaserConfig:
         object.__setattr__(self, 'wheel_momentum0_n_m_s', h0)
         if not isinstance(self.imu, ImuConfig):
             raise ValueError(f'imu must be an ImuConfig, got {self.imu!r}')
-        require_positive('max_substep_angle_rad', self.max_substep_angle_rad)
 
     def layout(self, thrusters):
         """The ThrusterLayout with the limits of thrusters (a propulsion.ThrusterConfig)."""

@@ -35,6 +35,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from flyby_msgs_py import params
 from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate, validated_inertia
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.combined_body import CombinedState, combined_mass_properties
@@ -48,17 +49,18 @@ from flyby_sim.dynamics.rotation import (
 )
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class Impedance:
-    """The arm's impedance and limits (validated; ValueError names the field)."""
+    """The arm's impedance and limits (scenario post_capture.grasp, flyby_msgs_py.params; validated, ValueError names
+    the field)."""
 
-    stiffness_n_m: float = 200.0
-    damping_n_s_m: float = 150.0
-    rot_stiffness_n_m_rad: float = 50.0
-    rot_damping_n_m_s_rad: float = 40.0
-    max_force_n: float = 50.0
-    max_torque_n_m: float = 20.0
-    max_stroke_m: float = 0.2
+    stiffness_n_m: float = params.key('post_capture.grasp.stiffness_n_per_m')
+    damping_n_s_m: float = params.key('post_capture.grasp.damping_n_s_per_m')
+    rot_stiffness_n_m_rad: float = params.key('post_capture.grasp.rot_stiffness_n_m_per_rad')
+    rot_damping_n_m_s_rad: float = params.key('post_capture.grasp.rot_damping_n_m_s_per_rad')
+    max_force_n: float = params.key('post_capture.grasp.max_force_n')
+    max_torque_n_m: float = params.key('post_capture.grasp.max_torque_n_m')
+    max_stroke_m: float = params.key('post_capture.grasp.max_stroke_m')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):

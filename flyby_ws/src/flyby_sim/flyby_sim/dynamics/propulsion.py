@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flyby_msgs_py import params
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 
@@ -32,16 +33,17 @@ class ManeuverRejected(Exception):
         self.reason = reason
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class ThrusterConfig:
-    """Thruster parameters; values validated on construction (ValueError names the field)."""
+    """Thruster parameters (scenario chaser.thrusters, flyby_msgs_py.params); values validated on construction
+    (ValueError names the field)."""
 
-    max_thrust_n: float
-    isp_s: float
-    min_impulse_bit_ns: float
-    max_delta_v_per_maneuver_mps: float
-    magnitude_error_sigma: float = 0.0  # fraction of |dv|, 1-sigma
-    direction_error_sigma_rad: float = 0.0  # 1-sigma
+    max_thrust_n: float = params.key('chaser.thrusters.max_thrust_n')
+    isp_s: float = params.key('chaser.thrusters.isp_s')
+    min_impulse_bit_ns: float = params.key('chaser.thrusters.min_impulse_bit_ns')
+    max_delta_v_per_maneuver_mps: float = params.key('chaser.thrusters.max_delta_v_per_maneuver_mps')
+    magnitude_error_sigma: float = params.key('chaser.thrusters.magnitude_error_sigma')  # fraction of |dv|, 1-sigma
+    direction_error_sigma_rad: float = params.key('chaser.thrusters.direction_error_sigma_deg', math.radians)
 
     def __post_init__(self):
         require_positive('max_thrust_n', self.max_thrust_n)

@@ -43,16 +43,11 @@ commands never change, is evaluated ahead for a chunk of steps at a time (``Atti
 
 The modules: ``config`` (PlantConfig, GraspConfig, TruthSample, Measurement), ``core`` (``Plant``: state, commands,
 the step, truth and sensors), ``point_mass`` (the point-mass chaser's finite burns), ``capture`` (from the capture
-on: welded, grasp, combined body, released), ``from_scenario`` (the configurations of a validated scenario).
+on: welded, grasp, combined body, released). The configuration of a validated scenario is
+``PlantConfig.from_scenario(scenario)`` (a record, flyby_msgs_py.params).
 """
 
 from flyby_sim.plant.config import DYNAMICS, GraspConfig, Measurement, PlantConfig, TruthSample
 from flyby_sim.plant.core import ATTITUDE_CHUNK_STEPS, Plant
-from flyby_sim.plant.from_scenario import (
-    grasp_config_from_scenario,
-    plant_config_from_scenario,
-    rigid_chaser_config_from_scenario,
-)
 
-__all__ = ['ATTITUDE_CHUNK_STEPS', 'DYNAMICS', 'GraspConfig', 'Measurement', 'Plant', 'PlantConfig', 'TruthSample',
-           'grasp_config_from_scenario', 'plant_config_from_scenario', 'rigid_chaser_config_from_scenario']
+__all__ = ['ATTITUDE_CHUNK_STEPS', 'DYNAMICS', 'GraspConfig', 'Measurement', 'Plant', 'PlantConfig', 'TruthSample']

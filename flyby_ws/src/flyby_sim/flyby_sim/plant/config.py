@@ -1,14 +1,19 @@
-"""The plant's configuration (validated on construction) and what a step returns: truth and sensor samples."""
+"""The plant's configuration and what a step returns: truth and sensor samples.
+
+``PlantConfig`` and ``GraspConfig`` are records of the scenario (``flyby_msgs_py.params``: each field names its key,
+the schema holds the defaults; ``PlantConfig.from_scenario(scenario)``), validated on construction: a test builds one
+from a loaded scenario and changes what it needs with ``dataclasses.replace``."""
 
 import dataclasses
+import math
 from typing import NamedTuple
 
 import numpy as np
 
+from flyby_msgs_py import params
 from flyby_sim.chaser_body import RigidChaserConfig
 from flyby_sim.dynamics.attitude import validated_inertia
 from flyby_sim.dynamics.checks import finite_vector, require_positive
-from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.grasp import Impedance
 from flyby_sim.dynamics.propulsion import ThrusterConfig
 from flyby_sim.dynamics.rotation import quat_normalize
@@ -16,23 +21,40 @@ from flyby_sim.dynamics.rotation import quat_normalize
 DYNAMICS = ('nonlinear', 'cw')
 
 
-@dataclasses.dataclass(frozen=True)
+def _tuple(value):
+    return tuple(value)
+
+
+def _matrix(array):
+    return tuple(map(tuple, array))
+
+
+def _is_rigid_body(scenario):
+    return scenario.chaser.model == 'rigid_body'
+
+
+def _has_post_capture(scenario):
+    return scenario.post_capture is not None
+
+
+@params.record
 class GraspConfig:
     """The arm after the capture (scenario ``post_capture.grasp``; validated, ValueError names the field)."""
 
-    impedance: Impedance
-    target_mass_kg: float
-    grasp_point_body_m: tuple  # the handle, target_body from its CoM [m]
-    velocity_tolerance_mps: float = 1e-3  # damped once the relative velocity ...
-    rate_tolerance_rad_s: float = 1e-3  # ... and rate stay below these
-    max_duration_s: float = 20.0  # the arm locks at the latest this long after the first contact
+    impedance: Impedance = params.sub(Impedance)
+    target_mass_kg: float = params.key('target.mass_kg')
+    grasp_point_body_m: tuple = params.key('target.grasp_point_body_m', _tuple)  # the handle, from its CoM [m]
+    # damped once the relative velocity and rate stay below these
+    velocity_tolerance_mps: float = params.key('post_capture.grasp.velocity_tolerance_mps')
+    rate_tolerance_rad_s: float = params.key('post_capture.grasp.rate_tolerance_rad_s')
+    max_duration_s: float = params.key('post_capture.grasp.max_duration_s')  # locked at the latest this long after
     # Starting attached (scenario post_capture.start attached, seed 004 §3.1): the target's CoM X_s from the chaser's
     # CoM [m] and its attitude in the chaser's, (x, y, z, w), from t = 0; None: the run starts free.
-    attached_target_com_body_m: tuple = None
-    q_chaser_from_target: tuple = None
+    attached_target_com_body_m: tuple = params.key('post_capture.attachment.target_com_chaser_body_m', _tuple)
+    q_chaser_from_target: tuple = params.key('q_chaser_from_target_attached', _tuple)
     # Transport (scenario post_capture.transport): the half-angle of the cone about the target's CoM that no
     # thruster's exhaust may point into once TRANSPORT starts [deg]; None: no transport.
-    transport_plume_cone_deg: float = None
+    transport_plume_cone_deg: float = params.key('post_capture.transport.plume_cone_deg')
 
     def __post_init__(self):
         if not isinstance(self.impedance, Impedance):
@@ -55,29 +77,33 @@ class GraspConfig:
         return self.attached_target_com_body_m is not None
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class PlantConfig:
     """Everything the plant needs; validated on construction (ValueError names the field)."""
 
-    radius_m: float  # circular target orbit radius
-    chaser_mass_kg: float
-    r0_hill: tuple  # chaser position at t = 0 [m]
-    v0_hill: tuple  # chaser velocity relative to the rotating hill frame at t = 0 [m/s]
-    target_inertia: tuple  # 3x3 [kg m^2], body axes
-    q_hill_from_body0: tuple  # target attitude at t = 0, (x, y, z, w)
-    omega_body0: tuple  # target inertial angular velocity at t = 0, body axes [rad/s]
-    thrusters: ThrusterConfig
-    mu: float = MU_EARTH_M3_S2
-    dynamics: str = 'nonlinear'  # 'nonlinear' (seed 000 eq 1) or 'cw' (eq 2)
-    step_s: float = 0.05
-    position_sigma_m: float = 0.0
-    position_rate_hz: float = 10.0
-    attitude_sigma_rad: float = 0.0
-    attitude_rate_hz: float = 10.0
-    restriction_sphere_radius_m: float = 0.0
-    seed: int = 0
-    chaser_body: RigidChaserConfig = None  # None: the point-mass chaser
-    grasp: GraspConfig = None  # None: the capture welds the chaser to the target (module doc)
+    radius_m: float = params.key('orbit_radius_m')  # circular target orbit radius
+    mu: float = params.key('orbit.mu_m3_s2')
+    chaser_mass_kg: float = params.key('chaser.mass_kg')
+    r0_hill: tuple = params.key('chaser.initial_position_hill_m', _tuple)  # chaser position at t = 0 [m]
+    # chaser velocity relative to the rotating hill frame at t = 0 [m/s]
+    v0_hill: tuple = params.key('chaser.initial_velocity_hill_mps', _tuple)
+    target_inertia: tuple = params.key('target_inertia', _matrix)  # 3x3 [kg m^2], body axes
+    q_hill_from_body0: tuple = params.key('q_hill_from_body0', _tuple)  # target attitude at t = 0, (x, y, z, w)
+    # target inertial angular velocity at t = 0, body axes [rad/s]
+    omega_body0: tuple = params.key('omega_body0_rad_s', _tuple)
+    thrusters: ThrusterConfig = params.sub(ThrusterConfig)
+    dynamics: str = params.key('simulation.dynamics')  # 'nonlinear' (seed 000 eq 1) or 'cw' (eq 2)
+    step_s: float = params.key('simulation.step_s')
+    position_sigma_m: float = params.key('sensors.relative_position.noise_sigma_m')
+    position_rate_hz: float = params.key('sensors.relative_position.rate_hz')
+    attitude_sigma_rad: float = params.key('sensors.target_attitude.noise_sigma_deg', math.radians)
+    attitude_rate_hz: float = params.key('sensors.target_attitude.rate_hz')
+    restriction_sphere_radius_m: float = params.key('planner.restriction_sphere_radius_m')
+    seed: int = params.key('seed')
+    # None: the point-mass chaser
+    chaser_body: RigidChaserConfig = params.sub(RigidChaserConfig, when=_is_rigid_body)
+    # None: the capture welds the chaser to the target (module doc)
+    grasp: GraspConfig = params.sub(GraspConfig, when=_has_post_capture)
 
     def __post_init__(self):
         for name in ('radius_m', 'chaser_mass_kg', 'mu', 'step_s', 'position_rate_hz', 'attitude_rate_hz'):

@@ -21,7 +21,7 @@ from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rotate
 from flyby_sim.dynamics.sampling import SampleSchedule
 from flyby_sim.plant.capture import CapturePhases
-from flyby_sim.plant.config import Measurement, TruthSample
+from flyby_sim.plant.config import Measurement, PlantConfig, TruthSample
 from flyby_sim.plant.point_mass import PointMassFlight
 from flyby_sim.sensors import ImuModel, SensorModel
 from flyby_sim.thrusters import ThrusterModel
@@ -45,7 +45,7 @@ class Plant(PointMassFlight, CapturePhases):
     peak force and torque and the damping time) or 'grasp_released' (WARN, why), at the step they happen.
     """
 
-    def __init__(self, config):
+    def __init__(self, config: PlantConfig):
         self.config = config
         n = mean_motion_rad_s(config.radius_m, config.mu)
         self.mean_motion_rad_s = n

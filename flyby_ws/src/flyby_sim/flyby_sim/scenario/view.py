@@ -218,13 +218,7 @@ class Scenario:
     def arm_impedance(self):
         """The arm's impedance after the capture (post_capture.grasp as a ``dynamics.grasp.Impedance``), or None
         without a post_capture section."""
-        if self.post_capture is None:
-            return None
-        g = self.post_capture.grasp
-        return Impedance(stiffness_n_m=g.stiffness_n_per_m, damping_n_s_m=g.damping_n_s_per_m,
-                         rot_stiffness_n_m_rad=g.rot_stiffness_n_m_per_rad,
-                         rot_damping_n_m_s_rad=g.rot_damping_n_m_s_per_rad, max_force_n=g.max_force_n,
-                         max_torque_n_m=g.max_torque_n_m, max_stroke_m=g.max_stroke_m)
+        return None if self.post_capture is None else Impedance.from_scenario(self)
 
     @property
     def offset_max_m(self):
