@@ -7,7 +7,8 @@ from rclpy.parameter import Parameter
 from flyby_guidance.guidance_node import GuidanceNode
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
-from flyby_planner.plan import plan_capture, planner_config_from_scenario, truth_prediction
+from flyby_planner.flyby.config import PlannerConfig, truth_prediction
+from flyby_planner.flyby.search import plan_capture
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.scenario import load_scenario
@@ -23,7 +24,7 @@ class PlanProbe(Node):
     def __init__(self, context):
         super().__init__('plan_probe', context=context)
         self.scenario = load_scenario(SCENARIO)
-        cfg = planner_config_from_scenario(self.scenario)
+        cfg = PlannerConfig.from_scenario(self.scenario)
         x = self.chaser_state(T_PLAN)
         truth = truth_prediction(self.scenario, T_PLAN + cfg.prediction_span_s(self.scenario.omega_body0_rad_s))
         self.plan = plan_capture(truth, x[:3], x[3:], T_PLAN, cfg)

@@ -34,12 +34,14 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_estimation.mass_properties_excitation import excitation_firings, firing_wrench
-from flyby_msgs_py import events
+from flyby_msgs_py import events, params
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator
 
 SEED004_MOMENTUM_BOUND_KG_M2_S = 0.1  # seed 004 §3.2, rendezvous condition 1
+# The damping's couple is fired in pulses of this many minimum impulse bits (``PostCaptureConfig.pulse_n_m_s``).
+DAMPING_PULSE_BITS = 4.0
 # The damping ends when its momentum bound is below this share of the threshold: the bound takes the rate estimate
 # and the account of the wheels' momentum as exact; their errors (the gyro bias estimate's, ~1e-6 rad/s times some
 # 3000 kg m^2) are kept inside the margin.
@@ -138,21 +140,47 @@ def inertia_upper_bound(chaser_inertia_kg_m2, target_inertia_kg_m2, chaser_mass_
                  + mu * distance_m ** 2)
 
 
-@dataclasses.dataclass(frozen=True)
-class PostCaptureConfig:
-    """What guidance needs after the arm locks (scenario post_capture; ``PostCaptureControl``)."""
+def _period_s(hz):
+    """The control period [s] of the chaser IMU's rate [Hz]."""
+    return 1.0 / hz
 
-    gains: DampingGains
-    period_s: float  # the control period (the IMU's) [s]
-    momentum_threshold_kg_m2_s: float = SEED004_MOMENTUM_BOUND_KG_M2_S
-    settle_s: float = 5.0
-    excitation: str = 'table1'  # flyby_estimation.mass_properties_excitation.EXCITATIONS
-    start_delay_s: float = 2.0
-    window_s: float = 25.0
-    damping: bool = True  # False: a run that starts attached excites the body as it turns (seed 004 §3.1)
+
+def _damping_gains(scenario):
+    """The DampingGains for the inertia bound post_capture.damping gives, or half the smallest principal moment of
+    the target's inertia; the IMU's period."""
+    d = scenario.post_capture.damping
+    bound = d.inertia_lower_bound_kg_m2 or 0.5 * float(np.linalg.eigvalsh(scenario.target_inertia)[0])
+    return DampingGains.for_inertia_bound(bound, _period_s(scenario.sensors.chaser_imu.rate_hz), d.wheel_share,
+                                          max_thruster_torque_n_m=d.max_thruster_torque_n_m,
+                                          dump_rate_per_s=d.dump_rate_per_s)
+
+
+def _damping_pulse_n_m_s(scenario):
+    """A pulse: DAMPING_PULSE_BITS minimum impulse bits at the thrusters' mean lever arm about the chaser's CoM (the
+    small couple that moves the wheels' momentum to the thrusters is below the bit, and would never fire)."""
+    layout = scenario.thruster_layout
+    return DAMPING_PULSE_BITS * layout.min_impulse_bit_n_s * float(np.mean(np.linalg.norm(
+        layout.positions_body_m, axis=1)))
+
+
+@params.record
+class PostCaptureConfig:
+    """What guidance needs after the arm locks (scenario post_capture; ``PostCaptureControl``): the damping mode's
+    record (``flyby_msgs_py.params``)."""
+
+    gains: DampingGains = params.derived(_damping_gains)
+    period_s: float = params.key('sensors.chaser_imu.rate_hz', _period_s)  # the control period (the IMU's) [s]
+    momentum_threshold_kg_m2_s: float = params.key('post_capture.damping.momentum_threshold_kg_m2_s')
+    settle_s: float = params.key('post_capture.damping.settle_s')
+    # flyby_estimation.mass_properties_excitation.EXCITATIONS
+    excitation: str = params.key('post_capture.mass_estimation.excitation')
+    start_delay_s: float = params.key('post_capture.mass_estimation.start_delay_s')
+    window_s: float = params.key('post_capture.mass_estimation.window_s')
+    # False: a run that starts attached excites the body as it turns (seed 004 §3.1)
+    damping: bool = params.derived(lambda scenario: scenario.post_capture.start != 'attached')
     # The damping's couple is fired once its angular impulse is worth this (``pulse_modulated``; 0: every period):
     # below the thrusters' minimum impulse bit it would not be fired at all [N m s].
-    pulse_n_m_s: float = 0.0
+    pulse_n_m_s: float = params.derived(_damping_pulse_n_m_s)
 
 
 def pulse_modulated(carried_n_m_s, torque_n_m, period_s, pulse_n_m_s):

@@ -41,11 +41,10 @@ time along CW (eq 22), and is sent stamped with that start time.
 """
 
 import dataclasses
-import math
 
 import numpy as np
 
-from flyby_msgs_py import events
+from flyby_msgs_py import events, params
 from flyby_msgs_py.wire import Event
 from flyby_planner.flyby.passive_safety import LAST_BURN_SLACK_M
 from flyby_planner.transfer import terminal_impulses
@@ -59,26 +58,27 @@ _ARC_SAMPLES = 9
 ADJUST_LAWS = ('arc', 'eq26')
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class GuidanceConfig:
-    """Guidance settings (the ``guidance`` section of docs/scenario.md) and the thruster limits."""
+    """Guidance settings (the ``guidance`` section of docs/scenario.md) and the thruster limits: the fly-by's record
+    (``flyby_msgs_py.params``; defaults, ranges and descriptions are the scenario schema's)."""
 
-    mean_motion_rad_s: float
-    restriction_sphere_radius_m: float
-    max_thrust_n: float
-    chaser_mass_kg: float
-    exhaust_velocity_mps: float
-    min_impulse_bit_ns: float = 0.0
-    max_delta_v_per_maneuver_mps: float = math.inf
-    adjust_interval_s: float = 20.0
-    midcourse_corrections: int = 1
-    command_lead_s: float = 5.0
-    deadband_mps: float = 0.0002
-    adjust_position_tolerance_m: float = 0.005
-    adjust_velocity_tolerance_mps: float = 0.0005
-    sphere_margin_m: float = 1.0
-    adjust_law: str = 'arc'
-    arc_rendezvous_lead_s: float = 40.0
+    mean_motion_rad_s: float = params.key('mean_motion_rad_s')
+    restriction_sphere_radius_m: float = params.key('planner.restriction_sphere_radius_m')
+    max_thrust_n: float = params.key('chaser.thrusters.max_thrust_n')
+    chaser_mass_kg: float = params.key('chaser.mass_kg')
+    exhaust_velocity_mps: float = params.key('chaser.thrusters.isp_s', lambda isp_s: isp_s * STANDARD_GRAVITY_M_S2)
+    min_impulse_bit_ns: float = params.key('chaser.thrusters.min_impulse_bit_ns')
+    max_delta_v_per_maneuver_mps: float = params.key('chaser.thrusters.max_delta_v_per_maneuver_mps')
+    adjust_interval_s: float = params.key('guidance.adjust_interval_s')
+    midcourse_corrections: int = params.key('guidance.midcourse_corrections')
+    command_lead_s: float = params.key('guidance.command_lead_s')
+    deadband_mps: float = params.key('guidance.deadband_mps')
+    adjust_position_tolerance_m: float = params.key('guidance.adjust_position_tolerance_m')
+    adjust_velocity_tolerance_mps: float = params.key('guidance.adjust_velocity_tolerance_mps')
+    sphere_margin_m: float = params.key('guidance.sphere_margin_m')
+    adjust_law: str = params.key('guidance.adjust_law')
+    arc_rendezvous_lead_s: float = params.key('guidance.arc_rendezvous_lead_s')
 
     def __post_init__(self):
         if self.adjust_law not in ADJUST_LAWS:
@@ -92,20 +92,6 @@ class GuidanceConfig:
         require_positive('max_delta_v_per_maneuver_mps', self.max_delta_v_per_maneuver_mps, allow_inf=True)
         if self.midcourse_corrections < 0:
             raise ValueError(f'midcourse_corrections must be >= 0, got {self.midcourse_corrections}')
-
-
-def guidance_config_from_scenario(scenario):
-    g, th = scenario.guidance, scenario.chaser.thrusters
-    return GuidanceConfig(
-        mean_motion_rad_s=scenario.mean_motion_rad_s,
-        restriction_sphere_radius_m=scenario.planner.restriction_sphere_radius_m,
-        max_thrust_n=th.max_thrust_n, chaser_mass_kg=scenario.chaser.mass_kg,
-        exhaust_velocity_mps=th.isp_s * STANDARD_GRAVITY_M_S2, min_impulse_bit_ns=th.min_impulse_bit_ns,
-        max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps, adjust_interval_s=g.adjust_interval_s,
-        midcourse_corrections=g.midcourse_corrections, command_lead_s=g.command_lead_s, deadband_mps=g.deadband_mps,
-        adjust_position_tolerance_m=g.adjust_position_tolerance_m,
-        adjust_velocity_tolerance_mps=g.adjust_velocity_tolerance_mps, sphere_margin_m=g.sphere_margin_m,
-        adjust_law=g.adjust_law, arc_rendezvous_lead_s=g.arc_rendezvous_lead_s)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -2,7 +2,8 @@
 the commands out, by guidance's modes (``flyby_guidance.modes``), each behind one interface
 (``modes.interface.GuidanceMode``: ``command`` of a chaser estimate, or None where it is not the mode's).
 
-The modes a scenario has are chosen from it once, and each chaser estimate goes, in this order, to:
+The modes a scenario has are chosen once from its record (``flyby_guidance.params.GuidanceParams``: a sub-record per
+mode, None for a mode it does not fly), and each chaser estimate goes, in this order, to:
 
 1. after the capture (a post_capture section on the rigid-body chaser), the damping and excitation
    (``modes.damping``), or with a transport section those then TRANSPORT (``modes.transport``): the estimates from the
@@ -26,6 +27,7 @@ from flyby_guidance.modes.damping import DampingMode, NotCaptured
 from flyby_guidance.modes.flyby import FlybyAdjusting
 from flyby_guidance.modes.interface import ChaserEstimate
 from flyby_guidance.modes.transport import TransportMode
+from flyby_guidance.params import GuidanceParams
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.stamped import StampedBuffer
 
@@ -33,35 +35,36 @@ from flyby_msgs_py.stamped import StampedBuffer
 ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
 
 
-def chaser_of_scenario(scenario, source, targets):
-    """The chaser's modes: a RigidBodyChaser for ``chaser.model: rigid_body``, else a PointMassChaser."""
-    if scenario.chaser.model == 'rigid_body':
-        return RigidBodyChaser(scenario, source, targets)
-    return PointMassChaser(source)
+def chaser_of(params, source, targets):
+    """The chaser's modes: a RigidBodyChaser with the rigid-body chaser's records, else a PointMassChaser."""
+    if params.chaser is None:
+        return PointMassChaser(source)
+    return RigidBodyChaser(params.chaser, params.tracking, params.synchronized, source, targets)
 
 
-def capture_of_scenario(scenario, source, chaser):
-    """The mode after the capture: TransportMode with a transport section, DampingMode with a post_capture section on
-    the rigid-body chaser, else NotCaptured."""
-    if scenario.chaser.model != 'rigid_body' or scenario.post_capture is None:
+def capture_of(params, source, chaser):
+    """The mode after the capture: TransportMode with a transport record, DampingMode with a damping record (a
+    post_capture section on the rigid-body chaser), else NotCaptured."""
+    if params.damping is None:
         return NotCaptured(source)
-    if scenario.post_capture.transport is not None:
-        return TransportMode(scenario, source, chaser)
-    return DampingMode(scenario, source, chaser)
+    if params.transport is not None:
+        return TransportMode(params.damping, params.transport, source, chaser)
+    return DampingMode(params.damping, source, chaser)
 
 
 class GuidanceCore:
     """The guidance's rules (module doc)."""
 
-    def __init__(self, scenario, name='flyby_guidance'):
-        self.scenario = scenario
+    def __init__(self, params: GuidanceParams, name='flyby_guidance'):
+        """params: the GuidanceParams of the scenario (``GuidanceParams.from_scenario``)."""
+        self.params = params
         self.name = name
         self.phase = None
         # (q_hill_from_body, omega_body, published covariance blocks (attitude in hill, rate in body) or None)
         self.targets = StampedBuffer()
-        self.flyby = FlybyAdjusting(scenario, name, self.targets)
-        self.chaser = chaser_of_scenario(scenario, name, self.targets)
-        self.capture = capture_of_scenario(scenario, name, self.chaser)
+        self.flyby = FlybyAdjusting(params.flyby, name, self.targets)
+        self.chaser = chaser_of(params, name, self.targets)
+        self.capture = capture_of(params, name, self.chaser)
 
     # -- the plan -------------------------------------------------------------------------------
     def on_flyby_initial(self, t_i, x_fi, v_fi):

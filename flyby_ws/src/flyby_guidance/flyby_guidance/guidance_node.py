@@ -19,6 +19,7 @@ after the estimate (the simulator holds time there until both are in); and on
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.modes.interface import AttitudeCommandStamped
+from flyby_guidance.params import GuidanceParams
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode
@@ -33,23 +34,21 @@ class GuidanceNode(CoreNode):
     def __init__(self, **kwargs):
         super().__init__('flyby_guidance', **kwargs)
         scenario = scenario_of(self)
-        self.core = GuidanceCore(scenario, self.get_name())
+        self.core = GuidanceCore(GuidanceParams.from_scenario(scenario), self.get_name())
         self.pub_maneuver = self.publisher(c.GUIDANCE_MANEUVER)
-        rigid = scenario.chaser.model == 'rigid_body'
-        if rigid:
+        chaser = self.core.params.chaser
+        if chaser is not None:  # the rigid-body chaser's command chain
             self.pub_wheels, self.pub_wrench = self.publisher(c.GUIDANCE_WHEELS), self.publisher(c.GUIDANCE_WRENCH)
-            self.wheel_names = c.wheel_names(len(scenario.chaser.wheels.axes))
+            self.wheel_names = c.wheel_names(chaser.wheels.count)
         self.pub_events = self.publisher(c.MISSION_EVENTS)
-        self.subscribe_odometry(c.PLANNER_FLYBY_INITIAL, self.core.on_flyby_initial, 'position', 'linear')
-        self.subscribe_odometry(c.PLANNER_FLYBY_TARGET, self.core.on_flyby_target, 'position', 'linear')
-        self.subscribe(c.PLANNER_PATH, self.on_path)
-        if rigid:
-            self.subscribe(c.PLANNER_TRAJECTORY, self.on_trajectory)
-        self.subscribe_phase()
-        if rigid and scenario.post_capture is not None:
-            self.subscribe_events()
         # The gate weighs the target estimate's uncertainty; the attitude control takes the chaser's attitude.
-        self.subscribe_estimates(quat_rotate, target_covariance=True, chaser_attitude=rigid)
+        estimates = self.estimate_inputs(quat_rotate, target_covariance=True, chaser_attitude=chaser is not None)
+        self.subscribe_inputs(scenario, {
+            **estimates, c.PLANNER_FLYBY_INITIAL: (self.odometry_input(self.core.on_flyby_initial, 'position',
+                                                                       'linear'), True),
+            c.PLANNER_FLYBY_TARGET: (self.odometry_input(self.core.on_flyby_target, 'position', 'linear'), True),
+            c.PLANNER_PATH: self.on_path, c.PLANNER_TRAJECTORY: self.on_trajectory,
+            c.MISSION_PHASE: self.on_phase_message, c.MISSION_EVENTS: self.on_events_message})
 
     def on_path(self, msg):
         self.publish(self.core.on_path(convert.stamp_to_sec(msg.header.stamp)))

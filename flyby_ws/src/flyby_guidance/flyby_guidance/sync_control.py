@@ -52,8 +52,8 @@ import numpy as np
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidanceConfig, PointingGoal
-from flyby_msgs_py import events
-from flyby_planner.sync.approach import sync_station_geometry
+from flyby_msgs_py import events, params
+from flyby_planner.sync.approach import SyncParams, sync_station_geometry
 from flyby_sim.dynamics.attitude import euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
 from flyby_sim.dynamics.rotation import (
@@ -87,45 +87,43 @@ STAGE_RETREAT = 'retreat'
 STAGE_DRIFT = 'drift'
 
 
-@dataclasses.dataclass(frozen=True)
-class SyncConfig:
-    """The synchronized approach's settings (planner.sync, docs/synchronized.md)."""
-
-    geometry: object  # the docking line (flyby_planner.sync.station.StationGeometry); None without a port on the
-    # target's surface, for which the planner refuses the synchronized approach (plan_sync)
-    docking_duration_s: float
-    orbiting_fraction: float  # of a rotation cycle 2 pi / |omega|
-    frequency_rad_s: float  # the translation feedback's natural frequency
-    accel_max_mps2: float
-    attitude_tolerance_rad: float
-    rate_tolerance_rad_s: float
-    settle_s: float
-    attitude_sync_max_s: float
-    retreat_speed_mps: float
-    retreat_max_s: float
-    n: float  # mean motion [rad/s]
-    radius_m: float  # orbit radius [m]
-    target_inertia: np.ndarray
+def _sync_geometry(scenario):
+    """The docking line (flyby_planner.sync.station.StationGeometry); None without a port on the target's surface,
+    for which the planner refuses the synchronized approach (plan_sync)."""
+    try:
+        return sync_station_geometry(SyncParams.from_scenario(scenario))
+    except ValueError:
+        return None
 
 
-def sync_config_from_scenario(scenario):
-    """SyncConfig of a scenario's planner.sync (accel_max_mps2 omitted: two thrusters' max_thrust_n over the mass,
-    the default layout's weakest direction, less 3 sigma of the magnitude error)."""
+def _sync_accel_max_mps2(scenario):
+    """planner.sync.accel_max_mps2 (omitted: two thrusters' max_thrust_n over the mass, the default layout's weakest
+    direction) less 3 sigma of the thrusters' magnitude error."""
     s, th = scenario.planner.sync, scenario.chaser.thrusters
     accel = 2.0 * th.max_thrust_n / scenario.chaser.mass_kg if s.accel_max_mps2 is None else s.accel_max_mps2
-    try:
-        geometry = sync_station_geometry(scenario)
-    except ValueError:
-        geometry = None
-    return SyncConfig(
-        geometry=geometry, docking_duration_s=s.docking_duration_s,
-        orbiting_fraction=s.orbiting_fraction, frequency_rad_s=s.tracking_frequency_rad_s,
-        accel_max_mps2=accel * (1.0 - 3.0 * th.magnitude_error_sigma),
-        attitude_tolerance_rad=math.radians(s.attitude_tolerance_deg),
-        rate_tolerance_rad_s=math.radians(s.rate_tolerance_deg_s), settle_s=s.settle_s,
-        attitude_sync_max_s=s.attitude_sync_max_s,
-        retreat_speed_mps=s.retreat_speed_mps, retreat_max_s=s.retreat_max_s, n=scenario.mean_motion_rad_s,
-        radius_m=scenario.orbit_radius_m, target_inertia=np.asarray(scenario.target_inertia, dtype=float))
+    return accel * (1.0 - 3.0 * th.magnitude_error_sigma)
+
+
+@params.record
+class SyncConfig:
+    """The synchronized approach's settings (planner.sync, docs/synchronized.md): the synchronized mode's record
+    (``flyby_msgs_py.params``)."""
+
+    geometry: object = params.derived(_sync_geometry)
+    docking_duration_s: float = params.key('planner.sync.docking_duration_s')
+    orbiting_fraction: float = params.key('planner.sync.orbiting_fraction')  # of a rotation cycle 2 pi / |omega|
+    # the translation feedback's natural frequency
+    frequency_rad_s: float = params.key('planner.sync.tracking_frequency_rad_s')
+    accel_max_mps2: float = params.derived(_sync_accel_max_mps2)
+    attitude_tolerance_rad: float = params.key('planner.sync.attitude_tolerance_deg', math.radians)
+    rate_tolerance_rad_s: float = params.key('planner.sync.rate_tolerance_deg_s', math.radians)
+    settle_s: float = params.key('planner.sync.settle_s')
+    attitude_sync_max_s: float = params.key('planner.sync.attitude_sync_max_s')
+    retreat_speed_mps: float = params.key('planner.sync.retreat_speed_mps')
+    retreat_max_s: float = params.key('planner.sync.retreat_max_s')
+    n: float = params.key('mean_motion_rad_s')  # mean motion [rad/s]
+    radius_m: float = params.key('orbit_radius_m')  # orbit radius [m]
+    target_inertia: np.ndarray = params.key('target_inertia', lambda inertia: np.asarray(inertia, dtype=float))
 
 
 def docking_profile(t, t_start, duration_s, rho_from_m, rho_to_m):

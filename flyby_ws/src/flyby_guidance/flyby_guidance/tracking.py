@@ -26,36 +26,32 @@ exceeds planner.optimal.replan_error_m (outside the last replan_cutoff_s).
 Frames and units: hill (flyby_sim.dynamics.orbital), velocities relative to the rotating hill frame, SI.
 """
 
-import dataclasses
-
 import numpy as np
 
+from flyby_msgs_py import params
 from flyby_planner.optimal.problem import PLUME_MARGIN_M
 
 
-@dataclasses.dataclass(frozen=True)
+def _tracking_accel_max_mps2(scenario):
+    """The commanded bound: planner.optimal.accel_max_mps2 (omitted: chaser.thrusters.max_thrust_n / mass_kg) less
+    3 sigma of the thrusters' magnitude error, so that what they give stays within it."""
+    o, th = scenario.planner.optimal, scenario.chaser.thrusters
+    accel = th.max_thrust_n / scenario.chaser.mass_kg if o.accel_max_mps2 is None else o.accel_max_mps2
+    return accel * (1.0 - 3.0 * th.magnitude_error_sigma)
+
+
+@params.record
 class TrackingConfig:
     """accel_max_mps2: largest commanded thrust acceleration [m/s^2]; plume_radius_m [m]; frequency_rad_s: the
     feedback's natural frequency w [rad/s]; replan_error_m: the position error that asks for a re-plan [m];
-    replan_cutoff_s: no re-plan request this close to the trajectory's end [s]."""
+    replan_cutoff_s: no re-plan request this close to the trajectory's end [s]. The tracking mode's record of
+    planner.optimal (``flyby_msgs_py.params``)."""
 
-    accel_max_mps2: float
-    plume_radius_m: float
-    frequency_rad_s: float
-    replan_error_m: float
-    replan_cutoff_s: float
-
-
-def tracking_config_from_scenario(scenario):
-    """TrackingConfig of planner.optimal (accel_max_mps2 omitted: chaser.thrusters.max_thrust_n / mass_kg). The
-    commanded bound is accel_max_mps2 less 3 sigma of the thrusters' magnitude error, so that what they give stays
-    within it."""
-    o, th = scenario.planner.optimal, scenario.chaser.thrusters
-    accel = th.max_thrust_n / scenario.chaser.mass_kg if o.accel_max_mps2 is None else o.accel_max_mps2
-    return TrackingConfig(accel_max_mps2=accel * (1.0 - 3.0 * th.magnitude_error_sigma),
-                          plume_radius_m=o.plume_radius_m,
-                          frequency_rad_s=o.tracking_frequency_rad_s, replan_error_m=o.replan_error_m,
-                          replan_cutoff_s=o.replan_cutoff_s)
+    accel_max_mps2: float = params.derived(_tracking_accel_max_mps2)
+    plume_radius_m: float = params.key('planner.optimal.plume_radius_m')
+    frequency_rad_s: float = params.key('planner.optimal.tracking_frequency_rad_s')
+    replan_error_m: float = params.key('planner.optimal.replan_error_m')
+    replan_cutoff_s: float = params.key('planner.optimal.replan_cutoff_s')
 
 
 class ReferenceTrajectory:

@@ -94,7 +94,9 @@ def test_inertia_upper_bound_bounds_every_combined_body():
 
 def _control(**changes):
     from flyby_guidance.damping import PostCaptureConfig, PostCaptureControl
-    config = PostCaptureConfig(DampingGains.for_inertia_bound(500.0, 0.1), 0.1, settle_s=1.0, **changes)
+    values = dict(momentum_threshold_kg_m2_s=SEED004_MOMENTUM_BOUND_KG_M2_S, settle_s=1.0, excitation='table1',
+                  start_delay_s=2.0, window_s=25.0, damping=True, pulse_n_m_s=0.0)
+    config = PostCaptureConfig(DampingGains.for_inertia_bound(500.0, 0.1), 0.1, **{**values, **changes})
     return PostCaptureControl(config, 0.1)
 
 

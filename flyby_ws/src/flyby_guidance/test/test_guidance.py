@@ -51,8 +51,13 @@ def test_eq26_removes_an_exactly_correctable_miss():
 
 
 def _config(**kw):
-    return GuidanceConfig(mean_motion_rad_s=N, restriction_sphere_radius_m=15.0, max_thrust_n=10.0,
-                          chaser_mass_kg=100.0, exhaust_velocity_mps=2157.0, **kw)
+    """A GuidanceConfig of seed 000's guidance settings, ``kw`` replacing any."""
+    values = dict(mean_motion_rad_s=N, restriction_sphere_radius_m=15.0, max_thrust_n=10.0, chaser_mass_kg=100.0,
+                  exhaust_velocity_mps=2157.0, min_impulse_bit_ns=0.0, max_delta_v_per_maneuver_mps=math.inf,
+                  adjust_interval_s=20.0, midcourse_corrections=1, command_lead_s=5.0, deadband_mps=0.0002,
+                  adjust_position_tolerance_m=0.005, adjust_velocity_tolerance_mps=0.0005, sphere_margin_m=1.0,
+                  adjust_law='arc', arc_rendezvous_lead_s=40.0)
+    return GuidanceConfig(**{**values, **kw})
 
 
 def _target():

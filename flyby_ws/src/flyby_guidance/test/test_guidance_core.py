@@ -7,6 +7,7 @@ import pytest
 
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.params import GuidanceParams
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event
 from flyby_planner.transfer import terminal_impulses
@@ -19,7 +20,7 @@ X_FT, V_FT = np.array((0.5, 2.9, 0.1)), np.array((0.0, 0.01, 0.19))
 
 
 def _started(sc, t_plan=60.0):
-    core = GuidanceCore(sc)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
     assert core.on_flyby_target(813.0, X_FT, V_FT) == [] and core.on_flyby_initial(513.0, X_FI, V_FI) == []
     (started,) = core.on_path(t_plan)
     assert isinstance(started, Event) and started.name == 'guidance_started'
@@ -64,7 +65,7 @@ def test_a_re_aim_keeps_the_offset_of_the_plan():
     q, w = truth.state_at(400.0)
     q_g, w_g = truth.state_at(741.0)
     x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(741.0, n, q_g), w_g, sc.target.grasp_point_body_m, 1.3, n)
-    core = GuidanceCore(sc)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
     core.on_flyby_target(741.0, x_ft, v_ft)
     core.on_flyby_initial(441.0, X_FI, V_FI)
     core.on_path(60.0)
@@ -86,7 +87,7 @@ def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_fir
     locked = Event(820.2, 'OK', 'grasp_damped', 'the arm locks', {}, 'flyby_sim')
 
     def commands(event_first):
-        core = GuidanceCore(sc)
+        core = GuidanceCore(GuidanceParams.from_scenario(sc))
         core.on_phase(c.PHASE_CAPTURE)
         out = core.on_event(locked) if event_first else []
         for t in stamps:
@@ -100,7 +101,7 @@ def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_fir
         np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
         np.testing.assert_array_equal(a.wheel_torque_n_m, b.wheel_torque_n_m)
     assert np.all(first[0].thruster_torque_body_n_m * omega < 0.0)  # against the rate
-    core = GuidanceCore(sc)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
     core.on_phase(c.PHASE_CAPTURE)
     core.on_event(Event(820.0, 'WARN', 'grasp_released', 'the arm lets go', {}, 'flyby_sim'))
     assert core.on_chaser_estimate(820.1, r, np.zeros(3), q, omega) == []
@@ -126,7 +127,7 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
         'com_body_m': [2.9, 0.004, 0.0], 'com_sigma_m': [0.001, 0.001, 0.001], 'coast_s': 300.0}, 'flyby_estimator')
 
     def commands(event_first):
-        core = GuidanceCore(sc)
+        core = GuidanceCore(GuidanceParams.from_scenario(sc))
         core.on_phase(c.PHASE_CAPTURE)
         core.on_event(Event(820.0, 'OK', 'grasp_damped', 'the arm locks', {}, 'flyby_sim'))
         core.capture.post.t_excitation = 990.0

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from flyby_guidance.attitude_guidance import AttitudeGuidance
 from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.modes.interface import AttitudeCommandStamped
+from flyby_guidance.params import GuidanceParams
 from flyby_guidance.sync_control import (
     SYNC_ATTITUDE,
     SyncConfig,
@@ -244,7 +245,7 @@ def test_escape_retreats_along_the_port_line_then_drifts():
     time, predicted from the target estimate) at the bound, and once the outward speed reaches retreat_speed_mps
     it commands no force (the drift)."""
     sc = load_scenario(SCENARIOS / 'seweryn_tumbling.yaml')
-    core = GuidanceCore(sc)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
     core.on_trajectory(np.array((0.0, 10.0)), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)))
     core.on_phase(c.PHASE_SYNC_APPROACH)
     q_target = quat_from_rotation_vector((0.5, 0.01, 0.2))

@@ -10,6 +10,7 @@ import yaml
 
 from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.modes.interface import AttitudeCommandStamped
+from flyby_guidance.params import GuidanceParams
 from flyby_guidance.tracking import (
     ReferenceTrajectory,
     TrackingConfig,
@@ -104,7 +105,7 @@ def test_every_command_keeps_the_bound_and_the_plume_rule():
 def _guidance():
     d = copy.deepcopy(yaml.safe_load((SCENARIOS / 'jacobsen_optimal.yaml').read_text()))
     sc = scenario_from_dict(d)
-    core = GuidanceCore(sc)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
     core.on_phase(c.PHASE_OPTIMAL_APPROACH)
     times = np.linspace(100.0, 160.0, 301)
     r = np.outer(np.linspace(50.0, 3.0, 301), (1.0, 0.0, 0.0))

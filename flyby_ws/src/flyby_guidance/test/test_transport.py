@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flyby_guidance.modes.damping import post_capture_config_from_scenario
+from flyby_guidance.damping import PostCaptureConfig
 from flyby_guidance.transport.attitude import TRACK_BANDWIDTH_RAD_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
     TransportControl,
+    TransportGuidanceConfig,
     transport_body,
-    transport_guidance_config_from_scenario,
 )
 from flyby_guidance.transport.trim import (
     COAST_SLEW_MOMENTUM_FRACTION,
@@ -50,8 +50,8 @@ def _control():
     sc = load_scenario(SCENARIO)
     body = transport_body(ESTIMATE, sc.chaser.mass_kg, sc.chaser_inertia, sc.thruster_layout,
                           sc.post_capture.transport.plume_cone_deg)
-    control = TransportControl(transport_guidance_config_from_scenario(sc, 0.1), sc.mean_motion_rad_s,
-                               post_capture_config_from_scenario(sc).gains, 0.1)
+    control = TransportControl(TransportGuidanceConfig.from_scenario(sc), sc.mean_motion_rad_s,
+                               PostCaptureConfig.from_scenario(sc).gains, 0.1)
     return sc, body, control
 
 

@@ -27,25 +27,28 @@ import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
 from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
+from flyby_estimation.params import EstimatorParams
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.modes.flyby import flyby_target_of_plan
 from flyby_guidance.modes.interface import AttitudeCommandStamped
+from flyby_guidance.params import GuidanceParams
 from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, WheelTruth, chaser_truth_from_odometry
 from flyby_mission.summary import summarize
-from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, Transition
+from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events, wiring
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
+from flyby_planner.params import PlannerParams
 from flyby_planner.plan_outputs import AimUpdate, PlanPublished, PlanRefused, TrajectoryPublished
 from flyby_planner.planner_core import PlannerCore
 from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import scenario_from_dict
 
 SIM_NODE = 'flyby_sim'
@@ -123,11 +126,11 @@ class HeadlessGraph:
     def __init__(self, scenario):
         require_one_chaser(scenario)
         self.scenario = scenario
-        self.plant = Plant(plant_config_from_scenario(scenario))
-        self.estimator = EstimatorCore(scenario)
-        self.planner = PlannerCore(scenario)
-        self.guidance = GuidanceCore(scenario)
-        self.supervisor = SupervisorCore(scenario, WATCHED_NODES)
+        self.plant = Plant(PlantConfig.from_scenario(scenario))
+        self.estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
+        self.planner = PlannerCore(PlannerParams.from_scenario(scenario))
+        self.guidance = GuidanceCore(GuidanceParams.from_scenario(scenario))
+        self.supervisor = SupervisorCore(SupervisorParams.from_scenario(scenario), WATCHED_NODES)
         self.guards = {node: CoreGuard(node) for node in (wiring.ESTIMATOR, wiring.PLANNER, wiring.GUIDANCE,
                                                           wiring.SUPERVISOR)}
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}

@@ -3,6 +3,7 @@
 from pathlib import Path
 
 from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.params import GuidanceParams
 from flyby_mission.headless import HeadlessGraph, run_headless
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 from flyby_testing import envelope_run_569
@@ -62,7 +63,8 @@ def test_without_a_safe_arc_guidance_stops_and_the_supervisor_escapes():
     scenario = scenario_from_dict(d, name='envelope run 569')
     graph = HeadlessGraph(scenario)
     d['estimation']['torque_psd_n2m2s'] = 1e-6
-    graph.guidance = GuidanceCore(scenario_from_dict(d, name='envelope run 569, torque noise 1e-6'))
+    graph.guidance = GuidanceCore(GuidanceParams.from_scenario(
+        scenario_from_dict(d, name='envelope run 569, torque noise 1e-6')))
     run = run_headless(scenario, graph)
     s = run.summary
     unsafe = [e for e in run.events if e['name'] == 'passage_unsafe']
@@ -80,6 +82,7 @@ def test_the_planner_plans_from_the_target_filter_covariance_guidance_reads():
 
     from flyby_estimation.target_motion import covariance_from_published
     from flyby_planner.methods import FlybyMethod
+    from flyby_planner.params import PlannerParams
     from flyby_planner.planner_core import PlannerCore
 
     class _PlanTime(BaseException):  # not an Exception: no core guard takes it for the core's fault
@@ -91,7 +94,7 @@ def test_the_planner_plans_from_the_target_filter_covariance_guidance_reads():
 
     scenario = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     graph = HeadlessGraph(scenario)
-    graph.planner = PlannerCore(scenario)
+    graph.planner = PlannerCore(PlannerParams.from_scenario(scenario))
     graph.planner.methods['flyby'] = _StopAtPlan()
     try:
         run_headless(scenario, graph)

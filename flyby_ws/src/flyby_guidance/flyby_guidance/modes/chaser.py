@@ -11,7 +11,7 @@ import collections
 
 import numpy as np
 
-from flyby_guidance.attitude_guidance import AttitudeGuidance, AttitudeGuidanceConfig
+from flyby_guidance.attitude_guidance import AttitudeGuidance
 from flyby_guidance.modes.interface import GuidanceMode
 from flyby_guidance.modes.synchronized import SynchronizedHold
 from flyby_guidance.modes.tracking import TrackingApproach
@@ -19,24 +19,11 @@ from flyby_guidance.tracking import ReferenceTrajectory
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events
 from flyby_sim.dynamics.actuators import allocate_wrench, fire
-from flyby_sim.dynamics.rigid_body import ReactionWheels
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 
 # Thruster torque only this far outside the restriction sphere (by the estimate) [m]: the estimate's error and
 # one control period of motion stay well inside it.
 RESTRICTION_SPHERE_MARGIN_M = 1.0
-
-
-def attitude_guidance_from_scenario(scenario):
-    """(AttitudeGuidance, wheels' initial momenta [N m s]) of a rigid-body chaser scenario."""
-    w = scenario.chaser.wheels
-    wheels = ReactionWheels(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.spin_inertia_kg_m2)
-    g = scenario.guidance
-    config = AttitudeGuidanceConfig(control_period_s=1.0 / scenario.sensors.chaser_imu.rate_hz,
-                                    dump_start_n_m_s=g.momentum_dump_start_n_m_s,
-                                    dump_stop_n_m_s=g.momentum_dump_stop_n_m_s)
-    h0 = np.zeros(wheels.count) if w.initial_momentum_n_m_s is None else np.array(w.initial_momentum_n_m_s, float)
-    return AttitudeGuidance(config, scenario.chaser_inertia, wheels), h0
 
 
 class PointMassChaser(GuidanceMode):
@@ -57,17 +44,21 @@ class RigidBodyChaser(GuidanceMode):
     """The six-degree-of-freedom chaser (``chaser.model: rigid_body``): its accounts (module doc), and ``command``
     of each estimate by the first of its modes that has one: the synchronized hold, else the pointing and tracking."""
 
-    def __init__(self, scenario, source, targets):
+    def __init__(self, params, tracking, synchronized, source, targets):
+        """params: the ChaserParams, tracking: the TrackingConfig, synchronized: the SyncConfig
+        (flyby_guidance.params); targets: the StampedBuffer of the target estimates."""
         super().__init__(source)
-        self.attitude, self.h_wheels_n_m_s = attitude_guidance_from_scenario(scenario)
+        self.attitude = AttitudeGuidance(params.attitude_config(), params.inertia_kg_m2, params.wheels)
+        self.h_wheels_n_m_s = params.initial_wheel_momentum_n_m_s.copy()
         self.wheel_commands = collections.deque()  # (t, wheel torques) commanded, not yet in h_wheels
-        self.sphere_radius_m = scenario.planner.restriction_sphere_radius_m + RESTRICTION_SPHERE_MARGIN_M
-        self.mass_kg = scenario.chaser.mass_kg  # less the fuel of the forces commanded
-        self.layout = scenario.thruster_layout
+        self.sphere_radius_m = params.restriction_sphere_radius_m + RESTRICTION_SPHERE_MARGIN_M
+        self.mass_kg = params.mass_kg  # less the fuel of the forces commanded
+        self.inertia_kg_m2 = params.inertia_kg_m2
+        self.layout = params.thruster_layout
         self.force_carried_hill = np.zeros(3)  # below the thrusters' minimum impulse bit so far [N]
         self.wheels_clipped = False  # from the arm's lock on (``account_wheels``)
-        self.tracking = TrackingApproach(scenario, source, self)
-        self.sync_hold = SynchronizedHold(scenario, source, self, targets)
+        self.tracking = TrackingApproach(tracking, params.mean_motion_rad_s, source, self)
+        self.sync_hold = SynchronizedHold(synchronized, source, self, targets)
         self.modes = (self.sync_hold, self.tracking)
 
     def command(self, estimate, phase):

@@ -10,12 +10,7 @@ import collections
 
 import numpy as np
 
-from flyby_guidance.damping import (
-    DampingGains,
-    PostCaptureConfig,
-    PostCaptureControl,
-    inertia_upper_bound,
-)
+from flyby_guidance.damping import PostCaptureControl, inertia_upper_bound
 from flyby_guidance.modes.interface import AttitudeCommandStamped, GuidanceMode
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events
@@ -23,28 +18,6 @@ from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 
 # The phases in which the chaser holds the target (its estimates wait for the arm's lock).
 ATTACHED_PHASES = (c.PHASE_CAPTURE,) + c.POST_CAPTURE_PHASES
-# The damping's couple is fired in pulses of this many minimum impulse bits (post_capture_config_from_scenario).
-DAMPING_PULSE_BITS = 4.0
-
-
-def post_capture_config_from_scenario(scenario):
-    """The PostCaptureConfig of a scenario with a post_capture section (the gains for the inertia bound it gives, or
-    half the smallest principal moment of the target's inertia; the IMU's period)."""
-    pc = scenario.post_capture
-    d = pc.damping
-    period_s = 1.0 / scenario.sensors.chaser_imu.rate_hz
-    bound = d.inertia_lower_bound_kg_m2 or 0.5 * float(np.linalg.eigvalsh(scenario.target_inertia)[0])
-    gains = DampingGains.for_inertia_bound(bound, period_s, d.wheel_share,
-                                           max_thruster_torque_n_m=d.max_thruster_torque_n_m,
-                                           dump_rate_per_s=d.dump_rate_per_s)
-    m = pc.mass_estimation
-    layout = scenario.thruster_layout
-    # A pulse: DAMPING_PULSE_BITS minimum impulse bits at the thrusters' mean lever arm about the chaser's CoM (the
-    # small couple that moves the wheels' momentum to the thrusters is below the bit, and would never fire).
-    pulse = DAMPING_PULSE_BITS * layout.min_impulse_bit_n_s * float(np.mean(np.linalg.norm(
-        layout.positions_body_m, axis=1)))
-    return PostCaptureConfig(gains, period_s, d.momentum_threshold_kg_m2_s, d.settle_s, m.excitation, m.start_delay_s,
-                             m.window_s, damping=pc.start != 'attached', pulse_n_m_s=pulse)
 
 
 class NotCaptured(GuidanceMode):
@@ -58,20 +31,20 @@ class DampingMode(GuidanceMode):
     """The damping and the excitation after the arm's lock (module doc): ``command`` takes the estimates from the
     arm's lock on (or in the attached phases, to wait for it) and gives the commands they release, None before."""
 
-    def __init__(self, scenario, source, chaser):
-        """chaser: the RigidBodyChaser whose wheels and thrusters it commands."""
+    def __init__(self, params, source, chaser):
+        """params: the DampingParams (flyby_guidance.params); chaser: the RigidBodyChaser whose wheels and
+        thrusters it commands."""
         super().__init__(source)
-        self.scenario = scenario
+        self.params = params
         self.chaser = chaser
-        self.post = PostCaptureControl(post_capture_config_from_scenario(scenario),
-                                       float(chaser.attitude.wheels.max_torque_n_m.min()))
+        self.post = PostCaptureControl(params.post, float(chaser.attitude.wheels.max_torque_n_m.min()))
         self.t_locked = None  # the arm's lock (the simulator's grasp_damped) [s]
         # Between the two CoMs [m]: the chaser estimate's distance from the target's after a capture, the
         # attachment's when the run starts attached (locked from t = 0; its position estimate is not measured).
         self.distance_m = None
-        if scenario.post_capture.start == 'attached':
+        if params.attached_distance_m is not None:
             self._lock(0.0)
-            self.distance_m = float(np.linalg.norm(scenario.post_capture.attachment.target_com_chaser_body_m))
+            self.distance_m = params.attached_distance_m
         self.released = False  # the arm let go (grasp_released)
         # (t, r_hill, v_hill, q_hill_from_body, omega_body) not yet commanded
         self.waiting = collections.deque()
@@ -134,9 +107,9 @@ class DampingMode(GuidanceMode):
             cmd = self._transport_command(t, r_hill, v_hill, q_hill_from_body, omega_body,
                                           axes @ chaser.h_wheels_n_m_s)
             if cmd is None:
-                sc = self.scenario
-                bound = inertia_upper_bound(sc.chaser_inertia, sc.target_inertia, sc.chaser.mass_kg,
-                                            sc.target.mass_kg, float(np.linalg.norm(r_hill))
+                p = self.params
+                bound = inertia_upper_bound(p.chaser_inertia_kg_m2, p.target_inertia_kg_m2, p.chaser_mass_kg,
+                                            p.target_mass_kg, float(np.linalg.norm(r_hill))
                                             if self.distance_m is None else self.distance_m)
                 cmd = self.post.command(t, omega_body, axes @ chaser.h_wheels_n_m_s, axes @ h_settled, bound)
             wheel_torque = np.linalg.pinv(axes) @ cmd.wheel_torque_body_n_m

@@ -15,11 +15,10 @@ import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import covariance_from_published, prediction_from_estimate
-from flyby_guidance.guidance import FlybyGuidance, FlybyTarget, guidance_config_from_scenario
+from flyby_guidance.guidance import FlybyGuidance, FlybyTarget
 from flyby_guidance.modes.interface import GuidanceMode
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events
-from flyby_planner.flyby.config import planner_config_from_scenario
 from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.flyby.passive_safety import check_passage
 
@@ -42,17 +41,17 @@ class FlybyAdjusting(GuidanceMode):
     """The fly-by's rules (module doc): the plan's inputs, and ``command`` steps every chaser estimate (the
     maneuvers and their events; a list, never None: the fly-by translates whatever else commands the attitude)."""
 
-    def __init__(self, scenario, source, targets):
-        """targets: the StampedBuffer of the target estimates (q_hill_from_body, omega_body, published covariance
-        blocks or None), which the re-aim reads."""
+    def __init__(self, params, source, targets):
+        """params: the FlybyParams (flyby_guidance.params); targets: the StampedBuffer of the target estimates
+        (q_hill_from_body, omega_body, published covariance blocks or None), which the re-aim reads."""
         super().__init__(source)
-        self.scenario = scenario
-        self.guidance = FlybyGuidance(guidance_config_from_scenario(scenario))
+        self.params = params
+        self.guidance = FlybyGuidance(params.guidance)
         # The estimator's torque noise: the gate propagates the estimate's covariance as the filter would.
-        self.dynamics = ErrorStateDynamics(scenario.target_inertia, scenario.estimation.torque_psd_n2m2s)
-        self.planner_config = planner_config_from_scenario(scenario)
-        self.n = scenario.mean_motion_rad_s
-        self.x_grasp_body = np.array(scenario.target.grasp_point_body_m)
+        self.dynamics = ErrorStateDynamics(params.target_inertia_kg_m2, params.torque_psd_n2m2s)
+        self.planner_config = params.planner
+        self.n = params.mean_motion_rad_s
+        self.x_grasp_body = params.x_grasp_body_m
         self.flyby_initial = self.flyby_target = None  # (t, x, v) as last published
         self.plan_stamp = None  # the plan time of the plan being flown
         self.targets = targets
@@ -72,7 +71,7 @@ class FlybyAdjusting(GuidanceMode):
             return []
         self.plan_stamp = t_plan
         target = flyby_target_of_plan(t_plan, *self.flyby_initial, *self.flyby_target,
-                                      self.scenario.planner.maneuver_lead_s)
+                                      self.planner_config.maneuver_lead_s)
         self.guidance.set_target(target)
         return [self._event(t_plan, 'OK', events.GUIDANCE_STARTED,
                             f'flying the plan of t = {t_plan:.2f} s: transfer at {target.t_ti:.2f} s, injection '
@@ -92,7 +91,7 @@ class FlybyAdjusting(GuidanceMode):
             if g.next_burn_time is None or phase in QUIET_PHASES:
                 self.waiting.clear()
                 break
-            if self.scenario.guidance.refine_target and g.wants_refined_target(t):
+            if self.params.refine_target and g.wants_refined_target(t):
                 target = self.targets.first_at_or_after(t)
                 if target is None:
                     break

@@ -15,7 +15,7 @@ import numpy as np
 
 from flyby_guidance.attitude_guidance import AttitudeGuidance
 from flyby_guidance.modes.interface import AttitudeCommandStamped, GuidanceMode
-from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance, sync_config_from_scenario
+from flyby_guidance.sync_control import SYNC_ATTITUDE, SyncGuidance
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_sim.dynamics.attitude import attitude_ahead
@@ -25,16 +25,16 @@ class SynchronizedHold(GuidanceMode):
     """Stages 2-4 and the retreat (module doc): ``command`` is None where SyncGuidance has nothing to say (no
     synchronized approach, stage 1 before the arrival, the drift after a retreat)."""
 
-    def __init__(self, scenario, source, chaser, targets):
-        """chaser: the RigidBodyChaser whose wheels and thrusters it commands; targets: the StampedBuffer of the
-        target estimates."""
+    def __init__(self, config, source, chaser, targets):
+        """config: the SyncConfig of planner.sync; chaser: the RigidBodyChaser whose wheels and thrusters it commands;
+        targets: the StampedBuffer of the target estimates."""
         super().__init__(source)
         self.chaser = chaser
         self.targets = targets
-        self.n = scenario.mean_motion_rad_s
-        self.sync = SyncGuidance(sync_config_from_scenario(scenario))
+        self.n = config.n
+        self.sync = SyncGuidance(config)
         self.sync_attitude = AttitudeGuidance(dataclasses.replace(SYNC_ATTITUDE, control_period_s=(
-            chaser.attitude.config.control_period_s)), scenario.chaser_inertia, chaser.attitude.wheels)
+            chaser.attitude.config.control_period_s)), chaser.inertia_kg_m2, chaser.attitude.wheels)
 
     def command(self, estimate, phase):
         if self.sync.stage is None:

@@ -20,7 +20,7 @@ import numpy as np
 
 from flyby_guidance.modes.flyby import QUIET_PHASES
 from flyby_guidance.modes.interface import AttitudeCommandStamped, GuidanceMode
-from flyby_guidance.tracking import TrackingConfig, tracking_acceleration, tracking_config_from_scenario
+from flyby_guidance.tracking import TrackingConfig, tracking_acceleration
 from flyby_msgs_py import events
 from flyby_sim.dynamics.orbital import cw_accel
 
@@ -29,12 +29,13 @@ class TrackingApproach(GuidanceMode):
     """The pointing and the tracking (module doc): ``command`` gives every estimate's command (never None: the last
     of the chaser's modes)."""
 
-    def __init__(self, scenario, source, chaser):
-        """chaser: the RigidBodyChaser whose wheels and thrusters it commands."""
+    def __init__(self, tracking, n, source, chaser):
+        """tracking: the TrackingConfig of planner.optimal; n: the mean motion [rad/s]; chaser: the RigidBodyChaser
+        whose wheels and thrusters it commands."""
         super().__init__(source)
         self.chaser = chaser
-        self.n = scenario.mean_motion_rad_s
-        self.tracking = tracking_config_from_scenario(scenario)
+        self.n = n
+        self.tracking = tracking
         self.reference = None  # the ReferenceTrajectory flown (an optimal approach)
         self.next_reference = None  # a re-planned one, flown from its start
         self.replan_asked = False

@@ -9,11 +9,7 @@ import numpy as np
 from flyby_estimation.transport_navigation import on_com_grid
 from flyby_guidance.damping import PostCaptureCommand
 from flyby_guidance.modes.damping import DampingMode
-from flyby_guidance.transport.control import (
-    TransportControl,
-    transport_body,
-    transport_guidance_config_from_scenario,
-)
+from flyby_guidance.transport.control import TransportControl, transport_body
 from flyby_msgs_py import events
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 
@@ -21,19 +17,20 @@ from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 class TransportMode(DampingMode):
     """The damping and the excitation, then TRANSPORT from the final mass-property estimate (module doc)."""
 
-    def __init__(self, scenario, source, chaser):
-        super().__init__(scenario, source, chaser)
+    def __init__(self, params, transport, source, chaser):
+        """params: the DampingParams, transport: the TransportParams (flyby_guidance.params); chaser: the
+        RigidBodyChaser whose wheels and thrusters it commands."""
+        super().__init__(params, source, chaser)
         wheels = chaser.attitude.wheels
-        self.transport = TransportControl(transport_guidance_config_from_scenario(
-            scenario, chaser.attitude.config.control_period_s), scenario.mean_motion_rad_s, self.post.config.gains,
-            float(wheels.max_torque_n_m.min()), float(np.min(wheels.max_momentum_n_m_s)))
+        self.transport = TransportControl(transport.control, transport.mean_motion_rad_s, self.post.config.gains,
+                                          float(wheels.max_torque_n_m.min()), float(np.min(wheels.max_momentum_n_m_s)))
 
     def _on_estimator_event(self, event, phase):
         """The final mass-property estimate starts TRANSPORT for the body it gives; the refined combined CoM is flown
         from its stamp on."""
         if event.name == events.MASS_PROPERTIES_ESTIMATED and self.transport.t_start is None:
             self.transport.start(event.t, transport_body(event.values, self.chaser.mass_kg,
-                                                         self.scenario.chaser_inertia, self.chaser.layout,
+                                                         self.params.chaser_inertia_kg_m2, self.chaser.layout,
                                                          self.transport.config.plume_cone_deg))
             return self._commands(phase)
         if event.name == events.TRANSPORT_COM_ESTIMATE and self.transport.t_start is not None:

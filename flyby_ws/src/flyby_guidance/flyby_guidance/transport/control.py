@@ -30,7 +30,7 @@ import numpy as np
 from flyby_guidance.transport.attitude import DETUMBLED_S, TransportAttitude
 from flyby_guidance.transport.push import TransportPush
 from flyby_guidance.transport.trim import TRIM_SLEW_RATE_RAD_S, WHEEL_SPINUP_S, TransportTrim
-from flyby_msgs_py import events
+from flyby_msgs_py import events, params
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_planner.transport.model import (
     TransportBody,
@@ -76,28 +76,29 @@ def com_state(body, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_bod
                           np.asarray(omega_body, dtype=float))
 
 
-@dataclasses.dataclass(frozen=True)
-class TransportGuidanceConfig:
-    """scenario post_capture.transport, and guidance's control period."""
-
-    goal_hill_m: tuple
-    transfer_time_s: float
-    plume_cone_deg: float
-    replan_interval_s: float
-    replan_position_m: float
-    replan_momentum_n_s: float
-    settle_s: float
-    planner: TransportConfig
-
-
-def transport_guidance_config_from_scenario(scenario, period_s):
+def _transport_planner_config(scenario):
+    """The transport planner's TransportConfig: post_capture.transport's bounds, the orbit, and guidance's control
+    period (the chaser IMU's)."""
     tr = scenario.post_capture.transport
-    planner = TransportConfig(period_s=period_s, radius_m=scenario.orbit_radius_m, mu=scenario.orbit.mu_m3_s2,
-                              max_angular_momentum_kg_m2_s=tr.max_angular_momentum_kg_m2_s,
-                              max_position_error_m=tr.max_position_error_m,
-                              max_momentum_error_n_s=tr.max_momentum_error_n_s)
-    return TransportGuidanceConfig(tuple(tr.goal_hill_m), tr.transfer_time_s, tr.plume_cone_deg, tr.replan_interval_s,
-                                   tr.replan_position_m, tr.replan_momentum_n_s, tr.settle_s, planner)
+    return TransportConfig(period_s=1.0 / scenario.sensors.chaser_imu.rate_hz, radius_m=scenario.orbit_radius_m,
+                           mu=scenario.orbit.mu_m3_s2, max_angular_momentum_kg_m2_s=tr.max_angular_momentum_kg_m2_s,
+                           max_position_error_m=tr.max_position_error_m,
+                           max_momentum_error_n_s=tr.max_momentum_error_n_s)
+
+
+@params.record
+class TransportGuidanceConfig:
+    """scenario post_capture.transport, and guidance's control period: the transport mode's record
+    (``flyby_msgs_py.params``)."""
+
+    goal_hill_m: tuple = params.key('post_capture.transport.goal_hill_m', tuple)
+    transfer_time_s: float = params.key('post_capture.transport.transfer_time_s')
+    plume_cone_deg: float = params.key('post_capture.transport.plume_cone_deg')
+    replan_interval_s: float = params.key('post_capture.transport.replan_interval_s')
+    replan_position_m: float = params.key('post_capture.transport.replan_position_m')
+    replan_momentum_n_s: float = params.key('post_capture.transport.replan_momentum_n_s')
+    settle_s: float = params.key('post_capture.transport.settle_s')
+    planner: TransportConfig = params.derived(_transport_planner_config)
 
 
 class TransportControl(TransportAttitude, TransportPush, TransportTrim):
