@@ -12,7 +12,7 @@ from flyby_estimation.estimator_node import EstimatorNode
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.bag import read_bag
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 from flyby_testing import SCENARIOS, collect, read_summary, run_mission, spin_until, with_duration, write_scenario
 
@@ -86,7 +86,7 @@ class SensorProbe(Node):
 
 def test_bad_measurements_are_rejected_counted_and_the_filter_keeps_running(ros_context, executor):
     scenario_path = SCENARIOS / 'paper_flyby.yaml'
-    plant = Plant(plant_config_from_scenario(load_scenario(scenario_path)))
+    plant = Plant(PlantConfig.from_scenario(load_scenario(scenario_path)))
     estimator = EstimatorNode(context=ros_context, parameter_overrides=[
         Parameter('scenario_file', value=str(scenario_path))])
     probe = SensorProbe(ros_context)

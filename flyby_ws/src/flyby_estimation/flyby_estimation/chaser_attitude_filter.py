@@ -100,8 +100,9 @@ _SMALL_ANGLE_RAD = 1e-2  # below it the coefficients of Phi by their Taylor seri
 class ChaserAttitudeFilterConfig:
     """Parameters of ChaserAttitudeFilter (validated; ValueError names the field).
 
-    The sensor fields are the scenario's ``sensors.chaser_imu`` keys in SI units
-    (``chaser_attitude_filter_config_from_scenario``); the defaults are the scenario schema's.
+    The sensor fields and the gate are the scenario's ``sensors.chaser_imu`` keys in SI units and
+    ``estimation.gate_probability`` (``params.ChaserAttitudeFilterParams.config``: their defaults are the scenario
+    schema's); the rest are the filter's own, with defaults.
 
     Attributes:
         mean_motion_rad_s: orbital mean motion n [rad/s] of the hill frame.
@@ -110,11 +111,11 @@ class ChaserAttitudeFilterConfig:
         star_tracker_rate_hz: star-tracker rate [Hz] (``star_tracker_rate_hz``); used only by
             ``steady_state`` (the filter fuses a sample whenever one comes).
         star_tracker_sigma_rad: star-tracker noise, 1 sigma per body axis [rad]
-            (``star_tracker_sigma_deg``, default 0.01 deg); > 0 (the scenario allows a perfect star
-            tracker, 0, which the filter cannot weigh: give it a floor as an override).
-        gyro_noise_sigma_rad_s: gyro white noise per sample [rad/s] (``gyro_noise_sigma_rad_s``, 1e-5).
-        gyro_bias_sigma_rad_s: 1 sigma per axis of the initial bias [rad/s] (``gyro_bias_sigma_rad_s``, 1e-4).
-        gyro_bias_walk_rad_s_sqrt_s: bias random walk [rad/s/sqrt(s)] (``gyro_bias_walk_rad_s_sqrt_s``, 1e-7).
+            (``star_tracker_sigma_deg``); > 0 (the scenario allows a perfect star tracker, 0, which the
+            filter cannot weigh: give it a floor as an override).
+        gyro_noise_sigma_rad_s: gyro white noise per sample [rad/s] (``gyro_noise_sigma_rad_s``).
+        gyro_bias_sigma_rad_s: 1 sigma per axis of the initial bias [rad/s] (``gyro_bias_sigma_rad_s``).
+        gyro_bias_walk_rad_s_sqrt_s: bias random walk [rad/s/sqrt(s)] (``gyro_bias_walk_rad_s_sqrt_s``).
         gate_probability: chi2(3) probability of the innovation gate (0.9999: d2 < 21.1).
         max_consecutive_outliers: the Nth consecutive star-tracker outlier restarts the attitude from it.
         initial_attitude_sigma_rad: attitude sigma per axis at initialization [rad]; None (default) = the
@@ -125,13 +126,13 @@ class ChaserAttitudeFilterConfig:
     """
 
     mean_motion_rad_s: float
-    rate_hz: float = 10.0
-    star_tracker_rate_hz: float = 2.0
-    star_tracker_sigma_rad: float = math.radians(0.01)
-    gyro_noise_sigma_rad_s: float = 1e-5
-    gyro_bias_sigma_rad_s: float = 1e-4
-    gyro_bias_walk_rad_s_sqrt_s: float = 1e-7
-    gate_probability: float = 0.9999
+    rate_hz: float
+    star_tracker_rate_hz: float
+    star_tracker_sigma_rad: float
+    gyro_noise_sigma_rad_s: float
+    gyro_bias_sigma_rad_s: float
+    gyro_bias_walk_rad_s_sqrt_s: float
+    gate_probability: float
     max_consecutive_outliers: int = 20
     initial_attitude_sigma_rad: float | None = None
     norm_tolerance: float = 1e-3
@@ -158,20 +159,6 @@ class ChaserAttitudeFilterConfig:
         """Attitude sigma per axis at initialization [rad]."""
         s = self.initial_attitude_sigma_rad
         return self.star_tracker_sigma_rad if s is None else s
-
-
-def chaser_attitude_filter_config_from_scenario(scenario, **overrides):
-    """ChaserAttitudeFilterConfig of a validated scenario: orbit rate, ``sensors.chaser_imu`` (degrees
-    converted) and ``estimation.gate_probability``; keyword overrides win."""
-    imu = scenario.sensors.chaser_imu
-    values = dict(mean_motion_rad_s=scenario.mean_motion_rad_s, rate_hz=imu.rate_hz,
-                  star_tracker_rate_hz=imu.star_tracker_rate_hz,
-                  star_tracker_sigma_rad=math.radians(imu.star_tracker_sigma_deg),
-                  gyro_noise_sigma_rad_s=imu.gyro_noise_sigma_rad_s, gyro_bias_sigma_rad_s=imu.gyro_bias_sigma_rad_s,
-                  gyro_bias_walk_rad_s_sqrt_s=imu.gyro_bias_walk_rad_s_sqrt_s,
-                  gate_probability=scenario.estimation.gate_probability)
-    values.update(overrides)
-    return ChaserAttitudeFilterConfig(**values)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -334,7 +321,7 @@ class ChaserAttitudeFilter(FilterBase):
 
     Typical use (the estimator, at each ``/sensors/chaser/imu`` message):
 
-        f = ChaserAttitudeFilter(chaser_attitude_filter_config_from_scenario(sc))
+        f = ChaserAttitudeFilter(ChaserAttitudeFilterParams.from_scenario(sc).config())  # flyby_estimation.params
         gyro, star = f.on_imu(t, omega_body_meas, q_hill_from_body_meas)   # q None when absent
         for sensor, result in (('gyro', gyro), ('star_tracker', star)):
             if result is not None and not result.accepted:

@@ -40,8 +40,9 @@ velocity the chaser estimates carry from the next IMU sample on; at every stamp 
 (``transport_com_estimate``: refined over the coasts with nothing firing, ``transport_navigation.ComCoast``), which
 guidance waits for.
 
-The estimator node and the headless driver (flyby_mission.headless) both run ``EstimatorCore``;
-every input method returns the outputs to publish, in order.
+The estimator node and the headless driver (flyby_mission.headless) both run ``EstimatorCore``, built from its
+parameter record (``params.EstimatorParams``: what it reads of the scenario); every input method returns the outputs
+to publish, in order.
 """
 
 import collections
@@ -51,8 +52,7 @@ import math
 
 import numpy as np
 
-from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter, chaser_attitude_filter_config_from_scenario
-from flyby_estimation.filters import filters_from_scenario
+from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter
 from flyby_estimation.mass_estimation_run import (
     CaptureSnapshot,
     MassEstimationRun,
@@ -60,6 +60,9 @@ from flyby_estimation.mass_estimation_run import (
     imu_sample,
     mass_property_prior,
 )
+from flyby_estimation.params import EstimatorParams
+from flyby_estimation.relative_nav import RelativeNavFilter
+from flyby_estimation.target_filter import TargetAttitudeFilter
 from flyby_estimation.transport_navigation import TransportNavigation, combined_com_covariance
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events
@@ -123,25 +126,28 @@ def _key(t):
 class EstimatorCore:
     """The estimator's rules (module doc)."""
 
-    def __init__(self, scenario, name='flyby_estimator'):
-        self.scenario = scenario
+    def __init__(self, params: EstimatorParams, name='flyby_estimator'):
+        self.params = params
         self.name = name
-        self.target, self.nav, self.convergence, self.motion = filters_from_scenario(scenario)
-        self.attitude = (ChaserAttitudeFilter(chaser_attitude_filter_config_from_scenario(scenario))
-                         if scenario.chaser.model == 'rigid_body' else None)
+        self.target = TargetAttitudeFilter(params.target.config())
+        self.nav = RelativeNavFilter(params.nav.config())
+        self.convergence = params.convergence
+        self.motion = params.motion
+        self.attitude = (ChaserAttitudeFilter(params.chaser_attitude.config())
+                         if params.chaser_attitude is not None else None)
         self.converged = False
         self.checked = False  # the batch check runs at the first convergence
         self.category = None
         self.t_classified = -math.inf
         self.rejected = collections.Counter()
         # A fault to inject (tests of the escape): the published rate is off, the filter itself is not.
-        self.rate_error = np.radians(scenario.estimation.injected_rate_error_deg_s)
+        self.rate_error = params.injected_rate_error_rad_s
         self.attached = False  # captured: the free-flyer navigation model no longer holds
         if self.attitude is not None:
-            self.wrench_hold_s = 1.0 / scenario.sensors.chaser_imu.rate_hz  # guidance's control period
+            self.wrench_hold_s = 1.0 / params.imu_rate_hz  # guidance's control period
             # (t, q_hill_from_body) of the latest attitude estimates: a force command's is one period old
             self.attitudes = collections.deque(maxlen=_ATTITUDES_KEPT)
-            self.accel_sigma_mps2 = scenario.sensors.chaser_imu.accel_noise_sigma_mps2
+            self.accel_sigma_mps2 = params.accel_noise_sigma_mps2
             self.imu_t_last = None
             # Interval start (rounded stamp) -> the delta-v sent to the navigation filter for a force command
             # not yet measured, or the accelerometer's measured delta-v and covariance of an interval whose
@@ -149,7 +155,7 @@ class EstimatorCore:
             self.commanded_dv = {}
             self.measured_dv = {}
         # After the capture (module doc): the estimates around it by stamp, what the capture fixed, the filter's run.
-        self.post_capture = scenario.post_capture is not None and self.attitude is not None
+        self.post_capture = params.mass_estimation is not None
         self.transport_nav = None  # from the final mass-property estimate on, with a transport (module doc)
         if self.post_capture:
             self.recent_chaser, self.recent_target = StampedBuffer(200), StampedBuffer(200)
@@ -157,11 +163,11 @@ class EstimatorCore:
             self.mass_run = None
             self.pending = []  # IMU samples after the capture that came before its stamp did
             self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-            if scenario.post_capture.start == 'attached':  # held from t = 0 (module doc)
+            if params.mass_estimation.attachment is not None:  # held from t = 0 (module doc)
                 self.attached = True
-                self.snapshot = attachment_snapshot(scenario)
+                self.snapshot = attachment_snapshot(params.mass_estimation)
                 self.capture_covariance = _NOT_ESTIMATED_VARIANCE * np.eye(6)  # no position sensor
-                self.mass_run = MassEstimationRun(scenario, scenario.chaser.mass_kg)
+                self.mass_run = MassEstimationRun(params.mass_estimation, params.chaser_mass_kg)
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_phase(self, phase):
@@ -192,7 +198,7 @@ class EstimatorCore:
 
     def _start_mass_estimation(self, event):
         """The prior at the lock and the filter's run from the excitation's start (module doc)."""
-        prior = mass_property_prior(self.scenario, self.snapshot, *self.arm_deflection)
+        prior = mass_property_prior(self.params.mass_estimation, self.snapshot, *self.arm_deflection)
         t_start = float(event.values['t_excitation_s'])
         started = self._event(event.t, 'OK', events.MASS_PROPERTIES_PRIOR,
                               f'prior of the target at the lock: {prior.target_mass_kg:.2f} kg, CoM '
@@ -217,7 +223,7 @@ class EstimatorCore:
                                         target[1].q_hill_from_body, target[1].attitude_covariance_hill)
         self.capture_covariance = estimate.covariance
         self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self.mass_run = MassEstimationRun(self.scenario, self.nav.mass_kg or self.scenario.chaser.mass_kg)
+        self.mass_run = MassEstimationRun(self.params.mass_estimation, self.nav.mass_kg or self.params.chaser_mass_kg)
         pending, self.pending = self.pending, []
         return [out for args in pending for out in self._attached_imu(*args)]
 
@@ -226,11 +232,12 @@ class EstimatorCore:
         out = []
         for e in estimates:
             f = e.estimate
-            if e.final and self.scenario.post_capture.transport is not None:
-                combined = combined_mass_properties(self.mass_run.chaser_mass_kg, self.scenario.chaser_inertia,
-                                                    f.target_mass_kg, f.target_com_body_m, f.target_inertia_body_kg_m2)
+            if e.final and self.params.transport is not None:
+                combined = combined_mass_properties(self.mass_run.chaser_mass_kg,
+                                                    self.params.mass_estimation.chaser_inertia, f.target_mass_kg,
+                                                    f.target_com_body_m, f.target_inertia_body_kg_m2)
                 self.transport_nav = TransportNavigation(
-                    self.scenario, e.t, combined.com_body_m,
+                    self.params.transport, e.t, combined.com_body_m,
                     combined_com_covariance(self.mass_run.chaser_mass_kg, f), combined.mass_kg)
             out.append(e)
             name = events.MASS_PROPERTIES_ESTIMATED if e.final else events.MASS_PROPERTIES_ESTIMATE
@@ -310,7 +317,7 @@ class EstimatorCore:
             return []
         c_hill_from_body = quat_to_matrix(a.q_hill_from_body)
         r_hill, v_hill = body_point_state(c_hill_from_body, a.omega_body, self.snapshot.r_chaser_body,
-                                          self.scenario.mean_motion_rad_s)
+                                          self.params.mean_motion_rad_s)
         r_hill = r_hill + self.snapshot.r_target_hill
         covariance = self.capture_covariance
         out = []
@@ -329,7 +336,7 @@ class EstimatorCore:
                                   a.attitude_covariance_hill, a.rate_covariance))
         if specific_force_body is None:
             return out
-        sample = imu_sample(t, a, specific_force_body, q_star_hill, self.scenario.mean_motion_rad_s)
+        sample = imu_sample(t, a, specific_force_body, q_star_hill, self.params.mean_motion_rad_s)
         return out + self._mass_outputs(self.mass_run.on_sample(sample))
 
     def on_maneuver(self, t, dv_hill):
@@ -356,8 +363,8 @@ class EstimatorCore:
         q = next((q for t_q, q in reversed(self.attitudes) if t_q <= t_estimate + STAMP_TOLERANCE_S), None)
         if q is None:
             return []
-        mass_kg = self.nav.mass_kg or self.scenario.chaser.mass_kg
-        if float(np.linalg.norm(force)) * self.wrench_hold_s < self.scenario.chaser.thrusters.min_impulse_bit_ns:
+        mass_kg = self.nav.mass_kg or self.params.chaser_mass_kg
+        if float(np.linalg.norm(force)) * self.wrench_hold_s < self.params.min_impulse_bit_ns:
             return []
         dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
         measured = self.measured_dv.pop(_key(t), None)

@@ -28,6 +28,7 @@ import numpy as np
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
 from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
 from flyby_estimation.measurement_order import MeasurementOrder
+from flyby_estimation.params import EstimatorParams
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
 from flyby_msgs_py.node_base import CoreNode
@@ -51,7 +52,7 @@ class EstimatorNode(CoreNode):
     def __init__(self, **kwargs):
         super().__init__('flyby_estimator', **kwargs)
         scenario = scenario_of(self)
-        self.core = EstimatorCore(scenario, self.get_name())
+        self.core = EstimatorCore(EstimatorParams.from_scenario(scenario), self.get_name())
         self.pub_target, self.pub_chaser, self.pub_events = (
             self.publisher(c.EST_TARGET_ODOM), self.publisher(c.EST_CHASER_ODOM), self.publisher(c.MISSION_EVENTS))
         self.order = None

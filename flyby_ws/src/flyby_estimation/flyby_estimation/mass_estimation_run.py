@@ -84,24 +84,23 @@ class CaptureSnapshot(NamedTuple):
         return quat_rotate(quat_conjugate(self.q_hill_from_chaser), self.r_chaser_hill)
 
 
-def attachment_snapshot(scenario):
+def attachment_snapshot(p):
     """The CaptureSnapshot of a run that starts attached (scenario post_capture.start attached, seed 004 §3.1): the
     attachment of post_capture.attachment as the crew or the docking fixture knows it, its CoM X_s and the target's
     axes each drawn with the prior's sigma (prior_com_sigma_m, prior_axes_sigma_deg) from a stream of the seed, at
-    the chaser's initial position and attitude."""
-    cfg = scenario.post_capture.mass_estimation
-    rng = np.random.default_rng([scenario.seed, _ATTACHMENT_STREAM])
+    the chaser's initial position and attitude. p: the ``params.MassEstimationParams``."""
+    attachment = p.attachment
+    rng = np.random.default_rng([p.seed, _ATTACHMENT_STREAM])
     z = rng.standard_normal(6)
-    x_s = np.asarray(scenario.post_capture.attachment.target_com_chaser_body_m, dtype=float)
-    x_s = x_s + cfg.prior_com_sigma_m * z[:3]
-    sigma_rad = math.radians(cfg.prior_axes_sigma_deg)
-    q_chaser = scenario.q_hill_from_chaser_body0
-    q_chaser_from_target = quat_multiply(scenario.q_chaser_from_target_attached,
-                                         quat_from_rotation_vector(sigma_rad * z[3:]))
+    x_s = np.asarray(attachment.target_com_chaser_body_m, dtype=float)
+    x_s = x_s + p.prior_com_sigma_m * z[:3]
+    sigma_rad = p.prior_axes_sigma_rad
+    q_chaser = attachment.q_hill_from_chaser_body0
+    q_chaser_from_target = quat_multiply(attachment.q_chaser_from_target, quat_from_rotation_vector(sigma_rad * z[3:]))
     r_chaser_hill = -quat_rotate(q_chaser, x_s)
     return CaptureSnapshot(0.0, r_chaser_hill, q_chaser, quat_multiply(q_chaser, q_chaser_from_target),
                            sigma_rad ** 2 * np.eye(3),
-                           tuple(np.asarray(scenario.chaser.initial_position_hill_m, dtype=float) - r_chaser_hill))
+                           tuple(np.asarray(attachment.chaser_position_hill0_m, dtype=float) - r_chaser_hill))
 
 
 def principal_axes(inertia_kg_m2):
@@ -113,35 +112,33 @@ def principal_axes(inertia_kg_m2):
     return moments, quat_from_matrix(axes)
 
 
-def mass_property_prior(scenario, snapshot, arm_displacement_body_m=(0.0, 0.0, 0.0),
-                        arm_rotation_body_rad=(0.0, 0.0, 0.0)):
+def mass_property_prior(p, snapshot, arm_displacement_body_m=(0.0, 0.0, 0.0), arm_rotation_body_rad=(0.0, 0.0, 0.0)):
     """The MassPropertyPrior of the target at the lock: the capture's estimates moved by the arm's deflection
-    (module doc)."""
-    cfg = scenario.post_capture.mass_estimation
-    rng = np.random.default_rng([scenario.seed, _PRIOR_STREAM])
-    moments, q_target_from_principal = principal_axes(scenario.target_inertia)
+    (module doc). p: the ``params.MassEstimationParams``."""
+    rng = np.random.default_rng([p.seed, _PRIOR_STREAM])
+    moments, q_target_from_principal = principal_axes(p.target_inertia)
     z = rng.standard_normal(4)
-    mass_kg = scenario.target.mass_kg * (1.0 + cfg.prior_mass_sigma * z[0])
-    moments_prior = moments * (1.0 + cfg.prior_moments_sigma * z[1:])
+    mass_kg = p.target_mass_kg * (1.0 + p.prior_mass_sigma * z[0])
+    moments_prior = moments * (1.0 + p.prior_moments_sigma * z[1:])
     # The moments' relative sigma in the filter's j (a diagonal P0: the map's Jacobian, its cross terms left out).
     jac = np.empty((3, 3))
     for k in range(3):
         d = np.zeros(3)
         d[k] = 1e-6 * moments_prior[k]
         jac[:, k] = (j_from_moments(moments_prior + d) - j_from_moments(moments_prior - d)) / (2.0 * d[k])
-    j_cov = jac @ np.diag((cfg.prior_moments_sigma * moments_prior) ** 2) @ jac.T
+    j_cov = jac @ np.diag((p.prior_moments_sigma * moments_prior) ** 2) @ jac.T
     q_capture = quat_multiply(quat_conjugate(snapshot.q_hill_from_chaser), snapshot.q_hill_from_target)
     rotation = quat_from_rotation_vector(arm_rotation_body_rad)
     q_chaser_from_target = quat_multiply(rotation, q_capture)
-    handle = quat_rotate(q_capture, scenario.target.grasp_point_body_m)
+    handle = quat_rotate(q_capture, p.grasp_point_body_m)
     x_s = (-snapshot.r_chaser_body + np.asarray(arm_displacement_body_m, dtype=float) + handle
            - quat_rotate(rotation, handle))
     axes_sigma_rad = (math.sqrt(float(np.linalg.eigvalsh(snapshot.target_attitude_covariance_hill)[-1]))
-                      if cfg.prior_axes_sigma_deg is None else math.radians(cfg.prior_axes_sigma_deg))
+                      if p.prior_axes_sigma_rad is None else p.prior_axes_sigma_rad)
     return MassPropertyPrior(float(mass_kg), tuple(x_s),
                              tuple(quat_multiply(q_chaser_from_target, q_target_from_principal)),
-                             tuple(moments_prior), cfg.prior_mass_sigma * scenario.target.mass_kg,
-                             cfg.prior_com_sigma_m, axes_sigma_rad, tuple(np.sqrt(np.diag(j_cov))))
+                             tuple(moments_prior), p.prior_mass_sigma * p.target_mass_kg,
+                             p.prior_com_sigma_m, axes_sigma_rad, tuple(np.sqrt(np.diag(j_cov))))
 
 
 class ImuSample(NamedTuple):
@@ -184,12 +181,13 @@ class MassEstimationRun:
     """The filter over the excitation (module doc). ``start`` once the excitation's start is known, ``on_sample``
     at every IMU sample after the capture; both return TargetInertiaEstimates."""
 
-    def __init__(self, scenario, chaser_mass_kg):
-        self.scenario = scenario
+    def __init__(self, params, chaser_mass_kg):
+        """params: the ``params.MassEstimationParams``; chaser_mass_kg: the chaser's mass at the capture [kg]."""
+        self.params = params
         self.prior = None
         self.chaser_mass_kg = chaser_mass_kg
-        self.period_s = 1.0 / scenario.sensors.chaser_imu.rate_hz
-        self.window_s = scenario.post_capture.mass_estimation.window_s
+        self.period_s = 1.0 / params.imu_rate_hz
+        self.window_s = params.window_s
         self.samples = collections.deque(maxlen=SAMPLES_KEPT)  # waiting for the start
         self.filter = None
         self.t_start = None
@@ -239,23 +237,20 @@ class MassEstimationRun:
 
     def _new_filter(self, s):
         """The filter at the first sample of the excitation (its attitude and rate from the attitude filter there)."""
-        sc = self.scenario
-        imu = sc.sensors.chaser_imu
+        p = self.params
         config = MassPropertyFilterConfig(
-            self.chaser_mass_kg, tuple(map(tuple, sc.chaser_inertia.tolist())),
-            gyro_sigma_rad_s=imu.gyro_noise_sigma_rad_s, accel_sigma_mps2=imu.accel_noise_sigma_mps2,
-            attitude_sigma_rad=math.radians(imu.star_tracker_sigma_deg), h_wheels_body_n_m_s=self.h_wheels,
+            self.chaser_mass_kg, tuple(map(tuple, p.chaser_inertia.tolist())),
+            gyro_sigma_rad_s=p.gyro_noise_sigma_rad_s, accel_sigma_mps2=p.accel_noise_sigma_mps2,
+            attitude_sigma_rad=p.star_tracker_sigma_rad, h_wheels_body_n_m_s=self.h_wheels,
             max_step_s=self.period_s, accel_interval_s=self.period_s,
-            thrust_magnitude_sigma=sc.chaser.thrusters.magnitude_error_sigma,
-            thrust_misalignment_sigma_rad=math.radians(sc.chaser.thrusters.direction_error_sigma_deg),
+            thrust_magnitude_sigma=p.thrust_magnitude_sigma,
+            thrust_misalignment_sigma_rad=p.thrust_misalignment_sigma_rad,
             thrust_error_states=True,  # the plant draws them once per run: constant, estimated
-            exhaust_velocity_mps=sc.thruster_layout.exhaust_velocity_mps,
-            gyro_bias_walk_rad_s_sqrt_s=imu.gyro_bias_walk_rad_s_sqrt_s,
+            exhaust_velocity_mps=p.thruster_layout.exhaust_velocity_mps,
+            gyro_bias_walk_rad_s_sqrt_s=p.gyro_bias_walk_rad_s_sqrt_s,
             accel_psd_m2_s3=0.0, angular_accel_psd_rad2_s3=0.0)  # what the combined body has (module doc)
-        firings = thruster_firings(sc.thruster_layout,
-                                   excitation_firings(sc.post_capture.mass_estimation.excitation, self.t_start),
-                                   self.period_s)
-        attitude_sigma = max(math.radians(imu.star_tracker_sigma_deg), 1e-6)
+        firings = thruster_firings(p.thruster_layout, excitation_firings(p.excitation, self.t_start), self.period_s)
+        attitude_sigma = max(p.star_tracker_sigma_rad, 1e-6)
         return MassPropertyFilter(config, self.prior, s.t, np.zeros(3), np.zeros(3), s.q_eci_from_body, s.omega_body,
                                   (*_STATE_SIGMAS, attitude_sigma, _RATE_SIGMA_RAD_S), firings,
                                   s.gyro_bias_covariance)

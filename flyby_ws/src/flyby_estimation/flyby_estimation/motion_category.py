@@ -9,35 +9,37 @@ import math
 import numpy as np
 
 from flyby_estimation.target_motion import orbit_rate_hill
+from flyby_msgs_py import params
 from flyby_sim.dynamics.checks import require_positive
 
 
-@dataclasses.dataclass(frozen=True)
+@params.record
 class MotionThresholds:
-    """Thresholds of classify_motion (defaults from seed 000 section 2.1).
+    """Thresholds of classify_motion, the scenario's ``estimation`` keys (flyby_msgs_py.params; the schema's
+    defaults are from seed 000 section 2.1).
 
     Attributes:
         spin_rate_rad_s: inertial rate at and above which the target is category IV (spinning).
-            Default 18 deg/s, a 20 s rotation period: the paper gives 20-3600 s as the period range
+            The schema's 18 deg/s is a 20 s rotation period: the paper gives 20-3600 s as the period range
             of categories II and III, the fly-by cases.
         hill_fixed_rate_rad_s: rate relative to the hill frame below which the attitude counts as
-            held in hill (categories I, II). Default 0.1 deg/s, a 3600 s period, the slow end of
+            held in hill (categories I, II). The schema's 0.1 deg/s is a 3600 s period, the slow end of
             the paper's range.
         inertial_hold_rate_rad_s: inertial rate below which the target counts as held in inertial
-            space (category I, e.g. sun pointing). Default 0.01 deg/s.
+            space (category I, e.g. sun pointing).
         controlled_rate_rad_s: rate relative to hill below which a hill-held target counts as
             three-axis controlled (I) rather than librating under gravity gradient (II).
-            Default 0.01 deg/s: a 10 deg gravity-gradient libration at sqrt(3) n (LEO) moves at
+            The schema's 0.01 deg/s: a 10 deg gravity-gradient libration at sqrt(3) n (LEO) moves at
             about 0.1 deg/s peak.
         controlled_excursion_rad: largest attitude excursion in hill over the observation window
-            for category I (when known). Default 2 deg; gravity-gradient librations are larger.
+            for category I (when known). The schema's 2 deg: gravity-gradient librations are larger.
     """
 
-    spin_rate_rad_s: float = math.radians(18.0)
-    hill_fixed_rate_rad_s: float = math.radians(0.1)
-    inertial_hold_rate_rad_s: float = math.radians(0.01)
-    controlled_rate_rad_s: float = math.radians(0.01)
-    controlled_excursion_rad: float = math.radians(2.0)
+    spin_rate_rad_s: float = params.key('estimation.spin_rate_deg_s', math.radians)
+    hill_fixed_rate_rad_s: float = params.key('estimation.hill_fixed_rate_deg_s', math.radians)
+    inertial_hold_rate_rad_s: float = params.key('estimation.inertial_hold_rate_deg_s', math.radians)
+    controlled_rate_rad_s: float = params.key('estimation.controlled_rate_deg_s', math.radians)
+    controlled_excursion_rad: float = params.key('estimation.controlled_excursion_deg', math.radians)
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -62,7 +64,7 @@ CATEGORY_NAMES = {
 }
 
 
-def classify_motion(omega_hill, n, attitude_excursion_rad=None, thresholds=MotionThresholds()):
+def classify_motion(omega_hill, n, thresholds, attitude_excursion_rad=None):
     """Category I-IV of the target motion (seed 000 section 2.1, Fig. 2).
 
     Decision, in order:

@@ -57,7 +57,7 @@ arithmetic for H = [I 0], ``filter_interface.kalman_update_first_three``), follo
 symmetrization.
 
 Initialization: from the first finite measurement, r = z, P_r = sigma^2 I, v = 0 with
-P_v = initial_velocity_sigma_mps^2 I (default 0.1 m/s: the chaser holds station before the approach),
+P_v = initial_velocity_sigma_mps^2 I (the schema's 0.1 m/s: the chaser holds station before the approach),
 or explicitly with ``initialize``. The initial state includes the maneuvers whose burns started before
 it: they are taken as done (a burn still going continues from there).
 
@@ -86,27 +86,28 @@ from flyby_sim.dynamics.propulsion import (
 )
 
 DYNAMICS = ('cw', 'nonlinear')
-DEFAULT_ACCEL_PSD_M2_S3 = 1.0e-9
 _I3 = np.eye(3)
 _MAX_TRANSITIONS = 64  # cached (Phi, Q) pairs, one per time step seen
 
-__all__ = ['DEFAULT_ACCEL_PSD_M2_S3', 'DYNAMICS', 'ManeuverRejected', 'NavState', 'RelativeNavConfig',
-           'RelativeNavFilter', 'ScheduledBurn', 'relative_nav_config_from_scenario']
+__all__ = ['DYNAMICS', 'ManeuverRejected', 'NavState', 'RelativeNavConfig',
+           'RelativeNavFilter', 'ScheduledBurn']
 
 
 @dataclasses.dataclass(frozen=True)
 class RelativeNavConfig:
     """Filter parameters; validated on construction (ValueError names the field).
 
+    The fields up to gate_probability are the scenario's (``params.RelativeNavParams.config``: their defaults are
+    the scenario schema's); the rest are the filter's own, with defaults.
     max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that measurement
     (module doc); N >= 1.
     """
 
     mean_motion_rad_s: float  # n of the target orbit
     position_sigma_m: float  # measurement noise, 1-sigma per axis
-    accel_psd_m2_s3: float = DEFAULT_ACCEL_PSD_M2_S3  # q: white-acceleration spectral density
-    initial_velocity_sigma_mps: float = 0.1  # velocity prior, 1-sigma per axis
-    gate_probability: float = 0.9999  # chi2(3) gate on the NIS
+    accel_psd_m2_s3: float  # q: white-acceleration spectral density (estimation.accel_psd_m2_s3)
+    initial_velocity_sigma_mps: float  # velocity prior, 1-sigma per axis (estimation.initial_velocity_sigma_mps)
+    gate_probability: float  # chi2(3) gate on the NIS (estimation.gate_probability)
     max_consecutive_outliers: int = 20  # the 20th in a row resets (2 s at 10 Hz)
     dynamics: str = 'cw'  # 'cw' (seed 000 eq 22) or 'nonlinear' (seed 000 eq 1, needs radius_m)
     radius_m: float = None  # target orbit radius, for 'nonlinear'
@@ -139,22 +140,6 @@ class RelativeNavConfig:
                 raise ValueError('chaser_mass_kg is required with thrusters')
         if self.chaser_mass_kg is not None:
             require_positive('chaser_mass_kg', self.chaser_mass_kg)
-
-
-def relative_nav_config_from_scenario(scenario, **overrides):
-    """RelativeNavConfig of a validated scenario (``flyby_sim.scenario.Scenario``): orbit, position
-    sensor noise, thrusters and chaser mass, the numbers the plant is built with
-    (test_filter_and_plant_configs_agree); ``overrides`` replace any field."""
-    th = scenario.chaser.thrusters
-    thrusters = ThrusterConfig(max_thrust_n=th.max_thrust_n, isp_s=th.isp_s, min_impulse_bit_ns=th.min_impulse_bit_ns,
-                               max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps,
-                               magnitude_error_sigma=th.magnitude_error_sigma,
-                               direction_error_sigma_rad=math.radians(th.direction_error_sigma_deg))
-    fields = dict(mean_motion_rad_s=scenario.mean_motion_rad_s, radius_m=scenario.orbit_radius_m,
-                  position_sigma_m=scenario.sensors.relative_position.noise_sigma_m, thrusters=thrusters,
-                  chaser_mass_kg=scenario.chaser.mass_kg)
-    fields.update(overrides)
-    return RelativeNavConfig(**fields)
 
 
 class NavState(NamedTuple):

@@ -46,7 +46,7 @@ import numpy as np
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.batch import check_filter, fit_attitude_motion
 from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
-from flyby_estimation.motion_category import MotionThresholds, classify_motion
+from flyby_estimation.motion_category import classify_motion
 from flyby_estimation.quaternion_floats import (
     q_eci_from_hill_floats,
     quat_exp_floats,
@@ -55,6 +55,7 @@ from flyby_estimation.quaternion_floats import (
     rotation_vector_floats,
 )
 from flyby_estimation.target_motion import MotionPrediction, make_state, point_prediction
+from flyby_msgs_py import params
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import q_hill_from_body
 from flyby_sim.dynamics.rotation import (
@@ -65,44 +66,47 @@ from flyby_sim.dynamics.rotation import (
 
 _ZERO_STATE = np.zeros((6, 1))  # the error state between updates (reset after each)
 _I6 = np.eye(6)
-DEFAULT_MOTION_THRESHOLDS = MotionThresholds()
 
 
 @dataclasses.dataclass(frozen=True)
 class TargetFilterConfig:
     """Parameters of TargetAttitudeFilter (validated; ValueError names the field).
 
+    The fields up to check_window_max_samples are the scenario's (``params.TargetFilterParams.config``: their
+    defaults are the scenario schema's); the rest are the filter's own, with defaults.
+
     Attributes:
         inertia: target inertia 3x3 [kg m^2], body axes (known, seed 001 section 1).
         mean_motion_rad_s: orbital mean motion n [rad/s] of the hill frame.
         attitude_sigma_rad: vision attitude noise, 1 sigma per body axis [rad].
-        rate_sigma0_rad_s: prior 1-sigma per axis of the unknown initial rate (mean 0) [rad/s].
-            Default 20 deg/s covers category III (<= 18 deg/s) and the seed 001 tumbler (21 deg/s).
-        torque_psd: torque-noise spectral density per body axis [N^2 m^2 s]. Default 1e-10: over a
-            600 s prediction it adds about 1e-7 rad/s of rate uncertainty to a 1000 kg m^2 body,
-            negligible against the estimation error, while keeping P from collapsing on long runs.
-            The plant is torque free; raise it if the truth has unmodelled torques (gravity gradient).
-        gate_probability: chi2(3) probability of the innovation gate (default 0.9999: d2 < 21.1).
+        rate_sigma0_rad_s: prior 1-sigma per axis of the unknown initial rate (mean 0) [rad/s]
+            (estimation.initial_rate_sigma_deg_s: 20 deg/s covers category III (<= 18 deg/s) and the seed 001
+            tumbler (21 deg/s)).
+        torque_psd: torque-noise spectral density per body axis [N^2 m^2 s] (estimation.torque_psd_n2m2s: 1e-10
+            over a 600 s prediction adds about 1e-7 rad/s of rate uncertainty to a 1000 kg m^2 body, negligible
+            against the estimation error, while keeping P from collapsing on long runs). The plant is torque free;
+            raise it if the truth has unmodelled torques (gravity gradient).
+        gate_probability: chi2(3) probability of the innovation gate (0.9999: d2 < 21.1).
+        check_window_max_samples: fused measurements kept for batch_check (estimation.batch_check_max_samples);
+            past that the window is dropped and batch_check refuses.
         norm_tolerance: measurements with |norm - 1| above this are rejected as 'non_unit'.
         max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that
             measurement (a wrong initial measurement would otherwise lock it out); N >= 1.
         max_step_angle_rad: substep limit, as a rotation angle (attitude_error_dynamics.ErrorStateDynamics.propagate).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
-        check_window_max_samples: fused measurements kept for batch_check (default 36000: one hour at
-            10 Hz); past that the window is dropped and batch_check refuses.
     """
 
     inertia: tuple
     mean_motion_rad_s: float
     attitude_sigma_rad: float
-    rate_sigma0_rad_s: float = math.radians(20.0)
-    torque_psd: float = 1e-10
-    gate_probability: float = 0.9999
+    rate_sigma0_rad_s: float
+    torque_psd: float
+    gate_probability: float
+    check_window_max_samples: int
     norm_tolerance: float = 1e-3
     max_consecutive_outliers: int = 20
     max_step_angle_rad: float = 0.02
     excursion_window_s: float = 600.0
-    check_window_max_samples: int = 36000
 
     def __post_init__(self):
         object.__setattr__(self, 'inertia', tuple(map(tuple, np.asarray(self.inertia, dtype=float).tolist())))
@@ -118,24 +122,17 @@ class TargetFilterConfig:
                 raise ValueError(f'{name} must be an integer >= 1, got {value!r}')
 
 
-def target_filter_config_from_scenario(scenario, **overrides):
-    """TargetFilterConfig of a validated scenario (inertia, orbit rate, vision noise), with overrides."""
-    values = dict(inertia=scenario.target_inertia, mean_motion_rad_s=scenario.mean_motion_rad_s,
-                  attitude_sigma_rad=math.radians(scenario.sensors.target_attitude.noise_sigma_deg))
-    values.update(overrides)
-    return TargetFilterConfig(**values)
-
-
-@dataclasses.dataclass(frozen=True)
+@params.record
 class ConvergenceThresholds:
-    """3-sigma bounds below which the estimate counts as converged (worst direction of each 3x3 block).
+    """3-sigma bounds below which the estimate counts as converged (worst direction of each 3x3 block), the
+    scenario's ``estimation`` keys (flyby_msgs_py.params).
 
-    Defaults: attitude 1 deg, rate 0.05 deg/s: a 2 m grasp point then sits within 3.5 cm now and
+    The schema's attitude 1 deg and rate 0.05 deg/s: a 2 m grasp point then sits within 3.5 cm now and
     drifts by at most 0.05 deg/s * 2 m = 1.7 mm/s (3 sigma).
     """
 
-    attitude_3sigma_rad: float = math.radians(1.0)
-    rate_3sigma_rad_s: float = math.radians(0.05)
+    attitude_3sigma_rad: float = params.key('estimation.convergence_attitude_3sigma_deg', math.radians)
+    rate_3sigma_rad_s: float = params.key('estimation.convergence_rate_3sigma_deg_s', math.radians)
 
     def met_by(self, attitude_3sigma_rad, rate_3sigma_rad_s):
         """True when both 3-sigma bounds (TargetAttitudeFilter.three_sigma) are below the thresholds."""
@@ -148,7 +145,7 @@ class TargetAttitudeFilter(FilterBase):
 
     Typical use (the node):
 
-        f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+        f = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())  # flyby_estimation.params
         result = f.update(t, q_hill_from_body)
         if not result.accepted:
             warn(result.kind, result.reason)  # counted in f.counts as well
@@ -316,7 +313,7 @@ class TargetAttitudeFilter(FilterBase):
         largest = np.linalg.eigvalsh(np.array((p[:3, :3], p[3:, 3:])))[:, -1]  # both blocks in one call
         return 3.0 * math.sqrt(max(largest[0], 0.0)), 3.0 * math.sqrt(max(largest[1], 0.0))
 
-    def convergence(self, thresholds=ConvergenceThresholds()):
+    def convergence(self, thresholds):
         """True when both 3-sigma bounds (three_sigma) are below the thresholds.
 
         The largest eigenvalue of a 3x3 covariance block lies between a third of its trace and its trace,
@@ -342,14 +339,14 @@ class TargetAttitudeFilter(FilterBase):
         q_hill_from_body_then = np.array([q for _, q in self._history])
         return float(rotation_angle_many(quat_multiply(q_now_inv, q_hill_from_body_then.T).T).max())
 
-    def classify_motion(self, thresholds=DEFAULT_MOTION_THRESHOLDS):
+    def classify_motion(self, thresholds):
         """motion_category.MotionCategory (seed 000 section 2.1) from the estimated rate and attitude excursion.
 
         Meaningful once converged; the excursion covers the time since initialization, up to
         excursion_window_s.
         """
         s = self.state()
-        return classify_motion(s.omega_hill, self._n, self.attitude_excursion_rad(), thresholds)
+        return classify_motion(s.omega_hill, self._n, thresholds, self.attitude_excursion_rad())
 
     # -- prediction (seed 000 eq 4, 6-9) ------------------------------------------------------------
     def prediction(self, t_end, with_covariance=True):

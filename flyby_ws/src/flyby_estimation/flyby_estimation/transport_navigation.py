@@ -8,7 +8,7 @@ Frames: chaser_body axes, vectors from the chaser's CoM, hill as ``flyby_sim.dyn
 
 import numpy as np
 
-from flyby_estimation.relative_nav import RelativeNavFilter, relative_nav_config_from_scenario
+from flyby_estimation.relative_nav import RelativeNavFilter
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_sim.dynamics.attitude import body_point_state
@@ -137,28 +137,27 @@ class TransportNavigation:
     its covariance (``refine``)."""
 
     VELOCITY_SIGMA_MPS = 0.05
+    GATE_PROBABILITY = 0.9999  # chi2(3) gate on the relative position's NIS
     ACCEL_GATE_SIGMA = 5.0
     COMMAND_ERROR_SIGMA = 0.1  # a small firing's delta-v against its command (its thrusters' errors, sub-bit parts)
 
-    def __init__(self, scenario, t_start, com_body_m, com_covariance_m2, mass_kg):
-        """t_start: the final mass-property estimate's stamp [s]; com_body_m and its covariance: the combined CoM from
-        the chaser's [m, chaser_body] and its 3x3 [m^2]."""
+    def __init__(self, params, t_start, com_body_m, com_covariance_m2, mass_kg):
+        """params: the ``params.TransportNavigationParams``; t_start: the final mass-property estimate's stamp [s];
+        com_body_m and its covariance: the combined CoM from the chaser's [m, chaser_body] and its 3x3 [m^2]."""
         self.t_start = float(t_start)
         self.com_body_m = np.asarray(com_body_m, dtype=float)
         self.com_covariance_m2 = np.asarray(com_covariance_m2, dtype=float)
         self.mass_kg = float(mass_kg)
-        self.scenario = scenario
+        self.params = params
         self.coast = None  # the ComCoast since the last firing
         self.coast_s = 0.0  # the coast the last refinement took [s]
-        self.filter = RelativeNavFilter(relative_nav_config_from_scenario(
-            scenario, initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS, thrusters=None, chaser_mass_kg=None,
-            accel_psd_m2_s3=scenario.post_capture.transport.nav_accel_psd_m2_s3))
-        imu = scenario.sensors.chaser_imu
+        self.filter = RelativeNavFilter(params.nav.config(initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS,
+                                                          gate_probability=self.GATE_PROBABILITY))
         # The gate: the accelerometer's noise, or the noise of the rotation term omega_dot x p with omega_dot from
         # two gyro samples where that is larger (a CoM metres from the chaser's; docs/transport.md).
-        self.accel_sigma_mps2 = max(imu.accel_noise_sigma_mps2, float(np.linalg.norm(self.com_body_m)) * np.sqrt(
-            2.0) * imu.gyro_noise_sigma_rad_s * imu.rate_hz)
-        self.n = scenario.mean_motion_rad_s
+        self.accel_sigma_mps2 = max(params.accel_noise_sigma_mps2, float(np.linalg.norm(self.com_body_m)) * np.sqrt(
+            2.0) * params.gyro_noise_sigma_rad_s * params.imu_rate_hz)
+        self.n = params.nav.mean_motion_rad_s
         self.positions = StampedBuffer(8)  # relative positions of the chaser's CoM waiting for their IMU sample
         self.commands = StampedBuffer(8)  # guidance's force commands [N, chaser_body] by the start of their period
         self.last = None  # (t, omega_body) of the previous IMU sample
@@ -219,8 +218,8 @@ class TransportNavigation:
                     r_unit, v_unit = body_point_state(c_hill, self.last[1], np.eye(3), self.n)
                     sensitivity = np.vstack((r_unit.T, v_unit.T))
                     self.coast = ComCoast(t, np.concatenate((s.r_hill, s.v_hill)), p, self.com_covariance_m2,
-                                          self.n, self.scenario.orbit_radius_m, self.scenario.simulation.dynamics,
-                                          self.scenario.sensors.relative_position.noise_sigma_m, s.covariance,
+                                          self.n, self.params.nav.radius_m, self.params.dynamics,
+                                          self.params.nav.position_sigma_m, s.covariance,
                                           sensitivity)
                 self.coast.add(t, measured[1], c_hill)
         refined = self.refine(t) if on_com_grid(t, self.t_start) else None  # on its grid whatever (guidance waits)

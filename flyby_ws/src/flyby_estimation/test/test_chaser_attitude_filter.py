@@ -24,13 +24,13 @@ from scipy.stats import chi2
 from flyby_estimation.chaser_attitude_filter import (
     ChaserAttitudeFilter,
     ChaserAttitudeFilterConfig,
-    chaser_attitude_filter_config_from_scenario,
     error_transition,
     gyro_process_noise,
     steady_state,
     step_rotation_vector,
 )
 from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter, kalman_update_first_three
+from flyby_estimation.params import ChaserAttitudeFilterParams
 from flyby_sim.dynamics.attitude import AttitudePropagator, quaternion_rate
 from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body, q_hill_from_body_many
 from flyby_sim.dynamics.rotation import (
@@ -49,7 +49,9 @@ from flyby_sim.scenario import load_scenario
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 SERVICER_INERTIA = np.diag([13.0, 38.0, 35.0])  # seed 001 Table 1 [kg m^2]
 N_RAD_S = mean_motion_rad_s(7.0e6)  # paper_flyby's orbit (radius 7000 km)
-CONFIG = ChaserAttitudeFilterConfig(mean_motion_rad_s=N_RAD_S)  # the scenario schema's sensor defaults
+# The scenario schema's sensor defaults (paper_flyby leaves sensors.chaser_imu out).
+CONFIG = ChaserAttitudeFilterParams.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml')).config(
+    mean_motion_rad_s=N_RAD_S)
 TUMBLE_RATE_RAD_S = 0.05  # about 2.9 deg/s, the slew rate limit of docs/chaser_6dof.md
 NEES_RUNS = 50
 NEES_DURATION_S = 300.0
@@ -74,7 +76,7 @@ class ImuRun:
 
 
 def simulate_imu(rng, config, duration_s, q_eci_from_body0, omega_body0, inertia=SERVICER_INERTIA):
-    """Issue 13's IMU model on a torque-free body from t = 0 to duration_s, every 1/rate_hz.
+    """The chaser IMU model (docs/chaser_6dof.md) on a torque-free body from t = 0 to duration_s, every 1/rate_hz.
 
     gyro: omega_meas_k = omega_body(t_k) + b_k + sigma_g n_k, b_0 ~ N(0, sigma_b0^2 I),
     b_k = b_(k-1) + sigma_bw sqrt(dt) m_k; star tracker every rate_hz / star_tracker_rate_hz samples
@@ -160,7 +162,7 @@ def nees_campaign():
 
 # -- consistency and accuracy ---------------------------------------------------------------------------
 def test_nees_over_50_tumbling_runs_is_inside_the_95_percent_band(nees_campaign):
-    """Issue 13 acceptance: the 6-state NEES averaged over 50 seeded runs (300 s each, 2.9 deg/s tumble)
+    """The 6-state NEES averaged over 50 seeded runs (300 s each, 2.9 deg/s tumble)
     lies in the two-sided 95 % chi-square band of 50 x 6 dof at >= 95 % of the sampled times (every
     second from 5 s), and its mean over all samples is near 6."""
     t, runs = nees_campaign
@@ -498,16 +500,20 @@ def test_first_star_tracker_sample_initializes_and_the_interface_is_the_filters(
 
 
 def test_config_from_scenario_keys_and_validation():
-    """The scenario's sensors.chaser_imu keys (degrees converted) and gate; paper_flyby's defaults are the
-    config's; a bad value raises naming the field."""
+    """The scenario's sensors.chaser_imu keys (degrees converted) and gate, the schema's defaults where paper_flyby
+    leaves them out; a bad value raises naming the field."""
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    assert chaser_attitude_filter_config_from_scenario(sc) == ChaserAttitudeFilterConfig(sc.mean_motion_rad_s)
+    c = ChaserAttitudeFilterParams.from_scenario(sc).config()
+    assert c.mean_motion_rad_s == sc.mean_motion_rad_s
+    assert (c.rate_hz, c.star_tracker_rate_hz, c.star_tracker_sigma_rad, c.gyro_noise_sigma_rad_s,
+            c.gyro_bias_sigma_rad_s, c.gyro_bias_walk_rad_s_sqrt_s, c.gate_probability) == (
+        10.0, 2.0, math.radians(0.01), 1e-5, 1e-4, 1e-7, 0.9999)
     imu = types.SimpleNamespace(rate_hz=20.0, star_tracker_rate_hz=4.0, star_tracker_sigma_deg=0.02,  # the plant's keys
                                 gyro_noise_sigma_rad_s=2e-5, gyro_bias_sigma_rad_s=3e-4,
                                 gyro_bias_walk_rad_s_sqrt_s=5e-7)
     scenario = types.SimpleNamespace(sensors=types.SimpleNamespace(chaser_imu=imu), mean_motion_rad_s=N_RAD_S,
                                      estimation=types.SimpleNamespace(gate_probability=0.999))
-    c = chaser_attitude_filter_config_from_scenario(scenario, max_consecutive_outliers=5)
+    c = ChaserAttitudeFilterParams.from_scenario(scenario).config(max_consecutive_outliers=5)
     assert c == ChaserAttitudeFilterConfig(mean_motion_rad_s=N_RAD_S, rate_hz=20.0, star_tracker_rate_hz=4.0,
                                            star_tracker_sigma_rad=math.radians(0.02), gyro_noise_sigma_rad_s=2e-5,
                                            gyro_bias_sigma_rad_s=3e-4, gyro_bias_walk_rad_s_sqrt_s=5e-7,

@@ -5,8 +5,9 @@ from pathlib import Path
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore
+from flyby_estimation.params import EstimatorParams
 from flyby_msgs_py.wire import wire_time
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -18,8 +19,8 @@ def test_rigid_body_estimator_gives_one_chaser_estimate_per_imu_sample_from_the_
     ChaserEstimate stamped with it (the first IMU sample carries a star-tracker reading; the relative position of
     the same stamp, handled first, initializes the navigation filter). 20 s with a burn in it."""
     scenario = load_scenario(SCENARIOS / 'paper_flyby_6dof.yaml')
-    plant = Plant(plant_config_from_scenario(scenario))
-    estimator = EstimatorCore(scenario)
+    plant = Plant(PlantConfig.from_scenario(scenario))
+    estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
     imu_stamps, estimate_stamps = [], []
     first_imu = None
     dv = np.array([-0.02, 0.0, 0.01])
@@ -70,8 +71,8 @@ def test_a_commanded_force_is_a_known_input_of_the_navigation_filter():
     from flyby_sim.dynamics.rotation import quat_rotate
 
     scenario = load_scenario(SCENARIOS / 'jacobsen_optimal.yaml')
-    plant = Plant(plant_config_from_scenario(scenario))
-    estimator = EstimatorCore(scenario)
+    plant = Plant(PlantConfig.from_scenario(scenario))
+    estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
     estimates = []
     while plant.t < 2.0:
         estimates += _step_and_estimate(plant, estimator)
@@ -99,8 +100,8 @@ def _fly_constant_force(accelerometer, late_commands=False, duration_s=20.0):
     raw['chaser']['thrusters']['direction_error_sigma_deg'] = 2.5
     raw.setdefault('estimation', {})['accel_psd_m2_s3'] = 1e-9  # the default: no process noise to follow a bias with
     scenario = scenario_from_dict(raw, name='jacobsen_optimal x5 thruster errors')
-    plant = Plant(plant_config_from_scenario(scenario))
-    estimator = EstimatorCore(scenario)
+    plant = Plant(PlantConfig.from_scenario(scenario))
+    estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
     force_body = np.array((10.0, 0.0, 0.0))
     estimate, t_start, late = None, None, []
     while plant.t < duration_s:

@@ -15,6 +15,7 @@ from flyby_estimation.mass_estimation_run import (
 )
 from flyby_estimation.mass_properties_errors import principal_axis_errors_rad
 from flyby_estimation.mass_properties_excitation import excitation_firings, thruster_firings
+from flyby_estimation.params import MassEstimationParams
 from flyby_sim.dynamics.combined_body import (
     CombinedState,
     combined_mass_properties,
@@ -26,6 +27,7 @@ from flyby_sim.scenario import load_scenario
 from flyby_testing import SCENARIOS
 
 TUG = load_scenario(SCENARIOS / 'paper_flyby_tug.yaml')
+TUG_PARAMS = MassEstimationParams.from_scenario(TUG)
 # The capture of paper_flyby_tug seed 1, roughly: the chaser 3.1 m off the target's CoM, the target turned.
 SNAPSHOT = CaptureSnapshot(813.1, np.array([0.52, 3.07, -0.03]), quat_from_rotation_vector((0.0, 0.0, -1.4)),
                            quat_from_rotation_vector((0.3, -0.2, 0.9)), (2e-4 ** 2) * np.eye(3))
@@ -42,15 +44,15 @@ def test_principal_axes_are_a_right_handed_frame_that_rebuilds_the_inertia():
 def test_the_prior_is_the_capture_moved_by_the_arm_and_the_seed_draws_its_mass_and_moments():
     """X_s = -r_chaser (chaser axes) at the capture; the arm's deflection moves the grasp handle (the target with it)
     by d and turns it by R(e) about itself: the handle ends at its old place plus d, the axes turn by R(e)."""
-    still = mass_property_prior(TUG, SNAPSHOT)
+    still = mass_property_prior(TUG_PARAMS, SNAPSHOT)
     c_body_from_hill = quat_to_matrix(SNAPSHOT.q_hill_from_chaser).T
     np.testing.assert_allclose(still.target_com_body_m, -c_body_from_hill @ SNAPSHOT.r_chaser_hill, atol=1e-12)
-    assert still == mass_property_prior(TUG, SNAPSHOT)  # the same draws from the seed
+    assert still == mass_property_prior(TUG_PARAMS, SNAPSHOT)  # the same draws from the seed
     assert still.target_mass_kg != TUG.target.mass_kg
     assert abs(still.target_mass_kg / TUG.target.mass_kg - 1.0) < 4 * TUG.post_capture.mass_estimation.prior_mass_sigma
     assert still.axes_sigma_rad == pytest.approx(2e-4)  # the target attitude estimate's own (the key omitted)
     d, e = np.array([0.002, -0.001, 0.003]), np.array([0.0, 0.01, -0.005])
-    moved = mass_property_prior(TUG, SNAPSHOT, d, e)
+    moved = mass_property_prior(TUG_PARAMS, SNAPSHOT, d, e)
     r_g = np.array(TUG.target.grasp_point_body_m)
     _, q_tp = principal_axes(TUG.target_inertia)
     q_ct_before = quat_multiply(still.q_body_from_principal, q_tp * np.array([-1.0, -1.0, -1.0, 1.0]))
@@ -87,10 +89,10 @@ def _samples(prior, t_start, duration_s=26.0):
 def test_the_run_takes_the_samples_from_the_excitations_start_whenever_that_is_announced():
     """Samples that came before guidance's announcement wait; the estimates are the same either way, the last one
     final window_s after the start, and on noise-free samples of the prior's own body they stay on it."""
-    prior = mass_property_prior(TUG, SNAPSHOT)
+    prior = mass_property_prior(TUG_PARAMS, SNAPSHOT)
     t_start = 1012.7
     samples = _samples(prior, t_start)
-    late, early = MassEstimationRun(TUG, 100.0), MassEstimationRun(TUG, 100.0)
+    late, early = MassEstimationRun(TUG_PARAMS, 100.0), MassEstimationRun(TUG_PARAMS, 100.0)
     out_late = [e for s in samples[:30] for e in late.on_sample(s)] + late.start(t_start, (0.0, 0.0, 0.0), prior)
     out_early = early.start(t_start, (0.0, 0.0, 0.0), prior)
     out_late += [e for s in samples[30:] for e in late.on_sample(s)]

@@ -16,15 +16,13 @@ from hypothesis import strategies as st
 from scipy.integrate import quad_vec, solve_ivp
 
 from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
+from flyby_estimation.params import RelativeNavParams
 from flyby_estimation.relative_nav import (
-    DEFAULT_ACCEL_PSD_M2_S3,
     ManeuverRejected,
-    RelativeNavConfig,
     RelativeNavFilter,
-    relative_nav_config_from_scenario,
 )
 from flyby_sim.dynamics.orbital import cw_accel, cw_transition_matrix, mean_motion_rad_s
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 from flyby_sim.thrusters import ThrusterModel
 
@@ -44,14 +42,21 @@ def scenario(seed=1, **sensor_changes):
     return scenario_from_dict(data, name='paper_flyby (test)')
 
 
+def bare_config(n, **overrides):
+    """A RelativeNavConfig at mean motion n [rad/s], 1 cm position noise, CW, no thrusters: the scenario schema's
+    estimation defaults (paper_flyby's) otherwise."""
+    values = dict(mean_motion_rad_s=n, position_sigma_m=0.01, radius_m=None, thrusters=None, chaser_mass_kg=None)
+    return RelativeNavParams.from_scenario(PAPER).config(**{**values, **overrides})
+
+
 def run(seed=1, t_end_s=360.0, maneuvers=MANEUVERS, lead_s=1.0, **filter_overrides):
     """Plant and filter side by side; maneuvers commanded lead_s before their stamp to both.
 
     Returns rows (t, error r (3), error v (3), NEES) at every measurement, and the filter.
     """
     sc = scenario(seed)
-    plant = Plant(plant_config_from_scenario(sc))
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc, **filter_overrides))
+    plant = Plant(PlantConfig.from_scenario(sc))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config(**filter_overrides))
     pending = list(maneuvers)
     rows = []
     while plant.t < t_end_s - 1e-9:
@@ -120,8 +125,8 @@ def test_finite_burn_model_beats_impulse_models():
     """The finite-burn model leaves mm-level errors; an impulse at the stamp or midpoint does not."""
     def velocity_rms_after_burns(maneuver_model):
         sc = scenario(1)
-        plant = Plant(plant_config_from_scenario(sc))
-        nav = RelativeNavFilter(relative_nav_config_from_scenario(sc))
+        plant = Plant(PlantConfig.from_scenario(sc))
+        nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config())
         pending = list(MANEUVERS[:3])
         errors = []
         while plant.t < 200.0 - 1e-9:
@@ -152,14 +157,14 @@ def test_finite_burn_model_beats_impulse_models():
 def test_cw_model_vs_plant_truth_coasting():
     """Prediction only over 60 s from the true state: CW (eq 22) and nonlinear options vs the plant."""
     sc = scenario(1)
-    config = dataclasses.replace(plant_config_from_scenario(sc), v0_hill=(0.01, 0.005, -0.01))
+    config = dataclasses.replace(PlantConfig.from_scenario(sc), v0_hill=(0.01, 0.005, -0.01))
     plant = Plant(config)
     while plant.t < 60.0 - 1e-9:
         plant.step()
     truth = plant.truth()
     figures = {}
     for dynamics in ('cw', 'nonlinear'):
-        nav = RelativeNavFilter(relative_nav_config_from_scenario(sc, dynamics=dynamics))
+        nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config(dynamics=dynamics))
         nav.initialize(0.0, config.r0_hill, config.v0_hill)
         s = nav.predict(truth.t)
         figures[dynamics] = (np.linalg.norm(s.r_hill - truth.r_hill), np.linalg.norm(s.v_hill - truth.v_hill))
@@ -172,10 +177,10 @@ def test_cw_model_vs_plant_truth_coasting():
 def test_burn_prediction_matches_plant_without_execution_errors():
     """Finite burns (chained when they overlap) predicted open-loop equal the plant's to 1e-9 m."""
     sc = scenario(1)
-    config = plant_config_from_scenario(sc)
+    config = PlantConfig.from_scenario(sc)
     exact = dataclasses.replace(config.thrusters, magnitude_error_sigma=0.0, direction_error_sigma_rad=0.0)
     plant = Plant(dataclasses.replace(config, thrusters=exact))
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc, dynamics='nonlinear'))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config(dynamics='nonlinear'))
     nav.initialize(0.0, config.r0_hill)
     for t_stamp, dv in ((10.0, (-0.1, 0.0, 0.05)), (20.0, (0.0, 0.2, 0.0)), (21.0, (0.05, 0.0, -0.1))):
         plant.command_maneuver(t_stamp, dv)
@@ -193,8 +198,8 @@ def test_burn_prediction_matches_plant_without_execution_errors():
 def test_late_maneuver_is_applied_retroactively():
     """A command stamped before the filter time adds the CW response of its past part."""
     sc = scenario(1)
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc))
-    ref = RelativeNavFilter(relative_nav_config_from_scenario(sc))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config())
+    ref = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config())
     for f in (nav, ref):
         f.initialize(0.0, (50.0, 0.0, 0.0))
     ref.add_maneuver(10.0, (-0.1, 0.0, 0.05))
@@ -212,7 +217,7 @@ def test_maneuvers_added_out_of_stamp_order_chain_as_in_stamp_order_and_as_the_p
     and its burns start and end when the plant's ThrusterModel (no execution errors) runs them."""
     sc = scenario(1)
     commands = ((20.0, (0.0, 0.2, 0.0)), (20.5, (-0.1, 0.0, 0.05)))  # the second waits for the first's end
-    in_order, reverse = (RelativeNavFilter(relative_nav_config_from_scenario(sc)) for _ in range(2))
+    in_order, reverse = (RelativeNavFilter(RelativeNavParams.from_scenario(sc).config()) for _ in range(2))
     for nav, sequence in ((in_order, commands), (reverse, commands[::-1])):
         nav.initialize(0.0, (50.0, 0.0, 0.0))
         nav.propagate_to(10.0)
@@ -223,7 +228,7 @@ def test_maneuvers_added_out_of_stamp_order_chain_as_in_stamp_order_and_as_the_p
     assert [t_cmd for t_cmd, _, _ in times] == [20.0, 20.5] and times[1][1] == times[0][2] > 20.5
     assert reverse.mass_kg == in_order.mass_kg
 
-    exact = dataclasses.replace(plant_config_from_scenario(sc).thrusters, magnitude_error_sigma=0.0,
+    exact = dataclasses.replace(PlantConfig.from_scenario(sc).thrusters, magnitude_error_sigma=0.0,
                                 direction_error_sigma_rad=0.0)
     thrusters = ThrusterModel(exact, np.random.default_rng(0))
     for t_cmd, dv in commands[::-1]:
@@ -247,7 +252,7 @@ def test_maneuvers_added_out_of_stamp_order_chain_as_in_stamp_order_and_as_the_p
 
 def test_a_burn_begun_before_initialization_belongs_to_the_initial_state():
     """Initialized mid-burn with the state then, the filter models only the rest of the burn."""
-    config = relative_nav_config_from_scenario(scenario(1))
+    config = RelativeNavParams.from_scenario(scenario(1)).config()
     ref, late = RelativeNavFilter(config), RelativeNavFilter(config)
     ref.initialize(0.0, (50.0, 0.0, 0.0))
     for nav in (ref, late):
@@ -265,7 +270,7 @@ def test_process_noise_is_the_white_acceleration_integral():
     """Q(dt) equals int_0^dt Phi B q B' Phi' dtau (eq 22, B = [0; I]) to O(n dt) at dt = 0.1 s."""
     n = mean_motion_rad_s(7.0e6)
     q, dt = 1e-9, 0.1
-    nav = RelativeNavFilter(RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01, accel_psd_m2_s3=q))
+    nav = RelativeNavFilter(bare_config(n, accel_psd_m2_s3=q))
     nav.initialize(0.0, (50.0, 0.0, 0.0), covariance=np.zeros((6, 6)))
     b = np.vstack((np.zeros((3, 3)), np.eye(3)))
     exact, _ = quad_vec(lambda tau: cw_transition_matrix(n, tau) @ b @ b.T @ cw_transition_matrix(n, tau).T * q,
@@ -276,7 +281,7 @@ def test_process_noise_is_the_white_acceleration_integral():
 def test_time_updates_reusing_a_step_length_equal_fresh_ones_to_the_bit():
     """The (Phi, Q) kept per step length give the numbers computed afresh. Stamps k * 0.05 s as the
     plant's, every 0.1 s: dt takes a few values around 0.1 s, one per rounding."""
-    config = relative_nav_config_from_scenario(scenario(1))
+    config = RelativeNavParams.from_scenario(scenario(1)).config()
     cached, fresh = RelativeNavFilter(config), RelativeNavFilter(config)
     for nav in (cached, fresh):
         nav.add_maneuver(30.0, (0.0, 0.05, -0.02))
@@ -297,8 +302,8 @@ def test_time_updates_reusing_a_step_length_equal_fresh_ones_to_the_bit():
 
 def test_rejections_are_counted_and_the_filter_continues():
     sc = scenario(2)
-    plant = Plant(plant_config_from_scenario(sc))
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc))
+    plant = Plant(PlantConfig.from_scenario(sc))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config())
     kinds = []
     while plant.t < 60.0 - 1e-9:
         truth = plant.step()
@@ -327,7 +332,7 @@ def test_rejections_are_counted_and_the_filter_continues():
 def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement():
     """max_consecutive_outliers = N: N - 1 outliers rejected, the Nth resets (same test as the target filter's)."""
     n_outliers = 5
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(scenario(1), max_consecutive_outliers=n_outliers))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(scenario(1)).config(max_consecutive_outliers=n_outliers))
     nav.initialize(0.0, (50.0, 0.0, 0.0), covariance=np.diag([1e-4] * 3 + [1e-8] * 3))
     jumped = np.array([52.0, 0.0, 0.0])  # 2 m away: an unmodelled event
     results = [nav.update(0.1 * (k + 1), jumped) for k in range(n_outliers + 1)]
@@ -340,7 +345,7 @@ def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement()
 
 
 def test_unexecutable_maneuver_is_rejected_like_the_plant():
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(scenario(1)))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(scenario(1)).config())
     with pytest.raises(ManeuverRejected, match='exceeds max_delta_v_per_maneuver_mps'):
         nav.add_maneuver(10.0, (3.0, 0.0, 0.0))
     assert nav.burns == [] and nav.mass_kg == 100.0
@@ -348,10 +353,10 @@ def test_unexecutable_maneuver_is_rejected_like_the_plant():
 
 @pytest.mark.parametrize('name', ['paper_flyby', 'seweryn_tumbling'])
 def test_filter_and_plant_configs_agree(name):
-    """relative_nav_config_from_scenario reads the scenario itself; every number it shares with the plant's
+    """RelativeNavParams reads the scenario itself; every number it shares with the plant's
     configuration is the same."""
     sc = load_scenario(SCENARIOS / f'{name}.yaml')
-    ours, plant = relative_nav_config_from_scenario(sc), plant_config_from_scenario(sc)
+    ours, plant = RelativeNavParams.from_scenario(sc).config(), PlantConfig.from_scenario(sc)
     assert ours.mean_motion_rad_s == Plant(plant).mean_motion_rad_s
     assert ours.radius_m == plant.radius_m
     assert ours.position_sigma_m == plant.position_sigma_m
@@ -362,16 +367,16 @@ def test_filter_and_plant_configs_agree(name):
 def test_config_errors_name_the_field():
     n = mean_motion_rad_s(7.0e6)
     with pytest.raises(ValueError, match='position_sigma_m'):
-        RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.0)
+        bare_config(n, position_sigma_m=0.0)
     with pytest.raises(ValueError, match='radius_m is required'):
-        RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01, dynamics='nonlinear')
+        bare_config(n, dynamics='nonlinear')
     with pytest.raises(ValueError, match='gate_probability'):
-        RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01, gate_probability=1.0)
-    assert RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01).accel_psd_m2_s3 == DEFAULT_ACCEL_PSD_M2_S3
+        bare_config(n, gate_probability=1.0)
+    assert bare_config(n).accel_psd_m2_s3 == PAPER.estimation.accel_psd_m2_s3
 
 
 def test_predict_leaves_the_filter_unchanged_and_propagate_to_moves_it():
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(scenario(1)))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(scenario(1)).config())
     assert isinstance(nav, EstimationFilter) and set(nav.counts) == set(UPDATE_KINDS)
     first = nav.update(0.0, (50.0, 0.0, 0.0))
     assert first.kind == 'initialized' and first.accepted and math.isnan(first.nis) and first.innovation is None
@@ -398,8 +403,8 @@ def test_predict_leaves_the_filter_unchanged_and_propagate_to_moves_it():
 def test_covariance_stays_symmetric_positive_definite(seed, dv, t_burn):
     rng = np.random.default_rng(seed)
     sc = scenario(seed)
-    plant = Plant(plant_config_from_scenario(sc))
-    nav = RelativeNavFilter(relative_nav_config_from_scenario(sc))
+    plant = Plant(PlantConfig.from_scenario(sc))
+    nav = RelativeNavFilter(RelativeNavParams.from_scenario(sc).config())
     plant.command_maneuver(t_burn, dv)
     nav.add_maneuver(t_burn, dv)
     while plant.t < 40.0 - 1e-9:
@@ -419,7 +424,7 @@ def test_a_measured_thrust_error_is_a_constant_acceleration_over_its_interval():
     state at t1 by [a_err T^2 / 2; a_err T] (CW coupling over 0.1 s: O(n T) relative) and, the filter later, by
     the CW transition of that; the covariance grows by G C G'."""
     n = 0.0011
-    nav = RelativeNavFilter(RelativeNavConfig(mean_motion_rad_s=n, position_sigma_m=0.01))
+    nav = RelativeNavFilter(bare_config(n))
     nav.initialize(0.0, (10.0, 0.0, 0.0))
     nav.propagate_to(0.3)
     before = nav.state()

@@ -1,6 +1,7 @@
 """target_filter.py: the target attitude EKF driven by the pure Plant (scenario sensor noise, 10 Hz)."""
 
 import copy
+import dataclasses
 import math
 from pathlib import Path
 
@@ -14,11 +15,11 @@ from scipy.stats import chi2
 from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
 from flyby_estimation.estimator_core import EstimatorCore
 from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
+from flyby_estimation.motion_category import MotionThresholds
+from flyby_estimation.params import EstimatorParams, TargetFilterParams
 from flyby_estimation.target_filter import (
     ConvergenceThresholds,
     TargetAttitudeFilter,
-    TargetFilterConfig,
-    target_filter_config_from_scenario,
 )
 from flyby_estimation.target_motion import make_state
 from flyby_sim.dynamics.orbital import q_eci_from_body, quat_eci_from_hill
@@ -32,11 +33,15 @@ from flyby_sim.dynamics.rotation import (
     rotation_vector_from_quat,
     skew,
 )
-from flyby_sim.plant import Plant, plant_config_from_scenario
+from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
 DEG = math.radians(1.0)
+# The target filter of paper_flyby: the scenario schema's estimation defaults (rate prior, gate, torque noise).
+PAPER_FILTER = TargetFilterParams.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+CONVERGED = ConvergenceThresholds.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
+MOTION = MotionThresholds.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
 
 
 def true_q_eci_from_body(plant):
@@ -74,8 +79,8 @@ class Run:
 
     def __init__(self, name, seed=None):
         self.scenario = load_scenario(SCENARIOS / f'{name}.yaml', seed=seed)
-        self.plant = Plant(plant_config_from_scenario(self.scenario))
-        self.filter = TargetAttitudeFilter(target_filter_config_from_scenario(self.scenario))
+        self.plant = Plant(PlantConfig.from_scenario(self.scenario))
+        self.filter = TargetAttitudeFilter(TargetFilterParams.from_scenario(self.scenario).config())
         self.window60 = []  # the fused measurements of the first 60 s
         feed(self.plant, self.filter, self.plant.config.step_s, self.window60)  # first sample at 0.05 or 0.1 s
         while not self.filter.initialized:
@@ -84,7 +89,7 @@ class Run:
         self.converged_at = None
         while self.plant.t < self.t_first + 60.0 - 1e-9:
             feed(self.plant, self.filter, self.plant.t + 1.0, self.window60)
-            if self.converged_at is None and self.filter.convergence():
+            if self.converged_at is None and self.filter.convergence(CONVERGED):
                 self.converged_at = self.filter.t - self.t_first
         self.e60, self.state60 = error_state(self.filter, self.plant)
         self.filter60 = copy.deepcopy(self.filter)
@@ -196,7 +201,7 @@ def test_filter_equals_the_batch_maximum_likelihood_fit_and_its_cramer_rao_bound
 
 def test_batch_check_flags_a_mistuned_filter_and_refuses_without_its_window(paper):
     """A torque PSD of 1e-2 N^2 m^2 s (the truth has none) makes P far wider than the bound."""
-    f = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario, torque_psd=1e-2))
+    f = TargetAttitudeFilter(TargetFilterParams.from_scenario(paper.scenario).config(torque_psd=1e-2))
     for t, q in paper.window60[:300]:
         f.update(t, q)
     check = f.batch_check()
@@ -204,7 +209,7 @@ def test_batch_check_flags_a_mistuned_filter_and_refuses_without_its_window(pape
     f.propagate_to(f.t + 1.0)
     with pytest.raises(RuntimeError, match='past its last measurement'):
         f.batch_check()
-    short = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario, check_window_max_samples=10))
+    short = TargetAttitudeFilter(TargetFilterParams.from_scenario(paper.scenario).config(check_window_max_samples=10))
     for t, q in paper.window60[:11]:
         short.update(t, q)
     with pytest.raises(RuntimeError, match='more than 10 measurements'):
@@ -212,8 +217,8 @@ def test_batch_check_flags_a_mistuned_filter_and_refuses_without_its_window(pape
 
 
 def test_categories_of_both_scenarios(paper, tumbler):
-    assert paper.filter.classify_motion().category == 'III'  # 5 deg/s: slowly tumbling (72 s period)
-    assert tumbler.filter.classify_motion().category == 'IV'  # 21 deg/s: 17 s period, spinning
+    assert paper.filter.classify_motion(MOTION).category == 'III'  # 5 deg/s: slowly tumbling (72 s period)
+    assert tumbler.filter.classify_motion(MOTION).category == 'IV'  # 21 deg/s: 17 s period, spinning
 
 
 def test_predict_leaves_the_filter_unchanged_and_propagate_to_moves_it(paper):
@@ -274,7 +279,8 @@ def test_outlier_of_30_deg_is_rejected_and_counted(paper):
 def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement(paper):
     """max_consecutive_outliers = N: N - 1 outliers rejected, the Nth resets (same test as the navigation filter's)."""
     n_outliers = 5
-    f = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario, max_consecutive_outliers=n_outliers))
+    config = TargetFilterParams.from_scenario(paper.scenario).config(max_consecutive_outliers=n_outliers)
+    f = TargetAttitudeFilter(config)
     for t, q in paper.window60:
         f.update(t, q)
     truth = copy.deepcopy(f)
@@ -319,8 +325,8 @@ def test_stale_measurement_is_rejected(paper):
 
 def test_rejections_before_initialization_and_recovery_from_a_bad_first_measurement():
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    plant = Plant(plant_config_from_scenario(sc))
-    f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+    plant = Plant(PlantConfig.from_scenario(sc))
+    f = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
     assert f.update(0.0, [math.nan] * 4).kind == 'non_finite'
     assert not f.initialized
     with pytest.raises(RuntimeError, match='no accepted measurement'):
@@ -338,13 +344,13 @@ def test_rejections_before_initialization_and_recovery_from_a_bad_first_measurem
 
 
 def test_convergence_flag_and_three_sigma(paper):
-    assert paper.filter60.convergence()
-    assert not paper.filter60.convergence(ConvergenceThresholds(attitude_3sigma_rad=0.01 * DEG))
+    assert paper.filter60.convergence(CONVERGED)
+    assert not paper.filter60.convergence(dataclasses.replace(CONVERGED, attitude_3sigma_rad=0.01 * DEG))
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
-    assert not f.convergence()
+    f = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
+    assert not f.convergence(CONVERGED)
     f.update(0.1, sc.q_hill_from_body0)
-    assert not f.convergence()
+    assert not f.convergence(CONVERGED)
     attitude, rate = f.three_sigma()
     assert attitude == pytest.approx(3 * DEG) and rate == pytest.approx(3 * f.config.rate_sigma0_rad_s)
 
@@ -353,8 +359,8 @@ def test_convergence_from_traces_is_that_of_three_sigma(paper):
     """convergence() decides mostly from the blocks' traces; its verdict is met_by(three_sigma()) at every
     update of the paper run's first 60 s and for covariances whose largest 3 sigma sits at, just under or
     just over a threshold (isotropic, where the trace bound is tight, and one-directional)."""
-    thresholds = ConvergenceThresholds()
-    f = TargetAttitudeFilter(target_filter_config_from_scenario(paper.scenario))
+    thresholds = CONVERGED
+    f = TargetAttitudeFilter(TargetFilterParams.from_scenario(paper.scenario).config())
     for t, q in paper.window60:
         f.update(t, q)
         assert f.convergence(thresholds) == thresholds.met_by(*f.three_sigma())
@@ -388,11 +394,9 @@ def test_config_validation_names_the_field():
                          ('max_consecutive_outliers', 0), ('mean_motion_rad_s', math.nan),
                          ('check_window_max_samples', 0)):
         with pytest.raises(ValueError, match=field):
-            target_filter_config_from_scenario(sc, **{field: value})
+            TargetFilterParams.from_scenario(sc).config(**{field: value})
     with pytest.raises(ValueError, match='inertia'):
-        TargetFilterConfig(inertia=np.diag([1.0, -1.0, 1.0]), mean_motion_rad_s=1e-3, attitude_sigma_rad=DEG)
-        TargetAttitudeFilter(TargetFilterConfig(inertia=np.diag([1.0, -1.0, 1.0]), mean_motion_rad_s=1e-3,
-                                                attitude_sigma_rad=DEG))
+        TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config(inertia=np.diag([1.0, -1.0, 1.0])))
 
 
 @settings(max_examples=25, deadline=None)
@@ -408,8 +412,8 @@ def test_property_covariance_stays_symmetric_positive_definite(seed, sigma_deg, 
     rng = np.random.default_rng(seed)
     moments = rng.uniform(100.0, 10000.0, 3)
     inertia = np.diag(moments)
-    config = TargetFilterConfig(inertia=inertia, mean_motion_rad_s=1.1e-3, attitude_sigma_rad=sigma_deg * DEG,
-                                torque_psd=float(rng.choice([0.0, 1e-10, 1e-2])))
+    config = PAPER_FILTER.config(inertia=inertia, mean_motion_rad_s=1.1e-3, attitude_sigma_rad=sigma_deg * DEG,
+                                 torque_psd=float(rng.choice([0.0, 1e-10, 1e-2])))
     f = TargetAttitudeFilter(config)
     q = quat_normalize(rng.normal(size=4))
     omega = rng.normal(size=3)
@@ -432,8 +436,8 @@ def test_nees_of_8_seeded_runs_is_inside_the_95_percent_band():
     total = np.zeros(length - 30)
     for seed in range(100, 100 + runs):
         sc = load_scenario(SCENARIOS / 'paper_flyby.yaml', seed=seed)
-        plant = Plant(plant_config_from_scenario(sc))
-        f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+        plant = Plant(PlantConfig.from_scenario(sc))
+        f = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
         for k in range(length):
             feed(plant, f, k + 1.0)
             if k >= 30:
@@ -445,8 +449,8 @@ def test_nees_of_8_seeded_runs_is_inside_the_95_percent_band():
 
 
 def test_fast_tumbler_with_2_8_deg_noise_rate_bound_is_the_cramer_rao_bound():
-    """Campaign flyby_envelope run 24 (paper_flyby's target tumbling at 14.8 deg/s about a general body
-    direction, 2.77 deg vision noise) never converged in 1500 s. After 240 s the filter is the batch
+    """paper_flyby's target tumbling at 14.8 deg/s about a general body direction with 2.77 deg vision noise does
+    not converge within 1500 s (docs/estimation.md, fast tumblers). After 240 s the filter is the batch
     maximum-likelihood fit with the Cramer-Rao bound as covariance and its error is inside its bounds,
     and that bound on the body rate is itself still above the 0.05 deg/s convergence threshold: the
     data, not the filter, set the convergence time (docs/estimation.md, fast tumblers)."""
@@ -454,9 +458,10 @@ def test_fast_tumbler_with_2_8_deg_noise_rate_bound_is_the_cramer_rao_bound():
     data['target']['initial_rate']['omega_body_deg_s'] = [7.852876346135618, 6.288400804050372, -10.861550009047196]
     data['sensors']['target_attitude']['noise_sigma_deg'] = 2.7694087079499203
     data['seed'] = 1896534077
-    sc = scenario_from_dict(data, name='flyby_envelope run 24 (test)')
-    plant = Plant(plant_config_from_scenario(sc))
-    f = TargetAttitudeFilter(target_filter_config_from_scenario(sc))
+    data['estimation']['batch_check_max_samples'] = 2400  # the whole 240 s at 10 Hz
+    sc = scenario_from_dict(data, name='fast tumbler, 2.8 deg noise (test)')
+    plant = Plant(PlantConfig.from_scenario(sc))
+    f = TargetAttitudeFilter(TargetFilterParams.from_scenario(sc).config())
     rejected = feed(plant, f, 240.0)
     assert not rejected  # the gate passes every genuine measurement
     e, s = error_state(f, plant)
@@ -464,7 +469,7 @@ def test_fast_tumbler_with_2_8_deg_noise_rate_bound_is_the_cramer_rao_bound():
     check = f.batch_check()
     assert check.gap_sigma < 0.2 and 0.8 < check.ratio_min and check.ratio_max < 1.25, check
     crb_rate_3sigma = 3.0 * math.sqrt(np.linalg.eigvalsh(check.fit.covariance[3:, 3:])[-1])
-    assert crb_rate_3sigma > ConvergenceThresholds().rate_3sigma_rad_s and not f.convergence()
+    assert crb_rate_3sigma > CONVERGED.rate_3sigma_rad_s and not f.convergence(CONVERGED)
 
 
 def test_the_estimator_skips_a_batch_check_over_more_samples_than_the_scenario_allows(paper):
@@ -472,7 +477,7 @@ def test_the_estimator_skips_a_batch_check_over_more_samples_than_the_scenario_a
     converging after 990 s spent 85 s of a 106 s run in it): past it the estimator says why, as a WARN."""
     d = copy.deepcopy(paper.scenario.to_dict())
     d['estimation']['batch_check_max_samples'] = 50
-    core = EstimatorCore(scenario_from_dict(d, name='short check window'))
+    core = EstimatorCore(EstimatorParams.from_scenario(scenario_from_dict(d, name='short check window')))
     assert core.target.config.check_window_max_samples == 50
     events = [out for t, q in paper.window60 for out in core.on_attitude(t, q) if hasattr(out, 'name')]
     skipped = [e for e in events if e.name == 'target_filter_check']
@@ -539,8 +544,8 @@ def test_filter_is_its_previous_formulation_to_the_bit(name, rate_deg_s):
         w = np.asarray(d['target']['initial_rate']['omega_body_rad_s'], dtype=float)
         d['target']['initial_rate']['omega_body_rad_s'] = (w * math.radians(rate_deg_s) / np.linalg.norm(w)).tolist()
         scenario = scenario_from_dict(d, name=f'{name} at {rate_deg_s} deg/s')
-    plant = Plant(plant_config_from_scenario(scenario))
-    config = target_filter_config_from_scenario(scenario)
+    plant = Plant(PlantConfig.from_scenario(scenario))
+    config = TargetFilterParams.from_scenario(scenario).config()
     new, old = TargetAttitudeFilter(config), PreviousFilter(config)
     fused = 0
     while plant.t < 120.0:
@@ -557,5 +562,5 @@ def test_filter_is_its_previous_formulation_to_the_bit(name, rate_deg_s):
             for field in ('q_hill_from_body', 'q_eci_from_body', 'omega_body', 'omega_hill', 'covariance',
                           'covariance_hill'):
                 np.testing.assert_array_equal(getattr(s, field), getattr(r, field))
-            assert s.t == r.t and new.convergence() == old.convergence()
+            assert s.t == r.t and new.convergence(CONVERGED) == old.convergence(CONVERGED)
     assert fused > 1000 and new.counts == old.counts and new.counts['outlier'] == 1

@@ -1,6 +1,7 @@
 """target_motion.py and motion_category.py: the prediction and its covariance (seed 000 eq 4, 6-9) against the
 dense references to the bit, a body point's state and Jacobian, categories I-IV (seed 000 section 2.1)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -32,11 +33,15 @@ from flyby_sim.dynamics.rotation import (
     quat_to_matrix,
     rotation_vector_from_quat,
 )
+from flyby_sim.scenario import load_scenario
+from flyby_testing import SCENARIOS
 
 N = mean_motion_rad_s(7.0e6)
 # Seed 001 Table 1: the tumbler.
 INERTIA_TUMBLER = np.diag([4069.0, 12030.0, 11029.0])
 OMEGA_TUMBLER = np.array([0.3, 0.2, 0.1])
+# The scenario schema's category thresholds (seed 000 section 2.1; paper_flyby leaves them out).
+MOTION = MotionThresholds.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml'))
 Q0 = quat_normalize([0.1, -0.2, 0.3, 0.9])
 
 inertias = st.tuples(*[st.floats(100.0, 5000.0)] * 3, *[st.floats(-50.0, 50.0)] * 3).map(
@@ -210,23 +215,23 @@ OMEGA_H = orbit_rate_hill(N)
     (np.array([25.0 * DEG, 0.0, 0.0]), None, 'IV'),
 ])
 def test_seed000_section2_1_categories(omega_hill, excursion, category):
-    result = classify_motion(omega_hill, N, excursion)
+    result = classify_motion(omega_hill, N, MOTION, excursion)
     assert result.category == category, result.reason
     assert result.reason
 
 
 def test_seed001_tumbler_is_category_iv_at_default_thresholds():
     """|(0.3, 0.2, 0.1)| rad/s = 21.4 deg/s, a 17 s period: faster than the fly-by range (20-3600 s)."""
-    result = classify_motion(OMEGA_TUMBLER, N)
+    result = classify_motion(OMEGA_TUMBLER, N, MOTION)
     assert result.category == 'IV'
-    assert classify_motion(OMEGA_TUMBLER, N, thresholds=MotionThresholds(spin_rate_rad_s=0.5)).category == 'III'
+    assert classify_motion(OMEGA_TUMBLER, N, dataclasses.replace(MOTION, spin_rate_rad_s=0.5)).category == 'III'
 
 
 def test_classify_rejects_bad_input():
     with pytest.raises(ValueError, match='omega_hill'):
-        classify_motion([math.nan, 0.0, 0.0], N)
+        classify_motion([math.nan, 0.0, 0.0], N, MOTION)
     with pytest.raises(ValueError, match='spin_rate_rad_s'):
-        MotionThresholds(spin_rate_rad_s=-1.0)
+        dataclasses.replace(MOTION, spin_rate_rad_s=-1.0)
 
 
 def test_published_covariance_blocks_round_trip_and_propagate():

@@ -5,6 +5,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from flyby_estimation.params import TransportNavigationParams
 from flyby_estimation.transport_navigation import ComCoast, TransportNavigation
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel_components, rk4_step_floats
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_to_matrix
@@ -12,6 +13,7 @@ from flyby_sim.scenario import load_scenario
 from flyby_testing import SCENARIOS
 
 SCENARIO = load_scenario(SCENARIOS / 'matsunaga_orbit_advance.yaml')
+PARAMS = TransportNavigationParams.from_scenario(SCENARIO)
 COM = np.array([0.2, 0.0, 0.0])  # the combined CoM from the chaser's, chaser_body axes
 NAV_MASS_KG = 50.0
 COM_SIGMA_M = 0.002  # its prior's 1-sigma per axis
@@ -24,7 +26,7 @@ def _fly(pulse_at_s=None, dv_mps=4e-4, duration_s=300.0, seed=3, seen=True, comm
     combined one)."""
     rng = np.random.default_rng(seed)
     n = SCENARIO.mean_motion_rad_s
-    nav = TransportNavigation(SCENARIO, 0.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
+    nav = TransportNavigation(PARAMS, 0.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
     sigma_r = SCENARIO.sensors.relative_position.noise_sigma_m
     sigma_a = SCENARIO.sensors.chaser_imu.accel_noise_sigma_mps2
     omega = np.array([0.0, -n, 0.0])  # fixed in hill: its inertial rate
@@ -127,7 +129,7 @@ def test_the_combined_com_is_given_on_its_grid_and_refined_after_a_long_enough_q
     """Guidance waits at every stamp of COM_PERIOD_S's grid after the final estimate for the combined CoM, so every one
     has it; it is refined (its coast given) only from COM_COAST_MIN_S of coast on, and a firing starts a new coast."""
     n = SCENARIO.mean_motion_rad_s
-    nav = TransportNavigation(SCENARIO, 100.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
+    nav = TransportNavigation(PARAMS, 100.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
     estimate = SimpleNamespace(q_hill_from_body=np.array([0.0, 0.0, 0.0, 1.0]), omega_body=np.array([0.0, -n, 0.0]),
                                attitude_covariance_hill=1e-8 * np.eye(3))
     rng = np.random.default_rng(7)

@@ -16,7 +16,7 @@ import numpy as np
 from flyby_estimation.batch import error_between
 from flyby_estimation.filter_interface import REJECTION_KINDS
 from flyby_estimation.params import TargetFilterParams
-from flyby_estimation.target_filter import TargetAttitudeFilter
+from flyby_estimation.target_filter import ConvergenceThresholds, TargetAttitudeFilter
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import quat_to_matrix
@@ -73,7 +73,7 @@ def accuracy_at(sc, config, filt, state, e, n, horizon_s):
                 rate_along_spin_deg_s=math.degrees(abs(float(e[3:] @ axis))),
                 grasp_err_m=float(np.linalg.norm(r_err)),
                 grasp_sigma_m=math.sqrt(float(np.trace(predicted.covariance[:3, :3]))),
-                converged=filt.convergence())
+                converged=filt.convergence(ConvergenceThresholds.from_scenario(sc)))
 
 
 def efficiency_at(filt, truth):
