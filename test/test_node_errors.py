@@ -10,7 +10,7 @@ import pytest
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
-from flyby_mission.supervisor import AvoidanceBurn, SupervisorCore, Transition
+from flyby_mission.supervisor import AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, events, qos
 from flyby_msgs_py.bag import bag_topics, read_bag
@@ -141,11 +141,11 @@ def test_the_guard_event_names_the_node_the_exception_and_the_callback():
 
 def _approaching_core(sc):
     """A supervisor core in TERMINAL_APPROACH at t = 100 s, the chaser 20 m out heading at the target."""
-    core = SupervisorCore(sc)
+    core = SupervisorCore(SupervisorParams.from_scenario(sc))
     core.machine.phase, core.machine.t_i = c.PHASE_TERMINAL_APPROACH, 500.0
     core.on_target_estimate(100.0, sc.q_hill_from_body0, sc.omega_body0_rad_s)
     core.on_chaser_estimate(100.0, np.array((20.0, 0.0, 0.0)), np.array((-0.2, 0.0, 0.0)))
-    for node in core.machine.config.watched_nodes:
+    for node in core.machine.watched_nodes:
         core.on_progress(node, 100.0)
     core.on_clock(100.0)
     return core
@@ -223,3 +223,45 @@ def test_a_planner_exception_ends_a_graph_run_safely_with_the_event_in_the_bag(t
     counts = bag_topics(out / 'bag')
     assert all(counts.get(c.absolute(t), ('', 0))[1] == 0 for t in (c.PLANNER_PATH, c.PLANNER_FLYBY_TARGET))
     assert [e for e in got if e['hardware_id'] == 'flyby_planner' and e['t'] >= error['t']] == [error]
+
+
+@pytest.fixture
+def faulty_guidance(monkeypatch):
+    """The guidance node builds a core that raises at its first chaser estimate from 30 s on."""
+    from flyby_guidance import guidance_node
+
+    class FaultyGuidanceCore(guidance_node.GuidanceCore):
+        def on_chaser_estimate(self, t, *args, **kwargs):
+            if t >= 30.0:
+                raise FloatingPointError(f'injected guidance fault at t = {t:.2f} s')
+            return super().on_chaser_estimate(t, *args, **kwargs)
+
+    monkeypatch.setattr(guidance_node, 'GuidanceCore', FaultyGuidanceCore)
+
+
+def _short_6dof(data):
+    data.setdefault('supervisor', {})['abort_observation_s'] = 10.0
+    data['simulation']['duration_s'] = 200.0
+
+
+def test_a_guidance_exception_on_the_command_chain_holds_the_simulator_no_more(tmp_path, monkeypatch,
+                                                                               faulty_guidance):
+    """The six-degree-of-freedom chaser's simulator waits for guidance's attitude commands; once guidance's core has
+    failed it waits no more (node_lost), and the mission ends ABORTED on the supervisor's clock, not on the
+    launcher's wall-clock timeout."""
+    from flyby_mission.launcher import LaunchOptions, run
+
+    for name in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'FASTRTPS_DEFAULT_PROFILES_FILE'):
+        monkeypatch.setenv(name, '')
+    scenario = write_scenario(tmp_path, base='paper_flyby_6dof', edit=_short_6dof)
+    out = tmp_path / 'run'
+    summary = run(LaunchOptions(scenario=str(scenario), out=str(out), in_process=True, quiet=True,
+                                wall_timeout=300.0))
+
+    assert summary['outcome'] == c.OUTCOME_ABORTED and summary['end_reason'] == f'phase {c.PHASE_ABORTED}'
+    got = read_bag(out / 'bag', topics=['/mission/events'])['/mission/events']
+    error = [e for e in got if e['name'] == events.NODE_ERROR]
+    assert len(error) == 1 and error[0]['values']['node'] == 'flyby_guidance'
+    lost = [e for e in got if e['name'] == events.NODE_LOST and e['hardware_id'] == 'flyby_sim']
+    assert len(lost) == 1 and lost[0]['values']['nodes'] == 'flyby_guidance'
+    assert summary['min_clearance_m'] > 0.0

@@ -107,3 +107,25 @@ def test_the_planner_plans_from_the_target_filter_covariance_guidance_reads():
     assert np.array_equal(q_hill_from_body, q_g) and np.array_equal(covariance_body, expected)
     sigma = np.sqrt(np.diag(covariance_body))
     assert np.all(sigma > 0.0) and np.all(sigma[:3] < np.radians(1.0))  # a converged filter's, not a bound
+
+
+def test_a_core_exception_headless_is_the_graphs_node_error_and_the_mission_aborts():
+    """The headless driver guards every core call as the node base does (flyby_msgs_py.core_guard): a planner that
+    raises while it plans gives one node_error event, nothing more from the planner, and the supervisor's ABORTED."""
+    from flyby_msgs_py import events
+    from flyby_planner.methods import FlybyMethod
+
+    class _Fails(FlybyMethod):
+        def plan(self, core, t, *args, **kwargs):
+            raise RuntimeError(f'injected planner fault at t = {t:.2f} s')
+
+    scenario = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    graph = HeadlessGraph(scenario)
+    graph.planner.methods['flyby'] = _Fails()
+    run = run_headless(scenario, graph)
+    errors = [e for e in run.events if e['name'] == events.NODE_ERROR]
+    assert len(errors) == 1 and errors[0]['values']['node'] == 'flyby_planner'
+    assert errors[0]['values']['exception'] == 'RuntimeError' and 'injected planner fault' in errors[0]['message']
+    assert [e for e in run.events if e['hardware_id'] == 'flyby_planner' and e['t'] > errors[0]['t']] == []
+    assert run.summary['outcome'] == 'ABORTED' and run.summary['final_phase'] == 'ABORTED'
+    assert run.burns == [] and run.summary['min_clearance_m'] > 0.0
