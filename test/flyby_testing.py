@@ -13,6 +13,36 @@ SCENARIOS = ROOT / 'scenarios'
 RUN_MISSION = ROOT / 'scripts' / 'run_mission.py'
 
 
+def paper_dict():
+    """scenarios/paper_flyby.yaml as a dict, to mutate."""
+    return yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
+
+
+def write_yaml(tmp_path, data, name='x.yaml'):
+    """data (text, or a dict dumped as YAML) written to tmp_path/name; the path."""
+    p = Path(tmp_path) / name
+    p.write_text(data if isinstance(data, str) else yaml.safe_dump(data, sort_keys=False))
+    return p
+
+
+def scenario_error_of(tmp_path, mutate):
+    """Load paper_flyby mutated by ``mutate(d)`` from a file; return (path, the refusal's one-line message)."""
+    import pytest
+
+    from flyby_msgs_py.schema import ScenarioError
+    from flyby_sim.scenario import load_scenario
+
+    d = paper_dict()
+    mutate(d)
+    p = write_yaml(tmp_path, d)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    msg = str(info.value)
+    assert '\n' not in msg
+    assert msg.startswith(f'{p}: ')
+    return p, msg
+
+
 def write_scenario(tmp_path, base='paper_flyby', name='variant', edit=None):
     """A copy of ``scenarios/<base>.yaml`` changed by ``edit(dict)``, written into tmp_path."""
     data = yaml.safe_load((SCENARIOS / f'{base}.yaml').read_text())

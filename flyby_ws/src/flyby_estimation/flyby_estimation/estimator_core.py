@@ -47,7 +47,6 @@ to publish, in order.
 
 import collections
 import dataclasses
-import json
 import math
 
 import numpy as np
@@ -65,7 +64,7 @@ from flyby_estimation.relative_nav import RelativeNavFilter
 from flyby_estimation.target_filter import TargetAttitudeFilter
 from flyby_estimation.transport_navigation import TransportNavigation, combined_com_covariance
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_sim.dynamics.attitude import body_point_state
@@ -188,8 +187,8 @@ class EstimatorCore:
             self.snapshot, self.pending, self.mass_run = None, None, None
             return []
         if event.name == events.GRASP_DAMPED:
-            self.arm_deflection = (json.loads(event.values['arm_displacement_body_m']),
-                                   json.loads(event.values['arm_rotation_body_rad']))
+            damped = event_payloads.decode(event)
+            self.arm_deflection = (list(damped.arm_displacement_body_m), list(damped.arm_rotation_body_rad))
             return []
         if event.name in (events.DAMPING_COMPLETE, events.EXCITATION_SCHEDULED) and self.mass_run is not None \
                 and self.mass_run.t_start is None:
@@ -199,7 +198,8 @@ class EstimatorCore:
     def _start_mass_estimation(self, event):
         """The prior at the lock and the filter's run from the excitation's start (module doc)."""
         prior = mass_property_prior(self.params.mass_estimation, self.snapshot, *self.arm_deflection)
-        t_start = float(event.values['t_excitation_s'])
+        excitation = event_payloads.decode(event)
+        t_start = excitation.t_excitation_s
         started = self._event(event.t, 'OK', events.MASS_PROPERTIES_PRIOR,
                               f'prior of the target at the lock: {prior.target_mass_kg:.2f} kg, CoM '
                               f'{np.round(prior.target_com_body_m, 3).tolist()} m (chaser_body); the excitation from '
@@ -209,7 +209,7 @@ class EstimatorCore:
                                'principal_axes_q': prior.q_body_from_principal,
                                'principal_axes_sigma_rad': prior.axes_sigma_rad})
         return [started] + self._mass_outputs(self.mass_run.start(
-            t_start, json.loads(event.values['h_wheels_body_n_m_s']), prior))
+            t_start, list(excitation.h_wheels_body_n_m_s), prior))
 
     def _take_snapshot(self, t_capture):
         """What the capture fixed: the estimates stamped at (or last before) it, the prior and the filter's run."""
@@ -241,18 +241,17 @@ class EstimatorCore:
                     combined_com_covariance(self.mass_run.chaser_mass_kg, f), combined.mass_kg)
             out.append(e)
             name = events.MASS_PROPERTIES_ESTIMATED if e.final else events.MASS_PROPERTIES_ESTIMATE
+            payload = event_payloads.PAYLOADS[name](
+                f.target_mass_kg, f.mass_sigma_kg, f.target_com_body_m, f.com_sigma_m, f.principal_moments_kg_m2,
+                f.principal_moments_sigma_kg_m2, f.q_body_from_principal)
             out.append(self._event(e.t, 'OK', name,
                                    f'target {f.target_mass_kg:.2f} +- {f.mass_sigma_kg:.2f} kg, principal moments '
                                    f'{np.round(f.principal_moments_kg_m2, 1).tolist()} kg m^2'
                                    + (' (final)' if e.final else ''),
-                                   {'mass_kg': f.target_mass_kg, 'mass_sigma_kg': f.mass_sigma_kg,
-                                    'com_body_m': f.target_com_body_m, 'com_sigma_m': f.com_sigma_m,
-                                    'principal_moments_kg_m2': f.principal_moments_kg_m2,
-                                    'principal_moments_sigma_kg_m2': f.principal_moments_sigma_kg_m2,
-                                    'principal_axes_q': f.q_body_from_principal,
+                                   event_payloads.encode(payload, {
                                     'principal_axes_sigma_rad': f.axes_sigma_rad,
                                     'imu_rejected': sum(v for k, v in self.mass_run.filter.imu_counts.items()
-                                                        if k != 'accepted')}))
+                                                        if k != 'accepted')})))
         return out
 
     def on_attitude(self, t, q_hill_from_body):
@@ -331,7 +330,8 @@ class EstimatorCore:
                 out.append(self._event(t, 'OK', events.TRANSPORT_COM_ESTIMATE,
                                        f'combined CoM {np.round(com, 4).tolist()} m from the chaser\'s, +- '
                                        f'{np.round(sigma * 1e3, 2).tolist()} mm{coast}',
-                                       {'com_body_m': com, 'com_sigma_m': sigma, 'coast_s': coast_s}))
+                                       event_payloads.encode(event_payloads.TransportComEstimate(com, sigma,
+                                                                                                 coast_s))))
         out.append(ChaserEstimate(a.t, r_hill, v_hill, covariance, a.q_hill_from_body, a.omega_body,
                                   a.attitude_covariance_hill, a.rate_covariance))
         if specific_force_body is None:

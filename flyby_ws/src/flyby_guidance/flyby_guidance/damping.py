@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_estimation.mass_properties_excitation import excitation_firings, firing_wrench
-from flyby_msgs_py import events, params
+from flyby_msgs_py import event_payloads, events, params
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.rigid_body import ChaserAttitudeState, GyrostatPropagator
@@ -246,8 +246,8 @@ class PostCaptureControl:
             return PostCaptureCommand(zero, zero, zero, [(
                 'OK', events.EXCITATION_SCHEDULED,
                 f'{cfg.excitation} excitation from t = {self.t_excitation:.2f} s on the body as it turns (no damping)',
-                {'t_excitation_s': self.t_excitation, 'excitation': cfg.excitation,
-                 'h_wheels_body_n_m_s': np.asarray(h_wheels_settled_body_n_m_s, dtype=float)})])
+                event_payloads.encode(event_payloads.ExcitationScheduled(
+                    self.t_excitation, cfg.excitation, np.asarray(h_wheels_settled_body_n_m_s, dtype=float))))])
         omega = np.asarray(omega_body, dtype=float)
         self.rates.append((t, omega))
         while self.rates[0][0] < t - cfg.settle_s - 1e-9:
@@ -265,8 +265,8 @@ class PostCaptureControl:
                     f'{cfg.momentum_threshold_kg_m2_s:g}) after '
                     f'{t - self.t_first:.1f} s of damping; {cfg.excitation} excitation from t = '
                     f'{self.t_excitation:.2f} s',
-                    {'momentum_bound_kg_m2_s': bound, 'damping_time_s': t - self.t_first,
-                     't_excitation_s': self.t_excitation, 'excitation': cfg.excitation, 'h_wheels_body_n_m_s': h})])
+                    event_payloads.encode(event_payloads.DampingComplete(
+                        bound, t - self.t_first, self.t_excitation, cfg.excitation, h)))])
         tau, u = damping_command(omega, h_wheels_body_n_m_s, cfg.gains, self.wheel_max_torque_n_m)
         tau, self.carried = pulse_modulated(self.carried, tau, cfg.period_s, cfg.pulse_n_m_s)
         return PostCaptureCommand(zero, tau, u, [])

@@ -52,7 +52,7 @@ import numpy as np
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_guidance.attitude_guidance import AttitudeGuidanceConfig, PointingGoal
-from flyby_msgs_py import events, params
+from flyby_msgs_py import event_payloads, events, params
 from flyby_planner.sync.approach import SyncParams, sync_station_geometry
 from flyby_sim.dynamics.attitude import euler_rate, moving_body_point_state
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel
@@ -254,7 +254,8 @@ class SyncGuidance:
         if self.stage == STAGE_APPROACH:
             self.stage = STAGE_ATTITUDE_SYNC
             emitted.append(('OK', events.STATION_REACHED, f'station reached at t = {self.t_arrival:.2f} s: attitude '
-                                                          'synchronization', {'t_arrival_s': self.t_arrival}))
+                                                          'synchronization',
+                            event_payloads.encode(event_payloads.StationReached(self.t_arrival))))
         t_mid = t_apply + 0.5 * hold_s
         t_t, q_t, w_t, covariance = target
         prediction = prediction_from_estimate(self.dynamics, self.config.n, t_t, q_t, w_t, max(t_mid, t_t))
@@ -277,8 +278,8 @@ class SyncGuidance:
             emitted.append(('OK', events.DOCKING_STARTED, f'docking from {geo.station_offset_m:.3g} m to the final '
                                                           f'range {geo.final_range_m:g} m from the port by t = '
                                                           f'{self.t_grasp:.2f} s',
-                           {'t_docking_s': self.t_docking, 't_grasp_s': self.t_grasp,
-                            'offset_m': geo.final_range_m}))
+                           event_payloads.encode(event_payloads.DockingStarted(self.t_docking, self.t_grasp,
+                                                                               geo.final_range_m))))
         profile = (lambda s: docking_profile(s, self.t_docking, cfg.docking_duration_s, geo.station_offset_m,
                                              geo.final_range_m)) if self.stage == STAGE_DOCKING else \
             (lambda s: (geo.station_offset_m, 0.0, 0.0))
@@ -331,9 +332,9 @@ class SyncGuidance:
                  f'{cfg.settle_s:g} s (tolerances {math.degrees(angle_tol):.3f} deg, {math.degrees(rate_tol):.4f} '
                  f'deg/s): orbiting {cfg.orbiting_fraction:g} of a {period_s:.2f} s rotation cycle, '
                  f'docking at t = {self.t_docking:.2f} s',
-                 {'attitude_error_deg': math.degrees(angle), 'rate_error_deg_s': math.degrees(rate),
-                  'attitude_tolerance_deg': math.degrees(angle_tol), 'rate_tolerance_deg_s': math.degrees(rate_tol),
-                  'rotation_period_s': period_s, 't_docking_s': self.t_docking, 't_grasp_s': self.t_grasp})]
+                 event_payloads.encode(event_payloads.AttitudeSynchronized(
+                     math.degrees(angle), math.degrees(rate), math.degrees(angle_tol), math.degrees(rate_tol),
+                     period_s, self.t_docking, self.t_grasp)))]
 
     def _retreat(self, t, r_hill, v_hill, now):
         """The retreat's thrust (module doc); the stage turns to drift when it is done."""

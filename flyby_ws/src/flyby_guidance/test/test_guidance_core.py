@@ -122,7 +122,8 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
     stamps = [round(grid - 0.2 + 0.1 * k, 6) for k in range(5)]
     estimated = Event(t_e, 'OK', 'mass_properties_estimated', 'final', {
         'mass_kg': 1480.0, 'com_body_m': [3.12, 0.0, 0.0], 'principal_moments_kg_m2': [1000.0, 1200.0, 2000.0],
-        'principal_axes_q': [0.0, 0.0, 0.0, 1.0]}, 'flyby_estimator')
+        'principal_axes_q': [0.0, 0.0, 0.0, 1.0], 'mass_sigma_kg': 1.0, 'com_sigma_m': [0.01, 0.01, 0.01],
+        'principal_moments_sigma_kg_m2': [10.0, 10.0, 10.0]}, 'flyby_estimator')
     refined = Event(grid, 'OK', 'transport_com_estimate', 'refined', {
         'com_body_m': [2.9, 0.004, 0.0], 'com_sigma_m': [0.001, 0.001, 0.001], 'coast_s': 300.0}, 'flyby_estimator')
 

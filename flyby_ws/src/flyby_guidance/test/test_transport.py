@@ -24,6 +24,8 @@ from flyby_guidance.transport.trim import (
     TRIM_TIME_S,
     WHEEL_SPINUP_S,
 )
+from flyby_msgs_py.event_payloads import decode_values
+from flyby_msgs_py.events import MASS_PROPERTIES_ESTIMATED
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport.model import TransportState, propagate
 from flyby_sim.dynamics.actuators import allocate_wrench
@@ -42,8 +44,10 @@ from flyby_sim.scenario import load_scenario
 
 SCENARIO = Path(__file__).resolve().parents[4] / 'scenarios' / 'matsunaga_orbit_advance.yaml'
 # The final estimate's values as the estimator's mass_properties_estimated event carries them (text).
-ESTIMATE = {'mass_kg': '20.2', 'com_body_m': '[0.5, 0.0, 0.0]', 'principal_moments_kg_m2': '[1.5, 1.5, 2.0]',
-            'principal_axes_q': '[0.0, -0.7071067811865476, 0.0, 0.7071067811865476]'}
+ESTIMATE = decode_values(MASS_PROPERTIES_ESTIMATED, {
+    'mass_kg': '20.2', 'mass_sigma_kg': '0.0', 'com_body_m': '[0.5, 0.0, 0.0]', 'com_sigma_m': '[0.0, 0.0, 0.0]',
+    'principal_moments_kg_m2': '[1.5, 1.5, 2.0]', 'principal_moments_sigma_kg_m2': '[0.0, 0.0, 0.0]',
+    'principal_axes_q': '[0.0, -0.7071067811865476, 0.0, 0.7071067811865476]'})
 
 
 def _control():
@@ -359,7 +363,7 @@ def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_
 
 def _refined(control, t, sigma_m):
     """The estimator's refined combined CoM (the body's own) with sigma_m, taken at t."""
-    control.refine_com(t, {'com_body_m': control.body.com_body_m.tolist(), 'com_sigma_m': sigma_m})
+    control.refine_com(t, control.body.com_body_m.tolist(), sigma_m)
     control._take_com(t)
 
 

@@ -53,7 +53,7 @@ from scipy.spatial.transform import Rotation
 
 from flyby_mission.approach_figures import least_clearance_index
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.bag import read_bag
 from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
@@ -121,7 +121,7 @@ def docking_offset(mission_events):
     """The final range [m] from the port of a synchronized approach's docking (guidance's ``docking_started``), or
     None without a docking."""
     docking = [e['values'] for e in mission_events if e['name'] == events.DOCKING_STARTED]
-    return float(docking[-1]['offset_m']) if docking else None
+    return event_payloads.decode_values(events.DOCKING_STARTED, docking[-1]).offset_m if docking else None
 
 
 def first_sample_at_or_after(t_samples, t):

@@ -2,7 +2,6 @@
 grasp's contact, the damping, the estimator's final estimate of the target's mass properties against the truth, and
 the transport's rendezvous quantities (seed 004 §3.2)."""
 
-import json
 import math
 
 import numpy as np
@@ -12,6 +11,7 @@ from flyby_estimation.mass_properties_errors import defined_axes, principal_axis
 from flyby_mission.run_events import lock_time, phase_start
 from flyby_mission.run_truth import fuel_steps
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import event_payloads
 from flyby_msgs_py import events as ev
 from flyby_planner.transport.model import missed_conditions
 from flyby_sim.dynamics.grasp import Body, Contact, momentum
@@ -152,22 +152,21 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
     if not final:
         return out
     e = final[-1]
-    values = {key: json.loads(e['values'][key]) for key in ('com_body_m', 'principal_moments_kg_m2',
-                                                              'principal_axes_q')}
-    mass_kg = float(e['values']['mass_kg'])
-    out.update(target_mass_estimate_kg=mass_kg, target_com_estimate_m=values['com_body_m'],
-               target_principal_moments_estimate_kg_m2=values['principal_moments_kg_m2'],
-               target_principal_axes_estimate_q=values['principal_axes_q'])
+    estimate = event_payloads.decode_values(ev.MASS_PROPERTIES_ESTIMATED, e['values'])
+    mass_kg = estimate.mass_kg
+    out.update(target_mass_estimate_kg=mass_kg, target_com_estimate_m=list(estimate.com_body_m),
+               target_principal_moments_estimate_kg_m2=list(estimate.principal_moments_kg_m2),
+               target_principal_axes_estimate_q=list(estimate.principal_axes_q))
     k = int(np.searchsorted(common, float(e['t']) - 1e-9))
     if k >= len(common):
         return out
     x_s, moments, q_true = target_mass_properties_truth(chaser, target, i_c[k], i_t[k], scenario)
     out.update(target_mass_error_pct=100.0 * abs(mass_kg / scenario.target.mass_kg - 1.0),
-               target_com_error_m=float(np.linalg.norm(np.asarray(values['com_body_m']) - x_s)),
+               target_com_error_m=float(np.linalg.norm(np.asarray(estimate.com_body_m) - x_s)),
                target_principal_moments_error_pct=100.0 * float(np.max(np.abs(
-                   np.asarray(values['principal_moments_kg_m2']) / moments - 1.0))),
+                   np.asarray(estimate.principal_moments_kg_m2) / moments - 1.0))),
                target_principal_axes_error_deg=math.degrees(float(np.max(principal_axis_errors_rad(
-                   np.asarray(values['principal_axes_q']), q_true)[defined_axes(moments)], initial=0.0))))
+                   np.asarray(estimate.principal_axes_q), q_true)[defined_axes(moments)], initial=0.0))))
     return out
 
 

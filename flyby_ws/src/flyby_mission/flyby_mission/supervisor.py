@@ -54,7 +54,7 @@ import numpy as np
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events, params
+from flyby_msgs_py import event_payloads, events, params
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.flyby.avoidance import avoidance_burn
@@ -233,39 +233,43 @@ class PhaseMachine:
         if name == events.TARGET_DIVERGED:
             self.converged = False
             return []
-        if name == events.PLAN_SELECTED and values.get('method') == 'optimal' and self.phase in (
-                c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH):
-            self.t_grasp = float(values['t_grasp_s'])
-            self.method, self.offset_m = 'optimal', float(values['offset_m'])
-            if self.phase == c.PHASE_OPTIMAL_APPROACH:
-                return []
-            return self._go(t, c.PHASE_OPTIMAL_APPROACH, f'optimal approach selected: grasp at t = '
-                                                         f'{self.t_grasp:.2f} s', {'t_grasp_s': self.t_grasp})
-        if name == events.PLAN_SELECTED and values.get('method') == 'sync':
-            self.method, self.offset_m = 'sync', float(values['offset_m'])
-            if self.phase != c.PHASE_PLANNING:
-                return []
-            return self._go(t, c.PHASE_SYNC_APPROACH, f'synchronized approach selected: station at t = '
-                                                      f"{float(values['t_arrival_s']):.2f} s",
-                            {'t_arrival_s': float(values['t_arrival_s'])})
+        if name == events.PLAN_SELECTED:
+            plan = event_payloads.decode_values(name, values)
+            if plan.method == 'optimal' and self.phase in (c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH):
+                self.t_grasp = plan.t_grasp_s
+                self.method, self.offset_m = 'optimal', plan.offset_m
+                if self.phase == c.PHASE_OPTIMAL_APPROACH:
+                    return []
+                return self._go(t, c.PHASE_OPTIMAL_APPROACH, f'optimal approach selected: grasp at t = '
+                                                             f'{self.t_grasp:.2f} s', {'t_grasp_s': self.t_grasp})
+            if plan.method == 'sync':
+                self.method, self.offset_m = 'sync', plan.offset_m
+                if self.phase != c.PHASE_PLANNING:
+                    return []
+                return self._go(t, c.PHASE_SYNC_APPROACH,
+                                f'synchronized approach selected: station at t = {plan.t_arrival_s:.2f} s',
+                                {'t_arrival_s': plan.t_arrival_s})
         if name in _SYNC_STEPS and self.phase == _SYNC_STEPS[name][0] and source in self.watched_nodes:
-            if 't_grasp_s' in values:
-                self.t_grasp = float(values['t_grasp_s'])
+            t_grasp_s = getattr(event_payloads.decode_values(name, values), 't_grasp_s', None)
+            if t_grasp_s is not None:
+                self.t_grasp = t_grasp_s
             return self._go(t, _SYNC_STEPS[name][1], values.get('reason', name),
-                            {k: float(values[k]) for k in ('t_grasp_s',) if k in values})
+                            {} if t_grasp_s is None else {'t_grasp_s': t_grasp_s})
         if name == events.PLAN_SELECTED and self.phase == c.PHASE_PLANNING:
-            self.t_i = float(values['t_i_s'])
-            self.t_grasp = float(values['t_grasp_s'])
-            self.method = values.get('method', 'flyby')
-            self.offset_m = float(values['offset_m']) if 'offset_m' in values else None
+            plan = event_payloads.decode_values(name, values)
+            self.t_i = plan.t_i_s
+            self.t_grasp = plan.t_grasp_s
+            self.method = 'flyby' if plan.method is None else plan.method
+            self.offset_m = plan.offset_m
             return self._go(t, c.PHASE_TERMINAL_APPROACH, f'plan selected: grasp at t = {self.t_grasp:.2f} s, '
                                                           f'injection at {self.t_i:.2f} s',
                             {'t_grasp_s': self.t_grasp, 't_i_s': self.t_i})
         if name == events.PLAN_REFUSED and self.phase == c.PHASE_PLANNING:
             return self._go(t, c.PHASE_COMPLETE, NO_SAFE_PLAN_PREFIX + values.get('reason', 'the planner refused'),
                             {'no_safe_plan': True})
-        if name == events.TARGET_REFINED and 't_grasp_s' in values:
-            self.t_grasp = float(values['t_grasp_s'])
+        refined = event_payloads.decode_values(name, values) if name == events.TARGET_REFINED else None
+        if refined is not None and refined.t_grasp_s is not None:
+            self.t_grasp = refined.t_grasp_s
             return []
         if name == events.THRUSTING_ENDED and self.phase == c.PHASE_TRAJECTORY_ADJUST:
             return self._go(t, c.PHASE_FLYBY, 'guidance ended thrusting: passive fly-by')
@@ -357,7 +361,8 @@ class SupervisorCore:
         """The outputs at start: the first phase and its event."""
         phase = self.machine.phase
         return [Transition(0.0, '', phase, f'mission starts in {phase}', {}),
-                self._event(0.0, 'OK', events.PHASE_CHANGED, f'mission starts in {phase}', {'from': '', 'to': phase})]
+                self._event(0.0, 'OK', events.PHASE_CHANGED, f'mission starts in {phase}',
+                            event_payloads.encode(event_payloads.PhaseChanged('', phase)))]
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_target_estimate(self, t, q_hill_from_body, omega_body):
@@ -441,7 +446,8 @@ class SupervisorCore:
             out.append(tr)
             out.append(self._event(tr.t, _LEVEL_OF.get(tr.phase_to, 'OK'), events.PHASE_CHANGED,
                                    f'{tr.phase_from} -> {tr.phase_to}: {tr.reason}',
-                                   {'from': tr.phase_from, 'to': tr.phase_to, **tr.values}))
+                                   event_payloads.encode(event_payloads.PhaseChanged(tr.phase_from, tr.phase_to),
+                                                         tr.values)))
             if tr.phase_to == c.PHASE_ABORTED and tr.phase_from in (
                     c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST):
                 out += self._escape_burn(tr.t)

@@ -2,7 +2,9 @@
 
 Every core emits and matches events by these constants, never by a string literal (test/test_layering.py
 checks it). On the wire an event stays a diagnostic_msgs/DiagnosticStatus whose ``name`` is the value here and
-whose key/values are the payload as text (``flyby_msgs_py.wire``), so readers of existing bags keep working.
+whose key/values are the payload as text (``flyby_msgs_py.wire``), so readers of existing bags keep working. The
+payloads another core reads back are typed records, encoded and decoded in one place
+(``flyby_msgs_py.event_payloads``).
 """
 
 ADJUST_SKIPPED = 'adjust_skipped'

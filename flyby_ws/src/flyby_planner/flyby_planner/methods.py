@@ -18,7 +18,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from flyby_estimation.target_motion import prediction_from_estimate
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_planner.flyby.grasp_search import capture_target_body
 from flyby_planner.flyby.search import plan_capture
@@ -130,11 +130,13 @@ class FlybyMethod:
                               + ('' if chosen.miss_3sigma_m is None else
                                  f', predicted 3-sigma miss {chosen.miss_3sigma_m:.3f} m after a '
                                  f'{chosen.unguided_coast_s:.0f} s coast'),
-                              {'request': why, 'plan': str(core.plans), **{k: d[k] for k in _SELECTED_KEYS},
-                               # exact, not the rounded table values: the supervisor times the phases and
-                               # places the fly-by target point by them
-                               't_grasp_s': chosen.t_grasp, 't_i_s': chosen.t_i, 'offset_m': chosen.offset_m,
-                               'flyby_duration_s': chosen.flyby_duration_s, 'planning_time_s': planning_time_s}))
+                              # exact times, not the rounded table values: the supervisor times the phases and
+                              # places the fly-by target point by them
+                              event_payloads.encode(
+                                  event_payloads.PlanSelected(why, str(core.plans), t_grasp_s=chosen.t_grasp,
+                                                              t_i_s=chosen.t_i, offset_m=chosen.offset_m),
+                                  {**{k: d[k] for k in _SELECTED_KEYS if k not in ('t_grasp_s', 't_i_s')},
+                                   'flyby_duration_s': chosen.flyby_duration_s, 'planning_time_s': planning_time_s})))
         return out, None
 
     def follow_up(self, core, t):
@@ -203,13 +205,14 @@ class OptimalMethod:
             core.method_chosen(t, 'optimal', reason),
             self.flown,
             core.event(t, 'OK', events.PLAN_SELECTED, message,
-                       {'request': why, 'plan': str(core.plans), 'method': 'optimal', 't_grasp_s': plan.t_grasp_s,
-                        't_start_s': plan.t_start_s, 'offset_m': settings.offset_m,
+                       event_payloads.encode(event_payloads.PlanSelected(
+                           why, str(core.plans), 'optimal', t_grasp_s=plan.t_grasp_s, t_start_s=plan.t_start_s,
+                           offset_m=settings.offset_m), {
                         'approach_time_s': plan.t_grasp_s - plan.t_start_s, 'dv_total_mps': terms.delta_v_mps,
                         'peak_accel_mps2': terms.peak_accel_mps2, 'eq5_cost': terms.total,
                         'clearance_m': plan.clearance_m, 'x_g_hill_m': plan.x_g, 'v_g_hill_mps': plan.v_g,
                         'x_ft_hill_m': plan.x_ft, 'v_ft_hill_mps': plan.v_ft, 'solver_time_s': plan.solver_time_s,
-                        'planning_time_s': planning_time_s, **mutual_values})], None
+                        'planning_time_s': planning_time_s, **mutual_values}))], None
 
     def follow_up(self, core, t):
         """Request a re-aim when X_Ft predicted from the target estimate has moved from the plan's. The checks fall
@@ -293,12 +296,13 @@ class SyncMethod:
         return out + [
             self.flown,
             core.event(t, 'OK', events.PLAN_SELECTED, plan.reason,
-                       {'request': why, 'plan': str(core.plans), 'method': 'sync', 't_arrival_s': arrival.t_arrival,
-                        't_start_s': t + lead_s, 'offset_m': sync.offset_m,
+                       event_payloads.encode(event_payloads.PlanSelected(
+                           why, str(core.plans), 'sync', t_arrival_s=arrival.t_arrival, t_start_s=t + lead_s,
+                           offset_m=sync.offset_m), {
                         'approach_time_s': arrival.t_arrival - t - lead_s, 'dv_total_mps': arrival.delta_v_mps,
                         'peak_accel_mps2': plan.peak_accel_mps2, 'closest_m': arrival.closest_m,
                         'x_station_hill_m': arrival.r_hill, 'v_station_hill_mps': arrival.v_hill,
-                        'planning_time_s': planning_time_s})], None
+                        'planning_time_s': planning_time_s}))], None
 
     def follow_up(self, core, t):
         """Request a re-solve of stage 1 when the target estimate of t is due (seed 001 section 2)."""
@@ -308,8 +312,9 @@ class SyncMethod:
 
     def on_event(self, core, event):
         """Guidance's docking_started: the port and the final point at its grasp time."""
-        if event.name == events.DOCKING_STARTED and 't_grasp_s' in event.values:
-            return self._docking_aim(core, event.t, float(event.values['t_grasp_s']))
+        docking = event_payloads.decode(event) if event.name == events.DOCKING_STARTED else None
+        if docking is not None and docking.t_grasp_s is not None:
+            return self._docking_aim(core, event.t, docking.t_grasp_s)
         return None
 
     @staticmethod

@@ -42,14 +42,13 @@ The planner node and the headless driver (flyby_mission.headless) both run ``Pla
 ``PlannerParams`` (flyby_planner.params); every input method returns the outputs to publish, in order.
 """
 
-import json
 
 import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import covariance_from_published, prediction_from_estimate
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_planner.methods import FlybyMethod, OptimalMethod, SyncMethod, choose
@@ -61,8 +60,9 @@ from flyby_planner.plan_outputs import AimUpdate, GraspState, PlanRefused
 from flyby_sim.dynamics.orbital import cw_coast
 
 
-def _vector_value(values, key):
-    return np.array(json.loads(values[key]), dtype=float)
+def _array(vector):
+    """A payload's vector (flyby_msgs_py.event_payloads) as a float array."""
+    return np.array(vector, dtype=float)
 
 
 class PlannerCore:
@@ -87,14 +87,15 @@ class PlannerCore:
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
         """The supervisor's stamped transition to PLANNING plans at that time; guidance's re-aim is published."""
-        if event.name == events.PHASE_CHANGED and event.values.get('to') == c.PHASE_PLANNING:
+        if event.name == events.PHASE_CHANGED and event_payloads.decode(event).to_phase == c.PHASE_PLANNING:
             self.request = (event.t, 'phase PLANNING')
             return self.try_plan()
-        if event.name == events.TARGET_REFINED and 'x_g_hill_m' in event.values:
-            v = event.values
-            grasp = GraspState(float(v['t_grasp_s']), _vector_value(v, 'x_g_hill_m'), _vector_value(v, 'v_g_hill_mps'),
-                               _vector_value(v, 'q_hill_from_body'), _vector_value(v, 'omega_body_rad_s'))
-            return [AimUpdate(grasp, _vector_value(v, 'x_ft_hill_m'), _vector_value(v, 'v_ft_hill_mps'))]
+        refined = event_payloads.decode(event) if event.name == events.TARGET_REFINED else None
+        if refined is not None and refined.x_g_hill_m is not None:
+            v = refined
+            grasp = GraspState(v.t_grasp_s, _array(v.x_g_hill_m), _array(v.v_g_hill_mps), _array(v.q_hill_from_body),
+                               _array(v.omega_body_rad_s))
+            return [AimUpdate(grasp, _array(v.x_ft_hill_m), _array(v.v_ft_hill_mps))]
         if self.method_flown is not None:  # guidance's replan request, the docking's start (methods.CaptureMethod)
             out = self.methods[self.method_flown].on_event(self, event)
             if out is not None:
@@ -111,9 +112,9 @@ class PlannerCore:
         fly-by) or plan_refused is its decision at that stamp."""
         if leader not in self.leader_decisions or event.name not in (events.PLAN_SELECTED, events.PLAN_REFUSED):
             return []
-        v = event.values
-        has_trajectory = event.name == events.PLAN_SELECTED and v.get('method', 'flyby') != 'flyby'
-        self.leader_decisions[leader].append((event.t, float(v['t_start_s']) if has_trajectory else None))
+        decision = event_payloads.decode(event)
+        has_trajectory = event.name == events.PLAN_SELECTED and decision.method not in (None, 'flyby')
+        self.leader_decisions[leader].append((event.t, decision.t_start_s if has_trajectory else None))
         return self.try_plan()
 
     def on_leader_trajectory(self, leader, t_s, r_hill, v_hill):
@@ -223,8 +224,8 @@ class PlannerCore:
 
     def _refuse(self, t, why, reason, markers, planning_time_s):
         """plan_refused and the markers of what refused."""
-        return [self.event(t, 'ERROR', events.PLAN_REFUSED, reason, {'request': why, 'plan': str(self.plans),
-                                                                  'planning_time_s': planning_time_s}),
+        return [self.event(t, 'ERROR', events.PLAN_REFUSED, reason,
+                           event_payloads.encode(event_payloads.PlanRefused(why, str(self.plans), planning_time_s))),
                 PlanRefused(t, markers)]
 
     def method_chosen(self, t, method, reason):

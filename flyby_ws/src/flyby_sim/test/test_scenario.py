@@ -15,33 +15,13 @@ from flyby_msgs_py.markers import marker_array, target_box_markers
 from flyby_msgs_py.schema import ScenarioError
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M
 from flyby_sim.scenario import SCHEMA, Boxes, Scenario, load_scenario, scenario_from_dict, schema_markdown
+from flyby_testing import paper_dict
+from flyby_testing import scenario_error_of as error_of
+from flyby_testing import write_yaml as write
 
 REPO = Path(__file__).resolve().parents[4]
 PAPER = REPO / 'scenarios' / 'paper_flyby.yaml'
 SEWERYN = REPO / 'scenarios' / 'seweryn_tumbling.yaml'
-
-
-def paper_dict():
-    return yaml.safe_load(PAPER.read_text())
-
-
-def write(tmp_path, data, name='x.yaml'):
-    p = tmp_path / name
-    p.write_text(data if isinstance(data, str) else yaml.safe_dump(data, sort_keys=False))
-    return p
-
-
-def error_of(tmp_path, mutate):
-    """Load paper_flyby mutated by ``mutate(d)`` from a file; return (path, one-line message)."""
-    d = paper_dict()
-    mutate(d)
-    p = write(tmp_path, d)
-    with pytest.raises(ScenarioError) as info:
-        load_scenario(p)
-    msg = str(info.value)
-    assert '\n' not in msg
-    assert msg.startswith(f'{p}: ')
-    return p, msg
 
 
 def rx(a):

@@ -18,7 +18,7 @@ from flyby_estimation.target_motion import covariance_from_published, prediction
 from flyby_guidance.guidance import FlybyGuidance, FlybyTarget
 from flyby_guidance.modes.interface import GuidanceMode
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, flyby_target_point, offset_of_flyby_target, refine_grasp
 from flyby_planner.flyby.passive_safety import check_passage
 
@@ -136,10 +136,9 @@ class FlybyAdjusting(GuidanceMode):
                 at_grasp = prediction.state(g.t_grasp)
                 return [self._event(t, 'OK', events.TARGET_REFINED,
                                     f'grasp re-solved at t = {g.t_grasp:.3f} s, aim moved {shift * 1e3:.1f} mm',
-                                    {'t_grasp_s': g.t_grasp, 'shift_m': shift, 'x_g_hill_m': g.x_g,
-                                     'v_g_hill_mps': g.v_g, 'x_ft_hill_m': x_ft, 'v_ft_hill_mps': v_ft,
-                                     'q_hill_from_body': at_grasp.q_hill_from_body,
-                                     'omega_body_rad_s': at_grasp.omega_body, 'passage_gap_m': check.gap_m})]
+                                    event_payloads.encode(event_payloads.TargetRefined(
+                                        g.t_grasp, shift, g.x_g, g.v_g, x_ft, v_ft, at_grasp.q_hill_from_body,
+                                        at_grasp.omega_body, check.gap_m)))]
             why = (f'the arc through the grasp re-solved at t = {g.t_grasp:.3f} s would come {check.gap_m:.3f} m '
                    f'from the {check.closest} at t = {check.t_min_gap:.1f} s (margin {check.margin_m:g} m)')
         else:
@@ -147,7 +146,8 @@ class FlybyAdjusting(GuidanceMode):
         kept = check_passage(prediction, aim.x_ft, aim.v_ft, aim.t_f, t, cfg, _GATE_MARGIN_M)
         if kept.safe:
             return [self._event(t, 'WARN', events.TARGET_REFINED, f'{why}; keeping the aim, whose arc keeps '
-                                                             f'{kept.gap_m:.3f} m', {'passage_gap_m': kept.gap_m})]
+                                                             f'{kept.gap_m:.3f} m',
+                                event_payloads.encode(event_payloads.TargetRefined(passage_gap_m=kept.gap_m)))]
         self.guidance.stop(f'no safe arc at t = {t:.1f} s')
         return [self._event(t, 'ERROR', events.PASSAGE_UNSAFE,
                             f'{why}, and the arc flown now would come {kept.gap_m:.3f} m from the {kept.closest} at '

@@ -10,7 +10,7 @@ from flyby_estimation.transport_navigation import on_com_grid
 from flyby_guidance.damping import PostCaptureCommand
 from flyby_guidance.modes.damping import DampingMode
 from flyby_guidance.transport.control import TransportControl, transport_body
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 
 
@@ -29,12 +29,13 @@ class TransportMode(DampingMode):
         """The final mass-property estimate starts TRANSPORT for the body it gives; the refined combined CoM is flown
         from its stamp on."""
         if event.name == events.MASS_PROPERTIES_ESTIMATED and self.transport.t_start is None:
-            self.transport.start(event.t, transport_body(event.values, self.chaser.mass_kg,
+            self.transport.start(event.t, transport_body(event_payloads.decode(event), self.chaser.mass_kg,
                                                          self.params.chaser_inertia_kg_m2, self.chaser.layout,
                                                          self.transport.config.plume_cone_deg))
             return self._commands(phase)
         if event.name == events.TRANSPORT_COM_ESTIMATE and self.transport.t_start is not None:
-            self.transport.refine_com(event.t, event.values)
+            refined = event_payloads.decode(event)
+            self.transport.refine_com(event.t, refined.com_body_m, refined.com_sigma_m)
             return self._commands(phase)
         return []
 

@@ -23,7 +23,6 @@ they were found.
 
 import collections
 import dataclasses
-import json
 
 import numpy as np
 
@@ -48,20 +47,14 @@ from flyby_sim.dynamics.rotation import quat_to_matrix
 NAV_SETTLE_S = 30.0  # the combined body's navigation converges from its first position before the plan [s]
 
 
-def event_array(values, key):
-    """An event's value (text or numbers) as a float array."""
-    value = values[key]
-    return np.asarray(json.loads(value) if isinstance(value, str) else value, dtype=float)
-
-
-def transport_body(values, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_cone_deg):
-    """The TransportBody of the final mass-property estimate (the ``mass_properties_estimated`` event's values, as
-    text or numbers): the combined body of the chaser and the estimated target, and the thrusters whose exhaust
-    misses the estimated target CoM."""
-    target_mass = float(event_array(values, 'mass_kg'))
-    x_s = event_array(values, 'com_body_m')
-    inertia_target = inertia_from_principal(event_array(values, 'principal_moments_kg_m2'),
-                                            event_array(values, 'principal_axes_q'))
+def transport_body(estimate, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_cone_deg):
+    """The TransportBody of the final mass-property estimate (the ``mass_properties_estimated`` payload,
+    flyby_msgs_py.event_payloads.MassPropertiesEstimated): the combined body of the chaser and the estimated target,
+    and the thrusters whose exhaust misses the estimated target CoM."""
+    target_mass = estimate.mass_kg
+    x_s = np.asarray(estimate.com_body_m, dtype=float)
+    inertia_target = inertia_from_principal(np.asarray(estimate.principal_moments_kg_m2, dtype=float),
+                                            np.asarray(estimate.principal_axes_q, dtype=float))
     props = combined_mass_properties(chaser_mass_kg, chaser_inertia_kg_m2, target_mass, x_s, inertia_target)
     return TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
                          layout.subset(plume_free_thrusters(layout, x_s, plume_cone_deg)))
@@ -143,12 +136,12 @@ class TransportControl(TransportAttitude, TransportPush, TransportTrim):
         self.com_worth = None  # the CoM's uncertainty in momentum at the first trim where it matters [N s] (_coasting)
         self.coast_slew = False  # the coast's wheel slew is planned (``_plan_coast_slew``)
 
-    def refine_com(self, t_event, values):
-        """The estimator's combined CoM, refined over the coasts, stamped t_event (``transport_com_estimate``'s
-        values): the body's CoM, and its 1-sigma, for the estimates from t_event on (the topics race: it may come
-        before the estimates stamped earlier)."""
+    def refine_com(self, t_event, com_body_m, com_sigma_m):
+        """The estimator's combined CoM [m], refined over the coasts, stamped t_event (``transport_com_estimate``):
+        the body's CoM, and its 1-sigma [m], for the estimates from t_event on (the topics race: it may come before
+        the estimates stamped earlier)."""
         self.t_com = t_event
-        self.com_pending.append((t_event, event_array(values, 'com_body_m'), event_array(values, 'com_sigma_m')))
+        self.com_pending.append((t_event, np.asarray(com_body_m, dtype=float), np.asarray(com_sigma_m, dtype=float)))
 
     def _take_com(self, t):
         """The refined combined CoM for the estimate stamped t (``refine_com``)."""

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.wire import Event
 from flyby_sim.chaser_body import SixDofChaser
 from flyby_sim.dynamics.actuators import plume_free_thrusters
@@ -188,8 +188,8 @@ class CapturePhases:
         displacement, rotation = self._arm_deflection(result.bodies_at(0), (chaser_b, target_b))
         self._events.append(Event(t, 'OK', events.GRASP_DAMPED, f'the arm locks at t = {t:.3f} s: one rigid body of '
                                                             f'{props.mass_kg:.2f} kg',
-                                  dict(t=t, damping_time_s=float(result.t_s[k]), arm_displacement_body_m=displacement,
-                                       arm_rotation_body_rad=rotation, **peaks)))
+                                  event_payloads.encode(event_payloads.GraspDamped(
+                                      t, float(result.t_s[k]), displacement, rotation), peaks)))
 
     def _lock(self, chaser_b, target_b):
         """Chaser and target (grasp Bodies in the local inertial frame) one rigid body from now on (``weld``): the

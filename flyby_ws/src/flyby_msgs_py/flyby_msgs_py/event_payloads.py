@@ -1,0 +1,253 @@
+"""The payloads of the events whose values another core reads back, declared once (DESIGN §11).
+
+An event's values travel as text (``wire.value_text``: floats by repr, bools 'true'/'false', sequences as JSON
+lists), so every reader used to parse them on its own. Here each such event has one frozen record whose fields
+are typed (float, int, str, bool, a vector as a tuple, Optional where the key may be absent), keyed by the event
+name (``PAYLOADS``). ``encode`` gives the values dict the emitter passes (the same keys and values, so the wire
+text is the same), the record's fields first, in their order, then the keys it does not model (figures for
+humans) untouched; ``decode`` turns an event's values, as text or as numbers, back into the record.
+"""
+
+import dataclasses
+import functools
+import json
+import types
+import typing
+from typing import ClassVar
+
+import numpy as np
+
+from flyby_msgs_py import events
+
+Vector = tuple  # a sequence of numbers (a 3-vector, a quaternion): a JSON list on the wire
+
+
+def _key(name):
+    """A field whose key on the wire is not its Python name (``from`` is a keyword)."""
+    return dataclasses.field(metadata={'key': name})
+
+
+def _vector(v):
+    """A sequence as a tuple of plain numbers, as ``wire.value_text`` writes it (numpy scalars as float)."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    return tuple(float(x) if isinstance(x, (np.floating, np.integer)) else x for x in v)
+
+
+def _scalar(v):
+    """A numpy scalar as the plain number or bool it stands for; anything else as it is."""
+    if isinstance(v, np.bool_):
+        return bool(v)
+    if isinstance(v, np.floating):
+        return float(v)
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+class _Payload:
+    """Vectors kept as tuples and numpy scalars as plain ones: records compare by value, and encode to the text
+    the emitter's own values have."""
+
+    NAME: ClassVar[str] = ''
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if v is not None:
+                object.__setattr__(self, f.name, _vector(v) if _kind(type(self), f.name) is Vector else _scalar(v))
+
+
+def payload(name):
+    """A frozen payload record for the event ``name`` (a constant of flyby_msgs_py.events)."""
+    def wrap(cls):
+        cls.NAME = name
+        return dataclasses.dataclass(frozen=True)(cls)
+    return wrap
+
+
+@payload(events.PHASE_CHANGED)
+class PhaseChanged(_Payload):
+    """The supervisor's transition (the transition's own values follow as extra keys)."""
+
+    from_phase: str = _key('from')
+    to_phase: str = _key('to')
+
+
+@payload(events.PLAN_SELECTED)
+class PlanSelected(_Payload):
+    """The plan the planner selected: a fly-by (no method), 'optimal' or 'sync'; exact times [s] and offset [m]."""
+
+    request: str | None = None
+    plan: str | None = None
+    method: str | None = None
+    t_arrival_s: float | None = None
+    t_grasp_s: float | None = None
+    t_i_s: float | None = None
+    t_start_s: float | None = None
+    offset_m: float | None = None
+
+
+@payload(events.PLAN_REFUSED)
+class PlanRefused(_Payload):
+    """No safe plan (the reason is the event's message)."""
+
+    request: str | None = None
+    plan: str | None = None
+    planning_time_s: float | None = None
+
+
+@payload(events.TARGET_REFINED)
+class TargetRefined(_Payload):
+    """Guidance's re-solved grasp (hill frame) and its fly-by target point, or only the kept aim's passage gap."""
+
+    t_grasp_s: float | None = None
+    shift_m: float | None = None
+    x_g_hill_m: Vector | None = None
+    v_g_hill_mps: Vector | None = None
+    x_ft_hill_m: Vector | None = None
+    v_ft_hill_mps: Vector | None = None
+    q_hill_from_body: Vector | None = None
+    omega_body_rad_s: Vector | None = None
+    passage_gap_m: float | None = None
+
+
+@payload(events.STATION_REACHED)
+class StationReached(_Payload):
+    """The synchronized approach reached its station at t_arrival_s [s]."""
+
+    t_arrival_s: float | None = None
+
+
+@payload(events.ATTITUDE_SYNCHRONIZED)
+class AttitudeSynchronized(_Payload):
+    """The relative attitude held within tolerance [deg, deg/s]; the docking's start and grasp times [s]."""
+
+    attitude_error_deg: float | None = None
+    rate_error_deg_s: float | None = None
+    attitude_tolerance_deg: float | None = None
+    rate_tolerance_deg_s: float | None = None
+    rotation_period_s: float | None = None
+    t_docking_s: float | None = None
+    t_grasp_s: float | None = None
+
+
+@payload(events.DOCKING_STARTED)
+class DockingStarted(_Payload):
+    """The docking from the station: its start and grasp times [s], the final range from the port [m]."""
+
+    t_docking_s: float | None = None
+    t_grasp_s: float | None = None
+    offset_m: float | None = None
+
+
+@payload(events.GRASP_DAMPED)
+class GraspDamped(_Payload):
+    """The arm locked at t [s]: the arm's displacement [m] and rotation vector [rad] in chaser_body axes (the
+    contact's peaks follow as extra keys)."""
+
+    t: float
+    damping_time_s: float
+    arm_displacement_body_m: Vector
+    arm_rotation_body_rad: Vector
+
+
+@payload(events.DAMPING_COMPLETE)
+class DampingComplete(_Payload):
+    """The damping ended: the excitation from t_excitation_s [s], the settled wheel momentum [N m s, chaser_body]."""
+
+    momentum_bound_kg_m2_s: float
+    damping_time_s: float
+    t_excitation_s: float
+    excitation: str
+    h_wheels_body_n_m_s: Vector
+
+
+@payload(events.EXCITATION_SCHEDULED)
+class ExcitationScheduled(_Payload):
+    """The excitation without damping, from t_excitation_s [s]; the settled wheel momentum [N m s, chaser_body]."""
+
+    t_excitation_s: float
+    excitation: str
+    h_wheels_body_n_m_s: Vector
+
+
+@payload(events.MASS_PROPERTIES_ESTIMATED)
+class MassPropertiesEstimated(_Payload):
+    """The final estimate of the target's mass [kg], CoM from the chaser's CoM [m] (chaser_body), principal moments
+    [kg m^2] and axes (q_body_from_principal), with 1-sigmas (further figures follow as extra keys)."""
+
+    mass_kg: float
+    mass_sigma_kg: float
+    com_body_m: Vector
+    com_sigma_m: Vector
+    principal_moments_kg_m2: Vector
+    principal_moments_sigma_kg_m2: Vector
+    principal_axes_q: Vector
+
+
+@payload(events.MASS_PROPERTIES_ESTIMATE)
+class MassPropertiesEstimate(MassPropertiesEstimated):
+    """An estimate before the final one (the same fields)."""
+
+
+@payload(events.TRANSPORT_COM_ESTIMATE)
+class TransportComEstimate(_Payload):
+    """The combined body's CoM [m] from the chaser's (chaser_body) and its 1-sigma [m], after coast_s [s]."""
+
+    com_body_m: Vector
+    com_sigma_m: Vector
+    coast_s: float
+
+
+PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
+                                      AttitudeSynchronized, DockingStarted, GraspDamped, DampingComplete,
+                                      ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
+                                      TransportComEstimate)}
+
+
+@functools.cache
+def _kind(cls, name):
+    """A field's type without Optional: float, int, str, bool or Vector."""
+    hint = typing.get_type_hints(cls)[name]
+    args = [a for a in typing.get_args(hint) if a is not type(None)]
+    return args[0] if isinstance(hint, types.UnionType) else hint
+
+
+def _wire_key(f):
+    return f.metadata.get('key', f.name)
+
+
+def encode(record, extra=None):
+    """The values of the record's event: its fields by their keys (None ones left out), then ``extra`` (keys the
+    record does not model) untouched."""
+    out = {_wire_key(f): getattr(record, f.name) for f in dataclasses.fields(record)
+           if getattr(record, f.name) is not None}
+    clash = set(out) & set(extra or {})
+    if clash:
+        raise ValueError(f'{record.NAME}: extra keys {sorted(clash)} are fields of the payload')
+    return {**out, **(extra or {})}
+
+
+def _parse(kind, value):
+    """One value, as text (wire.value_text) or as a number, of the given kind."""
+    if kind is Vector:
+        return tuple(json.loads(value)) if isinstance(value, str) else _vector(value)
+    if kind is bool:
+        return value == 'true' if isinstance(value, str) else bool(value)
+    if kind is str:
+        return value
+    return kind(value)
+
+
+def decode_values(name, values):
+    """The payload record of the event ``name`` from its values (text or numbers; keys it does not model
+    ignored). Raises KeyError for a name without a payload, or a required key that is absent."""
+    cls = PAYLOADS[name]
+    return cls(**{f.name: _parse(_kind(cls, f.name), values[_wire_key(f)])
+                  for f in dataclasses.fields(cls) if _wire_key(f) in values or f.default is dataclasses.MISSING})
+
+
+def decode(event):
+    """The payload record of a wire.Event (its name and values)."""
+    return decode_values(event.name, event.values)
