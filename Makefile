@@ -25,8 +25,9 @@ mission: $(STAMP)
 	$(PY) scripts/run_mission.py --scenario $(SCENARIO) --out $(OUT) --force \
 		|| [ $$? -eq 3 ]
 
+# Both cores: tests grouped by file (a file's session fixtures are flown once), each test on its own ROS domain.
 test: $(STAMP)
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest -n 2 --dist loadfile $(PYTEST_ARGS)
 
 # ruff over the whole tree (rules and line length in ruff.toml).
 lint: $(STAMP)
