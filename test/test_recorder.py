@@ -13,7 +13,7 @@ from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
-from flyby_msgs_py.bag import read_bag
+from flyby_msgs_py.bag import read_bag, verify_bag
 from flyby_msgs_py.domain import lease_domain
 from flyby_msgs_py.runtime import FASTDDS_PROFILES
 from flyby_testing import spin_until
@@ -55,3 +55,4 @@ def test_signal_right_after_a_burst_loses_no_message(tmp_path, sig):
     data = read_bag(bag_dir, topics=[c.absolute(c.SIM_CHASER_ODOM)])
     positions = data[c.absolute(c.SIM_CHASER_ODOM)].position[:, 0]
     assert positions.tolist() == [float(k) for k in range(BURST)]
+    assert verify_bag(bag_dir) >= 1  # its chunks carry CRCs, and they match

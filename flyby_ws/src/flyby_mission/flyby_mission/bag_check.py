@@ -54,7 +54,7 @@ from scipy.spatial.transform import Rotation
 from flyby_mission.approach_figures import least_clearance_index
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events
-from flyby_msgs_py.bag import read_bag
+from flyby_msgs_py.bag import JointSeries, read_bag
 from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
 from flyby_sim.dynamics.constants import STANDARD_GRAVITY_M_S2
 
@@ -80,6 +80,37 @@ TRANSPORT_TOLERANCES = {
 # the figures of several chasers together -> tolerance
 FLEET_TOLERANCES = {'min_separation_m': 1e-3, 't_min_separation_s': 1e-3, 'min_clearance_m': 1e-3}
 RIGID_ONLY = ('pointing_error_p95_deg', 'pointing_error_max_deg')
+
+
+class TruthError(ValueError):
+    """A truth message no figure can be computed from (a non-finite value); the message names topic, time, field."""
+
+
+# the fields of the series read_bag returns that hold a truth quantity, finite in every message
+_TRUTH_FIELDS = ('position', 'orientation_xyzw', 'linear', 'angular', 'vector', 'point', 'quaternion_xyzw',
+                 'force', 'torque')
+
+
+def check_finite(series, topic):
+    """``series`` as it is; ``TruthError`` naming the topic, the stamp and the field of its first message with a
+    NaN or an infinity (a joint state's NaN means "not given" and is left alone)."""
+    if isinstance(series, JointSeries) or not hasattr(series, 't_received'):
+        return series
+    for name in _TRUTH_FIELDS:
+        values = getattr(series, name, None)
+        if values is None or not len(values):
+            continue
+        bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise TruthError(f'{topic}: non-finite {name} {values[k].tolist()} at t = {series.t[k]:.3f} s '
+                             f'(message {k + 1} of {len(values)})')
+    return series
+
+
+def read_truth(bag_dir, topics):
+    """read_bag's series of ``topics``, each checked by check_finite."""
+    return {topic: check_finite(series, topic) for topic, series in read_bag(bag_dir, topics=topics).items()}
 
 
 def box_clearance(r_hill, q_hill_from_body, centers_body_m, sizes_m, envelope_radius_m):
@@ -186,7 +217,7 @@ def _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c,
     m_c, m_t = scenario.chaser.mass_kg - fuel_at(common[k]), scenario.target.mass_kg
     r_cm, v_cm = (m_c * r_c + m_t * r_t) / (m_c + m_t), (m_c * v_c + m_t * v_t) / (m_c + m_t)
     wheels_topic = c.absolute(c.SIM_CHASER_WHEELS, namespace)
-    wheels = read_bag(bag_dir, topics=[wheels_topic])[wheels_topic]
+    wheels = read_truth(bag_dir, topics=[wheels_topic])[wheels_topic]
     w = scenario.chaser.wheels
     axes = np.asarray(w.axes, dtype=float) / np.linalg.norm(w.axes, axis=1)[:, None]
     speed = wheels.velocity[int(np.argmin(np.abs(wheels.t - common[k])))]
@@ -238,7 +269,7 @@ def post_capture(bag_dir, scenario, chaser, target, mission_events, fuel_at, nam
     elif t_grasp is not None:
         return out
     inertia_topic = c.absolute(c.EST_TARGET_INERTIA, namespace)
-    messages = read_bag(bag_dir, topics=[inertia_topic])[inertia_topic].messages
+    messages = read_truth(bag_dir, topics=[inertia_topic])[inertia_topic].messages
     if not messages:
         return out
     last = messages[-1]
@@ -305,7 +336,7 @@ def _grasp_time(bag_dir, mission_events, grasp, rigid, docking_m, namespace):
     t_g = aimed_grasp_time(mission_events, grasp)
     if t_g is not None and rigid and docking_m is not None:  # the IMU decoded only for a docking: it is large
         imu_topic = c.absolute(c.SENSOR_CHASER_IMU, namespace)
-        imu = read_bag(bag_dir, topics=[imu_topic]).get(imu_topic)
+        imu = read_truth(bag_dir, topics=[imu_topic]).get(imu_topic)
         if imu is not None:
             t_g = first_sample_at_or_after(np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
                                                      for m in imu.messages]), t_g)
@@ -375,7 +406,7 @@ def recompute(bag_dir, scenario, namespace=''):
     topics = [c.absolute(t, namespace) for t in (c.SIM_CHASER_ODOM, c.SIM_TARGET_ODOM, c.SIM_CHASER_THRUST,
                                                  c.MISSION_EVENTS, c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET)]
     thrusters_topic = c.absolute(c.SIM_CHASER_THRUSTERS, namespace)
-    data = read_bag(bag_dir, topics=topics + ([thrusters_topic] if rigid else []))
+    data = read_truth(bag_dir, topics=topics + ([thrusters_topic] if rigid else []))
     chaser, target = _chaser_truth(data, topics[0], rigid), data.get(topics[1])
     thrust, mission_events, grasp = data.get(topics[2]), data.get(topics[3]) or [], data.get(topics[4])
     offset_m = aimed_offset(data.get(topics[5]), np.array(scenario.target.grasp_point_body_m))
@@ -426,7 +457,7 @@ def fleet_figures(bag_dir, scenario, per_chaser):
     for name in scenario.chaser_names:
         view = scenario.for_chaser(name)
         topic = c.absolute(c.SIM_CHASER_ODOM, f'/{name}')
-        series = _chaser_truth(read_bag(bag_dir, topics=[topic]), topic, view.chaser.model == 'rigid_body')
+        series = _chaser_truth(read_truth(bag_dir, topics=[topic]), topic, view.chaser.model == 'rigid_body')
         if series is not None and len(series.t) > 1:
             truth[name] = (series, view.chaser.envelope_radius_m)
     best = (None, None)

@@ -236,18 +236,37 @@ def test_cut_at_chosen_offsets_repairs_to_complete_prefix(tmp_path, flushed_bag)
     }
     for i, (offset, expected) in enumerate(sorted(cases.items())):
         cut = cut_copy(bag_dir, offset, tmp_path / f'cut{i}')
+        if not expected:
+            continue  # test_repair_that_salvages_nothing_refuses_and_leaves_the_bag
         report = fb.repair_bag(cut)
         assert report['message_count'] == expected, (offset, report)
         assert salvaged_raws(cut) == [bytes(r) for r in raws[:expected]], offset
         assert (cut / 'metadata.yaml').is_file()
         damaged = Path(report['damaged_file'])
         assert damaged.stat().st_size == offset  # the original is kept byte for byte
-        if expected:
-            assert report['last_timestamp_ns'] == (expected - 1) * 100_000_000
-            assert fb.read_bag(cut)[ODOM].position.shape == (expected, 3)
-        else:
-            assert report['last_timestamp_ns'] is None
-            assert fb.read_bag(cut) == {}
+        assert report['last_timestamp_ns'] == (expected - 1) * 100_000_000
+        assert fb.read_bag(cut)[ODOM].position.shape == (expected, 3)
+
+
+def test_repair_that_salvages_nothing_refuses_and_leaves_the_bag(tmp_path, flushed_bag):
+    """A file cut before its first chunk, or whose first 64 bytes are zeroed, holds no message: repair
+    raises ``BagError`` naming the file and leaves it unchanged (no empty bag passing for a valid one)."""
+    bag_dir, _, _ = flushed_bag
+    data = mcap_of(bag_dir).read_bytes()
+    cases = {'cut0': b'', 'cut30': data[:30], 'zeroed': bytes(64) + data[64:]}
+    for name, content in cases.items():
+        cut = tmp_path / name
+        cut.mkdir()
+        (cut / 'bag.mcap').write_bytes(content)
+        with pytest.raises(fb.BagError, match='nothing to salvage') as err:
+            fb.repair_bag(cut)
+        assert str(cut / 'bag.mcap') in str(err.value) and '\n' not in str(err.value)
+        assert [p.name for p in cut.iterdir()] == ['bag.mcap']
+        assert (cut / 'bag.mcap').read_bytes() == content
+    cmd = [sys.executable, '-m', 'flyby_msgs_py.bag', 'repair', str(tmp_path / 'zeroed')]
+    failed = subprocess.run(cmd, capture_output=True, text=True)
+    assert failed.returncode == 1 and failed.stdout == ''
+    assert failed.stderr.count('\n') == 1 and 'nothing to salvage' in failed.stderr
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -257,6 +276,10 @@ def test_cut_anywhere_repairs_to_a_prefix(flushed_bag, fraction):
     offset = int(fraction * mcap_of(bag_dir).stat().st_size)
     with tempfile.TemporaryDirectory() as tmp:
         cut = cut_copy(bag_dir, offset, Path(tmp) / 'cut')
+        if offset < marks[0][0]:  # not even the first chunk complete: nothing to salvage
+            with pytest.raises(fb.BagError, match='nothing to salvage'):
+                fb.repair_bag(cut)
+            return
         report = fb.repair_bag(cut)
         n = report['message_count']
         assert n in {0, len(raws)} | {m for _, m in marks}
@@ -315,6 +338,10 @@ def test_salvage_cut_inside_last_chunk_and_record_heads(tmp_path, flushed_bag):
         assert found.complete_until == cut_record, (offset, found.stop_reason)
         assert found.stop_reason == f'record after byte {cut_record} cut off', offset
         assert [topic for _, topic, _, _ in found.channels.values()] == ([ODOM] if n else []), offset
+        if not n:
+            with pytest.raises(fb.BagError, match='nothing to salvage'):
+                fb.repair_bag(cut)
+            continue
         report = fb.repair_bag(cut)
         assert (report['message_count'], report['bytes_salvaged']) == (n, cut_record), offset
         assert salvaged_raws(cut) == [bytes(r) for r in raws[:n]], offset

@@ -11,6 +11,8 @@ Quaternions are returned in ROS order (x, y, z, w).
 - ``repair``: ``repair_bag`` rebuilds such a bag (no summary, no ``metadata.yaml``, maybe a
   half-written last record) from every complete record, read with the ``mcap`` package's
   ``StreamReader`` (``salvage_mcap``), keeping the damaged file as ``*.mcap.damaged``.
+- ``integrity``: the CRCs the writers put in every chunk, the data section and the summary, and
+  ``verify_bag``, which checks them.
 - ``reader``: ``read_bag``, ``bag_topics``, ``bag_time_range`` read for analysis.
 - ``__main__``: ``python -m flyby_msgs_py.bag info DIR`` / ``repair DIR`` on the command line.
 
@@ -19,6 +21,7 @@ re-exported so that ``from flyby_msgs_py.bag import read_bag`` and the like keep
 """
 
 from flyby_msgs_py.bag.common import BagError, jazzy_typestore
+from flyby_msgs_py.bag.integrity import verify_bag
 from flyby_msgs_py.bag.reader import (
     DIAGNOSTIC_LEVELS,
     ClockSeries,
@@ -44,5 +47,5 @@ __all__ = [
     'MarkerArrayCount',
     'MessageList', 'OdometrySeries', 'PathLatest', 'PointSeries', 'QuaternionSeries', 'StringSeries', 'Vector3Series',
     'WrenchSeries', 'bag_time_range', 'bag_topics', 'contract_qos', 'jazzy_typestore', 'read_bag', 'repair_bag',
-    'salvage_mcap',
+    'salvage_mcap', 'verify_bag',
 ]

@@ -1,6 +1,7 @@
 """Command line: ``python -m flyby_msgs_py.bag info DIR`` / ``repair DIR``.
 
-``info`` prints topics, types, counts and the time range; ``repair`` rebuilds a bag whose recorder
+``info`` checks the CRCs (``integrity.verify_bag``), then prints topics, types, counts and the time
+range; ``repair`` rebuilds a bag whose recorder
 was killed (``repair.repair_bag``). Exit code 0 on success, 1 on a bag or file error (message on
 stderr).
 """
@@ -9,11 +10,13 @@ import argparse
 import sys
 
 from flyby_msgs_py.bag.common import BagError
+from flyby_msgs_py.bag.integrity import verify_bag
 from flyby_msgs_py.bag.reader import bag_time_range, bag_topics
 from flyby_msgs_py.bag.repair import repair_bag
 
 
 def _info(bag_dir):
+    checked = verify_bag(bag_dir)
     topics = bag_topics(bag_dir)
     span = bag_time_range(bag_dir)
     width = max([len(t) for t in topics] + [5])
@@ -24,6 +27,7 @@ def _info(bag_dir):
         lines.append(f'time range: {span[0] * 1e-9:.3f} s .. {span[1] * 1e-9:.3f} s '
                      f'({(span[1] - span[0]) * 1e-9:.3f} s)')
     lines.append(f'messages: {sum(n for _, n in topics.values())}')
+    lines.append(f'CRCs: {checked} chunks checked' if checked else 'CRCs: none written (bag not checked)')
     lines.append(f'{"topic":<{width}}  {"count":>8}  type')
     for topic, (type_name, count) in sorted(topics.items()):
         lines.append(f'{topic:<{width}}  {count:>8}  {type_name}')
@@ -43,6 +47,7 @@ def main(argv=None):
         else:
             report = repair_bag(args.bag_dir)
             if report['repaired']:
+                print(f'{args.bag_dir}: damaged: {report["damage"]}')
                 print(f'{args.bag_dir}: repaired, {report["message_count"]} messages salvaged '
                       f'({report["bytes_salvaged"]} of {report["bytes_total"]} bytes; '
                       f'stopped at: {report["stop_reason"]}); original kept as '

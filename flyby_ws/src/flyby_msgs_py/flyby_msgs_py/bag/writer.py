@@ -1,7 +1,8 @@
 """Raw, durable rosbag2 (MCAP) writer: ``BagWriter`` and the QoS it records per topic.
 
 ``BagWriter`` writes serialized CDR bytes as they are (no deserialize/serialize round trip) and
-forces the pending chunk to disk every ``flush_period_ns`` of message time, so a recorder killed
+forces the pending chunk to disk every ``flush_period_ns`` of message time (chunks, data section and
+summary carry CRCs: ``integrity.write_crcs_with``), so a recorder killed
 with SIGKILL loses at most the last flush period (plus the message in flight); ``repair.repair_bag``
 rebuilds such a bag. Bags are rosbag2 version 9 with MCAP storage
 (``Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)``), time stamps integer nanoseconds.
@@ -18,6 +19,7 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from flyby_msgs_py.bag.common import BagError, jazzy_typestore
+from flyby_msgs_py.bag.integrity import write_crcs_with
 
 
 def _force_pending_chunk_to_disk(writer, fsync=True):
@@ -110,6 +112,7 @@ class BagWriter:
         self._writer.open()
         try:
             _check_writer_internals(self._writer, self.path)
+            write_crcs_with(self._writer)
             self._connections = {}
             for topic, type_name in topics.items():
                 offered = (qos or {}).get(topic) if qos is not None else contract_qos(topic)
