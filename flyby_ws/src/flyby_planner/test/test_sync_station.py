@@ -13,6 +13,7 @@ import pytest
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
+from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.flyby.grasp_search import capture_target_body
 from flyby_planner.sync.approach import SyncParams, resolve_due, sync_station_geometry
 from flyby_planner.sync.station import (
@@ -196,12 +197,9 @@ def test_a_port_off_the_middle_of_a_face_docks_along_the_faces_normal():
     geometry = sync_station_geometry(SyncParams.from_scenario(sc))
     assert geometry.u_body == pytest.approx(x) and geometry.x_final_body == pytest.approx(port + x)
     assert geometry.x_final_body == pytest.approx(capture_target_body('sync', port, 1.0, bus))  # DESIGN §10's point
-    d['target']['grasp_point_body_m'] = [0.5, 0.0, 0.0]  # inside the bus
-    sc = scenario_from_dict(d, name='seweryn, a port inside the bus')
-    plan = plan_sync(SyncParams.from_scenario(sc), truth_prediction(sc, 500.0), 80.0, np.array((-1000.0, 0.0, 0.0)),
-                     np.zeros(3))
-    assert not plan.ok and 'the docking port (target.grasp_point_body_m) [0.5, 0.0, 0.0] m is not on the outer' \
-        in plan.reason
+    d['target']['grasp_point_body_m'] = [0.5, 0.0, 0.0]  # inside the bus: refused at load (issue 37)
+    with pytest.raises(ScenarioError, match='target.grasp_point_body_m: must lie on the surface'):
+        scenario_from_dict(d, name='seweryn, a port inside the bus')
 
 
 def test_a_late_plan_moves_the_arrival_window_and_a_resolve_keeps_it():

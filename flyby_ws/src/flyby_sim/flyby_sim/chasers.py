@@ -66,6 +66,8 @@ def entry_key(key, index, data):
     prefix = f'chasers[{index}]'
     if key == 'chaser' or key.startswith('chaser.'):
         return prefix + key[len('chaser'):]
-    if key == 'target.grasp_point_body_m' and data['chasers'][index].get('grasp_point_body_m') is not None:
-        return f'{prefix}.grasp_point_body_m'
+    grasp = 'target.grasp_point_body_m'
+    if key.startswith(grasp) and key[len(grasp):] in ('', *(f'[{j}]' for j in range(3))) \
+            and data['chasers'][index].get('grasp_point_body_m') is not None:
+        return f'{prefix}.grasp_point_body_m' + key[len(grasp):]
     return key

@@ -162,8 +162,9 @@ def test_error_geometry(tmp_path):
 
 def test_error_step_too_long_says_why(tmp_path):
     _, msg = error_of(tmp_path, lambda d: d['simulation'].update(step_s=0.1))
-    assert msg.endswith(': simulation.step_s: must be in (0, 0.05], got 0.1 '
-                        '(truth is published every step and must reach >= 20 Hz, DESIGN §4)')
+    assert msg.endswith(': simulation.step_s: must be in [0.001, 0.05], got 0.1 '
+                        '(truth is published every step and must reach >= 20 Hz, DESIGN §4; a finer step than '
+                        '0.001 s resolves nothing more and makes the run endless)')
 
 
 def test_error_sensor_rate_above_step_rate(tmp_path):

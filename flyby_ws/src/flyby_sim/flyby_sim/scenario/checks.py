@@ -4,6 +4,8 @@ Each raises or returns the problem as ``flyby_msgs_py.schema`` expects: a field 
 None), a cross check raises ``Invalid`` naming the dotted key.
 """
 
+import math
+
 import numpy as np
 
 from flyby_msgs_py.schema import Invalid, format_floats
@@ -34,12 +36,32 @@ def check_unique_names(items):
     return None
 
 
-def check_nonzero_rows(rows):
+MIN_WHEEL_SPAN = 1e-3  # no three unit wheel axes within about 0.06 deg of a plane
+MIN_DIRECTION_NORM = 1e-6  # a direction or quaternion's norm at least this (normalized on load) ...
+MAX_DIRECTION_NORM = 1e6  # ... and at most this: its square neither underflows nor overflows
+
+
+def check_direction(v):
+    """Field check: a direction or quaternion that normalizes, its norm within [MIN_DIRECTION_NORM,
+    MAX_DIRECTION_NORM] (a norm of 1e-200 divides to nothing)."""
+    if not any(v):
+        return 'must be nonzero, got [0.0, 0.0, 0.0]' if len(v) == 3 else f'must be nonzero, got {v}'
+    norm = math.hypot(*v)
+    if not MIN_DIRECTION_NORM <= norm <= MAX_DIRECTION_NORM:
+        return (f'must have a norm within [{MIN_DIRECTION_NORM:g}, {MAX_DIRECTION_NORM:g}] (normalized on load), '
+                f'got {format_floats(v)} of norm {norm:.6g}')
+    return None
+
+
+def check_direction_rows(rows):
+    """Field check: every row a direction (check_direction)."""
     for i, row in enumerate(rows):
         if not any(row):
             return f'row {i} must be nonzero, got {row}'
+        problem = check_direction(row)
+        if problem:
+            return f'row {i} {problem}'
     return None
-
 
 
 def cross_checks(d):
@@ -136,6 +158,11 @@ def _check_chaser_body(chaser):
                           f'positively spanning), got rank {np.linalg.matrix_rank(b)}'
                           + ('' if np.linalg.matrix_rank(b) < 6 else ' but not positively spanning'))
     wheels = chaser['wheels']
+    axes = np.array([np.divide(a, math.hypot(*a)) for a in wheels['axes']])
+    if len(axes) < 3 or np.linalg.svd(axes, compute_uv=False)[2] < MIN_WHEEL_SPAN:
+        raise Invalid('chaser.wheels.axes', f'the wheel axes must span 3 axes (smallest singular value of the unit '
+                                            f'axes >= {MIN_WHEEL_SPAN:g}: wheel-only attitude control), got '
+                                            f'{[list(a) for a in wheels["axes"]]}')
     h0 = wheels['initial_momentum_n_m_s']
     if h0 is not None:
         if len(h0) != len(wheels['axes']):

@@ -7,21 +7,30 @@ from flyby_msgs_py import schema
 from flyby_msgs_py.schema import Invalid, ScenarioError, load_yaml_mapping, validate, validate_field
 from flyby_sim import chasers
 from flyby_sim.scenario.checks import cross_checks
+from flyby_sim.scenario.plausibility import check_grasp_point, plausible_dict, plausible_view
 from flyby_sim.scenario.schema import SCHEMA
 from flyby_sim.scenario.view import Scenario
 
 
 def _resolve(data, seed):
     """The resolved dict of a scenario mapping (defaults filled in, ``seed`` overriding the file's),
-    checked across keys; raises Invalid."""
+    checked across keys and for physical plausibility (before any derived quantity); raises Invalid."""
     resolved = validate(SCHEMA, data)
     if seed is not None:
         try:
             resolved['seed'] = validate_field(SCHEMA.fields['seed'], seed, 'seed')
         except Invalid as e:
             raise Invalid('seed', f'{e.problem} (from the seed argument)') from None
+    plausible_dict(resolved)
     cross_checks(resolved)
     return resolved
+
+
+def _view(resolved, raw, path):
+    """The Scenario of a resolved dict, checked for what needs its derived initial state; raises Invalid."""
+    view = Scenario(resolved, raw, path)
+    plausible_view(view)
+    return view
 
 
 
@@ -33,10 +42,9 @@ def scenario_from_dict(data, name='<dict>', seed=None, path=None):
     if isinstance(data, dict) and 'chasers' in data:
         return _fleet_from_dict(data, name, seed, path)
     try:
-        resolved = _resolve(data, seed)
+        return _view(_resolve(data, seed), copy.deepcopy(data), path)
     except Invalid as e:
         raise ScenarioError(name, e.key, e.problem) from None
-    return Scenario(resolved, copy.deepcopy(data), path)
 
 
 def _fleet_from_dict(data, name, seed, path):
@@ -48,16 +56,32 @@ def _fleet_from_dict(data, name, seed, path):
     views = []
     for chaser_name, single, i in singles:
         try:
-            base_seed = _resolve(single, seed)['seed']
-            resolved = _resolve(single, chasers.chaser_seed(base_seed, i))
+            base = _resolve(single, seed)
+            base_seed = base['seed']
+            view = _view(_resolve(single, chasers.chaser_seed(base_seed, i)), single, path)
         except Invalid as e:
             raise ScenarioError(name, chasers.entry_key(e.key, i, data), e.problem) from None
-        views.append((chaser_name, Scenario(resolved, single, path)))
+        views.append((chaser_name, view))
+    try:
+        _check_shared_grasp_point(data, base)
+    except Invalid as e:
+        raise ScenarioError(name, e.key, e.problem) from None
     fleet = tuple(views)
     for chaser_name, view in fleet:
         object.__setattr__(view, '_fleet', fleet)
         object.__setattr__(view, 'chaser_name', chaser_name)
     return fleet[0][1]
+
+
+def _check_shared_grasp_point(data, resolved):
+    """The top-level target.grasp_point_body_m of a ``chasers:`` file (that of a chaser without its own), checked
+    as in a single-chaser file even when every chaser gives its own (never read, but never meaningless either);
+    ``resolved`` any chaser's resolved dict (the target is the same); raises Invalid."""
+    key = 'target.grasp_point_body_m'
+    if 'grasp_point_body_m' not in data['target']:
+        raise Invalid(key, 'is required (the grasp point of a chaser without its own grasp_point_body_m)')
+    field = SCHEMA.fields['target'].fields['grasp_point_body_m']
+    check_grasp_point(validate_field(field, data['target']['grasp_point_body_m'], key), resolved['target']['geometry'])
 
 
 def load_scenario(path, seed=None):

@@ -20,12 +20,12 @@ from flyby_msgs_py.schema import (
     ListOf,
     Section,
     check_nonempty,
-    check_nonzero,
 )
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
-from flyby_sim.scenario.checks import check_inertia, check_nonzero_rows, check_unique_names
+from flyby_sim.scenario.checks import check_direction, check_direction_rows, check_inertia, check_unique_names
 
 MAX_STEP_S = 0.05  # truth is published every step and must reach >= 20 Hz (DESIGN §4)
+MIN_STEP_S = 0.001  # finer than any dynamics of the problem: a smaller step only makes the run endless
 
 
 # --------------------------------------------------------------------------------------------------
@@ -41,15 +41,15 @@ def _initial_attitude(body, desc, optional=False):
         one_of=(('q_hill_from_body', 'rpy_rad', 'body_axis_along_hill'),), fields={
             'q_hill_from_body': Field(QUAT, REQUIRED, None,
                                       'Quaternion [x, y, z, w] taking body to hill components; '
-                                      'normalized on load, must be nonzero.', check=check_nonzero),
+                                      'normalized on load, must be nonzero.', check=check_direction),
             'rpy_rad': Field(VEC3, REQUIRED, None,
                              '[roll, pitch, yaw]: R_hill_from_body = Rz(yaw) Ry(pitch) Rx(roll).'),
             'body_axis_along_hill': Section(
                 desc='The minimal rotation taking the body axis onto the hill direction', fields={
                     'body': Field(VEC3, REQUIRED, None, 'A body-frame direction (nonzero).',
-                                  check=check_nonzero),
+                                  check=check_direction),
                     'hill': Field(VEC3, REQUIRED, None, 'The hill-frame direction it points along (nonzero).',
-                                  check=check_nonzero),
+                                  check=check_direction),
                 }),
         })
 
@@ -57,7 +57,7 @@ def _initial_attitude(body, desc, optional=False):
 def _initial_rate(body, desc, optional=False):
     """The initial inertial angular velocity of a body, in its own or in hill axes (target and chaser)."""
     return Section(
-        desc=desc, optional=optional,
+        desc=desc + ' (at most one turn a second)', optional=optional,
         one_of=(('omega_body_deg_s', 'omega_body_rad_s', 'omega_hill_deg_s', 'omega_hill_rad_s'),),
         fields={
             'omega_body_deg_s': Field(VEC3, REQUIRED, None, f'In {body} axes.'),
@@ -72,17 +72,20 @@ SCHEMA = Section(desc='A flyby scenario', fields={
     'seed': Field(INT, REQUIRED, '>= 0', 'Seed of every random generator of the run.'),
 
     'orbit': Section(desc='Circular orbit of the target', one_of=(('radius_m', 'altitude_m'),), fields={
-        'radius_m': Field(FLOAT, REQUIRED, '> 0', 'Orbit radius (give this or altitude_m).'),
+        'radius_m': Field(FLOAT, REQUIRED, '> 0', 'Orbit radius (give this or altitude_m); above the Earth\'s '
+                                                    'equatorial radius, at most 1e9 m.'),
         'altitude_m': Field(FLOAT, REQUIRED, '> 0',
                             f'Altitude above the equatorial radius {EARTH_RADIUS_M} m (give this or radius_m).'),
-        'mu_m3_s2': Field(FLOAT, MU_EARTH_M3_S2, '> 0', 'Gravitational parameter of the central body.'),
+        'mu_m3_s2': Field(FLOAT, MU_EARTH_M3_S2, '> 0', 'Gravitational parameter of the central body, '
+                                                             'within [1e10, 1e18] (a moon or a planet).'),
     }),
 
     'target': Section(desc='The tumbling satellite', fields={
-        'mass_kg': Field(FLOAT, REQUIRED, '> 0', 'Target mass.'),
+        'mass_kg': Field(FLOAT, REQUIRED, '> 0', 'Target mass, within [0.1, 1e6] kg.'),
         'inertia_kg_m2': Field(MAT3, REQUIRED, None,
                                'Inertia about the CoM in body axes; symmetric positive definite, '
-                               'principal moments satisfy the triangle inequality.',
+                               'principal moments satisfy the triangle inequality and lie within 1e-3 to 1e3 '
+                               'times mass_kg L^2 / 12 (L the largest extent of the geometry).',
                                check=check_inertia),
         'initial_attitude': _initial_attitude('target_body', 'Attitude of target_body in hill at t = 0; required '
                                                              'unless post_capture.start is attached (then derived '
@@ -97,18 +100,23 @@ SCHEMA = Section(desc='A flyby scenario', fields={
             check=check_unique_names,
             item=Section(desc='One box', fields={
                 'name': Field(STR, REQUIRED, None, 'Unique box name (marker namespace).', check=check_nonempty),
-                'center_m': Field(VEC3, REQUIRED, None, 'Box centre in target_body.'),
-                'size_m': Field(VEC3, REQUIRED, '> 0', 'Edge lengths along body x, y, z.'),
+                'center_m': Field(VEC3, REQUIRED, None, 'Box centre in target_body (within +-1000 m per axis).'),
+                'size_m': Field(VEC3, REQUIRED, '> 0', 'Edge lengths along body x, y, z (at most 1000 m).'),
             })),
-        'grasp_point_body_m': Field(VEC3, REQUIRED, None, 'Grasp point in target_body.'),
+        'grasp_point_body_m': Field(VEC3, REQUIRED, None, 'Grasp point in target_body, on the surface of the '
+                                                           'geometry (within 0.1 m of a face, not inside a box).'),
     }),
 
     'chaser': Section(desc='The servicing robot', fields={
-        'mass_kg': Field(FLOAT, REQUIRED, '> 0', 'Chaser wet mass at t = 0.'),
-        'envelope_radius_m': Field(FLOAT, REQUIRED, '> 0', 'Radius of the sphere enclosing the chaser.'),
-        'initial_position_hill_m': Field(VEC3, REQUIRED, None, 'Chaser CoM in hill at t = 0.'),
+        'mass_kg': Field(FLOAT, REQUIRED, '> 0', 'Chaser wet mass at t = 0, within [0.1, 1e6] kg.'),
+        'envelope_radius_m': Field(FLOAT, REQUIRED, '> 0', 'Radius of the sphere enclosing the chaser, '
+                                                                'within [0.01, 100] m.'),
+        'initial_position_hill_m': Field(VEC3, REQUIRED, None, 'Chaser CoM in hill at t = 0, outside the '
+                                                                 'target geometry by more than envelope_radius_m, '
+                                                                 'at most 1e6 m from the target CoM.'),
         'initial_velocity_hill_mps': Field(VEC3, _VEC0, None,
-                                           'Chaser velocity relative to the rotating hill frame at t = 0.'),
+                                           'Chaser velocity relative to the rotating hill frame at t = 0 '
+                                           '(at most 1000 m/s).'),
         'model': Field(ENUM, 'point_mass', None,
                        'point_mass: a point receiving impulses along any direction; rigid_body: attitude, '
                        'body-fixed thrusters and reaction wheels (docs/chaser_6dof.md). The keys marked '
@@ -117,7 +125,8 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'inertia_kg_m2': Field(MAT3, None, None,
                                '(rigid_body) Inertia about the CoM in chaser_body axes, wheels\' spin-axis inertia '
                                'left out; as target.inertia_kg_m2. Omitted: a uniform sphere filling the envelope, '
-                               '0.4 mass_kg envelope_radius_m^2 per axis (10 kg m^2 for 100 kg, 0.5 m).',
+                               '0.4 mass_kg envelope_radius_m^2 per axis (10 kg m^2 for 100 kg, 0.5 m). Principal '
+                               'moments within 1e-3 to 1e3 times mass_kg (2 envelope_radius_m)^2 / 12.',
                                check=check_inertia),
         'initial_attitude': _initial_attitude(
             'chaser_body', '(rigid_body) Attitude of chaser_body in hill at t = 0, as target.initial_attitude; '
@@ -144,16 +153,18 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                      'positively; omitted: the default 12-thruster layout of docs/chaser_6dof.md',
                 optional=True,
                 item=Section(desc='One thruster', fields={
-                    'position_m': Field(VEC3, REQUIRED, None, 'Position in chaser_body from the CoM.'),
+                    'position_m': Field(VEC3, REQUIRED, None, 'Position in chaser_body from the CoM (within 10 '
+                                                                'envelope_radius_m).'),
                     'direction': Field(VEC3, REQUIRED, None,
                                        'Direction it pushes the chaser, chaser_body (nonzero; normalized on load).',
-                                       check=check_nonzero),
+                                       check=check_direction),
                 })),
         }),
         'wheels': Section(desc='(rigid_body) Reaction-wheel assembly', fields={
             'axes': Field(VEC3_LIST, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), None,
-                          'Spin axis of each wheel in chaser_body (nonzero; normalized on load).',
-                          check=check_nonzero_rows),
+                          'Spin axis of each wheel in chaser_body (nonzero; normalized on load); '
+                          'together they span 3 axes.',
+                          check=check_direction_rows),
             'max_torque_n_m': Field(FLOAT, 0.1, '> 0', 'Motor torque limit of each wheel.'),
             'max_momentum_n_m_s': Field(FLOAT, 4.0, '> 0', 'Axial angular momentum limit of each wheel (its speed '
                                                            'limit).'),
@@ -259,7 +270,7 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                                            '(no pure out-of-plane motion).'),
         'sun_direction_hill': Field(VEC3, None, None,
                                     'Condition (c): sun direction in hill at t = 0 (inertially fixed); omitted: '
-                                    'lighting not checked.', check=check_nonzero),
+                                    'lighting not checked.', check=check_direction),
         'max_sun_angle_from_grasp_velocity_deg': Field(FLOAT, 100.0, '(0, 180]',
                                                        'Condition (c): angle between the grasp velocity and the '
                                                        'sun at most this.'),
@@ -500,9 +511,11 @@ SCHEMA = Section(desc='A flyby scenario', fields={
     'simulation': Section(desc='Plant integration', fields={
         'dynamics': Field(ENUM, 'nonlinear', None, 'Relative orbital dynamics: nonlinear two-body or linear CW.',
                           choices=('cw', 'nonlinear')),
-        'step_s': Field(FLOAT, MAX_STEP_S, f'(0, {MAX_STEP_S}]',
+        'step_s': Field(FLOAT, MAX_STEP_S, f'[{MIN_STEP_S}, {MAX_STEP_S}]',
                         'Fixed integration step; truth is published every step.',
-                        why=f'truth is published every step and must reach >= {1 / MAX_STEP_S:g} Hz, DESIGN §4'),
-        'duration_s': Field(FLOAT, REQUIRED, '> 0', 'Simulated time after which the run stops.'),
+                        why=f'truth is published every step and must reach >= {1 / MAX_STEP_S:g} Hz, DESIGN §4; '
+                            f'a finer step than {MIN_STEP_S:g} s resolves nothing more and makes the run endless'),
+        'duration_s': Field(FLOAT, REQUIRED, '> 0', 'Simulated time after which the run stops; at '
+                                                                  'least one step, at most 1e7 steps.'),
     }),
 })
