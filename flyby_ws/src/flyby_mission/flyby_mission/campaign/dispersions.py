@@ -31,7 +31,9 @@ the base gave ``omega_body_deg_s``) removes the other alternatives of that group
 
 Every problem raises ``CampaignError`` (a ``ScenarioError``), one line ``<campaign file>: <key>: <problem>``,
 before any run starts: unknown kinds, keys or parameters, keys not in the scenario, impossible ranges,
-and a dispersion whose draws make an invalid scenario (the first ``CHECKED_DRAWS`` runs are validated).
+strings or booleans where numbers are due (and the reverse), an excluded cone that leaves (almost) no direction,
+and a dispersion whose draws make an invalid scenario: every run is drawn and validated by the scenario loader
+at load time (at most ``MAX_RUNS``, about 2 ms each), so no run flies before all of them are known valid.
 """
 
 import copy
@@ -41,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_msgs_py.schema import ListOf, ScenarioError, Section, load_yaml_mapping
+from flyby_msgs_py.schema import ListOf, ScenarioError, Section, describe, load_yaml_mapping, short_repr
 from flyby_sim.scenario import SCHEMA, load_scenario, scenario_from_dict
 
 KINDS = ('uniform', 'normal', 'direction', 'box_surface_point', 'choice', 'scale')
@@ -58,8 +60,11 @@ _CAMPAIGN_KEYS = {'name', 'description', 'base_scenario', 'overrides', 'seed', '
 # Keys the campaign itself sets: the seed comes from the run's stream, the name labels the campaign.
 _RESERVED_KEYS = ('seed', 'name')
 SCENARIO_SEED_BOUND = 2**31  # run seeds are drawn in [0, 2**31)
-CHECKED_DRAWS = 5  # runs validated through the scenario schema before a campaign starts
+MAX_RUNS = 10_000  # runs of one campaign, each drawn and validated (about 2 ms) before the first flies
 _MAX_REJECTIONS = 10_000  # draws of a direction outside the excluded cone(s) before giving up
+# The excluded cone(s) leave at least this fraction of the sphere, so _MAX_REJECTIONS draws never all fall inside
+# (the chance is 0.99 ** 10_000, about 2e-44).
+_MIN_DIRECTION_FRACTION = 0.01
 
 
 class CampaignError(ScenarioError):
@@ -69,15 +74,37 @@ class CampaignError(ScenarioError):
 # --------------------------------------------------------------------------------------------------
 # Draws of one dispersion
 
+def _only_numbers(v):
+    """True when v is a number or (nested) lists of numbers: no string nor boolean that numpy would coerce."""
+    if isinstance(v, (list, tuple)):
+        return all(_only_numbers(x) for x in v)
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
 def _number_array(v, file, key, what):
-    try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        raise CampaignError(file, key, f'{what} must be a number or a list of numbers, got {v!r}') from None
-    if a.ndim > 2 or not np.all(np.isfinite(a)):
+    a = None
+    if _only_numbers(v):
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            pass
+    if a is None or a.ndim > 2 or not np.all(np.isfinite(a)):
         raise CampaignError(file, key, f'{what} must be a finite number, a list of finite numbers or a matrix (a '
-                                       f'list of equal lists, e.g. an inertia) of them, got {v!r}')
+                                       f'list of equal lists, e.g. an inertia) of them, got {short_repr(v)}')
     return a
+
+
+def _number(v, file, key):
+    """A finite real number (not a boolean nor a string), as a float."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise CampaignError(file, key, f'must be a finite number, got {describe(v)}')
+    return float(v)
+
+
+def _short_key(k):
+    """A key of the file as text for a message, cut to a line (a key may be any scalar, of any length)."""
+    text = str(k)
+    return text if len(text) <= 80 else text[:77] + '...'
 
 
 def _plain(x):
@@ -89,8 +116,27 @@ def _plain(x):
 def _unit(v, file, key, what):
     a = _number_array(v, file, key, what)
     if a.shape != (3,) or np.linalg.norm(a) == 0.0:
-        raise CampaignError(file, key, f'{what} must be a nonzero 3-vector, got {v!r}')
+        raise CampaignError(file, key, f'{what} must be a nonzero 3-vector, got {short_repr(v)}')
     return a / np.linalg.norm(a)
+
+
+def _exclude_cone(cone, file, where):
+    """(unit axis, cosine of the half angle, both ways) of an ``exclude_cone`` mapping; the cone (or the two
+    opposite cones) must leave at least _MIN_DIRECTION_FRACTION of the sphere, else the draws could not end."""
+    axis = _unit(cone['axis'], file, f'{where}.axis', 'axis')
+    half = _number(cone['half_angle_deg'], file, f'{where}.half_angle_deg')
+    both = cone.get('both_ways', False)
+    if not isinstance(both, bool):
+        raise CampaignError(file, f'{where}.both_ways', f'must be true or false, got {describe(both)}')
+    # The fraction of the sphere outside one cone is (1 + cos h) / 2, outside two opposite ones cos h.
+    cos_min = _MIN_DIRECTION_FRACTION if both else 2.0 * _MIN_DIRECTION_FRACTION - 1.0
+    max_half = math.degrees(math.acos(cos_min))
+    if not 0.0 <= half <= max_half:
+        cones = 'two opposite cones' if both else 'the cone'
+        raise CampaignError(file, f'{where}.half_angle_deg',
+                            f'must be in [0, {max_half:.2f}] ({cones} must leave at least '
+                            f'{_MIN_DIRECTION_FRACTION:.0%} of the directions), got {half!r}')
+    return axis, math.cos(math.radians(half)), both
 
 
 class Dispersion:
@@ -101,21 +147,23 @@ class Dispersion:
         self.key = key
         self.spec = spec
         where = f'dispersions.{key}'
-        if isinstance(spec, (int, float)) and nested:
+        if isinstance(spec, (int, float)) and not isinstance(spec, bool) and nested:
             self.kind, self._constant = 'constant', float(spec)
             return
         if not isinstance(spec, dict) or 'kind' not in spec:
-            raise CampaignError(file, where, f"must be a mapping with a 'kind' (one of {list(KINDS)}), got {spec!r}")
+            raise CampaignError(file, where, f"must be a mapping with a 'kind' (one of {list(KINDS)}), "
+                                             f'got {short_repr(spec)}')
         self.kind = spec['kind']
-        if self.kind not in KINDS:
-            raise CampaignError(file, f'{where}.kind', f'unknown dispersion kind {self.kind!r}, one of {list(KINDS)}')
+        if not isinstance(self.kind, str) or self.kind not in KINDS:
+            raise CampaignError(file, f'{where}.kind', f'unknown dispersion kind {short_repr(self.kind)}, '
+                                                       f'one of {list(KINDS)}')
         required, optional = _PARAMS[self.kind]
         for p in required:
             if p not in spec:
                 raise CampaignError(file, where, f'{self.kind} needs {p!r}')
         for p in spec:
             if p != 'kind' and p not in required + optional:
-                raise CampaignError(file, f'{where}.{p}', f'unknown parameter of {self.kind}, '
+                raise CampaignError(file, f'{where}.{_short_key(p)}', f'unknown parameter of {self.kind}, '
                                                           f'it takes {list(required + optional)}')
         getattr(self, f'_init_{self.kind}')(spec, file, where, boxes, base_value)
 
@@ -123,17 +171,16 @@ class Dispersion:
     def _init_uniform(self, spec, file, where, boxes, base_value):
         self._low = _number_array(spec['low'], file, f'{where}.low', 'low')
         self._high = _number_array(spec['high'], file, f'{where}.high', 'high')
-        bad = np.flatnonzero(np.broadcast_to(self._low > self._high, np.broadcast_shapes(self._low.shape,
-                                                                                        self._high.shape)))
-        if bad.size:
-            raise CampaignError(file, where, f'low > high: low {spec["low"]!r}, high {spec["high"]!r}')
         self._shape = self._broadcast(file, where, base_value, self._low, self._high)
+        if np.any(self._low > self._high):
+            raise CampaignError(file, where, f'low > high: low {short_repr(spec["low"])}, '
+                                             f'high {short_repr(spec["high"])}')
 
     def _init_normal(self, spec, file, where, boxes, base_value):
         self._mean = _number_array(spec['mean'], file, f'{where}.mean', 'mean')
         self._sigma = _number_array(spec['sigma'], file, f'{where}.sigma', 'sigma')
         if np.any(self._sigma < 0.0):
-            raise CampaignError(file, f'{where}.sigma', f'must be >= 0, got {spec["sigma"]!r}')
+            raise CampaignError(file, f'{where}.sigma', f'must be >= 0, got {short_repr(spec["sigma"])}')
         self._shape = self._broadcast(file, where, base_value, self._mean, self._sigma)
 
     def _init_direction(self, spec, file, where, boxes, base_value):
@@ -142,18 +189,14 @@ class Dispersion:
         if cone is not None:
             unknown = set(cone) - {'axis', 'half_angle_deg', 'both_ways'} if isinstance(cone, dict) else None
             if unknown is None or unknown or not {'axis', 'half_angle_deg'} <= set(cone):
-                raise CampaignError(file, f'{where}.exclude_cone',
-                                    f'must be a mapping of axis, half_angle_deg and optional both_ways, got {cone!r}')
-            axis = _unit(cone['axis'], file, f'{where}.exclude_cone.axis', 'axis')
-            half = float(cone['half_angle_deg'])
-            both = bool(cone.get('both_ways', False))
-            if not 0.0 <= half < (90.0 if both else 180.0):
-                raise CampaignError(file, f'{where}.exclude_cone.half_angle_deg',
-                                    f'must be in [0, {90 if both else 180}) (some direction must remain), got {half!r}')
-            self._cone = (axis, math.cos(math.radians(half)), both)
+                raise CampaignError(file, f'{where}.exclude_cone', 'must be a mapping of axis, half_angle_deg and '
+                                                                   f'optional both_ways, got {short_repr(cone)}')
+            self._cone = _exclude_cone(cone, file, f'{where}.exclude_cone')
         self._axis_p = spec.get('axis_probability')
-        if self._axis_p is not None and not (isinstance(self._axis_p, (int, float)) and 0.0 <= self._axis_p <= 1.0):
-            raise CampaignError(file, f'{where}.axis_probability', f'must be a number in [0, 1], got {self._axis_p!r}')
+        if self._axis_p is not None and (isinstance(self._axis_p, bool) or not isinstance(self._axis_p, (int, float))
+                                         or not 0.0 <= self._axis_p <= 1.0):
+            raise CampaignError(file, f'{where}.axis_probability',
+                                f'must be a number in [0, 1], got {describe(self._axis_p)}')
         if self._axis_p is not None and self._cone is not None:
             raise CampaignError(file, f'{where}.axis_probability', 'cannot be combined with exclude_cone')
         self._magnitude = None
@@ -167,10 +210,11 @@ class Dispersion:
         index = range(len(boxes.names))
         if names is not None:
             if not isinstance(names, list) or not names:
-                raise CampaignError(file, f'{where}.boxes', f'must be a non-empty list of box names, got {names!r}')
+                raise CampaignError(file, f'{where}.boxes',
+                                    f'must be a non-empty list of box names, got {short_repr(names)}')
             unknown = [n for n in names if n not in boxes.names]
             if unknown:
-                raise CampaignError(file, f'{where}.boxes', f'no target box named {unknown[0]!r}, '
+                raise CampaignError(file, f'{where}.boxes', f'no target box named {short_repr(unknown[0])}, '
                                                             f'the boxes are {list(boxes.names)}')
             index = [boxes.names.index(n) for n in names]
         self._centers = boxes.center_body_m[list(index)]
@@ -182,7 +226,8 @@ class Dispersion:
     def _init_choice(self, spec, file, where, boxes, base_value):
         self._values = spec['values']
         if not isinstance(self._values, list) or not self._values:
-            raise CampaignError(file, f'{where}.values', f'must be a non-empty list, got {self._values!r}')
+            raise CampaignError(file, f'{where}.values',
+                                f'must be a non-empty list, got {short_repr(self._values)}')
         weights = spec.get('weights')
         if weights is None:
             self._p = np.full(len(self._values), 1.0 / len(self._values))
@@ -190,9 +235,10 @@ class Dispersion:
         w = _number_array(weights, file, f'{where}.weights', 'weights')
         if w.shape != (len(self._values),):
             raise CampaignError(file, f'{where}.weights', f'must give one weight per value '
-                                                          f'({len(self._values)}), got {weights!r}')
+                                                          f'({len(self._values)}), got {short_repr(weights)}')
         if np.any(w < 0.0) or w.sum() <= 0.0:
-            raise CampaignError(file, f'{where}.weights', f'must be >= 0 with a positive sum, got {weights!r}')
+            raise CampaignError(file, f'{where}.weights',
+                                f'must be >= 0 with a positive sum, got {short_repr(weights)}')
         self._p = w / w.sum()
 
     def _init_scale(self, spec, file, where, boxes, base_value):
@@ -301,7 +347,7 @@ def _parent_and_leaf(d, path):
 def _check_key(file, key, base, section='dispersions'):
     """The base value at ``key`` (None when absent: a one-of alternative or an optional key); raises
     CampaignError (naming ``section``.key) when the key is not a key of the scenario."""
-    where = f'{section}.{key}'
+    where = f'{section}.{_short_key(key)}'
     if key in _RESERVED_KEYS:
         raise CampaignError(file, where, f'{key!r} is set by the campaign, not {section}')
     nodes = _schema_node(key)
@@ -375,7 +421,9 @@ class Campaign:
 
     def scenario_dict(self, run):
         """The full scenario mapping of run ``run`` (base values, drawn values, drawn seed)."""
-        seed, values = self.draw_values(run)
+        return self._scenario_dict(run, *self.draw_values(run))
+
+    def _scenario_dict(self, run, seed, values):
         d = self.base.to_dict()
         d['seed'] = seed
         d['name'] = f'{self.base.name}_{self.name}_{run}'
@@ -385,34 +433,42 @@ class Campaign:
 
     def draw(self, run):
         """(Scenario, {key: drawn value}) of run ``run``; raises CampaignError if it is not a valid scenario."""
-        _, values = self.draw_values(run)
+        seed, values = self.draw_values(run)
         try:
-            scenario = scenario_from_dict(self.scenario_dict(run), name=f'{self.path} run {run}')
+            scenario = scenario_from_dict(self._scenario_dict(run, seed, values), name=f'{self.path} run {run}')
         except ScenarioError as e:
             raise CampaignError(self.path, f'dispersions.{e.key}', f'run {run} draws an invalid scenario: '
                                                                    f'{e.problem}') from None
         return scenario, values
 
 
-def load_campaign(path, checked_draws=CHECKED_DRAWS):
-    """Load and check a campaign file; the first ``checked_draws`` runs are drawn and validated.
+def load_campaign(path, checked_draws=None):
+    """Load and check a campaign file; runs 0 to ``checked_draws`` - 1 (default: all the file's ``runs``; a
+    runner flying another number of runs passes it) are drawn and validated by the scenario loader.
 
-    Raises CampaignError (one line naming the file and the key) on any problem.
+    Raises CampaignError (one line naming the file and the key, and the run of an invalid draw) on any problem.
     """
     file = str(path)
-    data = load_yaml_mapping(path)
-    unknown = sorted(set(data) - _CAMPAIGN_KEYS)
+    try:
+        data = load_yaml_mapping(path)
+    except ScenarioError as e:
+        raise CampaignError(file, e.key, e.problem) from None
+    unknown = sorted(set(data) - _CAMPAIGN_KEYS, key=str)
     if unknown:
-        raise CampaignError(file, unknown[0], f'unknown campaign key, the keys are {sorted(_CAMPAIGN_KEYS)}')
+        raise CampaignError(file, _short_key(unknown[0]),
+                            f'unknown campaign key, the keys are {sorted(_CAMPAIGN_KEYS)}')
     for k in ('base_scenario', 'seed', 'dispersions'):
         if k not in data:
             raise CampaignError(file, k, 'missing')
     seed = data['seed']
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise CampaignError(file, 'seed', f'must be an integer >= 0, got {seed!r}')
+        raise CampaignError(file, 'seed', f'must be an integer >= 0, got {short_repr(seed)}')
     runs = data.get('runs', 1)
-    if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-        raise CampaignError(file, 'runs', f'must be an integer >= 1, got {runs!r}')
+    if isinstance(runs, bool) or not isinstance(runs, int) or not 1 <= runs <= MAX_RUNS:
+        raise CampaignError(file, 'runs', f'must be an integer in [1, {MAX_RUNS}], got {short_repr(runs)}')
+    name = data.get('name', Path(path).stem)
+    if not isinstance(name, str) or not name.strip():
+        raise CampaignError(file, 'name', f'must be a non-empty string, got {describe(name)}')
     base_path = Path(path).parent / str(data['base_scenario'])
     try:
         base = load_scenario(base_path)
@@ -420,7 +476,8 @@ def load_campaign(path, checked_draws=CHECKED_DRAWS):
         raise CampaignError(file, 'base_scenario', str(e)) from None
     overrides = data.get('overrides') or {}
     if not isinstance(overrides, dict):
-        raise CampaignError(file, 'overrides', f'must be a mapping of scenario keys to values, got {overrides!r}')
+        raise CampaignError(file, 'overrides',
+                            f'must be a mapping of scenario keys to values, got {short_repr(overrides)}')
     if overrides:
         base_dict = base.to_dict()
         for key in overrides:
@@ -432,13 +489,17 @@ def load_campaign(path, checked_draws=CHECKED_DRAWS):
             raise CampaignError(file, f'overrides.{e.key}', e.problem) from None
     dispersions = data['dispersions'] or {}
     if not isinstance(dispersions, dict):
-        raise CampaignError(file, 'dispersions', f'must be a mapping of scenario keys, got {dispersions!r}')
+        raise CampaignError(file, 'dispersions',
+                            f'must be a mapping of scenario keys, got {short_repr(dispersions)}')
     base_dict = base.to_dict()
     built = [Dispersion(str(key), spec, file, boxes=base.boxes, base_value=_check_key(file, str(key), base_dict))
              for key, spec in dispersions.items()]
     sha = hashlib.sha256(Path(path).read_bytes() + b'\0' + base_path.read_bytes()).hexdigest()
-    campaign = Campaign(file, str(data.get('name', Path(path).stem)), seed, runs, base, built, sha)
-    for run in range(min(checked_draws, runs)):
-        campaign.draw(run)
+    campaign = Campaign(file, name, seed, runs, base, built, sha)
+    checked = runs if checked_draws is None else checked_draws
+    if checked > MAX_RUNS:
+        raise CampaignError(file, 'runs', f'must be at most {MAX_RUNS}, got {checked} (from the runs argument)')
+    for run in range(checked):
+        campaign.draw(run)  # CampaignError naming the run and the key of the first invalid draw
     return campaign
 

@@ -42,6 +42,7 @@ from flyby_msgs_py.schema.blocks import (
     check_nonzero,
     describe,
     format_floats,
+    short_repr,
 )
 from flyby_msgs_py.schema.loading import load_yaml_mapping
 from flyby_msgs_py.schema.markdown import schema_markdown
@@ -51,4 +52,4 @@ from flyby_msgs_py.schema.view import Namespace
 __all__ = ['BOOL', 'ENUM', 'FLOAT', 'FLOAT_LIST', 'INT', 'KINDS', 'MAT3', 'QUAT', 'REQUIRED', 'STR', 'VEC3',
            'VEC3_LIST', 'Field', 'Invalid', 'ListOf', 'Namespace', 'Range', 'ScenarioError', 'Section',
            'check_nonempty', 'check_nonzero', 'describe', 'format_floats', 'load_yaml_mapping', 'schema_markdown',
-           'validate', 'validate_field']
+           'short_repr', 'validate', 'validate_field']

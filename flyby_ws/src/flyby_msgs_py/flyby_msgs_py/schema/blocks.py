@@ -4,6 +4,7 @@ checks any schema may use."""
 import dataclasses
 import math
 import re
+import reprlib
 
 import numpy as np
 
@@ -20,6 +21,10 @@ class ScenarioError(ValueError):
         self.problem = problem
         super().__init__(f'{self.file}: {key}: {problem}' if key else f'{self.file}: {problem}')
 
+    def __reduce__(self):
+        """Rebuilt from (file, key, problem), so the error crosses a process pool to the parent."""
+        return type(self), (self.file, self.key, self.problem)
+
 
 class Invalid(Exception):
     """A validation problem at a dotted key path, before the file name is known; the loader turns it
@@ -30,6 +35,9 @@ class Invalid(Exception):
         self.key = key
         self.problem = problem
 
+    def __reduce__(self):
+        """Rebuilt from (key, problem), so the problem crosses a process pool to the parent."""
+        return type(self), (self.key, self.problem)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -180,14 +188,28 @@ def describe(v):
     if isinstance(v, (bool, np.bool_)):
         return 'true (bool)' if v else 'false (bool)'
     if isinstance(v, str):
-        return f'string {v!r}'
+        return f'string {short_repr(v)}'
     if isinstance(v, dict):
         return 'a mapping'
     if isinstance(v, (list, tuple)):
         return f'a list of length {len(v)}'
     if isinstance(v, np.ndarray):
         return f'an array of shape {v.shape}'
-    return repr(v)
+    return short_repr(v)
+
+
+SHORT_REPR_CHARS = 80
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxstring = 4, SHORT_REPR_CHARS
+_SHORT.maxtuple = _SHORT.maxlist = _SHORT.maxdict = _SHORT.maxset = 10
+_SHORT.maxother = _SHORT.maxlong = SHORT_REPR_CHARS
+
+
+def short_repr(v):
+    """repr(v) for an error message, at most SHORT_REPR_CHARS characters ('...' where cut): a value that
+    aliases expanded, or a long string, never grows a message (nor the time to format it) beyond a line."""
+    text = _SHORT.repr(v)
+    return text if len(text) <= SHORT_REPR_CHARS else text[:SHORT_REPR_CHARS - 3] + '...'
 
 
 def format_floats(a):

@@ -21,6 +21,7 @@ from flyby_msgs_py.schema.blocks import (
     Section,
     _is_required,
     describe,
+    short_repr,
 )
 
 
@@ -80,7 +81,7 @@ def validate_field(field, v, key):
     elif kind == ENUM:
         if v not in field.choices or not isinstance(v, str):
             choices = '[' + ', '.join(repr(c) for c in field.choices) + ']'
-            raise Invalid(key, f'must be one of {choices}, got {v!r}')
+            raise Invalid(key, f'must be one of {choices}, got {short_repr(v)}')
         out = v
     elif kind == VEC3:
         out = _vector(v, 3, key, field, 'a 3-vector [x, y, z]')
