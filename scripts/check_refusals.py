@@ -13,7 +13,6 @@ no offset clears the target (offsets_clear 0), no grasp instant passes (a)-(c) a
 both clear and within the manipulator's tolerance (docs/campaigns.md).
 """
 
-import argparse
 import collections
 import csv
 import dataclasses
@@ -21,6 +20,7 @@ import json
 import sys
 from pathlib import Path
 
+from flyby_mission import cli
 from flyby_mission.campaign.report import refusal_class
 from flyby_mission.campaign.runner import run_indices
 from flyby_mission.headless import HeadlessGraph, run_headless
@@ -59,14 +59,20 @@ def check_run(scenario):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = cli.OneLineParser(description=__doc__.split('\n')[0])
     ap.add_argument('campaign_dir', type=Path)
     ap.add_argument('--runs', help='run indices (default: every NO_SAFE_PLAN row)')
     ap.add_argument('--out', type=Path, help='JSON lines, one per run')
     args = ap.parse_args()
+    if not (args.campaign_dir / 'results.csv').is_file():
+        ap.error(f'campaign_dir {args.campaign_dir}: holds no results.csv (not a campaign directory)')
+    try:
+        picked = run_indices(args.runs) if args.runs else None
+    except ValueError:
+        ap.error(f"--runs {args.runs}: expected run indices like '0-19', '0,3,10' or '0-4,8'")
     with open(args.campaign_dir / 'results.csv', newline='') as f:
         rows = {int(r['run']): r for r in csv.DictReader(f)}
-    runs = run_indices(args.runs) if args.runs else sorted(i for i, r in rows.items() if r['outcome'] == 'NO_SAFE_PLAN')
+    runs = picked if picked is not None else sorted(i for i, r in rows.items() if r['outcome'] == 'NO_SAFE_PLAN')
     out = open(args.out, 'w') if args.out else None
     by_class = collections.defaultdict(lambda: [0, 0])
     for i in runs:

@@ -8,7 +8,8 @@
 With --out: one mission (flyby_mission.headless: the plant and the cores every node runs, wired as
 the topics wire them); DIR receives scenario.yaml (the exact input) and summary.json with the keys and
 outcome classes of scripts/run_mission.py's, and the outcome table is printed. Exit code as
-run_mission.py's (0 capture, 3 safe without capture, 5 collision, 1 error).
+run_mission.py's (0 capture, 3 safe without capture, 5 collision, 1 error, 2 misuse of an option).
+With --out, an existing DIR is replaced only with --force and only if it holds a previous run (its run.json).
 
 With --runs: seeds K, K+1, ... in J processes; one line per run and the statistics: the miss of the
 true chaser at the grasp time against the fly-by target point recomputed from the true target
@@ -18,15 +19,16 @@ inside the restriction sphere; with a post_capture section also the grasp's peak
 target's mass-property errors (docs/post_capture.md).
 """
 
-import argparse
 import json
-import multiprocessing
+import os
 import shutil
 import sys
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
+from flyby_mission import cli
 from flyby_mission.headless import require_one_chaser, run_headless, scaled_navigation_noise
 from flyby_mission.summary import EXIT_CODES, format_summary
 from flyby_msgs_py.schema import ScenarioError
@@ -44,6 +46,24 @@ def _one(job):
     return {**run.summary, 'dv_commanded_mps': run.dv_commanded_mps, 'dv_ideal_mps': run.dv_ideal_mps}
 
 
+class WorkerFailed(RuntimeError):
+    """A run raised in its worker process, or the worker died: the command ends with its message (one line)."""
+
+
+def _result(job, future, pool):
+    """The run's result; a worker's exception (picklable) raised again here, any but a ScenarioError as
+    WorkerFailed naming the seed, the pending runs cancelled. A worker that dies breaks the pool
+    (BrokenProcessPool) rather than leaving it waiting."""
+    try:
+        return future.result()
+    except ScenarioError:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    except Exception as err:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise WorkerFailed(f'seed {job[1]}: {type(err).__name__}: {err}') from err
+
+
 def _stats(label, values, unit, scale=1.0):
     a = np.array([v for v in values if v is not None], dtype=float) * scale
     if a.size == 0:
@@ -58,8 +78,9 @@ def _fmt(x, spec):
 
 def many(args):
     jobs = [(args.scenario, args.first_seed + k, args.nav_noise_scale) for k in range(args.runs)]
-    with multiprocessing.Pool(args.jobs) as pool:
-        runs = pool.map(_one, jobs)
+    with ProcessPoolExecutor(args.jobs) as pool:
+        runs = [_result(job, future, pool) for job, future in zip(jobs, [pool.submit(_one, j) for j in jobs],
+                                                                    strict=True)]
     print(f'{"seed":>5} {"outcome":>12} {"t_grasp":>9} {"miss_m":>8} {"miss_mm/s":>9} {"dv":>7} {"ideal":>7} '
           f'{"dv/ideal":>8} {"clear_m":>7} {"thrust_in":>9}')
     for r in runs:
@@ -94,8 +115,8 @@ def many(args):
 
 def one(args):
     scenario = load_scenario(args.scenario, seed=args.seed)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = cli.make_run_dir(args.out, args.force, {'mode': 'headless', 'scenario': str(args.scenario),
+                                                  'seed': scenario.seed, 'launcher_pid': os.getpid()})
     shutil.copyfile(args.scenario, out / 'scenario.yaml')
     summary = run_headless(scenario).summary
     (out / 'summary.json').write_text(json.dumps(summary, indent=2) + '\n')
@@ -103,26 +124,41 @@ def one(args):
     return EXIT_CODES[summary['outcome']]
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+def parse_args(argv):
+    """The options, each refused in one line naming it (exit code 2) when out of its range."""
+    ap = cli.OneLineParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby.yaml'))
-    ap.add_argument('--seed', type=int, help="one run: override the scenario's seed")
-    ap.add_argument('--out', help='one run: write scenario.yaml and summary.json here')
-    ap.add_argument('--runs', type=int, help='many runs: how many (seeds first-seed, first-seed + 1, ...)')
-    ap.add_argument('--first-seed', type=int, default=1)
-    ap.add_argument('--nav-noise-scale', type=float, default=1.0,
+    ap.add_argument('--seed', type=cli.int_at_least(0), help="one run: override the scenario's seed")
+    ap.add_argument('--out', help='one run: write run.json, scenario.yaml and summary.json here')
+    ap.add_argument('--force', action='store_true', help='one run: replace OUT if it holds a previous run')
+    ap.add_argument('--runs', type=cli.int_at_least(1),
+                    help='many runs: how many (seeds first-seed, first-seed + 1, ...)')
+    ap.add_argument('--first-seed', type=cli.int_at_least(0), default=1)
+    ap.add_argument('--nav-noise-scale', type=cli.float_above(0), default=1.0,
                     help='many runs: multiply the relative-position noise')
-    ap.add_argument('--jobs', type=int, default=2)
+    ap.add_argument('--jobs', type=cli.int_at_least(1), default=2)
     ap.add_argument('--json', help='many runs: write every run as JSON here')
+    ap.add_argument('--debug', action='store_true', help='show the traceback of an error')
     args = ap.parse_args(argv)
     if (args.out is None) == (args.runs is None):
         ap.error('give either --out DIR (one run) or --runs N (many runs)')
     try:
+        if args.out is not None:
+            cli.check_out(args.out, args.force)
+        if args.json is not None and (Path(args.json).is_dir() or not Path(args.json).parent.is_dir()):
+            raise ValueError(f'--json {args.json}: is a directory or its directory does not exist')
+    except ValueError as err:
+        ap.error(str(err))
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    try:
         require_one_chaser(load_scenario(args.scenario))
-    except ScenarioError as err:
-        print(f'error: {err}', file=sys.stderr)
-        return 1
-    return one(args) if args.out else many(args)
+        return one(args) if args.out else many(args)
+    except (ValueError, OSError, WorkerFailed) as err:  # ScenarioError is a ValueError
+        return cli.fail(err, args.debug)
 
 
 if __name__ == '__main__':

@@ -14,12 +14,12 @@ paths in the hill x-z and x-y planes about the target from the approach's start 
 and thrust acceleration against the time to the grasp.
 """
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from flyby_mission import cli
 from flyby_mission.campaign.dispersions import set_values
 from flyby_mission.headless import HeadlessGraph, require_one_chaser, run_headless
 from flyby_mission.report import plotting as plots
@@ -116,10 +116,12 @@ def figure(results, path):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = cli.OneLineParser(description=__doc__.split('\n')[0])
     ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby_6dof.yaml'))
     ap.add_argument('--figure', default=None, help='write Fig 14 analogue here (PNG)')
     args = ap.parse_args()
+    if args.figure and Path(args.figure).is_dir():
+        ap.error(f'--figure {args.figure}: is a directory (give a .png file)')
     try:
         results = {m: fly(args.scenario, m) for m in METHODS}
     except ScenarioError as err:

@@ -12,10 +12,10 @@ is said on stderr. A figure whose essential data is missing is not written. Exit
 figure failed (a bug: its traceback is on stderr) or the bag cannot be read.
 """
 
-import argparse
 import sys
 from pathlib import Path
 
+from flyby_mission import cli
 from flyby_mission.report.loading import say
 from flyby_mission.report.writer import write_figures, write_report
 from flyby_msgs_py.bag import BagError
@@ -24,10 +24,14 @@ __all__ = ('main', 'write_report')  # run_mission.py --report imports write_repo
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser = cli.OneLineParser(description=__doc__.split('\n')[0])
     parser.add_argument('run_dir', type=Path, help='run directory (bag/, scenario.yaml, summary.json)')
     parser.add_argument('--out', type=Path, default=None, help='where the PNGs go (default RUN_DIR)')
     args = parser.parse_args(argv)
+    if not args.run_dir.is_dir():
+        parser.error(f'run_dir {args.run_dir}: not a directory')
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        parser.error(f'--out {args.out}: exists and is not a directory')
     try:
         written, failed = write_figures(args.run_dir, args.out)
     except BagError as err:

@@ -18,15 +18,14 @@ Exit code: 0 plan found, 3 refused (the reason on stderr, one line), 2 bad input
 scenario, or one the planner cannot take (one line on stderr).
 """
 
-import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
 from plan_figures import write_plots
 
+from flyby_mission import cli
 from flyby_msgs_py.schema import ScenarioError
 from flyby_planner.flyby.config import PlannerConfig, truth_prediction
 from flyby_planner.flyby.search import plan_capture
@@ -77,16 +76,17 @@ def plan_report(scenario, plan, config, prediction_s, plan_s):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap = cli.OneLineParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--scenario', required=True, help='scenario YAML file')
-    ap.add_argument('--seed', type=int, help="override the scenario's seed (recorded; the plan uses the truth)")
-    ap.add_argument('--t-plan', type=float, default=0.0, metavar='T', help='plan time [s], >= 0 (default 0)')
+    ap.add_argument('--seed', type=cli.int_at_least(0),
+                    help="override the scenario's seed (recorded; the plan uses the truth)")
+    ap.add_argument('--t-plan', type=cli.float_at_least(0), default=0.0, metavar='T',
+                    help='plan time [s], >= 0 (default 0)')
     ap.add_argument('--plot', type=Path, metavar='DIR', help='write the figures into DIR')
     ap.add_argument('--plot-prefix', default='plan_', help='figure file name prefix (default plan_)')
     args = ap.parse_args(argv)
-    if not (math.isfinite(args.t_plan) and args.t_plan >= 0.0):
-        print(f'error: --t-plan: must be finite and >= 0 s, got {args.t_plan}', file=sys.stderr)
-        return EXIT_BAD_INPUT
+    if args.plot is not None and args.plot.exists() and not args.plot.is_dir():
+        ap.error(f'--plot {args.plot}: exists and is not a directory')
     try:
         scenario = load_scenario(args.scenario, seed=args.seed)
     except ScenarioError as err:  # a missing file included

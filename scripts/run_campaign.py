@@ -10,32 +10,48 @@ DIR/runs/<i>/, one row per finished run to DIR/results.csv, and the statistics t
 DIR/report.md (flyby_mission.campaign.runner, campaign_report). Rerun the same command to resume. Without
 --scheduler, a LocalCluster of K (default: one per core) single-threaded worker processes; with it, the
 workers of a running `dask scheduler` (`dask worker ADDRESS` on each machine).
-Exit code 0 when every run flew (whatever its outcome), 1 when a run raised (ERROR) or the campaign is invalid.
+Exit code 0 when every run flew (whatever its outcome), 1 when a run raised (ERROR) or the campaign is invalid, 2 for
+a misused option (one line naming it; an unreachable --scheduler within a few seconds).
 """
 
-import argparse
 import sys
+from pathlib import Path
 
+from flyby_mission import cli
 from flyby_mission.campaign.runner import CampaignMismatch, run_campaign
 from flyby_msgs_py.schema import ScenarioError
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+def parse_args(argv):
+    """The options, each refused in one line naming it (exit code 2): ranges, --out, the scheduler's reachability."""
+    ap = cli.OneLineParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--campaign', required=True, help='campaign YAML file')
     ap.add_argument('--out', required=True, help='output directory (resumed if it holds this campaign)')
-    ap.add_argument('--runs', type=int, help="number of runs (default: the campaign file's runs)")
+    ap.add_argument('--runs', type=cli.int_at_least(1), help="number of runs (default: the campaign file's runs)")
     ap.add_argument('--scheduler', help='address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786')
-    ap.add_argument('--workers', type=int, help='LocalCluster worker processes (default: os.cpu_count())')
+    ap.add_argument('--workers', type=cli.int_at_least(1),
+                    help='LocalCluster worker processes, >= 1 (default: os.cpu_count())')
+    ap.add_argument('--debug', action='store_true', help='show the traceback of an error')
     args = ap.parse_args(argv)
     if args.scheduler and args.workers:
         ap.error('--workers sizes the local cluster; a --scheduler has its own workers')
     try:
+        if Path(args.out).exists() and not Path(args.out).is_dir():
+            raise ValueError(f'--out {args.out}: exists and is not a directory')
+        if args.scheduler:
+            cli.check_scheduler(args.scheduler)
+    except ValueError as err:
+        ap.error(str(err))
+    return args
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    try:
         rows, stats, runs_per_hour = run_campaign(args.campaign, args.out, runs=args.runs, scheduler=args.scheduler,
                                                   workers=args.workers)
-    except (ScenarioError, CampaignMismatch) as e:
-        print(f'error: {e}', file=sys.stderr)
-        return 1
+    except (ScenarioError, CampaignMismatch, OSError) as err:
+        return cli.fail(err, args.debug)
     if runs_per_hour is not None:
         print(f'throughput: {runs_per_hour:.0f} runs/h')
     print('outcomes: ' + ', '.join(f'{o} {n}' for o, n in stats['outcome_counts'].items())

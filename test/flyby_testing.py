@@ -175,7 +175,7 @@ def launch_and_wait(scenario, out, sim_time_s, *extra):
         reached = watcher.wait_until(sim_time_s)
     finally:
         watcher.close()
-    return launcher, watcher.info, reached
+    return launcher, json.loads((Path(out) / 'run.json').read_text()), reached  # with the pids, written once started
 
 
 def collect(node, topic, namespace=''):

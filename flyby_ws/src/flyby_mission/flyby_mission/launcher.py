@@ -20,6 +20,7 @@ from pathlib import Path
 
 import yaml
 
+from flyby_mission import cli
 from flyby_mission.fleet_summary import compute_fleet_summary
 from flyby_mission.summary import compute_summary, format_summary
 from flyby_mission.supervisor import WATCHED_NODES
@@ -153,9 +154,8 @@ class ProcessGraph:
                 start_new_session=True, preexec_fn=_child_setup(spec.nice))
             log.close()
         # Lets a user (or a test) find the run's domain and processes while it runs.
-        (self.run_dir / 'run.json').write_text(json.dumps(
-            {'ros_domain_id': int(self.env['ROS_DOMAIN_ID']), 'launcher_pid': os.getpid(),
-             'pids': {name: p.pid for name, p in self.procs.items()}}, indent=2) + '\n')
+        cli.write_marker(self.run_dir, {'ros_domain_id': int(self.env['ROS_DOMAIN_ID']), 'launcher_pid': os.getpid(),
+                                        'pids': {name: p.pid for name, p in self.procs.items()}})
 
     def poll(self):
         """Names of the nodes that have exited since the last call, with their exit codes."""
@@ -404,7 +404,8 @@ def faults_from_args(args):
 
 
 class LaunchError(Exception):
-    """A bad input or option: the run does not start (the command line's exit code 1)."""
+    """A bad input or option: the run does not start (the command line's exit code 1; 2 for a misused option that
+    scripts/run_mission.py refuses before)."""
 
 
 @dataclass
@@ -435,11 +436,14 @@ def prepare(options):
         faults = faults_from_args(options)
     except ValueError as err:
         raise LaunchError(str(err)) from None
-    if options.rtf < 0:
-        raise LaunchError(f'--rtf: must be >= 0, got {options.rtf}')
-    run_dir = Path(options.out)
-    if run_dir.exists() and any(run_dir.iterdir()) and not options.force:
-        raise LaunchError(f'--out {run_dir}: exists and is not empty (pass --force to replace it)')
+    if not options.rtf >= 0 or options.rtf == float('inf'):
+        raise LaunchError(f'--rtf: must be a finite number >= 0, got {options.rtf}')
+    if not 0 < options.wall_timeout < float('inf'):
+        raise LaunchError(f'--wall-timeout: must be a finite number > 0, got {options.wall_timeout}')
+    try:
+        run_dir = cli.check_out(options.out, options.force)
+    except ValueError as err:
+        raise LaunchError(str(err)) from None
     return scenario, faults, run_dir
 
 
@@ -496,13 +500,15 @@ def run(options):
     """One mission: check the inputs (LaunchError), make the run directory, run the graph on a leased ROS domain
     until its end, write and print the summary; the summary."""
     scenario, faults, run_dir = prepare(options)
-    if run_dir.exists() and any(run_dir.iterdir()):
-        shutil.rmtree(run_dir)
-    run_dir.mkdir(parents=True, exist_ok=True)
+    lease = lease_domain()
+    try:  # run.json first (what --force may replace), with the run's domain for a user to join it
+        cli.make_run_dir(run_dir, options.force, {'ros_domain_id': lease.domain_id, 'launcher_pid': os.getpid(),
+                                                  'pids': {}})
+    except ValueError as err:
+        lease.release()
+        raise LaunchError(str(err)) from None
     shutil.copyfile(options.scenario, run_dir / 'scenario.yaml')
     bag_dir = run_dir / 'bag'
-
-    lease = lease_domain()
     env = _ros_environment(lease.domain_id, options.in_process)
     previous_handlers = _interrupt_on_signals()
     progress = _progress_printer(options.quiet, scenario.simulation.duration_s)

@@ -63,12 +63,15 @@ def test_prepare_checks_the_inputs_in_order(tmp_path):
     scenario = str(SCENARIOS / 'paper_flyby.yaml')
     with pytest.raises(LaunchError, match='absent.yaml'):
         prepare(LaunchOptions(str(tmp_path / 'absent.yaml'), str(tmp_path / 'out'), rtf=-1.0))
-    with pytest.raises(LaunchError, match='--rtf: must be >= 0'):
+    with pytest.raises(LaunchError, match='--rtf: must be a finite number >= 0'):
         prepare(LaunchOptions(scenario, str(tmp_path / 'out'), rtf=-1.0))
     (tmp_path / 'out').mkdir()
     (tmp_path / 'out' / 'old').write_text('')
     with pytest.raises(LaunchError, match='pass --force'):
         prepare(LaunchOptions(scenario, str(tmp_path / 'out')))
+    with pytest.raises(LaunchError, match='holds no run'):  # --force replaces only a previous run
+        prepare(LaunchOptions(scenario, str(tmp_path / 'out'), force=True))
+    (tmp_path / 'out' / 'run.json').write_text('{}')
     loaded, faults, run_dir = prepare(LaunchOptions(scenario, str(tmp_path / 'out'), seed=4, force=True))
     assert (loaded.seed, faults.kill_node, run_dir) == (4, None, tmp_path / 'out')
     assert (tmp_path / 'out' / 'old').exists()  # prepare only checks: the run replaces it

@@ -181,10 +181,12 @@ def run_campaign(campaign_file, out_dir, runs=None, scheduler=None, workers=None
     scheduler, else a LocalCluster of ``workers`` (default os.cpu_count()) single-threaded processes.
     Raises CampaignError (invalid campaign, before any run) or CampaignMismatch (another campaign in out_dir).
     """
-    campaign = load_campaign(campaign_file)
+    campaign = load_campaign(campaign_file, checked_draws=runs)  # every run to fly validated first
     runs = campaign.runs if runs is None else runs
     if runs < 1:
         raise CampaignError(campaign_file, 'runs', f'must be >= 1, got {runs!r} (from the runs argument)')
+    if workers is not None and workers < 1:  # 0 would be every core, a negative count a cluster that never starts
+        raise CampaignError(campaign_file, 'workers', f'must be >= 1, got {workers!r} (from the workers argument)')
     out = Path(out_dir)
     header = _header(campaign, runs)
     _check_header(out, header)
