@@ -37,6 +37,9 @@ def test_the_capture_goes_on_through_grasp_damping_and_mass_estimation_in_the_gr
     assert done.returncode == 0 and 'every figure agrees' in done.stdout, done.stdout + done.stderr
 
 
+FLOW_CONTROL_LAG_S = 3.0  # more than the 2 s the simulator's flow control lets a node lag (the launcher)
+
+
 def test_the_graph_flies_what_the_headless_loop_flies_after_the_capture(run):
     """The same cores by the same rules: the simulator holds time for every command after the arm locks as before
     the capture, guidance and the estimator key the lock and the excitation on the events' stamps, so the figures
@@ -53,8 +56,10 @@ def test_the_graph_flies_what_the_headless_loop_flies_after_the_capture(run):
     names = [e['name'] for e in bag[topics[0]] if e['t'] <= done]  # the run's last step may take a late one
     assert 'waiting_for_command' not in names and 'late_command' not in names
     (locked,) = [e['t'] for e in bag[topics[0]] if e['name'] == 'grasp_damped']
-    wrench = bag[topics[2]]
-    assert np.sum(wrench.t > locked) == pytest.approx(10.0 * (graph['sim_time_s'] - locked), abs=3)
+    # A command every control period from the lock on. The last seconds before the launcher stops the graph are left
+    # out: a node stopped while the recorder lags (the flow control allows 2 s) takes its last messages with it.
+    wrench, t_until = bag[topics[2]], done - FLOW_CONTROL_LAG_S
+    assert np.sum((wrench.t > locked) & (wrench.t <= t_until)) == pytest.approx(10.0 * (t_until - locked), abs=3)
     inertia = bag[topics[1]].messages
     assert inertia and inertia[-1].header.frame_id == c.FRAME_CHASER_BODY
     mass, com, _ = inertia_to_numpy(inertia[-1].inertia)
