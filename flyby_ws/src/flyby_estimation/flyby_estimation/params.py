@@ -46,15 +46,6 @@ class TargetFilterParams:
         return _config(TargetFilterConfig, self, overrides)
 
 
-def _nav_thrusters(scenario):
-    """The chaser's thrusters as the navigation filter models a maneuver (the plant's numbers)."""
-    th = scenario.chaser.thrusters
-    return ThrusterConfig(max_thrust_n=th.max_thrust_n, isp_s=th.isp_s, min_impulse_bit_ns=th.min_impulse_bit_ns,
-                          max_delta_v_per_maneuver_mps=th.max_delta_v_per_maneuver_mps,
-                          magnitude_error_sigma=th.magnitude_error_sigma,
-                          direction_error_sigma_rad=math.radians(th.direction_error_sigma_deg))
-
-
 @params.record
 class RelativeNavParams:
     """The chaser's relative navigation filter's scenario keys (``relative_nav.RelativeNavConfig``): orbit, position
@@ -63,7 +54,7 @@ class RelativeNavParams:
     mean_motion_rad_s: float = params.key('mean_motion_rad_s')
     radius_m: float = params.key('orbit_radius_m')
     position_sigma_m: float = params.key('sensors.relative_position.noise_sigma_m')
-    thrusters: ThrusterConfig = params.derived(_nav_thrusters)
+    thrusters: ThrusterConfig = params.sub(ThrusterConfig)  # the plant's own record of the thrusters
     chaser_mass_kg: float = params.key('chaser.mass_kg')
     gate_probability: float = params.key('estimation.gate_probability')
     accel_psd_m2_s3: float = params.key('estimation.accel_psd_m2_s3')

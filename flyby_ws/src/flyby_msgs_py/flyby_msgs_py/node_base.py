@@ -1,9 +1,9 @@
 """The shell every flyby node is: a core without ROS inside, messages converted at the border.
 
-A node subclasses ``CoreNode``, builds its core (``self.core``), creates its publishers and
-subscriptions with ``publisher`` / ``subscribe`` (contract type and QoS by topic name, relative to
-the node's namespace) and implements ``publish(outputs)``, which turns the core's outputs into
-messages. The inputs several cores share are converted here once: the estimates
+A node subclasses ``CoreNode``, builds its core (``self.core``), creates its publishers with ``publisher`` and
+its subscriptions with ``subscribe_inputs``: every topic flyby_msgs_py.wiring gives it, each to its callback
+(contract type and QoS by topic name, relative to the node's namespace), and implements ``publish(outputs)``,
+which turns the core's outputs into messages. The inputs several cores share are converted here once: the estimates
 (``on_target_estimate(t, q_hill_from_body, omega_body)``, ``on_chaser_estimate(t, r_hill, v_hill)``, with the
 six-degree-of-freedom chaser's attitude and rate when asked),
 the mission phase (``on_phase(phase)``) and the events of ``mission/events`` (``on_event(wire.Event)``).
@@ -112,10 +112,6 @@ class CoreNode(Node):
             callback, raw = callbacks[topic] if isinstance(callbacks[topic], tuple) else (callbacks[topic], False)
             self.subscribe(topic, callback, raw=raw)
 
-    def subscribe_odometry(self, topic, core_input, *fields):
-        """A contract Odometry into ``core_input(t, *fields)`` (``odometry_input``)."""
-        return self.subscribe(topic, self.odometry_input(core_input, *fields), raw=True)
-
     def odometry_input(self, core_input, *fields):
         """The raw callback of a contract Odometry into ``core_input(t, *fields)`` (fields of
         convert.OdometryArrays), read from its CDR bytes (convert.odometry_cdr_to_numpy: about 85 us a message less
@@ -152,16 +148,8 @@ class CoreNode(Node):
             self.publish(self.core.on_chaser_estimate(o.t, o.position, v_hill, *attitude))
         return {c.EST_TARGET_ODOM: (on_target, True), c.EST_CHASER_ODOM: (on_chaser, True)}
 
-    def subscribe_phase(self):
-        """mission/phase into the core's on_phase(phase)."""
-        self.subscribe(c.MISSION_PHASE, self.on_phase_message)
-
     def on_phase_message(self, msg):
         self.publish(self.core.on_phase(convert.string_to_str(msg)))
-
-    def subscribe_events(self):
-        """mission/events into the core, one wire.Event per status."""
-        self.subscribe(c.MISSION_EVENTS, self.on_events_message)
 
     def on_events_message(self, msg):
         for e in convert.events_from_msg(msg):
