@@ -43,6 +43,23 @@ def scenario_error_of(tmp_path, mutate):
     return p, msg
 
 
+def perturbed(q, omega, dx):
+    """The attitude state whose error relative to (q, omega) is dx = [dtheta_body, domega_body] (the target filter's
+    error state, seed 000 eq 4)."""
+    from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply
+
+    return quat_multiply(q, quat_from_rotation_vector(dx[:3])), omega + dx[3:]
+
+
+def error_between(q_ref, omega_ref, q, omega):
+    """The attitude error state [dtheta_body, domega_body] of (q, omega) relative to (q_ref, omega_ref)."""
+    import numpy as np
+
+    from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, rotation_vector_from_quat
+
+    return np.concatenate((rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q)), omega - omega_ref))
+
+
 def write_scenario(tmp_path, base='paper_flyby', name='variant', edit=None):
     """A copy of ``scenarios/<base>.yaml`` changed by ``edit(dict)``, written into tmp_path."""
     data = yaml.safe_load((SCENARIOS / f'{base}.yaml').read_text())

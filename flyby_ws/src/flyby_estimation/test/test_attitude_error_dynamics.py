@@ -18,13 +18,13 @@ from flyby_estimation.target_motion import (
 from flyby_sim.dynamics.attitude import euler_rate, quaternion_rate
 from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_hill_from_body, rk4_step, rk4_step_floats
 from flyby_sim.dynamics.rotation import (
-    quat_conjugate,
     quat_from_rotation_vector,
     quat_multiply,
     quat_normalize,
     quat_to_matrix,
     rotation_vector_from_quat,
 )
+from flyby_testing import error_between, perturbed
 
 N = mean_motion_rad_s(7.0e6)
 # Seed 001 Table 1: the tumbler, and seed 000 section 5: the stable spinner.
@@ -32,15 +32,6 @@ INERTIA_TUMBLER = np.diag([4069.0, 12030.0, 11029.0])
 OMEGA_TUMBLER = np.array([0.3, 0.2, 0.1])
 INERTIA_PAPER = np.diag([1200.0, 1000.0, 2000.0])
 Q0 = quat_normalize([0.1, -0.2, 0.3, 0.9])
-
-
-def perturbed(q, omega, dx):
-    """The state whose error relative to (q, omega) is dx = [dtheta_body, domega_body]."""
-    return quat_multiply(q, quat_from_rotation_vector(dx[:3])), omega + dx[3:]
-
-
-def error_between(q_ref, omega_ref, q, omega):
-    return np.concatenate((rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q)), omega - omega_ref))
 
 
 def test_transition_matrix_matches_finite_differences_of_the_nonlinear_flow():

@@ -34,7 +34,7 @@ from flyby_sim.dynamics.rotation import (
     rotation_vector_from_quat,
 )
 from flyby_sim.scenario import load_scenario
-from flyby_testing import SCENARIOS
+from flyby_testing import SCENARIOS, error_between, perturbed
 
 N = mean_motion_rad_s(7.0e6)
 # Seed 001 Table 1: the tumbler.
@@ -47,15 +47,6 @@ Q0 = quat_normalize([0.1, -0.2, 0.3, 0.9])
 inertias = st.tuples(*[st.floats(100.0, 5000.0)] * 3, *[st.floats(-50.0, 50.0)] * 3).map(
     lambda v: np.diag(v[:3]) + np.array(((0.0, v[3], v[4]), (v[3], 0.0, v[5]), (v[4], v[5], 0.0))))
 quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: np.linalg.norm(q) > 0.1)
-
-
-def perturbed(q, omega, dx):
-    """The state whose error relative to (q, omega) is dx = [dtheta_body, domega_body]."""
-    return quat_multiply(q, quat_from_rotation_vector(dx[:3])), omega + dx[3:]
-
-
-def error_between(q_ref, omega_ref, q, omega):
-    return np.concatenate((rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q)), omega - omega_ref))
 
 
 def test_prediction_matches_flyby_sim_propagator_over_600_s():
