@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Seed 003 Table 2 and Fig 14 measured: the fly-by and the optimization-based approach flown on the same case.
 
-    compare_methods.py [--scenario scenarios/paper_flyby_6dof.yaml] [--figure docs/figures/seed003_fig14_methods.png]
+    compare_methods.py [--scenario scenarios/paper_flyby_6dof.yaml] [--figure PNG]
 
 Flies the scenario headless (the graph's cores and rules, flyby_mission.headless) once with each
 ``planner.method`` (flyby, optimal), same seed and everything else equal, and prints a Markdown table of what
@@ -9,9 +9,11 @@ Table 2 compares in words, from truth: outcome and capture errors, approach time
 the grasp), delta-v (net force) and fuel (every thruster's impulse), peak thrust acceleration (the mean over a
 simulation step: a fly-by burn is shorter than a step, so its own peak is higher), least clearance
 to the real geometry, thrust inside the restriction sphere and the plume rule's figure (thrust away from the
-target within the plume radius, N s), pointing, and the planning wall time. --figure: Fig 14's analogue, both
+target within the plume radius, N s), pointing, and the planning wall time. It draws Fig 14's analogue, both
 paths in the hill x-z and x-y planes about the target from the approach's start to the grasp, and their range
-and thrust acceleration against the time to the grasp.
+and thrust acceleration against the time to the grasp, into --figure: by default
+runs/compare_methods/seed003_fig14_methods.png under the working directory (a run's output, never a tracked file
+unless named: docs/figures/seed003_fig14_methods.png is regenerated with --figure).
 """
 
 import sys
@@ -30,6 +32,7 @@ from flyby_sim.scenario import load_yaml_mapping, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 METHODS = ('flyby', 'optimal')
+DEFAULT_FIGURE = Path('runs') / 'compare_methods' / 'seed003_fig14_methods.png'
 APPROACH = {'flyby': c.PHASE_TERMINAL_APPROACH, 'optimal': c.PHASE_OPTIMAL_APPROACH}
 
 
@@ -118,19 +121,22 @@ def figure(results, path):
 def main():
     ap = cli.OneLineParser(description=__doc__.split('\n')[0])
     ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby_6dof.yaml'))
-    ap.add_argument('--figure', default=None, help='write Fig 14 analogue here (PNG)')
+    ap.add_argument('--figure', type=Path, default=DEFAULT_FIGURE,
+                    help='write Fig 14 analogue here (PNG; default %(default)s, under the working directory)')
     args = ap.parse_args()
-    if args.figure and Path(args.figure).is_dir():
+    if args.figure.is_dir():
         ap.error(f'--figure {args.figure}: is a directory (give a .png file)')
+    if args.figure != DEFAULT_FIGURE and not args.figure.parent.is_dir():
+        ap.error(f'--figure {args.figure}: its directory does not exist')
     try:
         results = {m: fly(args.scenario, m) for m in METHODS}
     except ScenarioError as err:
         print(f'error: {err}', file=sys.stderr)
         return 1
     print(table(results))
-    if args.figure:
-        figure(results, args.figure)
-        print(f'figure: {args.figure}')
+    args.figure.parent.mkdir(parents=True, exist_ok=True)
+    figure(results, args.figure)
+    print(f'figure: {args.figure}')
     return 0
 
 

@@ -17,7 +17,7 @@ import itertools
 import numpy as np
 
 from flyby_mission.run_truth import chaser_truth_from_odometry
-from flyby_mission.summary import compute_summary
+from flyby_mission.summary import compute_summary, figure_rows, format_rows, run_rows, timing_rows
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 
@@ -91,3 +91,21 @@ def compute_fleet_summary(bag_dir, scenario, end_reason, wall_time_s=float('nan'
         radii[name] = view.chaser.envelope_radius_m
     # every stamp counts: two chasers attached to the target keep their distance, one attached is an obstacle
     return combine(per_chaser, *separation(positions, radii))
+
+
+def format_fleet_summary(summary):
+    """The terminal table of a run of several chasers: how the run went, the least separation of two chasers, the
+    fleet's delta-v and fuel, then each chaser's own figures (summary.figure_rows, its outcome first) under its name,
+    and the times. What is printed only; summary.json keeps its keys."""
+    fleet = [*run_rows(summary)]
+    if summary.get('min_separation_m') is not None:
+        pair = ' - '.join(summary.get('separation_pair') or [])
+        fleet.append(('min separation', f"{summary['min_separation_m']:.4g} m at t = "
+                                        f"{summary['t_min_separation_s']:.6g} s ({pair})"))
+    fleet += [(label, f'{summary[key]:.4g} {unit}') for label, key, unit in (
+        ('delta-v, every chaser', 'delta_v_total_mps', 'm/s'), ('fuel, every chaser', 'fuel_used_kg', 'kg'))
+        if summary.get(key) is not None]
+    for name, own in summary['chasers'].items():
+        fleet += [(name, ''), ('  outcome', own['outcome']),
+                  *[(f'  {label}', text) for label, text in figure_rows(own)]]
+    return format_rows(fleet + timing_rows(summary))

@@ -227,52 +227,141 @@ def _phase_figures(chaser, target, approach, thrust, wheels, events, scenario, t
     return {**pointing, **approach_keys, **sync, **post}
 
 
-def format_summary(summary):
-    """A short table of the figures a user reads first."""
-    def fmt(value, unit='', digits=4):
-        if value is None or (isinstance(value, float) and math.isnan(value)):
-            return '-'
-        if isinstance(value, float):
-            return f'{value:.{digits}g} {unit}'.strip()
-        return f'{value} {unit}'.strip()
+# The phases a run that starts attached (post_capture.start attached) begins in: after the capture, no approach.
+ATTACHED_START_PHASES = (c.PHASE_DAMPING, c.PHASE_MASS_ESTIMATION, c.PHASE_TRANSPORT)
 
-    rows = [
-        ('outcome', fmt(summary['outcome'])),
-        ('final phase', fmt(summary['final_phase'])),
-        ('end reason', fmt(summary['end_reason'])),
-        ('method', fmt(summary.get('method'))),
-        ('seed', fmt(summary['seed'])),
-        ('grasp time', fmt(summary['t_grasp_s'], 's', 7)),
-        ('capture position error', fmt(summary['capture_position_error_m'], 'm')),
-        ('capture velocity error', fmt(summary['capture_velocity_error_mps'], 'm/s')),
-        ('delta-v total', fmt(summary['delta_v_total_mps'], 'm/s')),
-        ('fuel used', fmt(summary['fuel_used_kg'], 'kg')),
-        ('min clearance', fmt(summary['min_clearance_m'], 'm')),
-        ('thrust inside sphere', fmt(summary['thrust_inside_restriction_sphere'])),
-        *([('pointing error p95 / max', f"{fmt(summary['pointing_error_p95_deg'], 'deg')} / "
-                                         f"{fmt(summary['pointing_error_max_deg'], 'deg')}")]
-          if 'pointing_error_p95_deg' in summary else []),
-        *([('relative attitude drift', fmt(summary['relative_attitude_drift_max_deg'], 'deg'))]
-          if summary.get('relative_attitude_drift_max_deg') is not None else []),
-        *([('approach time', fmt(summary['approach_time_s'], 's')),
-           ('peak acceleration', fmt(summary['peak_acceleration_mps2'], 'm/s^2')),
-           ('thrust away in plume', f"{fmt(summary['plume_impulse_away_n_s'], 'N s')} net, "
-                                    f"{fmt(summary['plume_thruster_impulse_n_s'], 'N s')} of exhaust at the target")]
-          if summary.get('approach_time_s') is not None else []),
-        *([('peak grasp force / torque', f"{fmt(summary['peak_grasp_force_n'], 'N')} / "
-                                          f"{fmt(summary['peak_grasp_torque_n_m'], 'N m')}"
-                                          + (' (released)' if summary.get('grasp_released') else '')),
-           ('damping', f"{fmt(summary['damping_time_s'], 's')}, {fmt(summary['damping_fuel_kg'], 'kg')}, "
-                       f"momentum {fmt(summary['final_angular_momentum_kg_m2_s'], 'kg m^2/s')}"),
-           ('target mass error', fmt(summary['target_mass_error_pct'], '%')),
-           ('target CoM error', fmt(summary['target_com_error_m'], 'm')),
-           ('target moments / axes error', f"{fmt(summary['target_principal_moments_error_pct'], '%')} / "
-                                           f"{fmt(summary['target_principal_axes_error_deg'], 'deg')}")]
-          if 'peak_grasp_force_n' in summary else []),
-        ('late maneuvers', fmt(summary['late_maneuvers'])),
-        ('sim time', fmt(summary['sim_time_s'], 's', 6)),
-        ('wall time', fmt(summary['wall_time_s'], 's')),
-        ('real-time factor', fmt(summary['real_time_factor'], 'x', 3)),
+
+def _text(value, unit='', digits=4):
+    """A figure with its unit; None for one the run has not (None, NaN)."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return None
+    if isinstance(value, float):
+        return f'{value:.{digits}g} {unit}'.strip()
+    return f'{value} {unit}'.strip()
+
+
+def _named(name, text):
+    """``name text``, None without the text."""
+    return None if text is None else f'{name} {text}'
+
+
+def _row(label, *parts, sep=' / '):
+    """[(label, the parts the run has, joined by sep)], [] when it has none: no row of the terminal table is empty."""
+    present = [p for p in parts if p is not None]
+    return [(label, sep.join(present))] if present else []
+
+
+def started_attached(summary):
+    """Whether the run started with the chaser holding the target (post_capture.start attached): its first phase
+    comes after the capture."""
+    phases = summary.get('phase_sequence') or []
+    return bool(phases) and phases[0] in ATTACHED_START_PHASES
+
+
+def run_rows(s):
+    """The rows of how the run went: scenario, outcome, phase, end reason, seed, and any fault, killed node or
+    repaired bag."""
+    faults = s.get('faults_injected') or {}
+    repair = s.get('bag_repair')
+    return [*_row('scenario', _text(s.get('scenario'))), ('outcome', _text(s['outcome'])),
+            *_row('final phase', _text(s['final_phase'])), *_row('end reason', _text(s['end_reason'])),
+            ('seed', _text(s['seed'])),
+            *_row('faults injected', _named('abort at', _text(faults.get('abort_at_s'), 's')),
+                  _named('kill', faults.get('kill')), sep=', '),
+            *_row('nodes killed', ', '.join(s.get('nodes_killed') or []) or None),
+            *_row('bag repaired', _named('kept', _text((repair or {}).get('message_count'), 'messages')))]
+
+
+def _approach_rows(s):
+    """The approach and the capture: method, grasp, capture errors, delta-v, fuel, clearance, pointing, the
+    synchronized approach's drift and a thrusting approach's figures."""
+    return [
+        *_row('method', _text(s.get('method'))),
+        *_row('grasp time', _text(s['t_grasp_s'], 's', 7)),
+        *_row('capture position error', _text(s['capture_position_error_m'], 'm')),
+        *_row('capture velocity error', _text(s['capture_velocity_error_mps'], 'm/s')),
+        *_row('delta-v total', _text(s['delta_v_total_mps'], 'm/s')),
+        *_row('fuel used', _text(s['fuel_used_kg'], 'kg')),
+        *_row('min clearance', _text(s['min_clearance_m'], 'm')),
+        *_row('thrust inside sphere', _text(s['thrust_inside_restriction_sphere'])),
+        *_row('pointing error p95 / max', _text(s.get('pointing_error_p95_deg'), 'deg'),
+              _text(s.get('pointing_error_max_deg'), 'deg')),
+        *_row('relative attitude drift', _text(s.get('relative_attitude_drift_max_deg'), 'deg')),
+        *(_optimal_rows(s) if s.get('approach_time_s') is not None else []),
+        *_row('late maneuvers', _text(s['late_maneuvers'])),
     ]
+
+
+def _optimal_rows(s):
+    """A thrusting approach's figures (seed 003 Table 2): its time, peak acceleration and the plume's impulse."""
+    return [*_row('approach time', _text(s['approach_time_s'], 's')),
+            *_row('peak acceleration', _text(s.get('peak_acceleration_mps2'), 'm/s^2')),
+            *_row('thrust away in plume', _named('net', _text(s.get('plume_impulse_away_n_s'), 'N s')),
+                  _text(s.get('plume_thruster_impulse_n_s'), 'N s of exhaust at the target'), sep=', ')]
+
+
+def _post_capture_rows(s):
+    """After the capture: the grasp's peak contact, the damping, the target's mass-property errors."""
+    released = ' (released)' if s.get('grasp_released') else ''
+    grasp = _row('peak grasp force / torque', _text(s.get('peak_grasp_force_n'), 'N'),
+                 _text(s.get('peak_grasp_torque_n_m'), 'N m'))
+    return [
+        *[(label, text + released) for label, text in grasp],
+        *_row('damping', _text(s.get('damping_time_s'), 's'), _text(s.get('damping_fuel_kg'), 'kg'),
+              _named('momentum', _text(s.get('final_angular_momentum_kg_m2_s'), 'kg m^2/s')), sep=', '),
+        *_row('target mass error', _text(s.get('target_mass_error_pct'), '%')),
+        *_row('target CoM error', _text(s.get('target_com_error_m'), 'm')),
+        *_row('target moments / axes error', _text(s.get('target_principal_moments_error_pct'), '%'),
+              _text(s.get('target_principal_axes_error_deg'), 'deg')),
+    ]
+
+
+def _transport_rows(s):
+    """With a transport (seed 004 §3.2): the goal, whether the rendezvous conditions hold and the combined body's
+    figures at the arrival: its CoM's distance from the goal, its momentum relative to the goal's circular motion
+    (mass times the velocity error), its angular momentum (the rate); the time, fuel, impulses and re-plans."""
+    if s.get('transport_goal_hill_m') is None:
+        return []
+    goal = ', '.join(f'{x:g}' for x in s['transport_goal_hill_m'])
+    rows = [('transport goal', f'[{goal}] m in hill')]
+    if s.get('transport_final_position_error_m') is None:
+        return [*rows, ('transport', 'not flown (no TRANSPORT phase)')]
+    met = s.get('transport_conditions_met')
+    return [
+        *rows,
+        *_row('transport conditions', None if met is None else 'met' if met else 'missed'),
+        *_row('final position error', _text(s['transport_final_position_error_m'], 'm')),
+        *_row('final momentum error', _text(s.get('transport_orbital_momentum_error_n_m_s'), 'N s')),
+        *_row('final angular momentum', _text(s.get('transport_final_angular_momentum_kg_m2_s'), 'kg m^2/s')),
+        *_row('transport time / fuel', _text(s.get('transport_time_s'), 's'), _text(s.get('transport_fuel_kg'), 'kg')),
+        *_row('impulses / re-plans', _text(s.get('transport_impulses')), _text(s.get('transport_replans'))),
+    ]
+
+
+def figure_rows(s):
+    """The figures that apply to the run's kind: the approach and capture's, or for a run that starts attached what
+    it is instead; after the capture the post-capture figures, with a transport its conditions."""
+    if started_attached(s):
+        head = [('start', 'attached: the chaser holds the target from t = 0 (no approach, no capture figures)'),
+                *_row('fuel used', _text(s['fuel_used_kg'], 'kg'))]
+    else:
+        head = _approach_rows(s)
+    return [*head, *_post_capture_rows(s), *_transport_rows(s)]
+
+
+def timing_rows(s):
+    """Simulated time, wall time and the real-time factor."""
+    return [*_row('sim time', _text(s['sim_time_s'], 's', 6)), *_row('wall time', _text(s['wall_time_s'], 's')),
+            *_row('real-time factor', _text(s['real_time_factor'], 'x', 3))]
+
+
+def format_rows(rows):
+    """(label, text) rows as a two-column table."""
     width = max(len(k) for k, _ in rows)
-    return '\n'.join(f'{k:<{width}}  {v}' for k, v in rows)
+    return '\n'.join(f'{k:<{width}}  {v}'.rstrip() for k, v in rows)
+
+
+def format_summary(summary):
+    """The terminal table of a run's summary: the figures that apply to its kind (figure_rows), none shown empty.
+    What is printed only; summary.json's keys are the same for every run (DESIGN §10)."""
+    return format_rows(run_rows(summary) + figure_rows(summary) + timing_rows(summary))

@@ -12,7 +12,8 @@ from flyby_msgs_py import contract as c
 from flyby_sim.dynamics.rotation import quat_normalize, quat_rotate_many
 
 DPI = 100
-TRUTH, ESTIMATE, PLAN = 'C0', 'C1', 'k'
+TRUTH, ESTIMATE, PLAN, ATTACHED = 'C0', 'C1', 'k', 'C2'
+PATH_MARGIN = 0.08  # of the flown path's extent, about it in the trajectory views
 REGION_FILL, BODY_FILL = '0.82', '0.45'
 PHASE_COLORS = {
     c.PHASE_ESTIMATION: '#dddddd', c.PHASE_PLANNING: '#ffe9a8', c.PHASE_TERMINAL_APPROACH: '#cfe3ff',
@@ -40,24 +41,82 @@ def target_xz(ax, run):
                                  label=f'swept keep-out region ({label}, t = {t_r:.0f} s)')
     q_true = run.target_attitude_at(t_r)
     if run.scenario is not None and q_true is not None:
-        plotting.fill_outline_xz(ax, box_corners_hill(run.scenario, q_true), color=BODY_FILL, lw=0, zorder=2,
+        plotting.fill_outline_xz(ax, _boxes_at(run, t_r, q_true), color=BODY_FILL, lw=0, zorder=2,
                                  label=f'target boxes at t = {t_r:.0f} s')
+    q_held = run.target_attitude_at(run.attached[1]) if run.attached is not None else None
+    if run.scenario is not None and q_held is not None and run.attached[1] != t_r:
+        plotting.fill_outline_xz(ax, _boxes_at(run, run.attached[1], q_held), fill=False, edgecolor=ATTACHED,
+                                 lw=1.0, ls='--', zorder=3, label=f'target boxes at t = {run.attached[1]:.0f} s, held')
     if run.scenario is not None:
         radius = run.scenario.planner.restriction_sphere_radius_m
         plotting.sphere_xz(ax, radius, color='0.4', lw=0.8, ls=':', label=f'restriction sphere {radius:g} m')
 
 
+def _boxes_at(run, t, q_hill_from_body):
+    """The target's boxes' corners in hill (box_corners_hill) at time t: about its truth CoM then (the hill origin
+    until a capture; the combined body moves it after)."""
+    target = run.get(c.SIM_TARGET_ODOM)
+    r_com = np.zeros(3) if target is None or target.position is None else \
+        target.position[int(np.argmin(np.abs(target.t - t)))]
+    return [r_com + corners for corners in box_corners_hill(run.scenario, q_hill_from_body)]
+
+
+def attached_split(run, t):
+    """(free, attached): boolean masks of the stamps t (N,) before the chaser holds the target and while it does
+    (Run.attached; the first held stamp in both, so that the two lines join)."""
+    if run.attached is None:
+        return np.ones(len(t), bool), np.zeros(len(t), bool)
+    t0, t1 = run.attached
+    attached = (t >= t0 - STEP_TOLERANCE_S) & (t <= t1 + STEP_TOLERANCE_S)
+    first = int(np.argmax(attached)) if attached.any() else len(t)
+    free = ~attached
+    free[first:first + 1] = attached[first:first + 1]
+    return free, attached
+
+
+def _only(points, keep):
+    """The points (N, 3) with NaN where not keep (N,): a line drawn through them breaks there."""
+    return np.where(keep[:, None], points, np.nan)
+
+
 def paths_and_points(ax, run, project):
     """Truth path, planned path, burns and the planner's points, drawn through project((N, 3)) ->
-    plot coordinates (NaN for a point the axes leave out: it gets no legend entry either)."""
+    plot coordinates (NaN for a point the axes leave out: it gets no legend entry either). While the chaser holds the
+    target (Run.attached) its path is drawn apart, with the target's centre of mass: the two move as one body, the
+    arm's reach between them, so the path crosses where the target's boxes were before without touching them."""
     chaser = run.need(c.SIM_CHASER_ODOM)
-    ax.plot(*project(chaser.position), color=TRUTH, lw=2.2, label='chaser truth')
+    free, attached = attached_split(run, chaser.t)
+    if not attached.all():
+        ax.plot(*project(_only(chaser.position, free)), color=TRUTH, lw=2.2, label='chaser truth')
+    if attached.any():
+        t0, t1 = run.attached
+        ax.plot(*project(_only(chaser.position, attached)), color=ATTACHED, lw=2.2,
+                label=f'chaser truth, holding the target ({t0:.0f}-{t1:.0f} s)')
+        target = run.get(c.SIM_TARGET_ODOM)
+        if target is not None and target.position is not None:
+            held = attached_split(run, target.t)[1]
+            ax.plot(*project(_only(target.position, held)), color=ATTACHED, lw=1.2, ls=':', label='target CoM, held')
     planned = run.planned_path()
     if planned is not None:
         ax.plot(*project(planned[1]), color=PLAN, lw=1.0, ls='--', label='planned path')
     marks = [(f'{b.kind} burn', run.truth_at(b.t_start), dict(marker='^', ms=6, color=run.kind_colors[b.kind]))
              for b in run.burns]
     plotting.mark_points(ax, run.points() + marks, project, mec='k', mew=0.5, zorder=5)
+
+
+def flown_limits_xz(run, margin=PATH_MARGIN):
+    """(xlim, zlim) [m] of the hill x-z view of the flown path: a square about the chaser's truth path and the
+    target's boxes at the region time, half its larger side plus margin of it (zlim descending: up is away from
+    Earth). The planned path beyond (an escape orbit of hundreds of metres) and the restriction sphere are clipped."""
+    points = [run.need(c.SIM_CHASER_ODOM).position]
+    t_r = run.region_time[0]
+    q_true = run.target_attitude_at(t_r)
+    if run.scenario is not None and q_true is not None:
+        points += _boxes_at(run, t_r, q_true)
+    x, z = plotting.xz(np.concatenate(points))
+    half = 0.5 * max(np.ptp(x), np.ptp(z)) * (1.0 + 2.0 * margin)
+    x_c, z_c = 0.5 * (x.min() + x.max()), 0.5 * (z.min() + z.max())
+    return (x_c - half, x_c + half), (z_c + half, z_c - half)
 
 
 def phase_bands(ax, run, legend=True):

@@ -14,6 +14,7 @@ from flyby_mission.report.drawing import (
     TRUTH,
     burn_lines,
     error_row,
+    flown_limits_xz,
     grasp_line,
     paths_and_points,
     phase_bands,
@@ -24,8 +25,8 @@ from flyby_mission.report.plotting import plt
 from flyby_msgs_py import contract as c
 
 
-def fig_trajectory_xz(run, path):
-    """trajectory_xz.png (the catalogue: flyby_mission.report)."""
+def trajectory_xz_figure(run):
+    """The figure of trajectory_xz.png: the flown path (drawing.flown_limits_xz) and within 10 m of the target."""
     run.need(c.SIM_CHASER_ODOM)
     fig, axes = plt.subplots(1, 2, figsize=(16, 7.5))
     for ax, zoom in zip(axes, (None, 10.0), strict=True):
@@ -36,12 +37,17 @@ def fig_trajectory_xz(run, path):
         if zoom is not None:
             ax.set(xlim=(-zoom, zoom), ylim=(zoom, -zoom), title=f'within {zoom:g} m of the target')
         else:
-            ax.set(adjustable='datalim', title='chaser in the hill x-z plane')
-            ax.invert_yaxis()
+            x_lim, z_lim = flown_limits_xz(run)
+            ax.set(xlim=x_lim, ylim=z_lim, title='the flown path in the hill x-z plane')
     fig.legend(*axes[0].get_legend_handles_labels(), loc='center right', fontsize=9)
     fig.suptitle(run.title)
     fig.tight_layout(rect=(0, 0, 0.76, 1))
-    plotting.save(fig, path, DPI)
+    return fig
+
+
+def fig_trajectory_xz(run, path):
+    """trajectory_xz.png (the catalogue: flyby_mission.report)."""
+    plotting.save(trajectory_xz_figure(run), path, DPI)
 
 
 def _oblique_view(axis, elev=25.0, off_axis_deg=55.0):

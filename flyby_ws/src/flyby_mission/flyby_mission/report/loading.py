@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from flyby_mission.post_capture_figures import post_capture_truth
-from flyby_mission.run_events import grasp_time, lock_time, phase_windows
+from flyby_mission.run_events import grasp_time, lock_time, phase_start, phase_windows
 from flyby_mission.run_truth import chaser_truth_from_odometry, thrust_truth
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events
@@ -154,6 +154,16 @@ def is_sync(summary, mission_events):
         e['name'] == events.PLAN_SELECTED and e['values'].get('method') == 'sync' for e in mission_events)
 
 
+def run_title(run_dir, scenario, summary):
+    """A run's figure title: its scenario's name, the run's seed (summary.json's, the one flown; else its
+    scenario.yaml's) and its outcome."""
+    seed = summary.get('seed', scenario.seed if scenario is not None else None)
+    name = scenario.name if scenario is not None else summary.get('scenario', Path(run_dir).name)
+    name = f'{name}, seed {seed}' if seed is not None else name
+    outcome = summary.get('outcome')
+    return f'{name}: {outcome}' if outcome else name
+
+
 class Run:
     """What the figures draw from: the bag's series (absent or empty topics left out), the scenario,
     the summary, and quantities derived from them once."""
@@ -205,17 +215,28 @@ class Run:
 
     @property
     def title(self):
-        """The figures' title: scenario, seed and outcome."""
-        s = self.scenario
-        name = f'{s.name}, seed {s.seed}' if s is not None else self.run_dir.name
-        outcome = self.summary.get('outcome')
-        return f'{name}: {outcome}' if outcome else name
+        """The figures' title: scenario, the run's seed (its summary's, else its scenario.yaml's) and outcome."""
+        return run_title(self.run_dir, self.scenario, self.summary)
 
     @functools.cached_property
     def t_end(self):
         """The run's last truth stamp [s], else its last event's."""
         chaser = self.get(c.SIM_CHASER_ODOM)
         return float(chaser.t[-1]) if chaser is not None else max((e['t'] for e in self.events), default=0.0)
+
+    @functools.cached_property
+    def attached(self):
+        """(t_start, t_end) [s] in which the chaser holds the target and the plant moves them as one: the whole run
+        when it starts attached, else from the CAPTURE phase's start to a release (ESCAPE after it) or the run's
+        end; None if it never holds it."""
+        post = self.scenario.post_capture if self.scenario is not None else None
+        if post is not None and post.start == 'attached':
+            return 0.0, self.t_end
+        t_capture = phase_start(self.events, c.PHASE_CAPTURE)
+        if t_capture is None:
+            return None
+        t_release = phase_start(self.events, c.PHASE_ESCAPE)
+        return t_capture, t_release if t_release is not None and t_release > t_capture else self.t_end
 
     @functools.cached_property
     def grasp(self):
@@ -359,4 +380,4 @@ class FleetRun:
         self.target = data.get(c.absolute(c.SIM_TARGET_ODOM))
         summary = self.run_dir / 'summary.json'
         self.summary = json.loads(summary.read_text()) if summary.is_file() else {}
-        self.title = f'{scenario.name}, seed {scenario.seed}: {self.summary.get("outcome", "")}'.rstrip(': ')
+        self.title = run_title(self.run_dir, scenario, self.summary)
