@@ -19,6 +19,7 @@ setup(
     entry_points={
         'console_scripts': [
             'flyby_supervisor = flyby_mission.supervisor_node:main',
+            'flyby_live_view = flyby_mission.live_view_node:main',
         ],
     },
 )

@@ -1,7 +1,7 @@
 """The launcher: the mission's node graph run as processes (or in one process), recorded, watched to its end and
 summarized (scripts/run_mission.py is its command line).
 
-A run leaves in its directory: scenario.yaml (the exact input), bag/ (rosbag2, MCAP), summary.json, logs/ and
+A run leaves in its directory: scenario.yaml (the input, seed as flown), bag/ (rosbag2, MCAP), summary.json, logs/ and
 params/ (one file per node), run.json (ROS domain and process ids, written at start). Every node runs as its own
 process on a ROS domain no other run on this machine holds; ``in_process`` runs them all in this process on one
 executor instead. The launcher is ROS by purpose: its Monitor is a node of the graph.
@@ -10,7 +10,6 @@ executor instead. The launcher is ROS by purpose: its Monitor is a node of the g
 import ctypes
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -20,12 +19,12 @@ from pathlib import Path
 
 import yaml
 
-from flyby_mission import cli
-from flyby_mission.fleet_summary import compute_fleet_summary
+from flyby_mission import cli, live_view, replay
+from flyby_mission.fleet_summary import compute_fleet_summary, format_fleet_summary
 from flyby_mission.summary import compute_summary, format_summary
 from flyby_mission.supervisor import WATCHED_NODES
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import qos
+from flyby_msgs_py import frames, qos
 from flyby_msgs_py.bag import repair_bag
 from flyby_msgs_py.domain import lease_domain
 from flyby_msgs_py.runtime import FASTDDS_PROFILES, TICK_TOPIC
@@ -105,6 +104,22 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=(), chasers=()):
         if spec.name not in COMMAND_CHAIN:
             spec.nice = OFF_CHAIN_NICE
     return [recorder, *others, sim]
+
+
+def with_viewers(specs, scenario, foxglove_port=None):
+    """The frames for viewers: the recorder writes the scenario's static mounts on /tf_static, and with a Foxglove
+    port the live view (flyby_mission.live_view) joins the graph after the recorder (so it stops just before it).
+    The simulator waits for it to start, as for every node, so a viewer sees the run from its first step, but not
+    for its pace (off the flow control); it is not essential to the run and yields the CPU as the recorder does."""
+    recorder, sim = specs[0], specs[-1]
+    recorder.params['static_transforms'] = [frames.format_static(t) for t in live_view.static_transforms(scenario)]
+    if foxglove_port is None:
+        return specs
+    view = NodeSpec('flyby_live_view', 'flyby_mission.live_view_node', 'LiveViewNode',
+                    {'port': foxglove_port, 'namespaces': recorder.params['namespaces'],
+                     'static_transforms': recorder.params['static_transforms']}, essential=False, nice=OFF_CHAIN_NICE)
+    sim.params['wait_for_nodes'] = [*sim.params['wait_for_nodes'], view.label]
+    return [recorder, view, *specs[1:]]
 
 
 def _child_setup(nice):
@@ -423,6 +438,7 @@ class LaunchOptions:
     quiet: bool = False
     abort_at: float = None
     kill: str = None
+    foxglove: int = None  # port of the live Foxglove server (flyby_mission.live_view); None: none
 
 
 def prepare(options):
@@ -440,6 +456,11 @@ def prepare(options):
         raise LaunchError(f'--rtf: must be a finite number >= 0, got {options.rtf}')
     if not 0 < options.wall_timeout < float('inf'):
         raise LaunchError(f'--wall-timeout: must be a finite number > 0, got {options.wall_timeout}')
+    if options.foxglove is not None:
+        try:
+            live_view.check_port(options.foxglove, options.in_process)
+        except ValueError as err:
+            raise LaunchError(str(err)) from None
     try:
         run_dir = cli.check_out(options.out, options.force)
     except ValueError as err:
@@ -500,20 +521,22 @@ def run(options):
     """One mission: check the inputs (LaunchError), make the run directory, run the graph on a leased ROS domain
     until its end, write and print the summary; the summary."""
     scenario, faults, run_dir = prepare(options)
+    replay_command = replay.replay_command('run_mission.py', run_dir, replay.launcher_options(options))
     lease = lease_domain()
     try:  # run.json first (what --force may replace), with the run's domain for a user to join it
         cli.make_run_dir(run_dir, options.force, {'ros_domain_id': lease.domain_id, 'launcher_pid': os.getpid(),
-                                                  'pids': {}})
+                                                  'pids': {}, replay.REPLAY_KEY: replay_command})
     except ValueError as err:
         lease.release()
         raise LaunchError(str(err)) from None
-    shutil.copyfile(options.scenario, run_dir / 'scenario.yaml')
+    scenario_file = replay.write_scenario(run_dir, options.scenario, scenario.seed)  # the effective seed
     bag_dir = run_dir / 'bag'
     env = _ros_environment(lease.domain_id, options.in_process)
     previous_handlers = _interrupt_on_signals()
     progress = _progress_printer(options.quiet, scenario.simulation.duration_s)
-    specs = graph_for(Path(options.scenario).resolve(), scenario.seed, options.rtf, bag_dir.resolve(),
+    specs = graph_for(scenario_file.resolve(), scenario.seed, options.rtf, bag_dir.resolve(),
                       options.without, scenario.chaser_names)
+    specs = with_viewers(specs, scenario, options.foxglove)
     print(f'flyby: scenario {scenario.name}, seed {scenario.seed}, ROS domain {lease.domain_id}, '
           f'{"in-process" if options.in_process else f"{len(specs)} processes"} -> {run_dir}',
           file=sys.stderr, flush=True)
@@ -530,10 +553,13 @@ def run(options):
             signal.signal(sig, signal.SIG_IGN)
         lease.release()
     wall_time_s = time.monotonic() - wall_start
+    # The nodes' start rewrote run.json with their pids: the replay command joins them again.
+    marker = json.loads((run_dir / cli.RUN_MARKER).read_text())
+    cli.write_marker(run_dir, {**marker, replay.REPLAY_KEY: replay_command})
     try:
         summary = _summarize(run_dir, scenario, ended, wall_time_s, faults, options.kill)
     finally:
         for sig, handler in previous_handlers.items():
             signal.signal(sig, handler)
-    print(format_summary(summary))
+    print(format_fleet_summary(summary) if scenario.chaser_names else format_summary(summary))
     return summary

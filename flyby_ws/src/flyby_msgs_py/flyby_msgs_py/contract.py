@@ -12,6 +12,7 @@ FRAME_HILL = 'hill'
 FRAME_ECI = 'eci'
 FRAME_TARGET_BODY = 'target_body'
 FRAME_CHASER_BODY = 'chaser_body'
+FRAME_GRASP_POINT = 'grasp_point'  # the grasp point, fixed in target_body (/tf_static, planner/grasp)
 
 CLOCK = 'clock'
 SIM_CHASER_ODOM = 'sim/chaser/odom'
@@ -38,6 +39,9 @@ MISSION_EVENTS = 'mission/events'
 MARKERS = 'visualization/markers'
 MISSION_ABORT_SERVICE = 'mission/abort'
 PLANNER_REPLAN_SERVICE = 'planner/replan'
+# The frames for viewers (tf2_msgs/TFMessage, flyby_msgs_py.frames): written by the recorder from the truth.
+TF = 'tf'
+TF_STATIC = 'tf_static'
 
 
 

@@ -8,12 +8,16 @@ the disk every ``flush_period_s`` of simulation time, so a recorder killed with 
 most that much (``python -m flyby_msgs_py.bag repair DIR`` rebuilds the index); SIGINT and SIGTERM
 close the bag cleanly, after taking every message already on its way (``runtime.main_for``,
 drain_on_signal): the launcher stops the recorder last, so the bag ends with the graph's last words.
+
+The frames for viewers (``flyby_msgs_py.frames``) are written beside them: on ``/tf`` the transform of each truth
+odometry (target and chasers), at the same log time; on ``/tf_static`` once, at the start, the mounts given in
+``static_transforms`` (``frames.format_static`` lines, from the launcher).
 """
 
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, qos
+from flyby_msgs_py import convert, frames, qos
 from flyby_msgs_py.bag import BagWriter
 from flyby_msgs_py.runtime import main_for
 
@@ -26,6 +30,7 @@ class RecorderNode(Node):
         self.declare_parameter('bag_dir', '')
         self.declare_parameter('namespaces', [''])
         self.declare_parameter('flush_period_s', 2.0)
+        self.declare_parameter('static_transforms', [''])
         bag_dir = self.get_parameter('bag_dir').value
         if not bag_dir:
             raise ValueError('parameter bag_dir: required (directory of the bag to write)')
@@ -35,10 +40,16 @@ class RecorderNode(Node):
         for topic, type_name in c.TOPIC_TYPES.items():
             for ns in (namespaces if topic not in c.GLOBAL_TOPICS else ['']):
                 topics[c.absolute(topic, ns)] = (topic, type_name)
+        static = [frames.parse_static(line) for line in self.get_parameter('static_transforms').value if line]
+        self.truth = frames.truth_topics(namespaces)
         flush_ns = int(self.get_parameter('flush_period_s').value * 1e9)
-        self.writer = BagWriter(bag_dir, {name: t for name, (_, t) in topics.items()}, flush_ns)
+        self.writer = BagWriter(bag_dir, {**{name: t for name, (_, t) in topics.items()},
+                                          frames.TF_TOPIC: frames.TF_TYPE, frames.TF_STATIC_TOPIC: frames.TF_TYPE},
+                                flush_ns)
         self.count = 0
         self.clock_ns = 0
+        if static:
+            self.writer.write(frames.TF_STATIC_TOPIC, 0, frames.tf_message_cdr(static))
         for name, (topic, type_name) in topics.items():
             self.create_subscription(c.message_class(type_name), name, self._writer_for(name),
                                      qos.recorder_qos_for(topic), raw=True)
@@ -49,6 +60,15 @@ class RecorderNode(Node):
                 self.clock_ns = convert.clock_cdr_to_ns(raw)
                 self.writer.write(name, self.clock_ns, raw)
                 self.count += 1
+        elif name in self.truth:
+            namespace = self.truth[name]
+
+            def write(raw):
+                self.writer.write(name, self.clock_ns, raw)
+                self.count += 1
+                tf = frames.tf_of_truth(raw, namespace)
+                if tf is not None:
+                    self.writer.write(frames.TF_TOPIC, self.clock_ns, tf)
         else:
             def write(raw):
                 self.writer.write(name, self.clock_ns, raw)

@@ -3,7 +3,7 @@
 Time stamps in the bag are integer nanoseconds of simulation time; the arrays returned are float64
 seconds. Quaternions are returned in ROS order (x, y, z, w). The types with a fixed layout (Clock,
 the ``*Stamped`` geometry types, Odometry) are decoded straight from their CDR bytes into arrays
-(``_decode_fixed``); the others through rosbags' deserializer.
+(``_decode_fixed``), JointState by ``convert.joint_state_cdr_to_numpy``; the others through rosbags' deserializer.
 """
 
 import struct
@@ -14,6 +14,8 @@ import numpy as np
 from rosbags.highlevel import AnyReader
 
 from flyby_msgs_py.bag.common import BagError, jazzy_typestore
+from flyby_msgs_py.convert.cdr import header_cdr_to_ns
+from flyby_msgs_py.convert.sensors import joint_state_cdr_to_numpy
 
 DIAGNOSTIC_LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
 
@@ -65,9 +67,9 @@ class WrenchSeries(NamedTuple):
 class JointSeries(NamedTuple):
     t: np.ndarray
     names: list                   # of the first message
-    position: np.ndarray          # (N, M); NaN where a field is not given (convert.joint_state)
-    velocity: np.ndarray          # (N, M)
-    effort: np.ndarray            # (N, M)
+    position: np.ndarray          # (N, M), (N, 0) where the field is not given (empty, as sensor_msgs says)
+    velocity: np.ndarray          # (N, M) or (N, 0)
+    effort: np.ndarray            # (N, M) or (N, 0)
     frame_id: str
     t_received: np.ndarray
 
@@ -203,15 +205,23 @@ def _clock(datas, t_rx, deserialize):
 
 
 def _joint_states(datas, t_rx, deserialize):
-    msgs = [deserialize(d) for d in datas]
-    names = list(msgs[0].name) if msgs else []
-    if any(list(m.name) != names for m in msgs):
+    """Decoded from the CDR bytes (``convert.joint_state_cdr_to_numpy``): rosbags refuses the bytes of rclpy's
+    ``serialize_message`` for a JointState with an empty field (they end in 8 bytes past the message)."""
+    joints = [joint_state_cdr_to_numpy(d) for d in datas]
+    names = joints[0].names if joints else []
+    if any(j.names != names for j in joints):
         raise BagError(f'JointState: the joint names change within the topic (first {names})')
+
     def field(name):
-        return _arr([getattr(m, name) for m in msgs], len(names)) if names else np.zeros((len(msgs), 0))
-    return JointSeries(np.array([_stamp_s(m.header.stamp) for m in msgs], dtype=np.float64), names,
-                       field('position'), field('velocity'), field('effort'),
-                       msgs[0].header.frame_id if msgs else '', t_rx)
+        widths = {len(getattr(j, name)) for j in joints}
+        if len(widths) > 1:
+            raise BagError(f'JointState: {name} is given in some messages and not in others')
+        width = widths.pop() if widths else 0
+        return _arr([getattr(j, name) for j in joints], width) if width else np.zeros((len(joints), 0))
+    frame_id = header_cdr_to_ns(datas[0])[1] if datas else ''
+    stamp = np.frombuffer(b''.join(bytes(d[4:12]) for d in datas), dtype=_STAMP_DTYPE)
+    return JointSeries(stamp['sec'] + stamp['nanosec'] * 1e-9, names,  # as every other series' stamps
+                       field('position'), field('velocity'), field('effort'), frame_id, t_rx)
 
 
 def _level_name(level):

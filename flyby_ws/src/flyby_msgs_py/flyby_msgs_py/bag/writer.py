@@ -61,13 +61,26 @@ def _rosbags_qos(profile):
                avoid_ros_namespace_conventions=False)
 
 
+def _tf_qos(durability, depth):
+    """The QoS tf2 offers on /tf (volatile, depth 100) and /tf_static (transient local, depth 1: latched)."""
+    zero = QosTime(0, 0)
+    return Qos(history=QosHistory.KEEP_LAST, depth=depth, reliability=QosReliability.RELIABLE,
+               durability=durability, deadline=zero, lifespan=zero, liveliness=QosLiveliness.AUTOMATIC,
+               liveliness_lease_duration=zero, avoid_ros_namespace_conventions=False)
+
+
 def contract_qos(topic):
-    """Offered QoS (rosbags ``Qos`` list) of an absolute contract topic, ``[]`` if not a contract one.
+    """Offered QoS (rosbags ``Qos`` list) of an absolute contract topic or of /tf, /tf_static (tf2's profiles),
+    ``[]`` if none of them.
 
     ``/chaser1/mission/phase`` matches the contract topic ``mission/phase``.
     """
     from flyby_msgs_py import contract, qos
 
+    if topic == '/' + contract.TF:
+        return [_tf_qos(QosDurability.VOLATILE, 100)]
+    if topic == '/' + contract.TF_STATIC:
+        return [_tf_qos(QosDurability.TRANSIENT_LOCAL, 1)]
     for relative in contract.TOPIC_TYPES:
         if topic.rstrip('/').endswith('/' + relative):
             return [_rosbags_qos(qos.qos_for(relative))]

@@ -1,6 +1,5 @@
 """The chaser's IMU (sensor_msgs/Imu) and its wheels (sensor_msgs/JointState): message, CDR bytes and arrays."""
 
-import math
 import struct
 from typing import NamedTuple
 
@@ -96,17 +95,16 @@ def imu_to_numpy(msg):
 class JointArrays(NamedTuple):
     t: float
     names: list
-    position: np.ndarray  # (N,) or empty
-    velocity: np.ndarray  # (N,) or empty
-    effort: np.ndarray    # (N,) or empty
+    position: np.ndarray  # (N,), or empty when not given
+    velocity: np.ndarray  # (N,), or empty when not given
+    effort: np.ndarray    # (N,), or empty when not given
 
 
 def joint_state(t, frame_id, names, velocity=None, effort=None, position=None):
     """sensor_msgs/JointState: e.g. the reaction wheels (velocity = wheel speed relative to the body
-    [rad/s], effort = motor torque [N m]), one finite entry per name. A field not given is NaN per joint
-    ("not given"): sensor_msgs allows an empty field, but rosbags 0.11.9 misreads a JointState whose empty
-    float64 field ends off an 8-byte boundary (its CDR aligns an empty sequence, Fast DDS does not), so every
-    field is filled and any reader opens our bags."""
+    [rad/s], effort = motor torque [N m]), one finite entry per name. A field not given is empty, as
+    sensor_msgs/JointState says of a field a source does not fill (Foxglove, PlotJuggler and rosbags read it so;
+    ``test_convert`` checks every combination against rosbags and rclpy)."""
     names = list(names)
     if not all(type(n) is str and n for n in names):
         raise ValueError(f'names: must be non-empty strings, got {names!r}')
@@ -114,7 +112,6 @@ def joint_state(t, frame_id, names, velocity=None, effort=None, position=None):
     msg.name = names
     for field, values in (('position', position), ('velocity', velocity), ('effort', effort)):
         if values is None:
-            setattr(msg, field, [math.nan] * len(names))
             continue
         values = list(values.tolist() if isinstance(values, np.ndarray) else values)
         if len(values) != len(names):
@@ -159,7 +156,7 @@ def joint_state_cdr(t, frame_id, names, velocity=None, effort=None, position=Non
     n = len(names)
     parts = [struct.pack('<iI', *_stamp_parts(t)), names_part]
     for field, values in (('position', position), ('velocity', velocity), ('effort', effort)):
-        values = [math.nan] * n if values is None else _joint_values(field, values, n)
+        values = [] if values is None else _joint_values(field, values, n)
         count = b'\0' * (-size % 4) + struct.pack('<I', len(values))
         size += len(count)
         pad = b'\0' * (-size % 8) if values else b''
