@@ -38,6 +38,7 @@ from flyby_mission.summary import summarize
 from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events, wiring
+from flyby_msgs_py.admission import RULES, Admission
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
@@ -134,6 +135,7 @@ class HeadlessGraph:
         self.guards = {node: CoreGuard(node) for node in (wiring.ESTIMATOR, wiring.PLANNER, wiring.GUIDANCE,
                                                           wiring.SUPERVISOR)}
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
+        self.admissions = {node: Admission() for node in wiring.NODES}
         self.phases = []
         self.truth = _Truth()
         self.run = HeadlessRun(summary={})
@@ -191,6 +193,8 @@ class HeadlessGraph:
             self.phases.append(out.phase_to)
         for message in _messages(out):
             for node in self.subscribers[message.topic]:
+                if not self._admitted(node, message):
+                    continue
                 if node == wiring.SIM:
                     self._to_plant(message)
                 else:
@@ -203,6 +207,23 @@ class HeadlessGraph:
                                    'dv_mps': float(np.linalg.norm(dv_hill))})
         elif isinstance(out, PlanPublished):
             self._ideal_delta_v(out)
+
+    def _admitted(self, node, message):
+        """Whether the node admits the message's stamp (flyby_msgs_py.admission) at the plant's time, as its node
+        would; a refusal is counted and reported as the node reports it. Only the stamp: the numbers and frames are
+        the cores' own here (in the graph the message builders refuse a NaN or a non-unit quaternion at the
+        publisher), and checking them would cost the loop about a fifth of its time (docs/runtime.md)."""
+        rule = RULES.get(message.topic)
+        if rule is None:
+            return True
+        admission = self.admissions[node]
+        reason = admission.check(message.topic, message.t, rule.frame_id, None, self.plant.t)
+        if reason is None:
+            return True
+        event = admission.rejection_event(message.topic, reason, message.t, self.plant.t)
+        if event is not None:
+            self._queue.append(event._replace(source=node))
+        return False
 
     def _to_plant(self, message):
         """A message the simulator takes: commands from their stamps, the phase's capture and transport."""

@@ -200,10 +200,21 @@ class TransportComEstimate(_Payload):
     coast_s: float
 
 
+@payload(events.MESSAGE_REJECTED)
+class MessageRejected(_Payload):
+    """A node refused a message of ``topic`` (flyby_msgs_py.admission): the reason, how many of the topic's messages
+    it has refused for that reason so far, and the refused message's stamp [s]."""
+
+    topic: str
+    reason: str
+    count: int
+    t_stamp_s: float
+
+
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
                                       AttitudeSynchronized, DockingStarted, GraspDamped, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
-                                      TransportComEstimate)}
+                                      TransportComEstimate, MessageRejected)}
 
 
 @functools.cache

@@ -8,6 +8,12 @@ which turns the core's outputs into messages. The inputs several cores share are
 six-degree-of-freedom chaser's attitude and rate when asked),
 the mission phase (``on_phase(phase)``) and the events of ``mission/events`` (``on_event(wire.Event)``).
 
+Every message of a contract topic passes its admission (flyby_msgs_py.admission, ``AdmissionGate``) before its
+callback: one refused (a NaN, a quaternion that is no rotation, a stamp that is no time of the run or goes back on
+a stream, a frame the contract does not give the topic) never reaches the core; it is counted, the 1st, 10th,
+100th ... refusal of each topic and reason is a WARN ``message_rejected`` on ``mission/events``, and the counts go
+to the node's log when it is destroyed. The simulator, which is no CoreNode, takes its commands through the same gate.
+
 Every callback that feeds the core (the subscriptions made here; a node's own subscriptions, services and
 timers through ``guard``) runs inside the core's guard (flyby_msgs_py.core_guard): an exception is logged with
 its traceback, published once on ``mission/events`` as an ERROR ``node_error`` stamped at the message being
@@ -16,12 +22,16 @@ stays in the graph and keeps reporting its progress (runtime.ProgressReporter): 
 and the supervisor takes the mission to ABORTED on the event (docs/runtime.md).
 """
 
+import math
+import struct
 import traceback
 
+import numpy as np
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos, wiring
+from flyby_msgs_py.admission import MALFORMED, Admission
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.runtime import publish_event
 from flyby_msgs_py.wire import Event
@@ -49,6 +59,83 @@ def _stamp_s(args):
     return None
 
 
+# The numbers of a contract message, for its admission, by type: (reader of a raw subscription's CDR bytes, reader of
+# the message); the array fields of what a flyby_msgs_py.convert reader returns, by name. None: no numbers (text).
+_READERS = {
+    'nav_msgs/msg/Odometry': (convert.odometry_cdr_to_numpy, convert.odometry_to_numpy),
+    'geometry_msgs/msg/PointStamped': (convert.point_stamped_cdr_to_numpy, convert.point_stamped_to_numpy),
+    'geometry_msgs/msg/QuaternionStamped': (convert.quaternion_stamped_cdr_to_numpy,
+                                            convert.quaternion_stamped_to_numpy),
+    'geometry_msgs/msg/Vector3Stamped': (None, convert.vector3_stamped_to_numpy),
+    'geometry_msgs/msg/WrenchStamped': (convert.wrench_stamped_cdr_to_numpy, convert.wrench_stamped_to_numpy),
+    'sensor_msgs/msg/Imu': (convert.imu_cdr_to_numpy, convert.imu_to_numpy),
+    'sensor_msgs/msg/JointState': (convert.joint_state_cdr_to_numpy, convert.joint_state_to_numpy),
+    'nav_msgs/msg/Path': (None, convert.path_to_numpy),
+    'trajectory_msgs/msg/MultiDOFJointTrajectory': (None, convert.multi_dof_trajectory_to_numpy),
+    'diagnostic_msgs/msg/DiagnosticArray': (None, None),
+}
+
+
+def _stamp_frame_arrays(type_name, msg, raw):
+    """(stamp [s], frame_id, {name: array}) of a contract message, or of its CDR bytes with ``raw``."""
+    cdr_reader, msg_reader = _READERS[type_name]
+    if raw:
+        ns, frame_id = convert.header_cdr_to_ns(msg)
+        t, read = ns / 1e9, cdr_reader
+    else:
+        t, frame_id, read = convert.stamp_to_sec(msg.header.stamp), msg.header.frame_id, msg_reader
+    if read is None:
+        return t, frame_id, {}
+    values = read(msg)
+    return t, frame_id, {name: v for name, v in zip(values._fields, values, strict=True) if isinstance(v, np.ndarray)}
+
+
+class AdmissionGate:
+    """The admission of one node's messages (module doc; flyby_msgs_py.admission): ``now_s()`` the node's latest
+    known sim time [s] or None, ``report(event)`` publishes an Event on its mission/events; ``label`` names the
+    admission in the log (a chaser of the simulator)."""
+
+    def __init__(self, node, now_s, report, label=''):
+        self.node = node
+        self.now_s = now_s
+        self.report = report
+        self.label = label
+        self.admission = Admission()
+
+    def admit(self, topic, callback, raw=False):
+        """``callback`` of a contract topic behind the topic's admission (the callback itself for a topic without
+        a rule: mission/phase, a text without a header)."""
+        if topic not in self.admission.rules:
+            return callback
+        type_name, admission = c.TOPIC_TYPES[topic], self.admission
+
+        def admitted(msg):
+            now_s = self.now_s()
+            try:
+                t, frame_id, arrays = _stamp_frame_arrays(type_name, msg, raw)
+            except (ValueError, IndexError, struct.error):  # bytes no reader of the type can read
+                t, reason = math.nan, MALFORMED
+                admission.refuse(topic, reason)
+            else:
+                reason = admission.check(topic, t, frame_id, arrays, now_s)
+            if reason is None:
+                return callback(msg)
+            event = admission.rejection_event(topic, reason, t, now_s)
+            if event is not None:
+                self.report(event)
+            return None
+        return admitted
+
+    def log_counts(self):
+        """The counts of admitted and refused messages by topic, in the node's log (a warning if any was refused)."""
+        line = (f'{self.label}: ' if self.label else '') + self.admission.summary()
+        log = self.node.get_logger()
+        if self.admission.rejected:  # rclpy refuses one call site logging at varying severities
+            log.warning(line)
+        else:
+            log.info(line)
+
+
 class CoreNode(Node):
     """A node around a core (module doc)."""
 
@@ -59,6 +146,18 @@ class CoreNode(Node):
         self.core_guard = CoreGuard(self.get_name())
         self.events_publisher = None  # mission/events, once the node has made its publisher
         self.progress_reporter = None  # the run loop's (runtime.ProgressReporter): the node's last known sim time
+        self.admission_gate = AdmissionGate(self, self.known_time_s, self._report)
+
+    def known_time_s(self):
+        """The node's latest known sim time [s] (its run loop's /clock or /flyby/tick), None outside a run loop."""
+        return None if self.progress_reporter is None else self.progress_reporter.clock_ns / 1e9
+
+    def _report(self, event):
+        publish_event(self, self.events_publisher or self.publisher(c.MISSION_EVENTS), event)
+
+    def destroy_node(self):
+        self.admission_gate.log_counts()
+        return super().destroy_node()
 
     def publish(self, outputs):
         raise NotImplementedError(f'{type(self).__name__} must turn its core outputs into messages')
@@ -90,20 +189,22 @@ class CoreNode(Node):
         being handled (the node's last known sim time for an input without a stamp: a phase, a service call)."""
         t = _stamp_s(args)
         if t is None:
-            t = 0.0 if self.progress_reporter is None else self.progress_reporter.clock_ns / 1e9
+            t = self.known_time_s() or 0.0
         event = self.core_guard.fail(t, label, err)
         self.get_logger().error(f'{label}: the core raised; it is fed no more\n{traceback.format_exc()}')
-        publish_event(self, self.events_publisher or self.publisher(c.MISSION_EVENTS), event)
+        self._report(event)
 
     def subscribe(self, topic, callback, raw=False):
         """A subscription of a contract topic with its type and QoS (a global topic at its root name), its callback
-        in the core's guard; ``raw``: the callback takes the message's CDR bytes (no Python message is built;
-        convert.*_cdr_to_numpy reads them). A flyby node takes only the topics flyby_msgs_py.wiring gives it."""
+        behind the topic's admission and in the core's guard; ``raw``: the callback takes the message's CDR bytes
+        (no Python message is built; convert.*_cdr_to_numpy reads them). A flyby node takes only the topics
+        flyby_msgs_py.wiring gives it."""
         name = self.get_name()
         if name in wiring.NODES and all(node != name for node, _ in wiring.SUBSCRIPTIONS.get(topic, ())):
             raise ValueError(f'{name} does not take {topic} (flyby_msgs_py.wiring.SUBSCRIPTIONS)')
         return self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), _name(topic),
-                                        self.guard(callback, topic), qos.qos_for(topic), raw=raw)
+                                        self.admission_gate.admit(topic, self.guard(callback, topic), raw),
+                                        qos.qos_for(topic), raw=raw)
 
     def subscribe_inputs(self, scenario, callbacks):
         """A subscription of every contract topic flyby_msgs_py.wiring gives this node in the scenario, each to its

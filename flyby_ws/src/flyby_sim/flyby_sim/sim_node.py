@@ -55,6 +55,7 @@ from std_msgs.msg import Header, String
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, events, qos, wiring
 from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
+from flyby_msgs_py.node_base import AdmissionGate
 from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPIC, TICK_TOPIC, main_for, publish_event
 from flyby_msgs_py.wire import Event, wire_time
 from flyby_sim.dynamics.propulsion import ManeuverRejected
@@ -189,7 +190,10 @@ class SimNode(Node):
             ch.wheel_names = c.wheel_names(len(sc.chaser.wheels.axes))
             ch.thruster_names = c.thruster_names(len(ch.plant.truth().thruster_thrust_n))
             ch.imu_covariances = self._imu_covariances(sc)
-        # The continuous commands go as CDR bytes (convert.*_cdr: no Python messages); the topics are the table's.
+        # The continuous commands go as CDR bytes (convert.*_cdr: no Python messages); the topics are the table's, each
+        # behind its admission (flyby_msgs_py.node_base.AdmissionGate) at the plant's time.
+        ch.gate = AdmissionGate(self, lambda: self.plant.t,
+                                lambda event: publish_event(self, ch.pubs[c.MISSION_EVENTS], event), ch.name or '')
         inputs = {c.GUIDANCE_MANEUVER: (lambda msg: self.on_maneuver(ch, msg), False),
                   c.GUIDANCE_WHEELS: (lambda data: self.on_wheels(ch, data), True),
                   c.GUIDANCE_WRENCH: (lambda data: self.on_wrench(ch, data), True),
@@ -200,8 +204,13 @@ class SimNode(Node):
             if topic == c.MISSION_EVENTS and not ch.commands_expected:
                 continue  # a node_error matters only to a command chain the simulator waits for
             callback, raw = inputs[topic]
-            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic), callback,
-                                     qos.qos_for(topic), raw=raw)
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic),
+                                     ch.gate.admit(topic, callback, raw), qos.qos_for(topic), raw=raw)
+
+    def destroy_node(self):
+        for ch in self.chasers:
+            ch.gate.log_counts()
+        return super().destroy_node()
 
     def declare_node_list(self, name):
         """A string-array parameter of node names, empty when not given."""
