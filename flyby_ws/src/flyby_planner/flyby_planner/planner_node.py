@@ -24,7 +24,7 @@ from std_srvs.srv import Trigger
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.markers import cylinder_marker, line_strip_marker, marker_array, point_marker, sphere_marker
-from flyby_msgs_py.node_base import CoreNode
+from flyby_msgs_py.node_base import AdmissionGate, CoreNode
 from flyby_msgs_py.runtime import main_for, publish_event
 from flyby_msgs_py.wire import Event
 from flyby_planner.params import PlannerParams
@@ -33,7 +33,6 @@ from flyby_planner.planner_core import PlannerCore
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate, quat_shortest_arc
 from flyby_sim.scenario import scenario_of
 
-FRAME_GRASP_POINT = 'grasp_point'
 FRAME_FLYBY_TARGET = 'flyby_target'
 FRAME_FLYBY_INITIAL = 'flyby_initial'
 RGBA_FLYBY_POINTS = (1.0, 0.9, 0.1, 1.0)
@@ -45,7 +44,7 @@ _Z_AXIS = (0.0, 0.0, 1.0)  # a cylinder marker's axis in its own frame
 def grasp_odometry(grasp):
     """planner/grasp: orientation = target attitude at t_g, twist in the child frame's (body) axes."""
     body_from_hill = quat_conjugate(grasp.q_hill_from_body)
-    return convert.odometry(grasp.t, c.FRAME_HILL, FRAME_GRASP_POINT, grasp.x_g, grasp.q_hill_from_body,
+    return convert.odometry(grasp.t, c.FRAME_HILL, c.FRAME_GRASP_POINT, grasp.x_g, grasp.q_hill_from_body,
                             quat_rotate(body_from_hill, grasp.v_g), grasp.omega_body)
 
 
@@ -77,12 +76,20 @@ class PlannerNode(CoreNode):
                                          c.MISSION_EVENTS: self.on_events_message})
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE,
                             self.guard(self.on_replan, c.PLANNER_REPLAN_SERVICE, service=True))
-        for leader in self.core.leaders:  # another chaser's topics, by their absolute names
+        # Another chaser's topics, by their absolute names, behind an admission of their own (its stamps).
+        self.leader_gates = [AdmissionGate(self, self.known_time_s, self._report, label=leader)
+                             for leader in self.core.leaders]
+        for leader, gate in zip(self.core.leaders, self.leader_gates, strict=True):
             for topic, callback in ((c.MISSION_EVENTS, self.on_leader_events),
                                     (c.PLANNER_TRAJECTORY, self.on_leader_trajectory)):
                 self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), f'/{leader}/{topic}',
-                                         self.guard(partial(callback, leader), f'/{leader}/{topic}'),
+                                         gate.admit(topic, self.guard(partial(callback, leader), f'/{leader}/{topic}')),
                                          qos.qos_for(topic))
+
+    def destroy_node(self):
+        for gate in self.leader_gates:
+            gate.log_counts()
+        return super().destroy_node()
 
     def on_leader_events(self, leader, msg):
         for e in convert.events_from_msg(msg):
