@@ -29,7 +29,6 @@ rate, and the probability that a rate error distributed as the bound is below th
 no unbiased Gaussian estimator does better; a seeded Monte Carlo draw).
 """
 
-import argparse
 import concurrent.futures
 import math
 from pathlib import Path
@@ -37,6 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
+from flyby_mission import cli
 from flyby_mission.estimation_consistency import run_one
 from flyby_sim.scenario import load_scenario
 
@@ -58,18 +58,21 @@ def probability_below(covariances, limit, draws=20000, seed=0):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap = cli.OneLineParser(description=__doc__.split('\n')[0])
     ap.add_argument('--scenario', default=str(ROOT / 'scenarios' / 'paper_flyby.yaml'))
-    ap.add_argument('--runs', type=int, default=50)
-    ap.add_argument('--first-seed', type=int, default=0)
-    ap.add_argument('--duration', type=float, default=120.0, help='seconds of data per run after the first')
-    ap.add_argument('--settle', type=float, default=30.0, help='NEES is averaged from this time on [s]')
-    ap.add_argument('--horizon', type=float, default=600.0, help='grasp-point prediction horizon past 60 s')
-    ap.add_argument('--accuracy-time', type=float, default=60.0,
+    ap.add_argument('--runs', type=cli.int_at_least(1), default=50)
+    ap.add_argument('--first-seed', type=cli.seed, default=0)
+    ap.add_argument('--duration', type=cli.float_above(0), default=120.0,
+                    help='seconds of data per run after the first')
+    ap.add_argument('--settle', type=cli.float_at_least(0), default=30.0, help='NEES is averaged from this time on [s]')
+    ap.add_argument('--horizon', type=cli.float_at_least(0), default=600.0,
+                    help='grasp-point prediction horizon past 60 s')
+    ap.add_argument('--accuracy-time', type=cli.float_at_least(0), default=60.0,
                     help='accuracy figures this long after the first measurement [s]')
-    ap.add_argument('--limits', type=float, nargs=3, default=(0.3, 0.01, 0.05), metavar=('DEG', 'DEG_S', 'M'),
+    ap.add_argument('--limits', type=cli.float_above(0), nargs=3, default=(0.3, 0.01, 0.05),
+                    metavar=('DEG', 'DEG_S', 'M'),
                     help='limits of the attitude error, the rate error and the grasp-point prediction error')
-    ap.add_argument('--jobs', type=int, default=2)
+    ap.add_argument('--jobs', type=cli.processes, default=2)
     args = ap.parse_args()
     if args.duration < args.accuracy_time:
         ap.error('--duration must be >= --accuracy-time')

@@ -12,7 +12,6 @@ over the defined parameters with its 95 % band, the RMS z per parameter, and the
 sensors.chaser_imu.gyro_bias_sigma_rad_s=0 to take an effect out of the truth.
 """
 
-import argparse
 import json
 import multiprocessing
 from pathlib import Path
@@ -23,6 +22,7 @@ from scipy.stats import chi2
 
 from flyby_estimation.mass_estimation_run import principal_axes
 from flyby_estimation.mass_properties_errors import defined_parameters, parameter_error, parameter_nees
+from flyby_mission import cli
 from flyby_mission.headless import HeadlessGraph, run_headless
 from flyby_mission.post_capture_figures import post_capture_truth, target_mass_properties_truth
 from flyby_msgs_py.schema import load_yaml_mapping
@@ -66,12 +66,12 @@ def one_run(job):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap = cli.OneLineParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--scenario', required=True)
     ap.add_argument('--set', action='append', default=[], metavar='KEY=VALUE', help='scenario override (YAML value)')
-    ap.add_argument('--runs', type=int, default=50)
-    ap.add_argument('--first-seed', type=int, default=1)
-    ap.add_argument('--jobs', type=int, default=2)
+    ap.add_argument('--runs', type=cli.int_at_least(1), default=50)
+    ap.add_argument('--first-seed', type=cli.seed, default=1)
+    ap.add_argument('--jobs', type=cli.processes, default=2)
     ap.add_argument('--json', help='write every run as JSON here')
     args = ap.parse_args(argv)
     settings = [(k, yaml.safe_load(v)) for k, v in (s.split('=', 1) for s in args.set)]

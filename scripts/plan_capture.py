@@ -78,7 +78,7 @@ def plan_report(scenario, plan, config, prediction_s, plan_s):
 def main(argv=None):
     ap = cli.OneLineParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--scenario', required=True, help='scenario YAML file')
-    ap.add_argument('--seed', type=cli.int_at_least(0),
+    ap.add_argument('--seed', type=cli.seed,
                     help="override the scenario's seed (recorded; the plan uses the truth)")
     ap.add_argument('--t-plan', type=cli.float_at_least(0), default=0.0, metavar='T',
                     help='plan time [s], >= 0 (default 0)')

@@ -29,8 +29,8 @@ def parse_args(argv):
     ap.add_argument('--out', required=True, help='output directory (resumed if it holds this campaign)')
     ap.add_argument('--runs', type=cli.int_at_least(1), help="number of runs (default: the campaign file's runs)")
     ap.add_argument('--scheduler', help='address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786')
-    ap.add_argument('--workers', type=cli.int_at_least(1),
-                    help='LocalCluster worker processes, >= 1 (default: os.cpu_count())')
+    ap.add_argument('--workers', type=cli.processes,
+                    help='LocalCluster worker processes, in [1, 256] (default: os.cpu_count())')
     ap.add_argument('--debug', action='store_true', help='show the traceback of an error')
     args = ap.parse_args(argv)
     if args.scheduler and args.workers:

@@ -2,9 +2,9 @@
 """Run one flyby mission: launch the node graph, record it, wait for the end, write the summary.
 
     run_mission.py --scenario scenarios/paper_flyby.yaml --out runs/paper_flyby [--seed N]
-                   [--rtf X] [--in-process] [--force] [--wall-timeout S]
+                   [--rtf X] [--in-process] [--force] [--wall-timeout S] [--foxglove [PORT]]
 
-Leaves in OUT: scenario.yaml (the exact input), bag/ (rosbag2, MCAP), summary.json, logs/ and
+Leaves in OUT: scenario.yaml (the input, seed as flown), bag/ (rosbag2, MCAP), summary.json, logs/ and
 params/ (one file per node), run.json (ROS domain and process ids, written at start). Every node runs
 as its own process on a ROS domain no other run on this machine holds; ``--in-process`` runs them
 all in this process on one executor instead (flyby_mission.launcher).
@@ -17,7 +17,7 @@ directory, one of its parents, / or the home directory.
 import sys
 from pathlib import Path
 
-from flyby_mission import cli, launcher
+from flyby_mission import cli, launcher, live_view
 from flyby_mission.summary import EXIT_CODES
 
 
@@ -26,7 +26,7 @@ def parse_args(argv):
     ap = cli.OneLineParser(description=__doc__.split('\n')[0])
     ap.add_argument('--scenario', required=True, help='scenario YAML file')
     ap.add_argument('--out', required=True, help='run directory to create')
-    ap.add_argument('--seed', type=cli.int_at_least(0), default=None, help="override the scenario's seed")
+    ap.add_argument('--seed', type=cli.seed, default=None, help="override the scenario's seed")
     ap.add_argument('--rtf', type=cli.float_at_least(0), default=0.0,
                     help='bound on the real-time factor (0 = as fast as the graph keeps up)')
     ap.add_argument('--in-process', action='store_true', help='every node in this process')
@@ -40,11 +40,16 @@ def parse_args(argv):
     ap.add_argument('--abort-at', type=cli.float_at_least(0), metavar='T',
                     help='call mission/abort at sim time T (a fault)')
     ap.add_argument('--kill', metavar='NODE@T', help='kill a node at sim time T, e.g. flyby_guidance@200 (a fault)')
+    ap.add_argument('--foxglove', type=int, nargs='?', const=live_view.DEFAULT_PORT, metavar='PORT',
+                    help=f'serve the run live to a Foxglove app on ws://{live_view.HOST}:PORT '
+                         f'(default {live_view.DEFAULT_PORT}; foxglove/flyby_layout.json)')
     ap.add_argument('--debug', action='store_true', help='show the traceback of an error')
     args = ap.parse_args(argv)
     try:
         launcher.faults_from_args(args)
         cli.check_out(args.out, args.force)
+        if args.foxglove is not None:
+            live_view.check_port(args.foxglove, args.in_process)
     except ValueError as err:
         ap.error(str(err))
     return args

@@ -18,7 +18,10 @@ import sys
 from pathlib import Path
 from urllib.parse import urlparse
 
+from flyby_sim.scenario import SEED_MAX
+
 RUN_MARKER = 'run.json'
+MAX_LOCAL_PROCESSES = 256  # --jobs, --workers: more processes on one machine only thrash it (a fleet: --scheduler)
 SCHEDULER_TIMEOUT_S = 3.0
 
 
@@ -50,6 +53,23 @@ def _ranged(kind, lo, closed):
         return value
     parse.__name__ = f'{kind.__name__} {">=" if closed else ">"} {lo:g}'  # argparse's name of the type
     return parse
+
+
+def seed(text):
+    """An argparse type: a seed, an integer in [0, SEED_MAX] (the one range of every seed, flyby_sim.scenario)."""
+    value = _number(text, int)
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f'must be an integer in [0, {SEED_MAX}], got {text}')
+    return value
+
+
+def processes(text):
+    """An argparse type: a number of local processes, an integer in [1, MAX_LOCAL_PROCESSES]."""
+    value = _number(text, int)
+    if not 1 <= value <= MAX_LOCAL_PROCESSES:
+        raise argparse.ArgumentTypeError(f'must be an integer in [1, {MAX_LOCAL_PROCESSES}] (more processes only '
+                                         f'thrash one machine), got {text}')
+    return value
 
 
 def int_at_least(lo):

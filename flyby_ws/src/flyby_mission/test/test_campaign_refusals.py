@@ -37,11 +37,11 @@ def _cone(**cone):
 
 @pytest.mark.parametrize('dispersions, key, problem', [
     (_cone(half_angle_deg='abc'), f'dispersions.{HILL}.exclude_cone.half_angle_deg',
-     "must be a finite number, got string 'abc'"),
+     "must be a finite number (at most 1e+30 in magnitude), got string 'abc'"),
     (_cone(half_angle_deg='10'), f'dispersions.{HILL}.exclude_cone.half_angle_deg',
-     "must be a finite number, got string '10'"),
+     "must be a finite number (at most 1e+30 in magnitude), got string '10'"),
     (_cone(half_angle_deg=True), f'dispersions.{HILL}.exclude_cone.half_angle_deg',
-     'must be a finite number, got true (bool)'),
+     'must be a finite number (at most 1e+30 in magnitude), got true (bool)'),
     (_cone(half_angle_deg=10, both_ways='no'), f'dispersions.{HILL}.exclude_cone.both_ways',
      "must be true or false, got string 'no'"),
     ({HILL: {'kind': 'direction', 'axis_probability': True}}, f'dispersions.{HILL}.axis_probability',
@@ -49,7 +49,7 @@ def _cone(**cone):
     ({OMEGA: {'kind': 'uniform', 'low': [0, 0], 'high': [1, 1, 1]}}, f'dispersions.{OMEGA}',
      'parameters have different lengths'),
     ({OMEGA: {'kind': 'uniform', 'low': ['0', 0, 0], 'high': [1, 1, 1]}}, f'dispersions.{OMEGA}.low',
-     "low must be a finite number, a list of finite numbers or a matrix"),
+     "low must be a finite number (at most 1e+30 in magnitude, as every scenario number), a list of them"),
     ({'chaser.mass_kg': {'kind': 'normal', 'mean': 100, 'sigma': True}}, 'dispersions.chaser.mass_kg.sigma',
      'sigma must be a finite number'),
     ({'chaser.mass_kg': {'kind': 'scale', 'factor': True}}, 'dispersions.chaser.mass_kg.factor',
@@ -123,3 +123,26 @@ def test_campaign_refuses_a_name_that_is_not_a_string(tmp_path):
     path = tmp_path / 'c.yaml'
     path.write_text(yaml.safe_dump({'base_scenario': str(BASE), 'seed': 3, 'name': [1], 'dispersions': {}}))
     assert _refusal(path) == f'{path}: name: must be a non-empty string, got a list of length 1'
+
+
+@pytest.mark.parametrize('seed', [-1, 2**32, 10**23])
+def test_campaign_refuses_a_seed_beyond_32_bits(tmp_path, seed):
+    path = tmp_path / 'c.yaml'
+    path.write_text(yaml.safe_dump({'base_scenario': str(BASE), 'seed': seed, 'dispersions': {}}))
+    assert _refusal(path) == f'{path}: seed: must be an integer in [0, 4294967295], got {seed}'
+
+
+def test_campaign_refuses_a_box_surface_point_chaser_start_inside_the_target(tmp_path):
+    """A chaser start drawn on the target's faces is within its envelope of the target: refused at load."""
+    path = _campaign(tmp_path, {'chaser.initial_position_hill_m': {'kind': 'box_surface_point'}})
+    message = _refusal(path)
+    assert message.startswith(f'{path}: dispersions.chaser.initial_position_hill_m: run 0 draws an invalid scenario: ')
+
+
+def test_campaign_refuses_a_dispersion_into_a_section_the_base_leaves_out(tmp_path):
+    """matsunaga_orbit_advance starts attached: its target has no initial_rate section to disperse."""
+    path = tmp_path / 'c.yaml'
+    path.write_text(yaml.safe_dump({'base_scenario': str(ROOT / 'scenarios' / 'matsunaga_orbit_advance.yaml'),
+                                    'seed': 3, 'dispersions': {OMEGA: {'kind': 'direction'}}}))
+    assert _refusal(path) == (f'{path}: dispersions.{OMEGA}: not in the base scenario (its section is absent or the '
+                              f'index is out of range)')

@@ -83,7 +83,7 @@ def test_run_campaign_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
         s.bind(('127.0.0.1', 0))
         port = s.getsockname()[1]
     done = script('run_campaign.py', '--campaign', CAMPAIGN, '--out', tmp_path / 'c', '--scheduler',
-                  f'tcp://127.0.0.1:{port}', timeout=30)
+                  f'tcp://127.0.0.1:{port}', timeout=120)  # refused in seconds; a loaded machine imports slowly
     assert_one_line(done, '--scheduler', 'unreachable')
     assert_one_line(script('run_campaign.py', '--campaign', CAMPAIGN, '--out', tmp_path / 'c', '--scheduler',
                            'tcp://nowhere'), '--scheduler', 'tcp://HOST:PORT')
@@ -105,3 +105,32 @@ def test_ranged_types_refuse_nan_inf_and_bounds():
         with pytest.raises(argparse.ArgumentTypeError):
             parse(text)
     assert (cli.float_at_least(0)('0'), cli.float_above(0)('1e-9'), cli.int_at_least(1)('3')) == (0.0, 1e-9, 3)
+
+
+@pytest.mark.parametrize('args, option', [
+    (('--out', 'x', '--seed', 2**32), '--seed'),
+    (('--out', 'x', '--seed', 10**23), '--seed'),
+    (('--runs', 1, '--first-seed', 2**32), '--first-seed'),
+    (('--runs', 2, '--first-seed', 2**32 - 1), '--runs'),
+])
+def test_closed_loop_refuses_a_seed_beyond_32_bits(args, option):
+    assert_one_line(script('closed_loop.py', *args), f'argument {option}', '4294967295')
+
+
+def test_plan_capture_refuses_a_seed_beyond_32_bits():
+    assert_one_line(script('plan_capture.py', '--scenario', PAPER, '--seed', 2**32), 'argument --seed', '4294967295')
+
+
+def test_seed_type_takes_every_32_bit_seed_and_refuses_the_rest():
+    import argparse
+    assert (cli.seed('0'), cli.seed(str(2**32 - 1))) == (0, 2**32 - 1)
+    for text in ('-1', str(2**32), '1e23', '1.5', 'nan'):
+        with pytest.raises(argparse.ArgumentTypeError):
+            cli.seed(text)
+
+
+def test_closed_loop_and_run_campaign_refuse_more_processes_than_one_machine_takes(tmp_path):
+    assert_one_line(script('closed_loop.py', '--runs', 1, '--jobs', 100000), 'argument --jobs', '256')
+    assert_one_line(script('run_campaign.py', '--campaign', CAMPAIGN, '--out', tmp_path / 'c', '--workers', 100000),
+                    'argument --workers', '256')
+    assert not (tmp_path / 'c').exists()

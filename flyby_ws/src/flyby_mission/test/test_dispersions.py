@@ -234,7 +234,7 @@ def test_refusals_of_the_campaign_keys(tmp_path):
     with pytest.raises(CampaignError, match=r'c\.yaml: base_scenario: .*missing\.yaml: file not found'):
         load_campaign(path)
     path.write_text(yaml.safe_dump({'base_scenario': str(BASE), 'seed': -1, 'dispersions': {}}))
-    with pytest.raises(CampaignError, match=r'c\.yaml: seed: must be an integer >= 0, got -1'):
+    with pytest.raises(CampaignError, match=r'c\.yaml: seed: must be an integer in \[0, 4294967295\], got -1'):
         load_campaign(path)
 
 

@@ -124,3 +124,33 @@ def test_load_reads_yes_no_on_off_as_strings_not_booleans(tmp_path):
     with pytest.raises(schema.Invalid) as err:
         schema.validate(ENUM, schema.load_yaml_mapping(path))
     assert err.value.problem == "must be true or false, got string 'no'"
+
+
+POSITIVE = schema.Section(desc='A toy', fields={
+    'gain': schema.Field(schema.FLOAT, 1.0, '> 0', 'A gain.'),
+    'noise': schema.Field(schema.FLOAT, 0.0, '>= 0', 'A noise.'),
+    'offset': schema.Field(schema.VEC3, (0.0, 0.0, 0.0), None, 'An offset.'),
+})
+
+
+@pytest.mark.parametrize('key,value,problem', [
+    ('gain', 1e300, 'must be at most 1e+30 in magnitude'),
+    ('gain', 1e-300, 'must be at least 1e-30 (it must be > 0'),
+    ('noise', 1e31, 'must be at most 1e+30 in magnitude'),
+    ('offset', [0.0, -1e300, 0.0], 'must be at most 1e+30 in magnitude'),
+])
+def test_validate_refuses_a_number_beyond_1e30_or_a_positive_one_below_1e_minus_30(key, value, problem):
+    with pytest.raises(schema.Invalid) as err:
+        schema.validate(POSITIVE, {key: value})
+    assert problem in err.value.problem, err.value.problem
+
+
+def test_validate_keeps_a_tiny_value_where_zero_is_allowed():
+    resolved = schema.validate(POSITIVE, {'noise': 1e-300, 'offset': [1e-72, 0.0, 1.0]})
+    assert resolved['noise'] == 1e-300 and resolved['offset'][0] == 1e-72
+
+
+def test_validate_refuses_an_integer_beyond_a_double_for_a_number_key():
+    with pytest.raises(schema.Invalid) as err:
+        schema.validate(POSITIVE, {'gain': 10**400})
+    assert (err.value.key, err.value.problem[:15]) == ('gain', 'must be finite,')

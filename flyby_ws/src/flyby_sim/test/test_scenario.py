@@ -220,9 +220,10 @@ def test_seed_override():
     sc = load_scenario(PAPER, seed=42)
     assert sc.seed == 42 and sc.to_dict()['seed'] == 42 and sc.raw['seed'] == 1
     assert load_scenario(PAPER, seed=np.int64(3)).seed == 3
-    with pytest.raises(ScenarioError,
-                       match=r'paper_flyby.yaml: seed: must be >= 0, got -1 \(from the seed argument\)$'):
-        load_scenario(PAPER, seed=-1)
+    for seed in (-1, 2**32):
+        with pytest.raises(ScenarioError, match=rf'paper_flyby.yaml: seed: must be in \[0, 4294967295\], got {seed} '
+                                                r'\(.*\) \(from the seed argument\)$'):
+            load_scenario(PAPER, seed=seed)
     with pytest.raises(ScenarioError,
                        match=r': seed: must be an integer, got true \(bool\) \(from the seed argument\)$'):
         load_scenario(PAPER, seed=True)
@@ -341,7 +342,7 @@ def test_error_chaser_rigid_body_keys_name_themselves(tmp_path):
         (lambda d: d['chaser'].update(wheels={'axes': []}),
          'chaser.wheels.axes: must be a non-empty list of 3-vectors'),
         (lambda d: d['chaser'].update(wheels={'initial_momentum_n_m_s': [0.0, 1.0]}),
-         'chaser.wheels.initial_momentum_n_m_s: must give one value per wheel axis (3), got 2'),
+         'chaser.wheels.initial_momentum_n_m_s: must give one value per wheel axis of chaser.wheels.axes (3), got 2'),
         (lambda d: d['chaser'].update(wheels={'initial_momentum_n_m_s': [0.0, 5.0, 0.0]}),
          'chaser.wheels.initial_momentum_n_m_s[1]: must be within +-max_momentum_n_m_s = 4.0, got 5.0'),
         (lambda d: d['chaser'].update(inertia_kg_m2=[[10, 0, 0], [0, 10, 0], [0, 0, 30]]),

@@ -2,6 +2,7 @@
 and the key, never a traceback later (flyby_sim.scenario.plausibility and the direction checks)."""
 
 import copy
+import re
 from pathlib import Path
 
 import pytest
@@ -21,15 +22,18 @@ def load_yaml(path):
 
 
 def _one_line(msg, path, key):
+    """One line naming the file and the key (or one of its components, where a range refuses a component)."""
     assert '\n' not in msg
-    assert msg.startswith(f'{path}: {key}: '), msg
+    assert re.match(rf'{re.escape(str(path))}: {re.escape(key)}(\[\d+\])*: ', msg), msg
 
 
-@pytest.mark.parametrize('radius', [1e300, 1e-300, 1000.0, 2e9])
-def test_refuses_an_orbit_inside_the_earth_or_beyond_1e9_m(tmp_path, radius):
+@pytest.mark.parametrize('radius, what', [(1e300, "above the Earth's equatorial radius"), (1e-300, 'at least 1e-30'),
+                                          (1000.0, "above the Earth's equatorial radius"),
+                                          (2e9, "above the Earth's equatorial radius")])
+def test_refuses_an_orbit_inside_the_earth_or_beyond_1e9_m(tmp_path, radius, what):
     p, msg = error_of(tmp_path, lambda d: d['orbit'].update(radius_m=radius))
     _one_line(msg, p, 'orbit.radius_m')
-    assert "above the Earth's equatorial radius" in msg
+    assert what in msg
 
 
 def test_refuses_an_altitude_beyond_1e9_m(tmp_path):
@@ -181,7 +185,8 @@ def test_refuses_a_step_finer_than_a_millisecond(tmp_path):
     _one_line(msg, p, 'simulation.step_s')
 
 
-@pytest.mark.parametrize('duration, what', [(0.01, 'at least one'), (1e300, 'at most 1e+07 steps')])
+@pytest.mark.parametrize('duration, what', [(0.01, 'at least one'), (9e5, 'at most 1e+07 steps'),
+                                            (1e300, 'must be in (0, 1e6]')])
 def test_refuses_a_duration_shorter_than_a_step_or_longer_than_1e7_steps(tmp_path, duration, what):
     p, msg = error_of(tmp_path, lambda d: d['simulation'].update(duration_s=duration))
     _one_line(msg, p, 'simulation.duration_s')
@@ -191,6 +196,61 @@ def test_refuses_a_duration_shorter_than_a_step_or_longer_than_1e7_steps(tmp_pat
 def test_refuses_a_sensor_rate_above_the_step_rate(tmp_path):
     p, msg = error_of(tmp_path, lambda d: d['sensors']['relative_position'].update(rate_hz=100.0))
     _one_line(msg, p, 'sensors.relative_position.rate_hz')
+
+
+# ------------------------------------------------------------------------------------------------
+# Angles, rates, times and distances within the bound of their unit (schema.UNIT_BOUNDS); numbers within 1e30; seeds
+# within 32 bits
+
+@pytest.mark.parametrize('rpy', [[1e300, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, -7.0, 0.0]])
+def test_refuses_an_attitude_angle_beyond_one_turn(tmp_path, rpy):
+    p, msg = error_of(tmp_path, lambda d: d['target'].update(initial_attitude={'rpy_rad': rpy}))
+    _one_line(msg, p, 'target.initial_attitude.rpy_rad')
+    assert 'must be in [-6.3, 6.3]' in msg and 'one turn' in msg
+
+
+def test_accepts_attitude_angles_within_one_turn(tmp_path):
+    data = load_yaml(REPO / 'scenarios' / 'paper_flyby.yaml')
+    data['target']['initial_attitude'] = {'rpy_rad': [3.2, -6.28, 6.0]}
+    assert list(load_scenario(write(tmp_path, data)).target.initial_attitude.rpy_rad) == [3.2, -6.28, 6.0]
+
+
+@pytest.mark.parametrize('section, key, value', [
+    ('planner', 'flyby_duration_s', 1e300), ('guidance', 'command_lead_s', 2e6), ('supervisor', 'watchdog_s', 1e7),
+    ('planner', 'restriction_sphere_radius_m', 1e300), ('estimation', 'injected_rate_error_deg_s', [1e300, 0, 0]),
+    ('estimation', 'spin_rate_deg_s', 1e4), ('guidance', 'adjust_velocity_tolerance_mps', 1e5),
+])
+def test_refuses_a_time_distance_speed_or_rate_beyond_the_bound_of_its_unit(tmp_path, section, key, value):
+    p, msg = error_of(tmp_path, lambda d: d.setdefault(section, {}).update({key: value}))
+    _one_line(msg, p, f'{section}.{key}')
+    assert msg.endswith(')'), msg  # the bound's reason
+
+
+def test_refuses_a_positive_value_of_1e_minus_300(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d['chaser']['thrusters'].update(isp_s=1e-300))
+    _one_line(msg, p, 'chaser.thrusters.isp_s')
+    assert 'must be at least 1e-30' in msg
+
+
+def test_refuses_1e300_where_no_unit_bounds_it(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d.setdefault('post_capture', {}).update(
+        grasp={'stiffness_n_per_m': 1e300}))
+    _one_line(msg, p, 'post_capture.grasp.stiffness_n_per_m')
+    assert 'must be at most 1e+30 in magnitude' in msg
+
+
+def test_refuses_a_count_of_midcourse_corrections_beyond_100(tmp_path):
+    p, msg = error_of(tmp_path, lambda d: d.setdefault('guidance', {}).update(midcourse_corrections=10**9))
+    _one_line(msg, p, 'guidance.midcourse_corrections')
+
+
+@pytest.mark.parametrize('seed', [2**32, 10**23])
+def test_refuses_a_seed_beyond_32_bits(tmp_path, seed):
+    p, msg = error_of(tmp_path, lambda d: d.update(seed=seed))
+    _one_line(msg, p, 'seed')
+    assert 'must be in [0, 4294967295]' in msg
+    with pytest.raises(ScenarioError, match=r'seed: must be in \[0, 4294967295\].*\(from the seed argument\)$'):
+        load_scenario(REPO / 'scenarios' / 'paper_flyby.yaml', seed=seed)
 
 
 # ------------------------------------------------------------------------------------------------

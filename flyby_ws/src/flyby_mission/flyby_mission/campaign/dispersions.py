@@ -43,8 +43,16 @@ from pathlib import Path
 
 import numpy as np
 
-from flyby_msgs_py.schema import ListOf, ScenarioError, Section, describe, load_yaml_mapping, short_repr
-from flyby_sim.scenario import SCHEMA, load_scenario, scenario_from_dict
+from flyby_msgs_py.schema import (
+    MAGNITUDE_RANGE,
+    ListOf,
+    ScenarioError,
+    Section,
+    describe,
+    load_yaml_mapping,
+    short_repr,
+)
+from flyby_sim.scenario import SCHEMA, SEED_MAX, load_scenario, scenario_from_dict
 
 KINDS = ('uniform', 'normal', 'direction', 'box_surface_point', 'choice', 'scale')
 # The parameters each kind takes (besides 'kind'), required ones first.
@@ -59,7 +67,7 @@ _PARAMS = {
 _CAMPAIGN_KEYS = {'name', 'description', 'base_scenario', 'overrides', 'seed', 'runs', 'dispersions'}
 # Keys the campaign itself sets: the seed comes from the run's stream, the name labels the campaign.
 _RESERVED_KEYS = ('seed', 'name')
-SCENARIO_SEED_BOUND = 2**31  # run seeds are drawn in [0, 2**31)
+SCENARIO_SEED_BOUND = 2**31  # run seeds are drawn in [0, 2**31), within the seeds' range [0, SEED_MAX]
 MAX_RUNS = 10_000  # runs of one campaign, each drawn and validated (about 2 ms) before the first flies
 _MAX_REJECTIONS = 10_000  # draws of a direction outside the excluded cone(s) before giving up
 # The excluded cone(s) leave at least this fraction of the sphere, so _MAX_REJECTIONS draws never all fall inside
@@ -88,16 +96,18 @@ def _number_array(v, file, key, what):
             a = np.asarray(v, dtype=float)
         except (TypeError, ValueError, OverflowError):
             pass
-    if a is None or a.ndim > 2 or not np.all(np.isfinite(a)):
-        raise CampaignError(file, key, f'{what} must be a finite number, a list of finite numbers or a matrix (a '
-                                       f'list of equal lists, e.g. an inertia) of them, got {short_repr(v)}')
+    if a is None or a.ndim > 2 or not np.all(np.isfinite(a)) or np.any(np.abs(a) > MAGNITUDE_RANGE[1]):
+        raise CampaignError(file, key, f'{what} must be a finite number (at most {MAGNITUDE_RANGE[1]:g} in '
+                                       f'magnitude, as every scenario number), a list of them or a matrix (a list of '
+                                       f'equal lists, e.g. an inertia) of them, got {short_repr(v)}')
     return a
 
 
 def _number(v, file, key):
-    """A finite real number (not a boolean nor a string), as a float."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise CampaignError(file, key, f'must be a finite number, got {describe(v)}')
+    """A finite real number (not a boolean nor a string) within MAGNITUDE_RANGE, as a float."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not abs(v) <= MAGNITUDE_RANGE[1]:
+        raise CampaignError(file, key, f'must be a finite number (at most {MAGNITUDE_RANGE[1]:g} in magnitude), got '
+                                       f'{describe(v)}')
     return float(v)
 
 
@@ -115,9 +125,10 @@ def _plain(x):
 
 def _unit(v, file, key, what):
     a = _number_array(v, file, key, what)
-    if a.shape != (3,) or np.linalg.norm(a) == 0.0:
+    norm = math.hypot(*a) if a.shape == (3,) else 0.0  # hypot: no overflow of the squares of 1e300
+    if norm == 0.0:
         raise CampaignError(file, key, f'{what} must be a nonzero 3-vector, got {short_repr(v)}')
-    return a / np.linalg.norm(a)
+    return a / norm
 
 
 def _exclude_cone(cone, file, where):
@@ -358,8 +369,10 @@ def _check_key(file, key, base, section='dispersions'):
     try:
         parent, leaf = _parent_and_leaf(base, key)
     except (KeyError, IndexError, TypeError):
+        parent = None
+    if not isinstance(parent, (dict, list)):  # an optional section the base leaves out (null) or a bad index
         raise CampaignError(file, where, 'not in the base scenario (its section is absent or the index is '
-                                         'out of range)') from None
+                                         'out of range)')
     if isinstance(leaf, int) and leaf >= len(parent):
         raise CampaignError(file, where, f'index {leaf} out of range ({len(parent)} items)')
     return _get(base, key)
@@ -461,8 +474,8 @@ def load_campaign(path, checked_draws=None):
         if k not in data:
             raise CampaignError(file, k, 'missing')
     seed = data['seed']
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise CampaignError(file, 'seed', f'must be an integer >= 0, got {short_repr(seed)}')
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= SEED_MAX:
+        raise CampaignError(file, 'seed', f'must be an integer in [0, {SEED_MAX}], got {short_repr(seed)}')
     runs = data.get('runs', 1)
     if isinstance(runs, bool) or not isinstance(runs, int) or not 1 <= runs <= MAX_RUNS:
         raise CampaignError(file, 'runs', f'must be an integer in [1, {MAX_RUNS}], got {short_repr(runs)}')

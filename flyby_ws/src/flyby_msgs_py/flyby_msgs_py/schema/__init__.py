@@ -43,13 +43,14 @@ from flyby_msgs_py.schema.blocks import (
     describe,
     format_floats,
     short_repr,
+    unit_of,
 )
 from flyby_msgs_py.schema.loading import load_yaml_mapping
 from flyby_msgs_py.schema.markdown import schema_markdown
-from flyby_msgs_py.schema.validation import validate, validate_field
+from flyby_msgs_py.schema.validation import MAGNITUDE_RANGE, validate, validate_field
 from flyby_msgs_py.schema.view import Namespace
 
-__all__ = ['BOOL', 'ENUM', 'FLOAT', 'FLOAT_LIST', 'INT', 'KINDS', 'MAT3', 'QUAT', 'REQUIRED', 'STR', 'VEC3',
-           'VEC3_LIST', 'Field', 'Invalid', 'ListOf', 'Namespace', 'Range', 'ScenarioError', 'Section',
+__all__ = ['BOOL', 'ENUM', 'FLOAT', 'FLOAT_LIST', 'INT', 'KINDS', 'MAGNITUDE_RANGE', 'MAT3', 'QUAT', 'REQUIRED', 'STR',
+           'VEC3', 'VEC3_LIST', 'Field', 'Invalid', 'ListOf', 'Namespace', 'Range', 'ScenarioError', 'Section',
            'check_nonempty', 'check_nonzero', 'describe', 'format_floats', 'load_yaml_mapping', 'schema_markdown',
-           'short_repr', 'validate', 'validate_field']
+           'short_repr', 'unit_of', 'validate', 'validate_field']

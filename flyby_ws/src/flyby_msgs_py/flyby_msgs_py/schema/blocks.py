@@ -102,11 +102,12 @@ _UNIT_SUFFIXES = (
     ('_n_m_s', 'N m s'), ('_kg_m2', 'kg m^2'),
     ('_deg_s', 'deg/s'), ('_rad_s', 'rad/s'), ('_mps2', 'm/s^2'), ('_n_m', 'N m'), ('_mps', 'm/s'),
     ('_deg', 'deg'), ('_rad', 'rad'), ('_kg', 'kg'), ('_hz', 'Hz'),
-    ('_ns', 'N s'), ('_n', 'N'), ('_s', 's'), ('_m', 'm'),
+    ('_n_s', 'N s'), ('_ns', 'N s'), ('_n', 'N'), ('_s', 's'), ('_m', 'm'),
 )
 
 
-def _unit_of(name):
+def unit_of(name):
+    """The unit of a key from its name's suffix ('s' for duration_s, '' for none)."""
     for suffix, unit in _UNIT_SUFFIXES:
         if name.endswith(suffix):
             return unit

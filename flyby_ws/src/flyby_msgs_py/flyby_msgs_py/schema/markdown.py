@@ -12,7 +12,7 @@ from flyby_msgs_py.schema.blocks import (
     ListOf,
     Section,
     _is_required,
-    _unit_of,
+    unit_of,
 )
 from flyby_msgs_py.schema.validation import _join
 
@@ -56,7 +56,7 @@ def _schema_rows(section, prefix):
                 rng = 'finite'
             elif node.kind in (VEC3, QUAT, VEC3_LIST, FLOAT_LIST) and rng:
                 rng = f'each {rng}'
-            yield key, _fmt_type(node), _unit_of(k), _fmt_default(node, k in alt), rng, node.desc
+            yield key, _fmt_type(node), unit_of(k), _fmt_default(node, k in alt), rng, node.desc
         else:
             note = ''
             if isinstance(node, Section) and node.one_of:

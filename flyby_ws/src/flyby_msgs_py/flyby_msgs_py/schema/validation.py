@@ -29,16 +29,32 @@ def _is_number(v):
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
+# Every number's magnitude is at most the upper bound, and that of one whose range excludes 0 ('> 0') at least the
+# lower: every quantity of a configuration is within 30 orders of magnitude of its SI unit (the Earth's mass is 6e24 kg,
+# a gyro's noise 1e-5 rad/s), and beyond it a square or a product of a few of them over- or underflows a double: 1e300
+# is no longer finite once squared, and 1e-300 no longer above 0.
+MAGNITUDE_RANGE = (1e-30, 1e30)
+
+
 def _number(v, key, field):
     if not _is_number(v):
         raise Invalid(key, f'must be a number, got {describe(v)}')
-    x = float(v)
+    try:
+        x = float(v)
+    except OverflowError:  # an integer beyond a double
+        raise Invalid(key, f'must be finite, got {short_repr(v)}') from None
     if not math.isfinite(x):
         raise Invalid(key, f'must be finite, got {x!r}')
     r = field._range
     if r is not None and not r.contains(x):
         why = f' ({field.why})' if field.why else ''
         raise Invalid(key, f'must be {r.describe()}, got {x!r}{why}')
+    lo, hi = MAGNITUDE_RANGE
+    if abs(x) > hi:
+        raise Invalid(key, f'must be at most {hi:g} in magnitude (its square or a product would overflow), got {x!r}')
+    if abs(x) < lo and r is not None and not r.contains(0.0):
+        raise Invalid(key, f'must be at least {lo:g} (it must be {r.describe()}, and a smaller value is 0 in a square '
+                           f'or a product), got {x!r}')
     return x
 
 
@@ -69,7 +85,8 @@ def validate_field(field, v, key):
         out = int(v)
         r = field._range
         if r is not None and not r.contains(out):
-            raise Invalid(key, f'must be {r.describe()}, got {out}')
+            why = f' ({field.why})' if field.why else ''
+            raise Invalid(key, f'must be {r.describe()}, got {short_repr(out)}{why}')
     elif kind == STR:
         if not isinstance(v, str):
             raise Invalid(key, f'must be a string, got {describe(v)}')

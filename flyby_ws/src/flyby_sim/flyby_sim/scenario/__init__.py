@@ -23,8 +23,8 @@ The modules: ``schema`` (the key table), ``checks`` (what a range cannot express
 
 from flyby_msgs_py.schema import ScenarioError, load_yaml_mapping
 from flyby_sim.scenario.load import load_scenario, main, scenario_from_dict, scenario_of, schema_markdown
-from flyby_sim.scenario.schema import MAX_STEP_S, SCHEMA
+from flyby_sim.scenario.schema import MAX_STEP_S, SCHEMA, SEED_MAX
 from flyby_sim.scenario.view import Boxes, Scenario
 
-__all__ = ['MAX_STEP_S', 'SCHEMA', 'Boxes', 'Scenario', 'ScenarioError', 'load_scenario', 'load_yaml_mapping', 'main',
-           'scenario_from_dict', 'scenario_of', 'schema_markdown']
+__all__ = ['MAX_STEP_S', 'SCHEMA', 'SEED_MAX', 'Boxes', 'Scenario', 'ScenarioError', 'load_scenario',
+           'load_yaml_mapping', 'main', 'scenario_from_dict', 'scenario_of', 'schema_markdown']

@@ -167,7 +167,8 @@ def _check_chaser_body(chaser):
     if h0 is not None:
         if len(h0) != len(wheels['axes']):
             raise Invalid('chaser.wheels.initial_momentum_n_m_s',
-                          f'must give one value per wheel axis ({len(wheels["axes"])}), got {len(h0)}')
+                          f'must give one value per wheel axis of chaser.wheels.axes ({len(wheels["axes"])}), got '
+                          f'{len(h0)}')
         for i, h in enumerate(h0):
             if abs(h) > wheels['max_momentum_n_m_s']:
                 raise Invalid(f'chaser.wheels.initial_momentum_n_m_s[{i}]',

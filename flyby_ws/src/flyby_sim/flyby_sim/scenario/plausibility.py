@@ -12,8 +12,8 @@ import numpy as np
 
 from flyby_msgs_py.schema import Invalid, format_floats
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M
+from flyby_sim.scenario.schema import MAX_ORBIT_RADIUS_M
 
-MAX_ORBIT_RADIUS_M = 1e9  # beyond the Moon's orbit (3.8e8 m): no longer a relative-motion problem about a planet
 MU_RANGE_M3_S2 = (1e10, 1e18)  # a moon or a planet: the Moon 4.9e12, the Earth 3.99e14, Jupiter 1.27e17
 MASS_RANGE_KG = (0.1, 1e6)  # a small CubeSat to twice the ISS
 INERTIA_RANGE = (1e-3, 1e3)  # principal moments over m L^2 / 12 (L: the body's largest extent)
@@ -165,8 +165,8 @@ def check_grasp_point(point, boxes):
     if signed[i] < -tol:
         raise Invalid('target.grasp_point_body_m', f'must lie on the surface of target.geometry (within {tol:g} m of '
                                                    f'a face), got {format_floats(p)}: {-signed[i]:.6g} m inside box '
-                                                   f'{boxes[i]["name"]!r}')
+                                                   f'{boxes[i]["name"]!r} (target.geometry[{i}])')
     if signed[i] > tol:
         raise Invalid('target.grasp_point_body_m', f'must lie on the surface of target.geometry (within {tol:g} m of '
                                                    f'a face), got {format_floats(p)}: {signed[i]:.6g} m from the '
-                                                   f'nearest box {boxes[i]["name"]!r}')
+                                                   f'nearest box {boxes[i]["name"]!r} (target.geometry[{i}])')

@@ -1,8 +1,13 @@
 """The flyby scenario schema: one line per key (type, default or REQUIRED, range, description).
 
 The engine is ``flyby_msgs_py.schema``; ``docs/scenario.md`` embeds the table ``schema_markdown()`` renders from
-``SCHEMA``. Checks a range cannot express are ``scenario.checks``.
+``SCHEMA``. Checks a range cannot express are ``scenario.checks`` and ``scenario.plausibility``. An angle, rate,
+time, distance or speed whose line states no upper bound gets its unit's, ``UNIT_BOUNDS``; every number is within the
+engine's ``MAGNITUDE_RANGE``; every seed within [0, ``SEED_MAX``].
 """
+
+import dataclasses
+import math
 
 from flyby_msgs_py.schema import (
     BOOL,
@@ -20,18 +25,60 @@ from flyby_msgs_py.schema import (
     ListOf,
     Section,
     check_nonempty,
+    unit_of,
 )
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from flyby_sim.scenario.checks import check_direction, check_direction_rows, check_inertia, check_unique_names
 
 MAX_STEP_S = 0.05  # truth is published every step and must reach >= 20 Hz (DESIGN §4)
 MIN_STEP_S = 0.001  # finer than any dynamics of the problem: a smaller step only makes the run endless
+SEED_MAX = 2**32 - 1  # every seed (the scenario's, --seed, --first-seed, a campaign's): numpy's 32-bit word
+MAX_ORBIT_RADIUS_M = 1e9  # beyond the Moon's orbit (3.8e8 m): no longer a relative-motion problem about a planet
+
+# The range of a key of these units whose line states no upper bound, with the reason (what a physical user never
+# reaches); a key's own range, when it has an upper bound, is kept.
+UNIT_BOUNDS = {
+    'rad': (6.3, 'an angle: one turn, 2 pi, either way reaches every attitude'),
+    'deg': (360.0, 'an angle: one turn either way reaches every attitude'),
+    'rad/s': (6.3, 'an angular rate: at most one turn, 2 pi rad, a second'),
+    'deg/s': (360.0, 'an angular rate: at most one turn a second'),
+    's': (1e6, 'a time: a run is at most 1e7 steps of at most 0.05 s, 5e5 s'),
+    'm': (1e6, 'a length or a position of the relative motion, which starts within 1e6 m of the target'),
+    'm/s': (1e3, 'a relative speed: the chaser starts within 1000 m/s of the target'),
+}
+
+
+def _text(x):
+    """A bound as range text: 1e9 as '1e9', 6.3 as '6.3'."""
+    return f'{x:g}'.replace('e+0', 'e').replace('e+', 'e')
+
+
+def _with_unit_bounds(node, name=''):
+    """``node`` with every number field of a UNIT_BOUNDS unit whose range has no upper bound bounded by it (its lower
+    bound kept, or minus the bound when it has none), the reason appended to its range violations."""
+    if isinstance(node, Section):
+        return dataclasses.replace(node, fields={k: _with_unit_bounds(v, k) for k, v in node.fields.items()})
+    if isinstance(node, ListOf):
+        return dataclasses.replace(node, item=_with_unit_bounds(node.item))
+    bound = UNIT_BOUNDS.get(unit_of(name))
+    old = node._range
+    if bound is None or node.kind not in (FLOAT, VEC3, FLOAT_LIST) or (old is not None and old.hi < math.inf):
+        return node
+    hi, why = bound
+    if old is None or old.lo == -math.inf:
+        text = f'[-{_text(hi)}, {_text(hi)}]'
+    else:
+        text = f'{"[" if old.lo_closed else "("}{_text(old.lo)}, {_text(hi)}]'
+    return dataclasses.replace(node, range=text, why=node.why or why)
 
 
 # --------------------------------------------------------------------------------------------------
-# THE SCHEMA. One line per key.
+# THE SCHEMA. One line per key; the keys of a UNIT_BOUNDS unit without an upper bound get that unit's.
 
 _VEC0 = (0.0, 0.0, 0.0)
+_FEEDBACK_WHY = 'a feedback frequency: faster than 100 rad/s no sensor of at most 1000 Hz lets it follow'
+_ORBIT_WHY = ('the orbit radius must be above the Earth\'s equatorial radius; beyond the Moon\'s orbit it is no '
+              'relative-motion problem about a planet')
 
 
 def _initial_attitude(body, desc, optional=False):
@@ -66,15 +113,17 @@ def _initial_rate(body, desc, optional=False):
             'omega_hill_rad_s': Field(VEC3, REQUIRED, None, 'In hill axes at t = 0.'),
         })
 
-SCHEMA = Section(desc='A flyby scenario', fields={
+SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
     'name': Field(STR, REQUIRED, desc='Short identifier of the scenario.', check=check_nonempty),
     'description': Field(STR, '', desc='Free text.'),
-    'seed': Field(INT, REQUIRED, '>= 0', 'Seed of every random generator of the run.'),
+    'seed': Field(INT, REQUIRED, f'[0, {SEED_MAX}]', 'Seed of every random generator of the run.',
+                  why='a seed is one 32-bit word, as every seed of the command lines and campaigns'),
 
     'orbit': Section(desc='Circular orbit of the target', one_of=(('radius_m', 'altitude_m'),), fields={
-        'radius_m': Field(FLOAT, REQUIRED, '> 0', 'Orbit radius (give this or altitude_m); above the Earth\'s '
-                                                    'equatorial radius, at most 1e9 m.'),
-        'altitude_m': Field(FLOAT, REQUIRED, '> 0',
+        'radius_m': Field(FLOAT, REQUIRED, f'(0, {_text(MAX_ORBIT_RADIUS_M)}]',
+                          'Orbit radius (give this or altitude_m); above the Earth\'s equatorial radius.',
+                          why=_ORBIT_WHY),
+        'altitude_m': Field(FLOAT, REQUIRED, f'(0, {_text(MAX_ORBIT_RADIUS_M)}]', why=_ORBIT_WHY, desc=
                             f'Altitude above the equatorial radius {EARTH_RADIUS_M} m (give this or radius_m).'),
         'mu_m3_s2': Field(FLOAT, MU_EARTH_M3_S2, '> 0', 'Gravitational parameter of the central body, '
                                                              'within [1e10, 1e18] (a moon or a planet).'),
@@ -224,7 +273,8 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                        '(I), not librating (II).'),
         'controlled_excursion_deg': Field(FLOAT, 2.0, '> 0', 'Largest attitude excursion in hill for category I.'),
         'initial_rate_sigma_deg_s': Field(FLOAT, 20.0, '> 0', 'Prior 1-sigma per axis of the unknown target rate.'),
-        'batch_check_max_samples': Field(INT, 2000, '>= 3',
+        'batch_check_max_samples': Field(INT, 2000, '[3, 1000000]', why='the fit costs about 10 ms a sample: a '
+                                                                        'million is hours', desc=
                                          'The estimator checks the target filter against the batch maximum-'
                                          'likelihood fit of its measurements at convergence if there are at most '
                                          'this many (the fit costs about 10 ms a sample on a fast tumbler).'),
@@ -308,8 +358,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
             'weight_time': Field(FLOAT, 0.001, '>= 0', 'k_t of eq 5 [1/s^2].'),
             'trajectory_step_s': Field(FLOAT, 0.2, '> 0', 'Largest spacing of the points of planner/trajectory '
                                                           '(they fall on the plan\'s thrust steps).'),
-            'tracking_frequency_rad_s': Field(FLOAT, 0.5, '> 0',
-                                              'Natural frequency of the tracking feedback (critically damped).'),
+            'tracking_frequency_rad_s': Field(FLOAT, 0.5, '(0, 100]',
+                                              'Natural frequency of the tracking feedback (critically damped).',
+                                              why=_FEEDBACK_WHY),
             'replan_error_m': Field(FLOAT, 0.5, '> 0',
                                     'Re-plan when the estimated position leaves the trajectory by more than this.'),
             'replan_cutoff_s': Field(FLOAT, 15.0, '>= 0', 'No re-plan in the last this many seconds before the '
@@ -344,8 +395,9 @@ SCHEMA = Section(desc='A flyby scenario', fields={
                                                           '2 pi / |omega| (seed 001: half).'),
             'accel_max_mps2': Field(FLOAT, None, '> 0', 'Largest commanded thrust acceleration; omitted: two '
                                                         'thrusters\' max_thrust_n / mass_kg.'),
-            'tracking_frequency_rad_s': Field(FLOAT, 1.0, '> 0', 'Natural frequency of the translation feedback '
-                                                                 '(critically damped).'),
+            'tracking_frequency_rad_s': Field(FLOAT, 1.0, '(0, 100]', 'Natural frequency of the translation '
+                                                                       'feedback (critically damped).',
+                                              why=_FEEDBACK_WHY),
             'attitude_tolerance_deg': Field(FLOAT, 0.2, '> 0', 'Stage 2 ends when the estimated relative attitude '
                                                                'error ...'),
             'rate_tolerance_deg_s': Field(FLOAT, 0.1, '> 0', '... and rate error stay below these ...'),
@@ -360,7 +412,8 @@ SCHEMA = Section(desc='A flyby scenario', fields={
 
     'guidance': Section(desc='Terminal approach and trajectory adjusting', fields={
         'adjust_interval_s': Field(FLOAT, 20.0, '> 0', 'Cadence of trajectory-adjusting maneuvers.'),
-        'midcourse_corrections': Field(INT, 1, '>= 0',
+        'midcourse_corrections': Field(INT, 1, '[0, 100]', why='each is a burn: a hundred in one transfer already '
+                                                               'come seconds apart', desc=
                                        'CW re-solves (eq 28) spread evenly over the terminal transfer.'),
         'command_lead_s': Field(FLOAT, 5.0, '> 0',
                                 'A burn is computed from the latest estimate and sent this long before it starts.'),
@@ -518,4 +571,4 @@ SCHEMA = Section(desc='A flyby scenario', fields={
         'duration_s': Field(FLOAT, REQUIRED, '> 0', 'Simulated time after which the run stops; at '
                                                                   'least one step, at most 1e7 steps.'),
     }),
-})
+}))
