@@ -28,7 +28,7 @@ from flyby_mission import cli, replay
 from flyby_mission.headless import require_one_chaser, run_headless
 from flyby_mission.headless_runs import WorkerFailed, run_seeds, run_table, statistics
 from flyby_mission.summary import EXIT_CODES, format_summary
-from flyby_sim.scenario import SEED_MAX, load_scenario
+from flyby_sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -71,9 +71,8 @@ def parse_args(argv):
     args = ap.parse_args(argv)
     if (args.out is None) == (args.runs is None):
         ap.error('give either --out DIR (one run) or --runs N (many runs)')
-    if args.runs is not None and args.first_seed + args.runs - 1 > SEED_MAX:
-        ap.error(f'argument --runs: the last seed --first-seed + --runs - 1 = {args.first_seed + args.runs - 1} '
-                 f'must be <= {SEED_MAX}')
+    if args.runs is not None:
+        cli.check_seed_span(ap, args.first_seed, args.runs)
     try:
         if args.out is not None:
             cli.check_out(args.out, args.force)

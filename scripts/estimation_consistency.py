@@ -74,6 +74,7 @@ def main():
                     help='limits of the attitude error, the rate error and the grasp-point prediction error')
     ap.add_argument('--jobs', type=cli.processes, default=2)
     args = ap.parse_args()
+    cli.check_seed_span(ap, args.first_seed, args.runs)
     if args.duration < args.accuracy_time:
         ap.error('--duration must be >= --accuracy-time')
 

@@ -74,6 +74,7 @@ def main(argv=None):
     ap.add_argument('--jobs', type=cli.processes, default=2)
     ap.add_argument('--json', help='write every run as JSON here')
     args = ap.parse_args(argv)
+    cli.check_seed_span(ap, args.first_seed, args.runs)
     settings = [(k, yaml.safe_load(v)) for k, v in (s.split('=', 1) for s in args.set)]
     moments, _ = principal_axes(scenario_with(args.scenario, None, settings).target_inertia)
     dof = len(defined_parameters(moments))

@@ -63,6 +63,14 @@ def seed(text):
     return value
 
 
+def check_seed_span(parser, first_seed, runs):
+    """Refuse (parser.error: one line, exit 2) runs whose seeds first_seed .. first_seed + runs - 1 leave the seed
+    range."""
+    if first_seed + runs - 1 > SEED_MAX:
+        parser.error(f'argument --runs: the last seed --first-seed + --runs - 1 = {first_seed + runs - 1} '
+                     f'must be <= {SEED_MAX}')
+
+
 def processes(text):
     """An argparse type: a number of local processes, an integer in [1, MAX_LOCAL_PROCESSES]."""
     value = _number(text, int)

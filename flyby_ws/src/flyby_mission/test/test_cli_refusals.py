@@ -117,6 +117,12 @@ def test_closed_loop_refuses_a_seed_beyond_32_bits(args, option):
     assert_one_line(script('closed_loop.py', *args), f'argument {option}', '4294967295')
 
 
+@pytest.mark.parametrize('name', ['estimation_consistency.py', 'mass_estimation_consistency.py'])
+def test_consistency_scripts_refuse_seeds_running_past_32_bits(name):
+    assert_one_line(script(name, '--scenario', PAPER, '--runs', 2, '--first-seed', 2**32 - 1), 'argument --runs',
+                    '4294967295')
+
+
 def test_plan_capture_refuses_a_seed_beyond_32_bits():
     assert_one_line(script('plan_capture.py', '--scenario', PAPER, '--seed', 2**32), 'argument --seed', '4294967295')
 
