@@ -1,4 +1,4 @@
-# The two commands of the README: `make mission` and `make test`.
+# The commands of the README: `make mission`, `make test` and `make test-all`.
 # Both create .venv from requirements.txt on first use; nothing is sourced or installed by hand.
 PYTHON_BOOT ?= python3
 VENV := .venv
@@ -9,7 +9,7 @@ SCENARIO ?= scenarios/paper_flyby_6dof.yaml
 OUT ?= runs/paper_flyby_6dof
 PYTEST_ARGS ?=
 
-.PHONY: mission test lint venv benchmark clean-runs
+.PHONY: mission test test-all lint venv benchmark clean-runs
 
 $(STAMP): requirements.txt $(PACKAGES)
 	$(PYTHON_BOOT) -m venv $(VENV)
@@ -25,8 +25,18 @@ mission: $(STAMP)
 	$(PY) scripts/run_mission.py --scenario $(SCENARIO) --out $(OUT) --force \
 		|| [ $$? -eq 3 ]
 
-# Both cores: tests grouped by file (a file's session fixtures are flown once), each test on its own ROS domain.
+# Two tiers by the `slow` marker (pytest.ini, docs/testing.md), both on both cores: tests grouped by file (a file's
+# module fixtures, a mission flown once for its tests, are flown once), each test on its own ROS domain.
+#   make test      the fast tier, -m "not slow": unit and property tests, refusals, a few short graph and headless
+#                  missions; under 5 minutes on 2 cores.
+#   make test-all  every test: the fast tier and the slow one (long graph missions and headless scenarios,
+#                  campaigns). CI runs it (.ci/run).
+# PYTEST_ARGS is passed to pytest after the tier's options: make test PYTEST_ARGS="test/test_wiring.py -x" runs one
+# file; a -m in it replaces the tier's: make test-all PYTEST_ARGS="-m slow" runs the slow tier alone.
 test: $(STAMP)
+	$(PY) -m pytest -n 2 --dist loadfile -m "not slow" $(PYTEST_ARGS)
+
+test-all: $(STAMP)
 	$(PY) -m pytest -n 2 --dist loadfile $(PYTEST_ARGS)
 
 # ruff over the whole tree (rules and line length in ruff.toml).

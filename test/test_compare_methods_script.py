@@ -3,7 +3,11 @@
 import subprocess
 import sys
 
+import pytest
+
 from flyby_testing import ROOT, SCENARIOS
+
+pytestmark = pytest.mark.slow
 
 COMPARE = ROOT / 'scripts' / 'compare_methods.py'
 

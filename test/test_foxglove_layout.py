@@ -5,6 +5,7 @@ import importlib.util
 import json
 import re
 
+import pytest
 from rosbags.highlevel import AnyReader
 
 from flyby_msgs_py import frames
@@ -57,6 +58,7 @@ def test_layout_has_the_3d_scene_phase_plots_and_events():
     assert sorted(panels) == ['Plot', 'Plot', 'RawMessages', 'StateTransitions', 'ThreeDee']
 
 
+@pytest.mark.slow
 def test_every_topic_and_frame_the_layout_names_is_in_a_mission_bag(sixdof_short_run):
     """Panels read recorded topics or a user script's output; scripts read recorded topics; the 3D scene's frames
     are on /tf or /tf_static."""

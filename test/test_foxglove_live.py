@@ -66,6 +66,7 @@ def _receive(ws, proc):
     return channels, got
 
 
+@pytest.mark.slow
 def test_a_foxglove_client_receives_topics_and_frames_while_the_mission_runs(tmp_path):
     scenario = write_scenario(tmp_path, base='paper_flyby_6dof', name='live', edit=with_duration(60.0))
     port = free_port()

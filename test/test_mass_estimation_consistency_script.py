@@ -6,8 +6,11 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from flyby_testing import ROOT, SCENARIOS
+
+pytestmark = pytest.mark.slow
 
 SCRIPT = ROOT / 'scripts' / 'mass_estimation_consistency.py'
 

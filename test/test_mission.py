@@ -33,6 +33,7 @@ def _analyze(out):
     assert 'every figure agrees' in done.stdout
 
 
+@pytest.mark.slow
 def test_nominal_capture(tmp_path):
     out = tmp_path / 'run'
     done = run_mission('--scenario', ROOT / 'scenarios' / 'paper_flyby.yaml', '--out', out, '--in-process')
@@ -133,6 +134,7 @@ def _rate_fault(duration_s):
     return edit
 
 
+@pytest.mark.slow
 def test_target_rate_fault_ends_in_a_safe_escape_over_one_orbit(tmp_path):
     """The published target rate is 0.5 deg/s off: the grasp instant is mistimed, the supervisor sees the
     miss at the grasp time and lets the passive fly-by carry the chaser away, clear of the target. The

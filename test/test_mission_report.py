@@ -41,6 +41,7 @@ def test_match_stamps_pairs_the_same_instants_only():
     assert np.allclose(truth[i_truth], [0.1, 0.2, 1.95])
 
 
+@pytest.mark.slow
 def test_report_of_a_run_cut_before_any_plan(tmp_path, capsys):
     """40 s: the estimator runs, the planner has not planned yet (it waits 60 s of observation), so
     there is no path, grasp or burn. What can be drawn is, the rest is said on stderr."""
@@ -61,6 +62,7 @@ def test_report_of_a_run_cut_before_any_plan(tmp_path, capsys):
     assert 'failed' not in err
 
 
+@pytest.mark.slow
 def test_report_of_a_captured_run_from_the_command_line(tmp_path):
     """A complete fly-by kept short (60 s estimate -> 30 s, shorter transfer and fly-by): every figure."""
     def quick_capture(data):
@@ -97,6 +99,7 @@ def test_continuous_quaternions_undo_sign_flips():
     assert np.allclose(analysis.continuous_quaternions(flipped), q)
 
 
+@pytest.mark.slow
 def test_report_of_a_rigid_body_run_from_run_mission(tmp_path):
     """paper_flyby_6dof cut at 40 s after 20 s of observation: the transfer burn (about 30 s) fires thrusters and
     opens the pointing window. run_mission --report writes the rigid-body figures besides the others, and the
@@ -150,6 +153,7 @@ def test_euler_angles_are_the_scenarios_and_their_derivative_is_right():
     assert np.allclose(step, predicted, rtol=1e-4, atol=1e-13)
 
 
+@pytest.mark.slow
 def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(tmp_path):
     """The short synchronized approach of test_run_mission_sync flown by run_mission --report (every node in one
     process, to be quick): the report adds seed 001's Fig 4-7, and what they draw agrees with the truth computed here
@@ -211,6 +215,7 @@ def test_report_of_a_synchronized_approach_draws_seed_001_fig_4_to_7(tmp_path):
     assert np.all(energy.target_translational == 0.0)  # the hill origin is its centre of mass
 
 
+@pytest.mark.slow
 def test_report_after_the_capture_draws_seed_004_fig_5_the_grasp_and_the_damping(tmp_path, tug_short_run):
     """The short paper_flyby_tug of the post-capture tests (conftest.tug_short_run, flown once), the four post-capture
     figures drawn from its bag (write_report adds them for a post_capture scenario). What they plot: the truth mass and

@@ -53,6 +53,7 @@ def test_a_seed_with_a_comment_or_in_a_flow_mapping_is_set_too(tmp_path):
     assert yaml.safe_load(replay.scenario_text(flow, 12)) == {**data, 'seed': 12}
 
 
+@pytest.mark.slow
 def test_a_headless_run_with_seed_7_replays_from_its_directory(tmp_path):
     out = tmp_path / 'run'
     done = subprocess.run([replay.PYTHON, 'scripts/closed_loop.py', '--scenario', str(SCENARIOS / 'paper_flyby.yaml'),

@@ -12,6 +12,8 @@ from flyby_mission.report.plotting import plt
 from flyby_msgs_py import contract as c
 from flyby_testing import read_summary
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope='module')
 def run(tug_short_run):

@@ -42,6 +42,7 @@ def shm_segments_in_use():
     return used
 
 
+@pytest.mark.slow
 def test_coasting_run_leaves_bag_and_summary(tmp_path):
     scenario = write_scenario(tmp_path, edit=with_duration(60.0))
     out = tmp_path / 'run'
@@ -93,6 +94,7 @@ def test_coasting_run_leaves_bag_and_summary(tmp_path):
     assert np.array_equal(target.angular, [s.omega_body for s in truth])
 
 
+@pytest.mark.slow
 def test_truth_identical_at_rtf_10_and_full_speed(tmp_path):
     scenario = write_scenario(tmp_path, edit=with_duration(20.0))
     runs = {}
@@ -111,6 +113,7 @@ def test_truth_identical_at_rtf_10_and_full_speed(tmp_path):
         assert np.array_equal(a.angular, b.angular)
 
 
+@pytest.mark.slow
 def test_seed_override_is_recorded(tmp_path):
     scenario = write_scenario(tmp_path, edit=with_duration(5.0))
     out = tmp_path / 'run'
@@ -119,6 +122,7 @@ def test_seed_override_is_recorded(tmp_path):
     assert read_summary(out)['seed'] == 42
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_readable_bag_and_interrupted_summary(tmp_path):
     scenario = write_scenario(tmp_path, edit=with_duration(1000.0))
     out = tmp_path / 'run'
@@ -139,6 +143,7 @@ def test_ctrl_c_leaves_readable_bag_and_interrupted_summary(tmp_path):
     assert checked.returncode == 0 and 'every figure agrees' in checked.stdout, checked.stdout + checked.stderr
 
 
+@pytest.mark.slow
 def test_recorder_sigkill_loses_at_most_10s_and_leaves_no_shm(tmp_path):
     shm_before = set(shm_segments())
     scenario = write_scenario(tmp_path, edit=with_duration(2000.0))

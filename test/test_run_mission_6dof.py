@@ -13,6 +13,8 @@ from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario
 from flyby_testing import read_summary, run_mission, with_duration, write_scenario
 
+pytestmark = pytest.mark.slow
+
 DURATION_S = 20.0
 TOPICS = [c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS, c.SIM_CHASER_THRUST,
                                   c.SENSOR_CHASER_IMU, c.GUIDANCE_WHEELS, c.GUIDANCE_WRENCH, c.EST_CHASER_ODOM,

@@ -11,6 +11,8 @@ from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario
 from flyby_testing import ROOT, analyze_bag, read_summary, run_mission
 
+pytestmark = pytest.mark.slow
+
 SCENARIO = ROOT / 'scenarios' / 'jacobsen_optimal.yaml'
 
 

@@ -12,6 +12,8 @@ from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario
 from flyby_testing import analyze_bag, fly_variant, read_summary
 
+pytestmark = pytest.mark.slow
+
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING,
           c.PHASE_DOCKING, c.PHASE_CAPTURE, c.PHASE_COMPLETE]
 

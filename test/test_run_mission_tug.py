@@ -13,6 +13,8 @@ from flyby_msgs_py.convert import inertia_to_numpy
 from flyby_sim.scenario import load_scenario
 from flyby_testing import analyze_bag, read_summary
 
+pytestmark = pytest.mark.slow
+
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY,
           c.PHASE_CAPTURE, c.PHASE_GRASP, c.PHASE_DAMPING, c.PHASE_MASS_ESTIMATION, c.PHASE_COMPLETE]
 

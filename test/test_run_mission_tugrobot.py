@@ -14,6 +14,8 @@ from flyby_msgs_py.bag import read_bag
 from flyby_sim.scenario import load_scenario
 from flyby_testing import analyze_bag, fly_variant, read_summary
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope='module')
 def run(tmp_path_factory):

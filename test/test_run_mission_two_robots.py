@@ -13,6 +13,8 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py.bag import read_bag
 from flyby_testing import ROOT, analyze_bag, fly_variant, read_summary
 
+pytestmark = pytest.mark.slow
+
 PHASES = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_OPTIMAL_APPROACH, c.PHASE_CAPTURE, c.PHASE_COMPLETE]
 
 

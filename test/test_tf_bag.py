@@ -87,6 +87,7 @@ def test_tf_static_is_latched_and_tf_is_not():
     assert tf.durability == QosDurability.VOLATILE
 
 
+@pytest.mark.slow
 def test_mission_bag_has_the_truths_frames(sixdof_short_run):
     """/tf holds hill -> target_body and hill -> chaser_body at every truth odometry's stamp, equal to its pose;
     /tf_static the grasp point once, latched."""

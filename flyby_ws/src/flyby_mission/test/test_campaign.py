@@ -56,6 +56,7 @@ def _rows_by_run(out, campaign):
     return {int(r['run']): r for r in rows}, len(rows)
 
 
+@pytest.mark.slow
 def test_every_run_is_written_once_with_its_drawn_parameters(campaign_file, flown):
     out, _, stats = flown
     campaign = load_campaign(campaign_file)
@@ -83,6 +84,7 @@ def test_every_run_is_written_once_with_its_drawn_parameters(campaign_file, flow
     assert (out / 'outcome_counts.png').exists() and (out / 'outcome_map.png').exists()
 
 
+@pytest.mark.slow
 def test_resume_flies_only_the_missing_runs_and_gives_the_same_rows(campaign_file, flown, tmp_path):
     out, _, _ = flown
     campaign = load_campaign(campaign_file)
@@ -130,6 +132,7 @@ def _free_port():
         return s.getsockname()[1]
 
 
+@pytest.mark.slow
 def test_a_scheduler_and_workers_as_processes_give_the_same_rows_even_when_a_worker_dies(campaign_file, flown,
                                                                                         tmp_path):
     """`dask scheduler` and two `dask worker` processes on this machine (as on a cluster): the same rows as
