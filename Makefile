@@ -4,6 +4,7 @@ PYTHON_BOOT ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+JS_STAMP := test/js/node_modules/.installed
 PACKAGES := $(wildcard flyby_ws/src/*/setup.py)
 SCENARIO ?= scenarios/paper_flyby_6dof.yaml
 OUT ?= runs/paper_flyby_6dof
@@ -36,8 +37,13 @@ mission: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -n 2 --dist loadfile -m "not slow" $(PYTEST_ARGS)
 
-test-all: $(STAMP)
+test-all: $(STAMP) $(JS_STAMP)
 	$(PY) -m pytest -n 2 --dist loadfile $(PYTEST_ARGS)
+
+# Foxglove's own readers of a bag (test/test_foxglove_decode.py), pinned in test/js/package-lock.json (node, npm).
+$(JS_STAMP): test/js/package-lock.json
+	sh test/js/install.sh
+	touch $(JS_STAMP)
 
 # ruff over the whole tree (rules and line length in ruff.toml).
 lint: $(STAMP)
