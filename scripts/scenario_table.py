@@ -52,10 +52,10 @@ def caption(measured):
     """What the times are: when, on how many cores and under what load they were measured (from the records)."""
     runs = [r for e in measured['scenarios'].values() for r in (e.get('graph'), e.get('headless')) if r]
     days, loads = ' to '.join(sorted({r['date'][:10] for r in runs})), [r['load_average_1min'] for r in runs]
-    busy = ', other work running: expect less on a quiet machine' if max(loads) > runs[0]['cpus'] else ''
     return textwrap.fill(f'Wall time of the whole command, each run alone under `nice -n 10`, measured {days} on a'
-                         f" {runs[0]['cpus']}-core machine (1-minute load average {min(loads):.1f} to {max(loads):.1f}"
-                         f'{busy}). Headless `-`: the headless driver flies one chaser.', 120)
+                         f" {runs[0]['cpus']}-core machine (1-minute load average at a run's end, its own processes"
+                         f' included: {min(loads):.1f} to {max(loads):.1f}). Headless `-`: the headless driver flies'
+                         ' one chaser.', 120)
 
 
 def row(path, entry):
