@@ -1,6 +1,7 @@
 """Helpers of the integration tests: scenario variants, running the launcher, spinning."""
 
 import json
+import struct
 import subprocess
 import sys
 import time
@@ -13,9 +14,9 @@ SCENARIOS = ROOT / 'scenarios'
 RUN_MISSION = ROOT / 'scripts' / 'run_mission.py'
 
 
-def paper_dict():
-    """scenarios/paper_flyby.yaml as a dict, to mutate."""
-    return yaml.safe_load((SCENARIOS / 'paper_flyby.yaml').read_text())
+def paper_dict(name='paper_flyby'):
+    """scenarios/<name>.yaml (paper_flyby's by default) as a dict, to mutate."""
+    return yaml.safe_load((SCENARIOS / f'{name}.yaml').read_text())
 
 
 def write_yaml(tmp_path, data, name='x.yaml'):
@@ -25,14 +26,15 @@ def write_yaml(tmp_path, data, name='x.yaml'):
     return p
 
 
-def scenario_error_of(tmp_path, mutate):
-    """Load paper_flyby mutated by ``mutate(d)`` from a file; return (path, the refusal's one-line message)."""
+def scenario_error_of(tmp_path, mutate, base='paper_flyby'):
+    """Load scenarios/<base>.yaml mutated by ``mutate(d)`` from a file; return (path, the refusal's one-line
+    message)."""
     import pytest
 
     from flyby_msgs_py.schema import ScenarioError
     from flyby_sim.scenario import load_scenario
 
-    d = paper_dict()
+    d = paper_dict(base)
     mutate(d)
     p = write_yaml(tmp_path, d)
     with pytest.raises(ScenarioError) as info:
@@ -260,3 +262,21 @@ envelope_run_323 = envelope_run({
     'sensors.relative_position.noise_sigma_m': 0.0172,
     'sensors.target_attitude.noise_sigma_deg': 0.937,
     'simulation.duration_s': 3000.0})
+
+
+# MCAP record opcodes (https://mcap.dev/spec#records), for the tests that walk or damage a bag's file.
+OP_FOOTER, OP_CHUNK, OP_MESSAGE_INDEX, OP_DATA_END = 0x02, 0x06, 0x07, 0x0F
+
+
+def record_spans(data):
+    """``(opcode, start, end)`` of the top-level records of a closed MCAP file up to its footer, walked
+    by their 9-byte heads (opcode uint8, body length uint64; https://mcap.dev/spec#records)."""
+    from flyby_msgs_py.bag import MCAP_MAGIC
+
+    spans, pos = [], len(MCAP_MAGIC)
+    while True:
+        op, length = struct.unpack_from('<BQ', data, pos)
+        spans.append((op, pos, pos + 9 + length))
+        if op == OP_FOOTER:
+            return spans
+        pos += 9 + length

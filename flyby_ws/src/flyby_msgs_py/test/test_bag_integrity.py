@@ -19,10 +19,10 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from flyby_msgs_py import bag as fb
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
+from flyby_testing import OP_CHUNK, OP_DATA_END, OP_MESSAGE_INDEX, record_spans
 
 S_NS = 1_000_000_000
 ODOM = c.absolute(c.SIM_CHASER_ODOM)
-OP_FOOTER, OP_CHUNK, OP_MESSAGE_INDEX, OP_DATA_END = 0x02, 0x06, 0x07, 0x0F
 N = 100
 
 
@@ -41,17 +41,6 @@ def make_bag(bag_dir):
 def mcap_of(bag_dir):
     (path,) = Path(bag_dir).glob('*.mcap')
     return path
-
-
-def record_spans(data):
-    """``(opcode, start, end)`` of the top-level records of a closed MCAP file up to its footer."""
-    spans, pos = [], len(fb.MCAP_MAGIC)
-    while True:
-        op, length = struct.unpack_from('<BQ', data, pos)
-        spans.append((op, pos, pos + 9 + length))
-        if op == OP_FOOTER:
-            return spans
-        pos += 9 + length
 
 
 def flip(path, start, n=64):

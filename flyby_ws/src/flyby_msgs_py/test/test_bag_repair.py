@@ -7,7 +7,6 @@ Every bag lives in ``tmp_path``; the readers' round trip is test_bag_read.py.
 import os
 import shutil
 import signal
-import struct
 import subprocess
 import sys
 import tempfile
@@ -29,6 +28,7 @@ from rosgraph_msgs.msg import Clock
 from flyby_msgs_py import bag as fb
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert
+from flyby_testing import OP_CHUNK, OP_MESSAGE_INDEX, record_spans
 
 S_NS = 1_000_000_000
 ODOM = c.absolute(c.SIM_CHASER_ODOM)
@@ -286,21 +286,6 @@ def test_cut_anywhere_repairs_to_a_prefix(flushed_bag, fraction):
         # Every chunk that reached the file before the cut is salvaged.
         assert n >= max([m for size, m in marks if size <= offset], default=0)
         assert salvaged_raws(cut) == [bytes(r) for r in raws[:n]]
-
-
-OP_FOOTER, OP_CHUNK, OP_MESSAGE_INDEX = 0x02, 0x06, 0x07
-
-
-def record_spans(data):
-    """``(opcode, start, end)`` of the top-level records of a closed MCAP file up to its footer, walked
-    by their 9-byte heads (opcode uint8, body length uint64; https://mcap.dev/spec#records)."""
-    spans, pos = [], len(fb.MCAP_MAGIC)
-    while True:
-        op, length = struct.unpack_from('<BQ', data, pos)
-        spans.append((op, pos, pos + 9 + length))
-        if op == OP_FOOTER:
-            return spans
-        pos += 9 + length
 
 
 def test_salvage_cut_inside_last_chunk_and_record_heads(tmp_path, flushed_bag):

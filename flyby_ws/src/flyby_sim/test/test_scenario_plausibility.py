@@ -68,12 +68,7 @@ def test_refuses_a_direction_whose_norm_overflows(tmp_path):
 
 
 def _six_dof(tmp_path, mutate):
-    data = load_yaml(REPO / 'scenarios' / 'paper_flyby_6dof.yaml')
-    mutate(data)
-    p = write(tmp_path, data)
-    with pytest.raises(ScenarioError) as err:
-        load_scenario(p)
-    return p, str(err.value)
+    return error_of(tmp_path, mutate, base='paper_flyby_6dof')
 
 
 def test_refuses_a_thruster_direction_whose_norm_underflows(tmp_path):
@@ -257,12 +252,7 @@ def test_refuses_a_seed_beyond_32_bits(tmp_path, seed):
 # Two chasers: the top-level grasp point is validated, a chaser's own is reported under its key
 
 def _fleet_error(tmp_path, mutate):
-    data = load_yaml(REPO / 'scenarios' / 'jacobsen_two_robots.yaml')
-    mutate(data)
-    p = write(tmp_path, data)
-    with pytest.raises(ScenarioError) as err:
-        load_scenario(p)
-    return p, str(err.value)
+    return error_of(tmp_path, mutate, base='jacobsen_two_robots')
 
 
 def test_refuses_a_nan_in_a_chasers_own_grasp_point_under_its_key(tmp_path):
