@@ -32,10 +32,7 @@ class LiveViewNode(Node):
         self.declare_parameter('static_transforms', [''])
         namespaces = list(self.get_parameter('namespaces').value)
         typestore = jazzy_typestore()
-        topics = {}
-        for topic, type_name in c.TOPIC_TYPES.items():
-            for ns in (namespaces if topic not in c.GLOBAL_TOPICS else ['']):
-                topics[c.absolute(topic, ns)] = (topic, type_name)
+        topics = c.topics_by_name(namespaces)
         types = {name: type_name for name, (_, type_name) in topics.items()}
         types.update({frames.TF_TOPIC: frames.TF_TYPE, frames.TF_STATIC_TOPIC: frames.TF_TYPE})
         self.channels = {}

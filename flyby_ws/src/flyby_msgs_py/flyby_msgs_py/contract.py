@@ -138,6 +138,14 @@ def absolute(topic, namespace=''):
     return f'{ns}/{topic}' if topic not in GLOBAL_TOPICS else f'/{topic}'
 
 
+def topics_by_name(namespaces):
+    """Every contract topic by its fully qualified name in a graph of these chaser namespaces (``['']`` for one
+    chaser): name -> (contract topic, type name); a global topic once, at its root name. What the recorder records
+    and the live view forwards."""
+    return {absolute(topic, ns): (topic, type_name) for topic, type_name in TOPIC_TYPES.items()
+            for ns in (namespaces if topic not in GLOBAL_TOPICS else [''])}
+
+
 def message_class(type_name):
     """The rclpy message class of a type name like ``nav_msgs/msg/Odometry``."""
     package, kind, name = type_name.split('/')

@@ -36,10 +36,7 @@ class RecorderNode(Node):
             raise ValueError('parameter bag_dir: required (directory of the bag to write)')
         namespaces = list(self.get_parameter('namespaces').value)
 
-        topics = {}
-        for topic, type_name in c.TOPIC_TYPES.items():
-            for ns in (namespaces if topic not in c.GLOBAL_TOPICS else ['']):
-                topics[c.absolute(topic, ns)] = (topic, type_name)
+        topics = c.topics_by_name(namespaces)
         static = [frames.parse_static(line) for line in self.get_parameter('static_transforms').value if line]
         self.truth = frames.truth_topics(namespaces)
         flush_ns = int(self.get_parameter('flush_period_s').value * 1e9)
