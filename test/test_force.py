@@ -1,4 +1,4 @@
-"""--out and --force (issue 37, DESIGN §11): a run's directory is replaced only when it holds a run of ours (its
+"""--out and --force (DESIGN §11): a run's directory is replaced only when it holds a run of ours (its
 run.json, written first), never the working directory, a parent of it, / or the home directory; nothing else is
 ever deleted. Through the scripts as a user runs them, refusals before any flight and a short headless run."""
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The acceptance of issue 37's input hardening: every leaf of every shipped scenario and campaign file mutated as a
-new user would, each mutant loaded and classified; a sample through the real command lines.
+"""The acceptance of the input hardening (docs/hardening.md): every leaf of every shipped scenario and campaign file
+mutated as a new user would, each mutant loaded and classified; a sample through the real command lines.
 
     nice -n 10 .venv/bin/python scripts/bench/input_mutations.py [--sample N] [--leaves N] [--jobs J]
                                                                  [--timeout S] [--json FILE] [--only TEXT]

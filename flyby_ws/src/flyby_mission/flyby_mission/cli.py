@@ -1,4 +1,4 @@
-"""What the command lines share (scripts/, issue 37): a parser whose misuse is one line ``error: ...`` and exit code 2,
+"""What the command lines share (scripts/): a parser whose misuse is one line ``error: ...`` and exit code 2,
 argparse types with ranges, the reachability of a Dask scheduler, the rule of ``--out`` / ``--force`` and the one-line
 report of an expected error (its traceback only with ``--debug``).
 

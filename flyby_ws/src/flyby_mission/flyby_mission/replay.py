@@ -1,4 +1,4 @@
-"""A run directory that replays its run (DESIGN §11, issue 38): its ``scenario.yaml`` is the scenario flown, the
+"""A run directory that replays its run (DESIGN §11): its ``scenario.yaml`` is the scenario flown, the
 input's text with the effective seed (``--seed`` overrides the file's), and its ``run.json`` holds under ``replay``
 the command that flies it again from there (scripts/run_mission.py's or scripts/closed_loop.py's).
 

@@ -1,5 +1,5 @@
 """Campaign files that would crash, hang or be misread are refused at load, in one line naming the file and the
-key (issue 37): strings and booleans where numbers are due, parameters of different lengths, an excluded cone
+key: strings and booleans where numbers are due, parameters of different lengths, an excluded cone
 that leaves no direction, unknown kinds, alias chains, and a run whose draw is not a valid scenario."""
 
 import time

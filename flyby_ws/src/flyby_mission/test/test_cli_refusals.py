@@ -1,4 +1,4 @@
-"""Command-line misuse (issue 37): every option out of its range refused in one line ``error: ...`` naming it, exit
+"""Command-line misuse: every option out of its range refused in one line ``error: ...`` naming it, exit
 code 2, before anything flies; nothing hangs (a worker's error crosses the process pool and ends the command in one
 line); no traceback for an expected error. Through the scripts as a user runs them."""
 

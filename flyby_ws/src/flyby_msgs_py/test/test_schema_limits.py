@@ -1,5 +1,5 @@
 """The engine's limits on hostile input: file size, alias expansion, nesting, the length of a value shown in a
-message, and no coercion of strings to booleans or numbers (issue 37)."""
+message, and no coercion of strings to booleans or numbers."""
 
 import os
 import time

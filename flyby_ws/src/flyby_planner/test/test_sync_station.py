@@ -197,7 +197,7 @@ def test_a_port_off_the_middle_of_a_face_docks_along_the_faces_normal():
     geometry = sync_station_geometry(SyncParams.from_scenario(sc))
     assert geometry.u_body == pytest.approx(x) and geometry.x_final_body == pytest.approx(port + x)
     assert geometry.x_final_body == pytest.approx(capture_target_body('sync', port, 1.0, bus))  # DESIGN §10's point
-    d['target']['grasp_point_body_m'] = [0.5, 0.0, 0.0]  # inside the bus: refused at load (issue 37)
+    d['target']['grasp_point_body_m'] = [0.5, 0.0, 0.0]  # inside the bus: refused at load
     with pytest.raises(ScenarioError, match='target.grasp_point_body_m: must lie on the surface'):
         scenario_from_dict(d, name='seweryn, a port inside the bus')
 

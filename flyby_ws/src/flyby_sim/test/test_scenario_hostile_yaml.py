@@ -1,4 +1,4 @@
-"""A scenario file built to exhaust memory or time is refused fast, in one line naming the file (issue 37)."""
+"""A scenario file built to exhaust memory or time is refused fast, in one line naming the file."""
 
 import time
 from pathlib import Path

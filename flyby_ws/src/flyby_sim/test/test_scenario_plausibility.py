@@ -1,4 +1,4 @@
-"""Scenario values the types allow but physics does not (issue 37): each refused at load in one line naming the file
+"""Scenario values the types allow but physics does not: each refused at load in one line naming the file
 and the key, never a traceback later (flyby_sim.scenario.plausibility and the direction checks)."""
 
 import copy
