@@ -327,11 +327,16 @@ class EstimatorCore:
             if refined is not None:  # before the estimate: guidance waits for it at this stamp
                 com, sigma, coast_s = refined
                 coast = f' ({coast_s:.0f} s of coast)' if coast_s else ''
+                nav_sigma = np.sqrt(np.diag(covariance)) if navigated is not None else None
+                payload = event_payloads.TransportComEstimate(
+                    com, sigma, coast_s, position_sigma_m=None if nav_sigma is None else float(np.max(nav_sigma[:3])),
+                    velocity_sigma_mps=None if nav_sigma is None else float(np.max(nav_sigma[3:6])))
+                nav = '' if nav_sigma is None else (f'; navigation 1-sigma {payload.position_sigma_m:.3g} m, '
+                                                    f'{payload.velocity_sigma_mps:.3g} m/s')
                 out.append(self._event(t, 'OK', events.TRANSPORT_COM_ESTIMATE,
                                        f'combined CoM {np.round(com, 4).tolist()} m from the chaser\'s, +- '
-                                       f'{np.round(sigma * 1e3, 2).tolist()} mm{coast}',
-                                       event_payloads.encode(event_payloads.TransportComEstimate(com, sigma,
-                                                                                                 coast_s))))
+                                       f'{np.round(sigma * 1e3, 2).tolist()} mm{coast}{nav}',
+                                       event_payloads.encode(payload)))
         out.append(ChaserEstimate(a.t, r_hill, v_hill, covariance, a.q_hill_from_body, a.omega_body,
                                   a.attitude_covariance_hill, a.rate_covariance))
         if specific_force_body is None:

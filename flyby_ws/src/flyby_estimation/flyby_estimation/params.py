@@ -129,19 +129,24 @@ class MassEstimationParams:
     attachment: AttachmentParams = params.sub(AttachmentParams, when=_starts_attached)
 
 
+# The combined CoM's navigation propagates the plant's own relative dynamics (two-body gravity, no drag): its white
+# acceleration only covers the RK4 step and the pointing of the body's small position offsets [m^2/s^3].
+TRANSPORT_NAV_ACCEL_PSD_M2_S3 = 1e-16
+
+
 @params.record
 class TransportNavFilterParams:
     """The combined CoM's navigation filter's scenario keys (``relative_nav.RelativeNavConfig``: no maneuver model,
-    the transport's white acceleration)."""
+    the plant's relative dynamics and TRANSPORT_NAV_ACCEL_PSD_M2_S3)."""
 
     mean_motion_rad_s: float = params.key('mean_motion_rad_s')
     radius_m: float = params.key('orbit_radius_m')
     position_sigma_m: float = params.key('sensors.relative_position.noise_sigma_m')
-    accel_psd_m2_s3: float = params.key('post_capture.transport.nav_accel_psd_m2_s3')
+    dynamics: str = params.key('simulation.dynamics')
 
     def config(self, **overrides):
         """The filter's RelativeNavConfig (module doc)."""
-        return _config(RelativeNavConfig, self, overrides)
+        return _config(RelativeNavConfig, self, {'accel_psd_m2_s3': TRANSPORT_NAV_ACCEL_PSD_M2_S3, **overrides})
 
 
 @params.record

@@ -37,8 +37,11 @@ Every figure is recomputed here by a different route than flyby_mission.summary 
   mass and CoM, and the principal moments and axes of its inertia by eigendecomposition; their errors against the
   truth at that message's stamp; a run that starts attached has only the estimates.
 * a transport (post_capture.transport, docs/transport.md): at guidance's transport_complete, the combined CoM's
-  distance from the goal and linear momentum relative to hill, and the angular momentum about it, by the same sum
-  of both bodies (the summary: grasp.Body pairs and grasp.momentum), and whether the three conditions hold.
+  distance from the goal and linear momentum relative to hill, and the body's own angular momentum about it (wheels
+  excluded) by the same sum of both bodies (the summary: grasp.Body pairs and grasp.momentum); the wheels' momentum
+  and the largest share of a wheel's capacity, and whether the three conditions hold with the wheels within their
+  share; the settle time from the arrival transport_complete states (the summary: the plan's transport_planned)
+  and the bound it states (the last transport_planned's without it); the counts of corrections and terminal firings.
 
 A run of several chasers (a ``chasers:`` scenario, docs/two_robots.md): every figure above per chaser from its
 own topics (``/<name>/sim/chaser/odom``, ``/<name>/sim/chaser/thrust``, ``/<name>/mission/events`` ..., the target's
@@ -75,7 +78,9 @@ POST_CAPTURE_TOLERANCES = {
 # a transport (post_capture.transport) -> tolerance
 TRANSPORT_TOLERANCES = {
     'transport_final_position_error_m': 1e-6, 'transport_orbital_momentum_error_n_m_s': 1e-6,
-    'transport_final_angular_momentum_kg_m2_s': 1e-6, 'transport_conditions_met': 0,
+    'transport_final_angular_momentum_kg_m2_s': 1e-6, 'transport_wheel_momentum_n_m_s': 1e-6,
+    'transport_wheel_momentum_share': 1e-6, 'transport_conditions_met': 0, 'transport_settle_time_s': 1e-3,
+    'transport_settle_bound_s': 1e-6, 'transport_replans': 0, 'transport_terminal_firings': 0,
 }
 # the figures of several chasers together -> tolerance
 FLEET_TOLERANCES = {'min_separation_m': 1e-3, 't_min_separation_s': 1e-3, 'min_clearance_m': 1e-3}
@@ -211,8 +216,9 @@ def _grasp_peaks(scenario, chaser, target, mission_events, common, i_c, i_t, t_g
 
 
 def _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c, i_t, k):
-    """(|angular momentum| about the common CoM [kg m^2/s]: both bodies' spin, their orbit about the common CoM and
-    the wheels'; the total mass [kg], the common CoM [m] and its velocity relative to hill [m/s]) at common[k]."""
+    """(the angular momentum about the common CoM [kg m^2/s], hill axes: both bodies' spin and their orbit about the
+    common CoM, the wheels' left out; the wheels' momentum, hill axes [N m s], and each wheel's (N,) [N m s]; the
+    total mass [kg], the common CoM [m] and its velocity relative to hill [m/s]) at common[k]."""
     (r_c, v_c, rot_c, w_c), (r_t, v_t, rot_t, w_t) = _inertial(chaser, target, scenario, i_c[k], i_t[k])
     m_c, m_t = scenario.chaser.mass_kg - fuel_at(common[k]), scenario.target.mass_kg
     r_cm, v_cm = (m_c * r_c + m_t * r_t) / (m_c + m_t), (m_c * v_c + m_t * v_t) / (m_c + m_t)
@@ -221,34 +227,44 @@ def _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c,
     w = scenario.chaser.wheels
     axes = np.asarray(w.axes, dtype=float) / np.linalg.norm(w.axes, axis=1)[:, None]
     speed = wheels.velocity[int(np.argmin(np.abs(wheels.t - common[k])))]
-    h_wheels_body = (w.spin_inertia_kg_m2 * (speed + axes @ chaser.angular[i_c[k]])) @ axes
+    h_each = w.spin_inertia_kg_m2 * (speed + axes @ chaser.angular[i_c[k]])
     momentum = sum(rot.apply(inertia @ rot.inv().apply(rate)) + mass * np.cross(r - r_cm, v - v_cm)
                    for rot, inertia, rate, mass, r, v in ((rot_c, scenario.chaser_inertia, w_c, m_c, r_c, v_c),
                                                           (rot_t, scenario.target_inertia, w_t, m_t, r_t, v_t)))
     omega_hill = np.array([0.0, -scenario.mean_motion_rad_s, 0.0])
-    return (float(np.linalg.norm(momentum + rot_c.apply(h_wheels_body))), m_c + m_t, r_cm,
-            v_cm - np.cross(omega_hill, r_cm))
+    return momentum, rot_c.apply(h_each @ axes), h_each, m_c + m_t, r_cm, v_cm - np.cross(omega_hill, r_cm)
 
 
 def transport(bag_dir, scenario, chaser, target, mission_events, fuel_at, namespace=''):
     """The transport figures of TRANSPORT_TOLERANCES at guidance's transport_complete (the bag's end without it), by
-    the same second route as the damping's momentum."""
+    the same second route as the damping's momentum (module doc)."""
     out = dict.fromkeys(TRANSPORT_TOLERANCES)
     if phase_entered(mission_events, c.PHASE_TRANSPORT) is None:
         return out
     common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
-    done = [e['t'] for e in mission_events if e['name'] == events.TRANSPORT_COMPLETE]
-    t_end = done[-1] if done else common[-1]
+    done = [e for e in mission_events if e['name'] == events.TRANSPORT_COMPLETE]
+    t_end = done[-1]['t'] if done else common[-1]
     k = max(int(np.searchsorted(common, t_end + 1e-9)) - 1, 0)
-    h, mass, r_cm, v_cm = _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c, i_t, k)
+    momentum, h_wheels, h_each, mass, r_cm, v_cm = _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace,
+                                                            common, i_c, i_t, k)
     tr = scenario.post_capture.transport
-    miss = float(np.linalg.norm(r_cm - np.asarray(tr.goal_hill_m)))
-    momentum = mass * float(np.linalg.norm(v_cm))
-    return {'transport_final_position_error_m': miss, 'transport_orbital_momentum_error_n_m_s': momentum,
-            'transport_final_angular_momentum_kg_m2_s': h,
-            'transport_conditions_met': bool(done and h < tr.max_angular_momentum_kg_m2_s
+    h, miss = float(np.linalg.norm(momentum)), float(np.linalg.norm(r_cm - np.asarray(tr.goal_hill_m)))
+    linear = mass * float(np.linalg.norm(v_cm))
+    share = float(np.max(np.abs(h_each) / scenario.chaser.wheels.max_momentum_n_m_s))
+    planned = [e['values'] for e in mission_events if e['name'] == events.TRANSPORT_PLANNED]
+    stated = done[-1]['values'] if done else planned[-1] if planned else {}  # the arrival and settle bound
+    out.update(transport_final_position_error_m=miss, transport_orbital_momentum_error_n_m_s=linear,
+               transport_final_angular_momentum_kg_m2_s=h, transport_wheel_momentum_n_m_s=float(np.linalg.norm(
+                   h_wheels)), transport_wheel_momentum_share=share,
+               transport_conditions_met=bool(done and h < tr.max_angular_momentum_kg_m2_s
                                              and miss < tr.max_position_error_m
-                                             and momentum < tr.max_momentum_error_n_s)}
+                                             and linear < tr.max_momentum_error_n_s
+                                             and share <= tr.wheel_momentum_share),
+               transport_settle_time_s=done[-1]['t'] - float(stated['t_arrival_s']) if done else None,
+               transport_settle_bound_s=float(stated['settle_bound_s']) if 'settle_bound_s' in stated else None,
+               transport_replans=sum(1 for e in mission_events if e['name'] == events.TRANSPORT_CORRECTION),
+               transport_terminal_firings=sum(1 for e in mission_events if e['name'] == events.TRANSPORT_TERMINAL))
+    return out
 
 
 def post_capture(bag_dir, scenario, chaser, target, mission_events, fuel_at, namespace=''):
@@ -264,8 +280,8 @@ def post_capture(bag_dir, scenario, chaser, target, mission_events, fuel_at, nam
     if t_damping is not None:
         t_damped = phase_entered(mission_events, c.PHASE_MASS_ESTIMATION) or common[-1]
         k = int(np.searchsorted(common, t_damped + 1e-9)) - 1
-        out['final_angular_momentum_kg_m2_s'] = _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace,
-                                                         common, i_c, i_t, k)[0]
+        momentum, h_wheels = _pair_at(bag_dir, scenario, chaser, target, fuel_at, namespace, common, i_c, i_t, k)[:2]
+        out['final_angular_momentum_kg_m2_s'] = float(np.linalg.norm(momentum + h_wheels))
     elif t_grasp is not None:
         return out
     inertia_topic = c.absolute(c.EST_TARGET_INERTIA, namespace)

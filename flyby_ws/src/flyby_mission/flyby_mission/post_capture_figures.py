@@ -25,21 +25,40 @@ POST_CAPTURE_KEYS = ('final_angular_momentum_kg_m2_s', 'peak_grasp_force_n', 'pe
                      'target_principal_moments_error_pct', 'target_principal_axes_error_deg')
 # With a transport (post_capture.transport, DESIGN §10): the keys transport_figures adds.
 TRANSPORT_KEYS = ('transport_goal_hill_m', 'transport_final_position_error_m', 'transport_orbital_momentum_error_n_m_s',
-                  'transport_final_angular_momentum_kg_m2_s', 'transport_conditions_met', 'transport_fuel_kg',
-                  'transport_impulses', 'transport_time_s', 'transport_replans')
+                  'transport_final_angular_momentum_kg_m2_s', 'transport_wheel_momentum_n_m_s',
+                  'transport_wheel_momentum_share', 'transport_conditions_met', 'transport_fuel_kg',
+                  'transport_impulses', 'transport_time_s', 'transport_settle_time_s', 'transport_settle_bound_s',
+                  'transport_replans', 'transport_terminal_firings')
+
+
+def wheel_momenta(scenario, wheels_speed_rad_s, omega_body_rad_s):
+    """(axes (N, 3), h (N,) [N m s]): the wheels' unit spin axes in chaser_body and each one's axial angular momentum
+    from its speed relative to the body, h_i = J (speed_i + a_i . omega) (flyby_sim.dynamics.rigid_body's h)."""
+    w = scenario.chaser.wheels
+    axes = np.asarray(w.axes, dtype=float)
+    axes = axes / np.linalg.norm(axes, axis=1)[:, None]
+    return axes, w.spin_inertia_kg_m2 * (np.asarray(wheels_speed_rad_s, dtype=float) + axes @ omega_body_rad_s)
+
+
+def wheel_momentum_share(scenario, h_n_m_s):
+    """The largest share of a wheel's capacity its momentum takes, max_i |h_i| / max_momentum_n_m_s_i."""
+    capacity = np.broadcast_to(np.asarray(scenario.chaser.wheels.max_momentum_n_m_s, dtype=float), np.shape(h_n_m_s))
+    return float(np.max(np.abs(h_n_m_s) / capacity))
+
+
+def wheels_at(wheels, t):
+    """The index of the wheels' truth sample at or after t (the last one after the end)."""
+    return np.searchsorted(wheels.t, t).clip(0, len(wheels.t) - 1)
 
 
 def truth_bodies(i_c, i_t, chaser, target, wheels_speed, scenario, chaser_mass_kg):
     """(chaser, target) as grasp.Body from the truth samples i_c, i_t (the same stamp), in the inertial frame whose axes
     are hill's then: velocities relative to hill plus Omega^H x r (Omega^H = [0, -n, 0], seed 000 eq 11), the wheels'
     momentum in chaser_body axes from their speeds (h_i = J (speed_i + a_i . omega))."""
-    n = scenario.mean_motion_rad_s
-    omega_hill = np.array([0.0, -n, 0.0])
-    w = scenario.chaser.wheels
-    axes = np.asarray(w.axes, dtype=float)
-    axes = axes / np.linalg.norm(axes, axis=1)[:, None]
+    omega_hill = np.array([0.0, -scenario.mean_motion_rad_s, 0.0])
     omega_c = chaser.angular[i_c]
-    h_wheels = axes.T @ (w.spin_inertia_kg_m2 * (np.asarray(wheels_speed) + axes @ omega_c))
+    axes, h_each = wheel_momenta(scenario, wheels_speed, omega_c)
+    h_wheels = axes.T @ h_each
     r_c, r_t = chaser.position[i_c], target.position[i_t]
     q_t = target.orientation_xyzw[i_t]
     v_t = quat_rotate(q_t, target.linear[i_t])  # the twist in target_body axes (nav_msgs' rule)
@@ -49,12 +68,26 @@ def truth_bodies(i_c, i_t, chaser, target, wheels_speed, scenario, chaser_mass_k
                  target.angular[i_t]))
 
 
-def angular_momentum_about_com(bodies):
-    """|angular momentum| [kg m^2/s] of free bodies about their common CoM (grasp.momentum, wheels included)."""
+def momentum_about_com(bodies):
+    """The angular momentum (3,) [kg m^2/s] of free bodies about their common CoM, inertial axes (grasp.momentum about
+    the origin, moved), their wheels' included."""
     p, h_origin = momentum(bodies)
     mass = sum(b.mass_kg for b in bodies)
     r_cm = sum(b.mass_kg * b.r_m for b in bodies) / mass
-    return float(np.linalg.norm(h_origin - np.cross(r_cm, p)))
+    return h_origin - np.cross(r_cm, p)
+
+
+def angular_momentum_about_com(bodies):
+    """|angular momentum| [kg m^2/s] of free bodies about their common CoM (momentum_about_com, wheels included)."""
+    return float(np.linalg.norm(momentum_about_com(bodies)))
+
+
+def body_angular_momentum(bodies):
+    """|angular momentum| [kg m^2/s] of the bodies' own motion about their common CoM, the wheels' left out: of the
+    held pair, which turns as one rigid body, the combined body's I omega about its CoM (seed 004 §3.2's condition 1
+    on the body; the wheels' momentum is what they hold for it)."""
+    return float(np.linalg.norm(momentum_about_com([b._replace(h_wheels_body_n_m_s=(0.0, 0.0, 0.0))
+                                                    for b in bodies])))
 
 
 def post_capture_truth(chaser, target, wheels, thrust, scenario, t_lock=None):
@@ -64,7 +97,7 @@ def post_capture_truth(chaser, target, wheels, thrust, scenario, t_lock=None):
     plant's combined body keeps the CoM and inertia of the lock, its propellant spent at the CoM
     (``chaser_body.SixDofChaser``'s com_body_m), so the CoM of the pair is the plant's only with the lock's masses)."""
     common, i_c, i_t = np.intersect1d(chaser.t, target.t, return_indices=True)
-    i_w = np.searchsorted(wheels.t, common).clip(0, len(wheels.t) - 1)
+    i_w = wheels_at(wheels, common)
     fuel = np.concatenate(([0.0], np.cumsum(fuel_steps(thrust, scenario)))) if thrust is not None and len(
         thrust.t) > 1 else np.zeros(1)
     t_fuel = thrust.t if thrust is not None and len(thrust.t) > 1 else np.zeros(1)
@@ -173,22 +206,24 @@ def post_capture_figures(chaser, target, wheels, thrust, events, scenario):
 def transport_state(pair, goal_hill_m, mean_motion_rad_s):
     """Seed 004 §3.2's rendezvous quantities of the combined body, the (chaser, target) grasp.Body pair: the CoM's
     distance from the goal [m], its speed relative to the goal's circular motion (the goal fixed in hill) [m/s], its
-    linear momentum (m + M) times that speed [N s], the angular momentum about the CoM, wheels included [kg m^2/s]."""
+    linear momentum (m + M) times that speed [N s], the body's own angular momentum about the CoM, wheels excluded
+    (body_angular_momentum) [kg m^2/s]."""
     mass = sum(b.mass_kg for b in pair)
     r_cm = sum(b.mass_kg * b.r_m for b in pair) / mass
     v_cm = sum(b.mass_kg * b.v_mps for b in pair) / mass - np.cross((0.0, -mean_motion_rad_s, 0.0), r_cm)
     speed = float(np.linalg.norm(v_cm))
     return (float(np.linalg.norm(r_cm - np.asarray(goal_hill_m))), speed, float(mass) * speed,
-            angular_momentum_about_com(pair))
+            body_angular_momentum(pair))
 
 
 def transport_figures(chaser, target, wheels, thrust, events, scenario):
-    """TRANSPORT (seed 004 §3.2), from the truth at guidance's ``transport_complete`` (the run's end
-    without it): the combined CoM's distance from the goal, its linear momentum relative to the goal's circular
-    motion (the goal fixed in hill: (m + M) |v_hill| of the CoM) [N s, DESIGN §10's ..._n_m_s key, docs/transport.md],
-    the angular momentum about it (wheels included), whether the three rendezvous conditions hold; the fuel, the
-    number of impulses (runs of consecutive firing steps) and the time from the start of TRANSPORT to the planned
-    arrival; None where TRANSPORT did not run."""
+    """TRANSPORT (seed 004 §3.2), from the truth at guidance's ``transport_complete`` (the run's end without it): the
+    combined CoM's distance from the goal, its linear momentum relative to the goal's circular motion (the goal fixed
+    in hill: (m + M) |v_hill| of the CoM) [N s, DESIGN §10's ..._n_m_s key, docs/transport.md], the body's own
+    angular momentum about it (wheels excluded), the wheels' momentum |A h| [N m s] and the largest share of a
+    wheel's capacity it takes; whether the three rendezvous conditions hold with the wheels within their share
+    (post_capture.transport.wheel_momentum_share); the fuel, the number of impulses (runs of consecutive firing
+    steps), the events' figures (transport_event_figures). None where TRANSPORT did not run."""
     tr = scenario.post_capture.transport
     out = dict.fromkeys(TRANSPORT_KEYS)
     out['transport_goal_hill_m'] = list(map(float, tr.goal_hill_m))
@@ -200,15 +235,17 @@ def transport_figures(chaser, target, wheels, thrust, events, scenario):
                                                   lock_time(events, scenario))
     t_end = float(done[-1]['t']) if done else float(common[-1])
     k = max(int(np.searchsorted(common, t_end + 1e-9)) - 1, 0)
-    miss, _, momentum, h = transport_state(bodies(k), tr.goal_hill_m, scenario.mean_motion_rad_s)
+    pair = bodies(k)
+    miss, _, momentum, h = transport_state(pair, tr.goal_hill_m, scenario.mean_motion_rad_s)
+    _, h_each = wheel_momenta(scenario, wheels.velocity[wheels_at(wheels, common[k])], chaser.angular[i_c[k]])
+    share = wheel_momentum_share(scenario, h_each)
     out.update(transport_final_position_error_m=miss, transport_orbital_momentum_error_n_m_s=momentum,
                transport_final_angular_momentum_kg_m2_s=h,
-               transport_conditions_met=bool(done and not missed_conditions(
+               transport_wheel_momentum_n_m_s=float(np.linalg.norm(pair[0].h_wheels_body_n_m_s)),
+               transport_wheel_momentum_share=share,
+               transport_conditions_met=bool(done and share <= tr.wheel_momentum_share and not missed_conditions(
                    {'position_error_m': miss, 'momentum_error_n_s': momentum, 'angular_momentum_kg_m2_s': h}, tr)),
-               transport_replans=sum(1 for e in events if e['name'] in (ev.TRANSPORT_CORRECTION, ev.TRANSPORT_TRIM)))
-    planned = [e for e in events if e['name'] == ev.TRANSPORT_PLANNED]
-    if planned:
-        out['transport_time_s'] = float(planned[0]['values']['t_arrival_s']) - t_start
+               **transport_event_figures(events, t_start, t_end if done else None))
     if thrust is not None and len(thrust.t) > 1:
         steps = fuel_steps(thrust, scenario)
         t_step = thrust.t[1:]
@@ -216,4 +253,22 @@ def transport_figures(chaser, target, wheels, thrust, events, scenario):
         out['transport_fuel_kg'] = float(np.sum(steps[window]))
         firing = steps[window] > 0.0
         out['transport_impulses'] = int(np.sum(firing[1:] & ~firing[:-1]) + (1 if len(firing) and firing[0] else 0))
+    return out
+
+
+def transport_event_figures(events, t_start, t_complete):
+    """From guidance's events: the time from TRANSPORT's start (t_start) to the first plan's arrival, the time from
+    the arrival of the plan flown (the last ``transport_planned``) to ``transport_complete`` at t_complete (None
+    without it) and the bound the plan stated for it, the mid-course corrections and the terminal firings."""
+    planned = [e for e in events if e['name'] == ev.TRANSPORT_PLANNED]
+    out = {'transport_replans': sum(1 for e in events if e['name'] == ev.TRANSPORT_CORRECTION),
+           'transport_terminal_firings': sum(1 for e in events if e['name'] == ev.TRANSPORT_TERMINAL)}
+    if not planned:
+        return out
+    out['transport_time_s'] = event_payloads.decode_values(ev.TRANSPORT_PLANNED, planned[0]['values']).t_arrival_s \
+        - t_start
+    plan = event_payloads.decode_values(ev.TRANSPORT_PLANNED, planned[-1]['values'])
+    out['transport_settle_bound_s'] = plan.settle_bound_s
+    if t_complete is not None:
+        out['transport_settle_time_s'] = t_complete - plan.t_arrival_s
     return out

@@ -318,8 +318,10 @@ def _post_capture_rows(s):
 
 def _transport_rows(s):
     """With a transport (seed 004 §3.2): the goal, whether the rendezvous conditions hold and the combined body's
-    figures at the arrival: its CoM's distance from the goal, its momentum relative to the goal's circular motion
-    (mass times the velocity error), its angular momentum (the rate); the time, fuel, impulses and re-plans."""
+    figures at transport_complete: its CoM's distance from the goal, its momentum relative to the goal's circular
+    motion (mass times the velocity error), its own angular momentum (wheels excluded), the wheels' momentum and the
+    largest share of a wheel's capacity, the time from the planned arrival and its bound; the time, fuel, impulses,
+    re-plans and terminal firings."""
     if s.get('transport_goal_hill_m') is None:
         return []
     goal = ', '.join(f'{x:g}' for x in s['transport_goal_hill_m'])
@@ -327,14 +329,21 @@ def _transport_rows(s):
     if s.get('transport_final_position_error_m') is None:
         return [*rows, ('transport', 'not flown (no TRANSPORT phase)')]
     met = s.get('transport_conditions_met')
+    share = s.get('transport_wheel_momentum_share')
+    bound = _text(s.get('transport_settle_bound_s'), 's')
     return [
         *rows,
         *_row('transport conditions', None if met is None else 'met' if met else 'missed'),
         *_row('final position error', _text(s['transport_final_position_error_m'], 'm')),
         *_row('final momentum error', _text(s.get('transport_orbital_momentum_error_n_m_s'), 'N s')),
-        *_row('final angular momentum', _text(s.get('transport_final_angular_momentum_kg_m2_s'), 'kg m^2/s')),
+        *_row('body angular momentum', _text(s.get('transport_final_angular_momentum_kg_m2_s'), 'kg m^2/s')),
+        *_row('wheel momentum', _text(s.get('transport_wheel_momentum_n_m_s'), 'N m s'),
+              None if share is None else f'(fullest wheel at {100.0 * share:.3g} % of capacity)', sep=' '),
+        *_row('settle time', _text(s.get('transport_settle_time_s'), 's'),
+              None if bound is None else f'(bound {bound})', sep=' '),
         *_row('transport time / fuel', _text(s.get('transport_time_s'), 's'), _text(s.get('transport_fuel_kg'), 'kg')),
-        *_row('impulses / re-plans', _text(s.get('transport_impulses')), _text(s.get('transport_replans'))),
+        *_row('impulses / re-plans / terminal firings', _text(s.get('transport_impulses')),
+              _text(s.get('transport_replans')), _text(s.get('transport_terminal_firings'))),
     ]
 
 

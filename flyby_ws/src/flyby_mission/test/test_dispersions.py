@@ -148,6 +148,28 @@ def test_scale_multiplies_the_base_value():
 
 
 
+def test_a_choice_of_a_section_sets_its_keys_together_and_keeps_the_rest(tmp_path):
+    """A choice over the section chaser draws one mapping and sets its keys (dotted below the section) together;
+    the keys it leaves out keep the base's; a choice over a list (target.geometry) sets the whole list."""
+    pairs = [{'mass_kg': 80.0, 'manipulator.reach_m': 1.6}, {'mass_kg': 120.0, 'manipulator.reach_m': 1.8}]
+    cube = [{'name': 'cube', 'center_m': [0.0, 0.0, 0.0], 'size_m': [2.0, 2.0, 2.0]}]
+    path = _campaign(tmp_path, {'chaser': {'kind': 'choice', 'values': pairs},
+                                'target.geometry': {'kind': 'choice', 'values': [cube]},
+                                'target.grasp_point_body_m': {'kind': 'choice', 'values': [[1.0, 0.0, 0.0]]}},
+                     runs=20)
+    campaign = load_campaign(path)
+    base = load_scenario(BASE)
+    drawn = [campaign.draw(i) for i in range(20)]
+    assert {sc.chaser.mass_kg for sc, _ in drawn} == {80.0, 120.0}
+    for scenario, values in drawn:
+        assert values['chaser'] in pairs
+        assert (scenario.chaser.mass_kg, scenario.chaser.manipulator.reach_m) == \
+            (values['chaser']['mass_kg'], values['chaser']['manipulator.reach_m'])
+        assert scenario.chaser.envelope_radius_m == base.chaser.envelope_radius_m
+        assert scenario.chaser.manipulator.position_tolerance_m == base.chaser.manipulator.position_tolerance_m
+        assert scenario.boxes.names == ('cube',)
+
+
 def test_a_matrix_is_drawn_per_element_and_scaled_whole(tmp_path):
     """An inertia (3x3) dispersed: uniform draws each element between its bounds (a zero-width bound keeps it), scale
     multiplies the whole matrix; the run's scenario holds the drawn matrix."""
@@ -212,6 +234,14 @@ def test_an_alternative_of_a_one_of_group_replaces_the_others(tmp_path):
     ({'chaser.initial_position_hill_m': {'kind': 'uniform', 'low': [1, 2], 'high': [3, 4]}},
      'dispersions.chaser.initial_position_hill_m', 'gives 2 components, the scenario value has 3'),
     ({'seed': {'kind': 'choice', 'values': [1]}}, 'dispersions.seed', 'set by the campaign'),
+    ({'chaser.wheels': {'kind': 'scale', 'factor': 2}}, 'dispersions.chaser.wheels',
+     'names a section or a list, not a value'),
+    ({'chaser': {'kind': 'choice', 'values': [{'mass_kg': 80.0}, 90.0]}}, 'dispersions.chaser.values',
+     'a choice of the section chaser takes mappings of its keys, got item 1: 90.0'),
+    ({'chaser': {'kind': 'choice', 'values': [{'mass_kilograms': 80.0}]}}, 'dispersions.chaser.mass_kilograms',
+     'not a key of the scenario'),
+    ({'chaser': {'kind': 'choice', 'values': [{'mass_kg': -80.0}]}}, 'dispersions.chaser.mass_kg',
+     'run 0 draws an invalid scenario: must be > 0'),
     # Valid dispersion, invalid scenario: the ScenarioError of the draw, with the campaign file named.
     ({'chaser.mass_kg': {'kind': 'normal', 'mean': -5, 'sigma': 1}}, 'dispersions.chaser.mass_kg',
      'run 0 draws an invalid scenario: must be > 0'),
@@ -275,3 +305,21 @@ def test_refusals_of_overrides_name_the_key(tmp_path, overrides, key, problem):
 def test_the_envelope_campaign_flies_without_the_lighting_condition():
     campaign = load_campaign(ROOT / 'campaigns' / 'flyby_envelope.yaml')
     assert campaign.runs == 1000 and campaign.base.planner.sun_direction_hill is None
+
+
+def test_the_transport_envelope_campaign_draws_sizes_and_goals_together():
+    """Every run of campaigns/transport_envelope.yaml is valid (checked at load); each draws a goal with its own
+    transfer time, a tug whose wheels grow with its mass and a CoM 0.2-3 m off within 20 deg of the tug's +x."""
+    campaign = load_campaign(ROOT / 'campaigns' / 'transport_envelope.yaml')
+    assert campaign.runs >= 200
+    pairs = {(v['goal_hill_m'][0], v['transfer_time_s'])
+             for v in next(d for d in campaign.dispersions if d.key == 'post_capture.transport').spec['values']}
+    for i in range(campaign.runs):
+        scenario, values = campaign.draw(i)
+        transport = scenario.post_capture.transport
+        assert (transport.goal_hill_m[0], transport.transfer_time_s) in pairs
+        chaser = scenario.chaser
+        assert 20.0 <= chaser.mass_kg <= 200.0 and 10.0 <= scenario.target.mass_kg <= 2000.0
+        assert chaser.wheels.max_momentum_n_m_s == pytest.approx(chaser.mass_kg / 40.0, rel=1e-2)
+        com = np.asarray(values['post_capture.attachment.target_com_chaser_body_m'])
+        assert 0.2 <= np.linalg.norm(com) <= 3.0 and com[0] >= np.cos(np.radians(20.0)) * np.linalg.norm(com)

@@ -65,16 +65,23 @@ def test_a_transport_prints_its_conditions_and_its_goal(attached):
     moved = dict(attached, phase_sequence=['MASS_ESTIMATION', 'TRANSPORT', 'COMPLETE'],
                  transport_goal_hill_m=[1000.0, 0.0, 0.0], transport_final_position_error_m=0.8812,
                  transport_orbital_momentum_error_n_m_s=0.00329, transport_final_angular_momentum_kg_m2_s=0.0042,
+                 transport_wheel_momentum_n_m_s=0.61, transport_wheel_momentum_share=0.1525,
                  transport_conditions_met=True, transport_fuel_kg=0.0697, transport_impulses=33,
-                 transport_time_s=1200.0, transport_replans=0)
+                 transport_time_s=1200.0, transport_settle_time_s=140.0, transport_settle_bound_s=300.0,
+                 transport_replans=1, transport_terminal_firings=4)
     assert set(TRANSPORT_KEYS) <= set(moved)
     table = rows(format_summary(moved))
     assert table['transport goal'] == '[1000, 0, 0] m in hill'
     assert table['transport conditions'] == 'met'
     assert table['final position error'] == '0.8812 m'
     assert table['final momentum error'] == '0.00329 N s'
-    assert table['final angular momentum'] == '0.0042 kg m^2/s'
+    assert table['body angular momentum'] == '0.0042 kg m^2/s'
+    assert table['wheel momentum'] == '0.61 N m s (fullest wheel at 15.2 % of capacity)'
+    assert table['settle time'] == '140 s (bound 300 s)'
     assert table['transport time / fuel'] == '1200 s / 0.0697 kg'
+    assert table['impulses / re-plans / terminal firings'] == '33 / 1 / 4'
+    unbounded = rows(format_summary(dict(moved, transport_settle_bound_s=None)))
+    assert unbounded['settle time'] == '140 s'
     assert 'start' in table and 'grasp time' not in table
     missed = rows(format_summary(dict(moved, transport_conditions_met=False)))
     assert missed['transport conditions'] == 'missed'

@@ -193,11 +193,61 @@ class MassPropertiesEstimate(MassPropertiesEstimated):
 
 @payload(events.TRANSPORT_COM_ESTIMATE)
 class TransportComEstimate(_Payload):
-    """The combined body's CoM [m] from the chaser's (chaser_body) and its 1-sigma [m], after coast_s [s]."""
+    """The combined body's CoM [m] from the chaser's (chaser_body) and its 1-sigma [m], after coast_s [s]; the
+    navigation's 1-sigma of the CoM's position [m] and velocity [m/s] then, its largest axis."""
 
     com_body_m: Vector
     com_sigma_m: Vector
     coast_s: float
+    position_sigma_m: float | None = None
+    velocity_sigma_mps: float | None = None
+
+
+@payload(events.TRANSPORT_PLANNED)
+class TransportPlanned(_Payload):
+    """The transport's plan before flying: its arrival [s], number of burns and fuel [kg]; seed 004 §3.2's three
+    quantities it predicts at the arrival (position error [m], linear momentum relative to the goal [N s], angular
+    momentum [kg m^2/s]); the time after the arrival by which it states the conditions hold [s]."""
+
+    t_arrival_s: float
+    burns: int
+    fuel_kg: float
+    predicted_position_error_m: float
+    predicted_momentum_error_n_s: float
+    predicted_angular_momentum_kg_m2_s: float
+    settle_bound_s: float | None = None
+
+
+@payload(events.TRANSPORT_TERMINAL)
+class TransportTerminal(_Payload):
+    """A terminal firing after the last push: its impulse [N s], the horizon it solves over [s], and the linear
+    momentum relative to the goal [N s] and distance from the goal [m] it predicts at the horizon."""
+
+    impulse_n_s: float
+    horizon_s: float
+    predicted_momentum_n_s: float
+    predicted_position_m: float
+
+
+@payload(events.TRANSPORT_COMPLETE)
+class TransportComplete(_Payload):
+    """Guidance judged the transport (seed 004 §3.2) from the estimate: the CoM's distance from the goal [m], its
+    linear momentum relative to the goal's circular motion [N s], the combined body's own angular momentum about its
+    CoM, wheels excluded [kg m^2/s], the wheels' momentum [N m s] and the largest share of a wheel's capacity it
+    uses; the planned arrival [s] and goal (hill [m]), the time from the arrival to now [s] and the bound the plan
+    stated for it, how long the conditions held [s] and whether they are met."""
+
+    position_error_m: float
+    momentum_error_n_s: float
+    angular_momentum_kg_m2_s: float
+    wheel_momentum_n_m_s: float
+    wheel_momentum_share: float
+    t_arrival_s: float
+    goal_hill_m: Vector
+    settle_time_s: float
+    held_s: float
+    conditions_met: bool
+    settle_bound_s: float | None = None
 
 
 @payload(events.MESSAGE_REJECTED)
@@ -214,7 +264,8 @@ class MessageRejected(_Payload):
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
                                       AttitudeSynchronized, DockingStarted, GraspDamped, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
-                                      TransportComEstimate, MessageRejected)}
+                                      TransportComEstimate, TransportPlanned, TransportTerminal, TransportComplete,
+                                      MessageRejected)}
 
 
 @functools.cache

@@ -9,18 +9,14 @@ from flyby_msgs_py import events
 from flyby_planner.transport.model import attitude_at
 from flyby_planner.transport.thrusters import torque_wrench
 from flyby_sim.dynamics.orbital import q_eci_from_body
-from flyby_sim.dynamics.rotation import (
-    quat_conjugate,
-    quat_from_rotation_vector,
-    quat_multiply,
-    quat_rotate,
-    rotation_vector_from_quat,
-)
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_rotate, rotation_vector_from_quat
 
 DETUMBLED_S = 5.0  # the detumbling ends once the momentum bound held this long: a whole window of the rate's mean [s]
 DETUMBLE_HALVINGS = 8  # a couple beyond the thrusters is halved at most this often: no pure couple about every axis
 TRACK_BANDWIDTH_RAD_S = 0.2  # the wheels' attitude tracking: natural frequency [rad/s], well below the control rate
 TRACK_DAMPING = 0.7  # ... and damping ratio: no overshoot of the slews' coasts
+WHEEL_SPINUP_S = 10.0  # the wheels steer a body they spin up to the slews' rate within this long; a turn of the
+#                        terminal's is planned this much longer than its angle at its rate [s]
 
 
 class TransportAttitude:
@@ -37,18 +33,23 @@ class TransportAttitude:
 
     def _attitude_torque(self, state):
         """The torque [N m] (body axes) against the estimated attitude's error from the reference: the plan's model
-        advanced to the estimate's stamp (``transport.model.attitude_at``), or the trim's wheel slew; PD on the attitude
+        advanced to the estimate's stamp (``transport.model.attitude_at``), or after the last burn the attitude held
+        and its turns (``terminal``); PD on the attitude
         error (its rotation vector, body axes) and the rate error, scaled by the estimated inertia
         (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
-        t_ref, q_ref, w_ref = self.reference
-        if self.trim_slew is not None:
-            t0, q0, axis, angle, rate = self.trim_slew
-            turned = min(rate * (state.t - t0), angle)
-            q_ref = quat_multiply(quat_from_rotation_vector(turned * axis), q0)
-            w_ref = quat_rotate(quat_conjugate(q_ref), axis * rate) if turned < angle else np.zeros(3)
-        elif state.t > t_ref:
-            q_ref, w_ref = attitude_at(self.body, self.config.planner, q_ref, w_ref, t_ref, state.t, self.plan.burns)
-            self.reference = (state.t, q_ref, w_ref)
+        if self.hold is not None:  # after the last burn: the attitude held, or its turn
+            q_ref = self._held(state.t)
+            w_ref = np.zeros(3)
+            if self.turning is not None:
+                t0, _, axis, angle, rate = self.turning
+                if rate * (state.t - t0) < angle:
+                    w_ref = quat_rotate(quat_conjugate(q_ref), axis * rate)
+        else:
+            t_ref, q_ref, w_ref = self.reference
+            if state.t > t_ref:
+                q_ref, w_ref = attitude_at(self.body, self.config.planner, q_ref, w_ref, t_ref, state.t,
+                                           self.plan.burns)
+                self.reference = (state.t, q_ref, w_ref)
         q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
         error = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est))
         return self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
@@ -60,10 +61,12 @@ class TransportAttitude:
                           np.asarray(state.omega_body, dtype=float))
 
     def _detumble(self, t, omega, h_wheels):
-        """The damping law until the estimated angular momentum (its rate averaged) is below half the condition's."""
-        momentum = self.momentum
+        """The damping law until the body's own angular momentum (its rate averaged) is below half the condition's
+        and the wheels hold no more than their share."""
+        momentum = self.body_momentum
         bound = 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
-        if momentum < bound and t - self.t_start >= DETUMBLED_S:  # the mean over a whole window
+        if (momentum < bound and self._wheel_share(h_wheels) <= self.config.wheel_momentum_share
+                and t - self.t_start >= DETUMBLED_S):  # the mean over a whole window
             self.t_detumbled = t
             self.carried = np.zeros(3)
             return np.zeros(3), np.zeros(3), np.zeros(3), [(

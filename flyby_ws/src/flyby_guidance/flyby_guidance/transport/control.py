@@ -1,24 +1,24 @@
 """Guidance in TRANSPORT (seed 004 §2.3, §3.2): the combined body flown to a goal on the reference orbit with the
 tug's direction-limited thrusters, closed loop on the estimates (no ROS). ``TransportControl`` applies these rules,
-each command for the control period one period after its estimate (DESIGN §5, §10); docs/transport.md says how
-they were found.
+each command for the control period one period after its estimate (DESIGN §5, §10); docs/transport.md states them.
 
 1. Start at the final mass-property estimate (``mass_properties_estimated``): plan for the combined body of that
    estimate, with only the thrusters whose exhaust misses the estimated target CoM (``transport_body``).
-2. Detumble first (``attitude``): the capture's damping law in couples of least side force, until the estimated
+2. Detumble first (``attitude``): the capture's damping law in couples of least side force, until the body's own
    angular momentum (its rate averaged over DETUMBLED_S) is below half the first condition's
    (``transport_detumbled``), and hold until the navigation has settled for NAV_SETTLE_S.
-3. Plan to the goal, arriving ``transfer_time_s`` after the start (``transport_planned``; ``transport_refused``
-   ends the transport with the body held where it is).
+3. Plan to the goal, arriving ``transfer_time_s`` after the start, and state the time the conditions need after
+   the arrival (``terminal.settle_bound_s``); a plan that cannot meet them within the run is refused
+   (``transport_refused``, the body held where it is).
 4. Fly the plan closed loop (``push``): each slew solved again from the estimate before it starts; each push gives
-   the velocity the plan has at its end, each spin-down takes out the estimated angular momentum, less what the
-   command in flight gives; the wheels track the plan's attitude, or where they cannot steer the body the
-   thrusters' couples do; between the first push and the next slew a miss at the last push beyond
-   ``replan_position_m`` gets a one-impulse correction (``transport_correction``).
-5. Trim after the arrival (``trim``), every ``replan_interval_s`` while nothing moves: a dump of the angular
-   momentum, else a CW transfer back to the goal, else a pulse against the velocity error; where the combined CoM's
-   uncertainty matters, first the coast that sharpens it (``refine_com``).
-6. ``settle_s`` after the arrival, ``transport_complete`` with the estimated conditions (WARN where one is missed).
+   the velocity the plan has at its end, the last one short of rest by its expected error along the push axis;
+   each spin-down takes out the estimated angular momentum; between the first push and the next slew a miss at the
+   last push beyond a quarter of the second condition gets a one-impulse correction (``transport_correction``).
+5. After the last burn (``terminal``) the wheels hold the attitude and the terminal program, solved again at every
+   check from the estimate, fires the impulses that bring the body to rest at the goal with the wheels within
+   their share; the push axis turned first where no horizon is feasible.
+6. ``transport_complete`` once the conditions, judged from the estimate with its 3-sigma, held ``hold_s``; at the
+   run's end (``simulation.duration_s``) with the conditions as they are (WARN).
 """
 
 import collections
@@ -26,9 +26,10 @@ import dataclasses
 
 import numpy as np
 
-from flyby_guidance.transport.attitude import DETUMBLED_S, TransportAttitude
+from flyby_estimation.transport_navigation import COM_PERIOD_S
+from flyby_guidance.transport.attitude import DETUMBLED_S, WHEEL_SPINUP_S, TransportAttitude
 from flyby_guidance.transport.push import TransportPush
-from flyby_guidance.transport.trim import TRIM_SLEW_RATE_RAD_S, WHEEL_SPINUP_S, TransportTrim
+from flyby_guidance.transport.terminal import TransportTerminal, settle_bound_s
 from flyby_msgs_py import events, params
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_planner.transport.model import (
@@ -38,6 +39,7 @@ from flyby_planner.transport.model import (
     conditions_of,
     missed_conditions,
 )
+from flyby_planner.transport.terminal import rest_point
 from flyby_planner.transport.thrusters import push_axis, torque_wrench
 from flyby_sim.dynamics.actuators import plume_free_thrusters
 from flyby_sim.dynamics.attitude import body_point_state
@@ -81,73 +83,82 @@ def _transport_planner_config(scenario):
 
 @params.record
 class TransportGuidanceConfig:
-    """scenario post_capture.transport, and guidance's control period: the transport mode's record
-    (``flyby_msgs_py.params``)."""
+    """scenario post_capture.transport, the sensors the settle bound rests on, the run's end, and guidance's control
+    period: the transport mode's record (``flyby_msgs_py.params``)."""
 
     goal_hill_m: tuple = params.key('post_capture.transport.goal_hill_m', tuple)
     transfer_time_s: float = params.key('post_capture.transport.transfer_time_s')
     plume_cone_deg: float = params.key('post_capture.transport.plume_cone_deg')
     replan_interval_s: float = params.key('post_capture.transport.replan_interval_s')
-    replan_position_m: float = params.key('post_capture.transport.replan_position_m')
-    replan_momentum_n_s: float = params.key('post_capture.transport.replan_momentum_n_s')
-    settle_s: float = params.key('post_capture.transport.settle_s')
+    hold_s: float = params.key('post_capture.transport.hold_s')
+    wheel_momentum_share: float = params.key('post_capture.transport.wheel_momentum_share')
+    position_sigma_m: float = params.key('sensors.relative_position.noise_sigma_m')
+    position_rate_hz: float = params.key('sensors.relative_position.rate_hz')
+    accel_noise_sigma_mps2: float = params.key('sensors.chaser_imu.accel_noise_sigma_mps2')
+    star_tracker_sigma_deg: float = params.key('sensors.chaser_imu.star_tracker_sigma_deg')
+    duration_s: float = params.key('simulation.duration_s')
     planner: TransportConfig = params.derived(_transport_planner_config)
 
 
-class TransportControl(TransportAttitude, TransportPush, TransportTrim):
-    """Guidance's rules in TRANSPORT (module doc; their parts in ``attitude``, ``push`` and ``trim``): ``start`` at
-    the final mass-property estimate, then ``command`` at every chaser estimate stamped from it on; each returns
+class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
+    """Guidance's rules in TRANSPORT (module doc; their parts in ``attitude``, ``push`` and ``terminal``): ``start``
+    at the final mass-property estimate, then ``command`` at every chaser estimate stamped from it on; each returns
     (force_body_n, torque_body_n_m, wheel_torque_body_n_m, events) for the control period that starts one period after
     the estimate's stamp (torque about the chaser's CoM, DESIGN §10)."""
 
-    def __init__(self, config, n, gains, wheel_max_torque_n_m, wheel_max_momentum_n_m_s=None):
+    def __init__(self, config, n, gains, wheel_max_torque_n_m, wheel_max_momentum_n_m_s):
         """gains: the capture's DampingGains (the detumbling and, its wheel gain, the hold before the plan); the
-        wheels' momentum bounds the CoM's coast slew (none without it)."""
+        wheels' torque and momentum capacity (the least of the wheels') [N m, N m s]."""
         self.config = config
         self.n = n
         self.gains = gains
         self.wheel_max_torque_n_m = wheel_max_torque_n_m
-        self.wheel_max_momentum_n_m_s = wheel_max_momentum_n_m_s
+        self.wheel_capacity_n_m_s = wheel_max_momentum_n_m_s
         self.t_detumbled = None
         self.rates = collections.deque()  # (t, omega_body) over the last DETUMBLED_S
-        self.momentum = None  # the estimated angular momentum, the rate averaged over DETUMBLED_S [kg m^2/s]
+        self.body_momentum = None  # the body's own angular momentum |I omega|, the rate averaged [kg m^2/s]
         self.carried = np.zeros(3)  # a couple's angular impulse not yet fired [N m s]
         self.resolved = set()  # the start times of the slews solved again from the estimate
         self.goal = np.asarray(config.goal_hill_m, dtype=float)
+        self.rest = rest_point(self.goal, config.planner.radius_m)
+        self.deadline = config.duration_s - 2.0 * config.replan_interval_s  # the judgement at the latest [s]
         self.body = None
         self.t_start = None
         self.t_arrival = None
+        self.settle_bound = None  # the time after the arrival the conditions need, stated with the plan [s]
         self.plan = None
         self.plan_start = None  # the TransportState the plan was made from
         self.t_check = None
-        # The attitude the wheels track: (t, q_eci_from_body, omega_body) of the plan's model, and after the arrival
-        # the trim's wheel slew (t0, q0_eci, axis_eci, angle [rad], rate [rad/s]).
+        # The attitude the wheels track: (t, q_eci_from_body, omega_body) of the plan's model; after the last burn the
+        # attitude held (q_eci_from_body) and a turn of it (t0, q0_eci, axis_eci, angle [rad], rate [rad/s]).
         self.reference = None
-        self.trim_slew = None
-        self.trim_arrival = None  # a trim's transfer back to the goal arrives then [s]
-        self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the trim's pulses, on the grid
-        self.dumping = None  # the end of a dump in progress [s]
-        self.dumped = None  # the estimated angular momentum at the last dump's start [kg m^2/s]
+        self.hold = None
+        self.turning = None
+        self.t_terminal = None
+        self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the firings on the grid
+        self.t_fired = -np.inf  # the end of the last terminal firing [s]
+        self.t_held = None  # the conditions have held since [s]
         self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t
         self.done = False
         self.t_com = None  # the stamp of the last refined combined CoM taken (``refine_com``) [s] ...
-        self.com_sigma_m = None  # ... the 1-sigma per axis [m, chaser_body] of the one taken ...
-        self.com_pending = collections.deque()  # ... and (t, com_body_m, com_sigma_m) of those for later estimates
-        self.com_worth = None  # the CoM's uncertainty in momentum at the first trim where it matters [N s] (_coasting)
-        self.coast_slew = False  # the coast's wheel slew is planned (``_plan_coast_slew``)
+        self.com_pending = collections.deque()  # ... and (t, com_body_m, nav sigmas) of those for later estimates
+        self.nav_sigma = None  # (t, position [m], velocity [m/s], combined CoM [m]) 1-sigma of the last taken
 
-    def refine_com(self, t_event, com_body_m, com_sigma_m):
-        """The estimator's combined CoM [m], refined over the coasts, stamped t_event (``transport_com_estimate``):
-        the body's CoM, and its 1-sigma [m], for the estimates from t_event on (the topics race: it may come before
-        the estimates stamped earlier)."""
+    def refine_com(self, t_event, com_body_m, com_sigma_m, position_sigma_m=None, velocity_sigma_mps=None):
+        """The estimator's combined CoM [m], refined over the coasts, and its navigation's 1-sigma, stamped t_event
+        (``transport_com_estimate``): the body's CoM for the estimates from t_event on (the topics race: it may come
+        before the estimates stamped earlier)."""
         self.t_com = t_event
-        self.com_pending.append((t_event, np.asarray(com_body_m, dtype=float), np.asarray(com_sigma_m, dtype=float)))
+        self.com_pending.append((t_event, np.asarray(com_body_m, dtype=float), float(np.max(com_sigma_m)),
+                                 position_sigma_m, velocity_sigma_mps))
 
     def _take_com(self, t):
-        """The refined combined CoM for the estimate stamped t (``refine_com``)."""
+        """The refined combined CoM and the navigation's sigmas for the estimate stamped t (``refine_com``)."""
         while self.com_pending and self.com_pending[0][0] <= t + STAMP_TOLERANCE_S:
-            _, com, self.com_sigma_m = self.com_pending.popleft()
+            t_event, com, com_sigma, position_sigma, velocity_sigma = self.com_pending.popleft()
             self.body = dataclasses.replace(self.body, com_body_m=com)
+            if position_sigma is not None and velocity_sigma is not None:
+                self.nav_sigma = (t_event, position_sigma, velocity_sigma, com_sigma)
 
     def start(self, t_event, body):
         """TRANSPORT from the final estimate stamped t_event [s], for the TransportBody of that estimate."""
@@ -158,18 +169,16 @@ class TransportControl(TransportAttitude, TransportPush, TransportTrim):
         # A pulse: ten minimum impulse bits at the thrusters' mean lever arm about the combined CoM [N m s].
         arms = np.linalg.norm(body.layout.positions_body_m - body.com_body_m, axis=1)
         self.pulse_n_m_s = 10.0 * body.layout.min_impulse_bit_n_s * float(np.mean(arms))
-        # A trim's wheel slew: as fast as TRIM_SLEW_RATE_RAD_S, or as the wheels spin the body up in WHEEL_SPINUP_S.
-        spin_up_rad_s = self.wheel_max_torque_n_m * WHEEL_SPINUP_S / float(
-            np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2)))
-        self.trim_slew_rate = min(TRIM_SLEW_RATE_RAD_S, spin_up_rad_s)
-        # The wheels steer the body (track the plan's attitude, turn it for a trim) where they spin it up to the
-        # slews' rate within WHEEL_SPINUP_S; on a heavier body they only damp its rate at rest.
+        inertia_max = float(np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2)))
+        # The wheels steer the body (track the plan's attitude) where they spin it up to the slews' rate within
+        # WHEEL_SPINUP_S; on a heavier body the thrusters' couples track it and the wheels damp its rate at rest.
+        spin_up_rad_s = self.wheel_max_torque_n_m * WHEEL_SPINUP_S / inertia_max
         self.wheels_steer = spin_up_rad_s >= self.config.planner.slew_rate_rad_s
-        # A transfer back must arrive this long before the judgement: two checks and a half turn of the push axis by
-        # the wheels before the pulse that takes its arrival velocity out. Where the wheels do not steer, no half
-        # turn: a pulse there is a pure force at the attitude held.
-        self.trim_stop_s = 2.0 * self.config.replan_interval_s + WHEEL_SPINUP_S + (
-            np.pi / self.trim_slew_rate if self.wheels_steer else 0.0)
+        # A terminal turn: at the rate the wheels' share of their momentum gives the body.
+        self.turn_rate_rad_s = self.config.wheel_momentum_share * self.wheel_capacity_n_m_s / inertia_max
+        cfg = self.config
+        self.settle_bound = settle_bound_s(body.mass_kg, cfg.planner.max_momentum_error_n_s, cfg.position_sigma_m,
+                                           cfg.position_rate_hz, cfg.hold_s, COM_PERIOD_S, cfg.replan_interval_s)
 
     def command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         """(force [N], torque about the chaser's CoM [N m], wheel motor torque [N m], chaser_body; events) for the
@@ -181,19 +190,17 @@ class TransportControl(TransportAttitude, TransportPush, TransportTrim):
     def _command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         zero = np.zeros(3)
         self._take_com(t)
-        cfg = self.config
         if self.done or self.t_start is None:
             return zero, zero, zero, []
-        period = cfg.planner.period_s
         omega = np.asarray(omega_body, dtype=float)
         h_wheels = np.asarray(h_wheels_body_n_m_s, dtype=float)
-        # The estimated angular momentum |I omega + h|, the rate its mean over DETUMBLED_S (the gyro's noise on a
-        # 3000 kg m^2 body is of the first condition's size).
+        # The body's own angular momentum |I omega|, the rate its mean over DETUMBLED_S (the gyro's noise on a
+        # 3000 kg m^2 body is of the first condition's size); the wheels' is judged on its own.
         self.rates.append((t, omega))
         while self.rates[0][0] < t - DETUMBLED_S - 1e-9:
             self.rates.popleft()
-        self.momentum = float(np.linalg.norm(self.body.inertia_body_kg_m2 @ np.mean([w for _, w in self.rates], axis=0)
-                                             + h_wheels))
+        self.body_momentum = float(np.linalg.norm(self.body.inertia_body_kg_m2
+                                                  @ np.mean([w for _, w in self.rates], axis=0)))
         if self.t_detumbled is None:
             return self._detumble(t, omega, h_wheels)
         events = []
@@ -204,27 +211,46 @@ class TransportControl(TransportAttitude, TransportPush, TransportTrim):
             events += self._plan(state, self.t_arrival)
             if self.done:
                 return zero, zero, zero, events
-        t_mid = t + 1.5 * period
-        if t >= self.t_arrival + cfg.settle_s - 1e-9:
+        if self.t_terminal is not None:
+            ended = self._judged(t, state, h_wheels)
+            if ended:
+                return zero, zero, zero, events + ended
+        return self._fly(t, state, omega, h_wheels, events)
+
+    def _judged(self, t, state, h_wheels):
+        """[transport_complete] once the conditions held ``hold_s`` (``terminal._judge``), or at the deadline."""
+        if self._judge(state, h_wheels):
+            self.t_held = t if self.t_held is None else self.t_held
+        else:
+            self.t_held = None
+        held = self.t_held is not None and t - self.t_held >= self.config.hold_s - 1e-9
+        if held or t >= self.deadline - 1e-9:
             self.done = True
-            events.append(self._complete(t, state, h_wheels))
-            return zero, zero, zero, events
+            return [self._complete(t, state, h_wheels)]
+        return []
+
+    def _fly(self, t, state, omega, h_wheels, events):
+        """The command of an estimate once planned: the plan's burns closed loop, the firings of the mid-course
+        correction and of the terminal program, the wheels on the attitude."""
+        period = self.config.planner.period_s
+        t_mid = t + 1.5 * period
+        last_burn_end = max(b.t_start_s + b.duration_s for b in self.plan.burns)
+        if self.t_terminal is None and t_mid >= last_burn_end + period and t >= self.plan.t_arrival_s - 1e-9:
+            self._enter_terminal(state)
         at_rest = not any(a.t_start_s - period <= t_mid < b.t_start_s + b.duration_s + period
                           for a, b in self._slews())
-        if at_rest and t >= self.t_check - 1e-9:
-            events += self._check(state)
+        if at_rest and t >= self.t_check - 1e-9 and not self.pulses_pending(t):
+            events += self._check(state, h_wheels)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)
                 break
-        if self.wheels_steer:
-            wheels, hold = self._track(state), zero
+        hold = np.zeros(3)
+        if self.t_terminal is not None or self.wheels_steer:
+            wheels = self._track(state)
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
-            flying = t_mid < max(b.t_start_s + b.duration_s for b in self.plan.burns)
-            wheels = self._track(state) if self.coast_slew else (self._hold(omega) if at_rest else zero)
-            hold = -self._attitude_torque(state) if flying else zero
-        if self.dumping is not None:
-            return (*self._dump(t, state, h_wheels), wheels, events)
+            wheels = self._hold(omega) if at_rest else np.zeros(3)
+            hold = -self._attitude_torque(state) if t_mid < last_burn_end else np.zeros(3)
         for t_a, t_b, force, torque in self.pulses:
             if t_a <= t_mid < t_b:
                 return force, torque, wheels, events
@@ -243,32 +269,37 @@ class TransportControl(TransportAttitude, TransportPush, TransportTrim):
                 return force, torque, wheels, events
         if any(hold):
             return (*self._couple(hold, self.pulse_n_m_s), wheels, events)
-        return zero, zero, wheels, events
+        return np.zeros(3), np.zeros(3), wheels, events
 
-
-    def _check(self, state):
-        """Between the first push and the next slew, the mid-course correction (``_correct``); after the arrival and
-        the plan's last burn, the trim (``_trim``)."""
+    def _check(self, state, h_wheels):
+        """Between the first push and the next slew, the mid-course correction (``_correct``); after the last burn,
+        the terminal program (``_terminal``)."""
+        if self.t_terminal is not None:
+            return self._terminal(state, h_wheels)
         self.t_check = state.t + self.config.replan_interval_s
         p = self.config.planner.period_s
         pushes = [b for b in self.plan.burns if b.purpose == 'push']
         remaining = [b for b in self.plan.burns if b.t_start_s + b.duration_s > state.t + 1.5 * p]
-        if not remaining and state.t >= self.plan.t_arrival_s:
-            events = self._trim(state)
-            if self.trim_arrival is not None and state.t < self.trim_arrival < self.t_check:
-                self.t_check = self.trim_arrival  # the transfer back's arrival velocity is taken out at once
-            return events
         if state.t >= pushes[0].t_start_s + pushes[0].duration_s + p and remaining and remaining[0] is not pushes[-1]:
             return self._correct(state, pushes, remaining[0])
         return []
 
-
     def _complete(self, t, state, h_wheels):
-        conditions = conditions_of(self.body, state, self.goal, h_wheels)
+        conditions = conditions_of(self.body, state, self.goal)
+        wheel_share = self._wheel_share(h_wheels)
+        met = (not missed_conditions(conditions, self.config.planner)
+               and wheel_share <= self.config.wheel_momentum_share)
         miss, momentum, h = (conditions[k] for k in ('position_error_m', 'momentum_error_n_s',
                                                      'angular_momentum_kg_m2_s'))
-        met = not missed_conditions(conditions, self.config.planner)
-        return ('OK' if met else 'WARN', events.TRANSPORT_COMPLETE,
-                f'transport ended at t = {t:.1f} s: {miss:.3g} m from the goal, momentum {momentum:.3g} N s, angular '
-                f'momentum {h:.3g} kg m^2/s (estimated{"" if met else ", a condition missed"})',
-                {**conditions, 't_arrival_s': self.t_arrival, 'goal_hill_m': self.goal})
+        held_s = 0.0 if self.t_held is None else t - self.t_held
+        held = held_s >= self.config.hold_s - 1e-9
+        settle_s = t - self.t_arrival
+        return ('OK' if met and held else 'WARN', events.TRANSPORT_COMPLETE,
+                f'transport ended at t = {t:.1f} s, {settle_s:.0f} s after the arrival (bound '
+                f'{self.settle_bound:.0f} s): {miss:.3g} m from the goal, momentum {momentum:.3g} N s, body angular '
+                f'momentum {h:.3g} kg m^2/s, wheels {100.0 * wheel_share:.0f} % of their capacity (estimated'
+                f'{"" if met else ", a condition missed"}{"" if held else ", not held"})',
+                {**conditions, 'wheel_momentum_n_m_s': float(np.linalg.norm(h_wheels)),
+                 'wheel_momentum_share': wheel_share, 't_arrival_s': self.t_arrival, 'goal_hill_m': self.goal,
+                 'settle_time_s': settle_s, 'settle_bound_s': self.settle_bound, 'held_s': held_s,
+                 'conditions_met': met})

@@ -11,14 +11,14 @@ from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport.model import TransportRefused, TransportState, propagate
 from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.slew import resolve_slew
-from flyby_planner.transport.thrusters import torque_wrench
+from flyby_planner.transport.thrusters import push_axis, torque_wrench
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned: a bad estimate stays mild
-ARRIVAL_MARGIN_N_S = 10.0  # where the wheels do not steer, the arrival push stops this short of rest: what it leaves
-#                            across the push axis is then within the pure forces of the attitude held [N s]
+ARRIVAL_SIGMAS = 3.0  # the arrival push stops short of rest by this many sigma of its expected error along the push
+CORRECTION_FRACTION = 0.25  # a miss at the last push beyond this share of the second condition is corrected
 SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
 
 
@@ -32,6 +32,7 @@ class TransportPush:
         first = state.t + 2.0 * cfg.planner.period_s  # the first period a command of this estimate can still reach
         start = TransportState(first, *state[1:])
         try:
+            self._check_reachable(t_arrival)
             plan = self._plan_with_faster_slews(start, t_arrival)
         except TransportRefused as err:
             self.done = True
@@ -52,12 +53,32 @@ class TransportPush:
         message = (f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
                    f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
                    f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
-                   f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s')
+                   f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s; the conditions within {self.settle_bound:.0f} s '
+                   f'after the arrival')
         return [('OK', events.TRANSPORT_PLANNED, message,
                  {'t_arrival_s': plan.t_arrival_s, 'burns': len(plan.burns), 'fuel_kg': plan.fuel_kg,
                   'predicted_position_error_m': c['position_error_m'],
                   'predicted_momentum_error_n_s': c['momentum_error_n_s'],
-                  'predicted_angular_momentum_kg_m2_s': c['angular_momentum_kg_m2_s']})]
+                  'predicted_angular_momentum_kg_m2_s': c['angular_momentum_kg_m2_s'],
+                  'settle_bound_s': self.settle_bound})]
+
+    def _check_reachable(self, t_arrival):
+        """TransportRefused where the conditions cannot be met: the thrusters' minimum impulse bit above the third
+        condition, a goal whose rest point (``terminal.rest_point``) lies beyond a quarter of the second, or too
+        little of the run left after the arrival for the settle bound the planner states."""
+        cfg = self.config.planner
+        bit = self.body.layout.min_impulse_bit_n_s
+        if bit > cfg.max_momentum_error_n_s:
+            raise TransportRefused(f'the thrusters\' minimum impulse bit {bit:.4g} N s exceeds the momentum bound '
+                                   f'{cfg.max_momentum_error_n_s:.4g} N s')
+        off_m = float(np.linalg.norm(self.rest - self.goal))
+        if off_m > CORRECTION_FRACTION * cfg.max_position_error_m:
+            raise TransportRefused(f'the goal {np.round(self.goal, 2).tolist()} m is no rest point: the nearest on the '
+                                   f'reference orbit is {off_m:.3g} m away (a body at rest there drifts)')
+        if t_arrival + self.settle_bound > self.deadline:
+            raise TransportRefused(f'too little time: the conditions need {self.settle_bound:.0f} s after the '
+                                   f'arrival at t = {t_arrival:.0f} s, the run ends at t = '
+                                   f'{self.config.duration_s:.0f} s')
 
     def _plan_with_faster_slews(self, start, t_arrival):
         """plan_transport, and where the slews at the configured rate leave too little time, again with the rate
@@ -136,11 +157,12 @@ class TransportPush:
         issued_force, _ = self._in_flight(t)
         dv_hill = (self.push_end[round(burn.t_start_s / p)].v_hill - state.v_hill
                    - quat_to_matrix(state.q_hill_from_body) @ issued_force * (p / self.body.mass_kg))
-        if not self.wheels_steer and burn is [b for b in self.plan.burns if b.purpose == 'push'][-1]:
-            # Short of the goal's rest by ARRIVAL_MARGIN_N_S along the push: what it leaves across then lies in the
-            # pure forces the thrusters give about the combined CoM at the attitude held (the trim's pulses).
-            need = self.body.mass_kg * float(np.linalg.norm(dv_hill))
-            dv_hill = dv_hill * max(0.0, 1.0 - ARRIVAL_MARGIN_N_S / need) if need > 0.0 else dv_hill
+        if burn is [b for b in self.plan.burns if b.purpose == 'push'][-1]:
+            # Short of rest by its expected error along the push: what it leaves is then taken out along the push
+            # axis, within the direction-limited thrusters' reach at the attitude held (``terminal``).
+            need = float(np.linalg.norm(dv_hill))
+            short = ARRIVAL_SIGMAS * self._arrival_sigma_mps(burn)
+            dv_hill = dv_hill * max(0.0, 1.0 - short / need) if need > 0.0 else dv_hill
         force_hill = self.body.mass_kg * dv_hill / remaining_s
         limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
         if float(np.linalg.norm(force_hill)) > limit:
@@ -151,6 +173,17 @@ class TransportPush:
             return force, torque
         return force_body, torque_body
 
+    def _arrival_sigma_mps(self, burn):
+        """The expected error [m/s] of the velocity at the end of a closed-loop push, its delta-v measured by the
+        accelerometer: the accelerometer's noise over the push's samples and the star tracker's pointing of the push,
+        with a minimum impulse bit."""
+        cfg = self.config
+        p = cfg.planner.period_s
+        dv_mps = float(np.linalg.norm(burn.force_body_n)) * burn.duration_s / self.body.mass_kg
+        noise = cfg.accel_noise_sigma_mps2 * p * np.sqrt(burn.duration_s / p)
+        pointing = np.radians(cfg.star_tracker_sigma_deg) * dv_mps
+        return float(np.hypot(noise, pointing)) + self.body.layout.min_impulse_bit_n_s / self.body.mass_kg
+
     def _slews(self):
         """(start, stop) burn pairs of the plan: the body turns between them."""
         starts = [b for b in self.plan.burns if b.purpose == 'slew_start']
@@ -160,9 +193,10 @@ class TransportPush:
     def _correct(self, state, pushes, next_burn):
         """The mid-course correction, keeping the last push (it nulls the velocity at the arrival, closed loop): the
         estimate's deviation from the plan's coast after the first push (its state at the push's end coasted by CW,
-        seed 000 eq 22) carried to the last push's middle; beyond replan_position_m there, the one impulse now that
-        takes it out (Phi_rv dv = -miss), fired as a pulse when the allowed thrusters give it at the attitude the
-        wheels hold and it ends before the next burn (else at a later check, or the trim after the arrival)."""
+        seed 000 eq 22) carried to the last push's middle; beyond CORRECTION_FRACTION of the second condition there,
+        the one impulse now that takes it out (Phi_rv dv = -miss), a pure force at the attitude held where the
+        allowed thrusters give it with each above the minimum impulse bit and it ends before the next burn (else at a
+        later check, or the terminal program after the arrival)."""
         p = self.config.planner.period_s
         t = state.t
         first, last = pushes[0], pushes[-1]
@@ -171,14 +205,30 @@ class TransportPush:
         phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - t)
         miss = (phi @ (np.concatenate((state.r_hill, state.v_hill)) - x_nominal))[:3]
         miss_m = float(np.linalg.norm(miss))
-        if miss_m <= self.config.replan_position_m:
+        if miss_m <= CORRECTION_FRACTION * self.config.planner.max_position_error_m:
             return []
         dv = -np.linalg.solve(phi[:3, 3:], miss)
         impulse = self.body.mass_kg * float(np.linalg.norm(dv))
-        pulse = self._pulse(state, dv / float(np.linalg.norm(dv)), impulse)
+        pulse = self._pure_pulse(state, dv)
         k0 = round((t + 2.0 * p) / p)
         if pulse is None or (k0 + pulse[2]) * p > next_burn.t_start_s - 1e-9:
             return []
         self.pulses = [(k0 * p, (k0 + pulse[2]) * p, pulse[0], pulse[1])]
         return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off at the last push: a correction of '
                                                    f'{impulse:.3g} N s', {'miss_m': miss_m, 'impulse_n_s': impulse})]
+
+    def _pure_pulse(self, state, dv_hill):
+        """(force, torque about the chaser's CoM, periods) of the delta-v dv_hill as a pure force about the combined
+        CoM at the estimated attitude, at most the push's force fraction of the push axis's, its firing thrusters
+        each above the minimum impulse bit per period; None where the thrusters do not give it."""
+        body, cfg = self.body, self.config.planner
+        p = cfg.period_s
+        impulse = body.mass_kg * float(np.linalg.norm(dv_hill))
+        periods = max(1, int(np.ceil(impulse / (cfg.push_force_fraction * push_axis(body)[1] * p))))
+        force = quat_to_matrix(state.q_hill_from_body).T @ dv_hill * (body.mass_kg / (periods * p))
+        torque = np.cross(body.com_body_m, force)
+        allocation = allocate_wrench(body.layout, force, torque)
+        fired = allocation.thrusts_n[allocation.thrusts_n > 1e-6]
+        if allocation.saturated or not fired.size or float(fired.min()) * p < body.layout.min_impulse_bit_n_s:
+            return None
+        return force, torque, periods

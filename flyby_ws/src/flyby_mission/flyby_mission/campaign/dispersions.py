@@ -24,6 +24,15 @@ the chance of one of +-x, +-y, +-z instead, e.g. a principal spin of a body with
 boxes named in ``boxes``), ``choice`` (values, optional weights) and ``scale`` (the base value times
 ``factor``, a number or a nested scalar dispersion).
 
+A ``choice`` alone may name a list (``chaser.thrusters.layout``: each value a whole list) or a section: each value
+is then a mapping of keys below it (dotted: ``wheels.max_torque_n_m`` under ``chaser``), set together on the base
+section as ``overrides`` are, so one draw sets keys that belong together (a goal and its transfer time, a tug's mass,
+inertia and wheels); the keys a value leaves out keep the base's values::
+
+    post_capture.transport:
+      kind: choice
+      values: [{goal_hill_m: [200, 0, 0], transfer_time_s: 600}, {goal_hill_m: [-2000, 0, 0], transfer_time_s: 1500}]
+
 Run i is drawn from ``np.random.default_rng(np.random.SeedSequence([campaign_seed, i]))`` alone: first
 the run's scenario seed, then each dispersion in file order; so any run is redrawn alone, equal to
 its draw in the whole campaign. Giving one alternative of a one-of group (``omega_hill_deg_s`` where
@@ -355,17 +364,19 @@ def _parent_and_leaf(d, path):
     return node, int(leaf) if isinstance(node, list) else leaf
 
 
-def _check_key(file, key, base, section='dispersions'):
+def _check_key(file, key, base, section='dispersions', whole=False):
     """The base value at ``key`` (None when absent: a one-of alternative or an optional key); raises
-    CampaignError (naming ``section``.key) when the key is not a key of the scenario."""
+    CampaignError (naming ``section``.key) when the key is not a key of the scenario, or names a section or a list
+    unless ``whole`` (a choice's key)."""
     where = f'{section}.{_short_key(key)}'
     if key in _RESERVED_KEYS:
         raise CampaignError(file, where, f'{key!r} is set by the campaign, not {section}')
     nodes = _schema_node(key)
     if nodes is None:
         raise CampaignError(file, where, 'not a key of the scenario (docs/scenario.md)')
-    if isinstance(nodes[-1], (Section, ListOf)):
-        raise CampaignError(file, where, 'names a section, not a value: disperse its keys one by one')
+    if isinstance(nodes[-1], (Section, ListOf)) and not whole:
+        raise CampaignError(file, where, 'names a section or a list, not a value: disperse its keys one by one, '
+                                         'or draw it whole with a choice')
     try:
         parent, leaf = _parent_and_leaf(base, key)
     except (KeyError, IndexError, TypeError):
@@ -376,6 +387,17 @@ def _check_key(file, key, base, section='dispersions'):
     if isinstance(leaf, int) and leaf >= len(parent):
         raise CampaignError(file, where, f'index {leaf} out of range ({len(parent)} items)')
     return _get(base, key)
+
+
+def _check_section_choice(file, key, values, base):
+    """Each value of a choice over the section ``key``: a non-empty mapping of keys below it, each a key of the
+    scenario in the base (``_check_key``); raises CampaignError."""
+    for i, value in enumerate(values):
+        if not isinstance(value, dict) or not value:
+            raise CampaignError(file, f'dispersions.{key}.values', f'a choice of the section {key} takes mappings '
+                                                                   f'of its keys, got item {i}: {short_repr(value)}')
+        for sub in value:
+            _check_key(file, f'{key}.{sub}', base, whole=True)
 
 
 def _get(d, key):
@@ -391,7 +413,12 @@ def set_values(d, values):
 
 
 def _set(d, key, value):
-    """Set ``key`` in the dict ``d`` to value, removing the other alternatives of its one-of group."""
+    """Set ``key`` in the dict ``d`` to value, removing the other alternatives of its one-of group; a mapping
+    for a section sets its keys one by one (a choice over a section)."""
+    if isinstance(_schema_node(key)[-1], Section) and isinstance(value, dict):
+        for sub, v in value.items():
+            _set(d, f'{key}.{sub}', v)
+        return
     parent, leaf = _parent_and_leaf(d, key)
     parent[leaf] = value
     section = _schema_node(key)[-2]
@@ -505,8 +532,13 @@ def load_campaign(path, checked_draws=None):
         raise CampaignError(file, 'dispersions',
                             f'must be a mapping of scenario keys, got {short_repr(dispersions)}')
     base_dict = base.to_dict()
-    built = [Dispersion(str(key), spec, file, boxes=base.boxes, base_value=_check_key(file, str(key), base_dict))
-             for key, spec in dispersions.items()]
+    built = []
+    for key, spec in dispersions.items():
+        whole = isinstance(spec, dict) and spec.get('kind') == 'choice'
+        built.append(Dispersion(str(key), spec, file, boxes=base.boxes,
+                                base_value=_check_key(file, str(key), base_dict, whole=whole)))
+        if whole and isinstance(_schema_node(str(key))[-1], Section):
+            _check_section_choice(file, str(key), spec['values'], base_dict)
     sha = hashlib.sha256(Path(path).read_bytes() + b'\0' + base_path.read_bytes()).hexdigest()
     campaign = Campaign(file, name, seed, runs, base, built, sha)
     checked = runs if checked_draws is None else checked_draws

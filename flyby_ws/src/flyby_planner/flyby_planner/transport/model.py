@@ -231,11 +231,11 @@ def _check_burns(burns):
                              f'for {a.duration_s} s, then {b.purpose} at {b.t_start_s} s')
 
 
-def conditions_of(body, state, goal_r_hill, h_wheels_body_n_m_s=(0.0, 0.0, 0.0)):
-    """Seed 004 §3.2's three rendezvous quantities of a state (package doc), the wheels' angular momentum [N m s, body]
-    included: a dict."""
-    h = (np.asarray(body.inertia_body_kg_m2, dtype=float) @ np.asarray(state.omega_body, dtype=float)
-         + np.asarray(h_wheels_body_n_m_s, dtype=float))
+def conditions_of(body, state, goal_r_hill):
+    """Seed 004 §3.2's three rendezvous quantities of a state (package doc): the body's own angular momentum about
+    the combined CoM, I omega (what its wheels hold is judged apart: a body turning is not ready for a rendezvous
+    whatever its wheels hold), the CoM's distance from the goal, its linear momentum in hill; a dict."""
+    h = np.asarray(body.inertia_body_kg_m2, dtype=float) @ np.asarray(state.omega_body, dtype=float)
     return {
         'angular_momentum_kg_m2_s': float(np.linalg.norm(h)),
         'position_error_m': float(np.linalg.norm(np.asarray(state.r_hill) - np.asarray(goal_r_hill, dtype=float))),

@@ -539,18 +539,13 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
                                         'A thruster whose exhaust points within this half-angle of the target\'s '
                                         'CoM is not fired in transport (its plume would hit what the tug holds): '
                                         'the thrusters are direction-limited.'),
-                'replan_interval_s': Field(FLOAT, 20.0, '> 0', 'Guidance predicts the plan\'s arrival again from '
-                                                               'the latest estimate this often ...'),
-                'replan_position_m': Field(FLOAT, 2.0, '> 0', '... and plans again when it misses the goal by more '
-                                                              'than this; after the arrival it trims an estimate off '
-                                                              'the goal by more than this ...'),
-                'replan_momentum_n_s': Field(FLOAT, 0.005, '> 0', '... or moving with more than this linear momentum.'),
-                'settle_s': Field(FLOAT, 60.0, '>= 0', 'After the arrival: trims, then the conditions are judged '
-                                                       'this long after it (TRANSPORT -> COMPLETE).'),
-                'nav_accel_psd_m2_s3': Field(FLOAT, 1e-11, '> 0',
-                                             'The combined body\'s navigation coasting: the white acceleration its '
-                                             'filter allows for what it does not model (CW\'s linearization within '
-                                             'a few km, the errors of the commanded small firings) [m^2/s^3].'),
+                'replan_interval_s': Field(FLOAT, 20.0, '> 0', 'After the last push guidance solves the terminal '
+                                                               'program again from the latest estimate this often '
+                                                               '(docs/transport.md).'),
+                'hold_s': Field(FLOAT, 60.0, '>= 0', 'The three conditions, judged from the estimate with its '
+                                                     '3-sigma, must hold this long before TRANSPORT -> COMPLETE.'),
+                'wheel_momentum_share': Field(FLOAT, 0.5, '(0, 1]', 'At the end the wheels hold at most this share '
+                                                                    'of their momentum capacity.'),
                 'max_angular_momentum_kg_m2_s': Field(FLOAT, 0.1, '> 0', 'Rendezvous condition 1 (seed 004 '
                                                                          'section 3.2).'),
                 'max_position_error_m': Field(FLOAT, 10.0, '> 0', 'Rendezvous condition 2.'),

@@ -1,0 +1,178 @@
+"""The terminal part of guidance in TRANSPORT (``control.TransportControl``'s methods on its state): after the
+transfer's last burn the wheels hold the body's attitude fixed in inertial space, and at every check the terminal
+program (``flyby_planner.transport.terminal``) chooses, from the estimate, the impulses that bring the body to rest
+at the goal's rest point with the wheels' momentum within their share; its firings are flown at their times and the
+program solved again at its horizon's end. Where no horizon is
+feasible at the attitude held (the side force it needs lies outside the direction-limited thrusters' cone) the
+wheels turn the push axis onto it first. The judgement: the three conditions and the wheels' share, from the
+estimate with its 3-sigma, held for ``hold_s``."""
+
+import math
+
+import numpy as np
+
+from flyby_guidance.transport.attitude import WHEEL_SPINUP_S
+from flyby_msgs_py import events
+from flyby_planner.transfer import terminal_impulses
+from flyby_planner.transport import terminal
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
+from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_rotate,
+    quat_shortest_arc,
+    rotation_vector_from_quat,
+)
+
+NAV_SIGMAS = 3.0  # the estimate's margin: the conditions are judged, and the program aims, this many sigma inside
+AIM_FRACTION = 0.5  # the program aims within this share of each bound, the margin for the estimate's error ...
+POSITION_AIM_FRACTION = 0.25  # ... and of the position bound (a rest point drifts off it no more than this) ...
+WHEEL_AIM_FRACTION = 0.8  # ... and of the wheels' share (their momentum is measured, not estimated)
+COMMAND_ERROR = 0.1  # a terminal firing's impulse is known to this fraction (its thrusters' errors, the bit's)
+TERMINAL_ROUNDS = 3  # the settle bound: this many rounds of navigation and firing after the arrival
+
+
+def settle_bound_s(mass_kg, bound_n_s, position_sigma_m, position_rate_hz, hold_s, com_period_s,
+                   replan_interval_s):
+    """The time after the arrival the conditions need, stated before the flight [s]: TERMINAL_ROUNDS rounds, each a
+    coast over which the navigation learns the velocity within AIM_FRACTION of the third condition at NAV_SIGMAS (a
+    constant velocity from positions of 1-sigma s at f Hz over T: sigma_v = s sqrt(12 / (f T^3))), at least one
+    period of the combined CoM's estimate, then the shortest horizon's firings and a check; and the hold."""
+    sigma_v = AIM_FRACTION * bound_n_s / (NAV_SIGMAS * mass_kg)
+    coast_s = (12.0 * position_sigma_m**2 / (position_rate_hz * sigma_v**2)) ** (1.0 / 3.0)
+    return TERMINAL_ROUNDS * (max(coast_s, com_period_s) + terminal.HORIZONS_S[0] + replan_interval_s) + hold_s
+
+
+class TransportTerminal:
+    """The terminal rules of ``TransportControl`` (the state they read and set is its)."""
+
+    def _enter_terminal(self, state):
+        """From the plan's last burn on, the wheels hold the attitude the body has (inertially)."""
+        self.hold = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
+        self.t_terminal = state.t
+        self.t_check = state.t
+
+    def _velocity_sigma_mps(self, t):
+        """The navigation's velocity 1-sigma at t [m/s]: the last estimate's, with the combined CoM's (an error dc is
+        n x C dc of velocity, the body turning in hill at n) and COMMAND_ERROR of every terminal firing since (a known
+        input to the navigation); None before the first."""
+        if self.nav_sigma is None:
+            return None
+        t_sigma, _, sigma_v, sigma_c = self.nav_sigma
+        fired_n_s = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in self.pulses
+                        if t_sigma - 1e-9 <= a < t)
+        return math.hypot(math.hypot(sigma_v, self.n * sigma_c), COMMAND_ERROR * fired_n_s / self.body.mass_kg)
+
+    def _terminal(self, state, h_wheels):
+        """At a check with nothing firing: the terminal program from the estimate (module doc); its firings
+        scheduled, or the push axis turned where no horizon is feasible."""
+        cfg, p = self.config, self.config.planner.period_s
+        self.t_check = state.t + cfg.replan_interval_s
+        sigma_v = self._velocity_sigma_mps(state.t)
+        if sigma_v is None:
+            return []  # the navigation's first estimate in TRANSPORT is still to come
+        # The program aims within AIM_FRACTION of the bound, or within what the navigation knows where that is more:
+        # a firing finer than the estimate's error would chase its noise.
+        rho_p = max(AIM_FRACTION * cfg.planner.max_momentum_error_n_s, NAV_SIGMAS * self.body.mass_kg * sigma_v)
+        problem = self._terminal_problem(state, h_wheels, rho_p)
+        horizon_max_s = self.deadline - cfg.hold_s - problem.t0
+        horizons = [h for h in terminal.HORIZONS_S if h <= horizon_max_s + 1e-9]
+        if not horizons:
+            return []  # no time left for a firing to settle before the judgement
+        solution = terminal.solve(problem, horizons)
+        if solution is None:
+            return self._turn(state)
+        firing = [k for k in range(len(solution.slot_times_s)) if np.any(solution.impulses_n_s[k])]
+        if not firing:
+            return []
+        # The whole plan flown, then a new solve at its end: a plan of a few bits is a sequence (a start and a stop,
+        # a pair that nets less than a bit), and solved again after each part it would be another sequence.
+        wrench = self.body.layout.wrench_matrix
+        self.pulses = []
+        for k in firing:
+            thrusts = terminal.firing_periods(solution.impulses_n_s[k], problem.max_thrust_n,
+                                              problem.min_impulse_bit_n_s, p)
+            k0 = round(solution.slot_times_s[k] / p)
+            self.pulses += [((k0 + i) * p, (k0 + i + 1) * p, wrench[:3] @ row, wrench[3:] @ row)
+                            for i, row in enumerate(thrusts)]
+        self.t_fired = self.pulses[-1][1]
+        self.t_check = max(self.t_fired, problem.t0 + solution.horizon_s) + cfg.replan_interval_s
+        impulse = float(solution.impulses_n_s.sum())
+        predicted_n_s = self.body.mass_kg * float(np.linalg.norm(solution.predicted[3:]))
+        predicted_m = float(np.linalg.norm(solution.predicted[:3]))
+        return [('OK', events.TRANSPORT_TERMINAL,
+                 f'terminal firings of {impulse:.3g} N s in {len(firing)} slots over {solution.horizon_s:.0f} s: '
+                 f'predicted {predicted_m:.3g} m, {predicted_n_s:.3g} N s at its end',
+                 {'impulse_n_s': impulse, 'horizon_s': solution.horizon_s,
+                  'predicted_momentum_n_s': predicted_n_s, 'predicted_position_m': predicted_m})]
+
+    def _terminal_problem(self, state, h_wheels, rho_p):
+        """The TerminalProblem of the estimate: the deviation from the rest point coasted to the first slot (two
+        periods on: the first a command of this estimate reaches)."""
+        cfg, body = self.config, self.body
+        t0 = state.t + 2.0 * cfg.planner.period_s
+        x0 = cw_transition_matrix(self.n, t0 - state.t) @ np.concatenate((state.r_hill - self.rest, state.v_hill))
+        layout = body.layout
+        couples = np.cross(layout.positions_body_m - body.com_body_m, layout.force_directions_body)
+        # What the wheels will hold once they hold the body still: its own momentum and theirs.
+        h_held = body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
+        rho_r = max(POSITION_AIM_FRACTION * cfg.planner.max_position_error_m, NAV_SIGMAS * self.nav_sigma[1])
+        return terminal.TerminalProblem(
+            body.mass_kg, layout.force_directions_body, couples, layout.max_thrust_n, layout.min_impulse_bit_n_s,
+            self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,
+            rho_r, rho_p * terminal.BALL_SLAB_FACTOR, cfg.hold_s,
+            cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
+            terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m))
+
+    def _turn(self, state):
+        """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest
+        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body, from the attitude held."""
+        t = state.t
+        horizon_s = min(terminal.HORIZONS_S[-1], max(self.deadline - self.config.hold_s - t, terminal.HORIZONS_S[0]))
+        dv_hill, _ = terminal_impulses(state.r_hill - self.rest, state.v_hill, np.zeros(3), np.zeros(3), horizon_s,
+                                       self.n)
+        if not np.any(dv_hill):
+            return []
+        q_now = self._held(t)
+        d_eci = hill_axes_in_eci(t, self.n) @ (dv_hill / float(np.linalg.norm(dv_hill)))
+        q_goal = quat_multiply(quat_shortest_arc(quat_rotate(q_now, self.b_body), d_eci), q_now)
+        arc = rotation_vector_from_quat(quat_multiply(q_goal, quat_conjugate(q_now)))
+        angle = float(np.linalg.norm(arc))
+        if angle <= 0.0:
+            return []
+        rate = self.turn_rate_rad_s
+        self.turning = (t, q_now, arc / angle, angle, rate)
+        self.t_check = t + angle / rate + WHEEL_SPINUP_S
+        return [('OK', events.TRANSPORT_TURN, f'no terminal firing reaches rest at the attitude held: the wheels turn '
+                                              f'the push axis {math.degrees(angle):.1f} deg at {rate:.3g} rad/s',
+                 {'angle_rad': angle, 'rate_rad_s': rate})]
+
+    def _held(self, t):
+        """The attitude the wheels hold at t (q_eci_from_body): the hold, or where it is along a turn."""
+        if self.turning is None:
+            return self.hold
+        t0, q0, axis, angle, rate = self.turning
+        return quat_multiply(quat_from_rotation_vector(min(rate * (t - t0), angle) * axis), q0)
+
+    def _judge(self, state, h_wheels):
+        """The three conditions and the wheels' share from the estimate, its 3-sigma inside each bound (the rate its
+        mean over the detumbling's window): True where all hold."""
+        cfg = self.config.planner
+        sigma_v = self._velocity_sigma_mps(state.t)
+        if sigma_v is None:
+            return False
+        position_sigma = self.nav_sigma[1]
+        miss = float(np.linalg.norm(state.r_hill - self.goal)) + NAV_SIGMAS * position_sigma
+        momentum = self.body.mass_kg * (float(np.linalg.norm(state.v_hill)) + NAV_SIGMAS * sigma_v)
+        return (self.body_momentum < cfg.max_angular_momentum_kg_m2_s and miss < cfg.max_position_error_m
+                and momentum < cfg.max_momentum_error_n_s
+                and self._wheel_share(h_wheels) <= self.config.wheel_momentum_share)
+
+    def _wheel_share(self, h_wheels):
+        """The wheels' momentum as a share of their capacity, the largest per body axis."""
+        return float(np.max(np.abs(h_wheels))) / self.wheel_capacity_n_m_s
+
+    def pulses_pending(self, t):
+        """True while a terminal firing is under way or still to come."""
+        return bool(self.pulses) and t < self.pulses[-1][1] + self.config.planner.period_s

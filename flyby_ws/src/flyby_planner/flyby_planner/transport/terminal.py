@@ -1,0 +1,189 @@
+"""The transport's terminal program: after the transfer's last burn, the impulses of the allowed thrusters that bring
+the combined body to rest at the goal with its wheels' momentum within their share, as one mixed-integer linear
+program solved again on every new estimate (receding horizon).
+
+The body holds its attitude fixed in inertial space (the wheels hold it, so its own rotation, seed 004 §3.2's
+condition 1, stays nil); thruster j's force direction in hill at time t is C_hill_from_eci(t) C_eci_from_body d_j,
+and its couple about the combined CoM, (p_j - c) x d_j per unit impulse, goes to the wheels. The state is the
+deviation from the goal's rest point (``rest_point``), an equilibrium of the relative dynamics, so its motion is
+CW's to first order (seed 000 eq 22). With u_kj >= 0 the impulse of thruster j at slot k (time t_k) [N s]:
+
+    min  sum u_kj + w |m v_T|_1                                      (fuel, and the end momentum centred)
+    s.t. bit z_kj <= u_kj <= u_max z_kj,  z_kj in {0, 1}          the minimum impulse bit and the slot's thrust
+         x_T = Phi(T) x_0 + sum_kj Phi(T - t_k)[:, 3:] d_kj u_kj / m
+         |a_i . r_T| <= rho_r,  |a_i . m v_T| <= rho_p          conditions 2 and 3 within their margins, a_i the
+         |a_i . m v_T+hold| <= rho_p                             13 directions of ``BALL_DIRECTIONS``; the momentum
+                                                                 also after the hold (CW from the end)
+         |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity
+         |sum_j tau_j u_kj|_inf <= couple_max                     a slot's couple the wheels stop within a small turn
+
+scipy.optimize.milp (HiGHS). The horizon T is searched over HORIZONS_S up to the time left: the shortest feasible
+one is kept, and a state that stays within the margins over it fires nothing. A side force the thrusters cannot
+give at the attitude held (the direction limit) makes every horizon infeasible: ``solve`` then returns None and
+guidance turns the body (docs/transport.md).
+"""
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import Bounds, LinearConstraint, milp
+
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci
+from flyby_sim.dynamics.rotation import quat_to_matrix
+
+HORIZONS_S = (60.0, 120.0, 240.0, 480.0, 960.0, 1920.0)  # the terminal horizons tried, shortest first [s]
+SLOTS = 4  # firing times per horizon: its start and every quarter
+MAX_PULSE_S = 30.0  # a thruster's firing in a slot at most this long at full thrust [s]
+BIT_MARGIN = 1.05  # a firing's impulse at least this many minimum impulse bits: the plant fires it whole
+TURN_RAD = 0.02  # a slot's couple is one the wheels stop within this turn of the body [rad]
+MILP_TIME_LIMIT_S = 2.0
+LATER_SLOT_COST = 0.05  # each later slot's impulse costs this much more: what can be fired now is, and a pair of
+#                         opposed firings that nets less than a bit lies in one slot, which the next solve keeps
+MOMENTUM_WEIGHT = 2.0  # w: a newton second of end momentum costs twice one of impulse, so the program takes out what
+#                        the bit allows rather than ride the margin's edge
+
+# Unit directions whose slabs |a . x| <= rho bound a ball: the axes, the face and the body diagonals. A vector
+# within every slab has a norm of at most rho / cos(the largest angle to the nearest direction), 1.23 rho
+# (test_terminal).
+BALL_DIRECTIONS = np.array([d / np.linalg.norm(d) for d in (
+    (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, -1, 0), (1, 0, 1), (1, 0, -1), (0, 1, 1), (0, 1, -1),
+    (1, 1, 1), (1, 1, -1), (1, -1, 1), (-1, 1, 1))], dtype=float)
+BALL_SLAB_FACTOR = 1.0 / 1.23  # rho of the slabs that keep a vector within a ball of radius 1
+
+
+def rest_point(goal_hill_m, radius_m):
+    """The point of the reference orbit nearest the goal (hill, [m]): the orbit's circle in its plane at the goal's
+    along-track angle. A body there at rest in hill stays at rest under two-body gravity (a point fixed in hill off
+    that circle does not: 2 km ahead on V-bar is 0.29 m above it and drifts)."""
+    goal = np.asarray(goal_hill_m, dtype=float)
+    theta = math.atan2(goal[0], radius_m - goal[2])
+    return np.array((radius_m * math.sin(theta), 0.0, radius_m * (1.0 - math.cos(theta))))
+
+
+class TerminalProblem(NamedTuple):
+    """What the program needs: the body and its thrusters, the state to bring to rest, the margins."""
+
+    mass_kg: float
+    directions_body: np.ndarray  # (J, 3) the allowed thrusters' force directions, chaser_body
+    couples_body_m: np.ndarray  # (J, 3) their couples about the combined CoM per newton [m], (p_j - c) x d_j
+    max_thrust_n: np.ndarray  # (J,)
+    min_impulse_bit_n_s: float
+    n: float  # mean motion [rad/s]
+    t0: float  # the first slot's time [s]
+    x0: np.ndarray  # (6,) the combined CoM's deviation from the rest point at t0, hill [m, m/s]
+    q_eci_from_body: np.ndarray  # the attitude held
+    h_wheels_body_n_m_s: np.ndarray  # (3,) the wheels' momentum at t0
+    rho_position_m: float  # the margins of the terminal ball: position
+    rho_momentum_n_s: float  # linear momentum, at the end and hold_s after it
+    hold_s: float  # the end state must keep its momentum this long [s]
+    rho_wheels_n_m_s: float  # the wheels' momentum per body axis
+    couple_max_n_m_s: float  # a slot's couple per body axis
+
+
+class TerminalSolution(NamedTuple):
+    """The firings the program chose over its horizon, and their predicted end."""
+
+    horizon_s: float
+    slot_times_s: np.ndarray  # (K,)
+    impulses_n_s: np.ndarray  # (K, J)
+    predicted: np.ndarray  # (6,) the deviation from the rest point at t0 + horizon_s
+    h_wheels_body_n_m_s: np.ndarray  # (3,) the wheels' momentum then
+
+
+def couple_limit(inertia_body_kg_m2, wheel_max_torque_n_m):
+    """The largest couple impulse [N m s] a slot may give: the body turned by it stops within TURN_RAD at the
+    wheels' torque (h^2 / (2 I tau) = TURN_RAD, the least principal moment)."""
+    inertia_min = float(np.min(np.linalg.eigvalsh(np.asarray(inertia_body_kg_m2, dtype=float))))
+    return math.sqrt(2.0 * inertia_min * wheel_max_torque_n_m * TURN_RAD)
+
+
+def _directions_hill(problem, t):
+    """(J, 3) the thrusters' directions in hill at time t, the attitude held inertially."""
+    c_hill_from_body = hill_axes_in_eci(t, problem.n).T @ quat_to_matrix(problem.q_eci_from_body)
+    return problem.directions_body @ c_hill_from_body.T
+
+
+def _program(problem, horizon_s):
+    """The MILP of one horizon (module doc): (c, constraints, bounds, integrality, slot times)."""
+    m = problem.mass_kg
+    j_count = len(problem.max_thrust_n)
+    slots = problem.t0 + horizon_s * np.arange(SLOTS) / SLOTS
+    t_end = problem.t0 + horizon_s
+    free = cw_transition_matrix(problem.n, horizon_s) @ problem.x0
+    # State at the end per unit impulse of each (slot, thruster): (6, K J).
+    effect = np.hstack([cw_transition_matrix(problem.n, t_end - t_k)[:, 3:] @ _directions_hill(problem, t_k).T / m
+                        for t_k in slots])
+    couples = problem.couples_body_m.T  # (3, J)
+    size = SLOTS * j_count
+    # The thrusters of a slot fire one after another (``firing_periods``) within half the slot.
+    u_max = np.tile(problem.max_thrust_n * min(MAX_PULSE_S, 0.5 * horizon_s / SLOTS / j_count), SLOTS)
+    bit = BIT_MARGIN * problem.min_impulse_bit_n_s
+    eye = np.eye(size)
+    # The momentum at the end and hold_s later (CW from the end): a body off its rest point gains momentum, 3 n^2
+    # per metre radially, so a heavy body must end nearer it.
+    held = cw_transition_matrix(problem.n, problem.hold_s)[3:]
+    a_r = BALL_DIRECTIONS @ effect[:3]
+    a_v = np.vstack((BALL_DIRECTIONS @ effect[3:], BALL_DIRECTIONS @ (held @ effect))) * m
+    r_free = BALL_DIRECTIONS @ free[:3]
+    p_free = np.concatenate((BALL_DIRECTIONS @ free[3:], BALL_DIRECTIONS @ (held @ free))) * m
+    h_total = np.tile(couples, SLOTS)
+    per_slot = np.kron(np.eye(SLOTS), couples)
+
+    def on_u(a, n_z=size, n_s=3):  # a row block on u alone: z and s free of it
+        return np.hstack((a, np.zeros((a.shape[0], n_z + n_s))))
+
+    p_end = effect[3:] * m  # (3, size): the end momentum per impulse, hill
+    rows = [
+        LinearConstraint(np.hstack((eye, -np.diag(u_max), np.zeros((size, 3)))), -np.inf, 0.0),  # u <= u_max z
+        LinearConstraint(np.hstack((eye, -bit * eye, np.zeros((size, 3)))), 0.0, np.inf),  # u >= bit z
+        LinearConstraint(on_u(a_r), -problem.rho_position_m - r_free, problem.rho_position_m - r_free),
+        LinearConstraint(on_u(a_v), -problem.rho_momentum_n_s - p_free, problem.rho_momentum_n_s - p_free),
+        LinearConstraint(on_u(h_total), -problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s,
+                         problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s),
+        LinearConstraint(on_u(per_slot), -problem.couple_max_n_m_s, problem.couple_max_n_m_s),
+        # s >= |p_end| per hill axis: the end momentum's 1-norm, which the cost weighs (centring within the ball)
+        LinearConstraint(np.hstack((p_end, np.zeros((3, size)), -np.eye(3))), -np.inf, -free[3:] * m),
+        LinearConstraint(np.hstack((-p_end, np.zeros((3, size)), -np.eye(3))), -np.inf, free[3:] * m),
+    ]
+    slot_cost = np.repeat(1.0 + LATER_SLOT_COST * np.arange(SLOTS), j_count)
+    cost = np.concatenate((slot_cost, np.zeros(size), np.full(3, MOMENTUM_WEIGHT)))
+    bounds = Bounds(np.zeros(2 * size + 3), np.concatenate((u_max, np.ones(size), np.full(3, np.inf))))
+    integrality = np.concatenate((np.zeros(size), np.ones(size), np.zeros(3)))
+    return cost, rows, bounds, integrality, slots, effect, free
+
+
+def solve(problem, horizons_s):
+    """The first of the horizons [s] (HORIZONS_S up to the time left) whose program is feasible, and its firings;
+    None where none is (module doc)."""
+    j_count = len(problem.max_thrust_n)
+    for horizon_s in horizons_s:
+        cost, rows, bounds, integrality, slots, effect, free = _program(problem, horizon_s)
+        result = milp(cost, constraints=rows, bounds=bounds, integrality=integrality,
+                      options={'time_limit': MILP_TIME_LIMIT_S})
+        if result.x is None or result.status not in (0, 1):
+            continue
+        size = j_count * SLOTS
+        u = np.where(result.x[size:2 * size] > 0.5, result.x[:size], 0.0)
+        predicted = free + effect @ u
+        impulses = u.reshape(SLOTS, j_count)
+        h_end = problem.h_wheels_body_n_m_s + problem.couples_body_m.T @ impulses.sum(axis=0)
+        return TerminalSolution(horizon_s, slots, impulses, predicted, h_end)
+    return None
+
+
+def firing_periods(impulses_n_s, max_thrust_n, min_impulse_bit_n_s, period_s):
+    """(thrusts [N] (P, J), one row per control period) that deliver each thruster's impulse: one thruster after
+    another, each over n_j periods at u_j / (n_j period), as few as its thrust allows and never below the bit in a
+    period. One thruster a period: its wrench is the plant's allocation of it (``actuators.allocate_wrench``, least
+    total thrust), where two opposed thrusters in one period would net to less than a bit and not fire at all."""
+    u = np.asarray(impulses_n_s, dtype=float)
+    counts = np.where(u > 0.0, np.ceil(u / (np.asarray(max_thrust_n, dtype=float) * period_s) - 1e-9), 0).astype(int)
+    if min_impulse_bit_n_s > 0.0:
+        counts = np.minimum(counts, np.maximum(np.floor(u / min_impulse_bit_n_s + 1e-9), 1).astype(int))
+    thrusts = np.zeros((int(counts.sum()), len(u)))
+    row = 0
+    for j, count in enumerate(counts):
+        thrusts[row:row + count, j] = u[j] / max(count, 1) / period_s
+        row += count
+    return thrusts
