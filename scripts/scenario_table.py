@@ -32,7 +32,8 @@ DRIVERS = {'headless': ('scripts/closed_loop.py', 'runs/table/{name}'),
 KEY_FIGURES = ('capture_position_error_m', 'capture_velocity_error_mps', 'delta_v_total_mps', 'min_clearance_m',
                'final_angular_momentum_kg_m2_s', 'target_mass_error_pct', 'target_principal_moments_error_pct',
                'transport_final_position_error_m', 'transport_orbital_momentum_error_n_m_s',
-               'transport_final_angular_momentum_kg_m2_s', 'transport_conditions_met', 'min_separation_m')
+               'transport_final_angular_momentum_kg_m2_s', 'transport_wheel_momentum_share', 'transport_settle_time_s',
+               'transport_settle_bound_s', 'transport_conditions_met', 'min_separation_m')
 
 
 def scenario_files():

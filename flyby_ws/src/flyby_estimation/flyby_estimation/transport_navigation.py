@@ -125,11 +125,10 @@ class TransportNavigation:
 
     The accelerometer is taken only where it sees a thrust: a specific force at the CoM above ACCEL_GATE_SIGMA of
     its noise (one firing thruster at its minimum impulse bit gives twenty on the TugRobot). Between firings the
-    body coasts on gravity alone, which the filter models (seed 000 eq 22), and integrating the accelerometer's noise
-    would only walk the velocity (1e-4 m/s^2 at 10 Hz: 0.1-0.4 mm/s of error, the size of seed 004 §3.2's third
-    condition on 50 kg); the filter's white acceleration is then the scenario's transport.nav_accel_psd_m2_s3, what
-    CW leaves out of the nonlinear relative motion within a few km (n^2 x^2 / R, 2e-7 m/s^2 at 1 km, over the filter's
-    ~30 s memory).
+    body coasts on gravity alone, which the filter models with the plant's own relative dynamics (seed 000 eq 1), and
+    integrating the accelerometer's noise would only walk the velocity (1e-4 m/s^2 at 10 Hz: 0.1-0.4 mm/s of error,
+    the size of seed 004 §3.2's third condition on 50 kg); the filter's white acceleration is then
+    ``params.TRANSPORT_NAV_ACCEL_PSD_M2_S3``, the integration's error.
 
     The combined CoM c is refined over each coast with nothing firing (no force or torque commanded, no thrust seen):
     ``ComCoast`` from the filter's state at the coast's start, at every stamp of COM_PERIOD_S's grid from

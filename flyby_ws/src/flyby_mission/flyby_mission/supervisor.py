@@ -33,8 +33,8 @@ observable condition and carries its reason:
     DAMPING           -> MASS_ESTIMATION    guidance's ``damping_complete`` (seed 000 §2.2 (6), seed 004 §3.2)
     MASS_ESTIMATION   -> COMPLETE           the estimator's ``mass_properties_estimated`` (seed 004 §2.2)
     MASS_ESTIMATION   -> TRANSPORT          the same, with a post_capture.transport section (seed 004 §2.3)
-    TRANSPORT         -> COMPLETE           guidance's ``transport_complete`` (the conditions judged settle_s after the
-                                            arrival) or ``transport_refused`` (no plan meets them: the body is held)
+    TRANSPORT         -> COMPLETE           guidance's ``transport_complete`` (the conditions held hold_s, or the run's
+                                            end) or ``transport_refused`` (no plan meets them: the body is held)
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
                                             fault (ERROR event) reported by a watched node, or a

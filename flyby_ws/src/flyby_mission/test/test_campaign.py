@@ -231,10 +231,11 @@ def test_a_numpy_float_cell_is_written_as_a_number():
 
 def test_a_transport_campaign_report_counts_the_three_conditions_and_skips_the_missing_capture_errors(tmp_path):
     """Runs that start attached have no capture errors (empty cells): the truth-within-tolerance count leaves them out
-    instead of failing on them, and the report rates the transports that met all three conditions."""
+    instead of failing on them, and the report rates the transports that met all three conditions, with the settle
+    time's percentiles and the runs within the bound their plan stated."""
     from flyby_mission.campaign.report import report_markdown, statistics, truth_within_tolerance
 
-    def row(met, position_error_m):
+    def row(met, position_error_m, settle_s='600.0'):
         return {'outcome': 'CAPTURE', 'end_reason': 'phase COMPLETE', 'method': '',
                 'phase_sequence': json.dumps(['MASS_ESTIMATION', 'TRANSPORT', 'COMPLETE']), 'min_clearance_m': '0.0',
                 'capture_position_error_m': '', 'capture_velocity_error_mps': '', 'delta_v_total_mps': '0.0',
@@ -242,15 +243,23 @@ def test_a_transport_campaign_report_counts_the_three_conditions_and_skips_the_m
                 'transport_final_position_error_m': repr(position_error_m),
                 'transport_orbital_momentum_error_n_m_s': '0.4' if not met else '0.003',
                 'transport_final_angular_momentum_kg_m2_s': '0.02', 'transport_fuel_kg': '0.07',
-                'transport_impulses': '56', 'transport_time_s': '1200.0'}
-    rows = {0: row(True, 0.7), 1: row(False, 0.5), 2: row(True, 1.9)}
+                'transport_impulses': '56', 'transport_time_s': '1200.0', 'transport_wheel_momentum_share': '0.3',
+                'transport_settle_time_s': settle_s, 'transport_settle_bound_s': '900.0'}
+    rows = {0: row(True, 0.7), 1: row(False, 0.5, '1200.0'), 2: row(True, 1.9), 3: row(True, 1.0, '')}
     assert truth_within_tolerance(tmp_path, rows) == ({'rate': None, 'successes': 0, 'runs': 0}, [])
     stats = statistics(rows)
-    assert stats['transport_rate']['successes'] == 2 and stats['transport_rate']['runs'] == 3
+    assert stats['transport_rate']['successes'] == 3 and stats['transport_rate']['runs'] == 4
     assert stats['transport_percentiles']['transport_final_position_error_m']['max'] == 1.9
+    assert stats['transport_percentiles']['transport_wheel_momentum_share']['max'] == 0.3
+    settle = stats['transport_settle_time']
+    assert settle['n'] == 3 and settle['p50'] == 600.0 and settle['max'] == 1200.0
+    assert 600.0 < settle['p90'] < settle['p99'] < 1200.0
+    assert (settle['within_bound'], settle['with_bound']) == (2, 3)
     header = {'name': 'n', 'campaign_file': 'f', 'sha256': '0' * 64, 'campaign_seed': 1, 'base_scenario': 'b',
               'dispersed_keys': []}
     text = report_markdown(tmp_path, header, stats, rows, [])
-    assert '| transport_rate | 2/3 = 0.667 |' in text
-    assert '- run 1: 0.5 m, 0.4 N s, 0.02 kg m2/s' in text
+    assert '| transport_rate | 3/4 = 0.750 |' in text
+    assert '- run 1: 0.5 m, 0.4 N s, 0.02 kg m2/s, wheels at 0.3 of their capacity' in text
+    assert '| transport_settle_time_s | 3 | 600 | 1080 | 1188 | 1200 |' in text
+    assert 'in 2 of 3 runs' in text
     assert 'transport_rate' not in statistics({0: {**row(True, 0.7), 'transport_conditions_met': ''}})

@@ -33,8 +33,11 @@ MAX_LISTED = 20
 WORST_LISTED = 5
 # Transport's figures (docs/transport.md; results.csv has them when the base scenario transports): upper tails.
 TRANSPORT_FIGURES = ('transport_final_position_error_m', 'transport_orbital_momentum_error_n_m_s',
-                     'transport_final_angular_momentum_kg_m2_s', 'transport_fuel_kg', 'transport_impulses',
-                     'transport_time_s')
+                     'transport_final_angular_momentum_kg_m2_s', 'transport_wheel_momentum_share', 'transport_fuel_kg',
+                     'transport_impulses', 'transport_time_s')
+# The time from the planned arrival to transport_complete, against the bound the planner stated before flying.
+SETTLE_TIME, SETTLE_BOUND = 'transport_settle_time_s', 'transport_settle_bound_s'
+SETTLE_PERCENTILES = (50, 90, 99)
 # Keys whose dispersion moves the spin axis or rate: then the outcome map is drawn.
 SPIN_KEYS = ('target.initial_rate.', 'target.initial_attitude.')
 
@@ -138,6 +141,21 @@ def statistics(rows):
         out['transport_rate'] = _rate('transport', sum(_met(r) for r in flown), n)
         out['transport_percentiles'] = {key: _percentiles([_number(r.get(key)) for r in flown], 'upper')
                                         for key in TRANSPORT_FIGURES}
+        out['transport_settle_time'] = settle_time_statistics(flown)
+    return out
+
+
+def settle_time_statistics(rows):
+    """The settle time's percentiles (SETTLE_PERCENTILES and max) over the runs whose transport completed, and how
+    many of them ended within the bound their plan stated (both cells present)."""
+    times = np.array([t for t in (_number(r.get(SETTLE_TIME)) for r in rows) if t is not None], dtype=float)
+    out = {'n': int(times.size)}
+    if times.size:
+        out.update({f'p{q}': float(np.percentile(times, q)) for q in SETTLE_PERCENTILES}, max=float(times.max()))
+    pairs = [(_number(r.get(SETTLE_TIME)), _number(r.get(SETTLE_BOUND))) for r in rows]
+    pairs = [(t, b) for t, b in pairs if t is not None and b is not None]
+    out['within_bound'] = sum(t <= b for t, b in pairs)
+    out['with_bound'] = len(pairs)
     return out
 
 
@@ -160,7 +178,8 @@ def worst_runs(rows):
     transport = [('every transport that missed a condition',
                   [(r, f'{_fmt(_number(row["transport_final_position_error_m"]))} m, '
                        f'{_fmt(_number(row["transport_orbital_momentum_error_n_m_s"]))} N s, '
-                       f'{_fmt(_number(row["transport_final_angular_momentum_kg_m2_s"]))} kg m2/s')
+                       f'{_fmt(_number(row["transport_final_angular_momentum_kg_m2_s"]))} kg m2/s, '
+                       f'wheels at {_fmt(_number(row.get("transport_wheel_momentum_share")))} of their capacity')
                    for r, row in sorted(rows.items()) if row.get('transport_conditions_met') and not _met(row)
                    ][:MAX_LISTED])] if any(row.get('transport_conditions_met') for row in rows.values()) else []
     return [
@@ -269,6 +288,7 @@ def report_markdown(out_dir, header, stats, rows, images):
                   '', '| transport figure (flown runs) | n | p50 | p95 | p99 | max |', '|---|---|---|---|---|---|']
         lines += [f'| {key} | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p95', 'p99', 'max')) + ' |'
                   for key, p in stats['transport_percentiles'].items()]
+        lines += _settle_lines(stats['transport_settle_time'])
     p = stats['percentiles']['min_clearance_m']
     lines += ['', '| least clearance (flown runs) | n | p50 | p5 | p1 | min |', '|---|---|---|---|---|---|',
               f'| min_clearance_m | {p["n"]} | ' + ' | '.join(_fmt(p.get(q)) for q in ('p50', 'p5', 'p1', 'min'))
@@ -279,6 +299,15 @@ def report_markdown(out_dir, header, stats, rows, images):
         lines += [f'- run {r}: {text}\n  `{_replay(out_dir, r)}`' for r, text in runs] or ['(none)']
         lines.append('')
     return '\n'.join(lines)
+
+
+def _settle_lines(settle):
+    """report.md's table of the settle time (settle_time_statistics) and the count within the stated bound."""
+    names = [f'p{q}' for q in SETTLE_PERCENTILES] + ['max']
+    return ['', f'{SETTLE_TIME}: from the planned arrival to transport_complete; within the bound the plan stated '
+                f'({SETTLE_BOUND}) in {settle["within_bound"]} of {settle["with_bound"]} runs.', '',
+            '| settle time (completed transports) | n | ' + ' | '.join(names) + ' |', '|---|---|---|---|---|---|',
+            f'| {SETTLE_TIME} | {settle["n"]} | ' + ' | '.join(_fmt(settle.get(q)) for q in names) + ' |']
 
 
 def truth_within_tolerance(out_dir, rows):
