@@ -71,7 +71,7 @@ def test_a_thrust_is_taken_from_the_accelerometer_at_once():
 
 
 def test_a_firing_the_accelerometer_does_not_see_is_taken_from_guidances_command():
-    """A small firing below the accelerometer's gate (a trim pulse on paper_flyby_transport's 1600 kg: one thruster
+    """A small firing below the accelerometer's gate (a terminal firing on paper_flyby_transport's 1600 kg: one thruster
     at its bit is 0.6 sigma) is a known input, guidance's command for that interval: in the estimate at the sample;
     without the command only the positions show it, over tens of seconds."""
     jumps = {}

@@ -1,43 +1,46 @@
 """Guidance in TRANSPORT (flyby_guidance.transport): the body it plans for from the final mass-property estimate,
-the detumbling first, the plan once detumbled and navigated, the closed-loop push and spin-down."""
+the detumbling first (the body's own angular momentum, not the wheels'), the plan once detumbled and navigated and
+its refusals, the closed-loop push and spin-down, the attitude held, the terminal program's firings and the
+judgement after the arrival (the conditions from the estimate with its 3-sigma, held hold_s)."""
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from flyby_guidance.damping import PostCaptureConfig
-from flyby_guidance.transport.attitude import TRACK_BANDWIDTH_RAD_S
+from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, WHEEL_SPINUP_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
     TransportControl,
     TransportGuidanceConfig,
     transport_body,
 )
-from flyby_guidance.transport.trim import (
-    COAST_SLEW_MOMENTUM_FRACTION,
-    COM_FINAL_RAD,
-    DUMP_S,
-    PULSE_LEAVE_FRACTION,
-    TRIM_SLEW_RATE_RAD_S,
-    TRIM_TIME_S,
-    WHEEL_SPINUP_S,
-)
+from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
 from flyby_msgs_py.event_payloads import decode_values
-from flyby_msgs_py.events import MASS_PROPERTIES_ESTIMATED
+from flyby_msgs_py.events import (
+    MASS_PROPERTIES_ESTIMATED,
+    TRANSPORT_COMPLETE,
+    TRANSPORT_CORRECTION,
+    TRANSPORT_DETUMBLED,
+    TRANSPORT_PLANNED,
+    TRANSPORT_REFUSED,
+    TRANSPORT_TERMINAL,
+    TRANSPORT_TURN,
+)
 from flyby_planner.transfer import terminal_impulses
-from flyby_planner.transport.model import TransportState, propagate
+from flyby_planner.transport.model import TransportRefused, TransportState, propagate
+from flyby_planner.transport.terminal import HORIZONS_S
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
-from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_hill_from_body
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import (
-    quat_conjugate,
     quat_from_rotation_vector,
     quat_multiply,
     quat_rotate,
-    quat_shortest_arc,
     quat_to_matrix,
 )
 from flyby_sim.scenario import load_scenario
@@ -50,12 +53,17 @@ ESTIMATE = decode_values(MASS_PROPERTIES_ESTIMATED, {
     'principal_axes_q': '[0.0, -0.7071067811865476, 0.0, 0.7071067811865476]'})
 
 
-def _control():
+def _control(planner=None, **changes):
+    """matsunaga_orbit_advance's transport guidance (wheels of 0.1 N m and 1 N m s), its config's keys replaced by
+    changes and its TransportConfig's by planner (a dict)."""
     sc = load_scenario(SCENARIO)
     body = transport_body(ESTIMATE, sc.chaser.mass_kg, sc.chaser_inertia, sc.thruster_layout,
                           sc.post_capture.transport.plume_cone_deg)
-    control = TransportControl(TransportGuidanceConfig.from_scenario(sc), sc.mean_motion_rad_s,
-                               PostCaptureConfig.from_scenario(sc).gains, 0.1)
+    config = TransportGuidanceConfig.from_scenario(sc)
+    if planner:
+        changes['planner'] = dataclasses.replace(config.planner, **planner)
+    control = TransportControl(dataclasses.replace(config, **changes), sc.mean_motion_rad_s,
+                               PostCaptureConfig.from_scenario(sc).gains, 0.1, 1.0)
     return sc, body, control
 
 
@@ -96,7 +104,8 @@ def test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate():
     while control.plan is None:
         *_, events = control.command(t, r_chaser, np.zeros(3), q, rest, np.zeros(3))
         t += 0.1
-    assert t >= 85.0 + NAV_SETTLE_S and events[0][1] == 'transport_planned'
+    assert t >= 85.0 + NAV_SETTLE_S and events[0][1] == TRANSPORT_PLANNED
+    assert events[0][3]['settle_bound_s'] == control.settle_bound
     assert control.plan.conditions['position_error_m'] < 10.0
     # At the push, the state the plan predicts: the closed-loop force is the planned one (the same needed velocity).
     push = next(b for b in control.plan.burns if b.purpose == 'push')
@@ -126,15 +135,22 @@ def test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate():
                                atol=1e-9)
 
 
-def _planned():
-    """The control of test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate once planned, at rest
-    with the chaser's axes along hill's (the estimate it planned from)."""
-    sc, body, control = _control()
+def _until_planned(body, control):
+    """Estimates at rest with the chaser's axes along hill's from t = 85 s until the plan or its refusal: the events."""
     control.start(85.0, body)
     q, r_chaser, t = np.array([0.0, 0.0, 0.0, 1.0]), np.array([10.0, 5.0, 5.0]) - body.com_body_m, 85.0
-    while control.plan is None:
-        control.command(t, r_chaser, np.zeros(3), q, np.zeros(3), np.zeros(3))
+    events = []
+    while control.plan is None and not control.done:
+        events += control.command(t, r_chaser, np.zeros(3), q, np.zeros(3), np.zeros(3))[3]
         t += 0.1
+    return events
+
+
+def _planned(**changes):
+    """The control of test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate once planned, at rest
+    with the chaser's axes along hill's (the estimate it planned from)."""
+    _, body, control = _control(**changes)
+    _until_planned(body, control)
     return body, control
 
 
@@ -158,91 +174,10 @@ def test_the_wheels_hold_the_plans_attitude():
     assert spinning[0] == pytest.approx(0.1)  # the wheels' torque
 
 
-def test_trim_pulses_a_pure_force_in_reach_else_along_the_push_axis_else_turns_it_first():
-    """After the arrival a velocity error is nulled by a pulse: a pure force along it where the allowed thrusters
-    give one above the minimum impulse bit; along the push axis (+x) by its pair, or below two bits by one of them;
-    where neither, the wheels turn the push axis onto it first and the pulse waits for the turn."""
-    body, control = _planned()
-    state = _state(2000.0)
-    at_thirty = np.array([np.cos(0.5), np.sin(0.5), 0.0])
-    force, torque, periods = control._pulse(state, at_thirty, 1.0)
-    np.testing.assert_allclose(force, 10.0 * at_thirty, atol=1e-12)
-    np.testing.assert_allclose(torque, np.cross(body.com_body_m, force), atol=1e-12)  # none about the combined CoM
-    assert periods == 1
-    assert control._pulse(state, np.array([-1.0, 0.0, 0.0]), 1.0) is None  # no -x thrust
-    nearly_x = np.array([1.0, 0.01, 0.0]) / np.linalg.norm([1.0, 0.01, 0.0])
-    force, torque, _ = control._pulse(state, nearly_x, 0.05)
-    np.testing.assert_allclose(force, [0.5, 0.0, 0.0], atol=1e-12)  # the pair, 0.025 N s each
-    force, torque, _ = control._pulse(state, nearly_x, 0.004)
-    assert force[0] == pytest.approx(0.1, rel=1e-5) and abs(torque[2]) > 0.0  # one thruster, one bit
-    # 0.2 rad off the push axis: a small error is fired along it where what is left across is within the residual
-    # (its direction is the navigation's noise), a large one waits for the turn.
-    off = np.array([np.cos(0.2), 0.0, np.sin(0.2)])
-    assert control._pulse(state, off, 0.013) is None
-    force, _, _ = control._pulse(state, off, 0.013, residual_n_s=0.005)
-    np.testing.assert_allclose(force, [0.13, 0.0, 0.0], atol=1e-9)  # 0.013 * 2 sin(0.1) = 0.0026 N s left
-    assert control._pulse(state, off, 0.1, residual_n_s=0.005) is None
-    # A velocity along the push axis (to be nulled along -x): the wheels turn the body half round, then the pulse.
-    control._track(state)  # the plan's attitude at rest after its burns
-    q_held = q_hill_from_body(2000.0, control.n, control.reference[1])
-    v = 1e-3 * quat_to_matrix(q_held)[:, 0]
-    events = control._trim(_state(2000.0, q_held, v=v))
-    assert not events and not control.pulses
-    t0, q0, axis, angle, rate = control.trim_slew
-    assert angle == pytest.approx(np.pi, abs=0.2) and rate == TRIM_SLEW_RATE_RAD_S  # hill turns meanwhile
-    t_turned = t0 + angle / rate + WHEEL_SPINUP_S
-    assert control.t_check == pytest.approx(t_turned)
-    assert control._trim(_state(t_turned - 1.0, v=v)) == []  # still turning
-    q_turned = q_hill_from_body(t_turned, control.n, control._reference_now(t_turned))
-    x = cw_transition_matrix(control.n, t_turned - 2000.0) @ np.concatenate(([1000.0, 0.0, 0.0], v))  # coasted
-    events = control._trim(_state(t_turned, q_turned, r=x[:3], v=x[3:]))
-    assert events[0][1] == 'transport_pulse' and control.pulses
-    force_hill = quat_to_matrix(q_turned) @ control.pulses[0][2]
-    assert float(force_hill @ x[3:]) < -0.999 * np.linalg.norm(force_hill) * np.linalg.norm(x[3:])
-
-
-def test_trim_dumps_the_angular_momentum_first_and_aims_at_rest_at_the_judgement():
-    body, control = _planned()
-    t_end = control.t_arrival + control.config.settle_s
-    control.momentum = 0.05  # the estimate's, the rate averaged
-    events = control._trim(_state(2000.0))
-    assert events[0][1] == 'transport_dump' and control.dumping == pytest.approx(2000.0 + DUMP_S)
-    force, torque = control._dump(2000.0, _state(2000.0), np.array([0.0, 0.0, 0.05]))
-    assert float((torque - np.cross(body.com_body_m, force)) @ np.array([0.0, 0.0, 1.0])) <= 0.0
-    control.dumping, control.momentum = None, 0.0
-    # 1 m off V-bar the body is not at rest in hill: the pulse gives the velocity that coasts to rest at the
-    # judgement (CW), not rest now; here along the push axis, the pair's.
-    phi = cw_transition_matrix(control.n, 100.0)
-    aim = -np.linalg.solve(phi[3:, 3:], phi[3:, :3] @ np.array([0.0, 0.0, 1.0]))
-    q_aim = quat_shortest_arc(np.array([1.0, 0.0, 0.0]), aim / np.linalg.norm(aim))
-    events = control._trim(_state(t_end - 100.0, q_aim, r=(1000.0, 0.0, 1.0)))
-    assert events and events[0][1] == 'transport_pulse'
-    force_hill = quat_to_matrix(q_aim) @ control.pulses[0][2]
-    np.testing.assert_allclose(force_hill * 0.1 / body.mass_kg, aim, rtol=1e-6, atol=1e-12)
-
-
-def test_a_dump_takes_the_angular_momentum_out_by_its_end():
-    """The dump's couples aim at none left at its end, the time left shrinking (a couple of h / DUMP_S throughout leaves
-    e^-1 of it, and the next dump, which must halve it, would never come). Its couples about the combined CoM,
-    pulse-modulated, integrated on the body held by the wheels."""
-    body, control = _planned()
-    p = control.config.planner.period_s
-    control.momentum = 0.09
-    t = 1400.0
-    assert control._trim(_state(t))[0][1] == 'transport_dump'
-    h0 = np.array([0.05, -0.04, 0.06])
-    h = h0.copy()
-    while control.dumping is not None:
-        force, torque = control._dump(t, _state(t), h)
-        h = h + (torque - np.cross(body.com_body_m, force)) * p
-        t += p
-    assert t == pytest.approx(1400.0 + DUMP_S, abs=1.5 * p)
-    assert np.linalg.norm(h) < 0.15 * np.linalg.norm(h0)
-
-
 def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
-    """After the first push, the estimate's deviation from the plan's coast carried to the last push by CW: within
-    replan_position_m nothing; beyond it one impulse now that takes the miss out, where the thrusters give it."""
+    """After the first push, the estimate's deviation from the plan's coast carried to the last push by CW: within a
+    quarter of the second condition nothing; beyond it one impulse now that takes the miss out, where the thrusters
+    give it."""
     body, control = _planned()
     p = control.config.planner.period_s
     pushes = [b for b in control.plan.burns if b.purpose == 'push']
@@ -257,7 +192,7 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     axis = quat_to_matrix(q_push)[:, 0]
     short = on_plan._replace(v_hill=x[3:] - 5e-3 * axis)
     events = control._correct(short, pushes, next_burn)
-    assert events[0][1] == 'transport_correction'
+    assert events[0][1] == TRANSPORT_CORRECTION
     dv = control.pulses[0][2] * (control.pulses[0][1] - control.pulses[0][0]) / body.mass_kg
     phi = cw_transition_matrix(control.n, pushes[-1].t_start_s + 0.5 * pushes[-1].duration_s - t)
     corrected = np.concatenate((short.r_hill, short.v_hill + quat_to_matrix(q_push) @ dv)) - x
@@ -266,71 +201,6 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     control.pulses = []
     fast = on_plan._replace(v_hill=x[3:] + 5e-3 * axis)
     assert control._correct(fast, pushes, next_burn) == [] and not control.pulses
-
-
-def test_dumps_stop_at_the_estimates_floor_and_a_body_the_wheels_cannot_turn_trims_short_along_the_push_axis():
-    """A dump that has not halved the estimated angular momentum is at the estimate's floor: no more dumps. Where the
-    wheels cannot turn the body (paper_flyby_transport's), a velocity error out of reach at the attitude held is left
-    (the thrusters' slews for it had left 35-110 N s each there), and a pulse in reach stops short along the push
-    axis by PULSE_LEAVE_FRACTION of the error: an overshoot would need thrust against the push axis."""
-    body, control = _planned()
-    control.momentum = 0.05
-    assert control._trim(_state(1400.0))[0][1] == 'transport_dump'
-    control.dumping, control.momentum = None, 0.04  # not halved
-    assert control._trim(_state(1430.0)) == [] and control.dumping is None
-    control.wheels_steer = False
-    control.t_check = 1450.0
-    q_held = q_hill_from_body(1450.0, control.n, control.reference[1])
-    x_hill = quat_to_matrix(q_held)[:, 0]
-    assert control._trim(_state(1450.0, q_held, v=5e-3 * x_hill)) == []  # to be nulled along -x
-    assert not control.pulses and control.trim_arrival is None
-    events = control._trim(_state(1470.0, q_held, v=-5e-3 * x_hill))  # along +x
-    assert [e[1] for e in events] == ['transport_pulse']
-    t_a, t_b, force, _ = control.pulses[0]
-    error_n_s = body.mass_kg * 5e-3
-    np.testing.assert_allclose(force * (t_b - t_a), [(1.0 - PULSE_LEAVE_FRACTION) * error_n_s, 0.0, 0.0],
-                               atol=1e-9)
-
-
-def test_a_transfer_back_arrives_in_time_to_be_stopped_and_a_grown_momentum_is_dumped_again():
-    """A transfer back starts only where it arrives trim_stop_s before the judgement, and its arrival is checked at once
-    (a transfer arriving shortly before the judgement would leave its velocity there). A dump at the estimate's floor is
-    not repeated, but a momentum grown beyond twice that is dumped again, where a pulse can still follow, and beyond the
-    first condition whatever follows."""
-    body, control = _planned()
-    p = control.config.planner.period_s
-    t_end = control.t_arrival + control.config.settle_s
-    control.momentum = 0.0
-    r_off = np.array([1003.0, 0.0, 0.0])  # beyond replan_position_m
-
-    def aimed(t):
-        """The state at t, 3 m off the goal with the push axis along the transfer back's first impulse."""
-        dv1, _ = terminal_impulses(r_off, np.zeros(3), control.goal, np.zeros(3), 2.0 * p + TRIM_TIME_S, control.n)
-        return _state(t, quat_shortest_arc(np.array([1.0, 0.0, 0.0]), dv1 / np.linalg.norm(dv1)), r=r_off)
-    late = aimed(t_end - TRIM_TIME_S - control.trim_stop_s + 1.0)
-    control.t_check = late.t
-    assert not any(e[1] == 'transport_trim' for e in control._check(late)) and control.trim_arrival is None
-    body, control = _planned()
-    control.momentum = 0.0
-    early = aimed(t_end - TRIM_TIME_S - control.trim_stop_s - 5.0)
-    control.t_check = early.t
-    assert [e[1] for e in control._check(early)] == ['transport_trim']
-    assert control.trim_arrival == pytest.approx(early.t + 2.0 * p + TRIM_TIME_S)
-    assert control.t_check == pytest.approx(early.t + control.config.replan_interval_s)
-    before = control.trim_arrival - 5.0  # the last check before the arrival: the next one at the arrival
-    assert control._check(early._replace(t=before)) == [] and control.t_check == control.trim_arrival
-    body, control = _planned()
-    control.momentum = 0.04
-    assert control._trim(_state(1400.0))[0][1] == 'transport_dump'
-    control.dumping, control.momentum = None, 0.035  # not halved: the floor
-    assert control._trim(_state(1430.0)) == []
-    control.momentum = 0.09  # a pulse's couple taken by the wheels, within the first condition
-    t_end = control.t_arrival + control.config.settle_s
-    late = t_end - DUMP_S - control.trim_stop_s + 1.0  # no time for a pulse after it: its couples push a little
-    assert control._trim(_state(late)) == [] and control.dumping is None
-    assert control._trim(_state(1460.0))[0][1] == 'transport_dump'
-    control.dumping, control.dumped, control.momentum = None, 0.04, 0.12  # beyond it: dumped, late or not
-    assert control._trim(_state(late))[0][1] == 'transport_dump'
 
 
 def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_attitude():
@@ -361,109 +231,219 @@ def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_
             np.testing.assert_allclose(wheels, [control._hold(planned.omega_body)] * len(wheels))  # rate only
 
 
-def _refined(control, t, sigma_m):
-    """The estimator's refined combined CoM (the body's own) with sigma_m, taken at t."""
-    control.refine_com(t, control.body.com_body_m.tolist(), sigma_m)
-    control._take_com(t)
+P = 0.1  # guidance's control period on matsunaga_orbit_advance (the chaser IMU's 10 Hz) [s]
 
 
-def test_on_the_coms_coast_the_trim_takes_out_only_a_drift_and_starts_no_transfer_back():
-    """The body turns in hill at n, so a CoM error dc is a velocity error n x C dc of the navigation: where the CoM's
-    1-sigma is worth more than a quarter of the third condition, the trim lets the estimator's coast sharpen it until
-    COM_FINAL_RAD of orbit before the judgement: it aims at no along-track drift (not at rest at the judgement, whose
-    arc from a radial offset of metres ends beyond the second condition), takes out only a drift beyond three times
-    that worth, and starts no transfer back; then it aims at rest at the judgement. A CoM sharp at the first trim
-    changes nothing."""
-    body, control = _planned()
-    control.momentum = 0.0
-    t_end = control.t_arrival + control.config.settle_s
-    bound = control.config.planner.max_momentum_error_n_s
-    final_s = COM_FINAL_RAD / control.n
-    t = t_end - final_s - 500.0
-    sigma = 2.0 * bound / (body.mass_kg * control.n)  # a CoM worth twice the condition
-    _refined(control, t, [sigma, 0.0, 0.0])
-    row = cw_transition_matrix(control.n, 2.0 * np.pi / control.n)[0]  # along-track after an orbit
-    offset = np.array([0.0, 0.0, 1.0])  # 1 m radially off the goal
-
-    def drifting(t, v_x, offset=offset):
-        """Along hill x (the push axis: no turn) at v_x beyond the velocity with no drift [m/s]."""
-        v0 = -(row[:3] @ offset - offset[0]) / row[3]
-        return _state(t, r=control.goal + offset, v=(v0 + v_x, 0.0, 0.0))
-    assert control._trim(drifting(t, 0.0)) == [] and not control.pulses  # at rest at the judgement would need a pulse
-    assert control._trim(drifting(t, -5.0 * bound / body.mass_kg)) == []  # 2.5 times the worth: left
-    events = control._trim(drifting(t, -7.0 * bound / body.mass_kg))
-    assert [e[1] for e in events] == ['transport_pulse']
-    t_a, t_b, force, _ = control.pulses[0]
-    v_after = drifting(t, -7.0 * bound / body.mass_kg).v_hill + force * (t_b - t_a) / body.mass_kg
-    assert abs(row @ np.concatenate((offset, v_after)) - offset[0]) < 1e-9  # no along-track drift left
-    control.pulses = []
-    far = np.array([0.0, 0.0, 8.0])  # beyond replan_position_m: no transfer back on the coast
-    assert [e[1] for e in control._trim(drifting(t + 100.0, -7.0 * bound / body.mass_kg, far))] == ['transport_pulse']
-    assert control.trim_arrival is None
-    control.pulses = []
-    late = drifting(t_end - final_s + 1.0, 0.0)  # no drift, but not at rest at the judgement: the wheels turn the
-    assert control._trim(late) == [] and control.trim_slew[3] > 0.0  # push axis onto the error for its pulse
-    body, control = _planned()
-    control.momentum = 0.0
-    _refined(control, t, [0.1 * sigma, 0.0, 0.0])
-    assert control._trim(drifting(t, 0.0)) == [] and control.trim_slew[3] > 0.0 and control.com_worth == 0.0
-    # Where the wheels do not steer, the drift is taken out along the push axis (a pulse across it needs couples
-    # several times its size), here hill x turned 30 deg toward -z: along it, not along the drift's gradient.
-    control.wheels_steer = False
-    tilted = quat_from_rotation_vector((0.0, np.radians(30.0), 0.0))
-    state = drifting(t, -7.0 * bound / body.mass_kg)._replace(q_hill_from_body=tilted)
-    change = control._drift_free_change(state)
-    b_hill = quat_to_matrix(tilted) @ control.b_body
-    np.testing.assert_allclose(np.cross(change, b_hill), 0.0, atol=1e-12)
-    assert change @ b_hill > 0.0
-    assert abs(row @ np.concatenate((offset, state.v_hill + change)) - offset[0]) < 1e-9
+def _estimate(control, t, r_com, v_com=(0.0, 0.0, 0.0), q_hill=(0.0, 0.0, 0.0, 1.0), omega=(0.0, 0.0, 0.0),
+              h_wheels=(0.0, 0.0, 0.0)):
+    """control.command of the chaser estimate whose combined CoM is at r_com moving at v_com (hill; the chaser's
+    point -c of the body by seed 000 eq 8-9)."""
+    q, omega = np.asarray(q_hill, dtype=float), np.asarray(omega, dtype=float)
+    r_point, v_point = body_point_state(quat_to_matrix(q), omega, -control.body.com_body_m, control.n)
+    return control.command(t, np.asarray(r_com, dtype=float) + r_point, np.asarray(v_com, dtype=float) + v_point, q,
+                           omega, np.asarray(h_wheels, dtype=float))
 
 
-def test_a_pulse_that_costs_more_than_twice_what_the_judgement_gains_waits():
-    """Out of the orbit plane the velocity that coasts to rest at the judgement is y n tan(n T): a quarter orbit
-    before it a pulse of any size changes the judged velocity by cos(n T) of itself, and waits; 100 s before, it
-    fires."""
-    body, control = _planned()
-    control.momentum = 0.0
-    t_end = control.t_arrival + control.config.settle_s
-    v_y = 5.0 * control.config.planner.max_momentum_error_n_s / body.mass_kg
-    quarter = t_end - 0.45 * np.pi / control.n
-    q_y = quat_shortest_arc(np.array([1.0, 0.0, 0.0]), np.array([0.0, -1.0, 0.0]))  # the push axis against it
-    assert control._trim(_state(quarter, q_y, v=(0.0, v_y, 0.0))) == [] and not control.pulses
-    events = control._trim(_state(t_end - 100.0, q_y, v=(0.0, v_y, 0.0)))
-    assert [e[1] for e in events] == ['transport_pulse']
+def _arrived(nav_position_sigma_m=0.01, **changes):
+    """A planned control, its navigation's 1-sigma given (position_sigma_m, 10 um/s, a CoM of 0.1 mm), and the first
+    estimate's stamp after its last burn and arrival on the grid: (body, control, t0, q_eci_from_body at rest there
+    with the body's axes along hill's)."""
+    body, control = _planned(**changes)
+    last_burn_end = max(b.t_start_s + b.duration_s for b in control.plan.burns)
+    t0 = P * math.ceil(max(control.plan.t_arrival_s, last_burn_end) / P + 1.0)
+    control.refine_com(t0, control.body.com_body_m.tolist(), [1e-4] * 3, nav_position_sigma_m, 1e-5)
+    return body, control, t0, q_eci_from_body(t0, control.n, np.array([0.0, 0.0, 0.0, 1.0]))
 
 
-def test_on_the_coms_coast_the_wheels_turn_the_push_axis_onto_the_change_the_last_pulses_need():
-    """Where the wheels do not steer, the push axis is fixed inertially and turns in hill at n, and a drift-free
-    relative orbit's velocity turns with it: a change the pulses after the coast need against the axis would stay out
-    of reach. Once the drift is out, the wheels turn the
-    axis onto that change (CW to the coast's end, then the velocity that coasts to rest at the judgement), at most
-    COAST_SLEW_MOMENTUM_FRACTION of their momentum, and hold it there; nothing fires."""
-    body, control = _planned()
-    control.momentum = 0.0
-    control.wheels_steer, control.wheel_max_momentum_n_m_s = False, 4.0
-    control.config = dataclasses.replace(control.config, settle_s=4000.0)  # the coast after the plan's last burn
-    t_end = control.t_arrival + control.config.settle_s
-    bound = control.config.planner.max_momentum_error_n_s
-    t = t_end - COM_FINAL_RAD / control.n - 500.0
-    _refined(control, t, [2.0 * bound / (body.mass_kg * control.n), 0.0, 0.0])
-    row = cw_transition_matrix(control.n, 2.0 * np.pi / control.n)[0]
-    offset = np.array([0.0, 0.0, 1.0])  # 1 m radially off the goal, with no drift
-    state = _state(t, r=control.goal + offset, v=(-(row[:3] @ offset - offset[0]) / row[3], 0.0, 0.0))
-    events = control._trim(state)
-    assert [e[1] for e in events] == ['transport_coast_slew'] and not control.pulses
-    t0, q0, axis, angle, rate = control.trim_slew
-    axis_body = quat_rotate(quat_conjugate(q0), axis)
-    assert rate == pytest.approx(COAST_SLEW_MOMENTUM_FRACTION * 4.0 / (axis_body @ body.inertia_body_kg_m2 @ axis_body))
-    t_f = t_end - COM_FINAL_RAD / control.n
-    x_f = cw_transition_matrix(control.n, t_f - t) @ np.concatenate((offset, state.v_hill))
-    phi_t = cw_transition_matrix(control.n, t_end - t_f)
-    wanted = -np.linalg.solve(phi_t[3:, 3:], phi_t[3:, :3] @ x_f[:3]) - x_f[3:]
-    b_f = quat_rotate(quat_multiply(quat_from_rotation_vector(angle * axis), q0), control.b_body)
-    np.testing.assert_allclose(b_f, hill_axes_in_eci(t_f, control.n) @ (wanted / np.linalg.norm(wanted)), atol=1e-9)
-    assert t + angle / rate < t_f
-    force, torque, wheels, _ = control.command(t + 1.0, state.r_hill - quat_to_matrix(state.q_hill_from_body)
-                                               @ body.com_body_m, state.v_hill, state.q_hill_from_body, np.zeros(3),
-                                               np.zeros(3))
-    assert not np.any(force) and not np.any(torque) and np.any(wheels)  # the wheels turn it, nothing fires
+def _held(control, t, q_eci):
+    """The attitude held inertially, in hill at t."""
+    return q_hill_from_body(t, control.n, q_eci)
+
+
+def test_the_detumbling_judges_the_bodys_own_angular_momentum_not_the_wheels():
+    """The detumbling ends once the body's own |I omega| (its rate averaged over DETUMBLED_S) is below half the first
+    condition and the wheels within their share: a body at rest whose wheels hold 0.3 N m s is detumbled, one turning
+    at |I omega| = 0.08 kg m^2/s with its wheels holding the opposite (none in all) is not, nor one at rest whose wheels
+    hold 0.6 of their capacity."""
+    cases = ((np.zeros(3), (0.3, 0.0, 0.0), True), (None, None, False), (np.zeros(3), (0.0, 0.6, 0.0), False))
+    for omega, h_wheels, detumbled in cases:
+        _, body, control = _control()
+        if omega is None:
+            omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.08])
+            h_wheels = -body.inertia_body_kg_m2 @ omega
+        control.start(85.0, body)
+        r_chaser = np.array([10.0, 5.0, 5.0]) - body.com_body_m
+        events = []
+        for k in range(150):
+            events += control.command(85.0 + k * P, r_chaser, np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), omega,
+                                      np.asarray(h_wheels, dtype=float))[3]
+        names = [e[1] for e in events]
+        if detumbled:
+            assert names == [TRANSPORT_DETUMBLED] and control.t_detumbled == pytest.approx(85.0 + DETUMBLED_S)
+            assert events[0][3]['angular_momentum_kg_m2_s'] == 0.0
+        else:
+            assert names == [] and control.t_detumbled is None
+
+
+def test_the_judgement_completes_only_once_the_conditions_held_hold_s():
+    """At the rest point at rest, estimated within 3 cm and 0.02 N s at 3-sigma, with the wheels at 0.3 of their
+    capacity: the conditions hold from the first judgement, an estimate with the wheels at 0.6 breaks them, and
+    transport_complete (OK) comes hold_s after they hold again, with the body's own angular momentum (the wheels'
+    apart), the time since the arrival and the bound stated with the plan; nothing fires meanwhile."""
+    body, control, t0, q_eci = _arrived()
+    hold_s = control.config.hold_s
+    assert hold_s == 60.0
+    k_break = 300  # 30 s on, between two checks of the terminal program
+    found, k = [], 0
+    while not found:
+        t = t0 + k * P
+        force, torque, _, events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_eci),
+                                             h_wheels=(0.6 if k == k_break else 0.3, 0.0, 0.0))
+        assert not np.any(force) and not np.any(torque)
+        found = [e for e in events if e[1] == TRANSPORT_COMPLETE]
+        assert len(events) == len(found)
+        k += 1
+        assert k < 2000
+    level, _, message, values = found[0]
+    assert t == pytest.approx(t0 + (k_break + 1) * P + hold_s)
+    assert level == 'OK' and '\n' not in message and values['conditions_met'] is True
+    assert values['held_s'] == pytest.approx(hold_s)
+    assert values['angular_momentum_kg_m2_s'] == 0.0  # the wheels' 0.3 N m s excluded ...
+    assert values['wheel_momentum_n_m_s'] == pytest.approx(0.3) and values['wheel_momentum_share'] == pytest.approx(0.3)
+    assert values['position_error_m'] == pytest.approx(float(np.linalg.norm(control.rest - control.goal)))
+    assert values['momentum_error_n_s'] < 1e-12
+    assert values['settle_time_s'] == pytest.approx(t - control.t_arrival)
+    assert values['settle_bound_s'] == control.settle_bound and values['t_arrival_s'] == control.t_arrival
+    # Done: nothing more is commanded.
+    force, torque, wheels, events = _estimate(control, t + P, control.rest, q_hill=_held(control, t + P, q_eci))
+    assert not (np.any(force) or np.any(torque) or np.any(wheels) or events)
+
+
+def test_conditions_that_never_hold_end_in_a_warn_at_the_deadline():
+    """At the rest point at rest but estimated with 4 m of position 1-sigma (12 m at 3-sigma, beyond the second
+    condition): no transport_complete before the deadline (two replan intervals before the run's end), then a WARN
+    that says the conditions were not held, the estimate's own values within the bounds."""
+    body, control, t0, q_eci = _arrived(nav_position_sigma_m=4.0)
+    deadline = control.config.duration_s - 2.0 * control.config.replan_interval_s
+    t, found = t0, []
+    while not found:
+        events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_eci))[3]
+        found = [e for e in events if e[1] == TRANSPORT_COMPLETE]
+        assert t < deadline + 1.0
+        t += 1.0
+    t -= 1.0
+    assert deadline - 1e-9 <= t < deadline + 1.0
+    level, _, message, values = found[0]
+    assert level == 'WARN' and 'not held' in message and values['held_s'] == 0.0
+    assert values['conditions_met'] is True and values['settle_time_s'] == pytest.approx(t - control.t_arrival)
+
+
+@pytest.mark.parametrize('changes, words', [
+    ({'planner': {'max_momentum_error_n_s': 0.008}},
+     ("minimum impulse bit 0.01 N s exceeds the momentum bound 0.008 N s",)),
+    ({'goal_hill_m': (0.0, 0.0, 5.0)}, ('[0.0, 0.0, 5.0] m is no rest point', '5 m away')),
+])
+def test_a_transport_the_conditions_cannot_end_is_refused_with_one_line(changes, words):
+    """A minimum impulse bit above the third condition, and a goal 5 m below the reference point (its rest point,
+    the reference point, beyond a quarter of the second condition): transport_refused (ERROR) with its reason in one
+    line, no plan, and nothing commanded after it."""
+    _, body, control = _control(**changes)
+    events = _until_planned(body, control)
+    assert [e[1] for e in events] == [TRANSPORT_DETUMBLED, TRANSPORT_REFUSED]
+    level, _, message, values = events[-1]
+    assert level == 'ERROR' and control.plan is None and control.done
+    assert '\n' not in values['reason'] and values['reason'] in message and all(w in values['reason'] for w in words)
+    out = control.command(200.0, np.zeros(3), np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3), np.zeros(3))
+    assert not any(np.any(x) for x in out[:3]) and not out[3]
+
+
+def test_a_goal_within_a_quarter_of_the_second_condition_of_its_rest_point_is_reachable():
+    """2.4 m below the reference point is within a quarter of 10 m of its rest point, 2.6 m is not; 2 km ahead on
+    V-bar is 0.29 m above its rest point."""
+    for goal, refused in (((0.0, 0.0, 2.4), False), ((0.0, 0.0, 2.6), True), ((2000.0, 0.0, 0.0), False)):
+        _, body, control = _control(goal_hill_m=goal)
+        control.start(85.0, body)
+        if refused:
+            with pytest.raises(TransportRefused, match='is no rest point'):
+                control._check_reachable(control.t_arrival)
+        else:
+            control._check_reachable(control.t_arrival)
+
+
+def test_too_little_time_for_the_stated_settle_bound_is_refused():
+    """The run must leave the settle bound after the arrival before the deadline (two replan intervals before its
+    end): a second less is refused naming the bound, a second more is planned."""
+    _, body, control = _control()
+    control.start(85.0, body)
+    bound, margin = control.settle_bound, 2.0 * control.config.replan_interval_s
+    for extra_s, refused in ((-1.0, True), (1.0, False)):
+        _, body, control = _control(duration_s=control.t_arrival + bound + margin + extra_s)
+        events = _until_planned(body, control)
+        assert events[-1][1] == (TRANSPORT_REFUSED if refused else TRANSPORT_PLANNED)
+        if refused:
+            assert events[-1][3]['reason'].startswith(f'too little time: the conditions need {bound:.0f} s after')
+
+
+def test_the_settle_bound_is_rounds_of_a_coast_that_learns_the_velocity_a_firing_and_a_check_then_the_hold():
+    """Each of TERMINAL_ROUNDS rounds is the coast over which a constant velocity fitted to positions of 1 cm at
+    10 Hz (least squares over the samples, whose slope has the variance s^2 / sum (t - t_mean)^2) is known within
+    AIM_FRACTION of the third condition at NAV_SIGMAS, at least the combined CoM's period, then the shortest horizon
+    and a replan interval; then the hold."""
+    mass, bound, hold, replan = 50.2, 0.01, 60.0, 20.0
+    total = settle_bound_s(mass, bound, 0.01, 10.0, hold, 0.0, replan)
+    coast_s = (total - hold) / TERMINAL_ROUNDS - HORIZONS_S[0] - replan
+    times = np.arange(0.0, coast_s, 0.1)
+    sigma_v = 0.01 / math.sqrt(float(np.sum((times - times.mean()) ** 2)))
+    assert NAV_SIGMAS * mass * sigma_v == pytest.approx(AIM_FRACTION * bound, rel=0.01)
+    assert settle_bound_s(mass, bound, 0.01, 10.0, hold, 1000.0, replan) == pytest.approx(
+        TERMINAL_ROUNDS * (1000.0 + HORIZONS_S[0] + replan) + hold)
+
+
+def test_after_the_arrival_the_terminal_program_fires_one_thruster_a_period():
+    """1 mm/s along -x at the rest point, the push axis along hill x: the terminal program's firings
+    (transport_terminal) are one allowed thruster a period from the first period this estimate's command reaches, at
+    least a minimum impulse bit each, together the momentum along +x; guidance commands them at their periods."""
+    body, control, t0, q_eci = _arrived()
+    v_com = (-1e-3, 0.0, 0.0)
+    force, _, _, events = _estimate(control, t0, control.rest, v_com=v_com, q_hill=_held(control, t0, q_eci))
+    assert not np.any(force) and [e[1] for e in events] == [TRANSPORT_TERMINAL]
+    values = events[0][3]
+    assert values['horizon_s'] == 60.0 and values['impulse_n_s'] == pytest.approx(body.mass_kg * 1e-3, rel=1e-3)
+    assert values['predicted_momentum_n_s'] < 0.5 * control.config.planner.max_momentum_error_n_s
+    directions = body.layout.force_directions_body
+    impulse = np.zeros(3)
+    assert control.pulses[0][0] == pytest.approx(t0 + 2.0 * P)
+    for t_a, t_b, force, torque in control.pulses:
+        assert t_b - t_a == pytest.approx(P)
+        thrust = float(np.linalg.norm(force))
+        assert thrust * P >= body.layout.min_impulse_bit_n_s * (1.0 - 1e-9)
+        wrenches = [np.concatenate((thrust * d, np.cross(r, thrust * d)))
+                    for r, d in zip(body.layout.positions_body_m, directions, strict=True)]
+        assert any(np.allclose(np.concatenate((force, torque)), w, rtol=0.0, atol=1e-12) for w in wrenches)
+        impulse += force * P
+        commanded = _estimate(control, t_a - P, control.rest, v_com=v_com, q_hill=_held(control, t_a - P, q_eci))
+        np.testing.assert_allclose(commanded[0], force, atol=1e-12)
+    np.testing.assert_allclose(impulse, [values['impulse_n_s'], 0.0, 0.0], atol=1e-12)
+
+
+def test_where_no_horizon_is_feasible_the_wheels_turn_the_push_axis_onto_the_transfers_first_impulse():
+    """2 mm/s along the push axis (+x), with time left for the shortest horizon only: the program has no
+    firing (the thrusters push no -x), and the wheels turn the body at the rate their share of momentum gives it until
+    the push axis lies along the first impulse of CW's transfer to the rest point (transport_turn)."""
+    body, control, t0, q_eci = _arrived()
+    _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))  # the terminal from here
+    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0  # time for the 60 s horizon only
+    q_hill = _held(control, t, q_eci)  # the push axis turned in hill at n since the hold began
+    v_hill = quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0])
+    state = TransportState(t, control.rest.copy(), v_hill, q_hill, np.zeros(3))
+    events = control._terminal(state, np.zeros(3))
+    assert [e[1] for e in events] == [TRANSPORT_TURN] and not control.pulses
+    t_turn, _, axis, angle, rate = control.turning
+    inertia_max = float(np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2)))
+    assert rate == pytest.approx(control.config.wheel_momentum_share * 1.0 / inertia_max)
+    assert control.t_check == pytest.approx(t + angle / rate + WHEEL_SPINUP_S)
+    horizon_s = control.deadline - control.config.hold_s - t
+    dv_hill, _ = terminal_impulses(np.zeros(3), state.v_hill, np.zeros(3), np.zeros(3), horizon_s, control.n)
+    b_eci = quat_rotate(control._held(t + angle / rate), control.b_body)
+    np.testing.assert_allclose(b_eci, hill_axes_in_eci(t, control.n) @ dv_hill / np.linalg.norm(dv_hill), atol=1e-9)
+    assert angle > 1.0

@@ -285,7 +285,9 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         return []
 
     def _complete(self, t, state, h_wheels):
-        conditions = conditions_of(self.body, state, self.goal)
+        # The body's angular momentum as judged: its rate averaged over DETUMBLED_S (the gyro's noise alone is of the
+        # first condition's size on a heavy body).
+        conditions = {**conditions_of(self.body, state, self.goal), 'angular_momentum_kg_m2_s': self.body_momentum}
         wheel_share = self._wheel_share(h_wheels)
         met = (not missed_conditions(conditions, self.config.planner)
                and wheel_share <= self.config.wheel_momentum_share)

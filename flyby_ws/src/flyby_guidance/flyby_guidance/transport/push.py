@@ -77,8 +77,8 @@ class TransportPush:
                                    f'reference orbit is {off_m:.3g} m away (a body at rest there drifts)')
         if t_arrival + self.settle_bound > self.deadline:
             raise TransportRefused(f'too little time: the conditions need {self.settle_bound:.0f} s after the '
-                                   f'arrival at t = {t_arrival:.0f} s, the run ends at t = '
-                                   f'{self.config.duration_s:.0f} s')
+                                   f'arrival at t = {t_arrival:.0f} s, and they are judged at the latest at t = '
+                                   f'{self.deadline:.0f} s (the run ends at {self.config.duration_s:.0f} s)')
 
     def _plan_with_faster_slews(self, start, t_arrival):
         """plan_transport, and where the slews at the configured rate leave too little time, again with the rate
@@ -148,7 +148,7 @@ class TransportPush:
         plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
         rest), turned into the body by the attitude estimate, with no torque about the combined CoM; the planned
         wrench where the allowed thrusters cannot give it (an attitude far off its plan). Pointing and execution
-        errors of the push are taken out; a miss of the position is the re-plans' and trims'."""
+        errors of the push are taken out; a miss of the position is the mid-course correction's and the terminal program's."""
         p = self.config.planner.period_s
         t_from = t + p
         remaining_s = burn.t_start_s + burn.duration_s - t_from

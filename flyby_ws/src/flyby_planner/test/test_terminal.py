@@ -1,0 +1,218 @@
+"""transport.terminal: the goal's rest point against an independent integration of exact two-body gravity, the
+terminal ball's slabs, the program's predicted end against an independent propagation of its firings, its firings'
+bounds, the firing periods, and the direction limit that leaves no horizon feasible (docs/transport.md)."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+from scipy.spatial.transform import Rotation
+
+from flyby_planner.transport import terminal
+from flyby_sim.dynamics.actuators import default_thruster_layout
+from flyby_sim.dynamics.combined_body import combined_mass_properties
+from flyby_sim.dynamics.orbital import mean_motion_rad_s, nonlinear_relative_accel, q_eci_from_body
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector
+
+RADIUS_M = 7.0e6  # seed 004 §3.2's orbit
+N = mean_motion_rad_s(RADIUS_M)
+BIT_N_S = 0.01
+MOMENTUM_BOUND_N_S = 0.01  # seed 004 §3.2's third condition in scenarios/matsunaga_orbit_advance.yaml
+
+
+def _tugrobot():
+    """Seed 004 §3.1's combined body (TugRobot 30 kg diag(2, 3, 3), target 20 kg diag(2, 1.5, 1.5) at (0.5, 0, 0) m)
+    and its scenario's thrusters (faces 0.2 m, pairs 0.15 m) less the -x pair, whose exhaust hits the target:
+    (mass, inertia, directions, couples about the combined CoM)."""
+    props = combined_mass_properties(30.0, np.diag([2.0, 3.0, 3.0]), 20.0, (0.5, 0.0, 0.0), np.diag([2.0, 1.5, 1.5]))
+    layout = default_thruster_layout(face_m=0.2, lever_arm_m=0.15, min_impulse_bit_n_s=BIT_N_S)
+    keep = layout.force_directions_body[:, 0] > -0.5
+    directions = layout.force_directions_body[keep]
+    couples = np.cross(layout.positions_body_m[keep] - props.com_body_m, directions)
+    return props.mass_kg, props.inertia_body_kg_m2, directions, couples
+
+
+def _problem(x0, q_hill_from_body=(0.0, 0.0, 0.0, 1.0), t0=1500.0, h0=(0.0, 0.0, 0.0)):
+    """The program of the TugRobot's body at t0 with the margins guidance gives it on
+    matsunaga_orbit_advance's bounds (2.5 m, half the momentum bound, 0.4 N m s of wheel momentum)."""
+    mass, inertia, directions, couples = _tugrobot()
+    q_eci = q_eci_from_body(t0, N, np.asarray(q_hill_from_body, dtype=float))
+    return terminal.TerminalProblem(
+        mass, directions, couples, np.full(len(directions), 10.0), BIT_N_S, N, t0, np.asarray(x0, dtype=float),
+        q_eci, np.asarray(h0, dtype=float), 2.5, 0.5 * MOMENTUM_BOUND_N_S * terminal.BALL_SLAB_FACTOR, 60.0, 0.4,
+        terminal.couple_limit(inertia, 0.1))
+
+
+# States of the combined CoM off the rest point [m, m/s] that the program fires for, in and out of the push cone.
+FIRING_STATES = (
+    ((0.0, 0.0, 0.0, -1e-3, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+    ((1.0, 0.5, -0.3, 2e-4, -3e-4, 5e-4), (0.0, 0.0, 0.0, 1.0)),
+    ((0.0, 0.0, 0.0, 0.0, 2e-3, -1e-3), tuple(quat_from_rotation_vector((0.1, -0.2, 0.3)))),
+    ((0.0, 0.0, 0.0, 1e-3, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),  # against the push axis: a longer horizon
+    ((-2.0, 1.0, 1.5, 0.0, 0.0, 0.0), tuple(quat_from_rotation_vector((0.0, 0.0, 0.5)))),
+)
+
+
+def test_rest_point_is_an_equilibrium_of_seed000_eq1():
+    """A body at rest in hill at the rest point of a goal 2 km ahead on V-bar stays within a millimetre over 1000 s
+    of exact two-body gravity (seed 000 eq 1, integrated independently), where one at rest at the Cartesian goal
+    drifts by decimetres (it is 0.29 m above the orbit's circle)."""
+    goal = np.array([2000.0, 0.0, 0.0])
+    rest = terminal.rest_point(goal, RADIUS_M)
+    assert np.linalg.norm(rest - goal) == pytest.approx(RADIUS_M * (1.0 - math.cos(2000.0 / RADIUS_M)), rel=1e-3)
+
+    def rates(_, y):
+        return np.concatenate((y[3:], nonlinear_relative_accel(y[:3], y[3:], N, RADIUS_M)))
+
+    def drift(r0):
+        sol = solve_ivp(rates, (0.0, 1000.0), np.concatenate((r0, np.zeros(3))), method='DOP853', rtol=1e-12,
+                        atol=1e-12, dense_output=True)
+        return max(float(np.linalg.norm(sol.sol(t)[:3] - r0)) for t in np.linspace(0.0, 1000.0, 51))
+    assert drift(rest) < 1e-3
+    assert drift(goal) > 0.2
+    np.testing.assert_allclose(terminal.rest_point(rest, RADIUS_M), rest, atol=1e-9)  # on the circle: itself
+
+
+def _ball_vertices():
+    """The vertices of the polytope |a_i . x| <= BALL_SLAB_FACTOR (every triple of the directions' planes that meet
+    in a point within all the slabs)."""
+    a, rho = terminal.BALL_DIRECTIONS, terminal.BALL_SLAB_FACTOR
+    vertices = []
+    for rows in itertools.combinations(range(len(a)), 3):
+        m = a[list(rows)]
+        if abs(np.linalg.det(m)) < 1e-9:
+            continue
+        for signs in itertools.product((-1.0, 1.0), repeat=3):
+            x = np.linalg.solve(m, rho * np.array(signs))
+            if np.all(np.abs(a @ x) <= rho * (1.0 + 1e-12)):
+                vertices.append(x)
+    return np.array(vertices)
+
+
+def test_a_vector_within_every_slab_is_within_the_unit_ball():
+    """The slabs' polytope is convex, so its farthest point from the centre is a vertex: every vertex within the unit
+    ball (it is within 0.92), and the directions unit."""
+    np.testing.assert_allclose(np.linalg.norm(terminal.BALL_DIRECTIONS, axis=1), 1.0, atol=1e-15)
+    vertices = _ball_vertices()
+    assert len(vertices) >= 8 and float(np.max(np.linalg.norm(vertices, axis=1))) <= 1.0
+
+
+@settings(max_examples=300)
+@given(st.tuples(*[st.floats(-1.0, 1.0, allow_nan=False)] * 3).filter(lambda u: np.linalg.norm(u) > 1e-3))
+def test_along_any_direction_the_slabs_end_within_the_unit_ball(u):
+    """Along a direction u the slabs end at BALL_SLAB_FACTOR / max_i |a_i . u|: within 1."""
+    u = np.asarray(u) / np.linalg.norm(u)
+    extent = terminal.BALL_SLAB_FACTOR / float(np.max(np.abs(terminal.BALL_DIRECTIONS @ u)))
+    assert extent <= 1.0
+
+
+def _hill_from_eci(t):
+    """C_hill_from_eci at t, from the target's circular orbit (at R (1, 0, 0) at t = 0, moving toward +y): hill x
+    along its velocity, z toward Earth's centre, y = z x x."""
+    position = np.array((math.cos(N * t), math.sin(N * t), 0.0))
+    velocity = np.array((-math.sin(N * t), math.cos(N * t), 0.0))
+    z = -position
+    return np.vstack((velocity, np.cross(z, velocity), z))
+
+
+def _cw_flow(t):
+    """exp(A t) of seed 000 eq 2 (CW), A written out: the state [r; v] of hill."""
+    a = np.zeros((6, 6))
+    a[:3, 3:] = np.eye(3)
+    a[3, 5], a[5, 3] = 2.0 * N, -2.0 * N
+    a[4, 1], a[5, 2] = -N * N, 3.0 * N * N
+    return expm(a * t)
+
+
+def _propagated(problem, solution):
+    """The end state of the solution's impulses applied at their slots, propagated slot by slot (independent of the
+    module: CW by the matrix exponential, the hill directions from the quaternion by scipy)."""
+    c_eci_from_body = Rotation.from_quat(problem.q_eci_from_body).as_matrix()
+    x, t = np.array(problem.x0, dtype=float), problem.t0
+    for t_k, u_k in zip(solution.slot_times_s, solution.impulses_n_s, strict=True):
+        x = _cw_flow(t_k - t) @ x
+        x[3:] += _hill_from_eci(t_k) @ c_eci_from_body @ (problem.directions_body.T @ u_k) / problem.mass_kg
+        t = t_k
+    return _cw_flow(problem.t0 + solution.horizon_s - t) @ x
+
+
+@pytest.mark.parametrize('x0, q_hill', FIRING_STATES)
+def test_the_predicted_end_is_the_firings_propagated_and_within_the_margins(x0, q_hill):
+    """solve's predicted end equals the impulses propagated independently; it and the momentum hold_s later lie within
+    the margins' slabs, the wheels' momentum within theirs and each slot's couple within the limit."""
+    problem = _problem(x0, q_hill)
+    solution = terminal.solve(problem, terminal.HORIZONS_S)
+    assert solution is not None and np.any(solution.impulses_n_s)
+    assert solution.slot_times_s[0] == problem.t0
+    np.testing.assert_allclose(np.diff(solution.slot_times_s), solution.horizon_s / terminal.SLOTS, rtol=1e-12)
+    end = _propagated(problem, solution)
+    np.testing.assert_allclose(solution.predicted, end, rtol=0.0, atol=1e-9)
+    a, tol = terminal.BALL_DIRECTIONS, 1e-7
+    assert np.all(np.abs(a @ end[:3]) <= problem.rho_position_m + tol)
+    held = _cw_flow(problem.hold_s) @ end
+    for v in (end[3:], held[3:]):
+        assert np.all(np.abs(a @ (problem.mass_kg * v)) <= problem.rho_momentum_n_s + tol)
+    couples = solution.impulses_n_s @ problem.couples_body_m  # (K, 3)
+    h_end = problem.h_wheels_body_n_m_s + couples.sum(axis=0)
+    np.testing.assert_allclose(solution.h_wheels_body_n_m_s, h_end, atol=1e-12)
+    assert np.all(np.abs(h_end) <= problem.rho_wheels_n_m_s + tol)
+    assert np.all(np.abs(couples) <= problem.couple_max_n_m_s + tol)
+
+
+@pytest.mark.parametrize('x0, q_hill', FIRING_STATES)
+def test_every_firing_is_at_least_the_bit_and_within_its_slots_thrust(x0, q_hill):
+    problem = _problem(x0, q_hill)
+    solution = terminal.solve(problem, terminal.HORIZONS_S)
+    fired = solution.impulses_n_s[solution.impulses_n_s > 0.0]
+    assert fired.size and np.all(solution.impulses_n_s >= 0.0)
+    assert float(fired.min()) >= terminal.BIT_MARGIN * BIT_N_S * (1.0 - 1e-6)
+    slot_s = min(terminal.MAX_PULSE_S, 0.5 * solution.horizon_s / terminal.SLOTS / len(problem.max_thrust_n))
+    assert np.all(solution.impulses_n_s <= problem.max_thrust_n * slot_s * (1.0 + 1e-6))
+
+
+def test_a_state_at_rest_at_the_rest_point_fires_nothing():
+    """At the rest point at rest, and a few decimetres off it and 0.1 mm/s moving (within the margins over the
+    shortest horizon and the hold), the program fires nothing over the shortest horizon."""
+    for x0 in (np.zeros(6), np.array([0.3, -0.2, 0.1, 1e-5, 0.0, -1e-5])):
+        solution = terminal.solve(_problem(x0), terminal.HORIZONS_S)
+        assert solution.horizon_s == terminal.HORIZONS_S[0] and not np.any(solution.impulses_n_s)
+        np.testing.assert_allclose(solution.predicted, _cw_flow(solution.horizon_s) @ x0, atol=1e-12)
+
+
+def test_a_force_outside_the_thrusters_cone_is_infeasible_over_the_shortest_horizon():
+    """The body's +x along hill x and no thruster pushing along -x: 1 mm/s along +x needs a force against the push
+    axis, which the side thrusters give over 60 s only through CW's coupling, far beyond the margins (None); the
+    same velocity the other way is taken out at once by the push axis's pair."""
+    assert terminal.solve(_problem((0.0, 0.0, 0.0, 1e-3, 0.0, 0.0)), (terminal.HORIZONS_S[0],)) is None
+    solution = terminal.solve(_problem((0.0, 0.0, 0.0, -1e-3, 0.0, 0.0)), (terminal.HORIZONS_S[0],))
+    assert solution is not None and float(solution.impulses_n_s.sum()) == pytest.approx(_tugrobot()[0] * 1e-3)
+
+
+def test_couple_limit_is_the_couple_the_wheels_stop_within_the_turn():
+    """A body given the couple impulse h about its least principal axis turns h^2 / (2 I tau) while the wheels'
+    torque tau stops it: TURN_RAD at couple_limit."""
+    inertia = np.diag([4.0, 7.5, 7.5])
+    h = terminal.couple_limit(inertia, 0.1)
+    assert h * h / (2.0 * 4.0 * 0.1) == pytest.approx(terminal.TURN_RAD, rel=1e-12)
+
+
+@settings(max_examples=200)
+@given(impulses=st.lists(st.one_of(st.just(0.0), st.floats(BIT_N_S, 20.0)), min_size=1, max_size=10),
+       thrust_n=st.floats(0.5, 20.0), period_s=st.sampled_from((0.05, 0.1, 0.2)))
+def test_firing_periods_deliver_each_impulse_one_thruster_a_period_none_below_the_bit(impulses, thrust_n, period_s):
+    max_thrust = np.full(len(impulses), thrust_n)
+    thrusts = terminal.firing_periods(impulses, max_thrust, BIT_N_S, period_s)
+    assert thrusts.shape[1] == len(impulses)
+    np.testing.assert_allclose(thrusts.sum(axis=0) * period_s, impulses, rtol=1e-12, atol=1e-15)
+    assert np.all(np.count_nonzero(thrusts, axis=1) == 1)  # one thruster a period, no idle period
+    fired = thrusts[thrusts > 0.0]
+    assert np.all(fired * period_s >= BIT_N_S * (1.0 - 1e-9)) and np.all(fired <= thrust_n * (1.0 + 1e-9))
+    # As few periods as the thrust allows: each thruster's count the least at full thrust.
+    counts = np.count_nonzero(thrusts, axis=0)
+    np.testing.assert_array_equal(counts, [math.ceil(u / (thrust_n * period_s) - 1e-9) if u > 0.0 else 0
+                                           for u in impulses])
