@@ -148,7 +148,8 @@ class TransportPush:
         plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
         rest), turned into the body by the attitude estimate, with no torque about the combined CoM; the planned
         wrench where the allowed thrusters cannot give it (an attitude far off its plan). Pointing and execution
-        errors of the push are taken out; a miss of the position is the mid-course correction's and the terminal program's."""
+        errors of the push are taken out; a miss of the position is the mid-course correction's and the terminal
+        program's."""
         p = self.config.planner.period_s
         t_from = t + p
         remaining_s = burn.t_start_s + burn.duration_s - t_from
