@@ -158,6 +158,8 @@ class TransportNavigationParams:
     imu_rate_hz: float = params.key('sensors.chaser_imu.rate_hz')
     gyro_noise_sigma_rad_s: float = params.key('sensors.chaser_imu.gyro_noise_sigma_rad_s')
     accel_noise_sigma_mps2: float = params.key('sensors.chaser_imu.accel_noise_sigma_mps2')
+    thrust_magnitude_sigma: float = params.key('chaser.thrusters.magnitude_error_sigma')
+    thrust_misalignment_sigma_rad: float = params.key('chaser.thrusters.direction_error_sigma_deg', math.radians)
 
 
 def _is_rigid_body(scenario):

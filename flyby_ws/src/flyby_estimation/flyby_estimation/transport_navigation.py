@@ -33,6 +33,12 @@ def combined_com_covariance(chaser_mass_kg, estimate):
             + estimate.mass_sigma_kg**2 * np.outer(dc_dm, dc_dm))
 
 
+def command_error(magnitude_sigma, misalignment_sigma_rad):
+    """The relative 1-sigma of a commanded firing's delta-v: its thrusters' magnitude and direction errors, at least
+    TransportNavigation.COMMAND_ERROR_FLOOR."""
+    return max(float(np.hypot(magnitude_sigma, misalignment_sigma_rad)), TransportNavigation.COMMAND_ERROR_FLOOR)
+
+
 def on_com_grid(t, t_start):
     """True for a stamp t [s] of COM_PERIOD_S's grid after t_start, the final mass-property estimate's."""
     return t > t_start + STAMP_TOLERANCE_S and abs(t - round(t / COM_PERIOD_S) * COM_PERIOD_S) <= STAMP_TOLERANCE_S
@@ -138,7 +144,7 @@ class TransportNavigation:
     VELOCITY_SIGMA_MPS = 0.05
     GATE_PROBABILITY = 0.9999  # chi2(3) gate on the relative position's NIS
     ACCEL_GATE_SIGMA = 5.0
-    COMMAND_ERROR_SIGMA = 0.1  # a small firing's delta-v against its command (its thrusters' errors, sub-bit parts)
+    COMMAND_ERROR_FLOOR = 0.03  # a small firing's delta-v against its command at least this (parts below the bit)
 
     def __init__(self, params, t_start, com_body_m, com_covariance_m2, mass_kg):
         """params: the ``params.TransportNavigationParams``; t_start: the final mass-property estimate's stamp [s];
@@ -160,6 +166,8 @@ class TransportNavigation:
         self.positions = StampedBuffer(8)  # relative positions of the chaser's CoM waiting for their IMU sample
         self.commands = StampedBuffer(8)  # guidance's force commands [N, chaser_body] by the start of their period
         self.last = None  # (t, omega_body) of the previous IMU sample
+        # A commanded firing's delta-v is known to its thrusters' execution errors (``command_error``).
+        self.command_error = command_error(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
 
     def on_position(self, t, r_chaser_hill):
         self.positions.add(t, np.asarray(r_chaser_hill, dtype=float))
@@ -200,7 +208,7 @@ class TransportNavigation:
                 f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
             elif commanded and np.any(command[1][0]):
                 dv_hill = c_hill @ command[1][0] * (dt / self.mass_kg)  # the commanded delta-v, unseen
-                f.add_thrust_error(last[0], t, dv_hill, (self.COMMAND_ERROR_SIGMA * float(np.linalg.norm(
+                f.add_thrust_error(last[0], t, dv_hill, (self.command_error * float(np.linalg.norm(
                     dv_hill))) ** 2 * np.eye(3))
         if not quiet:
             self.coast = None

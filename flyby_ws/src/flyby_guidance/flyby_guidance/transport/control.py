@@ -26,7 +26,7 @@ import dataclasses
 
 import numpy as np
 
-from flyby_estimation.transport_navigation import COM_PERIOD_S
+from flyby_estimation.transport_navigation import COM_PERIOD_S, command_error
 from flyby_guidance.transport.attitude import DETUMBLED_S, WHEEL_SPINUP_S, TransportAttitude
 from flyby_guidance.transport.push import TransportPush
 from flyby_guidance.transport.terminal import TransportTerminal, settle_bound_s
@@ -97,6 +97,8 @@ class TransportGuidanceConfig:
     accel_noise_sigma_mps2: float = params.key('sensors.chaser_imu.accel_noise_sigma_mps2')
     star_tracker_sigma_deg: float = params.key('sensors.chaser_imu.star_tracker_sigma_deg')
     duration_s: float = params.key('simulation.duration_s')
+    thrust_magnitude_sigma: float = params.key('chaser.thrusters.magnitude_error_sigma')
+    thrust_misalignment_sigma_deg: float = params.key('chaser.thrusters.direction_error_sigma_deg')
     planner: TransportConfig = params.derived(_transport_planner_config)
 
 
@@ -177,6 +179,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         # A terminal turn: at the rate the wheels' share of their momentum gives the body.
         self.turn_rate_rad_s = self.config.wheel_momentum_share * self.wheel_capacity_n_m_s / inertia_max
         cfg = self.config
+        self.command_error = command_error(cfg.thrust_magnitude_sigma, np.radians(cfg.thrust_misalignment_sigma_deg))
         self.settle_bound = settle_bound_s(body.mass_kg, cfg.planner.max_momentum_error_n_s, cfg.position_sigma_m,
                                            cfg.position_rate_hz, cfg.hold_s, COM_PERIOD_S, cfg.replan_interval_s)
 

@@ -8,10 +8,11 @@ import numpy as np
 
 from flyby_msgs_py import events
 from flyby_planner.transfer import terminal_impulses
+from flyby_planner.transport import terminal
 from flyby_planner.transport.model import TransportRefused, TransportState, propagate
 from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.slew import resolve_slew
-from flyby_planner.transport.thrusters import push_axis, torque_wrench
+from flyby_planner.transport.thrusters import torque_wrench
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_to_matrix
@@ -195,9 +196,9 @@ class TransportPush:
         """The mid-course correction, keeping the last push (it nulls the velocity at the arrival, closed loop): the
         estimate's deviation from the plan's coast after the first push (its state at the push's end coasted by CW,
         seed 000 eq 22) carried to the last push's middle; beyond CORRECTION_FRACTION of the second condition there,
-        the one impulse now that takes it out (Phi_rv dv = -miss), a pure force at the attitude held where the
-        allowed thrusters give it with each above the minimum impulse bit and it ends before the next burn (else at a
-        later check, or the terminal program after the arrival)."""
+        the one impulse now that takes it out (Phi_rv dv = -miss), as near as the thrusters give it at the attitude
+        held (``terminal.impulses_for``: the part the direction limit leaves out waits for a later check), fired one
+        thruster a period where it ends before the next burn."""
         p = self.config.planner.period_s
         t = state.t
         first, last = pushes[0], pushes[-1]
@@ -208,28 +209,17 @@ class TransportPush:
         miss_m = float(np.linalg.norm(miss))
         if miss_m <= CORRECTION_FRACTION * self.config.planner.max_position_error_m:
             return []
-        dv = -np.linalg.solve(phi[:3, 3:], miss)
-        impulse = self.body.mass_kg * float(np.linalg.norm(dv))
-        pulse = self._pure_pulse(state, dv)
-        k0 = round((t + 2.0 * p) / p)
-        if pulse is None or (k0 + pulse[2]) * p > next_burn.t_start_s - 1e-9:
+        problem = self._terminal_problem(state, np.zeros(3), 0.0)
+        impulses, dv_given = terminal.impulses_for(-np.linalg.solve(phi[:3, 3:], miss), problem)
+        thrusts = terminal.firing_periods(impulses, problem.max_thrust_n, problem.min_impulse_bit_n_s, p)
+        k0 = round(problem.t0 / p)
+        if not len(thrusts) or (k0 + len(thrusts)) * p > next_burn.t_start_s - 1e-9:
             return []
-        self.pulses = [(k0 * p, (k0 + pulse[2]) * p, pulse[0], pulse[1])]
+        wrench = self.body.layout.wrench_matrix
+        self.pulses = [((k0 + i) * p, (k0 + i + 1) * p, wrench[:3] @ row, wrench[3:] @ row)
+                       for i, row in enumerate(thrusts)]
+        left_m = float(np.linalg.norm(miss + phi[:3, 3:] @ dv_given))
+        impulse = float(impulses.sum())
         return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off at the last push: a correction of '
-                                                   f'{impulse:.3g} N s', {'miss_m': miss_m, 'impulse_n_s': impulse})]
-
-    def _pure_pulse(self, state, dv_hill):
-        """(force, torque about the chaser's CoM, periods) of the delta-v dv_hill as a pure force about the combined
-        CoM at the estimated attitude, at most the push's force fraction of the push axis's, its firing thrusters
-        each above the minimum impulse bit per period; None where the thrusters do not give it."""
-        body, cfg = self.body, self.config.planner
-        p = cfg.period_s
-        impulse = body.mass_kg * float(np.linalg.norm(dv_hill))
-        periods = max(1, int(np.ceil(impulse / (cfg.push_force_fraction * push_axis(body)[1] * p))))
-        force = quat_to_matrix(state.q_hill_from_body).T @ dv_hill * (body.mass_kg / (periods * p))
-        torque = np.cross(body.com_body_m, force)
-        allocation = allocate_wrench(body.layout, force, torque)
-        fired = allocation.thrusts_n[allocation.thrusts_n > 1e-6]
-        if allocation.saturated or not fired.size or float(fired.min()) * p < body.layout.min_impulse_bit_n_s:
-            return None
-        return force, torque, periods
+                                                   f'{impulse:.3g} N s leaves {left_m:.3g} m',
+                 {'miss_m': miss_m, 'impulse_n_s': impulse})]

@@ -29,7 +29,6 @@ NAV_SIGMAS = 3.0  # the estimate's margin: the conditions are judged, and the pr
 AIM_FRACTION = 0.5  # the program aims within this share of each bound, the margin for the estimate's error ...
 POSITION_AIM_FRACTION = 0.25  # ... and of the position bound (a rest point drifts off it no more than this) ...
 WHEEL_AIM_FRACTION = 0.8  # ... and of the wheels' share (their momentum is measured, not estimated)
-COMMAND_ERROR = 0.1  # a terminal firing's impulse is known to this fraction (its thrusters' errors, the bit's)
 TERMINAL_ROUNDS = 3  # the settle bound: this many rounds of navigation and firing after the arrival
 
 
@@ -55,14 +54,14 @@ class TransportTerminal:
 
     def _velocity_sigma_mps(self, t):
         """The navigation's velocity 1-sigma at t [m/s]: the last estimate's, with the combined CoM's (an error dc is
-        n x C dc of velocity, the body turning in hill at n) and COMMAND_ERROR of every terminal firing since (a known
-        input to the navigation); None before the first."""
+        n x C dc of velocity, the body turning in hill at n) and the command error of every terminal firing since (a
+        known input to the navigation); None before the first."""
         if self.nav_sigma is None:
             return None
         t_sigma, _, sigma_v, sigma_c = self.nav_sigma
         fired_n_s = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in self.pulses
                         if t_sigma - 1e-9 <= a < t)
-        return math.hypot(math.hypot(sigma_v, self.n * sigma_c), COMMAND_ERROR * fired_n_s / self.body.mass_kg)
+        return math.hypot(math.hypot(sigma_v, self.n * sigma_c), self.command_error * fired_n_s / self.body.mass_kg)
 
     def _terminal(self, state, h_wheels):
         """At a check with nothing firing: the terminal program from the estimate (module doc); its firings
@@ -117,7 +116,8 @@ class TransportTerminal:
         couples = np.cross(layout.positions_body_m - body.com_body_m, layout.force_directions_body)
         # What the wheels will hold once they hold the body still: its own momentum and theirs.
         h_held = body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
-        rho_r = max(POSITION_AIM_FRACTION * cfg.planner.max_position_error_m, NAV_SIGMAS * self.nav_sigma[1])
+        position_sigma_m = 0.0 if self.nav_sigma is None else self.nav_sigma[1]
+        rho_r = max(POSITION_AIM_FRACTION * cfg.planner.max_position_error_m, NAV_SIGMAS * position_sigma_m)
         return terminal.TerminalProblem(
             body.mass_kg, layout.force_directions_body, couples, layout.max_thrust_n, layout.min_impulse_bit_n_s,
             self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,

@@ -12,8 +12,8 @@ CW's to first order (seed 000 eq 22). With u_kj >= 0 the impulse of thruster j a
     s.t. bit z_kj <= u_kj <= u_max z_kj,  z_kj in {0, 1}          the minimum impulse bit and the slot's thrust
          x_T = Phi(T) x_0 + sum_kj Phi(T - t_k)[:, 3:] d_kj u_kj / m
          |a_i . r_T| <= rho_r,  |a_i . m v_T| <= rho_p          conditions 2 and 3 within their margins, a_i the
-         |a_i . m v_T+hold| <= rho_p                             13 directions of ``BALL_DIRECTIONS``; the momentum
-                                                                 also after the hold (CW from the end)
+         |a_i . m v_T+k hold| <= rho_p                           13 directions of ``BALL_DIRECTIONS``; the momentum
+                                                                 also k = HOLD_TIMES holds later (CW from the end)
          |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity
          |sum_j tau_j u_kj|_inf <= couple_max                     a slot's couple the wheels stop within a small turn
 
@@ -27,19 +27,22 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, milp
+from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
 HORIZONS_S = (60.0, 120.0, 240.0, 480.0, 960.0, 1920.0)  # the terminal horizons tried, shortest first [s]
 SLOTS = 4  # firing times per horizon: its start and every quarter
+HOLD_TIMES = (1,)  # the momentum within its margin also this many hold_s after the end: the rest the program leaves
+#                   lasts through the judgement's hold
 MAX_PULSE_S = 30.0  # a thruster's firing in a slot at most this long at full thrust [s]
 BIT_MARGIN = 1.05  # a firing's impulse at least this many minimum impulse bits: the plant fires it whole
 TURN_RAD = 0.02  # a slot's couple is one the wheels stop within this turn of the body [rad]
 MILP_TIME_LIMIT_S = 2.0
 LATER_SLOT_COST = 0.05  # each later slot's impulse costs this much more: what can be fired now is, and a pair of
 #                         opposed firings that nets less than a bit lies in one slot, which the next solve keeps
+CORRECTION_WEIGHT = 10.0  # a mid-course correction's miss of its delta-v against its impulse (``impulses_for``)
 MOMENTUM_WEIGHT = 2.0  # w: a newton second of end momentum costs twice one of impulse, so the program takes out what
 #                        the bit allows rather than ride the margin's edge
 
@@ -122,11 +125,11 @@ def _program(problem, horizon_s):
     eye = np.eye(size)
     # The momentum at the end and hold_s later (CW from the end): a body off its rest point gains momentum, 3 n^2
     # per metre radially, so a heavy body must end nearer it.
-    held = cw_transition_matrix(problem.n, problem.hold_s)[3:]
+    held = [np.eye(6)[3:]] + [cw_transition_matrix(problem.n, k * problem.hold_s)[3:] for k in HOLD_TIMES]
     a_r = BALL_DIRECTIONS @ effect[:3]
-    a_v = np.vstack((BALL_DIRECTIONS @ effect[3:], BALL_DIRECTIONS @ (held @ effect))) * m
+    a_v = np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in held]) * m
     r_free = BALL_DIRECTIONS @ free[:3]
-    p_free = np.concatenate((BALL_DIRECTIONS @ free[3:], BALL_DIRECTIONS @ (held @ free))) * m
+    p_free = np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in held]) * m
     h_total = np.tile(couples, SLOTS)
     per_slot = np.kron(np.eye(SLOTS), couples)
 
@@ -187,3 +190,32 @@ def firing_periods(impulses_n_s, max_thrust_n, min_impulse_bit_n_s, period_s):
         thrusts[row:row + count, j] = u[j] / max(count, 1) / period_s
         row += count
     return thrusts
+
+
+def impulses_for(dv_hill_mps, problem):
+    """(impulses [N s] (J,), the delta-v they give [m/s, hill]): the thrusters' impulses now at the attitude held
+    that come nearest a wanted delta-v (a mid-course correction), an LP (scipy.optimize.linprog, HiGHS):
+
+        min  sum u + W |D u / m - dv|_1   s.t.  0 <= u <= u_max,  |C u|_inf <= couple_max
+
+    with D the thrusters' directions in hill at t0 and C their couples about the combined CoM; where the direction
+    limit leaves part of dv out of reach, the part within it. Impulses below the minimum impulse bit are left out."""
+    dv = np.asarray(dv_hill_mps, dtype=float)
+    m = problem.mass_kg
+    d = _directions_hill(problem, problem.t0).T / m  # (3, J): delta-v per newton second
+    j_count = d.shape[1]
+    weight = CORRECTION_WEIGHT * m  # a newton second of impulse is worth W newton seconds of the delta-v's miss
+    # Variables: u (J), e+ (3), e- (3) with D u - dv = e+ - e-.
+    cost = np.concatenate((np.ones(j_count), np.full(6, weight)))
+    a_eq = np.hstack((d, -np.eye(3), np.eye(3)))
+    couples = problem.couples_body_m.T
+    a_ub = np.vstack((np.hstack((couples, np.zeros((3, 6)))), np.hstack((-couples, np.zeros((3, 6))))))
+    b_ub = np.full(6, problem.couple_max_n_m_s)
+    u_max = problem.max_thrust_n * MAX_PULSE_S
+    bounds = [(0.0, float(u)) for u in u_max] + [(0.0, None)] * 6
+    result = linprog(cost, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=dv, bounds=bounds, method='highs')
+    if result.status != 0:
+        return np.zeros(j_count), np.zeros(3)
+    u = result.x[:j_count]
+    u = np.where(u >= BIT_MARGIN * problem.min_impulse_bit_n_s, u, 0.0)
+    return u, d @ u
