@@ -1,12 +1,15 @@
 """TransportNavigation: the combined CoM's navigation in TRANSPORT takes the accelerometer only where it
 sees a thrust; coasting, the velocity comes from the relative positions and the modelled gravity (CW)."""
 
+import dataclasses
+import math
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from flyby_estimation.params import TransportNavigationParams
-from flyby_estimation.transport_navigation import ComCoast, TransportNavigation
+from flyby_estimation.transport_navigation import ComCoast, TransportNavigation, command_error
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel_components, rk4_step_floats
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_to_matrix
 from flyby_sim.scenario import load_scenario
@@ -147,3 +150,47 @@ def test_the_combined_com_is_given_on_its_grid_and_refined_after_a_long_enough_q
     assert coasts[:3] == [0.0] * 3 and 199.0 < coasts[4] < 300.0  # 300 s: 199.9 s of coast; 350 s: refined
     assert coasts[6] == coasts[5] and coasts[7] == coasts[5]  # after the couple at 420 s, no coast of 200 s ...
     assert abs(coasts[10] - 230.0) < 1e-6  # ... until 650 s: a coast from the sample that ends the firing's interval
+
+
+def test_command_error_is_the_thrusters_magnitude_and_direction_errors_at_least_the_floor():
+    floor = TransportNavigation.COMMAND_ERROR_FLOOR
+    assert command_error(0.0, 0.0) == floor
+    assert command_error(0.01, math.radians(1.0)) == floor  # 0.02 in all: the floor
+    assert command_error(0.05, math.radians(2.0)) == pytest.approx(math.sqrt(0.05 ** 2 + math.radians(2.0) ** 2),
+                                                                   rel=1e-15)
+    assert command_error(0.0, 0.04) == pytest.approx(0.04, rel=1e-15)
+    assert command_error(0.04, 0.0) == pytest.approx(0.04, rel=1e-15)
+
+
+def _commanded_velocity_covariance(params, dv_mps=2e-3):
+    """The velocity covariance [m^2/s^2] of a navigation on params (the body fixed in hill 1 km ahead on V-bar,
+    noiseless positions and accelerometer) right after a firing of dv_mps along hill x that the accelerometer does
+    not see, commanded by guidance, at a sample with no position (nothing updates it after the command)."""
+    n = SCENARIO.mean_motion_rad_s
+    nav = TransportNavigation(params, 0.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
+    omega = np.array([0.0, -n, 0.0])
+    estimate = SimpleNamespace(q_hill_from_body=np.array([0.0, 0.0, 0.0, 1.0]), omega_body=omega,
+                               attitude_covariance_hill=1e-8 * np.eye(3))
+    centripetal = np.cross(omega, np.cross(omega, -COM))  # the rotation term alone: no acceleration of the CoM
+    for k in range(1, 51):
+        t = round(100.0 + 0.1 * k, 6)
+        nav.on_position(t, np.array([1000.0, 0.0, 0.0]) - COM)
+        nav.on_imu(t, estimate, centripetal)
+    nav.on_command(t, np.array([NAV_MASS_KG * dv_mps / 0.1, 0.0, 0.0]))
+    navigated, _ = nav.on_imu(round(t + 0.1, 6), estimate, centripetal)
+    return navigated[2][3:, 3:]
+
+
+def test_the_navigation_takes_its_command_error_from_its_params():
+    """The command error is command_error of the params' thrusters' errors (matsunaga_orbit_advance's are nil: the
+    floor), and an unseen commanded firing's delta-v dv adds (error |dv|)^2 to the velocity's variance per axis."""
+    nav = TransportNavigation(PARAMS, 0.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
+    assert nav.command_error == command_error(PARAMS.thrust_magnitude_sigma, PARAMS.thrust_misalignment_sigma_rad)
+    worse = dataclasses.replace(PARAMS, thrust_magnitude_sigma=0.08, thrust_misalignment_sigma_rad=math.radians(3.0))
+    error = math.hypot(0.08, math.radians(3.0))
+    nav = TransportNavigation(worse, 0.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
+    assert nav.command_error == pytest.approx(error, rel=1e-15)
+    dv_mps = 2e-3
+    added = _commanded_velocity_covariance(worse, dv_mps) - _commanded_velocity_covariance(PARAMS, dv_mps)
+    np.testing.assert_allclose(added, (error ** 2 - TransportNavigation.COMMAND_ERROR_FLOOR ** 2) * dv_mps ** 2
+                               * np.eye(3), rtol=1e-6, atol=1e-18)

@@ -216,3 +216,97 @@ def test_firing_periods_deliver_each_impulse_one_thruster_a_period_none_below_th
     counts = np.count_nonzero(thrusts, axis=0)
     np.testing.assert_array_equal(counts, [math.ceil(u / (thrust_n * period_s) - 1e-9) if u > 0.0 else 0
                                            for u in impulses])
+
+
+def _c_hill_from_body(problem):
+    """C_hill_from_body at the problem's t0, independent of the module: the quaternion by scipy, hill by
+    ``_hill_from_eci``."""
+    return _hill_from_eci(problem.t0) @ Rotation.from_quat(problem.q_eci_from_body).as_matrix()
+
+
+# Attitudes held (hill from body at t0): the body's axes along hill's, and turned about the push axis (body +x), which
+# keeps the push axis along hill x and turns the side thrusters' directions off hill's axes.
+CORRECTION_ATTITUDES = ((0.0, 0.0, 0.0, 1.0), tuple(quat_from_rotation_vector((0.4, 0.0, 0.0))))
+# Turned off the push axis: the direction limit's half-space no longer has a hill axis for its normal.
+OFF_AXIS_ATTITUDE = tuple(quat_from_rotation_vector((0.1, -0.2, 0.3)))
+
+
+@pytest.mark.parametrize('q_hill', (*CORRECTION_ATTITUDES, OFF_AXIS_ATTITUDE))
+@pytest.mark.parametrize('dv_body_mps', ((2e-3, 1e-3, -5e-4), (4e-3, -2e-3, 0.0), (0.0, 0.0, -3e-3)))
+def test_impulses_for_gives_a_delta_v_within_the_cone_exactly(q_hill, dv_body_mps):
+    """A delta-v the allowed thrusters give at the attitude held (no component against the push axis, each thruster's
+    share above the bit, the couple within its limit) is given to 1e-9, and the delta-v returned is D u / m of the
+    impulses with D from the quaternion and the orbit's hill axes (scipy, ``_hill_from_eci``)."""
+    problem = _problem(np.zeros(6), q_hill, t0=2300.0)
+    c = _c_hill_from_body(problem)
+    dv_hill = c @ np.asarray(dv_body_mps)
+    impulses, given = terminal.impulses_for(dv_hill, problem)
+    np.testing.assert_allclose(given, c @ (problem.directions_body.T @ impulses) / problem.mass_kg, rtol=0.0,
+                               atol=1e-12 * np.linalg.norm(dv_hill))
+    assert np.linalg.norm(given - dv_hill) <= 1e-9 * np.linalg.norm(dv_hill)
+    assert np.all(impulses >= 0.0) and np.any(impulses)
+
+
+def _assert_the_reachable_part(q_hill, dv_body_mps):
+    """A delta-v with a component against the push axis: the delta-v given has none along the push axis (its component
+    along the unreachable direction, -push, >= 0 where the thrusters give only >= 0 along +push) and misses by no
+    more than the unreachable component: the rest is given as wanted."""
+    problem = _problem(np.zeros(6), q_hill, t0=2300.0)
+    c = _c_hill_from_body(problem)
+    dv_hill = c @ np.asarray(dv_body_mps)
+    unreachable_hill = -c[:, 0]  # the push axis is body +x; no thruster pushes along -x
+    unreachable_mps = max(0.0, float(dv_hill @ unreachable_hill))
+    assert unreachable_mps > 0.0
+    _, given = terminal.impulses_for(dv_hill, problem)
+    tol = 1e-9 * np.linalg.norm(dv_hill)
+    assert float(given @ unreachable_hill) >= -tol
+    assert np.linalg.norm(given - dv_hill) <= unreachable_mps + tol
+
+
+@pytest.mark.parametrize('q_hill', CORRECTION_ATTITUDES)
+@pytest.mark.parametrize('dv_body_mps', ((-2e-3, 1e-3, 5e-4), (-3e-3, -1e-3, 1e-3), (-1e-3, 0.0, 0.0)))
+def test_impulses_for_a_delta_v_against_the_push_axis_gives_the_part_within_reach(q_hill, dv_body_mps):
+    _assert_the_reachable_part(q_hill, dv_body_mps)
+
+
+@pytest.mark.parametrize('q_hill', (OFF_AXIS_ATTITUDE, tuple(quat_from_rotation_vector((0.3, 0.4, -0.6)))))
+def test_impulses_for_off_the_push_axis_gives_the_part_within_reach(q_hill):
+    _assert_the_reachable_part(q_hill, (-2e-3, 1e-3, 5e-4))
+
+
+# Wanted delta-vs [m/s, body] for the bounds: a side component below the bit, a total below it, one beyond the
+# thrusters' MAX_PULSE_S, ones the couple limit cuts.
+BOUND_CASES = ((2e-3, 1e-4, 0.0), (1e-4, 0.0, 0.0), (20.0, 0.0, 0.0), (5e-2, 2e-2, 1e-2), (1e-2, 5e-2, 0.0),
+               (0.0, 0.0, 0.2), (-1e-2, 0.1, -0.1))
+
+
+@pytest.mark.parametrize('q_hill', (*CORRECTION_ATTITUDES, OFF_AXIS_ATTITUDE))
+@pytest.mark.parametrize('dv_body_mps', BOUND_CASES)
+def test_impulses_for_fires_at_least_the_bit_within_max_pulse(q_hill, dv_body_mps):
+    problem = _problem(np.zeros(6), q_hill, t0=2300.0)
+    impulses, given = terminal.impulses_for(_c_hill_from_body(problem) @ np.asarray(dv_body_mps), problem)
+    fired = impulses[impulses > 0.0]
+    assert np.all(impulses >= 0.0)
+    assert np.all(fired >= terminal.BIT_MARGIN * BIT_N_S)
+    assert np.all(impulses <= problem.max_thrust_n * terminal.MAX_PULSE_S * (1.0 + 1e-12))
+    if float(np.linalg.norm(dv_body_mps)) * problem.mass_kg < BIT_N_S:  # below a bit: nothing
+        assert not np.any(impulses) and not np.any(given)
+    if dv_body_mps[0] * problem.mass_kg > 2.0 * float(problem.max_thrust_n[0]) * terminal.MAX_PULSE_S:
+        assert float(impulses.max()) == pytest.approx(float(problem.max_thrust_n[0]) * terminal.MAX_PULSE_S)
+
+
+@pytest.mark.parametrize('q_hill', (*CORRECTION_ATTITUDES, OFF_AXIS_ATTITUDE))
+def test_impulses_for_keeps_the_couple_within_its_limit(q_hill):
+    """|C u|_inf <= couple_max for every case; along body +y the limit binds (the +y pair's couples are both -0.2 m
+    about z, which only a force along x or -y would cancel: at most couple_max / 0.2 N s, 0.013 m/s on 50 kg) and
+    0.05 m/s is not given."""
+    problem = _problem(np.zeros(6), q_hill, t0=2300.0)
+    c = _c_hill_from_body(problem)
+    for dv_body in BOUND_CASES:
+        impulses, _ = terminal.impulses_for(c @ np.asarray(dv_body), problem)
+        assert np.all(np.abs(problem.couples_body_m.T @ impulses) <= problem.couple_max_n_m_s * (1.0 + 1e-9))
+    dv_hill = c @ np.array([0.0, 0.05, 0.0])
+    impulses, given = terminal.impulses_for(dv_hill, problem)
+    assert float(np.max(np.abs(problem.couples_body_m.T @ impulses))) == pytest.approx(problem.couple_max_n_m_s,
+                                                                                          rel=1e-6)
+    assert np.linalg.norm(given - dv_hill) > 0.5 * np.linalg.norm(dv_hill)

@@ -198,11 +198,14 @@ def impulses_for(dv_hill_mps, problem):
 
         min  sum u + W |D u / m - dv|_1   s.t.  0 <= u <= u_max,  |C u|_inf <= couple_max
 
-    with D the thrusters' directions in hill at t0 and C their couples about the combined CoM; where the direction
+    with D the thrusters' directions and the miss in the held body's axes, C their couples about the combined CoM; where the direction
     limit leaves part of dv out of reach, the part within it. Impulses below the minimum impulse bit are left out."""
-    dv = np.asarray(dv_hill_mps, dtype=float)
     m = problem.mass_kg
-    d = _directions_hill(problem, problem.t0).T / m  # (3, J): delta-v per newton second
+    # The miss measured in the held body's axes, where the thrusters' cone is aligned with them: its 1-norm there is
+    # the miss of the part within reach (in hill's it would not be, the push axis off hill's).
+    c_body_from_hill = (hill_axes_in_eci(problem.t0, problem.n).T @ quat_to_matrix(problem.q_eci_from_body)).T
+    dv = c_body_from_hill @ np.asarray(dv_hill_mps, dtype=float)
+    d = problem.directions_body.T / m  # (3, J): delta-v per newton second, body axes
     j_count = d.shape[1]
     weight = CORRECTION_WEIGHT * m  # a newton second of impulse is worth W newton seconds of the delta-v's miss
     # Variables: u (J), e+ (3), e- (3) with D u - dv = e+ - e-.
@@ -218,4 +221,4 @@ def impulses_for(dv_hill_mps, problem):
         return np.zeros(j_count), np.zeros(3)
     u = result.x[:j_count]
     u = np.where(u >= BIT_MARGIN * problem.min_impulse_bit_n_s, u, 0.0)
-    return u, d @ u
+    return u, c_body_from_hill.T @ (d @ u)
