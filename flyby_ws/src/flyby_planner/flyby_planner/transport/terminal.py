@@ -198,8 +198,9 @@ def impulses_for(dv_hill_mps, problem):
 
         min  sum u + W |D u / m - dv|_1   s.t.  0 <= u <= u_max,  |C u|_inf <= couple_max
 
-    with D the thrusters' directions and the miss in the held body's axes, C their couples about the combined CoM; where the direction
-    limit leaves part of dv out of reach, the part within it. Impulses below the minimum impulse bit are left out."""
+    with D the thrusters' directions and the miss in the held body's axes, C their couples about the combined CoM;
+    where the direction limit leaves part of dv out of reach, the part within it. Impulses below the minimum impulse
+    bit are left out."""
     m = problem.mass_kg
     # The miss measured in the held body's axes, where the thrusters' cone is aligned with them: its 1-norm there is
     # the miss of the part within reach (in hill's it would not be, the push axis off hill's).
