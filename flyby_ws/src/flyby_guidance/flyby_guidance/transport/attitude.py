@@ -64,17 +64,25 @@ class TransportAttitude:
         """The damping law until the body's own angular momentum (its rate averaged) is below half the condition's
         and the wheels hold no more than their share."""
         momentum = self.body_momentum
-        bound = 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
-        if (momentum < bound and self._wheel_share(h_wheels) <= self.config.wheel_momentum_share
-                and t - self.t_start >= DETUMBLED_S):  # the mean over a whole window
+        if self._damped(h_wheels) and t - self.t_start >= DETUMBLED_S:  # the mean over a whole window
             self.t_detumbled = t
             self.carried = np.zeros(3)
             return np.zeros(3), np.zeros(3), np.zeros(3), [(
                 'OK', events.TRANSPORT_DETUMBLED, f'the combined body detumbled for the transport after '
                                                  f'{t - self.t_start:.1f} s: {momentum:.3g} kg m^2/s (estimated)',
                 {'angular_momentum_kg_m2_s': momentum, 'detumbling_time_s': t - self.t_start})]
+        return (*self._damp(omega, h_wheels), [])
+
+    def _damped(self, h_wheels):
+        """True where the body's own angular momentum is below half the first condition's and the wheels hold no
+        more than their share: the detumbling's end, and what the terminal program needs before it plans."""
+        return (self.body_momentum < 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
+                and self._wheel_share(h_wheels) <= self.config.wheel_momentum_share)
+
+    def _damp(self, omega, h_wheels):
+        """(force, torque about the chaser's CoM, wheel torque) of the capture's damping law, its couple in pulses."""
         tau, u = damping_command(omega, h_wheels, self.gains, self.wheel_max_torque_n_m)
-        return (*self._couple(tau, self.pulse_n_m_s), u, [])
+        return (*self._couple(tau, self.pulse_n_m_s), u)
 
     def _couple(self, tau, pulse_n_m_s):
         """(force, torque about the chaser's CoM) of a couple tau [N m] about the combined CoM fired in pulses: below

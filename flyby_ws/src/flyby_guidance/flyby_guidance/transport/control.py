@@ -218,6 +218,13 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             ended = self._judged(t, state, h_wheels)
             if ended:
                 return zero, zero, zero, events + ended
+            if not self._damped(h_wheels) and not self.pulses_pending(t) and self.turning is None:
+                # The terminal program plans on a body at rest with room in its wheels: damped first, as at the start
+                # (not while the wheels turn it on purpose).
+                self.hold = None
+                return (*self._damp(omega, h_wheels), events)
+            if self.hold is None:
+                self._enter_terminal(state)
         return self._fly(t, state, omega, h_wheels, events)
 
     def _judged(self, t, state, h_wheels):

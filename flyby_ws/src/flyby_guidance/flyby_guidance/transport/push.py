@@ -20,6 +20,7 @@ from flyby_sim.dynamics.rotation import quat_to_matrix
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned: a bad estimate stays mild
 ARRIVAL_SIGMAS = 3.0  # the arrival push stops short of rest by this many sigma of its expected error along the push
 CORRECTION_FRACTION = 0.25  # a miss at the last push beyond this share of the second condition is corrected
+REPLAN_FRACTION = 0.5  # a transfer again after the arrival takes this share of the first's time
 SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
 
 
@@ -39,17 +40,7 @@ class TransportPush:
             self.done = True
             return [('ERROR', events.TRANSPORT_REFUSED, f'no transport plan meets the conditions: {err.reason}',
                      {'reason': err.reason})]
-        self.plan, self.plan_start = plan, start
-        self._set_reference(state)
-        # The plan's state at each push's end, by grid tick of its start: the closed-loop push's aim, and the first
-        # push's the nominal coast the mid-course corrections keep to.
-        self.push_end = {}
-        for burn in plan.burns:
-            if burn.purpose == 'push':
-                end = burn.t_start_s + burn.duration_s
-                self.push_end[round(burn.t_start_s / cfg.planner.period_s)] = propagate(
-                    self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
-        self.t_check = state.t + cfg.replan_interval_s
+        self._fly_plan(plan, start, state)
         c = plan.conditions
         message = (f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
                    f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
@@ -62,6 +53,44 @@ class TransportPush:
                   'predicted_momentum_error_n_s': c['momentum_error_n_s'],
                   'predicted_angular_momentum_kg_m2_s': c['angular_momentum_kg_m2_s'],
                   'settle_bound_s': self.settle_bound})]
+
+    def _fly_plan(self, plan, start, state):
+        """Fly a plan made from the TransportState start (the estimate state's, two periods on)."""
+        cfg = self.config
+        self.plan, self.plan_start = plan, start
+        self._set_reference(state)
+        # The plan's state at each push's end, by grid tick of its start: the closed-loop push's aim, and the first
+        # push's the nominal coast the mid-course corrections keep to.
+        self.push_end = {}
+        for burn in plan.burns:
+            if burn.purpose == 'push':
+                end = burn.t_start_s + burn.duration_s
+                self.push_end[round(burn.t_start_s / cfg.planner.period_s)] = propagate(
+                    self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
+        self.t_check = state.t + cfg.replan_interval_s
+
+    def _transfer_again(self, state):
+        """Where the terminal program finds no horizon and the body is off its rest point by more than its position
+        margin (an arrival far off, a drift while the push axis turned): a new transfer by the planner, whose slews
+        turn the push axis for each push, arriving REPLAN_FRACTION of the transfer time later if the settle bound
+        still fits before the judgement's latest time (``transport_correction``); else None."""
+        cfg = self.config
+        t_arrival = state.t + REPLAN_FRACTION * cfg.transfer_time_s
+        if t_arrival + self.settle_bound > self.deadline:
+            return None
+        start = TransportState(state.t + 2.0 * cfg.planner.period_s, *state[1:])
+        try:
+            plan = self._plan_with_faster_slews(start, t_arrival)
+        except TransportRefused:
+            return None
+        self._fly_plan(plan, start, state)
+        self.t_terminal = self.hold = self.turning = None
+        self.pulses = []
+        miss_m = float(np.linalg.norm(state.r_hill - self.rest))
+        return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off the goal\'s rest point and out of the '
+                                                   f'terminal program\'s reach: a new transfer in '
+                                                   f'{len(plan.burns)} burns arriving at t = {t_arrival:.1f} s',
+                 {'miss_m': miss_m, 'impulse_n_s': plan.fuel_kg * self.body.layout.exhaust_velocity_mps})]
 
     def _check_reachable(self, t_arrival):
         """TransportRefused where the conditions cannot be met: the thrusters' minimum impulse bit above the third

@@ -49,6 +49,7 @@ class TransportTerminal:
     def _enter_terminal(self, state):
         """From the plan's last burn on, the wheels hold the attitude the body has (inertially)."""
         self.hold = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
+        self.turning = None
         self.t_terminal = state.t
         self.t_check = state.t
 
@@ -81,6 +82,10 @@ class TransportTerminal:
             return []  # no time left for a firing to settle before the judgement
         solution = terminal.solve(problem, horizons)
         if solution is None:
+            if float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
+                again = self._transfer_again(state)
+                if again is not None:
+                    return again
             return self._turn(state)
         firing = [k for k in range(len(solution.slot_times_s)) if np.any(solution.impulses_n_s[k])]
         if not firing:
