@@ -1,7 +1,8 @@
 """Guidance in TRANSPORT (flyby_guidance.transport): the body it plans for from the final mass-property estimate,
 the detumbling first (the body's own angular momentum, not the wheels'), the plan once detumbled and navigated and
-its refusals, the closed-loop push and spin-down, the attitude held, the terminal program's firings and the
-judgement after the arrival (the conditions from the estimate with its 3-sigma, held hold_s)."""
+its refusals, the closed-loop push and spin-down, the attitude held, the terminal program's firings (a turning body
+damped first, a new transfer or a turn where it has no horizon) and the judgement after the arrival (the conditions
+from the estimate with its 3-sigma, held hold_s)."""
 
 import dataclasses
 import math
@@ -11,13 +12,14 @@ import numpy as np
 import pytest
 
 from flyby_guidance.damping import PostCaptureConfig
-from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, WHEEL_SPINUP_S
+from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING, WHEEL_SPINUP_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
     TransportControl,
     TransportGuidanceConfig,
     transport_body,
 )
+from flyby_guidance.transport.push import REPLAN_FRACTION
 from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
 from flyby_msgs_py.event_payloads import decode_values
 from flyby_msgs_py.events import (
@@ -32,12 +34,13 @@ from flyby_msgs_py.events import (
 )
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport.model import TransportRefused, TransportState, propagate
-from flyby_planner.transport.terminal import HORIZONS_S
+from flyby_planner.transport.terminal import HORIZONS_S, solve
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
     quat_from_rotation_vector,
     quat_multiply,
     quat_rotate,
@@ -447,3 +450,138 @@ def test_where_no_horizon_is_feasible_the_wheels_turn_the_push_axis_onto_the_tra
     b_eci = quat_rotate(control._held(t + angle / rate), control.b_body)
     np.testing.assert_allclose(b_eci, hill_axes_in_eci(t, control.n) @ dv_hill / np.linalg.norm(dv_hill), atol=1e-9)
     assert angle > 1.0
+
+
+def _same_attitude(q_a, q_b):
+    """True where two quaternions are one attitude (q and -q)."""
+    return abs(float(np.dot(q_a, q_b))) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_a_body_turning_in_the_terminal_phase_is_damped_then_held_again_at_its_new_attitude():
+    """In the terminal phase, nothing firing and no turn under way, a body turning at |I omega| = 0.08 kg m^2/s (its
+    rate averaged over DETUMBLED_S above half the first condition): the capture's damping law (the wheels and the
+    thrusters' couple against the rate, the couple in pulses), the hold dropped, no terminal firing; at rest again
+    within DETUMBLED_S the terminal phase holds the attitude the body then has (not the one it held before)."""
+    body, control, t0, q_eci = _arrived()
+    _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))  # the terminal from here
+    assert control.t_terminal == t0 and control.hold is not None and not control.pulses
+    omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.08])
+    window = round(DETUMBLED_S / P)
+    couples = []
+    for k in range(1, window + 11):
+        t = t0 + k * P
+        force, torque, u, events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_eci), omega=omega)
+        assert not events and not control.pulses
+        if k > window:  # the window's mean is the rate
+            assert control.body_momentum == pytest.approx(0.08) and control.hold is None
+        if control.hold is None:
+            np.testing.assert_allclose(u, control.gains.wheel_gain_n_m_s * omega, rtol=1e-12)  # the body feels -u
+            couples.append(torque - np.cross(body.com_body_m, force))  # about the combined CoM
+    fired = [c for c in couples if np.any(c)]
+    assert fired and all(float(c @ omega) < 0.0 for c in fired) and len(fired) < len(couples)
+    # At rest, 0.05 rad about z off the attitude held before: held anew once the window's mean is below the bound.
+    q_turned = quat_multiply(q_eci, quat_from_rotation_vector((0.0, 0.0, 0.05)))
+    t_rest = t + P
+    for k in range(window + 10):
+        t = t_rest + k * P
+        force, torque, u, events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_turned))
+        assert not events
+        if control.hold is not None:
+            break
+    assert t - t_rest <= DETUMBLED_S and control.t_terminal == t and control.turning is None
+    assert _same_attitude(control.hold, q_turned) and not _same_attitude(control.hold, q_eci)
+    np.testing.assert_allclose(u, 0.0, atol=1e-12)  # on the new hold: the wheels track it
+    t_again, hold = t, control.hold
+    for k in range(1, window + 1):
+        t = t_again + k * P
+        force, torque, u, events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_turned))
+        assert not (events or np.any(force) or np.any(torque)) and control.hold is hold
+
+
+def _turning(control, q_eci):
+    """control, its terminal entered at rest at the rest point, turned by the wheels (``_terminal`` with 2 mm/s along
+    the push axis, time left for the shortest horizon only): the turn's (t0, q0_eci, axis_eci, angle, rate)."""
+    t0 = control.t_terminal
+    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0
+    q_hill = _held(control, t, q_eci)
+    v_hill = quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0])
+    events = control._terminal(TransportState(t, control.rest.copy(), v_hill, q_hill, np.zeros(3)), np.zeros(3))
+    assert [e[1] for e in events] == [TRANSPORT_TURN] and control.t_terminal == t0
+    return control.turning
+
+
+def test_a_turn_under_way_is_not_damped_the_wheels_keep_turning_the_body():
+    """While the wheels turn the push axis the body's own angular momentum is the turn's (above half the first
+    condition): no damping law, the hold and the turn kept, the wheels on the turn's rate (a rate error of 1 mrad/s
+    gets the PD's rate term and nothing else), nothing fired."""
+    body, control, t0, q_eci = _arrived()
+    _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))
+    turn = _turning(control, q_eci)
+    t_turn, _, axis, angle, rate = turn
+    delta = np.array([0.0, 0.0, 1e-3])
+    window = round(DETUMBLED_S / P)
+    assert (window + 10) * P < angle / rate
+    for k in range(1, window + 11):
+        t = t_turn + k * P
+        q_ref = control._held(t)
+        w_turn = quat_rotate(quat_conjugate(q_ref), axis * rate)  # body axes
+        force, torque, u, events = _estimate(control, t, control.rest, q_hill=q_hill_from_body(t, control.n, q_ref),
+                                             omega=w_turn + delta)
+        assert not (events or np.any(force) or np.any(torque))
+        np.testing.assert_allclose(u, body.inertia_body_kg_m2 @ (2.0 * TRACK_DAMPING * TRACK_BANDWIDTH_RAD_S * delta),
+                                   atol=1e-9)
+    assert control.body_momentum > 0.05 and control.hold is not None and control.turning == turn
+
+
+def test_after_the_turn_a_turning_body_is_damped():
+    """Once the turn has reached its angle and the wheels had WHEEL_SPINUP_S to stop it (the check it scheduled), no
+    turn is under way: a body turning at |I omega| = 0.08 kg m^2/s then gets the damping law, as before any turn."""
+    body, control, t0, q_eci = _arrived()
+    _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))
+    t_turn, _, _, angle, rate = _turning(control, q_eci)
+    omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.08])
+    t_end = t_turn + angle / rate
+    for k in range(round(DETUMBLED_S / P) + 1):
+        t = t_end + WHEEL_SPINUP_S + 1.0 + k * P
+        _estimate(control, t, control.rest, q_hill=q_hill_from_body(t, control.n, control._held(t)), omega=omega)
+    assert control.body_momentum == pytest.approx(0.08) and control.hold is None
+
+
+def _far_off(duration_s):
+    """300 m ahead of the rest point along V-bar at rest, the body's axes along hill's, at the first estimate after
+    the arrival of a run of duration_s: (control, t0, its events); no terminal horizon feasible there."""
+    _, control, t0, _ = _arrived(duration_s=duration_s)
+    r_com = control.rest + np.array([300.0, 0.0, 0.0])
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    state = TransportState(t0, r_com, np.zeros(3), q, np.zeros(3))
+    rho_p = AIM_FRACTION * control.config.planner.max_momentum_error_n_s
+    problem = control._terminal_problem(state, np.zeros(3), rho_p)
+    horizons = [h for h in HORIZONS_S if h <= control.deadline - control.config.hold_s - problem.t0]
+    assert horizons and solve(problem, horizons) is None
+    return control, t0, _estimate(control, t0, r_com, q_hill=q)[3]
+
+
+def test_far_off_the_rest_point_with_no_horizon_a_new_transfer_arrives_after_half_the_transfer_time():
+    """300 m off with time for REPLAN_FRACTION of the transfer time and the settle bound before the deadline: a new
+    plan arriving then (transport_correction), the terminal phase left until its arrival, then its burns flown."""
+    control, t0, events = _far_off(2800.0)
+    assert [e[1] for e in events] == [TRANSPORT_CORRECTION]
+    t_arrival = t0 + REPLAN_FRACTION * control.config.transfer_time_s
+    assert t_arrival + control.settle_bound <= control.deadline
+    assert events[0][3]['miss_m'] == pytest.approx(300.0) and events[0][3]['impulse_n_s'] > 0.0
+    assert control.plan.t_arrival_s == pytest.approx(t_arrival, abs=P)
+    assert control.t_terminal is None and control.hold is None and control.turning is None and control.pulses == []
+    assert control.plan_start.t == pytest.approx(t0 + 2.0 * P)
+    burn = control.plan.burns[0]
+    force, torque, _, _ = _estimate(control, burn.t_start_s - P, control.rest + np.array([300.0, 0.0, 0.0]))
+    assert np.any(torque) and control.t_terminal is None
+
+
+def test_far_off_the_rest_point_with_no_horizon_and_no_time_for_a_transfer_the_push_axis_turns():
+    """The same 300 m off in a run whose deadline leaves no room for a transfer and its settle bound: no new plan,
+    the wheels turn the push axis (transport_turn), the terminal phase kept."""
+    control, t0, events = _far_off(1800.0)
+    assert t0 + REPLAN_FRACTION * control.config.transfer_time_s + control.settle_bound > control.deadline
+    assert [e[1] for e in events] == [TRANSPORT_TURN]
+    assert control.plan.t_arrival_s == pytest.approx(control.t_arrival) and control.t_terminal == t0
+    assert control.turning is not None and control.turning[3] > 0.0

@@ -218,7 +218,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             ended = self._judged(t, state, h_wheels)
             if ended:
                 return zero, zero, zero, events + ended
-            if not self._damped(h_wheels) and not self.pulses_pending(t) and self.turning is None:
+            if not self._damped(h_wheels) and not self.pulses_pending(t) and not self._turn_under_way(t):
                 # The terminal program plans on a body at rest with room in its wheels: damped first, as at the start
                 # (not while the wheels turn it on purpose).
                 self.hold = None

@@ -153,6 +153,13 @@ class TransportTerminal:
                                               f'the push axis {math.degrees(angle):.1f} deg at {rate:.3g} rad/s',
                  {'angle_rad': angle, 'rate_rad_s': rate})]
 
+    def _turn_under_way(self, t):
+        """True from a turn's start until its check: its angle at its rate and the wheels' spin-down after it."""
+        if self.turning is None:
+            return False
+        t0, _, _, angle, rate = self.turning
+        return t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9
+
     def _held(self, t):
         """The attitude the wheels hold at t (q_eci_from_body): the hold, or where it is along a turn."""
         if self.turning is None:
