@@ -265,10 +265,10 @@ def _held(control, t, q_eci):
 
 def test_the_detumbling_judges_the_bodys_own_angular_momentum_not_the_wheels():
     """The detumbling ends once the body's own |I omega| (its rate averaged over DETUMBLED_S) is below half the first
-    condition and the wheels within their share: a body at rest whose wheels hold 0.3 N m s is detumbled, one turning
-    at |I omega| = 0.08 kg m^2/s with its wheels holding the opposite (none in all) is not, nor one at rest whose wheels
-    hold 0.6 of their capacity."""
-    cases = ((np.zeros(3), (0.3, 0.0, 0.0), True), (None, None, False), (np.zeros(3), (0.0, 0.6, 0.0), False))
+    condition and the wheels keep WHEEL_ROOM of their capacity free: a body at rest whose wheels hold 0.6 N m s is
+    detumbled, one turning at |I omega| = 0.08 kg m^2/s with its wheels holding the opposite (none in all) is not, nor
+    one at rest whose wheels hold 0.95 of their capacity."""
+    cases = ((np.zeros(3), (0.6, 0.0, 0.0), True), (None, None, False), (np.zeros(3), (0.0, 0.95, 0.0), False))
     for omega, h_wheels, detumbled in cases:
         _, body, control = _control()
         if omega is None:

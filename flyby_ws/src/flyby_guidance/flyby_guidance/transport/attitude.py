@@ -15,6 +15,7 @@ DETUMBLED_S = 5.0  # the detumbling ends once the momentum bound held this long:
 DETUMBLE_HALVINGS = 8  # a couple beyond the thrusters is halved at most this often: no pure couple about every axis
 TRACK_BANDWIDTH_RAD_S = 0.2  # the wheels' attitude tracking: natural frequency [rad/s], well below the control rate
 TRACK_DAMPING = 0.7  # ... and damping ratio: no overshoot of the slews' coasts
+WHEEL_ROOM = 0.1  # the share of the wheels' capacity a damped body leaves free to hold it
 WHEEL_SPINUP_S = 10.0  # the wheels steer a body they spin up to the slews' rate within this long; a turn of the
 #                        terminal's is planned this much longer than its angle at its rate [s]
 
@@ -74,10 +75,11 @@ class TransportAttitude:
         return (*self._damp(omega, h_wheels), [])
 
     def _damped(self, h_wheels):
-        """True where the body's own angular momentum is below half the first condition's and the wheels hold no
-        more than their share: the detumbling's end, and what the terminal program needs before it plans."""
+        """True where the body's own angular momentum is below half the first condition's and the wheels keep
+        WHEEL_ROOM of their capacity free to hold it still: the detumbling's end, and what the terminal program needs
+        before it plans (the wheels' share at the end is the terminal program's to reach)."""
         return (self.body_momentum < 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
-                and self._wheel_share(h_wheels) <= self.config.wheel_momentum_share)
+                and self._wheel_share(h_wheels) <= 1.0 - WHEEL_ROOM)
 
     def _damp(self, omega, h_wheels):
         """(force, torque about the chaser's CoM, wheel torque) of the capture's damping law, its couple in pulses."""
