@@ -458,14 +458,14 @@ def _same_attitude(q_a, q_b):
 
 
 def test_a_body_turning_in_the_terminal_phase_is_damped_then_held_again_at_its_new_attitude():
-    """In the terminal phase, nothing firing and no turn under way, a body turning at |I omega| = 0.08 kg m^2/s (its
-    rate averaged over DETUMBLED_S above half the first condition): the capture's damping law (the wheels and the
-    thrusters' couple against the rate, the couple in pulses), the hold dropped, no terminal firing; at rest again
+    """In the terminal phase, nothing firing and no turn under way, a body turning at |I omega| = 0.95 kg m^2/s (more
+    than 1 - WHEEL_ROOM of the wheels' 1 N m s: they could not hold it still): the capture's damping law (the wheels
+    and the thrusters' couple against the rate), the hold dropped, no terminal firing; at rest again
     within DETUMBLED_S the terminal phase holds the attitude the body then has (not the one it held before)."""
     body, control, t0, q_eci = _arrived()
     _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))  # the terminal from here
     assert control.t_terminal == t0 and control.hold is not None and not control.pulses
-    omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.08])
+    omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.95])
     window = round(DETUMBLED_S / P)
     couples = []
     for k in range(1, window + 11):
@@ -473,12 +473,12 @@ def test_a_body_turning_in_the_terminal_phase_is_damped_then_held_again_at_its_n
         force, torque, u, events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_eci), omega=omega)
         assert not events and not control.pulses
         if k > window:  # the window's mean is the rate
-            assert control.body_momentum == pytest.approx(0.08) and control.hold is None
+            assert control.body_momentum == pytest.approx(0.95) and control.hold is None
         if control.hold is None:
             np.testing.assert_allclose(u, control.gains.wheel_gain_n_m_s * omega, rtol=1e-12)  # the body feels -u
             couples.append(torque - np.cross(body.com_body_m, force))  # about the combined CoM
     fired = [c for c in couples if np.any(c)]
-    assert fired and all(float(c @ omega) < 0.0 for c in fired) and len(fired) < len(couples)
+    assert fired and all(float(c @ omega) < 0.0 for c in fired)
     # At rest, 0.05 rad about z off the attitude held before: held anew once the window's mean is below the bound.
     q_turned = quat_multiply(q_eci, quat_from_rotation_vector((0.0, 0.0, 0.05)))
     t_rest = t + P
@@ -535,16 +535,16 @@ def test_a_turn_under_way_is_not_damped_the_wheels_keep_turning_the_body():
 
 def test_after_the_turn_a_turning_body_is_damped():
     """Once the turn has reached its angle and the wheels had WHEEL_SPINUP_S to stop it (the check it scheduled), no
-    turn is under way: a body turning at |I omega| = 0.08 kg m^2/s then gets the damping law, as before any turn."""
+    turn is under way: a body turning at |I omega| = 0.95 kg m^2/s then gets the damping law, as before any turn."""
     body, control, t0, q_eci = _arrived()
     _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))
     t_turn, _, _, angle, rate = _turning(control, q_eci)
-    omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.08])
+    omega = np.linalg.solve(body.inertia_body_kg_m2, [0.0, 0.0, 0.95])
     t_end = t_turn + angle / rate
     for k in range(round(DETUMBLED_S / P) + 1):
         t = t_end + WHEEL_SPINUP_S + 1.0 + k * P
         _estimate(control, t, control.rest, q_hill=q_hill_from_body(t, control.n, control._held(t)), omega=omega)
-    assert control.body_momentum == pytest.approx(0.08) and control.hold is None
+    assert control.body_momentum == pytest.approx(0.95) and control.hold is None
 
 
 def _far_off(duration_s):

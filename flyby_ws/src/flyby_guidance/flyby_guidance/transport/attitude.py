@@ -81,6 +81,12 @@ class TransportAttitude:
         return (self.body_momentum < 0.5 * self.config.planner.max_angular_momentum_kg_m2_s
                 and self._wheel_share(h_wheels) <= 1.0 - WHEEL_ROOM)
 
+    def _overfull(self, state, h_wheels):
+        """True where the wheels could not hold the body still: its own angular momentum and theirs together beyond
+        1 - WHEEL_ROOM of their capacity on a body axis (a firing's couple the wheels take up is not)."""
+        held = self.body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
+        return float(np.max(np.abs(held))) > (1.0 - WHEEL_ROOM) * self.wheel_capacity_n_m_s
+
     def _damp(self, omega, h_wheels):
         """(force, torque about the chaser's CoM, wheel torque) of the capture's damping law, its couple in pulses."""
         tau, u = damping_command(omega, h_wheels, self.gains, self.wheel_max_torque_n_m)

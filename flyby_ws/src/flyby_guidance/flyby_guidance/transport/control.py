@@ -218,9 +218,9 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             ended = self._judged(t, state, h_wheels)
             if ended:
                 return zero, zero, zero, events + ended
-            if not self._damped(h_wheels) and not self.pulses_pending(t) and not self._turn_under_way(t):
-                # The terminal program plans on a body at rest with room in its wheels: damped first, as at the start
-                # (not while the wheels turn it on purpose).
+            if self._overfull(state, h_wheels) and not self.pulses_pending(t) and not self._turn_under_way(t):
+                # The terminal program plans on a body its wheels can hold still: damped first, as at the start (not
+                # while the wheels turn it on purpose).
                 self.hold = None
                 return (*self._damp(omega, h_wheels), events)
             if self.hold is None:

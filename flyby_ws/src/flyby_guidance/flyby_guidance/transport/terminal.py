@@ -51,7 +51,7 @@ class TransportTerminal:
         self.hold = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
         self.turning = None
         self.t_terminal = state.t
-        self.t_check = state.t
+        self.t_check = state.t if self.t_check is None else max(self.t_check, state.t)  # a plan's horizon is kept
 
     def _velocity_sigma_mps(self, t):
         """The navigation's velocity 1-sigma at t [m/s]: the last estimate's, with the combined CoM's (an error dc is
