@@ -240,13 +240,10 @@ class TransportPush:
             return []
         problem = self._terminal_problem(state, np.zeros(3), 0.0)
         impulses, dv_given = terminal.impulses_for(-np.linalg.solve(phi[:3, 3:], miss), problem)
-        thrusts = terminal.firing_periods(impulses, problem.max_thrust_n, problem.min_impulse_bit_n_s, p)
-        k0 = round(problem.t0 / p)
-        if not len(thrusts) or (k0 + len(thrusts)) * p > next_burn.t_start_s - 1e-9:
+        pulses = self._pulses_of(impulses, problem.t0)
+        if not pulses or pulses[-1][1] > next_burn.t_start_s - 1e-9:
             return []
-        wrench = self.body.layout.wrench_matrix
-        self.pulses = [((k0 + i) * p, (k0 + i + 1) * p, wrench[:3] @ row, wrench[3:] @ row)
-                       for i, row in enumerate(thrusts)]
+        self.pulses = pulses
         left_m = float(np.linalg.norm(miss + phi[:3, 3:] @ dv_given))
         impulse = float(impulses.sum())
         return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off at the last push: a correction of '

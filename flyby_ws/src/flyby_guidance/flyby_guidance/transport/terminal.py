@@ -67,7 +67,7 @@ class TransportTerminal:
     def _terminal(self, state, h_wheels):
         """At a check with nothing firing: the terminal program from the estimate (module doc); its firings
         scheduled, or the push axis turned where no horizon is feasible."""
-        cfg, p = self.config, self.config.planner.period_s
+        cfg = self.config
         self.t_check = state.t + cfg.replan_interval_s
         sigma_v = self._velocity_sigma_mps(state.t)
         if sigma_v is None:
@@ -92,14 +92,8 @@ class TransportTerminal:
             return []
         # The whole plan flown, then a new solve at its end: a plan of a few bits is a sequence (a start and a stop,
         # a pair that nets less than a bit), and solved again after each part it would be another sequence.
-        wrench = self.body.layout.wrench_matrix
-        self.pulses = []
-        for k in firing:
-            thrusts = terminal.firing_periods(solution.impulses_n_s[k], problem.max_thrust_n,
-                                              problem.min_impulse_bit_n_s, p)
-            k0 = round(solution.slot_times_s[k] / p)
-            self.pulses += [((k0 + i) * p, (k0 + i + 1) * p, wrench[:3] @ row, wrench[3:] @ row)
-                            for i, row in enumerate(thrusts)]
+        self.pulses = [pulse for k in firing
+                       for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])]
         self.t_fired = self.pulses[-1][1]
         self.t_check = max(self.t_fired, problem.t0 + solution.horizon_s) + cfg.replan_interval_s
         impulse = float(solution.impulses_n_s.sum())
@@ -110,6 +104,16 @@ class TransportTerminal:
                  f'predicted {predicted_m:.3g} m, {predicted_n_s:.3g} N s at its end',
                  {'impulse_n_s': impulse, 'horizon_s': solution.horizon_s,
                   'predicted_momentum_n_s': predicted_n_s, 'predicted_position_m': predicted_m})]
+
+    def _pulses_of(self, impulses_n_s, t_first):
+        """[(t_start, t_end, force_body_n, torque_body_n_m)] of the control periods from t_first [s] that fire the
+        thrusters' impulses [N s] one after another (``terminal.firing_periods``), the torque about the chaser's CoM."""
+        p = self.config.planner.period_s
+        layout = self.body.layout
+        thrusts = terminal.firing_periods(impulses_n_s, layout.max_thrust_n, layout.min_impulse_bit_n_s, p)
+        k0 = round(t_first / p)
+        wrench = layout.wrench_matrix
+        return [((k0 + i) * p, (k0 + i + 1) * p, wrench[:3] @ row, wrench[3:] @ row) for i, row in enumerate(thrusts)]
 
     def _terminal_problem(self, state, h_wheels, rho_p):
         """The TerminalProblem of the estimate: the deviation from the rest point coasted to the first slot (two

@@ -101,10 +101,14 @@ def couple_limit(inertia_body_kg_m2, wheel_max_torque_n_m):
     return math.sqrt(2.0 * inertia_min * wheel_max_torque_n_m * TURN_RAD)
 
 
+def _c_hill_from_body(problem, t):
+    """C_hill_from_body at time t [s] of the attitude held inertially."""
+    return hill_axes_in_eci(t, problem.n).T @ quat_to_matrix(problem.q_eci_from_body)
+
+
 def _directions_hill(problem, t):
     """(J, 3) the thrusters' directions in hill at time t, the attitude held inertially."""
-    c_hill_from_body = hill_axes_in_eci(t, problem.n).T @ quat_to_matrix(problem.q_eci_from_body)
-    return problem.directions_body @ c_hill_from_body.T
+    return problem.directions_body @ _c_hill_from_body(problem, t).T
 
 
 def _program(problem, horizon_s):
@@ -204,7 +208,7 @@ def impulses_for(dv_hill_mps, problem):
     m = problem.mass_kg
     # The miss measured in the held body's axes, where the thrusters' cone is aligned with them: its 1-norm there is
     # the miss of the part within reach (in hill's it would not be, the push axis off hill's).
-    c_body_from_hill = (hill_axes_in_eci(problem.t0, problem.n).T @ quat_to_matrix(problem.q_eci_from_body)).T
+    c_body_from_hill = _c_hill_from_body(problem, problem.t0).T
     dv = c_body_from_hill @ np.asarray(dv_hill_mps, dtype=float)
     d = problem.directions_body.T / m  # (3, J): delta-v per newton second, body axes
     j_count = d.shape[1]
