@@ -51,6 +51,8 @@ def resolve_slew(body, config, state, slew_start, slew_stop, u_hill, t_aim_s, t_
 _SLEW_RESTART_TURNS_RAD = (0.5 * np.pi, -0.5 * np.pi)
 # A slew's shooting that asks its spin-up for more than this times the slew rate has diverged.
 _DIVERGED_RATE_FACTOR = 20.0
+# A shooting step that does not lower the residual is halved at most this often.
+_BACKTRACKS = 6
 # A slew ends with the push axis this close to its aim [rad], and its residual rate turns it less up to the arrival.
 _AIM_RAD = 1e-9
 
@@ -137,8 +139,8 @@ def solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s,
         z, jacobian = start
     rate_bound = _DIVERGED_RATE_FACTOR * max(config.slew_rate_rad_s, float(np.linalg.norm(omega_body)))
     restarts = list(_SLEW_RESTART_TURNS_RAD)
-    for iteration in range(30 * (1 + len(restarts))):
-        r, q, w = residual(z)
+    r, q, w = residual(z)
+    for _ in range(30 * (1 + len(restarts))):
         if np.linalg.norm(w) < omega_tol and np.linalg.norm(r[3:]) < _AIM_RAD:
             if float(quat_rotate(q, b_body) @ u) > 0.0:
                 return z, q, w, jacobian
@@ -147,12 +149,35 @@ def solve_slew(model, config, slew, q_eci, omega_body, b_body, u_eci, horizon_s,
             # b on -u, the residual's other root (its components across u vanish there too): again from an arc
             # about another axis
             z, jacobian = guess(restarts.pop(0)), None
+            r, q, w = residual(z)
             continue
         if float(np.linalg.norm(model.inertia_inv @ z[:3])) * d > rate_bound:  # diverging: each step costs more
             break
-        if jacobian is None or iteration % 5 == 4:  # chord steps; a fresh Jacobian if they are slow
-            step = 1e-6 * max(1.0, float(np.max(np.abs(z))))
-            jacobian = np.column_stack([(residual(z + step * e)[0] - r) / step for e in np.eye(6)])
-        z = z - np.linalg.lstsq(jacobian, r, rcond=None)[0]
+        if jacobian is None:
+            jacobian = _jacobian(residual, z, r)
+        z, r, q, w, jacobian = _newton_step(residual, z, r, jacobian)
     raise TransportRefused(f'the slew from {t_a:.1f} s to {t_b:.1f} s did not converge: rate {np.linalg.norm(w):.3g} '
                            f'rad/s, pointing {np.linalg.norm(r[3:]):.3g} rad at its end')
+
+
+def _jacobian(residual, z, r):
+    step = 1e-6 * max(1.0, float(np.max(np.abs(z))))
+    return np.column_stack([(residual(z + step * e)[0] - r) / step for e in np.eye(6)])
+
+
+def _newton_step(residual, z, r, jacobian):
+    """One step of the slew's shooting: a chord step (the Jacobian kept) where it halves the residual, else a fresh
+    Jacobian's step, halved until the residual falls (a long torque-free coast about a non-principal axis makes the
+    end a strongly nonlinear function of the burns' torques). (z, r, q, w, jacobian) after the step."""
+    step = np.linalg.lstsq(jacobian, r, rcond=None)[0]
+    r_new, q, w = residual(z - step)
+    if np.linalg.norm(r_new) < 0.5 * np.linalg.norm(r):
+        return z - step, r_new, q, w, jacobian
+    jacobian = _jacobian(residual, z, r)
+    step = np.linalg.lstsq(jacobian, r, rcond=None)[0]
+    for _ in range(_BACKTRACKS):
+        r_new, q, w = residual(z - step)
+        if np.linalg.norm(r_new) < np.linalg.norm(r):
+            break
+        step = 0.5 * step
+    return z - step, r_new, q, w, jacobian
