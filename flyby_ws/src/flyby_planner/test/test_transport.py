@@ -24,7 +24,13 @@ from flyby_planner.transport.model import (
 )
 from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.thrusters import push_axis
-from flyby_sim.dynamics.actuators import ThrusterLayout, allocate_wrench, default_thruster_layout
+from flyby_sim.dynamics.actuators import (
+    ThrusterLayout,
+    allocate_max_force,
+    allocate_wrench,
+    default_thruster_layout,
+    plume_free_thrusters,
+)
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.constants import MU_EARTH_M3_S2
 from flyby_sim.dynamics.orbital import mean_motion_rad_s, q_eci_from_body, q_hill_from_body
@@ -237,7 +243,7 @@ def test_a_near_half_turn_slew_ends_on_its_aim_not_the_opposite(monkeypatch):
     monkeypatch.setattr(transport_slew, 'slew_guess', lambda *a: starts.append(a[7:]) or guess(*a))
     body = _tug_body()
     model = TransportModel(body, _CONFIG)
-    b_body, _ = push_axis(body)
+    b_body = np.array([1.0, 0.0, 0.0])  # the push axis of the plan it came from
     q = np.array([-0.27545838770740894, -0.08382328338135454, -0.6391358100814386, 0.7131632001697418])
     u = np.array([-0.03898491664467288, 0.8733666046844681, -0.48550072100474895])
     assert math.degrees(math.acos(float(quat_rotate(q, b_body) @ u))) == pytest.approx(172.5, abs=0.1)
@@ -267,3 +273,35 @@ def test_a_long_coast_about_a_non_principal_axis_converges():
                                                     b_body, u, 128.8)
     assert float(quat_rotate(q_end, b_body) @ u) == pytest.approx(1.0, abs=1e-12)
     assert np.linalg.norm(w_end) < 1e-9
+
+
+def test_the_push_axis_is_the_direction_of_the_largest_pure_force():
+    """A 28 kg tug holding 618 kg 1.4 m off (transport_envelope run 13): its best body axis gives 1.8 N of pure force
+    (a force along x cannot pass through a CoM off the thrusters' lines), a direction near the CoM's mixes faces and
+    gives about 20 N; push_axis finds it, the force is pure about the combined CoM, and no direction of a denser
+    lattice gives more."""
+    x_s = np.array([1.37, 0.18, 0.04])
+    props = combined_mass_properties(28.0, np.diag([1.38, 1.66, 1.66]), 618.0, x_s, np.diag([60.0, 90.0, 90.0]))
+    full = default_thruster_layout(face_m=0.178, lever_arm_m=0.133)
+    body = TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
+                         full.subset(plume_free_thrusters(full, x_s, 60.0)))
+    layout_com = TransportModel(body, _CONFIG).layout_com
+    b, force_n = push_axis(body)
+    on_axes = []
+    for axis in np.vstack((np.eye(3), -np.eye(3))):
+        try:
+            on_axes.append(allocate_max_force(layout_com, axis).force_n)
+        except ValueError:
+            continue
+    assert force_n > 5.0 * max(on_axes)
+    allocation = allocate_max_force(layout_com, b)
+    assert allocation.force_n == pytest.approx(force_n, rel=1e-6)
+    assert np.linalg.norm(allocation.torque_body_n_m) < 1e-6 * force_n
+    lattice = Rotation.random(2000, random_state=13).apply([1.0, 0.0, 0.0])
+    others = []
+    for direction in lattice:
+        try:
+            others.append(allocate_max_force(layout_com, direction).force_n)
+        except ValueError:
+            continue
+    assert max(others) <= force_n * 1.001
