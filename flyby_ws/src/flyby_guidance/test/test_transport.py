@@ -115,7 +115,7 @@ def test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate():
     planned_at = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < push.t_start_s],
                            push.t_start_s, control.config.planner)
     force, torque = control._closed_loop_push(push.t_start_s - 0.1, planned_at, push, push.force_body_n,
-                                              push.torque_body_n_m)
+                                              push.torque_body_n_m, np.zeros(3))
     np.testing.assert_allclose(torque, np.cross(body.com_body_m, force), atol=1e-12)  # none about the combined CoM
     assert not allocate_wrench(body.layout, force, torque).saturated
     # Up to the Coriolis term over the push, which the closed loop takes at once: 2 n |dv| m ~ 0.14 N here.
@@ -123,7 +123,7 @@ def test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate():
     # The push commanded at the previous estimate acts over the period the estimate has not seen yet: asked for once.
     control.issued = (push.t_start_s - 0.2, force, torque)
     again, _ = control._closed_loop_push(push.t_start_s - 0.1, planned_at, push, push.force_body_n,
-                                         push.torque_body_n_m)
+                                         push.torque_body_n_m, np.zeros(3))
     np.testing.assert_allclose(again, force - force * 0.1 / push.duration_s, atol=1e-9)
     control.issued = None
     # A spin-down flown on the estimate takes out the estimated I omega + h (the wheels' included) over the burn,

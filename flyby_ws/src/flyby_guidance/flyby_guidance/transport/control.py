@@ -269,7 +269,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
                 force, torque = (np.asarray(burn.force_body_n, dtype=float),
                                  np.asarray(burn.torque_body_n_m, dtype=float))
                 if burn.purpose == 'push':  # the hold's couple from the push's own thrusters
-                    force, torque = self._closed_loop_push(t, state, burn, force, torque)
+                    force, torque = self._closed_loop_push(t, state, burn, force, torque, h_wheels)
                     return force, torque + hold, wheels, events
                 if burn.purpose == 'slew_stop':
                     force, torque = self._closed_loop_stop(t, state, burn, force, torque, h_wheels)

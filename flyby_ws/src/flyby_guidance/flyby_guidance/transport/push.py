@@ -12,7 +12,7 @@ from flyby_planner.transport import terminal
 from flyby_planner.transport.model import TransportRefused, TransportState, propagate
 from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.slew import resolve_slew
-from flyby_planner.transport.thrusters import torque_wrench
+from flyby_planner.transport.thrusters import nearest_wrench, torque_wrench
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import quat_to_matrix
@@ -173,13 +173,14 @@ class TransportPush:
         _, force, torque = self.issued
         return force, torque - np.cross(self.body.com_body_m, force)
 
-    def _closed_loop_push(self, t, state, burn, force, torque):
+    def _closed_loop_push(self, t, state, burn, force, torque, h_wheels):
         """A push flown on the estimate (module doc): the force over the rest of the burn that gives the velocity the
         plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
-        rest), turned into the body by the attitude estimate, with no torque about the combined CoM; the planned
-        wrench where the allowed thrusters cannot give it (an attitude far off its plan). Pointing and execution
-        errors of the push are taken out; a miss of the position is the mid-course correction's and the terminal
-        program's."""
+        rest), turned into the body by the attitude estimate, with no torque about the combined CoM but the one that
+        takes out the angular momentum the wheels gained by the push's end (where they hold the body); where the
+        thrusters cannot give it (a direction out of their cone of pure forces), the nearest wrench they give. Pointing
+        and execution errors of the push are taken out; a miss of the position is the mid-course correction's and the
+        terminal program's."""
         p = self.config.planner.period_s
         t_from = t + p
         remaining_s = burn.t_start_s + burn.duration_s - t_from
@@ -199,9 +200,15 @@ class TransportPush:
         if float(np.linalg.norm(force_hill)) > limit:
             force_hill = force_hill * (limit / float(np.linalg.norm(force_hill)))
         force_body = quat_to_matrix(state.q_hill_from_body).T @ force_hill
-        torque_body = np.cross(self.body.com_body_m, force_body)  # about the chaser's CoM: none about the combined
+        # The body at rest on the plan between slews: where the wheels hold it, the push's thrusters take out the
+        # angular momentum the wheels gained (the thrusters' misalignment and the CoM's error make a torque), by the
+        # push's end.
+        torque_com = np.zeros(3)
+        if self.wheels_steer:
+            torque_com = -(self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels) / remaining_s
+        torque_body = torque_com + np.cross(self.body.com_body_m, force_body)  # about the chaser's CoM
         if allocate_wrench(self.body.layout, force_body, torque_body).saturated:
-            return force, torque
+            return nearest_wrench(self.body, self.config.planner, force_body, torque_com)
         return force_body, torque_body
 
     def _arrival_sigma_mps(self, burn):

@@ -132,7 +132,7 @@ class TransportTerminal:
             self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,
             rho_r, rho_p * terminal.BALL_SLAB_FACTOR, cfg.hold_s,
             cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
-            terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m))
+            terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m), NAV_SIGMAS * self.command_error)
 
     def _turn(self, state):
         """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest

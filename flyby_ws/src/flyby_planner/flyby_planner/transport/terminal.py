@@ -43,6 +43,9 @@ MILP_TIME_LIMIT_S = 2.0
 LATER_SLOT_COST = 0.05  # each later slot's impulse costs this much more: what can be fired now is, and a pair of
 #                         opposed firings that nets less than a bit lies in one slot, which the next solve keeps
 CORRECTION_WEIGHT = 10.0  # a mid-course correction's miss of its delta-v against its impulse (``impulses_for``)
+STAGE_FRACTION = 0.25  # a state whose momentum would end beyond the margin by itself is brought within this share
+#                        of it, the firings' execution error included: the deviation shrinks each plan, however far
+#                        off it starts, and no plan fires more than its error allows
 MOMENTUM_WEIGHT = 2.0  # w: a newton second of end momentum costs twice one of impulse, so the program takes out what
 #                        the bit allows rather than ride the margin's edge
 
@@ -82,6 +85,7 @@ class TerminalProblem(NamedTuple):
     hold_s: float  # the end state must keep its momentum this long [s]
     rho_wheels_n_m_s: float  # the wheels' momentum per body axis
     couple_max_n_m_s: float  # a slot's couple per body axis
+    impulse_error: float  # a firing's execution error at the margins' sigmas, per unit impulse (magnitude, direction)
 
 
 class TerminalSolution(NamedTuple):
@@ -112,7 +116,8 @@ def _directions_hill(problem, t):
 
 
 def _program(problem, horizon_s):
-    """The MILP of one horizon (module doc): (c, constraints, bounds, integrality, slot times)."""
+    """The MILP of one horizon (module doc): (c, constraints, bounds, integrality, slot times, the end's effect per
+    impulse, the end without firings)."""
     m = problem.mass_kg
     j_count = len(problem.max_thrust_n)
     slots = problem.t0 + horizon_s * np.arange(SLOTS) / SLOTS
@@ -134,6 +139,14 @@ def _program(problem, horizon_s):
     a_v = np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in held]) * m
     r_free = BALL_DIRECTIONS @ free[:3]
     p_free = np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in held]) * m
+    rho_p = max(problem.rho_momentum_n_s,
+                STAGE_FRACTION * max(float(np.linalg.norm(h @ free)) * m for h in held) * BALL_SLAB_FACTOR)
+    # Each impulse's execution error moves the end by at most its size times the transition's gain, in any
+    # direction: a margin taken from every slab (``impulse_error`` at the slabs' sigmas).
+    gains = [cw_transition_matrix(problem.n, t_end - t_k) for t_k in slots]
+    e_r = problem.impulse_error / m * np.repeat([np.linalg.norm(g[:3, 3:], 2) for g in gains], j_count)
+    e_v = problem.impulse_error * np.repeat([max(np.linalg.norm((h @ g)[:, 3:], 2) for h in held) for g in gains],
+                                            j_count)
     h_total = np.tile(couples, SLOTS)
     per_slot = np.kron(np.eye(SLOTS), couples)
 
@@ -144,8 +157,10 @@ def _program(problem, horizon_s):
     rows = [
         LinearConstraint(np.hstack((eye, -np.diag(u_max), np.zeros((size, 3)))), -np.inf, 0.0),  # u <= u_max z
         LinearConstraint(np.hstack((eye, -bit * eye, np.zeros((size, 3)))), 0.0, np.inf),  # u >= bit z
-        LinearConstraint(on_u(a_r), -problem.rho_position_m - r_free, problem.rho_position_m - r_free),
-        LinearConstraint(on_u(a_v), -problem.rho_momentum_n_s - p_free, problem.rho_momentum_n_s - p_free),
+        LinearConstraint(on_u(a_r + e_r), -np.inf, problem.rho_position_m - r_free),
+        LinearConstraint(on_u(e_r - a_r), -np.inf, problem.rho_position_m + r_free),
+        LinearConstraint(on_u(a_v + e_v), -np.inf, rho_p - p_free),
+        LinearConstraint(on_u(e_v - a_v), -np.inf, rho_p + p_free),
         LinearConstraint(on_u(h_total), -problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s,
                          problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s),
         LinearConstraint(on_u(per_slot), -problem.couple_max_n_m_s, problem.couple_max_n_m_s),

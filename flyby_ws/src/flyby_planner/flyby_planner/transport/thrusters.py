@@ -112,3 +112,29 @@ def torque_wrench(body, config, torque_com_body_n_m):
     torque_com_body_n_m about the combined CoM with the body's thrusters (a slew's burns, guidance's detumbling), or
     None where they cannot."""
     return torque_burn_wrench(TransportModel(body, config), np.asarray(torque_com_body_n_m, dtype=float))
+
+
+def nearest_wrench(body, config, force_body_n, torque_com_n_m):
+    """(force [N], torque about the chaser's CoM [N m]), chaser_body: the wrench nearest the wanted one (a force and a
+    torque about the combined CoM) that the thrusters give, an LP:
+
+        min  sum |B_F f - F| + sum |B_T f - T| / l + 1e-6 sum f   s.t.  0 <= f <= f_max
+
+    (B about the combined CoM, l the thrusters' mean lever arm about it: a newton of force and a newton at the lever
+    arm weigh alike). A closed-loop push whose wanted wrench leaves what the thrusters give (a push axis off the body
+    axes has a narrow cone of pure forces) gets the nearest part of it, not a wrench planned for another velocity."""
+    model = TransportModel(body, config)
+    b = model.layout_com.wrench_matrix
+    n = model.layout_com.count
+    arm = float(np.mean(np.linalg.norm(model.layout_com.positions_body_m, axis=1)))
+    wanted = np.concatenate((np.asarray(force_body_n, dtype=float), np.asarray(torque_com_n_m, dtype=float)))
+    eye6 = np.eye(6)
+    result = linprog(np.concatenate((np.full(n, 1e-6), np.ones(3), np.full(3, 1.0 / arm), np.ones(3),
+                                     np.full(3, 1.0 / arm))),
+                     A_eq=np.hstack((b, -eye6, eye6)), b_eq=wanted,
+                     bounds=[(0.0, f) for f in model.layout_com.max_thrust_n.tolist()] + [(0.0, None)] * 12,
+                     method='highs')
+    if result.status != 0:
+        return np.zeros(3), np.zeros(3)
+    force, torque_com = b[:3] @ result.x[:n], b[3:] @ result.x[:n]
+    return force, torque_com + np.cross(model.com_body_m, force)
