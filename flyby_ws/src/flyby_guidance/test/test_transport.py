@@ -533,6 +533,25 @@ def test_a_turn_under_way_is_not_damped_the_wheels_keep_turning_the_body():
     assert control.body_momentum > 0.05 and control.hold is not None and control.turning == turn
 
 
+def test_a_body_the_wheels_do_not_steer_turns_by_the_thrusters_couples_at_the_slews_rate():
+    """Where the wheels cannot turn the body (a heavy one: their share of momentum would take hours), a terminal turn
+    (at the transfer's slew rate, ``start``) is the thrusters' couples' (in pulses, against the PD's torque from the
+    turning reference): at rest at the turn's start the couple fired is along the turn's axis."""
+    body, control, t0, q_eci = _arrived()
+    control.wheels_steer = False
+    control.turn_rate_rad_s = control.config.planner.slew_rate_rad_s
+    _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))
+    t_turn, _, axis, _, _ = _turning(control, q_eci)
+    impulse = np.zeros(3)
+    for k in range(1, 31):
+        t = t_turn + k * P
+        force, torque, _, events = _estimate(control, t, control.rest, q_hill=_held(control, t, q_eci))
+        assert not events
+        impulse += (torque - np.cross(body.com_body_m, force)) * P  # about the combined CoM, body axes
+    axis_body = quat_rotate(quat_conjugate(q_eci), axis)
+    assert np.linalg.norm(impulse) > 0.0 and float(impulse @ axis_body) > 0.9 * np.linalg.norm(impulse)
+
+
 def test_after_the_turn_a_turning_body_is_damped():
     """Once the turn has reached its angle and the wheels had WHEEL_SPINUP_S to stop it (the check it scheduled), no
     turn is under way: a body turning at |I omega| = 0.95 kg m^2/s then gets the damping law, as before any turn."""

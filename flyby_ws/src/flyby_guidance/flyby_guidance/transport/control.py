@@ -176,8 +176,10 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         # WHEEL_SPINUP_S; on a heavier body the thrusters' couples track it and the wheels damp its rate at rest.
         spin_up_rad_s = self.wheel_max_torque_n_m * WHEEL_SPINUP_S / inertia_max
         self.wheels_steer = spin_up_rad_s >= self.config.planner.slew_rate_rad_s
-        # A terminal turn: at the rate the wheels' share of their momentum gives the body.
-        self.turn_rate_rad_s = self.config.wheel_momentum_share * self.wheel_capacity_n_m_s / inertia_max
+        # A terminal turn: at the rate the wheels' share of their momentum gives the body where they steer it, else
+        # at the slews' rate by the thrusters' couples.
+        self.turn_rate_rad_s = (self.config.wheel_momentum_share * self.wheel_capacity_n_m_s / inertia_max
+                                if self.wheels_steer else self.config.planner.slew_rate_rad_s)
         cfg = self.config
         self.command_error = command_error(cfg.thrust_magnitude_sigma, np.radians(cfg.thrust_misalignment_sigma_deg))
         self.settle_bound = settle_bound_s(body.mass_kg, cfg.planner.max_momentum_error_n_s, cfg.position_sigma_m,
@@ -258,6 +260,8 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         hold = np.zeros(3)
         if self.t_terminal is not None or self.wheels_steer:
             wheels = self._track(state)
+            if not self.wheels_steer and self._turn_under_way(t):  # a terminal turn of a body the wheels cannot steer
+                hold = -self._attitude_torque(state)
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
             wheels = self._hold(omega) if at_rest else np.zeros(3)
             hold = -self._attitude_torque(state) if t_mid < last_burn_end else np.zeros(3)
