@@ -15,9 +15,12 @@ from flyby_guidance.damping import PostCaptureConfig
 from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING, WHEEL_SPINUP_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
+    PULSE_BITS,
+    PULSE_BOUND_FRACTION,
     TransportControl,
     TransportGuidanceConfig,
     transport_body,
+    transport_pulse_n_m_s,
 )
 from flyby_guidance.transport.push import REPLAN_FRACTION
 from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
@@ -33,9 +36,9 @@ from flyby_msgs_py.events import (
     TRANSPORT_TURN,
 )
 from flyby_planner.transfer import terminal_impulses
-from flyby_planner.transport.model import TransportRefused, TransportState, propagate
+from flyby_planner.transport.model import TransportBody, TransportRefused, TransportState, propagate
 from flyby_planner.transport.terminal import HORIZONS_S, solve
-from flyby_sim.dynamics.actuators import allocate_wrench
+from flyby_sim.dynamics.actuators import allocate_wrench, default_thruster_layout
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body, q_hill_from_body
@@ -604,3 +607,20 @@ def test_far_off_the_rest_point_with_no_horizon_and_no_time_for_a_transfer_the_p
     assert [e[1] for e in events] == [TRANSPORT_TURN]
     assert control.plan.t_arrival_s == pytest.approx(control.t_arrival) and control.t_terminal == t0
     assert control.turning is not None and control.turning[3] > 0.0
+
+
+def test_a_couples_pulse_moves_the_body_by_less_than_a_quarter_of_the_first_condition():
+    """A couple fired in pulses changes the body's own angular momentum by a pulse at a time: on a tug holding a body
+    2.5 m off (transport_envelope run 14: 39 kg and 58 kg) ten bits at the mean arm are 0.2 N m s, twice the first
+    condition, and the detumbling cycled at +-0.2 kg m^2/s for ever; the pulse is a quarter of the bound there, or two
+    bits at the largest arm where that is more (the least couple the plant fires), within half the bound either way;
+    ten bits at the mean arm on a tug holding a light body near."""
+    layout = default_thruster_layout(face_m=0.2, lever_arm_m=0.15, min_impulse_bit_n_s=0.01)
+    far = TransportBody(97.0, np.array([1.5, 0.0, 0.0]), np.eye(3), layout)
+    near = TransportBody(50.0, np.array([0.06, 0.0, 0.0]), np.eye(3), layout)
+    arms = np.linalg.norm(layout.positions_body_m - far.com_body_m, axis=1)
+    assert PULSE_BITS * 0.01 * np.mean(arms) > 0.1
+    pulse = transport_pulse_n_m_s(far, 0.1)
+    assert pulse == pytest.approx(max(PULSE_BOUND_FRACTION * 0.1, 2.0 * 0.01 * np.max(arms))) and pulse < 0.05
+    arms = np.linalg.norm(layout.positions_body_m - near.com_body_m, axis=1)
+    assert transport_pulse_n_m_s(near, 0.1) == pytest.approx(PULSE_BITS * 0.01 * np.mean(arms))

@@ -47,6 +47,8 @@ from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_f
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
 NAV_SETTLE_S = 30.0  # the combined body's navigation converges from its first position before the plan [s]
+PULSE_BITS = 10.0  # a couple's pulse at most this many minimum impulse bits at the mean lever arm ...
+PULSE_BOUND_FRACTION = 0.25  # ... and this share of the first condition's bound (``transport_pulse_n_m_s``)
 
 
 def transport_body(estimate, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume_cone_deg):
@@ -60,6 +62,17 @@ def transport_body(estimate, chaser_mass_kg, chaser_inertia_kg_m2, layout, plume
     props = combined_mass_properties(chaser_mass_kg, chaser_inertia_kg_m2, target_mass, x_s, inertia_target)
     return TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
                          layout.subset(plume_free_thrusters(layout, x_s, plume_cone_deg)))
+
+
+def transport_pulse_n_m_s(body, momentum_bound_kg_m2_s):
+    """A couple's pulse about the combined CoM [N m s]: at most PULSE_BITS minimum impulse bits at the thrusters' mean
+    lever arm and PULSE_BOUND_FRACTION of the first condition's bound (a pulse changes the body's own momentum by
+    that much: a cycle of pulses stays within half the bound, the detumbling's end), at least two bits at the
+    largest arm (the least couple the plant fires)."""
+    arms = np.linalg.norm(body.layout.positions_body_m - body.com_body_m, axis=1)
+    bit = body.layout.min_impulse_bit_n_s
+    return min(PULSE_BITS * bit * float(np.mean(arms)),
+               max(PULSE_BOUND_FRACTION * momentum_bound_kg_m2_s, 2.0 * bit * float(np.max(arms))))
 
 
 def com_state(body, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, n):
@@ -168,9 +181,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.t_arrival = t_event + self.config.transfer_time_s
         self.body = body
         self.b_body = push_axis(body)[0]
-        # A pulse: ten minimum impulse bits at the thrusters' mean lever arm about the combined CoM [N m s].
-        arms = np.linalg.norm(body.layout.positions_body_m - body.com_body_m, axis=1)
-        self.pulse_n_m_s = 10.0 * body.layout.min_impulse_bit_n_s * float(np.mean(arms))
+        self.pulse_n_m_s = transport_pulse_n_m_s(body, self.config.planner.max_angular_momentum_kg_m2_s)
         inertia_max = float(np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2)))
         # The wheels steer the body (track the plan's attitude) where they spin it up to the slews' rate within
         # WHEEL_SPINUP_S; on a heavier body the thrusters' couples track it and the wheels damp its rate at rest.
