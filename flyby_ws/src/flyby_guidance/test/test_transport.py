@@ -614,13 +614,14 @@ def test_a_couples_pulse_moves_the_body_by_less_than_a_quarter_of_the_first_cond
     2.5 m off (transport_envelope run 14: 39 kg and 58 kg) ten bits at the mean arm are 0.2 N m s, twice the first
     condition, and the detumbling cycled at +-0.2 kg m^2/s for ever; the pulse is a quarter of the bound there, or two
     bits at the largest arm where that is more (the least couple the plant fires), within half the bound either way;
-    ten bits at the mean arm on a tug holding a light body near."""
+    ten bits at the mean arm on a tug with a finer bit holding a light body near."""
     layout = default_thruster_layout(face_m=0.2, lever_arm_m=0.15, min_impulse_bit_n_s=0.01)
     far = TransportBody(97.0, np.array([1.5, 0.0, 0.0]), np.eye(3), layout)
-    near = TransportBody(50.0, np.array([0.06, 0.0, 0.0]), np.eye(3), layout)
+    fine = default_thruster_layout(face_m=0.2, lever_arm_m=0.15, min_impulse_bit_n_s=0.005)
+    near = TransportBody(50.0, np.array([0.06, 0.0, 0.0]), np.eye(3), fine)
     arms = np.linalg.norm(layout.positions_body_m - far.com_body_m, axis=1)
     assert PULSE_BITS * 0.01 * np.mean(arms) > 0.1
     pulse = transport_pulse_n_m_s(far, 0.1)
     assert pulse == pytest.approx(max(PULSE_BOUND_FRACTION * 0.1, 2.0 * 0.01 * np.max(arms))) and pulse < 0.05
-    arms = np.linalg.norm(layout.positions_body_m - near.com_body_m, axis=1)
-    assert transport_pulse_n_m_s(near, 0.1) == pytest.approx(PULSE_BITS * 0.01 * np.mean(arms))
+    arms = np.linalg.norm(fine.positions_body_m - near.com_body_m, axis=1)
+    assert transport_pulse_n_m_s(near, 0.1) == pytest.approx(PULSE_BITS * 0.005 * np.mean(arms))
