@@ -599,6 +599,24 @@ def test_far_off_the_rest_point_with_no_horizon_a_new_transfer_arrives_after_hal
     assert np.any(torque) and control.t_terminal is None
 
 
+def test_on_a_body_the_wheels_do_not_steer_no_horizon_means_a_new_transfer():
+    """At the rest point, 2 mm/s along the push axis (no horizon: the thrusters push no -x), with time for a
+    transfer: where the wheels steer the body they turn the push axis; where they do not (a heavy body, its turn a
+    slew by the thrusters' couples, whose side force the planner's transfer takes into account) a new transfer."""
+    kinds = {}
+    for steer in (True, False):
+        _, control, t0, q_eci = _arrived(duration_s=2800.0)
+        control.wheels_steer = steer
+        _estimate(control, t0, control.rest, q_hill=_held(control, t0, q_eci))  # the terminal from here
+        t = t0 + 1.0
+        q_hill = _held(control, t, q_eci)
+        state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
+                               np.zeros(3))
+        kinds[steer] = [e[1] for e in control._terminal(state, np.zeros(3))]
+        assert (control.t_terminal is None) == (not steer)
+    assert kinds == {True: [TRANSPORT_TURN], False: [TRANSPORT_CORRECTION]}
+
+
 def test_far_off_the_rest_point_with_no_horizon_and_no_time_for_a_transfer_the_push_axis_turns():
     """The same 300 m off in a run whose deadline leaves no room for a transfer and its settle bound: no new plan,
     the wheels turn the push axis (transport_turn), the terminal phase kept."""

@@ -82,7 +82,9 @@ class TransportTerminal:
             return []  # no time left for a firing to settle before the judgement
         solution = terminal.solve(problem, horizons)
         if solution is None:
-            if float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
+            # Off the rest point beyond the margin, or on a body the wheels do not steer (its thrusters' turn is a
+            # slew whose side force the planner's transfer takes into account): a new transfer.
+            if not self.wheels_steer or float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
                 again = self._transfer_again(state)
                 if again is not None:
                     return again
@@ -153,7 +155,8 @@ class TransportTerminal:
         rate = self.turn_rate_rad_s
         self.turning = (t, q_now, arc / angle, angle, rate)
         self.t_check = t + angle / rate + WHEEL_SPINUP_S
-        return [('OK', events.TRANSPORT_TURN, f'no terminal firing reaches rest at the attitude held: the wheels turn '
+        by = 'wheels' if self.wheels_steer else 'thrusters\' couples'
+        return [('OK', events.TRANSPORT_TURN, f'no terminal firing reaches rest at the attitude held: the {by} turn '
                                               f'the push axis {math.degrees(angle):.1f} deg at {rate:.3g} rad/s',
                  {'angle_rad': angle, 'rate_rad_s': rate})]
 
