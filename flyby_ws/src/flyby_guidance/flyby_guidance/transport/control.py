@@ -284,8 +284,8 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
                 force, torque = (np.asarray(burn.force_body_n, dtype=float),
                                  np.asarray(burn.torque_body_n_m, dtype=float))
                 if burn.purpose == 'push':  # the hold's couple from the push's own thrusters
-                    force, torque = self._closed_loop_push(t, state, burn, force, torque, h_wheels)
-                    return force, torque + hold, wheels, events
+                    force, torque = self._closed_loop_push(t, state, burn, force, torque, h_wheels, hold)
+                    return force, torque, wheels, events
                 if burn.purpose == 'slew_stop':
                     force, torque = self._closed_loop_stop(t, state, burn, force, torque, h_wheels)
                 wrench = torque_wrench(self.body, self.config.planner, hold) if any(hold) else None

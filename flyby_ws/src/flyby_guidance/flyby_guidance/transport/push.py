@@ -173,19 +173,21 @@ class TransportPush:
         _, force, torque = self.issued
         return force, torque - np.cross(self.body.com_body_m, force)
 
-    def _closed_loop_push(self, t, state, burn, force, torque, h_wheels):
+    def _closed_loop_push(self, t, state, burn, force, torque, h_wheels, hold_com=None):
         """A push flown on the estimate (module doc): the force over the rest of the burn that gives the velocity the
         plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
         rest), turned into the body by the attitude estimate, with no torque about the combined CoM but the one that
-        takes out the angular momentum the wheels gained by the push's end (where they hold the body); where the
-        thrusters cannot give it (a direction out of their cone of pure forces), the nearest wrench they give. Pointing
+        takes out the angular momentum the wheels gained by the push's end where they hold the body, or else the
+        thrusters' hold of the attitude (hold_com); where the thrusters cannot give that wrench (a direction out of
+        their cone of pure forces, a couple beyond them beside the push), the nearest wrench they give. Pointing
         and execution errors of the push are taken out; a miss of the position is the mid-course correction's and the
         terminal program's."""
         p = self.config.planner.period_s
         t_from = t + p
         remaining_s = burn.t_start_s + burn.duration_s - t_from
+        hold_com = np.zeros(3) if hold_com is None else np.asarray(hold_com, dtype=float)
         if remaining_s < 0.5 * p:
-            return force, torque
+            return force, torque + hold_com
         issued_force, _ = self._in_flight(t)
         dv_hill = (self.push_end[round(burn.t_start_s / p)].v_hill - state.v_hill
                    - quat_to_matrix(state.q_hill_from_body) @ issued_force * (p / self.body.mass_kg))
@@ -203,7 +205,7 @@ class TransportPush:
         # The body at rest on the plan between slews: where the wheels hold it, the push's thrusters take out the
         # angular momentum the wheels gained (the thrusters' misalignment and the CoM's error make a torque), by the
         # push's end.
-        torque_com = np.zeros(3)
+        torque_com = hold_com
         if self.wheels_steer:
             torque_com = -(self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels) / remaining_s
         torque_body = torque_com + np.cross(self.body.com_body_m, force_body)  # about the chaser's CoM
