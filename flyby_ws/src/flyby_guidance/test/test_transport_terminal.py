@@ -26,6 +26,7 @@ from flyby_msgs_py.events import (
     TRANSPORT_TURN,
 )
 from flyby_planner.transfer import terminal_impulses
+from flyby_planner.transport import terminal as planner_terminal
 from flyby_planner.transport.model import TransportBody, TransportState
 from flyby_planner.transport.terminal import HORIZONS_S, solve
 from flyby_sim.dynamics.actuators import default_thruster_layout
@@ -98,6 +99,25 @@ def test_where_no_horizon_is_feasible_the_wheels_turn_the_push_axis_onto_the_tra
     b_eci = quat_rotate(control._held(t + angle / rate), control.b_body)
     np.testing.assert_allclose(b_eci, hill_axes_in_eci(t, control.n) @ dv_hill / np.linalg.norm(dv_hill), atol=1e-9)
     assert angle > 1.0
+
+
+def test_where_no_horizon_is_feasible_and_the_push_axis_lies_along_the_transfer_its_impulse_is_fired(monkeypatch):
+    """No horizon feasible (the program's None) at the rest point, 2 mm/s against the push axis: CW's first impulse
+    to the rest point is along the push axis already, so there is nothing to turn (the wheels' turn of 0 deg every
+    check never ended on tug_box_transport); the impulse is fired now as near as the thrusters give it
+    (transport_terminal), the body's mass times 2 mm/s along the push axis, and the next check after it."""
+    body, control, t0, q_eci = arrived()
+    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))  # the terminal from here
+    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0  # no time for a new transfer
+    q_hill = held(control, t, q_eci)
+    v_hill = quat_to_matrix(q_hill) @ (-2e-3 * control.b_body)
+    monkeypatch.setattr(planner_terminal, 'solve', lambda problem, horizons: None)
+    events = control._terminal(TransportState(t, control.rest.copy(), v_hill, q_hill, np.zeros(3)), np.zeros(3))
+    assert [e[1] for e in events] == [TRANSPORT_TERMINAL] and control.turning is None and control.pulses
+    impulse = sum(force * (t_b - t_a) for t_a, t_b, force, _ in control.pulses)
+    assert float(impulse @ control.b_body) == pytest.approx(body.mass_kg * 2e-3, rel=0.02)
+    assert np.linalg.norm(impulse - (impulse @ control.b_body) * control.b_body) < 0.05 * np.linalg.norm(impulse)
+    assert control.t_check == pytest.approx(control.pulses[-1][1] + control.config.replan_interval_s)
 
 
 def _same_attitude(q_a, q_b):

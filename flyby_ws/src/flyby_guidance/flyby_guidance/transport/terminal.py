@@ -30,6 +30,7 @@ AIM_FRACTION = 0.5  # the program aims within this share of each bound, the marg
 POSITION_AIM_FRACTION = 0.25  # ... and of the position bound (a rest point drifts off it no more than this) ...
 WHEEL_AIM_FRACTION = 0.8  # ... and of the wheels' share (their momentum is measured, not estimated)
 TERMINAL_ROUNDS = 3  # the settle bound: this many rounds of navigation and firing after the arrival
+MIN_TURN_RAD = math.radians(1.0)  # a push axis this near CW's first impulse is not turned: the impulse is fired
 
 
 def settle_bound_s(mass_kg, bound_n_s, position_sigma_m, position_rate_hz, hold_s, com_period_s,
@@ -88,7 +89,7 @@ class TransportTerminal:
                 again = self._transfer_again(state)
                 if again is not None:
                     return again
-            return self._turn(state)
+            return self._turn(state) or self._nearest_firing(state, problem)
         firing = [k for k in range(len(solution.slot_times_s)) if np.any(solution.impulses_n_s[k])]
         if not firing:
             return []
@@ -97,7 +98,7 @@ class TransportTerminal:
         self.pulses = [pulse for k in firing
                        for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])]
         self.t_fired = self.pulses[-1][1]
-        self.t_check = max(self.t_fired, problem.t0 + solution.horizon_s) + cfg.replan_interval_s
+        self.t_check = self.t_fired + cfg.replan_interval_s
         impulse = float(solution.impulses_n_s.sum())
         predicted_n_s = self.body.mass_kg * float(np.linalg.norm(solution.predicted[3:]))
         predicted_m = float(np.linalg.norm(solution.predicted[:3]))
@@ -136,13 +137,41 @@ class TransportTerminal:
             cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
             terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m), NAV_SIGMAS * self.command_error)
 
-    def _turn(self, state):
-        """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest
-        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body, from the attitude held."""
-        t = state.t
-        horizon_s = min(terminal.HORIZONS_S[-1], max(self.deadline - self.config.hold_s - t, terminal.HORIZONS_S[0]))
+    def _transfer_impulse(self, state):
+        """The first impulse [m/s, hill] of CW's transfer to the rest point over the longest horizon left (seed 000
+        eq 28-29)."""
+        horizon_s = min(terminal.HORIZONS_S[-1], max(self.deadline - self.config.hold_s - state.t,
+                                                     terminal.HORIZONS_S[0]))
         dv_hill, _ = terminal_impulses(state.r_hill - self.rest, state.v_hill, np.zeros(3), np.zeros(3), horizon_s,
                                        self.n)
+        return dv_hill
+
+    def _nearest_firing(self, state, problem):
+        """Where no horizon is feasible and the push axis already lies along CW's first impulse (no turn to make):
+        that impulse as near as the thrusters give it at the attitude held (``terminal.impulses_for``), fired now."""
+        impulses, dv_given = terminal.impulses_for(self._transfer_impulse(state), problem)
+        self.pulses = self._pulses_of(impulses, problem.t0)
+        if not self.pulses:
+            return []
+        self.t_fired = self.pulses[-1][1]
+        self.t_check = self.t_fired + self.config.replan_interval_s
+        impulse = float(impulses.sum())
+        horizon_s = terminal.HORIZONS_S[0]
+        predicted = cw_transition_matrix(self.n, horizon_s) @ (problem.x0 + np.concatenate((np.zeros(3), dv_given)))
+        momentum_n_s = self.body.mass_kg * float(np.linalg.norm(predicted[3:]))
+        position_m = float(np.linalg.norm(predicted[:3]))
+        return [('OK', events.TRANSPORT_TERMINAL, f'no terminal horizon feasible, the push axis along the transfer: '
+                                                  f'firings of {impulse:.3g} N s toward the rest point: predicted '
+                                                  f'{position_m:.3g} m, {momentum_n_s:.3g} N s {horizon_s:.0f} s on',
+                 {'impulse_n_s': impulse, 'horizon_s': horizon_s, 'predicted_momentum_n_s': momentum_n_s,
+                  'predicted_position_m': position_m})]
+
+    def _turn(self, state):
+        """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest
+        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body, from the attitude held; no
+        turn (none) where it lies within MIN_TURN_RAD of it already."""
+        t = state.t
+        dv_hill = self._transfer_impulse(state)
         if not np.any(dv_hill):
             return []
         q_now = self._held(t)
@@ -150,7 +179,7 @@ class TransportTerminal:
         q_goal = quat_multiply(quat_shortest_arc(quat_rotate(q_now, self.b_body), d_eci), q_now)
         arc = rotation_vector_from_quat(quat_multiply(q_goal, quat_conjugate(q_now)))
         angle = float(np.linalg.norm(arc))
-        if angle <= 0.0:
+        if angle <= MIN_TURN_RAD:
             return []
         rate = self.turn_rate_rad_s
         self.turning = (t, q_now, arc / angle, angle, rate)
