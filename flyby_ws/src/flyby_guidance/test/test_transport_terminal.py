@@ -7,7 +7,6 @@ import pytest
 from transport_guidance_testing import (
     P,
     arrived,
-    control_for,
     estimate,
     held,
 )
@@ -30,7 +29,6 @@ from flyby_planner.transport import terminal as planner_terminal
 from flyby_planner.transport.model import TransportBody, TransportState
 from flyby_planner.transport.terminal import HORIZONS_S, solve
 from flyby_sim.dynamics.actuators import default_thruster_layout
-from flyby_sim.dynamics.combined_body import combined_mass_properties, inertia_from_principal
 from flyby_sim.dynamics.orbital import hill_axes_in_eci, q_hill_from_body
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
@@ -39,16 +37,6 @@ from flyby_sim.dynamics.rotation import (
     quat_rotate,
     quat_to_matrix,
 )
-
-
-def test_seed004_the_planned_body_is_the_combined_one_less_the_thrusters_firing_at_the_target():
-    sc, body, _ = control_for()
-    inertia_t = inertia_from_principal((1.5, 1.5, 2.0), (0.0, -0.7071067811865476, 0.0, 0.7071067811865476))
-    assert inertia_t[0, 0] == pytest.approx(2.0) and inertia_t[2, 2] == pytest.approx(1.5)  # the axis along x
-    props = combined_mass_properties(30.0, sc.chaser_inertia, 20.2, (0.5, 0.0, 0.0), inertia_t)
-    assert body.mass_kg == pytest.approx(50.2) and body.com_body_m == pytest.approx(props.com_body_m)
-    np.testing.assert_allclose(body.inertia_body_kg_m2, props.inertia_body_kg_m2)
-    assert body.layout.count == 10 and not np.any(body.layout.force_directions_body[:, 0] < -0.5)
 
 
 def test_after_the_arrival_the_terminal_program_fires_one_thruster_a_period():
