@@ -23,7 +23,7 @@ from flyby_planner.transport.model import (
     propagate,
 )
 from flyby_planner.transport.plan import plan_transport
-from flyby_planner.transport.thrusters import push_axis
+from flyby_planner.transport.thrusters import find_push_axis, push_axis
 from flyby_sim.dynamics.actuators import (
     ThrusterLayout,
     allocate_max_force,
@@ -287,6 +287,10 @@ def test_the_push_axis_is_the_direction_of_the_largest_pure_force():
                          full.subset(plume_free_thrusters(full, x_s, 60.0)))
     layout_com = TransportModel(body, _CONFIG).layout_com
     b, force_n = push_axis(body)
+    again, found = push_axis(body), find_push_axis(body)  # kept per body, found again the same
+    np.testing.assert_array_equal(again[0], b)
+    np.testing.assert_array_equal(found[0], b)
+    assert again[1] == found[1] == force_n
     on_axes = []
     for axis in np.vstack((np.eye(3), -np.eye(3))):
         try:

@@ -2,10 +2,10 @@
 transfer's last burn the wheels hold the body's attitude fixed in inertial space, and at every check the terminal
 program (``flyby_planner.transport.terminal``) chooses, from the estimate, the impulses that bring the body to rest
 at the goal's rest point with the wheels' momentum within their share; its firings are flown at their times and the
-program solved again at its horizon's end. Where no horizon is
-feasible at the attitude held (the side force it needs lies outside the direction-limited thrusters' cone) the
-wheels turn the push axis onto it first. The judgement: the three conditions and the wheels' share, from the
-estimate with its 3-sigma, held for ``hold_s``."""
+program solved again after the last. Where no horizon is feasible at the attitude held (the side force it needs lies
+outside the direction-limited thrusters' cone) the push axis is turned onto it first (on a body the wheels do not
+steer, a new transfer is flown), or the impulse fired where the push axis lies along it already. The judgement: the
+three conditions and the wheels' share, from the estimate with its 3-sigma, held for ``hold_s``."""
 
 import math
 
@@ -52,7 +52,7 @@ class TransportTerminal:
         self.hold = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
         self.turning = None
         self.t_terminal = state.t
-        self.t_check = state.t if self.t_check is None else max(self.t_check, state.t)  # a plan's horizon is kept
+        self.t_check = state.t if self.t_check is None else max(self.t_check, state.t)  # a scheduled check is kept
 
     def _velocity_sigma_mps(self, t):
         """The navigation's velocity 1-sigma at t [m/s]: the last estimate's, with the combined CoM's (an error dc is
@@ -93,12 +93,10 @@ class TransportTerminal:
         firing = [k for k in range(len(solution.slot_times_s)) if np.any(solution.impulses_n_s[k])]
         if not firing:
             return []
-        # The whole plan flown, then a new solve at its end: a plan of a few bits is a sequence (a start and a stop,
-        # a pair that nets less than a bit), and solved again after each part it would be another sequence.
-        self.pulses = [pulse for k in firing
-                       for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])]
-        self.t_fired = self.pulses[-1][1]
-        self.t_check = self.t_fired + cfg.replan_interval_s
+        # The whole plan flown, then a new solve after its last firing: a plan of a few bits is a sequence (a start
+        # and a stop, a pair that nets less than a bit), and solved again after each part it would be another one.
+        self._fire([pulse for k in firing
+                    for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])])
         impulse = float(solution.impulses_n_s.sum())
         predicted_n_s = self.body.mass_kg * float(np.linalg.norm(solution.predicted[3:]))
         predicted_m = float(np.linalg.norm(solution.predicted[:3]))
@@ -107,6 +105,12 @@ class TransportTerminal:
                  f'predicted {predicted_m:.3g} m, {predicted_n_s:.3g} N s at its end',
                  {'impulse_n_s': impulse, 'horizon_s': solution.horizon_s,
                   'predicted_momentum_n_s': predicted_n_s, 'predicted_position_m': predicted_m})]
+
+    def _fire(self, pulses):
+        """Fly the terminal firings (``_pulses_of``'s periods); the next check a replan interval after the last."""
+        self.pulses = pulses
+        self.t_fired = pulses[-1][1]
+        self.t_check = self.t_fired + self.config.replan_interval_s
 
     def _pulses_of(self, impulses_n_s, t_first):
         """[(t_start, t_end, force_body_n, torque_body_n_m)] of the control periods from t_first [s] that fire the
@@ -150,11 +154,10 @@ class TransportTerminal:
         """Where no horizon is feasible and the push axis already lies along CW's first impulse (no turn to make):
         that impulse as near as the thrusters give it at the attitude held (``terminal.impulses_for``), fired now."""
         impulses, dv_given = terminal.impulses_for(self._transfer_impulse(state), problem)
-        self.pulses = self._pulses_of(impulses, problem.t0)
-        if not self.pulses:
+        pulses = self._pulses_of(impulses, problem.t0)
+        if not pulses:
             return []
-        self.t_fired = self.pulses[-1][1]
-        self.t_check = self.t_fired + self.config.replan_interval_s
+        self._fire(pulses)
         impulse = float(impulses.sum())
         horizon_s = terminal.HORIZONS_S[0]
         predicted = cw_transition_matrix(self.n, horizon_s) @ (problem.x0 + np.concatenate((np.zeros(3), dv_given)))
@@ -168,8 +171,9 @@ class TransportTerminal:
 
     def _turn(self, state):
         """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest
-        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body, from the attitude held; no
-        turn (none) where it lies within MIN_TURN_RAD of it already."""
+        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body (the thrusters' couples at the
+        slews' rate, where the wheels do not steer it), from the attitude held; no turn (none) where it lies within
+        MIN_TURN_RAD of it already."""
         t = state.t
         dv_hill = self._transfer_impulse(state)
         if not np.any(dv_hill):

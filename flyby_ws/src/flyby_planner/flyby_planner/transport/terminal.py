@@ -123,9 +123,9 @@ def _program(problem, horizon_s):
     slots = problem.t0 + horizon_s * np.arange(SLOTS) / SLOTS
     t_end = problem.t0 + horizon_s
     free = cw_transition_matrix(problem.n, horizon_s) @ problem.x0
+    to_end = [cw_transition_matrix(problem.n, t_end - t_k) for t_k in slots]  # each slot's transition to the end
     # State at the end per unit impulse of each (slot, thruster): (6, K J).
-    effect = np.hstack([cw_transition_matrix(problem.n, t_end - t_k)[:, 3:] @ _directions_hill(problem, t_k).T / m
-                        for t_k in slots])
+    effect = np.hstack([g[:, 3:] @ _directions_hill(problem, t_k).T / m for g, t_k in zip(to_end, slots, strict=True)])
     couples = problem.couples_body_m.T  # (3, J)
     size = SLOTS * j_count
     # The thrusters of a slot fire one after another (``firing_periods``) within half the slot.
@@ -143,9 +143,8 @@ def _program(problem, horizon_s):
                 STAGE_FRACTION * max(float(np.linalg.norm(h @ free)) * m for h in held) * BALL_SLAB_FACTOR)
     # Each impulse's execution error moves the end by at most its size times the transition's gain, in any
     # direction: a margin taken from every slab (``impulse_error`` at the slabs' sigmas).
-    gains = [cw_transition_matrix(problem.n, t_end - t_k) for t_k in slots]
-    e_r = problem.impulse_error / m * np.repeat([np.linalg.norm(g[:3, 3:], 2) for g in gains], j_count)
-    e_v = problem.impulse_error * np.repeat([max(np.linalg.norm((h @ g)[:, 3:], 2) for h in held) for g in gains],
+    e_r = problem.impulse_error / m * np.repeat([np.linalg.norm(g[:3, 3:], 2) for g in to_end], j_count)
+    e_v = problem.impulse_error * np.repeat([max(np.linalg.norm((h @ g)[:, 3:], 2) for h in held) for g in to_end],
                                             j_count)
     h_total = np.tile(couples, SLOTS)
     per_slot = np.kron(np.eye(SLOTS), couples)

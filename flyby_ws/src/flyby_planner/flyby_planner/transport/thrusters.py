@@ -13,13 +13,30 @@ from flyby_sim.dynamics.actuators import allocate_max_force
 # CoM's direction, the best then refined locally.
 _PUSH_DIRECTIONS = 96
 _PUSH_REFINE_EVALUATIONS = 80
+# The push axes found, by the combined CoM and the thrusters (a search of some 180 LPs: guidance, the planner and each
+# slew's re-solve ask for the same body's); emptied beyond this many bodies.
+_PUSH_AXES = {}
+_PUSH_AXES_KEPT = 32
 
 
 def push_axis(body):
+    """``find_push_axis`` of the body, once per combined CoM and thruster set: (b, largest pure force [N])."""
+    layout = body.layout
+    key = tuple(np.asarray(a, dtype=float).tobytes() for a in (
+        body.com_body_m, layout.positions_body_m, layout.force_directions_body, layout.max_thrust_n))
+    if key not in _PUSH_AXES:
+        if len(_PUSH_AXES) >= _PUSH_AXES_KEPT:
+            _PUSH_AXES.clear()
+        _PUSH_AXES[key] = find_push_axis(body)
+    axis, force_n = _PUSH_AXES[key]
+    return axis.copy(), force_n
+
+
+def find_push_axis(body):
     """(b, largest pure force along it [N]): the body direction with the largest pure force about the combined CoM
     (package doc, step 1). A force through a CoM metres off the tug mixes thrusters of several faces, so the best
-    direction is rarely a body axis (a 28 kg tug holding 620 kg 1.3 m off: 1.8 N along its best axis, 13 N along
-    0.99 x - 0.11 z): the largest of a lattice of directions, refined by Nelder-Mead on the sphere about it. Raises
+    direction is rarely a body axis (a 28 kg tug holding 618 kg 1.4 m off: 1.8 N along its best axis, 20 N near the
+    CoM's direction): the largest of a lattice of directions, refined by Nelder-Mead on the sphere about it. Raises
     TransportRefused if the thrusters give a pure force along none."""
     layout_com = TransportModel(body, TransportConfig()).layout_com
 
