@@ -147,6 +147,9 @@ def _schedule(model, config, b_body, q0_eci, omega0, k0, k_arr, dv, t_mid1, push
     k_push1 = max(k0 + 1, round(t_mid1 / p - 0.5 * k_len[0]))
     u1_eci = hill_axes_in_eci((k_push1 + 0.5 * k_len[0]) * p, n) @ unit_vector(dv[0])
     slew_a = slew_ending(model, config, q0_eci, omega0, b_body, u1_eci, k_push1, burn_factor[0])
+    for _ in range(2):  # sized again on the attitude a turning body coasts to by the slew's start
+        q_a, w_a = rotate_body(model, config, q0_eci, omega0, k0 * p, max(slew_a.k_start, k0) * p, ())
+        slew_a = slew_ending(model, config, q_a, w_a, b_body, u1_eci, k_push1, burn_factor[0])
     if slew_a.k_start < k0:  # no room before: push 1 later
         slew_a = slew_a._replace(k_start=k0, k_end=k0 + slew_a.k_end - slew_a.k_start)
         k_push1 = slew_a.k_end
