@@ -23,7 +23,7 @@ from flyby_planner.transport.model import (
     propagate,
 )
 from flyby_planner.transport.plan import plan_transport
-from flyby_planner.transport.thrusters import find_push_axis, push_axis
+from flyby_planner.transport.thrusters import find_push_axis, nearest_wrench, push_axis
 from flyby_sim.dynamics.actuators import (
     ThrusterLayout,
     allocate_max_force,
@@ -275,16 +275,41 @@ def test_a_long_coast_about_a_non_principal_axis_converges():
     assert np.linalg.norm(w_end) < 1e-9
 
 
+def _tug_618_body():
+    """A 28 kg tug holding 618 kg 1.4 m off (transport_envelope run 13), the thrusters whose exhaust misses it."""
+    x_s = np.array([1.37, 0.18, 0.04])
+    props = combined_mass_properties(28.0, np.diag([1.38, 1.66, 1.66]), 618.0, x_s, np.diag([60.0, 90.0, 90.0]))
+    full = default_thruster_layout(face_m=0.178, lever_arm_m=0.133)
+    return TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
+                         full.subset(plume_free_thrusters(full, x_s, 60.0)))
+
+
+def test_the_nearest_wrench_keeps_the_torque_and_gives_up_the_force_out_of_the_cone():
+    """A force wanted 30 deg off the push axis of a CoM 1.4 m out is no pure force the thrusters give: the nearest
+    wrench keeps the torque wanted about the combined CoM (none, or a hold's couple) and gives the force nearest
+    the wanted among those, no farther than any share of the push axis's pure force."""
+    body = _tug_618_body()
+    b, force_n = push_axis(body)
+    across = np.cross(b, [0.0, 0.0, 1.0])
+    wanted = 0.8 * force_n * (math.cos(math.radians(30.0)) * b + math.sin(math.radians(30.0)) * across
+                              / np.linalg.norm(across))
+    com = np.asarray(body.com_body_m)
+    for hold in (np.zeros(3), np.array([0.0, 0.0, 0.5])):
+        force, torque_chaser = nearest_wrench(body, _CONFIG, wanted, hold)
+        np.testing.assert_allclose(torque_chaser - np.cross(com, force), hold, atol=1e-5)
+        assert allocate_wrench(body.layout, force, torque_chaser).saturated is False
+        assert float(force @ wanted) > 0.5 * float(wanted @ wanted)
+    force, _ = nearest_wrench(body, _CONFIG, wanted, np.zeros(3))
+    error = np.abs(force - wanted).sum()
+    assert all(error <= np.abs(a * force_n * b - wanted).sum() + 1e-6 for a in np.linspace(0.0, 1.0, 101))
+
+
 def test_the_push_axis_is_the_direction_of_the_largest_pure_force():
     """A 28 kg tug holding 618 kg 1.4 m off (transport_envelope run 13): its best body axis gives 1.8 N of pure force
     (a force along x cannot pass through a CoM off the thrusters' lines), a direction near the CoM's mixes faces and
     gives about 20 N; push_axis finds it, the force is pure about the combined CoM, and no direction of a denser
     lattice gives more."""
-    x_s = np.array([1.37, 0.18, 0.04])
-    props = combined_mass_properties(28.0, np.diag([1.38, 1.66, 1.66]), 618.0, x_s, np.diag([60.0, 90.0, 90.0]))
-    full = default_thruster_layout(face_m=0.178, lever_arm_m=0.133)
-    body = TransportBody(props.mass_kg, props.com_body_m, props.inertia_body_kg_m2,
-                         full.subset(plume_free_thrusters(full, x_s, 60.0)))
+    body = _tug_618_body()
     layout_com = TransportModel(body, _CONFIG).layout_com
     b, force_n = push_axis(body)
     again, found = push_axis(body), find_push_axis(body)  # kept per body, found again the same

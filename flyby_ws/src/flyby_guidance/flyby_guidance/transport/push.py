@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from flyby_guidance.transport.attitude import TRACK_BANDWIDTH_RAD_S
 from flyby_msgs_py import events
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import terminal
@@ -14,14 +15,40 @@ from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.slew import resolve_slew
 from flyby_planner.transport.thrusters import nearest_wrench, torque_wrench
 from flyby_sim.dynamics.actuators import allocate_wrench
-from flyby_sim.dynamics.orbital import cw_transition_matrix
-from flyby_sim.dynamics.rotation import quat_to_matrix
+from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
 
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned: a bad estimate stays mild
 ARRIVAL_SIGMAS = 3.0  # the arrival push stops short of rest by this many sigma of its expected error along the push
 CORRECTION_FRACTION = 0.25  # a miss at the last push beyond this share of the second condition is corrected
 REPLAN_FRACTION = 0.5  # a transfer again after the arrival takes this share of the first's time
 SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
+STEER_MAX_RAD = 0.05  # a push steers its axis toward the force wanted by at most this much at a time [rad] ...
+STEER_SETTLE_S = 4.0 / TRACK_BANDWIDTH_RAD_S  # ... and not over its last this long: the attitude settles first [s]
+_PUSH_NODES = np.polynomial.legendre.leggauss(8)  # the push's response integrated by Gauss-Legendre on its rest
+
+
+def push_response(state, issued_force_body_n, mass_kg, n, t_from, duration_s):
+    """(G (6, 3) [s/kg, s^2/kg], x_coast (6,)): the state [r_hill; v_hill] at the end of a constant body force F
+    held over [t_from, t_from + duration_s] by a body at rest inertially (turning in hill at the orbit rate) is
+    x_coast + G F, by CW's transition (seed 000 eq 22): G = int Phi[:, v](t_end - s) C_hill_from_body(s) ds / m, and
+    x_coast the state's coast to the end (the command already issued acting over [state.t, t_from] at the estimated
+    attitude). A push of minutes turns a third of a radian in hill and CW's coupling moves its velocity by as much as
+    the thrust does: the velocity's difference divided by the time is no push's force."""
+    c_hill_from_body = quat_to_matrix(state.q_hill_from_body)
+    c_eci_from_body = hill_axes_in_eci(state.t, n) @ c_hill_from_body
+    lead_s = t_from - state.t
+    issued_hill = c_hill_from_body @ np.asarray(issued_force_body_n, dtype=float) / mass_kg
+    x_from = cw_transition_matrix(n, lead_s) @ np.concatenate((state.r_hill, state.v_hill)) + np.concatenate(
+        (0.5 * lead_s ** 2 * issued_hill, lead_s * issued_hill))
+    t_end = t_from + duration_s
+    nodes, weights = _PUSH_NODES
+    response = np.zeros((6, 3))
+    for x, w in zip(nodes, weights, strict=True):
+        s = t_from + 0.5 * duration_s * (x + 1.0)
+        response += (0.5 * duration_s * w) * cw_transition_matrix(n, t_end - s)[:, 3:] @ hill_axes_in_eci(s, n).T \
+            @ c_eci_from_body
+    return response / mass_kg, cw_transition_matrix(n, duration_s) @ x_from
 
 
 class TransportPush:
@@ -189,19 +216,23 @@ class TransportPush:
         if remaining_s < 0.5 * p:
             return force, torque + hold_com
         issued_force, _ = self._in_flight(t)
-        dv_hill = (self.push_end[round(burn.t_start_s / p)].v_hill - state.v_hill
-                   - quat_to_matrix(state.q_hill_from_body) @ issued_force * (p / self.body.mass_kg))
-        if burn is [b for b in self.plan.burns if b.purpose == 'push'][-1]:
-            # Short of rest by its expected error along the push: what it leaves is then taken out along the push
+        response, x_coast = push_response(state, issued_force, self.body.mass_kg, self.n, t_from, remaining_s)
+        pushes = [b for b in self.plan.burns if b.purpose == 'push']
+        if burn is pushes[-1]:
+            # To rest, short by its expected error along the push: what it leaves is then taken out along the push
             # axis, within the direction-limited thrusters' reach at the attitude held (``terminal``).
+            dv_hill = self.push_end[round(burn.t_start_s / p)].v_hill - x_coast[3:]
             need = float(np.linalg.norm(dv_hill))
             short = ARRIVAL_SIGMAS * self._arrival_sigma_mps(burn)
             dv_hill = dv_hill * max(0.0, 1.0 - short / need) if need > 0.0 else dv_hill
-        force_hill = self.body.mass_kg * dv_hill / remaining_s
+            force_body = np.linalg.solve(response[3:], dv_hill)
+        else:
+            force_body = self._aimed_force(burn, pushes[-1], response, x_coast)
+        if remaining_s > STEER_SETTLE_S:
+            self._steer(state, force, force_body)
         limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
-        if float(np.linalg.norm(force_hill)) > limit:
-            force_hill = force_hill * (limit / float(np.linalg.norm(force_hill)))
-        force_body = quat_to_matrix(state.q_hill_from_body).T @ force_hill
+        if float(np.linalg.norm(force_body)) > limit:
+            force_body = force_body * (limit / float(np.linalg.norm(force_body)))
         # The body at rest on the plan between slews: where the wheels hold it, the push's thrusters take out the
         # angular momentum the wheels gained (the thrusters' misalignment and the CoM's error make a torque), by the
         # push's end.
@@ -212,6 +243,35 @@ class TransportPush:
         if allocate_wrench(self.body.layout, force_body, torque_body).saturated:
             return nearest_wrench(self.body, self.config.planner, force_body, torque_com)
         return force_body, torque_body
+
+    def _steer(self, state, planned_force_body, force_body):
+        """Thrust-vector steering: the attitude the push is held at, the estimate's turned so that the planned pure
+        force's direction goes toward the force wanted (by at most STEER_MAX_RAD). About a CoM metres off the tug the
+        thrusters' pure forces lie in a narrow cone about it: a force wanted across it is the body's to turn to,
+        not the thrusters' to give (their nearest wrench gives up the force, not the torque)."""
+        f_n = float(np.linalg.norm(force_body))
+        if f_n == 0.0:
+            return
+        b = np.asarray(planned_force_body, dtype=float) / float(np.linalg.norm(planned_force_body))
+        axis = np.cross(b, force_body / f_n)
+        sin_angle = float(np.linalg.norm(axis))
+        delta = np.zeros(3) if sin_angle < 1e-12 else axis / sin_angle * min(
+            float(np.arctan2(sin_angle, b @ force_body / f_n)), STEER_MAX_RAD)
+        self.reference = (state.t, quat_multiply(q_eci_from_body(state.t, self.n, state.q_hill_from_body),
+                                                 quat_from_rotation_vector(delta)), np.zeros(3))
+
+    def _aimed_force(self, burn, last, response, x_coast):
+        """The constant body force over the rest of a push before the last that puts the body, coasting from the
+        push's end, where the plan has it at the last push's middle (its state at the push's end coasted by CW):
+        the transfer's aim, not the push's end velocity (a push of minutes flown to a velocity still misses by the
+        position its force's profile made: 287 m on 2000 kg; the mid-course correction measures the same miss)."""
+        p = self.config.planner.period_s
+        nominal = self.push_end[round(burn.t_start_s / p)]
+        t_end = burn.t_start_s + burn.duration_s
+        t_mid = last.t_start_s + 0.5 * last.duration_s
+        aim = (cw_transition_matrix(self.n, t_mid - nominal.t) @ np.concatenate((nominal.r_hill, nominal.v_hill)))[:3]
+        phi_r = cw_transition_matrix(self.n, t_mid - t_end)[:3]
+        return np.linalg.solve(phi_r @ response, aim - phi_r @ x_coast)
 
     def _arrival_sigma_mps(self, burn):
         """The expected error [m/s] of the velocity at the end of a closed-loop push, its delta-v measured by the
