@@ -112,9 +112,8 @@ class TransportAttitude:
     def _quiet_dump(self, h_wheels):
         """(force, torque about the chaser's CoM, the couple given about the combined CoM [N m]) that empties the wheels
         over DUMP_S by the thrusters' pure couples in pulses, the wheels taking the same couple back smoothly (their
-        motor torque + given) so that the body feels none on the mean: the terminal program keeps the wheels within
-        its share by couples whose side force it must take out again, and where it cannot (no horizon) a turn does
-        not empty them."""
+        motor torque + given) so that the body feels none on the mean: the terminal program keeps the wheels within its share by couples
+        whose side force it must take out again, and where it cannot (no horizon) a turn does not empty them."""
         tau = -np.asarray(h_wheels, dtype=float) / DUMP_S
         _, _, given = pure_couple(self.body, self.config.planner, tau)
         pulse, self.carried = pulse_modulated(self.carried, given, self.config.planner.period_s, self.pulse_n_m_s)
