@@ -11,13 +11,7 @@ from transport_guidance_testing import (
     held,
 )
 
-from flyby_guidance.transport.attitude import (
-    DETUMBLED_S,
-    DUMP_S,
-    TRACK_BANDWIDTH_RAD_S,
-    TRACK_DAMPING,
-    WHEEL_SPINUP_S,
-)
+from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING, WHEEL_SPINUP_S
 from flyby_guidance.transport.control import (
     PULSE_BITS,
     PULSE_BOUND_FRACTION,
@@ -328,27 +322,3 @@ def test_a_couples_pulse_moves_the_body_by_less_than_a_quarter_of_the_first_cond
     assert pulse == pytest.approx(max(PULSE_BOUND_FRACTION * 0.1, 2.0 * 0.01 * np.max(arms))) and pulse < 0.05
     arms = np.linalg.norm(fine.positions_body_m - near.com_body_m, axis=1)
     assert transport_pulse_n_m_s(near, 0.1) == pytest.approx(PULSE_BITS * 0.005 * np.mean(arms))
-
-
-def test_wheels_above_the_programs_share_are_emptied_by_pure_couples_the_body_feeling_none():
-    """In the terminal hold with nothing firing, wheels above the share the program keeps them within are emptied
-    over DUMP_S by the thrusters' pure couples in pulses: no force, and the wheels' motor torque beyond the attitude's
-    tracking is the couple given, so the body feels none; the mean couple is -h / DUMP_S about the axes the pure
-    couples span."""
-    body, control, t0, q_eci = arrived()
-    capacity = control.wheel_capacity_n_m_s
-    h_wheels = np.array([0.9, -0.7, 0.0]) * capacity * control._wheel_aim_share()
-    h_wheels[0] = 1.2 * control._wheel_aim_share() * capacity
-    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))
-    given, fired, steps, settle = np.zeros(3), np.zeros(3), 200, 20
-    for k in range(1, settle + steps + 1):
-        t = t0 + k * P
-        force, torque, u, _ = estimate(control, t, control.rest, q_hill=held(control, t, q_eci), h_wheels=h_wheels)
-        assert np.linalg.norm(force) < 1e-6 and control.t_terminal is not None and not control.pulses_pending(t)
-        if k > settle:  # after the first check
-            track = control._track(TransportState(t, control.rest, np.zeros(3), held(control, t, q_eci),
-                                                  np.zeros(3)))
-            given += (u - track) * P
-            fired += (torque - np.cross(body.com_body_m, force)) * P
-    np.testing.assert_allclose(given / (steps * P), -h_wheels / DUMP_S, atol=0.02 * np.linalg.norm(h_wheels) / DUMP_S)
-    np.testing.assert_allclose(fired, given, atol=2.0 * control.pulse_n_m_s)  # pulses of the same mean couple

@@ -15,7 +15,6 @@ DETUMBLED_S = 5.0  # the detumbling ends once the momentum bound held this long:
 DETUMBLE_HALVINGS = 8  # a couple beyond the thrusters is halved at most this often: no pure couple about every axis
 TRACK_BANDWIDTH_RAD_S = 0.2  # the wheels' attitude tracking: natural frequency [rad/s], well below the control rate
 TRACK_DAMPING = 0.7  # ... and damping ratio: no overshoot of the slews' coasts
-DUMP_S = 100.0  # a quiet dump empties the wheels with this time constant [s], a few pulses a minute
 WHEEL_ROOM = 0.1  # the share of the wheels' capacity a damped body leaves free to hold it
 WHEEL_SPINUP_S = 10.0  # the wheels steer a body they spin up to the slews' rate within this long; a turn of the
 #                        terminal's is planned this much longer than its angle at its rate [s]
@@ -108,19 +107,6 @@ class TransportAttitude:
             return np.zeros(3), np.zeros(3), wheels
         force, torque, _ = pure_couple(self.body, self.config.planner, pulse)
         return force, torque, wheels
-
-    def _quiet_dump(self, h_wheels):
-        """(force, torque about the chaser's CoM, the couple given about the combined CoM [N m]) that empties the wheels
-        over DUMP_S by the thrusters' pure couples in pulses, the wheels taking the same couple back smoothly (their
-        motor torque + given) so that the body feels none on the mean: the terminal program keeps the wheels within its share by couples
-        whose side force it must take out again, and where it cannot (no horizon) a turn does not empty them."""
-        tau = -np.asarray(h_wheels, dtype=float) / DUMP_S
-        _, _, given = pure_couple(self.body, self.config.planner, tau)
-        pulse, self.carried = pulse_modulated(self.carried, given, self.config.planner.period_s, self.pulse_n_m_s)
-        if not np.any(pulse):
-            return np.zeros(3), np.zeros(3), given
-        force, torque, _ = pure_couple(self.body, self.config.planner, pulse)
-        return force, torque, given
 
     def _couple(self, tau, pulse_n_m_s):
         """(force, torque about the chaser's CoM) of a couple tau [N m] about the combined CoM fired in pulses: below

@@ -303,9 +303,6 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             return (*self._quiet_couple(hold), events)
         if any(hold):
             return (*self._couple(hold, self.pulse_n_m_s), wheels, events)
-        if self.t_terminal is not None and self._wheel_share(h_wheels) > self._wheel_aim_share():
-            force, torque, given = self._quiet_dump(h_wheels)
-            return force, torque, wheels + given, events
         return np.zeros(3), np.zeros(3), wheels, events
 
     def _check(self, state, h_wheels):

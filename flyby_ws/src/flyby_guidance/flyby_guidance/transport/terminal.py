@@ -141,7 +141,7 @@ class TransportTerminal:
             body.mass_kg, layout.force_directions_body, couples, layout.max_thrust_n, layout.min_impulse_bit_n_s,
             self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,
             rho_r, rho_p * terminal.BALL_SLAB_FACTOR, cfg.hold_s,
-            self._wheel_aim_share() * self.wheel_capacity_n_m_s,
+            cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
             terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m), NAV_SIGMAS * self.command_error)
 
     def _transfer_impulse(self, state):
@@ -242,11 +242,6 @@ class TransportTerminal:
         return (self.body_momentum < cfg.max_angular_momentum_kg_m2_s and miss < cfg.max_position_error_m
                 and momentum < cfg.max_momentum_error_n_s
                 and self._wheel_share(h_wheels) <= self.config.wheel_momentum_share)
-
-    def _wheel_aim_share(self):
-        """The share of their capacity the terminal program keeps the wheels within (WHEEL_AIM_FRACTION of the
-        judged share); above it the thrusters' pure couples empty them between firings (``attitude._quiet_dump``)."""
-        return self.config.wheel_momentum_share * WHEEL_AIM_FRACTION
 
     def _wheel_share(self, h_wheels):
         """The wheels' momentum as a share of their capacity, the largest per body axis."""
