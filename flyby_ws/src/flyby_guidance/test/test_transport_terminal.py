@@ -277,11 +277,10 @@ def test_far_off_the_rest_point_with_no_horizon_a_new_transfer_arrives_after_hal
     assert np.any(torque) and control.t_terminal is None
 
 
-def test_near_the_rest_point_with_no_horizon_the_push_axis_turns_whoever_steers_the_body():
+def test_on_a_body_the_wheels_do_not_steer_no_horizon_means_a_new_transfer():
     """At the rest point, 2 mm/s along the push axis (no horizon: the thrusters push no -x), with time for a
-    transfer: the push axis is turned, by the wheels where they steer the body, else by the thrusters' pure couples
-    (a new transfer's slews and pushes would put back newtons-seconds of side force on a heavy body: 59 N s on
-    paper_flyby_transport, 0.55 m off)."""
+    transfer: where the wheels steer the body they turn the push axis; where they do not (a heavy body, its turn a
+    slew by the thrusters' couples, whose side force the planner's transfer takes into account) a new transfer."""
     kinds = {}
     for steer in (True, False):
         _, control, t0, q_eci = arrived(duration_s=2800.0)
@@ -292,8 +291,8 @@ def test_near_the_rest_point_with_no_horizon_the_push_axis_turns_whoever_steers_
         state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
                                np.zeros(3))
         kinds[steer] = [e[1] for e in control._terminal(state, np.zeros(3))]
-        assert control.t_terminal is not None and control.turning is not None
-    assert kinds == {True: [TRANSPORT_TURN], False: [TRANSPORT_TURN]}
+        assert (control.t_terminal is None) == (not steer)
+    assert kinds == {True: [TRANSPORT_TURN], False: [TRANSPORT_CORRECTION]}
 
 
 def test_far_off_the_rest_point_with_no_horizon_and_no_time_for_a_transfer_the_push_axis_turns():

@@ -3,9 +3,8 @@ transfer's last burn the wheels hold the body's attitude fixed in inertial space
 program (``flyby_planner.transport.terminal``) chooses, from the estimate, the impulses that bring the body to rest
 at the goal's rest point with the wheels' momentum within their share; its firings are flown at their times and the
 program solved again after the last. Where no horizon is feasible at the attitude held (the side force it needs lies
-outside the direction-limited thrusters' cone) the push axis is turned onto it first (a new transfer is flown
-where the body is off its rest point beyond the program's margin), or the impulse fired where the push axis lies
-along it already. The judgement: the
+outside the direction-limited thrusters' cone) the push axis is turned onto it first (on a body the wheels do not
+steer, a new transfer is flown), or the impulse fired where the push axis lies along it already. The judgement: the
 three conditions and the wheels' share, from the estimate with its 3-sigma, held for ``hold_s``."""
 
 import math
@@ -86,9 +85,9 @@ class TransportTerminal:
             return []  # no time left for a firing to settle before the judgement
         solution = terminal.solve(problem, horizons)
         if solution is None:
-            # Off the rest point beyond the margin: a new transfer (within it, a turn: on a body the wheels do not
-            # steer, by the thrusters' pure couples, which a transfer's slews and pushes are not).
-            if float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
+            # Off the rest point beyond the margin, or on a body the wheels do not steer (its thrusters' turn is a
+            # slew whose side force the planner's transfer takes into account): a new transfer.
+            if not self.wheels_steer or float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
                 again = self._transfer_again(state)
                 if again is not None:
                     return again
