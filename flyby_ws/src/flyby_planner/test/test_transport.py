@@ -333,11 +333,11 @@ def test_a_pure_couple_has_no_force_and_gives_only_what_pairs_of_opposed_thruste
     body = _tug_618_body()
     com = np.asarray(body.com_body_m)
     force, torque_chaser, given = pure_couple(body, _CONFIG, [0.3, 0.0, 0.0])
-    np.testing.assert_allclose(force, 0.0, atol=1e-6)
+    np.testing.assert_allclose(force, 0.0, atol=1e-9)
     np.testing.assert_allclose(given, [0.3, 0.0, 0.0], atol=1e-7)
     np.testing.assert_allclose(torque_chaser - np.cross(com, force), given, atol=1e-9)
     force, _, given = pure_couple(body, _CONFIG, [0.2, 0.0, 0.5])
-    np.testing.assert_allclose(force, 0.0, atol=1e-6)
+    np.testing.assert_allclose(force, 0.0, atol=1e-9)
     np.testing.assert_allclose(given, [0.2, 0.0, 0.0], atol=1e-7)
 
 

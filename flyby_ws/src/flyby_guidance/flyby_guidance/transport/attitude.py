@@ -34,9 +34,9 @@ class TransportAttitude:
 
     def _attitude_torque(self, state):
         """The torque [N m] (body axes) against the estimated attitude's error from the reference: the plan's model
-        (or a push's steered attitude, ``push._steer``) advanced to the estimate's stamp
-        (``transport.model.attitude_at``), or after the last burn the attitude held and its turns (``terminal``); PD
-        on the attitude error (its rotation vector, body axes) and the rate error, scaled by the estimated inertia
+        advanced to the estimate's stamp (``transport.model.attitude_at``), or after the last burn the attitude held
+        and its turns (``terminal``); PD on the attitude
+        error (its rotation vector, body axes) and the rate error, scaled by the estimated inertia
         (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
         if self.hold is not None:  # after the last burn: the attitude held, or its turn
             q_ref = self._held(state.t)

@@ -147,9 +147,8 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.plan = None
         self.plan_start = None  # the TransportState the plan was made from
         self.t_check = None
-        # The attitude tracked: (t, q_eci_from_body, omega_body) of the plan's model or a push's steering; after the
-        # last burn the attitude held (q_eci_from_body) and a turn of it (t0, q0_eci, axis_eci, angle [rad],
-        # rate [rad/s]).
+        # The attitude the wheels track: (t, q_eci_from_body, omega_body) of the plan's model; after the last burn the
+        # attitude held (q_eci_from_body) and a turn of it (t0, q0_eci, axis_eci, angle [rad], rate [rad/s]).
         self.reference = None
         self.hold = None
         self.turning = None

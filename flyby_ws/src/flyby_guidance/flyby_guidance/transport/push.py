@@ -25,13 +25,12 @@ REPLAN_FRACTION = 0.5  # a transfer again after the arrival takes this share of 
 SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
 STEER_MAX_RAD = 0.05  # a push steers its axis toward the force wanted by at most this much at a time [rad] ...
 STEER_SETTLE_S = 4.0 / TRACK_BANDWIDTH_RAD_S  # ... and not over its last this long: the attitude settles first, and
-# a push flies to a velocity (a miss of the aim's position needs more force than so short a push has)
-AIM_CONDITION_MAX = 1e6  # a push aims at the plan's position only where CW's Phi_rv to it is this well conditioned
+# the push flies to the plan's velocity at its end, not its aim (a miss of the aim needs more force than the push has)
 _PUSH_NODES = np.polynomial.legendre.leggauss(8)  # the push's response integrated by Gauss-Legendre on its rest
 
 
 def push_response(state, issued_force_body_n, mass_kg, n, t_from, duration_s):
-    """(G (6, 3) [s^2/kg; s/kg], x_coast (6,)): the state [r_hill; v_hill] at the end of a constant body force F
+    """(G (6, 3) [s/kg, s^2/kg], x_coast (6,)): the state [r_hill; v_hill] at the end of a constant body force F
     held over [t_from, t_from + duration_s] by a body at rest inertially (turning in hill at the orbit rate) is
     x_coast + G F, by CW's transition (seed 000 eq 22): G = int Phi[:, v](t_end - s) C_hill_from_body(s) ds / m, and
     x_coast the state's coast to the end (the command already issued acting over [state.t, t_from] at the estimated
@@ -203,15 +202,14 @@ class TransportPush:
         return force, torque - np.cross(self.body.com_body_m, force)
 
     def _closed_loop_push(self, t, state, burn, force, torque, h_wheels, hold_com=None):
-        """A push flown on the estimate (module doc): a constant body force over the rest of the burn, by CW's
-        response over it (``push_response``), that puts the body where the plan has it at the last push (a push of
-        more than STEER_SETTLE_S before the last, ``_aimed_force``) or gives the velocity the plan has at the push's
-        end (shorter pushes; the last push's is the goal's rest, short by its expected error); where the thrusters
-        hold the attitude its axis steered toward that force (``_steer``); with no torque about the combined CoM but
-        the one that takes out the angular momentum the wheels gained by the push's end where they hold the body, or
-        else the thrusters' hold of the attitude (hold_com); where the thrusters cannot give that wrench (a direction
-        out of their cone of pure forces, a couple beyond them beside the push), the nearest wrench they give (the
-        torque first where it holds the attitude)."""
+        """A push flown on the estimate (module doc): the force over the rest of the burn that gives the velocity the
+        plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
+        rest), turned into the body by the attitude estimate, with no torque about the combined CoM but the one that
+        takes out the angular momentum the wheels gained by the push's end where they hold the body, or else the
+        thrusters' hold of the attitude (hold_com); where the thrusters cannot give that wrench (a direction out of
+        their cone of pure forces, a couple beyond them beside the push), the nearest wrench they give. Pointing
+        and execution errors of the push are taken out; a miss of the position is the mid-course correction's and the
+        terminal program's."""
         p = self.config.planner.period_s
         t_from = t + p
         remaining_s = burn.t_start_s + burn.duration_s - t_from
@@ -221,10 +219,9 @@ class TransportPush:
         issued_force, _ = self._in_flight(t)
         response, x_coast = push_response(state, issued_force, self.body.mass_kg, self.n, t_from, remaining_s)
         pushes = [b for b in self.plan.burns if b.purpose == 'push']
-        force_body = None
-        if burn is not pushes[-1] and burn.duration_s > STEER_SETTLE_S:
-            force_body = self._aimed_force(burn, pushes[-1], response, x_coast, force, remaining_s)
-        if force_body is None:  # the plan's velocity at the push's end
+        if burn is not pushes[-1] and remaining_s > STEER_SETTLE_S:
+            force_body = self._aimed_force(burn, pushes[-1], response, x_coast)
+        else:  # the plan's velocity at the push's end (a position miss then needs more force than the push has)
             dv_hill = self.push_end[round(burn.t_start_s / p)].v_hill - x_coast[3:]
             if burn is pushes[-1]:
                 # To rest, short by its expected error along the push: what it leaves is then taken out along the
@@ -233,7 +230,7 @@ class TransportPush:
                 short = ARRIVAL_SIGMAS * self._arrival_sigma_mps(burn)
                 dv_hill = dv_hill * max(0.0, 1.0 - short / need) if need > 0.0 else dv_hill
             force_body = np.linalg.solve(response[3:], dv_hill)
-        if remaining_s > STEER_SETTLE_S and not self.wheels_steer:
+        if remaining_s > STEER_SETTLE_S:
             self._steer(state, force, force_body)
         limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
         if float(np.linalg.norm(force_body)) > limit:
@@ -266,27 +263,18 @@ class TransportPush:
         self.reference = (state.t, quat_multiply(q_eci_from_body(state.t, self.n, state.q_hill_from_body),
                                                  quat_from_rotation_vector(delta)), np.zeros(3))
 
-    def _aimed_force(self, burn, last, response, x_coast, planned_force_body, remaining_s):
+    def _aimed_force(self, burn, last, response, x_coast):
         """The constant body force over the rest of a push before the last that puts the body, coasting from the
         push's end, where the plan has it at the last push's middle (its state at the push's end coasted by CW):
         the transfer's aim, not the push's end velocity (a push of minutes flown to a velocity still misses by the
-        position its force's profile made: 287 m on 2000 kg; the mid-course correction measures the same miss).
-        Over its last STEER_SETTLE_S, where the end position no longer moves with the force, the velocity that coasts
-        from the end position the planned force gives to the aim; None where CW's coast to the aim does not fix the
-        position by the velocity (near half an orbit across the plane): the plan's velocity is flown then."""
+        position its force's profile made: 287 m on 2000 kg; the mid-course correction measures the same miss)."""
         p = self.config.planner.period_s
         nominal = self.push_end[round(burn.t_start_s / p)]
         t_end = burn.t_start_s + burn.duration_s
         t_mid = last.t_start_s + 0.5 * last.duration_s
         aim = (cw_transition_matrix(self.n, t_mid - nominal.t) @ np.concatenate((nominal.r_hill, nominal.v_hill)))[:3]
         phi_r = cw_transition_matrix(self.n, t_mid - t_end)[:3]
-        if np.linalg.cond(phi_r[:, 3:]) > AIM_CONDITION_MAX:
-            return None
-        if remaining_s > STEER_SETTLE_S:
-            return np.linalg.solve(phi_r @ response, aim - phi_r @ x_coast)
-        r_end = x_coast[:3] + response[:3] @ np.asarray(planned_force_body, dtype=float)
-        v_end = np.linalg.solve(phi_r[:, 3:], aim - phi_r[:, :3] @ r_end)
-        return np.linalg.solve(response[3:], v_end - x_coast[3:])
+        return np.linalg.solve(phi_r @ response, aim - phi_r @ x_coast)
 
     def _arrival_sigma_mps(self, burn):
         """The expected error [m/s] of the velocity at the end of a closed-loop push, its delta-v measured by the

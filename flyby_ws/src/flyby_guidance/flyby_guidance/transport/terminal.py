@@ -209,15 +209,13 @@ class TransportTerminal:
         """True from a turn's start until its check: its angle at its rate and the wheels' spin-down after it; on a
         body the wheels do not steer, until the thrusters' couples have stopped it too (its own angular momentum
         below half the first condition's: the rate a couple's pulses leave, handed to the wheels, would fill them
-        beyond the program's share), for at most the turn's own time again."""
+        beyond the program's share)."""
         if self.turning is None or self.turn_stopped:
             return False
         t0, _, _, angle, rate = self.turning
-        t_turned = t0 + angle / rate + WHEEL_SPINUP_S
-        if t < t_turned - 1e-9:
+        if t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9:
             return True
-        # At most as long again as the turn itself: a rate the couples cannot take out is the damping law's.
-        self.turn_stopped = self.wheels_steer or t >= t_turned + angle / rate - 1e-9 or (
+        self.turn_stopped = self.wheels_steer or (
             self.body_momentum < 0.5 * self.config.planner.max_angular_momentum_kg_m2_s)
         return not self.turn_stopped
 

@@ -131,9 +131,7 @@ def quiet_turn(body, config, from_body, to_body, candidates=36):
     spin-down about a at a given rate is (ratio(a) + ratio(-a)) a.I.a times the rate (``side_force_ratio``), and
     the least of them within a percent, the shortest turn of those. About a CoM metres off the tug a turn by the
     shortest arc may need a side force per unit torque of a metre's lever (a 2000 kg body's turn of 70 deg gave it
-    newton-seconds, a thousand times the third condition) where pure couples turn it about another axis. The cost
-    takes the torque along a (a.I.a its inertia), not along I a: a body's products of inertia ask a little torque
-    off the axis, which the turn's tracking gives by the wheels (``attitude._quiet_couple``)."""
+    newton-seconds, a thousand times the third condition) where pure couples turn it about another axis."""
     model = TransportModel(body, config)
     b = np.asarray(from_body, dtype=float) / float(np.linalg.norm(from_body))
     d = np.asarray(to_body, dtype=float) / float(np.linalg.norm(to_body))
@@ -221,7 +219,7 @@ def nearest_wrench(body, config, force_body_n, torque_com_n_m, torque_first=True
     2000 kg body pushed 300 s with 6 N m of torque given up for 7 N of side force spun at 0.1 rad/s). The force first
     where the torque only empties wheels that hold the body (it can wait for the next push or the terminal program).
     A closed-loop push whose wanted force leaves the thrusters' cone of pure forces (a push axis off the body axes
-    has a narrow one) gets, with the torque first, the nearest force with the torque wanted."""
+    has a narrow one) gets the nearest force with the torque wanted."""
     model = TransportModel(body, config)
     b = model.layout_com.wrench_matrix
     n = model.layout_com.count
