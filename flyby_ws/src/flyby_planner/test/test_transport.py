@@ -26,7 +26,6 @@ from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.thrusters import (
     find_push_axis,
     nearest_wrench,
-    pure_couple,
     push_axis,
     quiet_turn,
     side_force_ratio,
@@ -309,36 +308,6 @@ def test_the_nearest_wrench_keeps_the_torque_and_gives_up_the_force_out_of_the_c
     force, _ = nearest_wrench(body, _CONFIG, wanted, np.zeros(3))
     error = np.abs(force - wanted).sum()
     assert all(error <= np.abs(a * force_n * b - wanted).sum() + 1e-6 for a in np.linspace(0.0, 1.0, 101))
-
-
-def test_the_nearest_wrench_keeps_the_force_first_where_asked():
-    """The push axis's pure force with a couple about body z beyond the thrusters beside it: with the force first the
-    force is the wanted one and the torque the nearest, with the torque first the other way round."""
-    body = _tug_618_body()
-    b, force_n = push_axis(body)
-    wanted, torque = 0.9 * force_n * b, np.array([0.0, 0.0, 20.0])
-    com = np.asarray(body.com_body_m)
-    force, torque_chaser = nearest_wrench(body, _CONFIG, wanted, torque, torque_first=False)
-    np.testing.assert_allclose(force, wanted, atol=1e-5)
-    assert 0.0 < (torque_chaser - np.cross(com, force))[2] < 20.0
-    force, torque_chaser = nearest_wrench(body, _CONFIG, wanted, torque)
-    assert np.abs(torque_chaser - np.cross(com, force) - torque).sum() < np.abs(
-        nearest_wrench(body, _CONFIG, wanted, torque, torque_first=False)[1] - np.cross(
-            com, nearest_wrench(body, _CONFIG, wanted, torque, torque_first=False)[0]) - torque).sum()
-
-
-def test_a_pure_couple_has_no_force_and_gives_only_what_pairs_of_opposed_thrusters_give():
-    """About body x a pair of opposed thrusters side by side gives the couple wanted with no net force, whatever the
-    CoM; about body z (the tug's -x thrusters blocked) none does, and nothing about z is given."""
-    body = _tug_618_body()
-    com = np.asarray(body.com_body_m)
-    force, torque_chaser, given = pure_couple(body, _CONFIG, [0.3, 0.0, 0.0])
-    np.testing.assert_allclose(force, 0.0, atol=1e-9)
-    np.testing.assert_allclose(given, [0.3, 0.0, 0.0], atol=1e-7)
-    np.testing.assert_allclose(torque_chaser - np.cross(com, force), given, atol=1e-9)
-    force, _, given = pure_couple(body, _CONFIG, [0.2, 0.0, 0.5])
-    np.testing.assert_allclose(force, 0.0, atol=1e-9)
-    np.testing.assert_allclose(given, [0.2, 0.0, 0.0], atol=1e-7)
 
 
 def test_a_thruster_turn_goes_about_the_axis_of_least_side_force():
