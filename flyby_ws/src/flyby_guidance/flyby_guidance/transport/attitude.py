@@ -7,7 +7,7 @@ import numpy as np
 from flyby_guidance.damping import damping_command, pulse_modulated
 from flyby_msgs_py import events
 from flyby_planner.transport.model import attitude_at
-from flyby_planner.transport.thrusters import pure_couple, torque_wrench
+from flyby_planner.transport.thrusters import torque_wrench
 from flyby_sim.dynamics.orbital import q_eci_from_body
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_multiply, quat_rotate, rotation_vector_from_quat
 
@@ -91,22 +91,6 @@ class TransportAttitude:
         """(force, torque about the chaser's CoM, wheel torque) of the capture's damping law, its couple in pulses."""
         tau, u = damping_command(omega, h_wheels, self.gains, self.wheel_max_torque_n_m)
         return (*self._couple(tau, self.pulse_n_m_s), u)
-
-    def _quiet_couple(self, tau):
-        """(force, torque about the chaser's CoM, wheel torque) of a couple tau [N m] about the combined CoM with no
-        side force: the thrusters' pure couples nearest it (``thrusters.pure_couple``) in pulses, the rest by the
-        wheels where their torque gives it (else the least side force, ``_couple``). A thruster turn's tracking needs
-        small torques about every axis; about the one the pure couples miss, the least side force is metres of
-        lever's worth of momentum (``terminal._turn``)."""
-        _, _, given = pure_couple(self.body, self.config.planner, tau)
-        wheels = given - tau  # the body feels -u
-        if float(np.max(np.abs(wheels))) > self.wheel_max_torque_n_m:  # beyond the wheels: the least side force
-            return (*self._couple(tau, self.pulse_n_m_s), np.zeros(3))
-        pulse, self.carried = pulse_modulated(self.carried, given, self.config.planner.period_s, self.pulse_n_m_s)
-        if not np.any(pulse):
-            return np.zeros(3), np.zeros(3), wheels
-        force, torque, _ = pure_couple(self.body, self.config.planner, pulse)
-        return force, torque, wheels
 
     def _couple(self, tau, pulse_n_m_s):
         """(force, torque about the chaser's CoM) of a couple tau [N m] about the combined CoM fired in pulses: below

@@ -149,7 +149,6 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.reference = None
         self.hold = None
         self.turning = None
-        self.turn_stopped = False  # the turn's rate taken out (``terminal._turn_under_way``)
         self.t_terminal = None
         self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the firings on the grid
         self.t_fired = -np.inf  # the end of the last terminal firing [s]
@@ -263,19 +262,17 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             self._enter_terminal(state)
         at_rest = not any(a.t_start_s - period <= t_mid < b.t_start_s + b.duration_s + period
                           for a, b in self._slews())
-        if at_rest and t >= self.t_check - 1e-9 and not self.pulses_pending(t) and not self._turn_under_way(t):
+        if at_rest and t >= self.t_check - 1e-9 and not self.pulses_pending(t):
             events += self._check(state, h_wheels)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)
                 break
-        hold, quiet = np.zeros(3), False
+        hold = np.zeros(3)
         if self.t_terminal is not None or self.wheels_steer:
             wheels = self._track(state)
-            if not self.wheels_steer and self._turn_under_way(t):
-                # A terminal turn of a body the wheels cannot steer: the thrusters' pure couples, the wheels the rest
-                # (a couple's side force is momentum the program must take out again).
-                hold, quiet = -self._attitude_torque(state), True
+            if not self.wheels_steer and self._turn_under_way(t):  # a terminal turn of a body the wheels cannot steer
+                hold = -self._attitude_torque(state)
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
             wheels = self._hold(omega) if at_rest else np.zeros(3)
             hold = -self._attitude_torque(state) if t_mid < last_burn_end else np.zeros(3)
@@ -295,8 +292,6 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
                 if wrench is not None:
                     force, torque = force + wrench[0], torque + wrench[1]
                 return force, torque, wheels, events
-        if quiet:
-            return (*self._quiet_couple(hold), events)
         if any(hold):
             return (*self._couple(hold, self.pulse_n_m_s), wheels, events)
         return np.zeros(3), np.zeros(3), wheels, events

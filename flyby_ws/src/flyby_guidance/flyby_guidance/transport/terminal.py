@@ -15,8 +15,6 @@ from flyby_guidance.transport.attitude import WHEEL_SPINUP_S
 from flyby_msgs_py import events
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import terminal
-from flyby_planner.transport.model import TransportRefused
-from flyby_planner.transport.thrusters import quiet_turn
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
@@ -173,9 +171,8 @@ class TransportTerminal:
 
     def _turn(self, state):
         """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest
-        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body, by the shortest arc; where
-        the wheels do not steer the body, the thrusters' couples at the slews' rate about the axis of their least
-        side force (``thrusters.quiet_turn``); from the attitude held; no turn (none) where it lies within
+        horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body (the thrusters' couples at the
+        slews' rate, where the wheels do not steer it), from the attitude held; no turn (none) where it lies within
         MIN_TURN_RAD of it already."""
         t = state.t
         dv_hill = self._transfer_impulse(state)
@@ -183,22 +180,13 @@ class TransportTerminal:
             return []
         q_now = self._held(t)
         d_eci = hill_axes_in_eci(t, self.n) @ (dv_hill / float(np.linalg.norm(dv_hill)))
-        if self.wheels_steer:
-            q_goal = quat_multiply(quat_shortest_arc(quat_rotate(q_now, self.b_body), d_eci), q_now)
-            arc = rotation_vector_from_quat(quat_multiply(q_goal, quat_conjugate(q_now)))
-            angle = float(np.linalg.norm(arc))
-            axis_eci = arc / angle if angle > 0.0 else arc
-        else:  # the thrusters' couples turn it: about the axis of their least side force
-            try:
-                axis, angle = quiet_turn(self.body, self.config.planner, self.b_body,
-                                         quat_rotate(quat_conjugate(q_now), d_eci))
-            except TransportRefused:
-                return []
-            axis_eci = quat_rotate(q_now, axis)
+        q_goal = quat_multiply(quat_shortest_arc(quat_rotate(q_now, self.b_body), d_eci), q_now)
+        arc = rotation_vector_from_quat(quat_multiply(q_goal, quat_conjugate(q_now)))
+        angle = float(np.linalg.norm(arc))
         if angle <= MIN_TURN_RAD:
             return []
         rate = self.turn_rate_rad_s
-        self.turning, self.turn_stopped = (t, q_now, axis_eci, angle, rate), False
+        self.turning = (t, q_now, arc / angle, angle, rate)
         self.t_check = t + angle / rate + WHEEL_SPINUP_S
         by = 'wheels' if self.wheels_steer else 'thrusters\' couples'
         return [('OK', events.TRANSPORT_TURN, f'no terminal firing reaches rest at the attitude held: the {by} turn '
@@ -206,18 +194,11 @@ class TransportTerminal:
                  {'angle_rad': angle, 'rate_rad_s': rate})]
 
     def _turn_under_way(self, t):
-        """True from a turn's start until its check: its angle at its rate and the wheels' spin-down after it; on a
-        body the wheels do not steer, until the thrusters' couples have stopped it too (its own angular momentum
-        below half the first condition's: the rate a couple's pulses leave, handed to the wheels, would fill them
-        beyond the program's share)."""
-        if self.turning is None or self.turn_stopped:
+        """True from a turn's start until its check: its angle at its rate and the wheels' spin-down after it."""
+        if self.turning is None:
             return False
         t0, _, _, angle, rate = self.turning
-        if t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9:
-            return True
-        self.turn_stopped = self.wheels_steer or (
-            self.body_momentum < 0.5 * self.config.planner.max_angular_momentum_kg_m2_s)
-        return not self.turn_stopped
+        return t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9
 
     def _held(self, t):
         """The attitude the wheels hold at t (q_eci_from_body): the hold, or where it is along a turn."""

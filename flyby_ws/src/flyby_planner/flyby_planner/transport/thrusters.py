@@ -78,107 +78,32 @@ def _fibonacci_sphere(count):
     return np.column_stack((np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar)))
 
 
-_TORQUE_REF_N_M = 0.01  # the torque the side force per unit torque is found at [N m]
-
-
-def _side_lp(model):
-    """(B, n, |B_F f| <= s rows, thrust bounds): the pieces of the side-force LPs, B about the combined CoM."""
-    b = model.layout_com.wrench_matrix
-    n = model.layout_com.count
-    eye3 = np.eye(3)
-    side = np.vstack((np.hstack((b[:3], -eye3, np.zeros((3, 1)))), np.hstack((-b[:3], -eye3, np.zeros((3, 1))))))
-    return b, n, side, [(0.0, f) for f in model.layout_com.max_thrust_n.tolist()]
-
-
-def side_force_ratio(model, direction_body):
-    """The least side force per unit torque [N / N m] the thrusters make a torque about the combined CoM along a
-    body direction with (L1 norm of the force), or None where they give none along it:
-
-        sigma = min sum s  s.t.  B_T f = u T_ref,  -s <= B_F f <= s,  f >= 0
-
-    0 where a pure couple gives it: a pair of opposed thrusters side by side turns the body about any point."""
-    b, n, side, f_bounds = _side_lp(model)
-    u = np.asarray(direction_body, dtype=float) / float(np.linalg.norm(direction_body))
-    least = linprog(np.concatenate((np.zeros(n), np.ones(3))), A_ub=side[:, :-1], b_ub=np.zeros(6),
-                    A_eq=np.hstack((b[3:], np.zeros((3, 3)))), b_eq=_TORQUE_REF_N_M * u,
-                    bounds=f_bounds + [(0.0, None)] * 3, method='highs')
-    return None if least.status != 0 else float(least.fun) / _TORQUE_REF_N_M
-
-
 def torque_capacity_n_m(model, direction_body):
     """The largest torque [N m] about the combined CoM along a body direction at the least side force per unit
-    torque the thrusters allow along it (``side_force_ratio``; 0 if they give none), an LP, B about the combined CoM:
+    torque the thrusters allow along it (0 if they give none): two LPs, B about the combined CoM,
 
-        max t  s.t.  B_T f = t u,  -s <= B_F f <= s,  sum s <= sigma t,  0 <= f <= f_max
+    1. sigma = min sum s  s.t.  B_T f = u T_ref,  -s <= B_F f <= s,  f >= 0            (per T_ref = 0.01 N m)
+    2. max t  s.t.  B_T f = t u,  -s <= B_F f <= s,  sum s <= sigma t / T_ref,  0 <= f <= f_max
 
     so a slew's burns are made long enough that its torque needs no more side force per unit than the least."""
-    ratio = side_force_ratio(model, direction_body)
-    if ratio is None:
-        return 0.0
-    b, n, side, f_bounds = _side_lp(model)
+    b = model.layout_com.wrench_matrix
+    n = model.layout_com.count
     u = np.asarray(direction_body, dtype=float) / float(np.linalg.norm(direction_body))
-    budget = np.concatenate((np.zeros(n), np.ones(3), [-(ratio * (1.0 + 1e-6) + 1e-9)]))[None, :]
+    eye3 = np.eye(3)
+    side = np.vstack((np.hstack((b[:3], -eye3, np.zeros((3, 1)))), np.hstack((-b[:3], -eye3, np.zeros((3, 1))))))
+    f_bounds = [(0.0, f) for f in model.layout_com.max_thrust_n.tolist()]
+    torque_ref = 0.01
+    least = linprog(np.concatenate((np.zeros(n), np.ones(3))), A_ub=side[:, :-1], b_ub=np.zeros(6),
+                    A_eq=np.hstack((b[3:], np.zeros((3, 3)))), b_eq=torque_ref * u,
+                    bounds=f_bounds + [(0.0, None)] * 3, method='highs')
+    if least.status != 0:
+        return 0.0
+    ratio = least.fun / torque_ref * (1.0 + 1e-6) + 1e-9
+    budget = np.concatenate((np.zeros(n), np.ones(3), [-ratio]))[None, :]
     largest = linprog(np.concatenate((np.zeros(n + 3), [-1.0])), A_ub=np.vstack((side, budget)), b_ub=np.zeros(7),
                       A_eq=np.hstack((b[3:], np.zeros((3, 3)), -u[:, None])), b_eq=np.zeros(3),
                       bounds=f_bounds + [(0.0, None)] * 4, method='highs')
     return -largest.fun if largest.status == 0 else 0.0
-
-
-def quiet_turn(body, config, from_body, to_body, candidates=36):
-    """(axis [unit, body], angle [rad]) of the turn taking the body direction from_body onto to_body whose torques
-    the thrusters make with the least side force: the turns taking one direction onto another are about the axes
-    a of the plane normal to their difference, each with its own angle; the side impulse of a spin-up and a
-    spin-down about a at a given rate is (ratio(a) + ratio(-a)) a.I.a times the rate (``side_force_ratio``), and
-    the least of them within a percent, the shortest turn of those. About a CoM metres off the tug a turn by the
-    shortest arc may need a side force per unit torque of a metre's lever (a 2000 kg body's turn of 70 deg gave it
-    newton-seconds, a thousand times the third condition) where pure couples turn it about another axis."""
-    model = TransportModel(body, config)
-    b = np.asarray(from_body, dtype=float) / float(np.linalg.norm(from_body))
-    d = np.asarray(to_body, dtype=float) / float(np.linalg.norm(to_body))
-    if float(np.linalg.norm(b - d)) < 1e-12:
-        return np.array([1.0, 0.0, 0.0]), 0.0
-    plane = np.linalg.svd((b - d)[None, :])[2][1:]  # two unit vectors normal to b - d
-    inertia = np.asarray(body.inertia_body_kg_m2, dtype=float)
-    turns = []
-    for phi in np.linspace(0.0, np.pi, candidates, endpoint=False):
-        a = np.cos(phi) * plane[0] + np.sin(phi) * plane[1]
-        b_across, d_across = b - (a @ b) * a, d - (a @ d) * a
-        if float(np.linalg.norm(b_across)) < 0.1:  # about an axis near b a turn of b is ill-defined and long
-            continue
-        angle = float(np.arctan2(a @ np.cross(b_across, d_across), b_across @ d_across))
-        a, angle = (a, angle) if angle >= 0.0 else (-a, -angle)
-        ratios = (side_force_ratio(model, a), side_force_ratio(model, -a))
-        if None in ratios:
-            continue
-        turns.append((sum(ratios) * float(a @ inertia @ a), angle, a))
-    if not turns:
-        raise TransportRefused('the thrusters give no torque to turn the push axis about any axis that turns it '
-                               'onto the impulse wanted')
-    least = min(cost for cost, _, _ in turns)
-    _, angle, axis = min((t for t in turns if t[0] <= 1.01 * least + 1e-12), key=lambda t: t[1])
-    return axis, angle
-
-
-def pure_couple(body, config, torque_com):
-    """(force [N], torque about the chaser's CoM [N m], torque given about the combined CoM [N m]), chaser_body: the
-    couple nearest torque_com the thrusters give with no net force, an LP (B about the combined CoM):
-
-        min sum |B_T f - T| + 1e-6 sum f   s.t.  B_F f = 0,  0 <= f <= f_max
-
-    Opposed thrusters side by side turn the body about any point; about an axis they do not span (a tug whose
-    thrusters toward the held body are blocked has none about the axis normal to them) nothing is given."""
-    model = TransportModel(body, config)
-    b = model.layout_com.wrench_matrix
-    n = model.layout_com.count
-    wanted = np.asarray(torque_com, dtype=float)
-    result = linprog(np.concatenate((np.full(n, 1e-6), np.ones(6))), A_eq=np.vstack((
-        np.hstack((b[:3], np.zeros((3, 6)))), np.hstack((b[3:], -np.eye(3), np.eye(3))))),
-        b_eq=np.concatenate((np.zeros(3), wanted)),
-        bounds=[(0.0, f) for f in model.layout_com.max_thrust_n.tolist()] + [(0.0, None)] * 6, method='highs')
-    if result.status != 0:
-        return np.zeros(3), np.zeros(3), np.zeros(3)
-    force, given = b[:3] @ result.x[:n], b[3:] @ result.x[:n]
-    return force, given + np.cross(model.com_body_m, force), given
 
 
 def torque_burn_wrench(model, torque_com):
@@ -206,20 +131,17 @@ def torque_wrench(body, config, torque_com_body_n_m):
     return torque_burn_wrench(TransportModel(body, config), np.asarray(torque_com_body_n_m, dtype=float))
 
 
-def nearest_wrench(body, config, force_body_n, torque_com_n_m, torque_first=True):
+def nearest_wrench(body, config, force_body_n, torque_com_n_m):
     """(force [N], torque about the chaser's CoM [N m]), chaser_body: the wrench nearest the wanted one (a force and a
-    torque about the combined CoM) that the thrusters give, one part first (two LPs, B about the combined CoM; with
-    torque_first, e_1 the torque's error and e_2 the force's, else the other way):
+    torque about the combined CoM) that the thrusters give, the torque first (two LPs, B about the combined CoM):
 
-        1. tau = min sum |e_1|                                 s.t.  0 <= f <= f_max
-        2.       min sum |e_2| + 1e-6 sum f   s.t.  sum |e_1| <= tau,  0 <= f <= f_max
+        1. tau = min sum |B_T f - T|                                   s.t.  0 <= f <= f_max
+        2.       min sum |B_F f - F| + 1e-6 sum f   s.t.  sum |B_T f - T| <= tau,  0 <= f <= f_max
 
-    The torque first where it holds the attitude (thrusters steer the body): a force's error is a velocity error the
-    next estimates see and the next commands take out, a torque's turns the body and with it every later force (a
-    2000 kg body pushed 300 s with 6 N m of torque given up for 7 N of side force spun at 0.1 rad/s). The force first
-    where the torque only empties wheels that hold the body (it can wait for the next push or the terminal program).
-    A closed-loop push whose wanted force leaves the thrusters' cone of pure forces (a push axis off the body axes
-    has a narrow one) gets the nearest force with the torque wanted."""
+    A force's error is a velocity error the next estimates see and the next commands take out; a torque's turns the
+    body and with it every later force (a 2000 kg body pushed 300 s with 6 N m of torque given up for 7 N of side
+    force spun at 0.1 rad/s). A closed-loop push whose wanted force leaves the thrusters' cone of pure forces (a push
+    axis off the body axes has a narrow one) gets the nearest force with the torque wanted."""
     model = TransportModel(body, config)
     b = model.layout_com.wrench_matrix
     n = model.layout_com.count
@@ -227,14 +149,13 @@ def nearest_wrench(body, config, force_body_n, torque_com_n_m, torque_first=True
     a_eq = np.hstack((b, -np.eye(6), np.eye(6)))  # B f - e+ + e- = wanted
     bounds = [(0.0, f) for f in model.layout_com.max_thrust_n.tolist()] + [(0.0, None)] * 12
     torque_cost = np.concatenate((np.zeros(n + 3), np.ones(3), np.zeros(3), np.ones(3)))
-    force_cost = np.concatenate((np.zeros(n), np.ones(3), np.zeros(3), np.ones(3), np.zeros(3)))
-    first_cost, second_cost = (torque_cost, force_cost) if torque_first else (force_cost, torque_cost)
-    first = linprog(first_cost, A_eq=a_eq, b_eq=wanted, bounds=bounds, method='highs')
+    first = linprog(torque_cost, A_eq=a_eq, b_eq=wanted, bounds=bounds, method='highs')
     if first.status != 0:
         return np.zeros(3), np.zeros(3)
     tau = first.fun * (1.0 + 1e-6) + 1e-6  # HiGHS holds its constraints to 1e-7
-    second = linprog(second_cost + np.concatenate((np.full(n, 1e-6), np.zeros(12))), A_ub=first_cost[None, :],
-                     b_ub=[tau], A_eq=a_eq, b_eq=wanted, bounds=bounds, method='highs')
+    force_cost = np.concatenate((np.full(n, 1e-6), np.ones(3), np.zeros(3), np.ones(3), np.zeros(3)))
+    second = linprog(force_cost, A_ub=torque_cost[None, :], b_ub=[tau], A_eq=a_eq, b_eq=wanted, bounds=bounds,
+                     method='highs')
     x = (second if second.status == 0 else first).x
     force, torque_com = b[:3] @ x[:n], b[3:] @ x[:n]
     return force, torque_com + np.cross(model.com_body_m, force)
