@@ -10,8 +10,9 @@ each command for the control period one period after its estimate (DESIGN ยง5, ย
 3. Plan to the goal, arriving ``transfer_time_s`` after the start, and state the time the conditions need after
    the arrival (``terminal.settle_bound_s``); a plan that cannot meet them within the run is refused
    (``transport_refused``, the body held where it is).
-4. Fly the plan closed loop (``push``): each slew solved again from the estimate before it starts; each push gives
-   the velocity the plan has at its end, the last one short of rest by its expected error along the push axis;
+4. Fly the plan closed loop (``push``): each slew solved again from the estimate before it starts; each push's force
+   from CW's response over its rest, aimed at the plan's position at the last push, its axis steered toward the
+   force wanted; the last one to rest, short by its expected error along the push axis;
    each spin-down takes out the estimated angular momentum; between the first push and the next slew a miss at the
    last push beyond a quarter of the second condition gets a one-impulse correction (``transport_correction``).
 5. After the last burn (``terminal``) the wheels hold the attitude and the terminal program, solved again at every

@@ -29,7 +29,7 @@ _PUSH_NODES = np.polynomial.legendre.leggauss(8)  # the push's response integrat
 
 
 def push_response(state, issued_force_body_n, mass_kg, n, t_from, duration_s):
-    """(G (6, 3) [s/kg, s^2/kg], x_coast (6,)): the state [r_hill; v_hill] at the end of a constant body force F
+    """(G (6, 3) [s^2/kg; s/kg], x_coast (6,)): the state [r_hill; v_hill] at the end of a constant body force F
     held over [t_from, t_from + duration_s] by a body at rest inertially (turning in hill at the orbit rate) is
     x_coast + G F, by CW's transition (seed 000 eq 22): G = int Phi[:, v](t_end - s) C_hill_from_body(s) ds / m, and
     x_coast the state's coast to the end (the command already issued acting over [state.t, t_from] at the estimated
@@ -201,14 +201,14 @@ class TransportPush:
         return force, torque - np.cross(self.body.com_body_m, force)
 
     def _closed_loop_push(self, t, state, burn, force, torque, h_wheels, hold_com=None):
-        """A push flown on the estimate (module doc): the force over the rest of the burn that gives the velocity the
-        plan has at the push's end (its propagation from the state it was made from; the last push's is the goal's
-        rest), turned into the body by the attitude estimate, with no torque about the combined CoM but the one that
-        takes out the angular momentum the wheels gained by the push's end where they hold the body, or else the
-        thrusters' hold of the attitude (hold_com); where the thrusters cannot give that wrench (a direction out of
-        their cone of pure forces, a couple beyond them beside the push), the nearest wrench they give. Pointing
-        and execution errors of the push are taken out; a miss of the position is the mid-course correction's and the
-        terminal program's."""
+        """A push flown on the estimate (module doc): a constant body force over the rest of the burn, by CW's
+        response over it (``push_response``), that puts the body where the plan has it at the last push (a push
+        before the last, ``_aimed_force``) or brings it to the goal's rest (the last, short by its expected error);
+        its axis steered toward that force until its last STEER_SETTLE_S (``_steer``); with no torque about the
+        combined CoM but the one that takes out the angular momentum the wheels gained by the push's end where they
+        hold the body, or else the thrusters' hold of the attitude (hold_com); where the thrusters cannot give that
+        wrench (a direction out of their cone of pure forces, a couple beyond them beside the push), the nearest
+        wrench they give, the torque first."""
         p = self.config.planner.period_s
         t_from = t + p
         remaining_s = burn.t_start_s + burn.duration_s - t_from
