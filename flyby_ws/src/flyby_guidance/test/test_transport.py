@@ -22,7 +22,7 @@ from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
 )
-from flyby_guidance.transport.push import push_response
+from flyby_guidance.transport.push import STEER_MAX_RAD, push_response
 from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
 from flyby_msgs_py.events import (
     TRANSPORT_COMPLETE,
@@ -349,3 +349,28 @@ def test_seed000_eq22_push_response_against_integrated_cw():
     np.testing.assert_allclose(x_coast + response @ force, y, atol=1e-5)
     # CW's coupling is no small part over minutes: the velocity over the time is no push's force.
     assert np.linalg.norm(response[3:] @ force - 300.0 / mass_kg * quat_to_matrix(q_hill) @ force) > 0.05
+
+
+def test_a_push_steers_its_axis_toward_the_force_wanted_by_at_most_steer_max():
+    """Thrust-vector steering: the attitude tracked during a push is the estimate's turned so that the planned pure
+    force points (inertially) where the force wanted points at the estimate: all of a small angle, STEER_MAX_RAD of a
+    large one, in the plane of the two."""
+    _, control = planned()
+    q_hill = quat_from_rotation_vector(np.array([0.2, -0.4, 0.1]))
+    state = state_at(500.0, q=q_hill)
+    c_eci_from_body = quat_to_matrix(q_eci_from_body(500.0, control.n, q_hill))
+    planned_force = np.array([12.0, 1.0, -3.0])
+    b = planned_force / np.linalg.norm(planned_force)
+    across = np.cross(b, [0.0, 1.0, 0.0])
+    across /= np.linalg.norm(across)
+    for angle in (0.02, 0.3):
+        wanted = 10.0 * (math.cos(angle) * b + math.sin(angle) * across)
+        control._steer(state, planned_force, wanted)
+        t_ref, q_ref, w_ref = control.reference
+        assert t_ref == 500.0 and not np.any(w_ref)
+        steered = quat_to_matrix(q_ref) @ b
+        now = c_eci_from_body @ b
+        toward = c_eci_from_body @ (wanted / 10.0)
+        assert math.acos(min(1.0, float(steered @ now))) == pytest.approx(min(angle, STEER_MAX_RAD), rel=1e-9)
+        assert abs(float(steered @ np.cross(now, toward))) < 1e-12  # in the plane of the two
+        assert float(steered @ toward) > float(now @ toward)
