@@ -16,7 +16,13 @@ from flyby_planner.transport.slew import resolve_slew
 from flyby_planner.transport.thrusters import nearest_wrench, torque_wrench
 from flyby_sim.dynamics.actuators import allocate_wrench
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
-from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
+from flyby_sim.dynamics.rotation import (
+    quat_from_rotation_vector,
+    quat_multiply,
+    quat_shortest_arc,
+    quat_to_matrix,
+    rotation_vector_from_quat,
+)
 
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned: a bad estimate stays mild
 ARRIVAL_SIGMAS = 3.0  # the arrival push stops short of rest by this many sigma of its expected error along the push
@@ -249,14 +255,12 @@ class TransportPush:
         force's direction goes toward the force wanted (by at most STEER_MAX_RAD). About a CoM metres off the tug the
         thrusters' pure forces lie in a narrow cone about it: a force wanted across it is the body's to turn to,
         not the thrusters' to give (their nearest wrench gives up the force, not the torque)."""
-        f_n = float(np.linalg.norm(force_body))
-        if f_n == 0.0:
+        if not np.any(force_body):
             return
-        b = np.asarray(planned_force_body, dtype=float) / float(np.linalg.norm(planned_force_body))
-        axis = np.cross(b, force_body / f_n)
-        sin_angle = float(np.linalg.norm(axis))
-        delta = np.zeros(3) if sin_angle < 1e-12 else axis / sin_angle * min(
-            float(np.arctan2(sin_angle, b @ force_body / f_n)), STEER_MAX_RAD)
+        delta = rotation_vector_from_quat(quat_shortest_arc(planned_force_body, force_body))
+        angle = float(np.linalg.norm(delta))
+        if angle > STEER_MAX_RAD:
+            delta = delta * (STEER_MAX_RAD / angle)
         self.reference = (state.t, quat_multiply(q_eci_from_body(state.t, self.n, state.q_hill_from_body),
                                                  quat_from_rotation_vector(delta)), np.zeros(3))
 
@@ -265,13 +269,16 @@ class TransportPush:
         push's end, where the plan has it at the last push's middle (its state at the push's end coasted by CW):
         the transfer's aim, not the push's end velocity (a push of minutes flown to a velocity still misses by the
         position its force's profile made: 287 m on 2000 kg; the mid-course correction measures the same miss)."""
-        p = self.config.planner.period_s
-        nominal = self.push_end[round(burn.t_start_s / p)]
         t_end = burn.t_start_s + burn.duration_s
-        t_mid = last.t_start_s + 0.5 * last.duration_s
-        aim = (cw_transition_matrix(self.n, t_mid - nominal.t) @ np.concatenate((nominal.r_hill, nominal.v_hill)))[:3]
-        phi_r = cw_transition_matrix(self.n, t_mid - t_end)[:3]
-        return np.linalg.solve(phi_r @ response, aim - phi_r @ x_coast)
+        phi_r = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - t_end)[:3]
+        return np.linalg.solve(phi_r @ response, self._aim(burn, last) - phi_r @ x_coast)
+
+    def _aim(self, push, last):
+        """The plan's position [m, hill] at the last push's middle: its state at the end of push coasted there by CW
+        (seed 000 eq 22); what a push before the last aims at and the mid-course correction measures a miss from."""
+        nominal = self.push_end[round(push.t_start_s / self.config.planner.period_s)]
+        return (cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - nominal.t)
+                @ np.concatenate((nominal.r_hill, nominal.v_hill)))[:3]
 
     def _arrival_sigma_mps(self, burn):
         """The expected error [m/s] of the velocity at the end of a closed-loop push, its delta-v measured by the
@@ -297,13 +304,9 @@ class TransportPush:
         the one impulse now that takes it out (Phi_rv dv = -miss), as near as the thrusters give it at the attitude
         held (``terminal.impulses_for``: the part the direction limit leaves out waits for a later check), fired one
         thruster a period where it ends before the next burn."""
-        p = self.config.planner.period_s
-        t = state.t
         first, last = pushes[0], pushes[-1]
-        nominal = self.push_end[round(first.t_start_s / p)]
-        x_nominal = cw_transition_matrix(self.n, t - nominal.t) @ np.concatenate((nominal.r_hill, nominal.v_hill))
-        phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - t)
-        miss = (phi @ (np.concatenate((state.r_hill, state.v_hill)) - x_nominal))[:3]
+        phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - state.t)
+        miss = (phi @ np.concatenate((state.r_hill, state.v_hill)))[:3] - self._aim(first, last)
         miss_m = float(np.linalg.norm(miss))
         if miss_m <= CORRECTION_FRACTION * self.config.planner.max_position_error_m:
             return []
