@@ -4,6 +4,7 @@ Events are dicts with t, level, name, message, values (text), hardware_id."""
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events as ev
+from flyby_msgs_py.event_payloads import decode_values
 
 
 def no_safe_plan_reason(events):
@@ -59,3 +60,19 @@ def lock_time(events, scenario):
     if scenario.post_capture is not None and scenario.post_capture.start == 'attached':
         return 0.0
     return next((float(e['t']) for e in events if e['name'] == ev.GRASP_DAMPED), None)
+
+
+def plant_faults(events):
+    """The faults the simulator injected (its ``fault_injected`` and ``fault_cleared``), in start order: dicts of
+    fault (its number in the scenario's list), kind, target, t_start_s, t_end_s (None while it lasts) and value."""
+    faults = {}
+    for e in events:
+        if e['name'] == ev.FAULT_INJECTED:
+            p = decode_values(e['name'], e['values'])
+            faults[p.fault] = dict(fault=p.fault, kind=p.kind, target=p.target, t_start_s=p.t_start, t_end_s=None,
+                                   value=p.value)
+        elif e['name'] == ev.FAULT_CLEARED:
+            p = decode_values(e['name'], e['values'])
+            if p.fault in faults:
+                faults[p.fault]['t_end_s'] = p.t_end
+    return list(faults.values())

@@ -22,7 +22,14 @@ from flyby_mission.approach_figures import (
     thrust_figures,
 )
 from flyby_mission.post_capture_figures import post_capture_figures, transport_figures
-from flyby_mission.run_events import chosen_method, grasp_time, no_safe_plan_reason, phase_start, planned_flyby
+from flyby_mission.run_events import (
+    chosen_method,
+    grasp_time,
+    no_safe_plan_reason,
+    phase_start,
+    planned_flyby,
+    plant_faults,
+)
 from flyby_mission.run_truth import (
     RIGID_TRUTH_TOPICS,
     TRUTH_TOPICS,
@@ -163,7 +170,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'node_exit_codes': node_exit_codes or {},
         'nodes_killed': list(nodes_killed),
         'bag_repair': bag_repair,
-        'faults_injected': faults_injected or {'abort_at_s': None, 'kill': None},
+        'faults_injected': {**(faults_injected or {'abort_at_s': None, 'kill': None}),
+                            'plant': plant_faults(events)},
     }
 
 
@@ -267,7 +275,9 @@ def run_rows(s):
             *_row('final phase', _text(s['final_phase'])), *_row('end reason', _text(s['end_reason'])),
             ('seed', _text(s['seed'])),
             *_row('faults injected', _named('abort at', _text(faults.get('abort_at_s'), 's')),
-                  _named('kill', faults.get('kill')), sep=', '),
+                  _named('kill', faults.get('kill')),
+                  *(f"{f['kind']} on {f['target']} at {f['t_start_s']:.1f} s" for f in faults.get('plant') or ()),
+                  sep=', '),
             *_row('nodes killed', ', '.join(s.get('nodes_killed') or []) or None),
             *_row('bag repaired', _named('kept', _text((repair or {}).get('message_count'), 'messages')))]
 

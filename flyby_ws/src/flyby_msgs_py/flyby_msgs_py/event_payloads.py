@@ -152,6 +152,29 @@ class GraspDamped(_Payload):
     arm_rotation_body_rad: Vector
 
 
+@payload(events.FAULT_INJECTED)
+class FaultInjected(_Payload):
+    """The simulator began fault number ``fault`` of the scenario's list at t_start [s] (flyby_sim.faults): its kind,
+    what it acts on ('thruster 3', 'imu'), its duration [s] (None: permanent) and its value."""
+
+    fault: int
+    kind: str
+    target: str
+    t_start: float
+    duration_s: float | None = None
+    value: float | None = None
+
+
+@payload(events.FAULT_CLEARED)
+class FaultCleared(_Payload):
+    """The simulator ended fault number ``fault`` at t_end [s]."""
+
+    fault: int
+    kind: str
+    target: str
+    t_end: float
+
+
 @payload(events.DAMPING_COMPLETE)
 class DampingComplete(_Payload):
     """The damping ended: the excitation from t_excitation_s [s], the settled wheel momentum [N m s, chaser_body]."""
@@ -262,7 +285,8 @@ class MessageRejected(_Payload):
 
 
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
-                                      AttitudeSynchronized, DockingStarted, GraspDamped, DampingComplete,
+                                      AttitudeSynchronized, DockingStarted, GraspDamped, FaultInjected,
+                                      FaultCleared, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
                                       TransportComEstimate, TransportPlanned, TransportTerminal, TransportComplete,
                                       MessageRejected)}

@@ -96,6 +96,10 @@ class ImuModel:
         """The gyro bias now (after the latest sample's walk) [rad/s], a fresh array."""
         return self._bias.copy()
 
+    def step_bias(self, step_rad_s):
+        """The gyro's bias steps by step_rad_s [rad/s] (an injected fault, ``flyby_sim.faults``)."""
+        self._bias = self._bias + np.asarray(step_rad_s, dtype=float)
+
     def sample(self, t, star_tracker, q_hill_from_body, omega_body, specific_force_body):
         """The ImuSample at time t [s] (after the previous sample) of the true attitude, inertial rate in body
         axes [rad/s] and mean specific force over the interval in body axes [m/s^2]; star_tracker: this sample

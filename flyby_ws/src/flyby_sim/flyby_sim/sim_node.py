@@ -489,9 +489,11 @@ class SimNode(Node):
 
     # -- commands -------------------------------------------------------------------------
     def on_phase(self, ch, msg):
-        """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
+        """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on. Every phase: the
+        injected faults that start with it (``Plant.on_phase``)."""
         phase = convert.string_to_str(msg)
         ch.phase = phase
+        ch.plant.on_phase(phase)
         if phase in ATTITUDE_QUIET_PHASES and not (ch.locked and phase == c.PHASE_CAPTURE):
             ch.attitude_quiet = True
         if phase == c.PHASE_CAPTURE:

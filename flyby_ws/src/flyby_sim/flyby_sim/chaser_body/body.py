@@ -7,6 +7,7 @@ import numpy as np
 from flyby_msgs_py import events
 from flyby_msgs_py.wire import Event
 from flyby_sim.chaser_body.config import MAX_SUBSTEP_ANGLE_RAD
+from flyby_sim.chaser_body.health import Health
 from flyby_sim.chaser_body.records import ManeuverRequest, StepTotals, ThrusterBurn, WheelCommand, WrenchCommand
 from flyby_sim.dynamics.actuators import allocate_wrench, draw_thruster_errors, fire, plan_burn, wrench_matrix
 from flyby_sim.dynamics.checks import finite_vector
@@ -49,9 +50,9 @@ class SixDofChaser:
         self._ve = self.layout.exhaust_velocity_mps
         self.errors = errors if errors is not None else draw_thruster_errors(
             self.layout, rng_errors, thrusters.magnitude_error_sigma, thrusters.direction_error_sigma_rad)
-        b_actual = wrench_matrix(self.layout.positions_body_m - np.asarray(com_body_m, dtype=float),
-                                 self.errors.force_directions_body) * self.errors.magnitude_factors
-        self._b_actual_columns = tuple(map(tuple, b_actual.T.tolist()))
+        self._com_body_m = np.asarray(com_body_m, dtype=float)
+        self.health = Health.nominal(self.layout.count, config.wheels().count)
+        self._set_actual_columns()
         self._factors = tuple(self.errors.magnitude_factors.tolist())
         self._max_thrust = tuple(self.layout.max_thrust_n.tolist())
         inertia = np.array(config.inertia)
@@ -81,12 +82,26 @@ class SixDofChaser:
         self._last_burn_end = -math.inf
         self._seq = {'wrench': 0, 'wheels': 0, 'maneuver': 0}
         self._thrusts = (0.0,) * self.layout.count  # nominal thrusts now (burn + wrench, limited)
+        self._actual = self._thrusts  # what the thrusters give for them (``health``)
         self._burn_share = (0.0,) * self.layout.count
         self._wrench_share = (0.0,) * self.layout.count
         self._reported = set()  # (event name, source...) reported once
         self._allocated = (None, None, None)  # the last wrench allocated: (force, torque, hold), Allocation, Firing
         self._allowed = None  # indices of the thrusters wrench commands may fire (None: all; restrict_thrusters)
         self._totals = self._zero_totals()
+
+    def set_health(self, health):
+        """From now on the thrusters and wheels act as ``health`` leaves them (injected faults, ``health``)."""
+        self.health = health
+        self._set_actual_columns()
+        self._update_thrusts(None)
+
+    def _set_actual_columns(self):
+        """The wrench per unit nominal thrust of each thruster, its errors and its health's turn included."""
+        b_actual = wrench_matrix(self.layout.positions_body_m - self._com_body_m,
+                                 self.health.directions(self.errors.force_directions_body)) \
+            * self.errors.magnitude_factors
+        self._b_actual_columns = tuple(map(tuple, b_actual.T.tolist()))
 
     def restrict_thrusters(self, allowed):
         """From now on wrench commands are allocated on the thrusters where allowed ((N,) bool) is True only (a tug
@@ -328,12 +343,14 @@ class SixDofChaser:
                          f'{self._wheel.seq}', dict(seq=self._wheel.seq, wheel=i, t=t, momentum_n_m_s=limit)))
 
     def _wheel_torques(self):
-        """The motor torques acting now: the held command, none on a wheel at its momentum limit pushing out."""
+        """The motor torques acting now: the held command as the wheels' health gives it, none on a wheel at its
+        momentum limit pushing out."""
         if self._wheel is None:
             return (0.0,) * self._nw
         h = self._att[7:]
+        given = self.health.wheel_torques(self._wheel.torque_n_m, self._u_max)
         return tuple(0.0 if (u > 0.0 and h[i] >= self._h_max[i]) or (u < 0.0 and h[i] <= -self._h_max[i]) else u
-                     for i, u in enumerate(self._wheel.torque_n_m))
+                     for i, u in enumerate(given))
 
     def _update_thrusts(self, t_event):
         """The nominal thrusts of the burn and the held wrench together, each thruster at most its maximum
@@ -345,6 +362,7 @@ class SixDofChaser:
         self._burn_share = burn
         self._wrench_share = tuple(f - b for f, b in zip(total, burn, strict=True))
         self._thrusts = tuple(total)
+        self._actual = self.health.thrusts(self._thrusts)
         if self._burn is not None and self._wrench is not None and t_event is not None:
             clipped = [i for i in range(n) if burn[i] + wrench[i] > self._max_thrust[i]]
             key = (events.WRENCH_LIMITED_BY_BURN, self._wrench.seq, self._burn.seq)
@@ -411,7 +429,8 @@ class SixDofChaser:
         acc = self._acc
         u = self._wheel_torques()
         if self._wheel is not None:
-            for i, (u_cmd, u_now) in enumerate(zip(self._wheel.torque_n_m, u, strict=True)):
+            given = self.health.wheel_torques(self._wheel.torque_n_m, self._u_max)
+            for i, (u_cmd, u_now) in enumerate(zip(given, u, strict=True)):
                 if u_cmd != u_now:
                     self._report_wheel_limit(i, t, t_event)
         att = self._att
@@ -424,7 +443,7 @@ class SixDofChaser:
             hz += az * h
         substeps = substep_count(w, (hx, hy, hz), self._inertia_min, dt, MAX_SUBSTEP_ANGLE_RAD)
         h_sub = dt / substeps
-        thrusts = self._thrusts
+        thrusts = self._actual
         if any(thrusts):
             self._sync_translation(t)
             self._check_restriction(t, t_event)

@@ -212,6 +212,7 @@ class CapturePhases:
                                 com_body_m=props.com_body_m)
         combined.set_attitude(q_eci, state.omega_body)
         combined.set_translation(r.tolist() + v.tolist(), t)
+        combined.set_health(self._body.health)  # injected faults stay with the hardware
         self._body = combined
         self._mode = 'combined'
         self._t_locked = t

@@ -17,6 +17,7 @@ from flyby_sim.dynamics.checks import finite_vector, require_positive
 from flyby_sim.dynamics.grasp import Impedance
 from flyby_sim.dynamics.propulsion import ThrusterConfig
 from flyby_sim.dynamics.rotation import quat_normalize
+from flyby_sim.faults import FaultSpec, fault_specs
 
 DYNAMICS = ('nonlinear', 'cw')
 
@@ -104,8 +105,12 @@ class PlantConfig:
     chaser_body: RigidChaserConfig = params.sub(RigidChaserConfig, when=_is_rigid_body)
     # None: the capture welds the chaser to the target (module doc)
     grasp: GraspConfig = params.sub(GraspConfig, when=_has_post_capture)
+    faults: tuple = params.key('faults', fault_specs)  # the injected faults (FaultSpec), in the scenario's order
 
     def __post_init__(self):
+        object.__setattr__(self, 'faults', () if self.faults is None else tuple(self.faults))
+        if not all(isinstance(f, FaultSpec) for f in self.faults):
+            raise ValueError(f'faults must be FaultSpecs, got {self.faults!r}')
         for name in ('radius_m', 'chaser_mass_kg', 'mu', 'step_s', 'position_rate_hz', 'attitude_rate_hz'):
             require_positive(name, getattr(self, name))
         for name in ('position_sigma_m', 'attitude_sigma_rad', 'restriction_sphere_radius_m'):

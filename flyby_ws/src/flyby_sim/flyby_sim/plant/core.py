@@ -22,6 +22,7 @@ from flyby_sim.dynamics.rotation import quat_conjugate, quat_normalize, quat_rot
 from flyby_sim.dynamics.sampling import SampleSchedule
 from flyby_sim.plant.capture import CapturePhases
 from flyby_sim.plant.config import Measurement, PlantConfig, TruthSample
+from flyby_sim.plant.faults import FaultInjection
 from flyby_sim.plant.point_mass import PointMassFlight
 from flyby_sim.sensors import ImuModel, SensorModel
 from flyby_sim.thrusters import ThrusterModel
@@ -30,7 +31,7 @@ _ZERO3 = (0.0, 0.0, 0.0)
 ATTITUDE_CHUNK_STEPS = 100  # steps of target attitude evaluated at once (5 s at 20 Hz)
 
 
-class Plant(PointMassFlight, CapturePhases):
+class Plant(PointMassFlight, CapturePhases, FaultInjection):
     """Truth simulation of one chaser and its target, advanced in fixed steps of config.step_s.
 
     Events (drain_events): 'burn_started' and 'burn_ended' (OK), 'late_maneuver' (WARN, when a burn
@@ -80,6 +81,7 @@ class Plant(PointMassFlight, CapturePhases):
                 self._start_attached()
         else:
             self._last = self._truth(np.zeros(3), False)
+        self._init_faults(np.random.default_rng(root_seed.spawn(1)[0]))  # after the other streams: theirs unchanged
 
     def _init_rigid_body(self, root_seed, sensor_rng):
         """The six-degree-of-freedom chaser and its IMU, from streams spawned after the point-mass ones (a third
@@ -203,17 +205,21 @@ class Plant(PointMassFlight, CapturePhases):
 
     def step(self):
         """Advance exactly one step_s; returns the TruthSample at the new time."""
+        self._inject_due()
         if self._mode == 'grasp':
-            return self._step_grasp()
-        if self._mode == 'combined':
-            return self._step_combined()
-        if self._mode == 'released':
-            return self._step_released()
-        if self.captured:
-            return self._step_attached()
-        if self._chaser is not None:
-            return self._step_rigid()
-        return self._step_point_mass()
+            s = self._step_grasp()
+        elif self._mode == 'combined':
+            s = self._step_combined()
+        elif self._mode == 'released':
+            s = self._step_released()
+        elif self.captured:
+            s = self._step_attached()
+        elif self._chaser is not None:
+            s = self._step_rigid()
+        else:
+            s = self._step_point_mass()
+        self._measurements = self._sensor_faults(self._measurements)
+        return s
 
     def _step_rigid(self):
         chaser = self._chaser

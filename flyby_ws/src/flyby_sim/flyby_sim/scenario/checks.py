@@ -10,6 +10,7 @@ import numpy as np
 
 from flyby_msgs_py.schema import Invalid, format_floats
 from flyby_sim.dynamics.actuators import ThrusterLayout, is_positively_spanning
+from flyby_sim.faults import check_faults
 
 
 def check_inertia(m):
@@ -84,6 +85,7 @@ def cross_checks(d):
                       f'must divide sensors.chaser_imu.rate_hz = {imu["rate_hz"]!r} a whole number of times (each '
                       f'star-tracker sample falls on a gyro sample), got {imu["star_tracker_rate_hz"]!r}')
     _check_chaser_body(d['chaser'])
+    check_faults(d)
     g = d['guidance']
     if g['momentum_dump_stop_n_m_s'] >= g['momentum_dump_start_n_m_s']:
         raise Invalid('guidance.momentum_dump_stop_n_m_s', f'must be below guidance.momentum_dump_start_n_m_s = '

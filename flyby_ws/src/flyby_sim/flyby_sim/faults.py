@@ -1,0 +1,221 @@
+"""Faults injected into the plant: the scenario's ``faults:`` list, its checks and its schedule (docs/faults.md).
+
+A fault acts on the hardware the truth simulates, the same in the headless loop and the graph (both step one
+``plant.Plant``), from a start time, or a delay after a phase begins, for a duration (none: permanent):
+
+* a thruster (``index`` in the layout): ``thruster_off`` (no thrust), ``thruster_stuck_on`` (a leak: at least
+  ``value`` of its maximum thrust whatever is commanded), ``thruster_degraded`` (``value`` of the commanded thrust),
+  ``thruster_misaligned`` (its force direction turned by ``value`` deg about ``axis``, or an axis across it drawn
+  from the seed);
+* a reaction wheel (``index``): ``wheel_failed`` (no motor torque), ``wheel_torque_limited`` (``value`` of its torque
+  limit, the command clipped to it);
+* a sensor (``sensor``): ``sensor_dropout`` (no sample; ``imu`` is the gyro and the accelerometer, sampled together,
+  ``star_tracker`` the IMU's attitude), ``sensor_outliers`` (each sample off by ``value`` times the sensor's 1-sigma
+  in a direction drawn from the seed), ``gyro_bias_jump`` (the gyro's bias steps by ``value`` rad/s along ``axis``
+  or a direction drawn from the seed).
+
+Nothing here tells the flight software: the plant reports each fault's start and end on ``mission/events``
+(``fault_injected``, ``fault_cleared``) for the record and the summary, and the monitors see only its effects.
+Every draw comes from the fault stream of the scenario's seed, one child per fault, so a fault added to the list
+leaves the others' draws and every other stream unchanged.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from flyby_msgs_py import contract as c
+from flyby_msgs_py.schema import Invalid
+
+THRUSTER_KINDS = ('thruster_off', 'thruster_stuck_on', 'thruster_degraded', 'thruster_misaligned')
+WHEEL_KINDS = ('wheel_failed', 'wheel_torque_limited')
+SENSOR_KINDS = ('sensor_dropout', 'sensor_outliers', 'gyro_bias_jump')
+KINDS = THRUSTER_KINDS + WHEEL_KINDS + SENSOR_KINDS
+SENSORS = ('relative_position', 'target_attitude', 'star_tracker', 'imu')
+RIGID_SENSORS = ('star_tracker', 'imu')  # the six-degree-of-freedom chaser's own
+# value when omitted, and the interval it must lie in (lo, hi, lo closed, hi closed), by kind; None: no value
+VALUES = {
+    'thruster_stuck_on': (0.1, (0.0, 1.0, False, True)),  # share of the maximum thrust leaking
+    'thruster_degraded': (0.5, (0.0, 1.0, True, False)),  # share of the commanded thrust given
+    'thruster_misaligned': (5.0, (0.0, 90.0, False, True)),  # deg
+    'wheel_torque_limited': (0.1, (0.0, 1.0, True, False)),  # share of the torque limit left
+    'sensor_outliers': (20.0, (0.0, 1e6, False, True)),  # the sensor's 1-sigma
+    'gyro_bias_jump': (1e-3, (0.0, 1.0, False, True)),  # rad/s
+}
+PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY,
+          c.PHASE_OPTIMAL_APPROACH, c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING, c.PHASE_DOCKING,
+          c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_GRASP, c.PHASE_DAMPING, c.PHASE_MASS_ESTIMATION,
+          c.PHASE_TRANSPORT)
+
+
+@dataclasses.dataclass(frozen=True)
+class FaultSpec:
+    """One fault of the scenario's list (module doc): what, where, when and how much."""
+
+    kind: str
+    index: int | None = None  # the thruster's or the wheel's
+    sensor: str | None = None
+    start_s: float | None = None  # sim time [s], or ...
+    start_phase: str | None = None  # ... the phase whose start, plus delay_s, starts it
+    delay_s: float = 0.0
+    duration_s: float | None = None  # None: permanent
+    value: float | None = None  # by kind (module doc); None: VALUES' default
+    axis: tuple | None = None  # misalignment's or bias jump's axis, chaser_body; None: drawn from the seed
+
+    @property
+    def target(self):
+        """What it acts on, as text: 'thruster 3', 'wheel 1', 'imu'."""
+        if self.kind in THRUSTER_KINDS:
+            return f'thruster {self.index}'
+        if self.kind in WHEEL_KINDS:
+            return f'wheel {self.index}'
+        return 'imu' if self.kind == 'gyro_bias_jump' else self.sensor
+
+    @property
+    def magnitude(self):
+        """The value it acts with (its default where the scenario gives none), or None for a kind without one."""
+        if self.kind not in VALUES:
+            return None
+        return VALUES[self.kind][0] if self.value is None else float(self.value)
+
+
+def fault_specs(items):
+    """The FaultSpecs of the scenario's validated ``faults`` list (its item views), in its order."""
+    return tuple(FaultSpec(kind=x.type, index=x.index, sensor=x.sensor, start_s=x.start_s, start_phase=x.start_phase,
+                           delay_s=x.delay_s, duration_s=x.duration_s, value=x.value,
+                           axis=None if x.axis is None else tuple(x.axis)) for x in items)
+
+
+def check_faults(d):
+    """Checks of the resolved scenario dict's ``faults`` across keys (schema ranges hold already); raise Invalid."""
+    rigid = d['chaser']['model'] == 'rigid_body'
+    layout = d['chaser']['thrusters']['layout']
+    n_thrusters = 12 if layout is None else len(layout)
+    n_wheels = len(d['chaser']['wheels']['axes'])
+    sigmas = {'relative_position': d['sensors']['relative_position']['noise_sigma_m'],
+              'target_attitude': d['sensors']['target_attitude']['noise_sigma_deg'],
+              'star_tracker': d['sensors']['chaser_imu']['star_tracker_sigma_deg']}
+    for i, f in enumerate(d.get('faults') or ()):
+        key = f'faults[{i}]'
+        kind = f['type']
+        if (f['start_s'] is None) == (f['start_phase'] is None):
+            raise Invalid(key, 'give exactly one of start_s and start_phase (when the fault begins)')
+        if f['start_s'] is not None and f['delay_s']:
+            raise Invalid(f'{key}.delay_s', 'is the delay after start_phase; with start_s give the time itself')
+        hardware = kind in THRUSTER_KINDS + WHEEL_KINDS
+        if hardware or kind == 'gyro_bias_jump' or f['sensor'] in RIGID_SENSORS:
+            if not rigid:
+                raise Invalid(f'{key}.type', f'{kind}{" of " + f["sensor"] if f["sensor"] else ""} needs chaser.model '
+                                             f'rigid_body (the point mass has no thrusters, wheels or IMU)')
+        count = n_thrusters if kind in THRUSTER_KINDS else n_wheels
+        if hardware and (f['index'] is None or not 0 <= f['index'] < count):
+            what = 'thruster of chaser.thrusters.layout' if kind in THRUSTER_KINDS else 'wheel of chaser.wheels.axes'
+            raise Invalid(f'{key}.index', f'must name a {what} (0 to {count - 1}) for {kind}, got {f["index"]!r}')
+        if not hardware and f['index'] is not None:
+            raise Invalid(f'{key}.index', f'is for thruster and wheel faults, not {kind}')
+        if kind in ('sensor_dropout', 'sensor_outliers') and f['sensor'] is None:
+            raise Invalid(f'{key}.sensor', f'is required for {kind}: one of {", ".join(SENSORS)}')
+        if kind not in ('sensor_dropout', 'sensor_outliers') and f['sensor'] is not None:
+            raise Invalid(f'{key}.sensor', f'is for sensor_dropout and sensor_outliers, not {kind}')
+        _check_value(key, kind, f['value'])
+        if kind == 'sensor_outliers' and f['sensor'] in sigmas and sigmas[f['sensor']] == 0.0:
+            raise Invalid(f'{key}.sensor', f'{f["sensor"]} has no noise (its sigma is 0): an outlier of '
+                                           f'{f["value"]} sigma would be none')
+        if f['axis'] is not None and kind not in ('thruster_misaligned', 'gyro_bias_jump'):
+            raise Invalid(f'{key}.axis', f'is for thruster_misaligned and gyro_bias_jump, not {kind}')
+        if f['axis'] is not None and not math.hypot(*f['axis']) > 0.0:
+            raise Invalid(f'{key}.axis', f'must be nonzero, got {list(f["axis"])}')
+
+
+def _check_value(key, kind, value):
+    if kind not in VALUES:
+        if value is not None:
+            raise Invalid(f'{key}.value', f'{kind} takes no value')
+        return
+    if value is None:
+        return
+    lo, hi, lo_closed, hi_closed = VALUES[kind][1]
+    if not ((value >= lo if lo_closed else value > lo) and (value <= hi if hi_closed else value < hi)):
+        interval = f'{"[" if lo_closed else "("}{lo:g}, {hi:g}{"]" if hi_closed else ")"}'
+        raise Invalid(f'{key}.value', f'must be within {interval} for {kind}, got {value!r}')
+
+
+def _unit_across(rng, direction):
+    """A unit vector across ``direction`` drawn from rng (uniform about it)."""
+    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    helper = np.eye(3)[int(np.argmin(np.abs(d)))]
+    e1 = np.cross(d, helper)
+    e1 /= np.linalg.norm(e1)
+    angle = rng.uniform(0.0, 2.0 * math.pi)
+    return math.cos(angle) * e1 + math.sin(angle) * np.cross(d, e1)
+
+
+def random_unit(rng):
+    """A unit vector drawn uniformly on the sphere from rng."""
+    v = rng.standard_normal(3)
+    return v / np.linalg.norm(v)
+
+
+class FaultSchedule:
+    """The scenario's faults in time: which start and end at a step (``due``), and what is active now."""
+
+    def __init__(self, specs, rng):
+        """specs: FaultSpecs; rng: numpy Generator of the fault stream (one child spawned per fault)."""
+        self.specs = tuple(specs)
+        self._rngs = rng.spawn(len(self.specs)) if self.specs else []
+        self._phase_start = {}
+        self._started = [None] * len(self.specs)  # the start time of each, once begun
+        self._ended = [False] * len(self.specs)
+        self.active = []  # indices of the faults acting now, in their start order
+
+    def rng(self, i):
+        """Fault i's own Generator (its axis, its outliers' directions)."""
+        return self._rngs[i]
+
+    def axis(self, i, across=None):
+        """Fault i's axis, unit: the scenario's, or drawn (across ``across`` where given) at its start."""
+        spec = self.specs[i]
+        if spec.axis is not None:
+            a = np.asarray(spec.axis, dtype=float)
+            return a / np.linalg.norm(a)
+        return _unit_across(self._rngs[i], across) if across is not None else random_unit(self._rngs[i])
+
+    def on_phase(self, phase, t):
+        """The phase began at t [s] (its first start counts)."""
+        self._phase_start.setdefault(phase, float(t))
+
+    def start_time(self, i):
+        """Fault i's start [s], or None while its phase has not begun."""
+        spec = self.specs[i]
+        if spec.start_s is not None:
+            return spec.start_s
+        t_phase = self._phase_start.get(spec.start_phase)
+        return None if t_phase is None else t_phase + spec.delay_s
+
+    def due(self, t):
+        """(started, ended): indices of the faults that begin and that end at t [s] (from the step at t on),
+        updating ``active``."""
+        ended = [i for i in self.active if self.specs[i].duration_s is not None
+                 and t >= self._started[i] + self.specs[i].duration_s - 1e-9]
+        for i in ended:
+            self._ended[i] = True
+            self.active.remove(i)
+        started = []
+        for i in range(len(self.specs)):
+            t_start = self.start_time(i)
+            if self._started[i] is None and t_start is not None and t >= t_start - 1e-9:
+                self._started[i] = float(t)
+                started.append(i)
+                if self.specs[i].duration_s == 0.0:
+                    self._ended[i] = True
+                else:
+                    self.active.append(i)
+        return started, ended
+
+    def sensor_fault(self, kind, sensor):
+        """The index of an active fault of ``kind`` on ``sensor``, or None."""
+        for i in self.active:
+            if self.specs[i].kind == kind and self.specs[i].sensor == sensor:
+                return i
+        return None
