@@ -52,6 +52,7 @@ import math
 import numpy as np
 
 from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter
+from flyby_estimation.health import HealthMonitor
 from flyby_estimation.mass_estimation_run import (
     CaptureSnapshot,
     MassEstimationRun,
@@ -142,6 +143,7 @@ class EstimatorCore:
         # A fault to inject (tests of the escape): the published rate is off, the filter itself is not.
         self.rate_error = params.injected_rate_error_rad_s
         self.attached = False  # captured: the free-flyer navigation model no longer holds
+        self.health = HealthMonitor(params.health)
         if self.attitude is not None:
             self.wrench_hold_s = 1.0 / params.imu_rate_hz  # guidance's control period
             # (t, q_hill_from_body) of the latest attitude estimates: a force command's is one period old
@@ -173,6 +175,9 @@ class EstimatorCore:
         if phase != c.PHASE_CAPTURE or self.attached:
             return []
         self.attached = True
+        self.health.suspend_thrust()
+        for sensor in list(self.health.sensors) if not self.post_capture else ['target_attitude']:
+            self.health.suspend(sensor)  # without a post_capture section the run ends attached
         t = self.nav.t if self.nav.initialized else 0.0
         return [self._event(t, 'OK', events.NAVIGATION_SUSPENDED,
                             'captured: the chaser moves with the target, its free-flight navigation filter stops', {})]
@@ -255,10 +260,14 @@ class EstimatorCore:
         return out
 
     def on_attitude(self, t, q_hill_from_body):
-        """A vision attitude measurement at t."""
+        """A vision attitude measurement at t; then the health monitors' judgement."""
+        return self._attitude(t, q_hill_from_body) + self._health(t)
+
+    def _attitude(self, t, q_hill_from_body):
         if self.attached and self.post_capture:
             return []  # the target is no longer torque-free (module doc)
         result = self.target.update(t, q_hill_from_body)
+        self.health.on_sample('target_attitude', t, not result.accepted, result.nis)
         if not result.accepted:
             return self._reject(t, 'target_attitude', result.kind, result.reason)
         s = self.target.state()
@@ -269,12 +278,17 @@ class EstimatorCore:
         return [estimate] + self._check_convergence(s.t)
 
     def on_position(self, t, r_hill):
-        """A relative-position measurement at t."""
+        """A relative-position measurement at t; then the health monitors' judgement."""
+        return self._position(t, r_hill) + self._health(t)
+
+    def _position(self, t, r_hill):
         if self.attached:
+            self.health.on_sample('relative_position', t)
             if self.post_capture and self.transport_nav is not None:
                 self.transport_nav.on_position(t, r_hill)
             return []
         result = self.nav.update(t, r_hill)
+        self.health.on_sample('relative_position', t, not result.accepted, result.nis)
         if not result.accepted:
             return self._reject(t, 'relative_position', result.kind, result.reason)
         if self.attitude is not None:
@@ -284,12 +298,19 @@ class EstimatorCore:
 
     def on_imu(self, t, q_hill_from_body, omega_body_meas, specific_force_body=None):
         """An IMU sample at t (rigid-body chaser): star-tracker attitude q_hill_from_body or None, gyro rate, and
-        the accelerometer's mean specific force [m/s^2, chaser_body] since the previous sample (or None)."""
+        the accelerometer's mean specific force [m/s^2, chaser_body] since the previous sample (or None); then the
+        health monitors' judgement."""
+        return self._imu(t, q_hill_from_body, omega_body_meas, specific_force_body) + self._health(t)
+
+    def _imu(self, t, q_hill_from_body, omega_body_meas, specific_force_body):
         if self.attitude is None or (self.attached and not self.post_capture):
             return []
         out = []
+        self.health.on_sample('imu', t)
         for sensor, result in zip(('gyro', 'star_tracker'), self.attitude.on_imu(t, omega_body_meas, q_hill_from_body),
                                   strict=True):
+            if sensor == 'star_tracker' and result is not None:
+                self.health.on_sample('star_tracker', t, not result.accepted, result.nis)
             if result is not None and not result.accepted:
                 out += self._reject(t, sensor, result.kind, result.reason)
         t_last, self.imu_t_last = self.imu_t_last, t
@@ -301,6 +322,9 @@ class EstimatorCore:
         self.attitudes.append((a.t, a.q_hill_from_body))
         if specific_force_body is not None and t_last is not None:
             out += self._measured_thrust(t_last, t, a, specific_force_body)
+            if self.health.thrust is not None:
+                self.health.on_interval(self.nav.burns, t_last, t, a.q_hill_from_body, specific_force_body,
+                                        self.nav.mass_kg or self.params.chaser_mass_kg)
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)
         estimate = ChaserEstimate(a.t, s.r_hill, s.v_hill, s.covariance, a.q_hill_from_body, a.omega_body,
                                   a.attitude_covariance_hill, a.rate_covariance)
@@ -347,11 +371,13 @@ class EstimatorCore:
     def on_maneuver(self, t, dv_hill):
         """A commanded maneuver (stamp t, dv_hill): a known input of the navigation filter."""
         try:
-            self.nav.add_maneuver(t, dv_hill)
+            burn = self.nav.add_maneuver(t, dv_hill)
         except (ManeuverRejected, ValueError) as err:
             # The simulator rejects it too; the filter must not expect it.
             return [self._event(t, 'WARN', events.MANEUVER_IGNORED,
                                 f'not a known input of the navigation filter: {err}', {'t_stamp': t})]
+        if self.health.thrust is not None:
+            self.health.book.on_maneuver(burn.seq)
         return []
 
     def on_wrench(self, t, force_body_n, torque_body_n_m=(0.0, 0.0, 0.0)):
@@ -361,7 +387,7 @@ class EstimatorCore:
         force = np.asarray(force_body_n, dtype=float)
         if self.transport_nav is not None:
             self.transport_nav.on_command(t, force, torque_body_n_m)
-        if self.attitude is None or self.attached or not np.any(force):
+        if self.attitude is None or self.attached:
             return []
         t_estimate = t - self.wrench_hold_s
         # Turned into hill at the attitude estimate the command was computed from, which every pace has by then.
@@ -369,6 +395,11 @@ class EstimatorCore:
         if q is None:
             return []
         mass_kg = self.nav.mass_kg or self.params.chaser_mass_kg
+        if self.health.thrust is not None:  # what the thrust monitor expects of the interval
+            self.health.book.on_command(t, quat_rotate(q, force) * (self.wrench_hold_s / mass_kg), force,
+                                        torque_body_n_m)
+        if not np.any(force):
+            return []
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.params.min_impulse_bit_ns:
             return []
         dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
@@ -451,6 +482,20 @@ class EstimatorCore:
                                     f'{check.ratio_max:.3g} x the Cramer-Rao bound)', values)]
 
     # -- events ---------------------------------------------------------------------------------
+    def _health(self, t):
+        """The health monitors judged at stamp t: their detections as events, their statuses (``health``)."""
+        out = []
+        detections, diagnostics = self.health.judge(t)
+        for d in detections:
+            record = event_payloads.FaultDetected if d.detected else event_payloads.FaultRecovered
+            values = dict(d.values)
+            candidates = values.pop('candidates', None)
+            payload = record(d.monitor, d.kind, d.component, d.t, None if candidates is None else tuple(candidates))
+            out.append(self._event(t, 'ERROR' if d.detected else 'OK',
+                                   events.FAULT_DETECTED if d.detected else events.FAULT_RECOVERED, d.message,
+                                   event_payloads.encode(payload, values)))
+        return out + ([] if diagnostics is None else [diagnostics])
+
     def _reject(self, t, sensor, kind, reason):
         self.rejected[(sensor, kind)] += 1
         return [self._event(t, 'WARN', events.MEASUREMENT_REJECTED, reason,

@@ -26,6 +26,7 @@ chaser's CoM, its inertia about its CoM), their 1-sigma on ``mission/events``.
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
+from flyby_estimation.health import Diagnostics
 from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
 from flyby_estimation.measurement_order import MeasurementOrder
 from flyby_estimation.params import EstimatorParams
@@ -55,6 +56,7 @@ class EstimatorNode(CoreNode):
         self.core = EstimatorCore(EstimatorParams.from_scenario(scenario), self.get_name())
         self.pub_target, self.pub_chaser, self.pub_events = (
             self.publisher(c.EST_TARGET_ODOM), self.publisher(c.EST_CHASER_ODOM), self.publisher(c.MISSION_EVENTS))
+        self.pub_diagnostics = self.publisher(c.DIAGNOSTICS)
         self.order = None
         if scenario.chaser.model == 'rigid_body':
             self.order = MeasurementOrder(scenario.simulation.step_s,
@@ -123,6 +125,9 @@ class EstimatorNode(CoreNode):
                     (0.0, 0.0, 0.0),
                     pose_covariance=_block_diag_6(out.covariance[:3, :3], _ZERO3),
                     twist_covariance=_block_diag_6(out.covariance[3:, 3:], _ZERO3)))
+            elif isinstance(out, Diagnostics):
+                self.pub_diagnostics.publish(convert.diagnostics(
+                    out.t, [(s.name, s.level, s.message, s.values) for s in out.statuses], self.get_name()))
             else:
                 publish_event(self, self.pub_events, out)
 

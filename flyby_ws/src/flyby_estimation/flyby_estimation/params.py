@@ -171,6 +171,22 @@ def _has_transport(scenario):
 
 
 @params.record
+class HealthParams:
+    """What the health monitors read of the scenario (``health.HealthMonitor``; the IMU's and the thrusters' keys
+    are used for the rigid-body chaser only)."""
+
+    position_rate_hz: float = params.key('sensors.relative_position.rate_hz')
+    attitude_rate_hz: float = params.key('sensors.target_attitude.rate_hz')
+    rigid_body: bool = params.derived(_is_rigid_body)
+    imu_rate_hz: float = params.key('sensors.chaser_imu.rate_hz')
+    star_tracker_rate_hz: float = params.key('sensors.chaser_imu.star_tracker_rate_hz')
+    accel_sigma_mps2: float = params.key('sensors.chaser_imu.accel_noise_sigma_mps2')
+    thrust_magnitude_sigma: float = params.key('chaser.thrusters.magnitude_error_sigma')
+    thrust_misalignment_sigma_rad: float = params.key('chaser.thrusters.direction_error_sigma_deg', math.radians)
+    thruster_layout: object = params.key('thruster_layout')
+
+
+@params.record
 class EstimatorParams:
     """Everything ``estimator_core.EstimatorCore`` reads of the scenario (module doc). ``chaser_attitude`` is None
     for a point-mass chaser; ``mass_estimation`` None without a post_capture section (or a point-mass chaser);
@@ -183,6 +199,7 @@ class EstimatorParams:
     chaser_attitude: ChaserAttitudeFilterParams = params.sub(ChaserAttitudeFilterParams, when=_is_rigid_body)
     mass_estimation: MassEstimationParams = params.sub(MassEstimationParams, when=_rigid_with_post_capture)
     transport: TransportNavigationParams = params.sub(TransportNavigationParams, when=_has_transport)
+    health: HealthParams = params.sub(HealthParams)
     injected_rate_error_rad_s: np.ndarray = params.key('estimation.injected_rate_error_deg_s', np.radians)
     mean_motion_rad_s: float = params.key('mean_motion_rad_s')
     chaser_mass_kg: float = params.key('chaser.mass_kg')

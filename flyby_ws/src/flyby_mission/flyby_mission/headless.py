@@ -26,6 +26,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flyby_estimation.estimator_core import ChaserEstimate, EstimatorCore, TargetEstimate
+from flyby_estimation.health import Diagnostics
 from flyby_estimation.mass_estimation_run import TargetInertiaEstimate
 from flyby_estimation.params import EstimatorParams
 from flyby_guidance.guidance import Maneuver
@@ -37,7 +38,7 @@ from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, Wheel
 from flyby_mission.summary import summarize
 from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events, wiring
+from flyby_msgs_py import event_payloads, events, wiring
 from flyby_msgs_py.admission import RULES, Admission
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.schema import ScenarioError
@@ -244,6 +245,8 @@ class HeadlessGraph:
             self.plant.capture()
         elif topic == c.MISSION_PHASE and value == c.PHASE_TRANSPORT:
             self.plant.start_transport()
+        elif topic == c.MISSION_EVENTS and value.name == events.THRUSTERS_ISOLATED:
+            self.plant.isolate_thrusters(event_payloads.decode(value).thrusters)
         else:  # the grasp time it holds its pace for, a node's failure it holds time for no more: graph pacing only
             return
         self._publish_plant_events()
@@ -297,6 +300,8 @@ def _messages(out):
                                                 (out.attitude_covariance_hill, out.rate_covariance_body)))]
     if isinstance(out, ChaserEstimate):
         return [_chaser_message(out)]
+    if isinstance(out, Diagnostics):
+        return [_Message(c.DIAGNOSTICS, wire_time(out.t), out)]
     if isinstance(out, AttitudeCommandStamped):
         t = wire_time(out.t)
         return [_Message(c.GUIDANCE_WHEELS, t, out), _Message(c.GUIDANCE_WRENCH, t, out)]

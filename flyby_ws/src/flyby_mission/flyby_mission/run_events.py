@@ -63,7 +63,7 @@ def lock_time(events, scenario):
 
 
 def plant_faults(events):
-    """The faults the simulator injected (its ``fault_injected`` and ``fault_cleared``), in start order: dicts of
+    """The faults the simulator injected (its ``fault_injected`` and ``fault_ended``), in start order: dicts of
     fault (its number in the scenario's list), kind, target, t_start_s, t_end_s (None while it lasts) and value."""
     faults = {}
     for e in events:
@@ -71,8 +71,50 @@ def plant_faults(events):
             p = decode_values(e['name'], e['values'])
             faults[p.fault] = dict(fault=p.fault, kind=p.kind, target=p.target, t_start_s=p.t_start, t_end_s=None,
                                    value=p.value)
-        elif e['name'] == ev.FAULT_CLEARED:
+        elif e['name'] == ev.FAULT_ENDED:
             p = decode_values(e['name'], e['values'])
             if p.fault in faults:
                 faults[p.fault]['t_end_s'] = p.t_end
     return list(faults.values())
+
+
+def _explains(fault, detection):
+    """Whether an injected fault (``plant_faults``' dict) is one the detection (a FaultDetected) may be of."""
+    target, component = fault['target'], detection.component
+    if target.startswith('thruster '):
+        return component.startswith('thrusters') and (
+            not detection.candidates or int(target.split()[1]) in detection.candidates)
+    if fault['kind'] == 'gyro_bias_jump':
+        return component in ('imu', 'star_tracker')
+    return component == target or (target == 'imu' and component == 'star_tracker')
+
+
+def fault_detections(events, grace_s=10.0):
+    """The health monitors' detections (``fault_detected``), each a dict of t_s, monitor, kind, component and the
+    injected fault it answers (the latest started at or before it, still acting or ended within grace_s [s], whose
+    target it may be of; None: no such fault, a false alarm) with the delay from that fault's start [s]."""
+    injected = plant_faults(events)
+    out = []
+    for e in events:
+        if e['name'] != ev.FAULT_DETECTED:
+            continue
+        d = decode_values(e['name'], e['values'])
+        t = float(e['t'])
+        acting = [f for f in injected if f['t_start_s'] <= t + 1e-9 and _explains(f, d)
+                  and (f['t_end_s'] is None or t <= f['t_end_s'] + grace_s)]
+        fault = acting[-1] if acting else None
+        out.append(dict(t_s=t, monitor=d.monitor, kind=d.kind, component=d.component,
+                        fault=None if fault is None else fault['fault'],
+                        delay_s=None if fault is None else t - fault['t_start_s']))
+    return out
+
+
+def fault_responses(events):
+    """The supervisor's answers (``fault_response``): dicts of t_s, kind, component, response, phase, severity."""
+    out = []
+    for e in events:
+        if e['name'] == ev.FAULT_RESPONSE:
+            r = decode_values(e['name'], e['values'])
+            out.append(dict(t_s=float(e['t']), kind=r.kind, component=r.component, response=r.response,
+                            phase=r.phase, severity=r.severity))
+    return out

@@ -24,6 +24,8 @@ from flyby_mission.approach_figures import (
 from flyby_mission.post_capture_figures import post_capture_figures, transport_figures
 from flyby_mission.run_events import (
     chosen_method,
+    fault_detections,
+    fault_responses,
     grasp_time,
     no_safe_plan_reason,
     phase_start,
@@ -172,6 +174,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'bag_repair': bag_repair,
         'faults_injected': {**(faults_injected or {'abort_at_s': None, 'kill': None}),
                             'plant': plant_faults(events)},
+        'faults_detected': fault_detections(events),
+        'fault_responses': fault_responses(events),
     }
 
 

@@ -53,6 +53,8 @@ import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
+from flyby_mission.fault_response import respond
+from flyby_mission.fault_table import FaultTable
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events, params
 from flyby_msgs_py.stamped import StampedBuffer
@@ -352,6 +354,7 @@ class SupervisorCore:
         self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
         self.decision_at = None  # the chaser estimate the capture decision waits to be made at
         self.t_clock = 0.0
+        self.fault_table = FaultTable.load()
 
     @property
     def phase(self):
@@ -380,6 +383,12 @@ class SupervisorCore:
         """An event of mission/events (wire.Event; values as text); our own are ignored."""
         if event.source == self.name:
             return []
+        if event.name == events.FAULT_DETECTED:
+            answers, abort = respond(self.fault_table, event, self.phase)
+            out = [self._event(event.t, *a) for a in answers]
+            if abort is not None and self.machine.active:
+                out += self._apply(self.machine.abort(event.t, abort))
+            return out
         values = dict(event.values, reason=event.message)
         return self._apply(self.machine.event(event.t, event.level, event.name, event.source, values))
 

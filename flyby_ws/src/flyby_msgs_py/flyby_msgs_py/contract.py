@@ -36,6 +36,7 @@ GUIDANCE_WRENCH = 'guidance/wrench'
 GUIDANCE_WHEELS = 'guidance/wheels'
 MISSION_PHASE = 'mission/phase'
 MISSION_EVENTS = 'mission/events'
+DIAGNOSTICS = 'diagnostics'  # each health monitor's status (diagnostic_msgs, the ROS convention)
 MARKERS = 'visualization/markers'
 MISSION_ABORT_SERVICE = 'mission/abort'
 PLANNER_REPLAN_SERVICE = 'planner/replan'
@@ -80,6 +81,7 @@ TOPIC_TYPES = {
     GUIDANCE_WHEELS: 'sensor_msgs/msg/JointState',
     MISSION_PHASE: 'std_msgs/msg/String',
     MISSION_EVENTS: 'diagnostic_msgs/msg/DiagnosticArray',
+    DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
     MARKERS: 'visualization_msgs/msg/MarkerArray',
 }
 

@@ -165,14 +165,51 @@ class FaultInjected(_Payload):
     value: float | None = None
 
 
-@payload(events.FAULT_CLEARED)
-class FaultCleared(_Payload):
+@payload(events.FAULT_ENDED)
+class FaultEnded(_Payload):
     """The simulator ended fault number ``fault`` at t_end [s]."""
 
     fault: int
     kind: str
     target: str
     t_end: float
+
+
+@payload(events.FAULT_DETECTED)
+class FaultDetected(_Payload):
+    """A health monitor detected (fault_detected) or saw the end of (fault_recovered) a fault of ``kind`` on
+    ``component`` at t [s] (flyby_estimation.health; the rule's figures follow as extra keys)."""
+
+    monitor: str
+    kind: str
+    component: str
+    t: float
+    candidates: Vector | None = None  # a thrust fault's candidate thrusters
+
+
+@payload(events.FAULT_RECOVERED)
+class FaultRecovered(FaultDetected):
+    """The monitor's rule has held within its bound again (its fault_detected's kind and component)."""
+
+
+@payload(events.FAULT_RESPONSE)
+class FaultResponse(_Payload):
+    """The supervisor's answer to a detection (flyby_mission.fault_table): the response in the phase, the FMECA's
+    severity (None: not in the table) and the detection's stamp [s]."""
+
+    kind: str
+    component: str
+    response: str
+    phase: str
+    t_detected: float
+    severity: int | None = None
+
+
+@payload(events.THRUSTERS_ISOLATED)
+class ThrustersIsolated(_Payload):
+    """The supervisor closes these thrusters' valves (the plant gives them no thrust and allocates without them)."""
+
+    thrusters: Vector
 
 
 @payload(events.DAMPING_COMPLETE)
@@ -286,7 +323,8 @@ class MessageRejected(_Payload):
 
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
                                       AttitudeSynchronized, DockingStarted, GraspDamped, FaultInjected,
-                                      FaultCleared, DampingComplete,
+                                      FaultEnded, FaultDetected, FaultRecovered, FaultResponse,
+                                      ThrustersIsolated, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
                                       TransportComEstimate, TransportPlanned, TransportTerminal, TransportComplete,
                                       MessageRejected)}

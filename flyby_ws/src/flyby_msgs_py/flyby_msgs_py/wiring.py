@@ -52,6 +52,7 @@ SUBSCRIPTIONS = {
     c.GUIDANCE_WHEELS: ((SIM, rigid),),
     c.GUIDANCE_WRENCH: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (SIM, always)),
+    c.DIAGNOSTICS: (),  # recorded and viewed; the detections reach the supervisor as fault_detected events
     # The simulator reads a command-chain node's node_error (it holds time for its commands no more).
     c.MISSION_EVENTS: ((SUPERVISOR, always), (PLANNER, always), (ESTIMATOR, post_capture),
                        (GUIDANCE, rigid_post_capture), (SIM, rigid)),

@@ -15,7 +15,7 @@ A fault acts on the hardware the truth simulates, the same in the headless loop 
   or a direction drawn from the seed).
 
 Nothing here tells the flight software: the plant reports each fault's start and end on ``mission/events``
-(``fault_injected``, ``fault_cleared``) for the record and the summary, and the monitors see only its effects.
+(``fault_injected``, ``fault_ended``) for the record and the summary, and the monitors see only its effects.
 Every draw comes from the fault stream of the scenario's seed, one child per fault, so a fault added to the list
 leaves the others' draws and every other stream unchanged.
 """

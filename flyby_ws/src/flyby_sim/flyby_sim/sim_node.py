@@ -53,7 +53,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, events, qos, wiring
+from flyby_msgs_py import convert, event_payloads, events, qos, wiring
 from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
 from flyby_msgs_py.node_base import AdmissionGate
 from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPIC, TICK_TOPIC, main_for, publish_event
@@ -505,8 +505,13 @@ class SimNode(Node):
 
     def on_events(self, ch, msg):
         """A node of the command chain whose core failed (flyby_msgs_py.core_guard) commands no more: time is not held
-        for its announced commands, as for a node that left the graph."""
+        for its announced commands, as for a node that left the graph. The supervisor's ``thrusters_isolated``: their
+        valves closed."""
         for e in convert.events_from_msg(msg):
+            if e['name'] == events.THRUSTERS_ISOLATED:  # the supervisor's fault response (docs/faults.md)
+                ch.plant.isolate_thrusters(event_payloads.decode_values(e['name'], e['values']).thrusters)
+                self.publish_plant_events()
+                continue
             node = e['values'].get('node')
             if e['name'] == events.NODE_ERROR and node in COMMAND_CHAIN and not ch.chain_failed:
                 ch.attitude_quiet = ch.chain_failed = True

@@ -79,7 +79,7 @@ def test_a_degraded_thruster_gives_its_share_and_a_stuck_one_leaks_with_nothing_
     assert not thrust[t <= 1.0 + 1e-9].any() and not thrust[t > 3.0 + 1e-9].any()
     assert np.linalg.norm(samples[-1].v_hill) > 1e-3  # 2 N for 2 s on 100 kg
     assert [(e.name, round(e.t, 6)) for e in events if e.name.startswith('fault')] == [
-        (ev.FAULT_INJECTED, 1.0), (ev.FAULT_CLEARED, 3.0)]
+        (ev.FAULT_INJECTED, 1.0), (ev.FAULT_ENDED, 3.0)]
 
 
 def test_a_misaligned_thruster_turns_its_force_by_the_angle_about_the_axis():
@@ -195,3 +195,15 @@ def test_hardware_faults_need_the_rigid_body_chaser_and_outliers_a_noisy_sensor(
     ok = _with_faults('paper_flyby.yaml', [{'type': 'sensor_dropout', 'sensor': 'relative_position',
                                             'start_phase': 'TERMINAL_APPROACH', 'duration_s': 10.0}])
     assert ok.faults[0].start_phase == 'TERMINAL_APPROACH'
+
+
+def test_isolated_thrusters_stop_their_leak_and_are_left_out_of_the_allocation():
+    plant = _plant(FaultSpec('thruster_stuck_on', index=0, start_s=0.0, value=0.3))
+    step_to(plant, 1.0)
+    plant.isolate_thrusters([0])
+    samples, events = _fire(plant, (0.0, 4.0, 0.0), 2.0)
+    assert samples[-1].thruster_thrust_n[0] == 0.0
+    np.testing.assert_allclose(_mean_force(samples), [0.0, 4.0, 0.0], atol=1e-9)  # the others give it whole
+    assert [e.name for e in events if e.name == ev.THRUSTERS_CLOSED] == [ev.THRUSTERS_CLOSED]
+    _, again = _fire(plant, (3.0, 0.0, 0.0), 3.0)  # +x without thruster 0: thruster 1 alone, a torque undelivered
+    assert any(e.name == ev.WRENCH_UNDELIVERED for e in again)

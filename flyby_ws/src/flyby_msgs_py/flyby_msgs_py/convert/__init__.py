@@ -41,7 +41,7 @@ from flyby_msgs_py.convert.geometry import (
     wrench_stamped_cdr_to_numpy,
     wrench_stamped_to_numpy,
 )
-from flyby_msgs_py.convert.mission import LEVELS, event, events_from_msg, string, string_to_str
+from flyby_msgs_py.convert.mission import LEVELS, diagnostics, event, events_from_msg, string, string_to_str
 from flyby_msgs_py.convert.odometry import (
     OdometryArrays,
     odometry,
@@ -83,7 +83,7 @@ from flyby_msgs_py.convert.trajectories import (
 
 __all__ = [
     'ImuArrays', 'JointArrays', 'LEVELS', 'MultiDofTrajectoryArrays', 'NS_PER_S', 'OdometryArrays', 'PathArrays',
-    'Stamped', 'WrenchArrays', 'clock', 'clock_cdr_to_ns', 'clock_to_sec', 'event', 'events_from_msg',
+    'Stamped', 'WrenchArrays', 'clock', 'clock_cdr_to_ns', 'clock_to_sec', 'diagnostics', 'event', 'events_from_msg',
     'header_cdr_to_ns', 'imu', 'imu_cdr', 'imu_cdr_to_numpy', 'imu_to_numpy', 'inertia_stamped',
     'inertia_to_numpy', 'joint_state', 'joint_state_cdr', 'joint_state_cdr_to_numpy', 'joint_state_to_numpy',
     'multi_dof_trajectory', 'multi_dof_trajectory_to_numpy', 'ns_to_sec', 'ns_to_stamp', 'odometry',

@@ -35,6 +35,19 @@ def event(t, level, name, message, values=None, source=''):
 
     Values are text, so a non-finite number in ``values`` is allowed and written 'nan' / 'inf': an
     ERROR event is how a diverging estimate is reported."""
+    return diagnostics(t, [(name, level, message, values)], source)
+
+
+def diagnostics(t, statuses, source=''):
+    """diagnostic_msgs/DiagnosticArray of several statuses, each (name, level, message, values) as ``event``'s
+    (/diagnostics: each monitor's status, the ROS convention)."""
+    msg = DiagnosticArray()
+    _stamp_into(msg.header.stamp, t)
+    msg.status = [_status(name, level, message, values, source) for name, level, message, values in statuses]
+    return msg
+
+
+def _status(name, level, message, values, source):
     if level not in LEVELS:
         raise ValueError(f'level: must be one of {list(LEVELS)}, got {level!r}')
     for field, text in (('name', name), ('message', message), ('source', source)):
@@ -52,10 +65,7 @@ def event(t, level, name, message, values=None, source=''):
         kv.value = value_text(v)
         kvs.append(kv)
     status.values = kvs
-    msg = DiagnosticArray()
-    _stamp_into(msg.header.stamp, t)
-    msg.status = [status]
-    return msg
+    return status
 
 
 def events_from_msg(msg):

@@ -378,11 +378,14 @@ class SixDofChaser:
         dv = np.array(request.dv_cmd_hill)
         dv_mps = float(np.linalg.norm(dv))
         direction_body = quat_rotate(quat_conjugate(self.q_hill_from_body(t)), dv / dv_mps)
-        # pushed with the point-mass chaser's thrust, the burn the navigation filter models
-        plan = plan_burn(self.layout, direction_body, dv_mps, self.mass_kg, self.thrusters.max_thrust_n)
-        held = fire(self.layout, plan.allocation.thrusts_n, plan.duration_s)  # the minimum impulse bit
+        # pushed with the point-mass chaser's thrust, the burn the navigation filter models, on the thrusters allowed
+        idx, layout = (np.arange(self.layout.count), self.layout) if self._allowed is None else self._allowed
+        plan = plan_burn(layout, direction_body, dv_mps, self.mass_kg, self.thrusters.max_thrust_n)
+        held = fire(layout, plan.allocation.thrusts_n, plan.duration_s)  # the minimum impulse bit
+        thrusts = np.zeros(self.layout.count)
+        thrusts[idx] = held.thrusts_n
         burn = ThrusterBurn(request.seq, request.t_cmd_s, t, t + plan.duration_s, request.dv_cmd_hill,
-                            tuple(direction_body.tolist()), tuple(held.thrusts_n.tolist()), plan.allocation.force_n,
+                            tuple(direction_body.tolist()), tuple(thrusts.tolist()), plan.allocation.force_n,
                             self.mass_kg, plan.fuel_kg, t > request.t_cmd_s)
         self._burn = burn
         self._burn_dv_hill = [0.0, 0.0, 0.0]
@@ -397,7 +400,7 @@ class SixDofChaser:
                               dv_cmd_hill=burn.dv_cmd_hill, dv_hill=dv_expected_hill,
                               direction_body=burn.direction_body,
                               force_n=burn.force_n, thrusts_n=burn.thrusts_n, mass_kg=burn.mass_start_kg,
-                              below_minimum_impulse=np.flatnonzero(held.below_minimum_impulse),
+                              below_minimum_impulse=idx[np.flatnonzero(held.below_minimum_impulse)],
                               minimum_impulse_allocated=plan.minimum_impulse_allocated)))
         if burn.late:
             lateness = burn.start_s - burn.t_cmd_s

@@ -127,7 +127,7 @@ class CapturePhases:
         if self._transport_mask is None:
             self._transport_mask = plume_free_thrusters(self._body.layout, self._x_s_body,
                                                         self.config.grasp.transport_plume_cone_deg)
-            self._body.restrict_thrusters(self._transport_mask)
+            self._restrict()
             self._events.append(Event(self.t, 'OK', events.TRANSPORT_THRUSTERS,
                                       f'transport: thrusters {np.flatnonzero(~self._transport_mask).tolist()} '
                                       f'blocked (exhaust at the target)',

@@ -1,6 +1,6 @@
 """``FaultInjection``: the plant's part of the scenario's faults (``flyby_sim.faults``; docs/faults.md).
 
-At the start of every step the faults due begin or end (``fault_injected``, WARN; ``fault_cleared``, OK; both from
+At the start of every step the faults due begin or end (``fault_injected``, WARN; ``fault_ended``, OK; both from
 the simulator, the record's and the summary's, not the flight software's): a thruster or wheel fault changes the
 body's ``Health`` (the chaser's, and the combined body's after the lock), a gyro bias jump steps the IMU's bias, and a
 sensor fault drops or spoils the samples of its sensor taken while it acts.
@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from flyby_msgs_py import events
-from flyby_msgs_py.event_payloads import FaultCleared, FaultInjected, encode
+from flyby_msgs_py.event_payloads import FaultEnded, FaultInjected, encode
 from flyby_msgs_py.wire import Event
 from flyby_sim.chaser_body.health import Health
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_normalize
@@ -26,10 +26,40 @@ class FaultInjection:
         """The schedule of config.faults on rng (the fault stream of the scenario's seed)."""
         self._faults = FaultSchedule(self.config.faults, rng)
         self._fault_effect = {}  # index -> what it drew at its start (a turn, a bias step)
+        self._isolated = set()  # thrusters whose valves the supervisor closed (isolate_thrusters)
 
     def on_phase(self, phase):
         """The supervisor's phase began now (the faults that start with it are due from its time on)."""
         self._faults.on_phase(phase, self.t)
+
+    def isolate_thrusters(self, indices):
+        """Close the valves of these thrusters (a fault table's response, ``thrusters_isolated``): from now on they
+        give nothing, a leak included, and wrench commands and burns are allocated without them."""
+        if self._chaser is None:
+            return
+        new = {int(i) for i in indices if 0 <= int(i) < self._chaser.layout.count} - self._isolated
+        if not new:
+            return
+        self._isolated |= new
+        self._apply_health()
+        self._restrict()
+        self._events.append(Event(self.t, 'WARN', events.THRUSTERS_CLOSED,
+                                  f'thrusters {sorted(new)} closed (isolated: {sorted(self._isolated)})',
+                                  dict(thrusters=sorted(self._isolated))))
+
+    def _restrict(self):
+        """The bodies' allocation on the thrusters allowed: not isolated, and in TRANSPORT not aimed at the target."""
+        allowed = np.ones(self._chaser.layout.count, dtype=bool) if self._transport_mask is None \
+            else self._transport_mask.copy()
+        allowed[sorted(self._isolated)] = False
+        if allowed.any():
+            for body in {id(b): b for b in (self._chaser, self._body)}.values():
+                body.restrict_thrusters(allowed)
+
+    def _apply_health(self):
+        health = self._health()
+        for body in {id(b): b for b in (self._chaser, self._body)}.values():
+            body.set_health(health)
 
     def _inject_due(self):
         """Begin and end the faults due at the current time, before the step integrates."""
@@ -42,9 +72,7 @@ class FaultInjection:
         for i in started:
             hardware |= self._start_fault(i)
         if hardware:
-            health = self._health()
-            for body in {id(b): b for b in (self._chaser, self._body)}.values():
-                body.set_health(health)
+            self._apply_health()
 
     def _start_fault(self, i):
         spec = self._faults.specs[i]
@@ -70,9 +98,9 @@ class FaultInjection:
         if spec.kind == 'gyro_bias_jump' and i in self._fault_effect:
             self._imu.step_bias(-self._fault_effect[i])
         self._fault_effect.pop(i, None)
-        self._events.append(Event(self.t, 'OK', events.FAULT_CLEARED, f'fault {i} cleared: {spec.kind} on '
+        self._events.append(Event(self.t, 'OK', events.FAULT_ENDED, f'fault {i} ended: {spec.kind} on '
                                                                        f'{spec.target}',
-                                  encode(FaultCleared(i, spec.kind, spec.target, self.t))))
+                                  encode(FaultEnded(i, spec.kind, spec.target, self.t))))
         return spec.kind in THRUSTER_KINDS + WHEEL_KINDS
 
     def _health(self):
@@ -96,6 +124,8 @@ class FaultInjection:
                 wheel[k] = 0.0
             elif spec.kind == 'wheel_torque_limited':
                 wheel[k] *= spec.magnitude
+        for k in self._isolated:
+            gain[k], leak[k] = 0.0, 0.0
         return Health(tuple(gain), tuple(leak), tuple(tuple(x.tolist()) for x in turn), tuple(wheel))
 
     def _sensor_faults(self, measurements):

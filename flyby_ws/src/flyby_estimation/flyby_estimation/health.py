@@ -1,0 +1,331 @@
+"""The chaser's health monitors: each sensor's staleness and innovations, and the thrusters' force against the
+accelerometer (docs/faults.md). Pure numpy/scipy: the estimator core feeds it what its filters see and publishes
+its outputs (``Diagnostics`` on /diagnostics, ``fault_detected`` and ``fault_ended`` on /mission/events).
+
+Each monitor has a stated rule:
+
+* **Staleness** (every sensor the chaser has): no sample for ``STALE_PERIODS`` of the sensor's periods, judged at
+  every input's stamp (the estimator acts on stamps, not on a clock): ``sensor_stale``. The IMU's star tracker is
+  judged at the IMU's samples.
+* **Innovations** (relative position, target attitude, star tracker): among the sensor's last ``WINDOW`` samples,
+  ``OUTLIER_BURST`` or more rejected by the filter's gate (``sensor_outliers``), or the mean NIS of the accepted
+  ones above the chi-square bound of ``WINDOW`` samples at a false-alarm probability ``NIS_FALSE_ALARM``
+  (``sensor_inconsistent``: a bias, a drift the filter does not model; a gyro's bias jump shows in the star
+  tracker's innovations).
+* **Thrust** (the rigid-body chaser's accelerometer): each IMU interval's measured velocity change against the one
+  the commands lead the navigation filter to expect (guidance's force commands and the burns it models), judged
+  one interval late (a command may come after its interval's sample). Over the last ``THRUST_WINDOW`` intervals
+  the mean residual beyond ``THRUST_SIGMAS`` of the accelerometer's noise on that mean plus ``THRUST_RELATIVE`` of
+  the expected thrust (the thrusters' specified errors at 3 sigma and a margin): ``thrust_excess`` where the residual
+  points along a thruster's force (a thruster stuck on, a leak: none is expected), ``thrust_deficit`` where it points
+  against the expected (a thruster off or weak), with the thrusters whose force lies within ``ISOLATION_DEG`` of the
+  residual's direction (chaser_body) as the candidates.
+
+A detection is cleared after ``CLEAR_WINDOWS`` windows within its rule's bound. The monitors' statuses go out every
+``DIAGNOSTICS_PERIOD_S`` of stamps (OK, WARN for a residual above half its bound, ERROR while a fault is detected,
+STALE for a silent sensor).
+"""
+
+import collections
+import math
+from typing import NamedTuple
+
+import numpy as np
+from scipy.stats import chi2
+
+from flyby_sim.dynamics.rotation import quat_rotate
+
+STALE_PERIODS = 5.0
+WINDOW = 20
+OUTLIER_BURST = 3
+NIS_FALSE_ALARM = 1e-6
+THRUST_WINDOW = 10
+THRUST_SIGMAS = 6.0
+THRUST_RELATIVE = 0.05  # beyond the thrusters' specified errors at 3 sigma (module doc)
+ISOLATION_DEG = 25.0
+CLEAR_WINDOWS = 2
+DIAGNOSTICS_PERIOD_S = 1.0
+LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 'OK', 'WARN', 'ERROR', 'STALE'
+
+
+class MonitorStatus(NamedTuple):
+    """One monitor's status (diagnostic_msgs/DiagnosticStatus): name, level, message, values (text)."""
+
+    name: str
+    level: str
+    message: str
+    values: dict
+
+
+class Diagnostics(NamedTuple):
+    """The monitors' statuses at stamp t [s] (/diagnostics)."""
+
+    t: float
+    statuses: tuple
+
+
+class Detection(NamedTuple):
+    """A fault a monitor detected (``detected`` True) or cleared: its kind, component and figures."""
+
+    t: float
+    monitor: str
+    kind: str
+    component: str
+    detected: bool
+    message: str
+    values: dict
+
+
+class SensorMonitor:
+    """Staleness and innovations of one sensor (module doc)."""
+
+    def __init__(self, name, rate_hz, dof=3, innovations=True):
+        self.name = name
+        self.period_s = 1.0 / rate_hz
+        self.dof = dof
+        self.innovations = innovations
+        self.t_last = None
+        self.t_first_input = None
+        self.window = collections.deque(maxlen=WINDOW)  # (rejected, nis)
+        self.nis_bound = chi2.ppf(1.0 - NIS_FALSE_ALARM, dof * WINDOW) / WINDOW
+        self.active = {}  # kind -> the stamp it was detected at
+        self.nominal = collections.Counter()  # kind -> judgements within its bound since it last held
+        self.fresh = False  # a sample since the last judgement
+
+    def on_sample(self, t, rejected=False, nis=math.nan):
+        self.t_last = t
+        if self.innovations and (rejected or math.isfinite(nis)):
+            self.window.append((rejected, nis))
+            self.fresh = True
+
+    def judge(self, t, explained=False):
+        """Detections (and clearings) at stamp t; the status. explained: a detected thrust fault explains the
+        innovations (the filter does not know the thrust): the innovation rules wait."""
+        out = []
+        if self.t_first_input is None:
+            self.t_first_input = t
+        since = self.t_last if self.t_last is not None else self.t_first_input
+        silent_s = t - since
+        stale = silent_s > STALE_PERIODS * self.period_s + 1e-9
+        out += self._set('sensor_stale', stale, t, f'{self.name}: no sample for {silent_s:.2f} s',
+                         dict(silent_s=silent_s), clear_after=1)
+        rejected = sum(1 for r, _ in self.window if r)
+        nis = [x for r, x in self.window if not r]
+        mean_nis = float(np.mean(nis)) if len(nis) == WINDOW else math.nan
+        if self.fresh and not explained:  # the innovation rules at each new sample
+            self.fresh = False
+            full = len(self.window) == WINDOW
+            out += self._set('sensor_outliers', full and rejected >= OUTLIER_BURST, t,
+                             f'{self.name}: {rejected} of its last {WINDOW} samples rejected',
+                             dict(rejected=rejected))
+            out += self._set('sensor_inconsistent', mean_nis > self.nis_bound, t,
+                             f'{self.name}: mean NIS {mean_nis:.3g} over {WINDOW} samples above '
+                             f'{self.nis_bound:.3g}', dict(mean_nis=mean_nis, bound=self.nis_bound))
+        level = LEVEL_STALE if stale else LEVEL_ERROR if self.active else (
+            LEVEL_WARN if rejected or mean_nis > 0.5 * (self.nis_bound + self.dof) else LEVEL_OK)
+        values = dict(silent_s=silent_s, rejected=rejected, mean_nis=mean_nis, nis_bound=self.nis_bound)
+        return out, MonitorStatus(f'sensor/{self.name}', level, ', '.join(sorted(self.active)) or 'nominal', values)
+
+    def _set(self, kind, condition, t, message, values, clear_after=CLEAR_WINDOWS * WINDOW):
+        """A detection where the condition starts to hold, a clearing once it has not held for clear_after
+        judgements."""
+        if condition:
+            self.nominal[kind] = 0
+            if kind not in self.active:
+                self.active[kind] = t
+                return [Detection(t, f'sensor/{self.name}', kind, self.name, True, message, values)]
+            return []
+        if kind in self.active:
+            self.nominal[kind] += 1
+            if self.nominal[kind] >= clear_after:
+                del self.active[kind]
+                return [Detection(t, f'sensor/{self.name}', kind, self.name, False, f'{self.name}: {kind} cleared',
+                                  {})]
+        return []
+
+
+class ThrustMonitor:
+    """The thrusters' force against the accelerometer (module doc)."""
+
+    def __init__(self, accel_sigma_mps2, relative_error, force_directions_body):
+        """The accelerometer's 1-sigma [m/s^2]; the thrusters' errors' relative 3 sigma; their force directions
+        (M, 3), chaser_body."""
+        self.accel_sigma_mps2 = accel_sigma_mps2
+        self.relative_error = relative_error
+        self.force_directions_body = np.asarray(force_directions_body, dtype=float)
+        self.window = collections.deque(maxlen=THRUST_WINDOW)  # (residual f [body], expected |thrust|)
+        self.active = None  # (kind, t) of the detection
+        self.nominal = 0
+        self.fresh = False
+        self.status = MonitorStatus('thrusters', LEVEL_OK, 'waiting for a window', {})
+
+    def on_interval(self, residual_body_mps2, expected_thrust_mps2):
+        """One interval's mean residual specific force [m/s^2, chaser_body] and its expected total thrust
+        acceleration (every firing thruster's, couples included) [m/s^2]."""
+        self.window.append((np.asarray(residual_body_mps2, dtype=float), float(expected_thrust_mps2)))
+        self.fresh = True
+
+    def judge(self, t):
+        """Detections at a new interval's stamp t, and the status."""
+        if not self.fresh or len(self.window) < THRUST_WINDOW:
+            return [], self.status
+        self.fresh = False
+        residual = np.mean([r for r, _ in self.window], axis=0)
+        expected = float(np.mean([e for _, e in self.window]))
+        noise = self.accel_sigma_mps2 / math.sqrt(THRUST_WINDOW)  # on the mean of the window's samples
+        bound = THRUST_SIGMAS * noise + (self.relative_error + THRUST_RELATIVE) * expected
+        size = float(np.linalg.norm(residual))
+        values = dict(residual_mps2=size, bound_mps2=bound, residual_body=residual.round(6).tolist())
+        out = []
+        if size > bound:
+            self.nominal = 0
+            if self.active is None:
+                kind, candidates = self._isolate(residual, expected)
+                self.active = (kind, t)
+                what = f'thrusters {candidates}' if candidates else 'thrusters'
+                out.append(Detection(t, 'thrusters', kind, what, True,
+                                     f'{kind}: residual {size:.3g} m/s^2 above {bound:.3g} along '
+                                     f'{np.round(residual / size, 3).tolist()} (chaser_body); candidates {candidates}',
+                                     dict(values, candidates=candidates)))
+        elif self.active is not None:
+            self.nominal += 1
+            if self.nominal >= CLEAR_WINDOWS * THRUST_WINDOW:
+                kind, _ = self.active
+                self.active = None
+                out.append(Detection(t, 'thrusters', kind, 'thrusters', False, f'{kind} cleared', {}))
+        level = LEVEL_ERROR if self.active else LEVEL_WARN if size > 0.5 * bound else LEVEL_OK
+        self.status = MonitorStatus('thrusters', level, self.active[0] if self.active else 'nominal', values)
+        return out, self.status
+
+    def _isolate(self, residual, expected):
+        """(kind, candidate thrusters): thrust where none is expected points along the thrusters that give it."""
+        directions = self.force_directions_body
+        unit = residual / np.linalg.norm(residual)
+        kind = 'thrust_excess' if expected <= 0.0 or np.linalg.norm(residual) > expected else 'thrust_deficit'
+        sign = 1.0 if kind == 'thrust_excess' else -1.0
+        cosines = directions @ (sign * unit)
+        return kind, [int(i) for i in np.flatnonzero(cosines > math.cos(math.radians(ISOLATION_DEG)))]
+
+
+def _key(t):
+    return round(t * 1e6)
+
+
+class ThrustBook:
+    """What the commands lead the navigation filter to expect of each IMU interval, against what the accelerometer
+    measured, one interval late (a force command may come after its interval's sample): the residual the
+    ``ThrustMonitor`` judges."""
+
+    def __init__(self, lever_min_m):
+        """lever_min_m: the least moment arm of a thruster about the CoM: a couple of T N m fires at most
+        T / lever_min_m of thrust."""
+        self.lever_min_m = lever_min_m
+        self.maneuvers = set()  # the seqs of the filter's burns that are guidance's maneuvers (not force commands)
+        self.burns = {}  # seq -> the filter's ScheduledBurn as last scheduled
+        self.commands = {}  # interval start -> (delta-v [m/s, hill], total thrust [N])
+        self.pending = None  # the last interval, judged at the next
+
+    def on_maneuver(self, seq):
+        """The filter's burn ``seq`` is a maneuver's (the plant's burn), expected of the thrusters."""
+        self.maneuvers.add(seq)
+
+    def on_burns(self, burns):
+        """The filter's burns as scheduled now (``RelativeNavFilter.burns``); a finished one keeps its last."""
+        for b in burns:
+            if b.seq in self.maneuvers:
+                self.burns[b.seq] = b
+
+    def on_command(self, t, dv_hill, force_n, torque_n_m):
+        """A force command held over the interval from t: its delta-v as the filter takes it, its thrust."""
+        thrust = float(np.linalg.norm(force_n)) + float(np.linalg.norm(torque_n_m)) / self.lever_min_m
+        self.commands[_key(t)] = (np.asarray(dv_hill, dtype=float), thrust)
+        if len(self.commands) > 64:
+            self.commands.pop(next(iter(self.commands)))
+
+    def on_interval(self, t0, t1, dv_measured_hill, q_body_from_hill, mass_kg):
+        """The accelerometer's delta-v [m/s, hill] over [t0, t1]; returns the previous interval's (residual specific
+        force [m/s^2, chaser_body], expected thrust acceleration [m/s^2]), or None."""
+        judged = None
+        if self.pending is not None:
+            p0, p1, measured, q, mass, burn_dv, burn_thrust = self.pending
+            commanded, thrust = self.commands.pop(_key(p0), (np.zeros(3), 0.0))
+            dt = p1 - p0
+            residual_hill = (measured - burn_dv - commanded) / dt
+            judged = (quat_rotate(q, residual_hill), burn_thrust / dt + thrust / mass)
+        burn_dv, burn_speed = np.zeros(3), 0.0
+        for b in self.burns.values():
+            overlap = min(t1, b.end_s) - max(t0, b.start_s)
+            if overlap > 0.0:
+                dv = b.accel_hill(0.5 * (max(t0, b.start_s) + min(t1, b.end_s))) * overlap
+                burn_dv, burn_speed = burn_dv + dv, burn_speed + float(np.linalg.norm(dv))
+        self.burns = {seq: b for seq, b in self.burns.items() if b.end_s > t0}
+        self.pending = (t0, t1, np.asarray(dv_measured_hill, dtype=float), q_body_from_hill, mass_kg, burn_dv,
+                        burn_speed)
+        return judged
+
+
+class HealthMonitor:
+    """Every monitor of the chaser, their detections and their statuses (module doc)."""
+
+    def __init__(self, params):
+        """params: ``params.HealthParams``."""
+        self.params = params
+        self.sensors = {'relative_position': SensorMonitor('relative_position', params.position_rate_hz),
+                        'target_attitude': SensorMonitor('target_attitude', params.attitude_rate_hz)}
+        self.thrust = None
+        if params.rigid_body:
+            self.sensors['imu'] = SensorMonitor('imu', params.imu_rate_hz, innovations=False)
+            self.sensors['star_tracker'] = SensorMonitor('star_tracker', params.star_tracker_rate_hz)
+            layout = params.thruster_layout
+            relative = 3.0 * math.hypot(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
+            self.thrust = ThrustMonitor(params.accel_sigma_mps2, relative, layout.force_directions_body)
+            levers = np.linalg.norm(np.cross(layout.positions_body_m, layout.force_directions_body), axis=1)
+            self.book = ThrustBook(max(float(levers.min()), 1e-3))
+        self.suspended = set()  # sensors no longer expected (the target's after the capture)
+        self.t_diagnostics = -math.inf
+
+    def on_sample(self, sensor, t, rejected=False, nis=math.nan):
+        """A sample of ``sensor`` at t: rejected by its filter's gate, or its NIS (nan where none)."""
+        self.sensors[sensor].on_sample(t, rejected, nis)
+
+    def suspend(self, sensor):
+        """The sensor is no longer judged (its filter stopped: the target's attitude after the capture)."""
+        self.suspended.add(sensor)
+
+    def on_interval(self, burns, t0, t1, q_hill_from_body, specific_force_body, mass_kg):
+        """An IMU interval [t0, t1] [s]: the accelerometer's mean specific force [m/s^2, chaser_body] at the attitude
+        estimate, the navigation filter's burns now and the chaser's mass [kg]: the previous interval judged by
+        the ``ThrustMonitor``."""
+        if self.thrust is None:
+            return
+        self.book.on_burns(burns)
+        q = np.asarray(q_hill_from_body, dtype=float)
+        dv_hill = quat_rotate(q, np.asarray(specific_force_body, dtype=float)) * (t1 - t0)
+        judged = self.book.on_interval(t0, t1, dv_hill, q * np.array([-1.0, -1.0, -1.0, 1.0]), mass_kg)
+        if judged is not None:
+            self.thrust.on_interval(*judged)
+
+    def suspend_thrust(self):
+        """No longer judged: after the capture the accelerometer sees the combined body turn and the arm push."""
+        self.thrust = None
+
+    def judge(self, t):
+        """(detections, Diagnostics or None) at stamp t: every monitor judged, the statuses every
+        DIAGNOSTICS_PERIOD_S."""
+        detections, statuses = [], []
+        if self.thrust is not None:
+            found, status = self.thrust.judge(t)
+            detections += found
+            statuses.append(status)
+        thrust_fault = self.thrust is not None and self.thrust.active is not None
+        for name, monitor in self.sensors.items():
+            if name in self.suspended:
+                continue
+            found, status = monitor.judge(t, explained=thrust_fault and name == 'relative_position')
+            detections += found
+            statuses.append(status)
+        diagnostics = None
+        if t >= self.t_diagnostics + DIAGNOSTICS_PERIOD_S - 1e-9:
+            self.t_diagnostics = t
+            diagnostics = Diagnostics(t, tuple(statuses))
+        return detections, diagnostics

@@ -1,0 +1,134 @@
+"""The health monitors' rules (flyby_estimation.health, docs/faults.md): each detects its constructed fault and stays
+silent on nominal noise."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flyby_estimation import health
+from flyby_estimation.health import HealthMonitor, SensorMonitor, ThrustBook, ThrustMonitor
+from flyby_estimation.params import HealthParams
+from flyby_sim.dynamics.actuators import default_thruster_layout
+
+LAYOUT = default_thruster_layout(10.0, 220.0, 0.0)
+SIGMA_A = 1e-4
+
+
+def _params(rigid=True):
+    return HealthParams(position_rate_hz=10.0, attitude_rate_hz=10.0, rigid_body=rigid, imu_rate_hz=10.0,
+                        star_tracker_rate_hz=2.0, accel_sigma_mps2=SIGMA_A, thrust_magnitude_sigma=0.01,
+                        thrust_misalignment_sigma_rad=math.radians(0.5), thruster_layout=LAYOUT)
+
+
+def test_a_sensor_silent_for_five_periods_is_stale_and_recovers_at_its_next_sample():
+    monitor = SensorMonitor('relative_position', 10.0)
+    found = []
+    for k in range(1, 11):
+        monitor.on_sample(0.1 * k, nis=3.0)
+        found += monitor.judge(0.1 * k)[0]
+    assert not found
+    for t in (1.3, 1.5, 1.55):  # silent since 1.0: 0.5 s is five periods, not more
+        found += monitor.judge(t)[0]
+    assert [(d.kind, d.detected, d.t) for d in found] == [('sensor_stale', True, 1.55)]
+    assert monitor.judge(1.6)[1].level == health.LEVEL_STALE
+    monitor.on_sample(1.7, nis=3.0)
+    again, status = monitor.judge(1.7)
+    assert [(d.kind, d.detected) for d in again] == [('sensor_stale', False)] and status.level != health.LEVEL_STALE
+
+
+def test_three_rejections_in_twenty_samples_are_outliers_and_a_biased_sensor_is_inconsistent():
+    rng = np.random.default_rng(3)
+    outliers, biased = SensorMonitor('target_attitude', 10.0), SensorMonitor('relative_position', 10.0)
+    found_o, found_b = [], []
+    for k in range(40):
+        t = 0.1 * (k + 1)
+        outliers.on_sample(t, rejected=k in (25, 28, 31), nis=float(rng.chisquare(3)))
+        found_o += outliers.judge(t)[0]
+        biased.on_sample(t, nis=float(rng.chisquare(3)) + (12.0 if k >= 20 else 0.0))
+        found_b += biased.judge(t)[0]
+    assert [(d.kind, round(d.t, 6)) for d in found_o] == [('sensor_outliers', 3.2)]
+    assert [d.kind for d in found_b] == ['sensor_inconsistent']
+    assert 2.1 < found_b[0].t <= 4.0
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_nominal_innovations_and_accelerometer_noise_raise_nothing(seed):
+    """An hour of a sensor's chi-square(3) NIS at 10 Hz and of the accelerometer's noise with a thrust at the
+    thrusters' specified errors: no detection (the NIS bound's false-alarm probability is 1e-6 per window)."""
+    rng = np.random.default_rng(seed)
+    sensor = SensorMonitor('relative_position', 10.0)
+    thrust = ThrustMonitor(SIGMA_A, 3.0 * math.hypot(0.01, math.radians(0.5)), LAYOUT.force_directions_body)
+    found = []
+    for k in range(3600):
+        t = 0.1 * (k + 1)
+        sensor.on_sample(t, nis=float(rng.chisquare(3)))
+        found += sensor.judge(t)[0]
+        expected = 0.1 if (k // 300) % 2 else 0.0  # firing 10 N on 100 kg half the time
+        error = expected * 0.02 * rng.standard_normal(3)  # 2 %: within the specified errors' 3 sigma
+        thrust.on_interval(error + SIGMA_A * rng.standard_normal(3), expected)
+        found += thrust.judge(t)[0]
+    assert found == []
+
+
+def test_a_leak_along_a_thruster_is_thrust_excess_naming_it_and_a_missing_half_is_a_deficit():
+    d = LAYOUT.force_directions_body
+    leak = ThrustMonitor(SIGMA_A, 0.05, d)
+    weak = ThrustMonitor(SIGMA_A, 0.05, d)
+    found_leak, found_weak = [], []
+    for k in range(12):
+        leak.on_interval(0.01 * d[7] + SIGMA_A * 0.1 * np.ones(3), 0.0)  # 1 N of thruster 7 on 100 kg
+        found_leak += leak.judge(0.1 * k)[0]
+        weak.on_interval(-0.05 * d[0], 0.1)  # half of a 10 N push along +x missing
+        found_weak += weak.judge(0.1 * k)[0]
+    assert len(found_leak) == 1 and found_leak[0].kind == 'thrust_excess'
+    assert 7 in found_leak[0].values['candidates']
+    assert all(d[i] @ d[7] > math.cos(math.radians(25.0)) for i in found_leak[0].values['candidates'])
+    assert len(found_weak) == 1 and found_weak[0].kind == 'thrust_deficit'
+    assert 0 in found_weak[0].values['candidates']
+
+
+def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overlap():
+    """A force command that comes after its interval's sample is still expected of that interval; a burn half inside
+    an interval is expected for that half."""
+
+    class Burn:
+        seq, start_s, end_s = 0, 1.05, 2.0
+
+        @staticmethod
+        def accel_hill(_t):
+            return np.array([0.1, 0.0, 0.0])
+
+    book = ThrustBook(lever_min_m=0.2)
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    book.on_maneuver(0)
+    book.on_burns([Burn])
+    assert book.on_interval(1.0, 1.1, np.array([0.005, 0.0, 0.0]), q, 100.0) is None
+    book.on_command(1.1, np.array([0.0, 0.001, 0.0]), np.array([0.0, 1.0, 0.0]), np.zeros(3))
+    residual, expected = book.on_interval(1.1, 1.2, np.array([0.01, 0.001, 0.0]), q, 100.0)
+    np.testing.assert_allclose(residual, 0.0, atol=1e-12)  # [1.0, 1.1]: the burn's half interval, 0.005 m/s
+    assert expected == pytest.approx(0.005 / 0.1)
+    residual, expected = book.on_interval(1.2, 1.3, np.zeros(3), q, 100.0)
+    np.testing.assert_allclose(residual, 0.0, atol=1e-12)  # [1.1, 1.2]: the burn and the command that came late
+    assert expected == pytest.approx(0.1 + 1.0 / 100.0)
+    residual, _ = book.on_interval(1.3, 1.4, np.zeros(3), q, 100.0)
+    np.testing.assert_allclose(residual, [-0.1, 0.0, 0.0], atol=1e-12)  # [1.2, 1.3]: the burn missing
+
+
+def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has_no_thrust_monitor():
+    monitor = HealthMonitor(_params())
+    monitor.thrust.active = ('thrust_excess', 0.0)
+    for k in range(30):
+        monitor.on_sample('relative_position', 0.1 * k, nis=50.0)
+        monitor.on_sample('target_attitude', 0.1 * k, nis=3.0)
+        monitor.on_sample('imu', 0.1 * k)
+        monitor.on_sample('star_tracker', 0.1 * k, nis=3.0)
+        detections, diagnostics = monitor.judge(0.1 * k)
+        assert detections == []
+        statuses = diagnostics.statuses if diagnostics is not None else statuses
+    assert {s.name for s in statuses} == {'thrusters', 'sensor/relative_position', 'sensor/target_attitude',
+                                          'sensor/imu', 'sensor/star_tracker'}
+    assert HealthMonitor(_params(rigid=False)).thrust is None

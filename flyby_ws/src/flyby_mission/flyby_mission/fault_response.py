@@ -1,0 +1,30 @@
+"""The supervisor's answer to a health monitor's ``fault_detected``: the fault table's response in the phase
+(docs/faults.md), as events and the transition it causes.
+
+``respond`` returns the ``fault_response`` event (ERROR where the mission changes, WARN where it goes on), the
+``thrusters_isolated`` event where the response closes the candidate thrusters (the simulator closes their valves),
+and whether to abort. The machine's other rule (an ERROR event of a watched node aborts) does not apply to a
+detection: the table answers it.
+"""
+
+from flyby_mission.fault_table import FaultTable
+from flyby_msgs_py import event_payloads, events
+
+
+def respond(table: FaultTable, event, phase):
+    """(events as (level, name, message, values), abort reason or None) for the wire event ``fault_detected`` in
+    ``phase``."""
+    detected = event_payloads.decode(event)
+    answer = table.response(detected.kind, detected.component, phase)
+    payload = event_payloads.FaultResponse(detected.kind, detected.component, answer.response, phase, event.t,
+                                           answer.severity)
+    why = answer.effect or 'not in the fault table'
+    out = [('WARN' if answer.response == 'continue' else 'ERROR', events.FAULT_RESPONSE,
+            f'{detected.kind} on {detected.component} in {phase}: {answer.response} ({why})',
+            event_payloads.encode(payload))]
+    candidates = [int(i) for i in detected.candidates or ()]
+    if answer.response in ('isolate', 'isolate_abort') and candidates:
+        out.append(('WARN', events.THRUSTERS_ISOLATED, f'thrusters {candidates} isolated: {detected.kind}',
+                    event_payloads.encode(event_payloads.ThrustersIsolated(tuple(candidates)))))
+    abort = answer.response in ('abort', 'isolate_abort')
+    return out, f'{detected.kind} on {detected.component}: the fault table answers {answer.response}' if abort else None

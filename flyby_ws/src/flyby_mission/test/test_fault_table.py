@@ -1,0 +1,79 @@
+"""The fault table (docs/faults.md's FMECA, flyby_mission.fault_table) and the supervisor's answers to detections."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from flyby_mission.fault_table import TABLE_PATH, FaultTable, fmeca_rows
+from flyby_mission.supervisor import SupervisorCore, SupervisorParams
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import event_payloads, events
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_sim.scenario import load_scenario
+
+REPO = Path(__file__).resolve().parents[4]
+
+
+def test_the_yaml_table_is_the_fmecas():
+    run = subprocess.run([sys.executable, str(REPO / 'scripts' / 'fault_table.py'), '--check'], capture_output=True,
+                         text=True, check=False)
+    assert run.returncode == 0, run.stdout + run.stderr
+    rows = fmeca_rows((REPO / 'docs' / 'faults.md').read_text())
+    assert FaultTable.load().rows == {(r['kind'], r['component']): r for r in rows}
+    assert TABLE_PATH.exists()
+
+
+def test_a_malformed_fmeca_row_is_refused_naming_it():
+    text = (REPO / 'docs' / 'faults.md').read_text().replace('| isolate | isolate_abort |', '| isolate | explode |')
+    with pytest.raises(ValueError, match=r"FMECA row 1 \(thrust_excess thrusters\): approach response 'explode'"):
+        fmeca_rows(text)
+
+
+@pytest.mark.parametrize('kind, component, phase, response', [
+    ('thrust_excess', 'thrusters [4, 5]', c.PHASE_TRAJECTORY_ADJUST, 'isolate_abort'),
+    ('thrust_excess', 'thrusters [4, 5]', c.PHASE_FLYBY, 'isolate'),
+    ('thrust_deficit', 'thrusters [0, 1]', c.PHASE_FLYBY, 'continue'),
+    ('sensor_stale', 'relative_position', c.PHASE_TERMINAL_APPROACH, 'abort'),
+    ('sensor_stale', 'relative_position', c.PHASE_ESTIMATION, 'continue'),
+    ('sensor_outliers', 'target_attitude', c.PHASE_DOCKING, 'continue'),
+    ('sensor_inconsistent', 'star_tracker', c.PHASE_MASS_ESTIMATION, 'continue'),
+    ('sensor_stale', 'lidar', c.PHASE_FLYBY, 'abort'),  # not in the table
+])
+def test_the_table_answers_by_phase_group(kind, component, phase, response):
+    assert FaultTable.load().response(kind, component, phase).response == response
+
+
+def _detection(t, kind, component, candidates=None):
+    payload = event_payloads.FaultDetected('thrusters' if kind.startswith('thrust') else f'sensor/{component}', kind,
+                                           component, t, candidates)
+    return wire_event(Event(t, 'ERROR', events.FAULT_DETECTED, 'detected', event_payloads.encode(payload),
+                            'flyby_estimator'))
+
+
+def _supervisor_in(phase):
+    core = SupervisorCore(SupervisorParams.from_scenario(load_scenario(REPO / 'scenarios' / 'paper_flyby_6dof.yaml')))
+    core.machine.phase = phase
+    return core
+
+
+def test_a_leak_in_the_approach_closes_its_thrusters_and_aborts_and_in_the_flyby_only_closes_them():
+    core = _supervisor_in(c.PHASE_TRAJECTORY_ADJUST)
+    out = core.on_event(_detection(600.0, 'thrust_excess', 'thrusters [4, 5]', (4, 5)))
+    names = [o.name for o in out if isinstance(o, Event)]
+    assert names[:2] == [events.FAULT_RESPONSE, events.THRUSTERS_ISOLATED] and core.phase == c.PHASE_ABORTED
+    isolated = next(o for o in out if isinstance(o, Event) and o.name == events.THRUSTERS_ISOLATED)
+    assert event_payloads.decode_values(isolated.name, isolated.values).thrusters == (4, 5)
+    flyby = _supervisor_in(c.PHASE_FLYBY)
+    out = flyby.on_event(_detection(800.0, 'thrust_excess', 'thrusters [4, 5]', (4, 5)))
+    assert flyby.phase == c.PHASE_FLYBY
+    assert [o.name for o in out if isinstance(o, Event)] == [events.FAULT_RESPONSE, events.THRUSTERS_ISOLATED]
+
+
+def test_a_continue_answer_leaves_the_phase_where_an_error_event_would_have_aborted():
+    core = _supervisor_in(c.PHASE_TERMINAL_APPROACH)
+    out = core.on_event(_detection(400.0, 'sensor_outliers', 'relative_position'))
+    assert core.phase == c.PHASE_TERMINAL_APPROACH
+    response = event_payloads.decode_values(out[0].name, out[0].values)
+    assert (out[0].level, response.response, response.severity) == ('WARN', 'continue', 3)
