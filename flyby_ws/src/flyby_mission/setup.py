@@ -20,6 +20,7 @@ setup(
         'console_scripts': [
             'flyby_supervisor = flyby_mission.supervisor_node:main',
             'flyby_live_view = flyby_mission.live_view_node:main',
+            'flyby_cam_monitor = flyby_mission.cam_monitor_node:main',
         ],
     },
 )

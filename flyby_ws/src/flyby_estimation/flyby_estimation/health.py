@@ -14,12 +14,14 @@ Each monitor has a stated rule:
   tracker's innovations).
 * **Thrust** (the rigid-body chaser's accelerometer): each IMU interval's measured velocity change against the one
   the commands lead the navigation filter to expect (guidance's force commands and the burns it models), judged
-  one interval late (a command may come after its interval's sample). Over the last ``THRUST_WINDOW`` intervals
-  the mean residual beyond ``THRUST_SIGMAS`` of the accelerometer's noise on that mean plus ``THRUST_RELATIVE`` of
-  the expected thrust (the thrusters' specified errors at 3 sigma and a margin): ``thrust_excess`` where the residual
-  points along a thruster's force (a thruster stuck on, a leak: none is expected), ``thrust_deficit`` where it points
-  against the expected (a thruster off or weak), with the thrusters whose force lies within ``ISOLATION_DEG`` of the
-  residual's direction (chaser_body) as the candidates.
+  one interval late (a command may come after its interval's sample); a force command's shortfall along itself
+  is the allocation's (the minimum impulse bit, saturation), taken out. Over the last ``THRUST_WINDOW`` intervals
+  the mean residual beyond ``THRUST_SIGMAS`` of the accelerometer's noise on that mean, plus the thrusters'
+  specified errors at 3 sigma and ``THRUST_RELATIVE`` of the expected thrust, plus ``BIT_THRUSTERS`` minimum impulse
+  bits over a control period where a wrench is commanded: ``thrust_excess`` where the residual exceeds the
+  expected thrust (a thruster stuck on, a leak), else ``thrust_deficit`` (a thruster off or weak), with the
+  thrusters whose force lies within ``ISOLATION_DEG`` of the residual (or against it, for a deficit) as the
+  candidates.
 
 A detection is cleared after ``CLEAR_WINDOWS`` windows within its rule's bound. The monitors' statuses go out every
 ``DIAGNOSTICS_PERIOD_S`` of stamps (OK, WARN for a residual above half its bound, ERROR while a fault is detected,
@@ -42,10 +44,14 @@ NIS_FALSE_ALARM = 1e-6
 THRUST_WINDOW = 10
 THRUST_SIGMAS = 6.0
 THRUST_RELATIVE = 0.05  # beyond the thrusters' specified errors at 3 sigma (module doc)
+BIT_THRUSTERS = 2  # a commanded wrench may miss this many thrusters' minimum impulse bit
 ISOLATION_DEG = 25.0
 CLEAR_WINDOWS = 2
 DIAGNOSTICS_PERIOD_S = 1.0
-LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 'OK', 'WARN', 'ERROR', 'STALE'
+LEVEL_OK = 'OK'
+LEVEL_WARN = 'WARN'
+LEVEL_ERROR = 'ERROR'
+LEVEL_STALE = 'STALE'
 
 
 class MonitorStatus(NamedTuple):
@@ -159,10 +165,22 @@ class ThrustMonitor:
         self.fresh = False
         self.status = MonitorStatus('thrusters', LEVEL_OK, 'waiting for a window', {})
 
-    def on_interval(self, residual_body_mps2, expected_thrust_mps2):
-        """One interval's mean residual specific force [m/s^2, chaser_body] and its expected total thrust
-        acceleration (every firing thruster's, couples included) [m/s^2]."""
-        self.window.append((np.asarray(residual_body_mps2, dtype=float), float(expected_thrust_mps2)))
+    def on_interval(self, residual_body_mps2, expected_thrust_mps2, commanded_body_mps2=(0.0, 0.0, 0.0),
+                    granularity_mps2=0.0):
+        """One interval's mean residual specific force [m/s^2, chaser_body], its expected total thrust acceleration
+        (every firing thruster's, couples included) [m/s^2], the force commands' acceleration [m/s^2,
+        chaser_body] and the minimum impulse bit's granularity [m/s^2]. A force command's shortfall along itself,
+        down to nothing, is the allocation's (a thrust below the minimum impulse bit, a wrench beyond the thrusters:
+        the plant reports it undelivered), not a fault: it is taken out of the residual."""
+        residual = np.asarray(residual_body_mps2, dtype=float)
+        commanded = np.asarray(commanded_body_mps2, dtype=float)
+        size = float(np.linalg.norm(commanded))
+        if size > 0.0:
+            along = float(residual @ commanded) / size
+            if -size <= along <= 0.0:
+                residual = residual - along * commanded / size
+        slack = (self.relative_error + THRUST_RELATIVE) * float(expected_thrust_mps2) + float(granularity_mps2)
+        self.window.append((residual, slack))
         self.fresh = True
 
     def judge(self, t):
@@ -171,16 +189,16 @@ class ThrustMonitor:
             return [], self.status
         self.fresh = False
         residual = np.mean([r for r, _ in self.window], axis=0)
-        expected = float(np.mean([e for _, e in self.window]))
+        slack = float(np.mean([e for _, e in self.window]))
         noise = self.accel_sigma_mps2 / math.sqrt(THRUST_WINDOW)  # on the mean of the window's samples
-        bound = THRUST_SIGMAS * noise + (self.relative_error + THRUST_RELATIVE) * expected
+        bound = THRUST_SIGMAS * noise + slack
         size = float(np.linalg.norm(residual))
         values = dict(residual_mps2=size, bound_mps2=bound, residual_body=residual.round(6).tolist())
         out = []
         if size > bound:
             self.nominal = 0
             if self.active is None:
-                kind, candidates = self._isolate(residual, expected)
+                kind, candidates = self._isolate(residual, slack)
                 self.active = (kind, t)
                 what = f'thrusters {candidates}' if candidates else 'thrusters'
                 out.append(Detection(t, 'thrusters', kind, what, True,
@@ -197,11 +215,13 @@ class ThrustMonitor:
         self.status = MonitorStatus('thrusters', level, self.active[0] if self.active else 'nominal', values)
         return out, self.status
 
-    def _isolate(self, residual, expected):
-        """(kind, candidate thrusters): thrust where none is expected points along the thrusters that give it."""
+    def _isolate(self, residual, slack):
+        """(kind, candidate thrusters): a residual beyond what is expected of the firing (none where nothing is
+        expected) is thrust no command asked for, along the thrusters that give it; else a shortfall."""
         directions = self.force_directions_body
         unit = residual / np.linalg.norm(residual)
-        kind = 'thrust_excess' if expected <= 0.0 or np.linalg.norm(residual) > expected else 'thrust_deficit'
+        expected = slack / (self.relative_error + THRUST_RELATIVE)
+        kind = 'thrust_excess' if np.linalg.norm(residual) > expected else 'thrust_deficit'
         sign = 1.0 if kind == 'thrust_excess' else -1.0
         cosines = directions @ (sign * unit)
         return kind, [int(i) for i in np.flatnonzero(cosines > math.cos(math.radians(ISOLATION_DEG)))]
@@ -216,10 +236,12 @@ class ThrustBook:
     measured, one interval late (a force command may come after its interval's sample): the residual the
     ``ThrustMonitor`` judges."""
 
-    def __init__(self, lever_min_m):
+    def __init__(self, lever_min_m, bit_force_n):
         """lever_min_m: the least moment arm of a thruster about the CoM: a couple of T N m fires at most
-        T / lever_min_m of thrust."""
+        T / lever_min_m of thrust; bit_force_n: the minimum impulse bit over a control period [N], the force a
+        thruster left off below it does not give."""
         self.lever_min_m = lever_min_m
+        self.bit_force_n = bit_force_n
         self.maneuvers = set()  # the seqs of the filter's burns that are guidance's maneuvers (not force commands)
         self.burns = {}  # seq -> the filter's ScheduledBurn as last scheduled
         self.commands = {}  # interval start -> (delta-v [m/s, hill], total thrust [N])
@@ -238,20 +260,23 @@ class ThrustBook:
     def on_command(self, t, dv_hill, force_n, torque_n_m):
         """A force command held over the interval from t: its delta-v as the filter takes it, its thrust."""
         thrust = float(np.linalg.norm(force_n)) + float(np.linalg.norm(torque_n_m)) / self.lever_min_m
-        self.commands[_key(t)] = (np.asarray(dv_hill, dtype=float), thrust)
+        granularity = BIT_THRUSTERS * self.bit_force_n if thrust > 0.0 else 0.0
+        self.commands[_key(t)] = (np.asarray(dv_hill, dtype=float), thrust, granularity)
         if len(self.commands) > 64:
             self.commands.pop(next(iter(self.commands)))
 
     def on_interval(self, t0, t1, dv_measured_hill, q_body_from_hill, mass_kg):
         """The accelerometer's delta-v [m/s, hill] over [t0, t1]; returns the previous interval's (residual specific
-        force [m/s^2, chaser_body], expected thrust acceleration [m/s^2]), or None."""
+        force, expected thrust acceleration [m/s^2], the force commands' acceleration [m/s^2, chaser_body], the
+        minimum impulse bit's granularity [m/s^2]), or None."""
         judged = None
         if self.pending is not None:
             p0, p1, measured, q, mass, burn_dv, burn_thrust = self.pending
-            commanded, thrust = self.commands.pop(_key(p0), (np.zeros(3), 0.0))
+            commanded, thrust, granularity = self.commands.pop(_key(p0), (np.zeros(3), 0.0, 0.0))
             dt = p1 - p0
             residual_hill = (measured - burn_dv - commanded) / dt
-            judged = (quat_rotate(q, residual_hill), burn_thrust / dt + thrust / mass)
+            judged = (quat_rotate(q, residual_hill), burn_thrust / dt + thrust / mass, quat_rotate(q, commanded / dt),
+                      granularity / mass)
         burn_dv, burn_speed = np.zeros(3), 0.0
         for b in self.burns.values():
             overlap = min(t1, b.end_s) - max(t0, b.start_s)
@@ -280,7 +305,7 @@ class HealthMonitor:
             relative = 3.0 * math.hypot(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
             self.thrust = ThrustMonitor(params.accel_sigma_mps2, relative, layout.force_directions_body)
             levers = np.linalg.norm(np.cross(layout.positions_body_m, layout.force_directions_body), axis=1)
-            self.book = ThrustBook(max(float(levers.min()), 1e-3))
+            self.book = ThrustBook(max(float(levers.min()), 1e-3), params.min_impulse_bit_ns * params.imu_rate_hz)
         self.suspended = set()  # sensors no longer expected (the target's after the capture)
         self.t_diagnostics = -math.inf
 

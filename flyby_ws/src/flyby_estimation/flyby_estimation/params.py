@@ -184,6 +184,7 @@ class HealthParams:
     thrust_magnitude_sigma: float = params.key('chaser.thrusters.magnitude_error_sigma')
     thrust_misalignment_sigma_rad: float = params.key('chaser.thrusters.direction_error_sigma_deg', math.radians)
     thruster_layout: object = params.key('thruster_layout')
+    min_impulse_bit_ns: float = params.key('chaser.thrusters.min_impulse_bit_ns')
 
 
 @params.record

@@ -32,7 +32,8 @@ def test_rigid_body_estimator_gives_one_chaser_estimate_per_imu_sample_from_the_
             t = wire_time(m.t)
             if m.kind == 'relative_position':
                 out = estimator.on_position(t, m.value)
-                assert out == []  # the rigid-body chaser's estimate comes with the IMU
+                # the rigid-body chaser's estimate comes with the IMU (the health monitors' statuses may come here)
+                assert not [o for o in out if isinstance(o, ChaserEstimate)]
             elif m.kind == 'chaser_imu':
                 if first_imu is None:
                     first_imu = m.value

@@ -121,6 +121,7 @@ def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overla
 def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has_no_thrust_monitor():
     monitor = HealthMonitor(_params())
     monitor.thrust.active = ('thrust_excess', 0.0)
+    statuses = ()
     for k in range(30):
         monitor.on_sample('relative_position', 0.1 * k, nis=50.0)
         monitor.on_sample('target_attitude', 0.1 * k, nis=3.0)

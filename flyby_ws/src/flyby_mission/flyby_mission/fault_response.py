@@ -7,15 +7,18 @@ and whether to abort. The machine's other rule (an ERROR event of a watched node
 detection: the table answers it.
 """
 
-from flyby_mission.fault_table import FaultTable
+from flyby_mission.fault_table import Answer, FaultTable
 from flyby_msgs_py import event_payloads, events
 
 
-def respond(table: FaultTable, event, phase):
+def respond(table: FaultTable, event, phase, cam_fired=False):
     """(events as (level, name, message, values), abort reason or None) for the wire event ``fault_detected`` in
-    ``phase``."""
+    ``phase``. After the independent monitor's CAM (cam_fired) the answer is ``continue``: its burn is thrust the
+    flight software did not command, and closing the thrusters that give it would undo it."""
     detected = event_payloads.decode(event)
     answer = table.response(detected.kind, detected.component, phase)
+    if cam_fired:
+        answer = Answer('continue', answer.severity, 'the CAM has the thrusters')
     payload = event_payloads.FaultResponse(detected.kind, detected.component, answer.response, phase, event.t,
                                            answer.severity)
     why = answer.effect or 'not in the fault table'

@@ -34,6 +34,7 @@ from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.modes.flyby import flyby_target_of_plan
 from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_guidance.params import GuidanceParams
+from flyby_mission.cam_monitor import CamBurn, CamMonitor, CamParams
 from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, WheelTruth, chaser_truth_from_odometry
 from flyby_mission.summary import summarize
 from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
@@ -133,8 +134,9 @@ class HeadlessGraph:
         self.planner = PlannerCore(PlannerParams.from_scenario(scenario))
         self.guidance = GuidanceCore(GuidanceParams.from_scenario(scenario))
         self.supervisor = SupervisorCore(SupervisorParams.from_scenario(scenario), WATCHED_NODES)
+        self.cam = CamMonitor(CamParams.from_scenario(scenario))
         self.guards = {node: CoreGuard(node) for node in (wiring.ESTIMATOR, wiring.PLANNER, wiring.GUIDANCE,
-                                                          wiring.SUPERVISOR)}
+                                                          wiring.SUPERVISOR, wiring.CAM)}
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
         self.admissions = {node: Admission() for node in wiring.NODES}
         self.phases = []
@@ -193,7 +195,7 @@ class HeadlessGraph:
         elif isinstance(out, Transition):
             self.phases.append(out.phase_to)
         for message in _messages(out):
-            for node in self.subscribers[message.topic]:
+            for node in self.subscribers.get(message.topic, ()):  # /diagnostics: recorded only
                 if not self._admitted(node, message):
                     continue
                 if node == wiring.SIM:
@@ -245,6 +247,8 @@ class HeadlessGraph:
             self.plant.capture()
         elif topic == c.MISSION_PHASE and value == c.PHASE_TRANSPORT:
             self.plant.start_transport()
+        elif topic == c.SAFETY_CAM:
+            self.plant.command_cam(t, value)
         elif topic == c.MISSION_EVENTS and value.name == events.THRUSTERS_ISOLATED:
             self.plant.isolate_thrusters(event_payloads.decode(value).thrusters)
         else:  # the grasp time it holds its pace for, a node's failure it holds time for no more: graph pacing only
@@ -302,6 +306,8 @@ def _messages(out):
         return [_chaser_message(out)]
     if isinstance(out, Diagnostics):
         return [_Message(c.DIAGNOSTICS, wire_time(out.t), out)]
+    if isinstance(out, CamBurn):
+        return [_Message(c.SAFETY_CAM, wire_time(out.t), np.asarray(out.dv_hill, dtype=float))]
     if isinstance(out, AttitudeCommandStamped):
         t = wire_time(out.t)
         return [_Message(c.GUIDANCE_WHEELS, t, out), _Message(c.GUIDANCE_WRENCH, t, out)]
@@ -357,6 +363,11 @@ CORE_INPUTS = {
     (wiring.GUIDANCE, c.PLANNER_TRAJECTORY): _trajectory,
     (wiring.GUIDANCE, c.MISSION_PHASE): lambda g, m: g.guidance.on_phase(m.value),
     (wiring.GUIDANCE, c.MISSION_EVENTS): lambda g, m: g.guidance.on_event(m.value),
+    (wiring.CAM, c.SENSOR_RELATIVE_POSITION): lambda g, m: g.cam.on_position(m.t, m.value),
+    (wiring.CAM, c.SENSOR_TARGET_ATTITUDE): lambda g, m: g.cam.on_attitude(m.t, m.value),
+    (wiring.CAM, c.SENSOR_CHASER_IMU): lambda g, m: g.cam.on_imu(m.t, m.value.q_hill_from_body,
+                                                                 m.value.specific_force_body),
+    (wiring.CAM, c.MISSION_PHASE): lambda g, m: g.cam.on_phase(m.value),
 }
 
 

@@ -85,7 +85,8 @@ def graph_for(scenario_path, seed, rtf, bag_dir, without=(), chasers=()):
               for name, module, cls in (('flyby_estimator', 'flyby_estimation.estimator_node', 'EstimatorNode'),
                                         ('flyby_planner', 'flyby_planner.planner_node', 'PlannerNode'),
                                         ('flyby_guidance', 'flyby_guidance.guidance_node', 'GuidanceNode'),
-                                        ('flyby_supervisor', 'flyby_mission.supervisor_node', 'SupervisorNode'))]
+                                        ('flyby_supervisor', 'flyby_mission.supervisor_node', 'SupervisorNode'),
+                                        ('flyby_cam_monitor', 'flyby_mission.cam_monitor_node', 'CamMonitorNode'))]
     others = [n for n in others if n.name not in without]
     names = [n.name for n in others]
     for n in others:

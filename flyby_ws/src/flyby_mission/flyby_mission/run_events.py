@@ -118,3 +118,8 @@ def fault_responses(events):
             out.append(dict(t_s=float(e['t']), kind=r.kind, component=r.component, response=r.response,
                             phase=r.phase, severity=r.severity))
     return out
+
+
+def cam_time(events):
+    """The stamp [s] the independent monitor fired its CAM (``cam_fired``), or None."""
+    return next((float(e['t']) for e in events if e['name'] == ev.CAM_FIRED), None)

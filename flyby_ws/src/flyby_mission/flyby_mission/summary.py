@@ -23,6 +23,7 @@ from flyby_mission.approach_figures import (
 )
 from flyby_mission.post_capture_figures import post_capture_figures, transport_figures
 from flyby_mission.run_events import (
+    cam_time,
     chosen_method,
     fault_detections,
     fault_responses,
@@ -176,6 +177,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
                             'plant': plant_faults(events)},
         'faults_detected': fault_detections(events),
         'fault_responses': fault_responses(events),
+        'cam_fired': cam_time(events) is not None,
+        't_cam_s': cam_time(events),
     }
 
 

@@ -38,7 +38,9 @@ observable condition and carries its reason:
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
     any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
                                             fault (ERROR event) reported by a watched node, or a
-                                            ``node_error`` of any node (its core raised, core_guard)
+                                            ``node_error`` of any node (its core raised, core_guard), or the
+                                            fault table's answer to a ``fault_detected`` (docs/faults.md), or the
+                                            independent monitor's ``cam_fired``
 
 ``SupervisorCore`` adds what the node observes and decides around the phase machine (the estimates
 by stamp, the capture decision from them, the avoidance burn after an abort); the supervisor node and
@@ -355,6 +357,7 @@ class SupervisorCore:
         self.decision_at = None  # the chaser estimate the capture decision waits to be made at
         self.t_clock = 0.0
         self.fault_table = FaultTable.load()
+        self.cam_fired = False
 
     @property
     def phase(self):
@@ -383,8 +386,11 @@ class SupervisorCore:
         """An event of mission/events (wire.Event; values as text); our own are ignored."""
         if event.source == self.name:
             return []
+        if event.name == events.CAM_FIRED:  # the independent monitor has the thrusters: the mission is over
+            self.cam_fired = True
+            return self._apply(self.machine.abort(event.t, f'CAM fired by {event.source}'))
         if event.name == events.FAULT_DETECTED:
-            answers, abort = respond(self.fault_table, event, self.phase)
+            answers, abort = respond(self.fault_table, event, self.phase, self.cam_fired)
             out = [self._event(event.t, *a) for a in answers]
             if abort is not None and self.machine.active:
                 out += self._apply(self.machine.abort(event.t, abort))

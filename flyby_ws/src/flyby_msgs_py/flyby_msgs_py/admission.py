@@ -91,6 +91,7 @@ RULES = {
     c.PLANNER_PATH: Rule(c.FRAME_HILL, stream=False, planned=False, quaternions=('orientations',)),
     c.PLANNER_TRAJECTORY: Rule(c.FRAME_HILL, stream=False, planned=True),
     c.GUIDANCE_MANEUVER: Rule(c.FRAME_HILL, stream=False, planned=True, unique=True),
+    c.SAFETY_CAM: Rule(c.FRAME_HILL, stream=False, planned=True, unique=True),
     c.GUIDANCE_WHEELS: Rule(c.FRAME_CHASER_BODY, stream=True, planned=False, finite=('effort',)),
     c.GUIDANCE_WRENCH: Rule(c.FRAME_CHASER_BODY, stream=True, planned=False),
     c.MISSION_EVENTS: Rule('', stream=False, planned=True),  # a maneuver_commanded names its burn's start

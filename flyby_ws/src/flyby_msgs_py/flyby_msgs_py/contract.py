@@ -37,6 +37,7 @@ GUIDANCE_WHEELS = 'guidance/wheels'
 MISSION_PHASE = 'mission/phase'
 MISSION_EVENTS = 'mission/events'
 DIAGNOSTICS = 'diagnostics'  # each health monitor's status (diagnostic_msgs, the ROS convention)
+SAFETY_CAM = 'safety/cam'  # the independent monitor's collision-avoidance manoeuvre, straight to the plant
 MARKERS = 'visualization/markers'
 MISSION_ABORT_SERVICE = 'mission/abort'
 PLANNER_REPLAN_SERVICE = 'planner/replan'
@@ -82,6 +83,7 @@ TOPIC_TYPES = {
     MISSION_PHASE: 'std_msgs/msg/String',
     MISSION_EVENTS: 'diagnostic_msgs/msg/DiagnosticArray',
     DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
+    SAFETY_CAM: 'geometry_msgs/msg/Vector3Stamped',
     MARKERS: 'visualization_msgs/msg/MarkerArray',
 }
 

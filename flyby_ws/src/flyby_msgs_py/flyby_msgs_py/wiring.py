@@ -15,7 +15,8 @@ PLANNER = 'flyby_planner'
 GUIDANCE = 'flyby_guidance'
 SUPERVISOR = 'flyby_supervisor'
 SIM = 'flyby_sim'
-NODES = (SUPERVISOR, PLANNER, ESTIMATOR, GUIDANCE, SIM)
+CAM = 'flyby_cam_monitor'  # the independent collision-avoidance monitor (flyby_mission.cam_monitor)
+NODES = (SUPERVISOR, PLANNER, ESTIMATOR, GUIDANCE, CAM, SIM)
 
 
 def always(_scenario):
@@ -38,9 +39,9 @@ def rigid_post_capture(scenario):
 
 # topic -> ((node, when), ...): the nodes whose core takes the topic, in the order the headless driver delivers it.
 SUBSCRIPTIONS = {
-    c.SENSOR_RELATIVE_POSITION: ((ESTIMATOR, always),),
-    c.SENSOR_TARGET_ATTITUDE: ((ESTIMATOR, always),),
-    c.SENSOR_CHASER_IMU: ((ESTIMATOR, rigid),),
+    c.SENSOR_RELATIVE_POSITION: ((ESTIMATOR, always), (CAM, always)),
+    c.SENSOR_TARGET_ATTITUDE: ((ESTIMATOR, always), (CAM, always)),
+    c.SENSOR_CHASER_IMU: ((ESTIMATOR, rigid), (CAM, rigid)),
     c.EST_TARGET_ODOM: ((SUPERVISOR, always), (PLANNER, always), (GUIDANCE, always)),
     c.EST_CHASER_ODOM: ((SUPERVISOR, always), (PLANNER, always), (GUIDANCE, always)),
     c.EST_TARGET_INERTIA: (),  # recorded; its numbers reach guidance as the mass_properties_estimated event
@@ -51,8 +52,8 @@ SUBSCRIPTIONS = {
     c.GUIDANCE_MANEUVER: ((SIM, always), (ESTIMATOR, always)),
     c.GUIDANCE_WHEELS: ((SIM, rigid),),
     c.GUIDANCE_WRENCH: ((SIM, rigid), (ESTIMATOR, rigid)),
-    c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (SIM, always)),
-    c.DIAGNOSTICS: (),  # recorded and viewed; the detections reach the supervisor as fault_detected events
+    c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
+    c.SAFETY_CAM: ((SIM, always),),
     # The simulator reads a command-chain node's node_error (it holds time for its commands no more).
     c.MISSION_EVENTS: ((SUPERVISOR, always), (PLANNER, always), (ESTIMATOR, post_capture),
                        (GUIDANCE, rigid_post_capture), (SIM, rigid)),

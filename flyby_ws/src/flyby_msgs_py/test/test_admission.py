@@ -201,6 +201,7 @@ def _nominal_messages(t):
         c.PLANNER_TRAJECTORY: (convert.multi_dof_trajectory(t, c.FRAME_HILL, [t, t + 1.0], [z3, z3], [z3, z3],
                                                             [z3, z3]), False),
         c.GUIDANCE_MANEUVER: (convert.vector3_stamped(t, c.FRAME_HILL, (0.01, 0.0, 0.0)), False),
+        c.SAFETY_CAM: (convert.vector3_stamped(t, c.FRAME_HILL, (0.3, 0.0, 0.0)), False),
         c.GUIDANCE_WHEELS: (convert.joint_state_cdr(t, c.FRAME_CHASER_BODY, ['w0', 'w1'], effort=[0.1, 0.0]), True),
         c.GUIDANCE_WRENCH: (convert.wrench_stamped_cdr(t, c.FRAME_CHASER_BODY, z3, (0.0, 0.1, 0.0)), True),
         c.EST_TARGET_INERTIA: (convert.inertia_stamped(t, c.FRAME_CHASER_BODY, 1500.0, z3, np.eye(3)), False),

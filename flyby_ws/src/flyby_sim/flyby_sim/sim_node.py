@@ -195,6 +195,7 @@ class SimNode(Node):
         ch.gate = AdmissionGate(self, lambda: self.plant.t,
                                 lambda event: publish_event(self, ch.pubs[c.MISSION_EVENTS], event), ch.name or '')
         inputs = {c.GUIDANCE_MANEUVER: (lambda msg: self.on_maneuver(ch, msg), False),
+                  c.SAFETY_CAM: (lambda msg: self.on_cam(ch, msg), False),
                   c.GUIDANCE_WHEELS: (lambda data: self.on_wheels(ch, data), True),
                   c.GUIDANCE_WRENCH: (lambda data: self.on_wrench(ch, data), True),
                   c.MISSION_PHASE: (lambda msg: self.on_phase(ch, msg), False),
@@ -559,6 +560,12 @@ class SimNode(Node):
             ch.plant.command_maneuver(t_stamp, dv_hill)
         except ManeuverRejected:
             pass  # the plant recorded why; reported below, never applied
+        self.publish_plant_events()
+
+
+    def on_cam(self, ch, msg):
+        """The independent monitor's CAM: the plant's thrusters take it ahead of everything (``Plant.command_cam``)."""
+        ch.plant.command_cam(*convert.vector3_stamped_to_numpy(msg))
         self.publish_plant_events()
 
 

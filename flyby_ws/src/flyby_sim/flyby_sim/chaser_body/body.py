@@ -229,14 +229,15 @@ class SixDofChaser:
         self._wheel_queue = sorted([*self._wheel_queue, command], key=_sort_key)
         return command
 
-    def command_maneuver(self, t_now, t_stamp, dv_hill):
+    def command_maneuver(self, t_now, t_stamp, dv_hill, full_thrust=False):
         """Accept an impulsive delta-v [m/s, hill] to be burnt from t_stamp [s]; returns its ManeuverRequest.
-        Raises ManeuverRejected (not recorded here) for a non-finite stamp or an unexecutable delta-v."""
+        full_thrust: with the layout's largest force along it (a CAM). Raises ManeuverRejected (not recorded here)
+        for a non-finite stamp or an unexecutable delta-v."""
         if not math.isfinite(t_stamp):
             raise ManeuverRejected(f'maneuver stamp t_cmd = {t_stamp} is not finite')
         dv = check_delta_v(dv_hill, self.mass_kg, self.thrusters)
         request = ManeuverRequest(self._next_seq('maneuver'), float(t_stamp), max(float(t_stamp), t_now),
-                                  tuple(dv.tolist()))
+                                  tuple(dv.tolist()), full_thrust)
         self._requests = sorted([*self._requests, request], key=lambda r: (r.request_s, r.seq))
         return request
 
@@ -380,7 +381,8 @@ class SixDofChaser:
         direction_body = quat_rotate(quat_conjugate(self.q_hill_from_body(t)), dv / dv_mps)
         # pushed with the point-mass chaser's thrust, the burn the navigation filter models, on the thrusters allowed
         idx, layout = (np.arange(self.layout.count), self.layout) if self._allowed is None else self._allowed
-        plan = plan_burn(layout, direction_body, dv_mps, self.mass_kg, self.thrusters.max_thrust_n)
+        plan = plan_burn(layout, direction_body, dv_mps, self.mass_kg,
+                         None if request.full_thrust else self.thrusters.max_thrust_n)
         held = fire(layout, plan.allocation.thrusts_n, plan.duration_s)  # the minimum impulse bit
         thrusts = np.zeros(self.layout.count)
         thrusts[idx] = held.thrusts_n

@@ -36,6 +36,7 @@ class ManeuverRequest(NamedTuple):
     t_cmd_s: float
     request_s: float  # the stamp, or the time it arrived if that was later
     dv_cmd_hill: tuple
+    full_thrust: bool = False  # pushed with the layout's largest force (a CAM), not the point-mass chaser's thrust
 
 
 class ThrusterBurn(NamedTuple):

@@ -121,7 +121,7 @@ class Plant(PointMassFlight, CapturePhases, FaultInjection):
         """The TruthSample of the current time (the last step's, or the initial state)."""
         return self._last
 
-    def command_maneuver(self, t_stamp, dv_hill):
+    def command_maneuver(self, t_stamp, dv_hill, full_thrust=False):
         """Schedule an impulsive delta-v dv_hill [m/s] to start at sim time t_stamp [s].
 
         Returns the thrusters.Burn as scheduled now (start_s, end_s, late, dv_hill to be delivered); for the
@@ -129,11 +129,13 @@ class Plant(PointMassFlight, CapturePhases, FaultInjection):
         when it starts, at the attitude then: the burn_started event).
         Raises ManeuverRejected (and records an ERROR event) for an unexecutable command.
         """
+        if self.cam_lockout('maneuver', t_stamp):
+            return None
         try:
             if self.captured:
                 raise ManeuverRejected(f'the chaser is attached to the target; maneuver stamped {t_stamp} s dropped')
             if self._chaser is not None:
-                return self._chaser.command_maneuver(self.t, t_stamp, dv_hill)
+                return self._chaser.command_maneuver(self.t, t_stamp, dv_hill, full_thrust)
             return self._thrusters.schedule(t_stamp, dv_hill, self.t, self._mass_kg)
         except ManeuverRejected as exc:
             self._events.append(Event(self.t, 'ERROR', events.MANEUVER_REJECTED, exc.reason,
@@ -152,6 +154,8 @@ class Plant(PointMassFlight, CapturePhases, FaultInjection):
         command.
         """
         self._rigid_chaser('command_wrench')
+        if self.cam_lockout('wrench', t_stamp):
+            return None
         if not self._accepts_command(t_stamp):
             return self._ignored('wrench', t_stamp)
         return self._body.command_wrench(self.t, t_stamp, force_body_n, torque_body_n_m, hold_s)

@@ -14,6 +14,7 @@ from flyby_msgs_py import events
 from flyby_msgs_py.event_payloads import FaultEnded, FaultInjected, encode
 from flyby_msgs_py.wire import Event
 from flyby_sim.chaser_body.health import Health
+from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_normalize
 from flyby_sim.faults import SENSOR_KINDS, THRUSTER_KINDS, WHEEL_KINDS, FaultSchedule, random_unit
 from flyby_sim.plant.config import Measurement
@@ -27,10 +28,45 @@ class FaultInjection:
         self._faults = FaultSchedule(self.config.faults, rng)
         self._fault_effect = {}  # index -> what it drew at its start (a turn, a bias step)
         self._isolated = set()  # thrusters whose valves the supervisor closed (isolate_thrusters)
+        self._t_cam = None  # the stamp of the independent monitor's CAM (command_cam)
+        self._cam_ignored = set()
 
     def on_phase(self, phase):
         """The supervisor's phase began now (the faults that start with it are due from its time on)."""
         self._faults.on_phase(phase, self.t)
+
+    def command_cam(self, t_stamp, dv_hill):
+        """The independent monitor's collision-avoidance manoeuvre (safety/cam): every command queued and the burn
+        under way dropped, the CAM's burn from its stamp; from then on the planning chain's maneuvers and wrench
+        commands are ignored (``cam_lockout``; its wheel commands still hold the attitude). Once; not after a
+        capture."""
+        if self.captured or self._t_cam is not None:
+            return
+        self._thrusters.cancel_all()
+        self._burn_rhs = None
+        if self._chaser is not None:
+            self._chaser.cancel_all()
+        try:
+            self.command_maneuver(t_stamp, dv_hill, full_thrust=True)
+        except ManeuverRejected:
+            pass  # recorded (maneuver_rejected); the lockout stands
+        self._t_cam = float(t_stamp)
+        self._events.append(Event(self.t, 'WARN', events.CAM_EXECUTED,
+                                  f'CAM of {float(np.linalg.norm(dv_hill)):.4g} m/s stamped {t_stamp:.3f} s: the '
+                                  f'planning chain\'s thrust commands are ignored from now on',
+                                  dict(t_stamp=float(t_stamp), dv_hill=np.asarray(dv_hill, dtype=float))))
+
+    def cam_lockout(self, kind, t_stamp):
+        """True for a planning chain's thrust command after the CAM (a command_ignored event, the first of each
+        kind)."""
+        if self._t_cam is None:
+            return False
+        if kind not in self._cam_ignored:
+            self._cam_ignored.add(kind)
+            self._events.append(Event(self.t, 'WARN', events.COMMAND_IGNORED,
+                                      f'{kind} command stamped {t_stamp} s ignored: the CAM has the thrusters (and '
+                                      f'the later ones of its kind)', dict(command=kind, t_stamp=t_stamp)))
+        return True
 
     def isolate_thrusters(self, indices):
         """Close the valves of these thrusters (a fault table's response, ``thrusters_isolated``): from now on they
