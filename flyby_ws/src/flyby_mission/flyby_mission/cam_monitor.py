@@ -168,12 +168,13 @@ class CamMonitor:
         if taus[k] > self.stopping_time_s(state):
             return []
         self.fired = CamBurn(t, self._escape(state), float(gaps.min()), float(t + taus[k]))
-        return [self.fired, Event(t, 'ERROR', events.CAM_FIRED,
-                                  f'CAM: clearance below {MARGIN_M:g} m predicted at t = '
-                                  f'{self.fired.t_contact_s:.2f} s (least {self.fired.predicted_clearance_m:.3f} m within {HORIZON_S:g} s): '
-                                  f'{float(np.linalg.norm(self.fired.dv_hill)):.4g} m/s away',
-                                  dict(dv_hill=self.fired.dv_hill, t_contact_s=self.fired.t_contact_s,
-                                       predicted_clearance_m=self.fired.predicted_clearance_m), self.name)]
+        burn = self.fired
+        return [burn, Event(t, 'ERROR', events.CAM_FIRED,
+                            f'CAM: clearance below {MARGIN_M:g} m predicted at t = {burn.t_contact_s:.2f} s (least '
+                            f'{burn.predicted_clearance_m:.3f} m within {HORIZON_S:g} s): '
+                            f'{float(np.linalg.norm(burn.dv_hill)):.4g} m/s away',
+                            dict(dv_hill=burn.dv_hill, t_contact_s=burn.t_contact_s,
+                                 predicted_clearance_m=burn.predicted_clearance_m), self.name)]
 
     def stopping_time_s(self, state):
         """REACTION_S plus the time the closing speed on the target's CoM takes to cover the CAM's braking distance,
