@@ -15,5 +15,5 @@ def test_the_cam_fires_with_the_planner_and_guidance_out_of_the_graph(tmp_path):
     done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--without', 'flyby_planner',
                        '--without', 'flyby_guidance')
     summary = read_summary(tmp_path / 'run')
-    assert summary['cam_fired'] and 20.0 < summary['t_cam_s'] < 30.0, done.stdout[-2000:]
-    assert summary['outcome'] == 'ABORTED' and summary['min_clearance_m'] > 0.1  # the CAM's margin kept
+    assert summary['cam_fired'] and 25.0 < summary['t_cam_s'] < 34.0, done.stdout[-2000:]
+    assert summary['outcome'] == 'ABORTED' and summary['min_clearance_m'] > 0.1

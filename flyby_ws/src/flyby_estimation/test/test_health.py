@@ -20,7 +20,8 @@ SIGMA_A = 1e-4
 def _params(rigid=True):
     return HealthParams(position_rate_hz=10.0, attitude_rate_hz=10.0, rigid_body=rigid, imu_rate_hz=10.0,
                         star_tracker_rate_hz=2.0, accel_sigma_mps2=SIGMA_A, thrust_magnitude_sigma=0.01,
-                        thrust_misalignment_sigma_rad=math.radians(0.5), thruster_layout=LAYOUT)
+                        thrust_misalignment_sigma_rad=math.radians(0.5), thruster_layout=LAYOUT,
+                        min_impulse_bit_ns=0.01)
 
 
 def test_a_sensor_silent_for_five_periods_is_stale_and_recovers_at_its_next_sample():
@@ -102,19 +103,20 @@ def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overla
         def accel_hill(_t):
             return np.array([0.1, 0.0, 0.0])
 
-    book = ThrustBook(lever_min_m=0.2)
+    book = ThrustBook(lever_min_m=0.2, bit_force_n=0.0)
     q = np.array([0.0, 0.0, 0.0, 1.0])
     book.on_maneuver(0)
     book.on_burns([Burn])
     assert book.on_interval(1.0, 1.1, np.array([0.005, 0.0, 0.0]), q, 100.0) is None
     book.on_command(1.1, np.array([0.0, 0.001, 0.0]), np.array([0.0, 1.0, 0.0]), np.zeros(3))
-    residual, expected = book.on_interval(1.1, 1.2, np.array([0.01, 0.001, 0.0]), q, 100.0)
+    residual, expected, _, _ = book.on_interval(1.1, 1.2, np.array([0.01, 0.001, 0.0]), q, 100.0)
     np.testing.assert_allclose(residual, 0.0, atol=1e-12)  # [1.0, 1.1]: the burn's half interval, 0.005 m/s
     assert expected == pytest.approx(0.005 / 0.1)
-    residual, expected = book.on_interval(1.2, 1.3, np.zeros(3), q, 100.0)
+    residual, expected, commanded, _ = book.on_interval(1.2, 1.3, np.zeros(3), q, 100.0)
     np.testing.assert_allclose(residual, 0.0, atol=1e-12)  # [1.1, 1.2]: the burn and the command that came late
     assert expected == pytest.approx(0.1 + 1.0 / 100.0)
-    residual, _ = book.on_interval(1.3, 1.4, np.zeros(3), q, 100.0)
+    np.testing.assert_allclose(commanded, [0.0, 0.01, 0.0], atol=1e-12)
+    residual, *_ = book.on_interval(1.3, 1.4, np.zeros(3), q, 100.0)
     np.testing.assert_allclose(residual, [-0.1, 0.0, 0.0], atol=1e-12)  # [1.2, 1.3]: the burn missing
 
 

@@ -8,8 +8,8 @@ thrust acceleration of the last IMU sample held) and of the target's attitude (t
 ``ATTITUDE_FIT_S`` of vision attitudes about the latest, a least-squares constant rate), so a fault of the navigation
 filter, the planner, guidance or the supervisor does not reach it. At every relative-position sample it predicts the
 clearance between the chaser's envelope and the target's real geometry (its boxes at the predicted attitude,
-``geometry.clearance``) every ``STEP_S`` over ``HORIZON_S``; where the coast comes within ``MARGIN_M`` of the
-geometry within the time the
+``geometry.clearance``) every ``STEP_S`` over ``HORIZON_S``; where the coast meets the geometry (a planned passage
+may clear it by centimetres: a margin there would fire on nominal fly-bys) within the time the
 chaser still needs to stop, ``REACTION_S`` plus the time its closing speed takes to cover its braking distance
 (the thrusters' braking: the least of their largest pure forces along 26 body directions over its mass; an approach
 that brakes on its own later, as a thrusting approach does, is left to the planning chain until then), it
@@ -46,8 +46,7 @@ ATTITUDE_FIT_S = 5.0
 MIN_SAMPLES = 5
 HORIZON_S = 30.0
 STEP_S = 0.25
-REACTION_S = 1.5  # from a sample to the CAM's burn under way, with a margin
-MARGIN_M = 0.1  # the clearance the prediction must keep: its own error over the stopping time
+REACTION_S = 2.5  # from a sample to the CAM's burn under way: the graph's pace lets it come up to 1 s late
 STAND_DOWN_PHASES = (c.PHASE_CAPTURE,) + c.POST_CAPTURE_PHASES + (c.PHASE_COMPLETE,)
 
 
@@ -162,15 +161,15 @@ class CamMonitor:
         q0, omega_hill = attitude
         q = np.array([quat_multiply(quat_from_rotation_vector(omega_hill * tau), q0) for tau in taus])
         gaps = clearance(r, q, self.p.boxes, self.p.envelope_radius_m)
-        if not np.any(gaps < MARGIN_M):
+        if not np.any(gaps < 0.0):
             return []
-        k = int(np.argmax(gaps < MARGIN_M))
+        k = int(np.argmax(gaps < 0.0))
         if taus[k] > self.stopping_time_s(state):
             return []
         self.fired = CamBurn(t, self._escape(state), float(gaps.min()), float(t + taus[k]))
         burn = self.fired
         return [burn, Event(t, 'ERROR', events.CAM_FIRED,
-                            f'CAM: clearance below {MARGIN_M:g} m predicted at t = {burn.t_contact_s:.2f} s (least '
+                            f'CAM: contact predicted at t = {burn.t_contact_s:.2f} s (least clearance '
                             f'{burn.predicted_clearance_m:.3f} m within {HORIZON_S:g} s): '
                             f'{float(np.linalg.norm(burn.dv_hill)):.4g} m/s away',
                             dict(dv_hill=burn.dv_hill, t_contact_s=burn.t_contact_s,

@@ -62,7 +62,7 @@ class NodeSpec:
         return f'{ns}/{self.name}' if ns else self.name
 
 
-OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor')
+OPTIONAL_NODES = ('flyby_estimator', 'flyby_planner', 'flyby_guidance', 'flyby_supervisor', 'flyby_cam_monitor')
 OFF_CHAIN_NICE = 5
 
 

@@ -520,8 +520,10 @@ def load_campaign(path, checked_draws=None):
                             f'must be a mapping of scenario keys to values, got {short_repr(overrides)}')
     if overrides:
         base_dict = base.to_dict()
-        for key in overrides:
-            _check_key(file, str(key), base_dict, 'overrides')
+        for key in overrides:  # a list (the faults) may be set whole: the scenario built from it validates it
+            nodes = _schema_node(str(key))
+            whole = nodes is not None and isinstance(nodes[-1], ListOf)
+            _check_key(file, str(key), base_dict, 'overrides', whole=whole)
         set_values(base_dict, overrides)
         try:
             base = scenario_from_dict(base_dict, name=base.name, path=base_path)
