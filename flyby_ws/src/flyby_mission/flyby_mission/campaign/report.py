@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import scipy.stats
 
+from flyby_mission.campaign.fault_report import fault_lines, fault_statistics
 from flyby_msgs_py import contract as c
 from flyby_sim.scenario import load_scenario
 
@@ -332,7 +333,11 @@ def write_report(out_dir, header, rows):
     stats = statistics(rows)
     rate, outside = truth_within_tolerance(out, rows)
     stats['captures_within_tolerance_in_truth'] = dict(rate, outside=[list(x) for x in outside])
+    faults = fault_statistics(out, rows)
+    if faults is not None:
+        stats['faults'] = faults
     (out / 'campaign.json').write_text(json.dumps({'header': header, 'statistics': stats}, indent=1) + '\n')
     images = plots(out, rows, header['dispersed_keys'])
-    (out / 'report.md').write_text(report_markdown(out_dir, header, stats, rows, images))
+    text = report_markdown(out_dir, header, stats, rows, images)
+    (out / 'report.md').write_text(text + ('\n'.join(fault_lines(faults)) + '\n' if faults is not None else ''))
     return stats
