@@ -280,3 +280,12 @@ def record_spans(data):
         if op == OP_FOOTER:
             return spans
         pos += 9 + length
+
+
+def step_to(plant, t_end):
+    """Step a flyby_sim.plant.Plant until t_end [s]; the TruthSamples and every event."""
+    samples, events = [], []
+    while plant.t < t_end - 1e-9:
+        samples.append(plant.step())
+        events.extend(plant.drain_events())
+    return samples, events

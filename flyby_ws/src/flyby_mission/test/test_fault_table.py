@@ -77,3 +77,31 @@ def test_a_continue_answer_leaves_the_phase_where_an_error_event_would_have_abor
     assert core.phase == c.PHASE_TERMINAL_APPROACH
     response = event_payloads.decode_values(out[0].name, out[0].values)
     assert (out[0].level, response.response, response.severity) == ('WARN', 'continue', 3)
+
+
+def _event(t, name, payload, source='flyby_estimator'):
+    e = wire_event(Event(t, 'ERROR', name, name, event_payloads.encode(payload), source))
+    return {'t': e.t, 'level': e.level, 'name': e.name, 'message': e.message, 'values': e.values,
+            'hardware_id': e.source}
+
+
+def test_a_detection_answers_the_fault_acting_on_its_component_and_else_is_a_false_alarm():
+    from flyby_mission.run_events import fault_detections
+    log = [_event(10.0, events.FAULT_INJECTED, event_payloads.FaultInjected(0, 'thruster_stuck_on', 'thruster 3',
+                                                                            10.0, None, 0.1), 'flyby_sim'),
+           _event(10.3, events.FAULT_DETECTED, event_payloads.FaultDetected('thrusters', 'thrust_excess',
+                                                                            'thrusters [2, 3]', 10.3, (2, 3))),
+           _event(12.0, events.FAULT_DETECTED, event_payloads.FaultDetected('sensor/imu', 'sensor_stale', 'imu', 12.0)),
+           _event(13.0, events.FAULT_DETECTED, event_payloads.FaultDetected('thrusters', 'thrust_deficit',
+                                                                            'thrusters [0, 1]', 13.0, (0, 1)))]
+    found = fault_detections(log)
+    assert [(d['kind'], d['fault']) for d in found] == [('thrust_excess', 0), ('sensor_stale', None),
+                                                        ('thrust_deficit', None)]
+    assert found[0]['delay_s'] == pytest.approx(0.3)
+
+
+def test_the_single_fault_campaign_draws_one_valid_fault_of_each_type():
+    from flyby_mission.campaign.dispersions import load_campaign
+    campaign = load_campaign(REPO / 'campaigns' / 'faults_single.yaml', checked_draws=60)
+    kinds = {campaign.draw(run)[0].faults[0].type for run in range(60)}
+    assert len(kinds) == 9

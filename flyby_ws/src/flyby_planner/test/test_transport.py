@@ -284,15 +284,21 @@ def _tug_618_body():
                          full.subset(plume_free_thrusters(full, x_s, 60.0)))
 
 
+def _off_axis(body, share):
+    """A force of ``share`` of the push axis's pure force, 30 deg off the axis."""
+    b, force_n = push_axis(body)
+    across = np.cross(b, [0.0, 0.0, 1.0])
+    return share * force_n * (math.cos(math.radians(30.0)) * b + math.sin(math.radians(30.0)) * across
+                              / np.linalg.norm(across))
+
+
 def test_the_nearest_wrench_keeps_the_torque_and_gives_up_the_force_out_of_the_cone():
     """A force wanted 30 deg off the push axis of a CoM 1.4 m out is no pure force the thrusters give: the nearest
     wrench keeps the torque wanted about the combined CoM (none, or a hold's couple) and gives the force nearest
     the wanted among those, no farther than any share of the push axis's pure force."""
     body = _tug_618_body()
     b, force_n = push_axis(body)
-    across = np.cross(b, [0.0, 0.0, 1.0])
-    wanted = 0.8 * force_n * (math.cos(math.radians(30.0)) * b + math.sin(math.radians(30.0)) * across
-                              / np.linalg.norm(across))
+    wanted = _off_axis(body, 0.8)
     com = np.asarray(body.com_body_m)
     for hold in (np.zeros(3), np.array([0.0, 0.0, 0.5])):
         force, torque_chaser = nearest_wrench(body, _CONFIG, wanted, hold)
@@ -341,10 +347,7 @@ def test_the_nearest_wrench_force_first_gives_the_force_and_the_least_torque_err
     for a torque about the combined CoM (the wheels' to take), and no wrench that gives the force has a nearer
     torque: the torque-first wrench's torque is nearer, its force farther."""
     body = _tug_618_body()
-    b, force_n = push_axis(body)
-    across = np.cross(b, [0.0, 0.0, 1.0])
-    wanted = 0.3 * force_n * (math.cos(math.radians(30.0)) * b + math.sin(math.radians(30.0)) * across
-                              / np.linalg.norm(across))
+    wanted = _off_axis(body, 0.3)
     com = np.asarray(body.com_body_m)
     force, torque_chaser = nearest_wrench(body, _CONFIG, wanted, np.zeros(3), torque_first=False)
     np.testing.assert_allclose(force, wanted, atol=1e-5)

@@ -31,6 +31,7 @@ from flyby_sim.dynamics.rotation import (
 )
 from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import load_scenario, scenario_from_dict
+from flyby_testing import step_to
 
 REPO = Path(__file__).resolve().parents[4]
 RADIUS_M = 7.0e6
@@ -64,15 +65,6 @@ def plant_config(body=BODY, **changes):
                 attitude_sigma_rad=math.radians(1.0), restriction_sphere_radius_m=15.0, seed=1, chaser_body=body)
     base.update(changes)
     return dataclasses.replace(PlantConfig.from_scenario(PAPER_FLYBY), **base)
-
-
-def step_to(plant, t_end):
-    """Step until t_end; returns the TruthSamples and every event."""
-    samples, events = [], []
-    while plant.t < t_end - 1e-9:
-        samples.append(plant.step())
-        events.extend(plant.drain_events())
-    return samples, events
 
 
 def inertial_momentum(sample, inertia, axes):

@@ -17,6 +17,7 @@ from flyby_sim.dynamics.propulsion import ThrusterConfig
 from flyby_sim.faults import FaultSpec
 from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import ScenarioError, load_scenario, scenario_from_dict
+from flyby_testing import step_to
 
 REPO = Path(__file__).resolve().parents[4]
 HOLD_S = 0.05
@@ -34,15 +35,6 @@ def _plant(*faults):
     return Plant(dataclasses.replace(PlantConfig.from_scenario(PAPER_FLYBY), chaser_mass_kg=100.0,
                                      r0_hill=(50.0, 0.0, 0.0), v0_hill=(0.0, 0.0, 0.0), thrusters=EXACT,
                                      position_sigma_m=0.01, seed=1, chaser_body=body, faults=tuple(faults)))
-
-
-def step_to(plant, t_end):
-    """Step until t_end; the TruthSamples and every event."""
-    samples, events = [], []
-    while plant.t < t_end - 1e-9:
-        samples.append(plant.step())
-        events.extend(plant.drain_events())
-    return samples, events
 
 
 def _fire(plant, force_body, t_end, torque=(0.0, 0.0, 0.0)):
