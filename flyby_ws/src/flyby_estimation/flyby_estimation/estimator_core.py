@@ -52,7 +52,7 @@ import math
 import numpy as np
 
 from flyby_estimation.chaser_attitude_filter import ChaserAttitudeFilter
-from flyby_estimation.health import HealthMonitor
+from flyby_estimation.health import THRUST_SETTLE_S, HealthMonitor
 from flyby_estimation.mass_estimation_run import (
     CaptureSnapshot,
     MassEstimationRun,
@@ -144,6 +144,7 @@ class EstimatorCore:
         self.rate_error = params.injected_rate_error_rad_s
         self.attached = False  # captured: the free-flyer navigation model no longer holds
         self.health = HealthMonitor(params.health)
+        self.t_thrust_end = -math.inf  # the end of the latest firing the navigation filter models
         if self.attitude is not None:
             self.wrench_hold_s = 1.0 / params.imu_rate_hz  # guidance's control period
             # (t, q_hill_from_body) of the latest attitude estimates: a force command's is one period old
@@ -288,7 +289,8 @@ class EstimatorCore:
                 self.transport_nav.on_position(t, r_hill)
             return []
         result = self.nav.update(t, r_hill)
-        self.health.on_sample('relative_position', t, not result.accepted, result.nis)
+        self.health.on_sample('relative_position', t, not result.accepted, result.nis,
+                              transient=self._thrust_transient(t))
         if not result.accepted:
             return self._reject(t, 'relative_position', result.kind, result.reason)
         if self.attitude is not None:
@@ -482,6 +484,14 @@ class EstimatorCore:
                                     f'{check.ratio_max:.3g} x the Cramer-Rao bound)', values)]
 
     # -- events ---------------------------------------------------------------------------------
+    def _thrust_transient(self, t):
+        """Whether the navigation filter is within ``health.THRUST_SETTLE_S`` of a firing it models (its execution
+        error settles in the innovations: the relative position's innovation rules wait, ``health``)."""
+        for b in self.nav.burns:
+            if b.start_s <= t + STAMP_TOLERANCE_S:
+                self.t_thrust_end = max(self.t_thrust_end, b.end_s)
+        return t < self.t_thrust_end + THRUST_SETTLE_S
+
     def _health(self, t):
         """The health monitors judged at stamp t: their detections as events, their statuses (``health``)."""
         out = []

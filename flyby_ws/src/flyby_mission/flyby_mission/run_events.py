@@ -90,9 +90,11 @@ def _explains(fault, detection):
 
 
 def fault_detections(events, grace_s=10.0):
-    """The health monitors' detections (``fault_detected``), each a dict of t_s, monitor, kind, component and the
-    injected fault it answers (the latest started at or before it, still acting or ended within grace_s [s], whose
-    target it may be of; None: no such fault, a false alarm) with the delay from that fault's start [s]."""
+    """The health monitors' detections (``fault_detected``), each a dict of t_s, monitor, kind, component, the
+    injected fault it answers and whether it names that fault's component (``isolated``): the latest fault started at
+    or before it, still acting or ended within grace_s [s], whose target it may be of (isolated, with the delay from
+    the fault's start [s]), else the latest acting at all (a consequence: the navigation's innovations after a
+    thruster's fault); None: no fault acting, a false alarm."""
     injected = plant_faults(events)
     out = []
     for e in events:
@@ -100,12 +102,13 @@ def fault_detections(events, grace_s=10.0):
             continue
         d = decode_values(e['name'], e['values'])
         t = float(e['t'])
-        acting = [f for f in injected if f['t_start_s'] <= t + 1e-9 and _explains(f, d)
+        acting = [f for f in injected if f['t_start_s'] <= t + 1e-9
                   and (f['t_end_s'] is None or t <= f['t_end_s'] + grace_s)]
-        fault = acting[-1] if acting else None
+        named = [f for f in acting if _explains(f, d)]
+        fault = named[-1] if named else acting[-1] if acting else None
         out.append(dict(t_s=t, monitor=d.monitor, kind=d.kind, component=d.component,
-                        fault=None if fault is None else fault['fault'],
-                        delay_s=None if fault is None else t - fault['t_start_s']))
+                        fault=None if fault is None else fault['fault'], isolated=bool(named),
+                        delay_s=t - named[-1]['t_start_s'] if named else None))
     return out
 
 

@@ -95,8 +95,9 @@ def test_a_detection_answers_the_fault_acting_on_its_component_and_else_is_a_fal
            _event(13.0, events.FAULT_DETECTED, event_payloads.FaultDetected('thrusters', 'thrust_deficit',
                                                                             'thrusters [0, 1]', 13.0, (0, 1)))]
     found = fault_detections(log)
-    assert [(d['kind'], d['fault']) for d in found] == [('thrust_excess', 0), ('sensor_stale', None),
-                                                        ('thrust_deficit', None)]
+    assert [(d['kind'], d['fault'], d['isolated']) for d in found] == [
+        ('thrust_excess', 0, True), ('sensor_stale', 0, False), ('thrust_deficit', 0, False)]
+    assert fault_detections(log[2:])[0]['fault'] is None  # nothing acting: a false alarm
     assert found[0]['delay_s'] == pytest.approx(0.3)
 
 

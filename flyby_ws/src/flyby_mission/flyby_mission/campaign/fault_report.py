@@ -46,7 +46,7 @@ def fault_statistics(out_dir, rows):
             k['outcomes'][s['outcome']] += 1
             k['cams'] += int(bool(s.get('cam_fired')))
             k['collisions'] += int(s['outcome'] == c.OUTCOME_COLLISION)
-            delays = [d['delay_s'] for d in detections if d.get('fault') == f['fault']]
+            delays = [d['delay_s'] for d in detections if d.get('fault') == f['fault'] and d.get('isolated', True)]
             if delays:
                 k['detected'] += 1
                 k['delays'].append(min(delays))
