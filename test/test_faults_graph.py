@@ -1,0 +1,46 @@
+"""Faults in the graph (docs/faults.md), judged from the truth in the bag: a thruster stuck on during
+paper_flyby_6dof's terminal approach is detected, its thrusters closed and the approach aborted, and a chaser
+coasting into the target with the planner and guidance out of the graph is turned away by the independent
+monitor's CAM alone."""
+
+import pytest
+
+from flyby_testing import analyze_bag, read_summary, run_mission, write_scenario
+
+pytestmark = pytest.mark.slow
+
+
+def _coast_into_the_target(data):
+    data['chaser']['initial_position_hill_m'] = [12.0, 1.0, 0.5]
+    data['chaser']['initial_velocity_hill_mps'] = [-0.3, 0.0, 0.0]  # contact near t = 35 s without a CAM
+    data['simulation']['duration_s'] = 45.0
+
+
+def _stuck_thruster(data):
+    data['faults'] = [{'type': 'thruster_stuck_on', 'index': 3, 'start_phase': 'TERMINAL_APPROACH', 'delay_s': 100.0,
+                       'value': 0.1}]
+    data['simulation']['duration_s'] = 300.0
+
+
+def test_the_cam_fires_with_the_planner_and_guidance_out_of_the_graph(tmp_path):
+    scenario = write_scenario(tmp_path, base='paper_flyby_6dof', name='coast_in', edit=_coast_into_the_target)
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--without', 'flyby_planner',
+                       '--without', 'flyby_guidance')
+    summary = read_summary(tmp_path / 'run')
+    assert summary['cam_fired'] and 25.0 < summary['t_cam_s'] < 34.0, done.stdout[-2000:]
+    assert summary['outcome'] == 'ABORTED' and summary['min_clearance_m'] > 0.1
+    checked = analyze_bag(tmp_path / 'run')
+    assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]
+
+
+def test_a_thruster_stuck_on_in_the_approach_is_closed_and_the_chaser_escapes(tmp_path):
+    scenario = write_scenario(tmp_path, base='paper_flyby_6dof', name='stuck', edit=_stuck_thruster)
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run')
+    summary = read_summary(tmp_path / 'run')
+    first = summary['faults_detected'][0]
+    assert (first['kind'], first['fault'], first['isolated']) == ('thrust_excess', 0, True), done.stdout[-2000:]
+    assert first['delay_s'] < 2.0
+    assert summary['fault_responses'][0]['response'] == 'isolate_abort'
+    assert summary['outcome'] == 'ABORTED' and not summary['cam_fired'] and summary['min_clearance_m'] > 10.0
+    checked = analyze_bag(tmp_path / 'run')
+    assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]
