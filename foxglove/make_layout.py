@@ -24,7 +24,8 @@ from flyby_msgs_py import frames
 OUT = Path(__file__).resolve().parent / 'flyby_layout.json'
 RANGE_TOPIC = '/studio_script/range'
 CAPTURE_TOPIC = '/studio_script/capture_distance'
-CHASER_ODOM, PHASE, EVENTS = (c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.MISSION_PHASE, c.MISSION_EVENTS))
+CHASER_ODOM, PHASE, EVENTS, DIAGNOSTICS = (c.absolute(t) for t in (c.SIM_CHASER_ODOM, c.MISSION_PHASE, c.MISSION_EVENTS,
+                                                                c.DIAGNOSTICS))
 FLYBY_TARGET, PATH, MARKERS = (c.absolute(t) for t in (c.PLANNER_FLYBY_TARGET, c.PLANNER_PATH, c.MARKERS))
 
 RANGE_SCRIPT = f'''// The chaser's range to the target's centre of mass (the hill origin) [m], from the truth.
@@ -72,9 +73,12 @@ def layout():
         paths=[fl.PlotSeries(value=f'{CAPTURE_TOPIC}.distance_m', label='to the planned capture point [m]')],
         min_y_value=0.0))
     events = fl.RawMessagesPanel(title='events', config=fl.RawMessagesConfig(topic_path=f'{EVENTS}.status'))
+    health = fl.DiagnosticsSummaryPanel(title='health monitors', config=fl.DiagnosticsSummaryConfig(
+        topic_to_render=DIAGNOSTICS, sort_by_level=True))
     right = fl.SplitContainer(direction='column', items=[
         fl.SplitItem(proportion=1, content=phase), fl.SplitItem(proportion=2, content=range_plot),
-        fl.SplitItem(proportion=2, content=capture_plot), fl.SplitItem(proportion=2, content=events)])
+        fl.SplitItem(proportion=2, content=capture_plot), fl.SplitItem(proportion=2, content=events),
+        fl.SplitItem(proportion=1, content=health)])
     return fl.Layout(
         content=fl.SplitContainer(direction='row', items=[fl.SplitItem(proportion=3, content=scene),
                                                           fl.SplitItem(proportion=2, content=right)]),

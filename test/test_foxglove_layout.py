@@ -53,9 +53,9 @@ def test_shipped_layout_is_make_layouts_output():
     assert LAYOUT.read_text() == _make_layout().layout_json(), 'run: .venv/bin/python foxglove/make_layout.py'
 
 
-def test_layout_has_the_3d_scene_phase_plots_and_events():
+def test_layout_has_the_3d_scene_phase_plots_events_and_health_monitors():
     panels = re.findall(r'"panelType":\s*"(\w+)"', LAYOUT.read_text())
-    assert sorted(panels) == ['Plot', 'Plot', 'RawMessages', 'StateTransitions', 'ThreeDee']
+    assert sorted(panels) == ['DiagnosticsSummary', 'Plot', 'Plot', 'RawMessages', 'StateTransitions', 'ThreeDee']
 
 
 @pytest.mark.slow
