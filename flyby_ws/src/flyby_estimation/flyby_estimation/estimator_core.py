@@ -167,6 +167,8 @@ class EstimatorCore:
             self.arm_deflection = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
             if params.mass_estimation.attachment is not None:  # held from t = 0 (module doc)
                 self.attached = True
+                self.health.suspend('target_attitude')  # as after a capture (on_phase)
+                self.health.suspend_thrust()
                 self.snapshot = attachment_snapshot(params.mass_estimation)
                 self.capture_covariance = _NOT_ESTIMATED_VARIANCE * np.eye(6)  # no position sensor
                 self.mass_run = MassEstimationRun(params.mass_estimation, params.chaser_mass_kg)
