@@ -42,14 +42,16 @@ def test_an_unsafe_reaimed_arc_is_never_flown():
     passage through that panel. Guidance used to re-aim onto it (COLLISION, 0.35 m deep, 25 s before the grasp);
     now its gate (plan.check_passage on every re-aimed arc, 3 sigma of each estimate's own covariance) refuses
     that arc at every re-aim and keeps the planned one, which it still finds clear: the chaser coasts past the
-    panel and, the grasp point elsewhere, escapes."""
+    panel and, the grasp point elsewhere, escapes (or is turned away by the independent monitor's CAM)."""
     d = _envelope_run_569()
     run = run_headless(scenario_from_dict(d, name='envelope run 569'))
     s = run.summary
     refused = [e for e in run.events if e['name'] == 'target_refined' and e['level'] == 'WARN']
     assert refused and all('panel_plus_y' in e['message'] and 'keeping the aim' in e['message'] for e in refused)
     assert not any(e['name'] == 'target_refined' and e['level'] == 'OK' for e in run.events)
-    assert s['outcome'] == 'ESCAPE' and s['min_clearance_m'] > 0.0, s
+    # The passage clears the panel by 0.10 m: the independent monitor may see it as contact and fire its CAM
+    # (docs/faults.md), which leaves it clear too.
+    assert (s['outcome'] == 'ESCAPE' or s['cam_fired']) and s['min_clearance_m'] > 0.0, s
     assert not s['thrust_inside_restriction_sphere']
 
 
