@@ -89,7 +89,7 @@ def _explains(fault, detection):
     return component == target or (target == 'imu' and component == 'star_tracker')
 
 
-def fault_detections(events, grace_s=10.0):
+def fault_detections(events, grace_s=60.0):
     """The health monitors' detections (``fault_detected``), each a dict of t_s, monitor, kind, component, the
     injected fault it answers and whether it names that fault's component (``isolated``): the latest fault started at
     or before it, still acting or ended within grace_s [s], whose target it may be of (isolated, with the delay from

@@ -199,3 +199,15 @@ def test_isolated_thrusters_stop_their_leak_and_are_left_out_of_the_allocation()
     assert [e.name for e in events if e.name == ev.THRUSTERS_CLOSED] == [ev.THRUSTERS_CLOSED]
     _, again = _fire(plant, (3.0, 0.0, 0.0), 3.0)  # +x without thruster 0: thruster 1 alone, a torque undelivered
     assert any(e.name == ev.WRENCH_UNDELIVERED for e in again)
+
+
+def test_a_burn_the_thrusters_left_cannot_give_is_refused_not_crashed():
+    """With both -x pushers (2 and 3) closed no pure force points along body -x: the burn is not flown, an ERROR
+    event says why, and the plant steps on."""
+    plant = _plant()
+    plant.isolate_thrusters([2, 3])
+    plant.command_maneuver(0.5, (-0.01, 0.0, 0.0))  # body -x: the chaser is aligned with hill
+    samples, events = step_to(plant, 2.0)
+    rejected = [e for e in events if e.name == ev.MANEUVER_REJECTED]
+    assert len(rejected) == 1 and 'no pure force' in rejected[0].message
+    assert not any(s.thruster_thrust_n.any() for s in samples)

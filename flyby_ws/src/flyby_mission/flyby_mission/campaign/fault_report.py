@@ -33,7 +33,8 @@ def fault_statistics(out_dir, rows):
         injected = (s.get('faults_injected') or {}).get('plant') or []
         detections = s.get('faults_detected') or []
         seen |= bool(injected or detections or s.get('cam_fired'))
-        unexplained = [d for d in detections if d.get('fault') is None]
+        t_cam = s.get('t_cam_s')  # the CAM's own thrust is no fault: detections after it are not false alarms
+        unexplained = [d for d in detections if d.get('fault') is None and (t_cam is None or d['t_s'] < t_cam)]
         if not injected:
             false['runs_without_fault'] += 1
         if unexplained or (s.get('cam_fired') and not injected):

@@ -381,8 +381,13 @@ class SixDofChaser:
         direction_body = quat_rotate(quat_conjugate(self.q_hill_from_body(t)), dv / dv_mps)
         # pushed with the point-mass chaser's thrust, the burn the navigation filter models, on the thrusters allowed
         idx, layout = (np.arange(self.layout.count), self.layout) if self._allowed is None else self._allowed
-        plan = plan_burn(layout, direction_body, dv_mps, self.mass_kg,
-                         None if request.full_thrust else self.thrusters.max_thrust_n)
+        try:
+            plan = plan_burn(layout, direction_body, dv_mps, self.mass_kg,
+                             None if request.full_thrust else self.thrusters.max_thrust_n)
+        except ValueError as err:  # thrusters closed (a fault's isolation) leave no pure force along it
+            self._emit(Event(t_event, 'ERROR', events.MANEUVER_REJECTED, f'burn {request.seq} not flown: {err}',
+                             dict(seq=request.seq, t_cmd=request.t_cmd_s, dv_hill=request.dv_cmd_hill)))
+            return
         held = fire(layout, plan.allocation.thrusts_n, plan.duration_s)  # the minimum impulse bit
         thrusts = np.zeros(self.layout.count)
         thrusts[idx] = held.thrusts_n
