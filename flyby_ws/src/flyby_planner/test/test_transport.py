@@ -340,19 +340,3 @@ def test_the_push_axis_is_the_direction_of_the_largest_pure_force():
         except ValueError:
             continue
     assert max(others) <= force_n * 1.001
-
-
-def test_the_nearest_wrench_force_first_gives_the_force_and_the_least_torque_error():
-    """Where the wheels hold the body (torque_first False) the force wanted 30 deg off the push axis is given whole,
-    for a torque about the combined CoM (the wheels' to take), and no wrench that gives the force has a nearer
-    torque: the torque-first wrench's torque is nearer, its force farther."""
-    body = _tug_618_body()
-    wanted = _off_axis(body, 0.3)
-    com = np.asarray(body.com_body_m)
-    force, torque_chaser = nearest_wrench(body, _CONFIG, wanted, np.zeros(3), torque_first=False)
-    np.testing.assert_allclose(force, wanted, atol=1e-5)
-    torque_com = torque_chaser - np.cross(com, force)
-    assert np.abs(torque_com).sum() > 1e-3
-    other_force, other_chaser = nearest_wrench(body, _CONFIG, wanted, np.zeros(3))
-    assert np.abs(other_chaser - np.cross(com, other_force)).sum() < np.abs(torque_com).sum()
-    assert np.abs(other_force - wanted).sum() > 1e-3

@@ -224,17 +224,16 @@ class TransportPush:
         issued_force, _ = self._in_flight(t)
         response, x_coast = push_response(state, issued_force, self.body.mass_kg, self.n, t_from, remaining_s)
         pushes = [b for b in self.plan.burns if b.purpose == 'push']
-        if burn is not pushes[-1] and burn.duration_s > STEER_SETTLE_S:
-            force_body = self._aimed_force(burn, pushes[-1], response, x_coast)
-        else:  # the plan's velocity at the push's end: a short push has no force to spare for a position's miss
+        if burn is pushes[-1]:
+            # To rest, short by its expected error along the push: what it leaves is then taken out along the push
+            # axis, within the direction-limited thrusters' reach at the attitude held (``terminal``).
             dv_hill = self.push_end[round(burn.t_start_s / p)].v_hill - x_coast[3:]
-            if burn is pushes[-1]:
-                # To rest, short by its expected error along the push: what it leaves is then taken out along the
-                # push axis, within the direction-limited thrusters' reach at the attitude held (``terminal``).
-                need = float(np.linalg.norm(dv_hill))
-                short = ARRIVAL_SIGMAS * self._arrival_sigma_mps(burn)
-                dv_hill = dv_hill * max(0.0, 1.0 - short / need) if need > 0.0 else dv_hill
+            need = float(np.linalg.norm(dv_hill))
+            short = ARRIVAL_SIGMAS * self._arrival_sigma_mps(burn)
+            dv_hill = dv_hill * max(0.0, 1.0 - short / need) if need > 0.0 else dv_hill
             force_body = np.linalg.solve(response[3:], dv_hill)
+        else:
+            force_body = self._aimed_force(burn, pushes[-1], response, x_coast)
         if remaining_s > STEER_SETTLE_S:
             self._steer(state, force, force_body)
         limit = PUSH_FORCE_MARGIN * float(np.linalg.norm(force))
@@ -248,8 +247,7 @@ class TransportPush:
             torque_com = -(self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels) / remaining_s
         torque_body = torque_com + np.cross(self.body.com_body_m, force_body)  # about the chaser's CoM
         if allocate_wrench(self.body.layout, force_body, torque_body).saturated:
-            return nearest_wrench(self.body, self.config.planner, force_body, torque_com,
-                                  torque_first=not self.wheels_steer)
+            return nearest_wrench(self.body, self.config.planner, force_body, torque_com)
         return force_body, torque_body
 
     def _steer(self, state, planned_force_body, force_body):

@@ -131,34 +131,31 @@ def torque_wrench(body, config, torque_com_body_n_m):
     return torque_burn_wrench(TransportModel(body, config), np.asarray(torque_com_body_n_m, dtype=float))
 
 
-def nearest_wrench(body, config, force_body_n, torque_com_n_m, torque_first=True):
+def nearest_wrench(body, config, force_body_n, torque_com_n_m):
     """(force [N], torque about the chaser's CoM [N m]), chaser_body: the wrench nearest the wanted one (a force and a
-    torque about the combined CoM) that the thrusters give, one part first and the other nearest within it (two LPs,
-    B about the combined CoM; the torque first below, the force first with the roles swapped):
+    torque about the combined CoM) that the thrusters give, the torque first (two LPs, B about the combined CoM):
 
         1. tau = min sum |B_T f - T|                                   s.t.  0 <= f <= f_max
         2.       min sum |B_F f - F| + 1e-6 sum f   s.t.  sum |B_T f - T| <= tau,  0 <= f <= f_max
 
-    Where the thrusters hold the attitude (a body the wheels do not steer) the torque comes first: its error turns
-    the body and with it every later force (a 2000 kg body pushed 300 s with 6 N m of torque given up for 7 N of
-    side force spun at 0.1 rad/s). Where the wheels hold the body they take the torque's error, and the force's is a
-    velocity error the push cannot make up (torque_first False)."""
+    A force's error is a velocity error the next estimates see and the next commands take out; a torque's turns the
+    body and with it every later force (a 2000 kg body pushed 300 s with 6 N m of torque given up for 7 N of side
+    force spun at 0.1 rad/s). A closed-loop push whose wanted force leaves the thrusters' cone of pure forces (a push
+    axis off the body axes has a narrow one) gets the nearest force with the torque wanted."""
     model = TransportModel(body, config)
     b = model.layout_com.wrench_matrix
     n = model.layout_com.count
     wanted = np.concatenate((np.asarray(force_body_n, dtype=float), np.asarray(torque_com_n_m, dtype=float)))
     a_eq = np.hstack((b, -np.eye(6), np.eye(6)))  # B f - e+ + e- = wanted
     bounds = [(0.0, f) for f in model.layout_com.max_thrust_n.tolist()] + [(0.0, None)] * 12
-    zeros3, ones3 = np.zeros(3), np.ones(3)
-    torque_cost = np.concatenate((np.zeros(n), zeros3, ones3, zeros3, ones3))
-    force_cost = np.concatenate((np.zeros(n), ones3, zeros3, ones3, zeros3))
-    first_cost, second_cost = (torque_cost, force_cost) if torque_first else (force_cost, torque_cost)
-    first = linprog(first_cost, A_eq=a_eq, b_eq=wanted, bounds=bounds, method='highs')
+    torque_cost = np.concatenate((np.zeros(n + 3), np.ones(3), np.zeros(3), np.ones(3)))
+    first = linprog(torque_cost, A_eq=a_eq, b_eq=wanted, bounds=bounds, method='highs')
     if first.status != 0:
         return np.zeros(3), np.zeros(3)
-    bound = first.fun * (1.0 + 1e-6) + 1e-6  # HiGHS holds its constraints to 1e-7
-    second = linprog(second_cost + np.concatenate((np.full(n, 1e-6), np.zeros(12))), A_ub=first_cost[None, :],
-                     b_ub=[bound], A_eq=a_eq, b_eq=wanted, bounds=bounds, method='highs')
+    tau = first.fun * (1.0 + 1e-6) + 1e-6  # HiGHS holds its constraints to 1e-7
+    force_cost = np.concatenate((np.full(n, 1e-6), np.ones(3), np.zeros(3), np.ones(3), np.zeros(3)))
+    second = linprog(force_cost, A_ub=torque_cost[None, :], b_ub=[tau], A_eq=a_eq, b_eq=wanted, bounds=bounds,
+                     method='highs')
     x = (second if second.status == 0 else first).x
     force, torque_com = b[:3] @ x[:n], b[3:] @ x[:n]
     return force, torque_com + np.cross(model.com_body_m, force)
