@@ -16,6 +16,7 @@ setup(
     maintainer_email='flyby@example.org',
     description='The mission as a whole: supervisor, headless driver, launcher, summaries, campaigns, reports.',
     license='Apache-2.0',
+    package_data={'flyby_mission': ['fault_table.yaml']},
     entry_points={
         'console_scripts': [
             'flyby_supervisor = flyby_mission.supervisor_node:main',

@@ -66,7 +66,7 @@ from flyby_estimation.target_filter import TargetAttitudeFilter
 from flyby_estimation.transport_navigation import TransportNavigation, combined_com_covariance
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events
-from flyby_msgs_py.stamped import StampedBuffer
+from flyby_msgs_py.stamped import StampedBuffer, put_bounded, stamp_key
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S, Event
 from flyby_sim.dynamics.attitude import body_point_state
 from flyby_sim.dynamics.combined_body import combined_mass_properties
@@ -79,6 +79,7 @@ _NOT_ESTIMATED_VARIANCE = 1e6
 CLASSIFY_PERIOD_S = 10.0
 # Attitude estimates kept for the force commands (computed from one of the last few).
 _ATTITUDES_KEPT = 16
+GATED = ('outlier', 'reset')  # an update the filter's gate refused (a stale or malformed one is not the sensor's)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,19 +109,6 @@ class ChaserEstimate:
     omega_body: np.ndarray = None
     attitude_covariance_hill: np.ndarray = None
     rate_covariance_body: np.ndarray = None
-
-
-def _put_bounded(stamped, key, value):
-    """stamped[key] = value, the oldest entries dropped beyond _ATTITUDES_KEPT (commands and samples that never
-    found their pair)."""
-    stamped[key] = value
-    while len(stamped) > _ATTITUDES_KEPT:
-        stamped.pop(next(iter(stamped)))
-
-
-def _key(t):
-    """A stamp as a dictionary key, to the stamps' rounding."""
-    return round(t / STAMP_TOLERANCE_S)
 
 
 class EstimatorCore:
@@ -270,7 +258,7 @@ class EstimatorCore:
         if self.attached and self.post_capture:
             return []  # the target is no longer torque-free (module doc)
         result = self.target.update(t, q_hill_from_body)
-        self.health.on_sample('target_attitude', t, not result.accepted, result.nis)
+        self.health.on_sample('target_attitude', t, result.kind in GATED, result.nis)
         if not result.accepted:
             return self._reject(t, 'target_attitude', result.kind, result.reason)
         s = self.target.state()
@@ -291,7 +279,7 @@ class EstimatorCore:
                 self.transport_nav.on_position(t, r_hill)
             return []
         result = self.nav.update(t, r_hill)
-        self.health.on_sample('relative_position', t, not result.accepted, result.nis,
+        self.health.on_sample('relative_position', t, result.kind in GATED, result.nis,
                               transient=self._thrust_transient(t))
         if not result.accepted:
             return self._reject(t, 'relative_position', result.kind, result.reason)
@@ -314,7 +302,7 @@ class EstimatorCore:
         for sensor, result in zip(('gyro', 'star_tracker'), self.attitude.on_imu(t, omega_body_meas, q_hill_from_body),
                                   strict=True):
             if sensor == 'star_tracker' and result is not None:
-                self.health.on_sample('star_tracker', t, not result.accepted, result.nis)
+                self.health.on_sample('star_tracker', t, result.kind in GATED, result.nis)
             if result is not None and not result.accepted:
                 out += self._reject(t, sensor, result.kind, result.reason)
         t_last, self.imu_t_last = self.imu_t_last, t
@@ -407,7 +395,7 @@ class EstimatorCore:
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.params.min_impulse_bit_ns:
             return []
         dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
-        measured = self.measured_dv.pop(_key(t), None)
+        measured = self.measured_dv.pop(stamp_key(t), None)
         if measured is not None:  # its interval's accelerometer sample came first
             dv_hill = measured
         try:
@@ -416,12 +404,12 @@ class EstimatorCore:
             return [self._event(t, 'WARN', events.MANEUVER_IGNORED,
                                 f'force command not a known input of the navigation filter: {err}', {'t_stamp': t})]
         if measured is None:
-            _put_bounded(self.commanded_dv, _key(t), dv_hill)
+            put_bounded(self.commanded_dv, stamp_key(t), dv_hill, _ATTITUDES_KEPT)
         return []
 
     def _measured_thrust(self, t_start, t_end, attitude, specific_force_body):
         """The accelerometer's thrust delta-v over [t_start, t_end] against the force command's (module doc)."""
-        commanded = self.commanded_dv.pop(_key(t_start), None)
+        commanded = self.commanded_dv.pop(stamp_key(t_start), None)
         f = np.asarray(specific_force_body, dtype=float)
         if not np.all(np.isfinite(f)):
             return self._reject(t_end, 'accelerometer', 'non_finite', f'specific force {specific_force_body!r}')
@@ -432,7 +420,8 @@ class EstimatorCore:
                + dv_cross @ attitude.attitude_covariance_hill @ dv_cross.T)
         if commanded is None:
             if float(np.linalg.norm(dv_hill)) > 3.0 * self.accel_sigma_mps2 * (t_end - t_start):
-                _put_bounded(self.measured_dv, _key(t_start), dv_hill)  # a command still on its way: taken as this
+                # a command still on its way: taken as this
+                put_bounded(self.measured_dv, stamp_key(t_start), dv_hill, _ATTITUDES_KEPT)
             return []
         if self.nav.t < t_end:
             self.nav.propagate_to(t_end)

@@ -1,6 +1,6 @@
 """The chaser's health monitors: each sensor's staleness and innovations, and the thrusters' force against the
 accelerometer (docs/faults.md). Pure numpy/scipy: the estimator core feeds it what its filters see and publishes
-its outputs (``Diagnostics`` on /diagnostics, ``fault_detected`` and ``fault_ended`` on /mission/events).
+its outputs (``Diagnostics`` on /diagnostics, ``fault_detected`` and ``fault_recovered`` on /mission/events).
 
 Each monitor has a stated rule:
 
@@ -40,7 +40,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.stats import chi2
 
-from flyby_sim.dynamics.rotation import quat_rotate
+from flyby_msgs_py.stamped import put_bounded, stamp_key
+from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 
 STALE_PERIODS = 5.0
 WINDOW = 20
@@ -99,7 +100,6 @@ class SensorMonitor:
         self.t_last = None
         self.t_first_input = None
         self.window = collections.deque(maxlen=WINDOW)  # (rejected, nis)
-        self.nis_bound = chi2.ppf(1.0 - NIS_FALSE_ALARM, dof * WINDOW) / WINDOW
         self.active = {}  # kind -> the stamp it was detected at
         self.nominal = collections.Counter()  # kind -> judgements within its bound since it last held
         self.fresh = False  # a sample since the last judgement
@@ -125,19 +125,20 @@ class SensorMonitor:
                          dict(silent_s=silent_s), clear_after=1)
         rejected = sum(1 for r, _ in self.window if r)
         nis = [x for r, x in self.window if not r]
-        mean_nis = float(np.mean(nis)) if len(nis) == WINDOW else math.nan
+        full = len(self.window) == WINDOW
+        mean_nis = float(np.mean(nis)) if full and len(nis) >= WINDOW // 2 else math.nan
+        nis_bound = chi2.ppf(1.0 - NIS_FALSE_ALARM, self.dof * len(nis)) / len(nis) if nis else math.inf
         if self.fresh and not explained:  # the innovation rules at each new sample
             self.fresh = False
-            full = len(self.window) == WINDOW
             out += self._set('sensor_outliers', full and rejected >= OUTLIER_BURST, t,
                              f'{self.name}: {rejected} of its last {WINDOW} samples rejected',
                              dict(rejected=rejected))
-            out += self._set('sensor_inconsistent', mean_nis > self.nis_bound, t,
-                             f'{self.name}: mean NIS {mean_nis:.3g} over {WINDOW} samples above '
-                             f'{self.nis_bound:.3g}', dict(mean_nis=mean_nis, bound=self.nis_bound))
+            out += self._set('sensor_inconsistent', mean_nis > nis_bound, t,
+                             f'{self.name}: mean NIS {mean_nis:.3g} over its last {len(nis)} accepted samples above '
+                             f'{nis_bound:.3g}', dict(mean_nis=mean_nis, bound=nis_bound))
         level = LEVEL_STALE if stale else LEVEL_ERROR if self.active else (
-            LEVEL_WARN if rejected or mean_nis > 0.5 * (self.nis_bound + self.dof) else LEVEL_OK)
-        values = dict(silent_s=silent_s, rejected=rejected, mean_nis=mean_nis, nis_bound=self.nis_bound)
+            LEVEL_WARN if rejected or mean_nis > 0.5 * (nis_bound + self.dof) else LEVEL_OK)
+        values = dict(silent_s=silent_s, rejected=rejected, mean_nis=mean_nis, nis_bound=nis_bound)
         return out, MonitorStatus(f'sensor/{self.name}', level, ', '.join(sorted(self.active)) or 'nominal', values)
 
     def _set(self, kind, condition, t, message, values, clear_after=CLEAR_WINDOWS * WINDOW):
@@ -167,7 +168,7 @@ class ThrustMonitor:
         self.accel_sigma_mps2 = accel_sigma_mps2
         self.relative_error = relative_error
         self.force_directions_body = np.asarray(force_directions_body, dtype=float)
-        self.window = collections.deque(maxlen=THRUST_WINDOW)  # (residual f [body], expected |thrust|)
+        self.window = collections.deque(maxlen=THRUST_WINDOW)  # (residual f [body], its slack, expected |thrust|)
         self.active = None  # (kind, t) of the detection
         self.nominal = 0
         self.fresh = False
@@ -188,7 +189,7 @@ class ThrustMonitor:
             if -size <= along <= 0.0:
                 residual = residual - along * commanded / size
         slack = (self.relative_error + THRUST_RELATIVE) * float(expected_thrust_mps2) + float(granularity_mps2)
-        self.window.append((residual, slack))
+        self.window.append((residual, slack, float(expected_thrust_mps2)))
         self.fresh = True
 
     def judge(self, t):
@@ -196,8 +197,9 @@ class ThrustMonitor:
         if not self.fresh or len(self.window) < THRUST_WINDOW:
             return [], self.status
         self.fresh = False
-        residual = np.mean([r for r, _ in self.window], axis=0)
-        slack = float(np.mean([e for _, e in self.window]))
+        residual = np.mean([r for r, _, _ in self.window], axis=0)
+        slack = float(np.mean([s for _, s, _ in self.window]))
+        expected = float(np.mean([e for _, _, e in self.window]))
         noise = self.accel_sigma_mps2 / math.sqrt(THRUST_WINDOW)  # on the mean of the window's samples
         bound = THRUST_SIGMAS * noise + slack
         size = float(np.linalg.norm(residual))
@@ -206,7 +208,7 @@ class ThrustMonitor:
         if size > bound:
             self.nominal = 0
             if self.active is None:
-                kind, candidates = self._isolate(residual, slack)
+                kind, candidates = self._isolate(residual, expected)
                 self.active = (kind, t)
                 what = f'thrusters {candidates}' if candidates else 'thrusters'
                 out.append(Detection(t, 'thrusters', kind, what, True,
@@ -223,20 +225,15 @@ class ThrustMonitor:
         self.status = MonitorStatus('thrusters', level, self.active[0] if self.active else 'nominal', values)
         return out, self.status
 
-    def _isolate(self, residual, slack):
-        """(kind, candidate thrusters): a residual beyond what is expected of the firing (none where nothing is
+    def _isolate(self, residual, expected):
+        """(kind, candidate thrusters): a residual beyond the thrust expected of the firing (none where nothing is
         expected) is thrust no command asked for, along the thrusters that give it; else a shortfall."""
         directions = self.force_directions_body
         unit = residual / np.linalg.norm(residual)
-        expected = slack / (self.relative_error + THRUST_RELATIVE)
         kind = 'thrust_excess' if np.linalg.norm(residual) > expected else 'thrust_deficit'
         sign = 1.0 if kind == 'thrust_excess' else -1.0
         cosines = directions @ (sign * unit)
         return kind, [int(i) for i in np.flatnonzero(cosines > math.cos(math.radians(ISOLATION_DEG)))]
-
-
-def _key(t):
-    return round(t * 1e6)
 
 
 class ThrustBook:
@@ -269,9 +266,7 @@ class ThrustBook:
         """A force command held over the interval from t: its delta-v as the filter takes it, its thrust."""
         thrust = float(np.linalg.norm(force_n)) + float(np.linalg.norm(torque_n_m)) / self.lever_min_m
         granularity = BIT_THRUSTERS * self.bit_force_n if thrust > 0.0 else 0.0
-        self.commands[_key(t)] = (np.asarray(dv_hill, dtype=float), thrust, granularity)
-        if len(self.commands) > 64:
-            self.commands.pop(next(iter(self.commands)))
+        put_bounded(self.commands, stamp_key(t), (np.asarray(dv_hill, dtype=float), thrust, granularity))
 
     def on_interval(self, t0, t1, dv_measured_hill, q_body_from_hill, mass_kg):
         """The accelerometer's delta-v [m/s, hill] over [t0, t1]; returns the previous interval's (residual specific
@@ -280,7 +275,7 @@ class ThrustBook:
         judged = None
         if self.pending is not None:
             p0, p1, measured, q, mass, burn_dv, burn_thrust, edges = self.pending
-            commanded, thrust, granularity = self.commands.pop(_key(p0), (np.zeros(3), 0.0, 0.0))
+            commanded, thrust, granularity = self.commands.pop(stamp_key(p0), (np.zeros(3), 0.0, 0.0))
             dt = p1 - p0
             residual_hill = (measured - burn_dv - commanded) / dt
             judged = (quat_rotate(q, residual_hill), burn_thrust / dt + thrust / mass, quat_rotate(q, commanded / dt),
@@ -337,7 +332,7 @@ class HealthMonitor:
         self.book.on_burns(burns)
         q = np.asarray(q_hill_from_body, dtype=float)
         dv_hill = quat_rotate(q, np.asarray(specific_force_body, dtype=float)) * (t1 - t0)
-        judged = self.book.on_interval(t0, t1, dv_hill, q * np.array([-1.0, -1.0, -1.0, 1.0]), mass_kg)
+        judged = self.book.on_interval(t0, t1, dv_hill, quat_conjugate(q), mass_kg)
         if judged is not None:
             self.thrust.on_interval(*judged)
 

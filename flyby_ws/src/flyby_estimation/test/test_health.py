@@ -135,3 +135,27 @@ def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has
     assert {s.name for s in statuses} == {'thrusters', 'sensor/relative_position', 'sensor/target_attitude',
                                           'sensor/imu', 'sensor/star_tracker'}
     assert HealthMonitor(_params(rigid=False)).thrust is None
+
+
+def test_a_biased_sensor_with_some_samples_gated_is_still_inconsistent():
+    """Two of every twenty samples refused by the gate do not hide a bias in the others (the mean NIS over the
+    accepted ones, against the chi-square bound of their number)."""
+    rng = np.random.default_rng(5)
+    monitor = SensorMonitor('relative_position', 10.0)
+    found = []
+    for k in range(60):
+        t = 0.1 * (k + 1)
+        monitor.on_sample(t, rejected=k % 10 == 3, nis=float(rng.chisquare(3)) + (25.0 if k >= 20 else 0.0))
+        found += monitor.judge(t)[0]
+    assert [d.kind for d in found] == ['sensor_inconsistent']
+
+
+def test_a_leak_while_a_small_wrench_is_commanded_is_an_excess_naming_the_leaking_thruster():
+    """Review finding: the bit's granularity in the bound must not inflate the thrust expected when classifying."""
+    d = LAYOUT.force_directions_body
+    monitor = ThrustMonitor(SIGMA_A, 0.05, d)
+    found = []
+    for k in range(12):
+        monitor.on_interval(0.01 * d[5], 0.001, np.zeros(3), 0.002)  # 1 N leaking, 0.1 N commanded, a bit's slack
+        found += monitor.judge(0.1 * k)[0]
+    assert [f.kind for f in found] == ['thrust_excess'] and 5 in found[0].values['candidates']

@@ -14,19 +14,22 @@ from flyby_msgs_py import event_payloads, events
 def respond(table: FaultTable, event, phase, cam_fired=False):
     """(events as (level, name, message, values), abort reason or None) for the wire event ``fault_detected`` in
     ``phase``. After the independent monitor's CAM (cam_fired) the answer is ``continue``: its burn is thrust the
-    flight software did not command, and closing the thrusters that give it would undo it."""
+    flight software did not command, and closing the thrusters that give it would undo it. An ``isolate`` with no
+    candidate thruster to close is an ``abort``."""
     detected = event_payloads.decode(event)
     answer = table.response(detected.kind, detected.component, phase)
+    candidates = [int(i) for i in detected.candidates or ()]
     if cam_fired:
         answer = Answer('continue', answer.severity, 'the CAM has the thrusters')
+    elif answer.response in ('isolate', 'isolate_abort') and not candidates:
+        answer = Answer('abort', answer.severity, f'{answer.effect}; no candidate thruster to close')
     payload = event_payloads.FaultResponse(detected.kind, detected.component, answer.response, phase, event.t,
                                            answer.severity)
     why = answer.effect or 'not in the fault table'
     out = [('WARN' if answer.response == 'continue' else 'ERROR', events.FAULT_RESPONSE,
             f'{detected.kind} on {detected.component} in {phase}: {answer.response} ({why})',
             event_payloads.encode(payload))]
-    candidates = [int(i) for i in detected.candidates or ()]
-    if answer.response in ('isolate', 'isolate_abort') and candidates:
+    if answer.response in ('isolate', 'isolate_abort'):
         out.append(('WARN', events.THRUSTERS_ISOLATED, f'thrusters {candidates} isolated: {detected.kind}',
                     event_payloads.encode(event_payloads.ThrustersIsolated(tuple(candidates)))))
     abort = answer.response in ('abort', 'isolate_abort')

@@ -46,6 +46,9 @@ def fmeca_rows(markdown):
         if len(cells) != len(COLUMNS):
             raise ValueError(f'FMECA row {n}: {len(cells)} cells, expected {len(COLUMNS)} ({", ".join(COLUMNS)})')
         row = dict(zip(COLUMNS, cells, strict=True))
+        if not row['severity'].isdigit():
+            raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): severity {row["severity"]!r} is not '
+                             f'a whole number (1 catastrophic, 2 critical, 3 marginal)')
         row['severity'] = int(row['severity'])
         for group in PHASE_GROUPS:
             if row[group] not in RESPONSES:

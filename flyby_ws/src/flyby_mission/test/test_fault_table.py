@@ -106,3 +106,11 @@ def test_the_single_fault_campaign_draws_one_valid_fault_of_each_type():
     campaign = load_campaign(REPO / 'campaigns' / 'faults_single.yaml', checked_draws=60)
     kinds = {campaign.draw(run)[0].faults[0].type for run in range(60)}
     assert len(kinds) == 9
+
+
+def test_an_isolation_without_candidates_aborts():
+    core = _supervisor_in(c.PHASE_FLYBY)
+    out = core.on_event(_detection(800.0, 'thrust_excess', 'thrusters', ()))
+    response = event_payloads.decode_values(out[0].name, out[0].values)
+    assert response.response == 'abort' and core.phase == c.PHASE_ABORTED
+    assert not any(isinstance(o, Event) and o.name == events.THRUSTERS_ISOLATED for o in out)

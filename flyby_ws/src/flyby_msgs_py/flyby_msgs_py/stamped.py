@@ -6,6 +6,8 @@ No rclpy: the node cores use it.
 import collections
 import math
 
+from flyby_msgs_py.wire import STAMP_TOLERANCE_S
+
 
 class StampedBuffer:
     """The recent values of one stream by stamp, for decisions that must not depend on the order in
@@ -37,3 +39,16 @@ class StampedBuffer:
     def last_at_or_before(self, t):
         """(stamp, value) of the last item stamped <= t, or None."""
         return next(((ti, v) for ti, v in reversed(self._items) if ti <= t), None)
+
+
+def stamp_key(t):
+    """A stamp [s] as a dictionary key, to the stamps' rounding (``wire.STAMP_TOLERANCE_S``)."""
+    return round(t / STAMP_TOLERANCE_S)
+
+
+def put_bounded(stamped, key, value, kept=16):
+    """stamped[key] = value, the oldest entries dropped beyond ``kept`` (commands and samples that never found their
+    pair)."""
+    stamped[key] = value
+    while len(stamped) > kept:
+        stamped.pop(next(iter(stamped)))

@@ -43,6 +43,7 @@ VALUES = {
     'sensor_outliers': (20.0, (0.0, 1e6, False, True)),  # the sensor's 1-sigma
     'gyro_bias_jump': (1e-3, (0.0, 1.0, False, True)),  # rad/s
 }
+DEFAULT_THRUSTERS = 12  # the default layout's (actuators.default_thruster_layout)
 PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY,
           c.PHASE_OPTIMAL_APPROACH, c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING, c.PHASE_DOCKING,
           c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_GRASP, c.PHASE_DAMPING, c.PHASE_MASS_ESTIMATION,
@@ -91,11 +92,13 @@ def check_faults(d):
     """Checks of the resolved scenario dict's ``faults`` across keys (schema ranges hold already); raise Invalid."""
     rigid = d['chaser']['model'] == 'rigid_body'
     layout = d['chaser']['thrusters']['layout']
-    n_thrusters = 12 if layout is None else len(layout)
+    n_thrusters = DEFAULT_THRUSTERS if layout is None else len(layout)
     n_wheels = len(d['chaser']['wheels']['axes'])
+    imu = d['sensors']['chaser_imu']
     sigmas = {'relative_position': d['sensors']['relative_position']['noise_sigma_m'],
               'target_attitude': d['sensors']['target_attitude']['noise_sigma_deg'],
-              'star_tracker': d['sensors']['chaser_imu']['star_tracker_sigma_deg']}
+              'star_tracker': imu['star_tracker_sigma_deg'],
+              'imu': max(imu['gyro_noise_sigma_rad_s'], imu['accel_noise_sigma_mps2'])}
     for i, f in enumerate(d.get('faults') or ()):
         key = f'faults[{i}]'
         kind = f['type']
@@ -120,8 +123,9 @@ def check_faults(d):
             raise Invalid(f'{key}.sensor', f'is for sensor_dropout and sensor_outliers, not {kind}')
         _check_value(key, kind, f['value'])
         if kind == 'sensor_outliers' and f['sensor'] in sigmas and sigmas[f['sensor']] == 0.0:
+            value = VALUES[kind][0] if f['value'] is None else f['value']
             raise Invalid(f'{key}.sensor', f'{f["sensor"]} has no noise (its sigma is 0): an outlier of '
-                                           f'{f["value"]} sigma would be none')
+                                           f'{value:g} sigma would be none')
         if f['axis'] is not None and kind not in ('thruster_misaligned', 'gyro_bias_jump'):
             raise Invalid(f'{key}.axis', f'is for thruster_misaligned and gyro_bias_jump, not {kind}')
         if f['axis'] is not None and not math.hypot(*f['axis']) > 0.0:
@@ -166,7 +170,6 @@ class FaultSchedule:
         self._rngs = rng.spawn(len(self.specs)) if self.specs else []
         self._phase_start = {}
         self._started = [None] * len(self.specs)  # the start time of each, once begun
-        self._ended = [False] * len(self.specs)
         self.active = []  # indices of the faults acting now, in their start order
 
     def rng(self, i):
@@ -199,7 +202,6 @@ class FaultSchedule:
         ended = [i for i in self.active if self.specs[i].duration_s is not None
                  and t >= self._started[i] + self.specs[i].duration_s - 1e-9]
         for i in ended:
-            self._ended[i] = True
             self.active.remove(i)
         started = []
         for i in range(len(self.specs)):
@@ -207,9 +209,7 @@ class FaultSchedule:
             if self._started[i] is None and t_start is not None and t >= t_start - 1e-9:
                 self._started[i] = float(t)
                 started.append(i)
-                if self.specs[i].duration_s == 0.0:
-                    self._ended[i] = True
-                else:
+                if self.specs[i].duration_s != 0.0:
                     self.active.append(i)
         return started, ended
 

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from flyby_msgs_py import contract as c
 
@@ -24,7 +25,7 @@ def fault_statistics(out_dir, rows):
     run injected a fault, detected one or fired a CAM."""
     by_kind = collections.defaultdict(lambda: dict(runs=0, outcomes=collections.Counter(), detected=0, delays=[],
                                                    cams=0, collisions=0))
-    false = dict(runs_without_fault=0, detections=0, cams=0, runs=[])
+    false = dict(runs_without_fault=0, never_started=0, detections=0, cams=0, runs=[])
     seen = False
     for run in sorted(rows):
         s = _summary(out_dir, run)
@@ -37,6 +38,9 @@ def fault_statistics(out_dir, rows):
         unexplained = [d for d in detections if d.get('fault') is None and (t_cam is None or d['t_s'] < t_cam)]
         if not injected:
             false['runs_without_fault'] += 1
+            scenario = Path(out_dir) / 'runs' / str(run) / 'scenario.yaml'
+            if scenario.is_file() and (yaml.safe_load(scenario.read_text()) or {}).get('faults'):
+                false['never_started'] += 1  # its phase not reached, or due after the run's end
         if unexplained or (s.get('cam_fired') and not injected):
             false['detections'] += len(unexplained)
             false['cams'] += int(bool(s.get('cam_fired')) and not injected)
@@ -76,5 +80,7 @@ def fault_lines(stats):
                      f'{outcomes} |')
     f = stats['false_alarms']
     lines += ['', f'Detections with no fault acting (false alarms): {f["detections"]} in runs '
-                  f'{f["runs"] or "none"}; CAMs in the {f["runs_without_fault"]} runs without a fault: {f["cams"]}.']
+                  f'{f["runs"] or "none"}; CAMs in the {f["runs_without_fault"]} runs without a fault acting: '
+                  f'{f["cams"]} ({f["never_started"]} of them scheduled one that never started: its phase not reached '
+                  f'or due after the run\'s end).']
     return lines

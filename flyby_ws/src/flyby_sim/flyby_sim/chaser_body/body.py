@@ -241,6 +241,12 @@ class SixDofChaser:
         self._requests = sorted([*self._requests, request], key=lambda r: (r.request_s, r.seq))
         return request
 
+    def cancel_thrust(self):
+        """Drop every held and pending wrench and maneuver and the burn; the wheel command holds (a CAM)."""
+        self._wrench_queue, self._requests = [], []
+        self._wrench = self._burn = None
+        self._update_thrusts(None)
+
     def cancel_all(self):
         """Drop every held and pending command and the burn (the chaser was captured)."""
         self._wrench_queue, self._wheel_queue, self._requests = [], [], []

@@ -2,14 +2,15 @@
 
 The body keeps its hardware errors (``actuators.draw_thruster_errors``) and applies this on top: thruster i gives
 max(gain_i f_i, leak_i) for a nominal thrust f_i (off: gain 0; degraded: gain < 1; stuck on: a leak), its force
-direction turned by the rotation vector turn_i; wheel j gives its motor torque times wheel_gain_j, clipped to
-wheel_gain_j times its limit (failed: 0).
+direction turned by the rotation vector turn_i; wheel j gives its motor torque clipped to wheel_gain_j times its
+limit (failed: 0).
 """
 
 import dataclasses
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_rotate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,10 +36,10 @@ class Health:
         turned = np.asarray(directions_body, dtype=float).copy()
         for i, turn in enumerate(self.turn_rad):
             if any(turn):
-                turned[i] = Rotation.from_rotvec(turn).apply(turned[i])
+                turned[i] = quat_rotate(quat_from_rotation_vector(turn), turned[i])
         return turned
 
     def wheel_torques(self, torques_n_m, limits_n_m):
-        """The motor torques [N m] the wheels give for the commanded ones, each within gain times its limit."""
-        return tuple(min(max(u * g, -g * lim), g * lim)
+        """The motor torques [N m] the wheels give for the commanded ones, each clipped to gain times its limit."""
+        return tuple(min(max(u, -g * lim), g * lim)
                      for u, g, lim in zip(torques_n_m, self.wheel_gain, limits_n_m, strict=True))

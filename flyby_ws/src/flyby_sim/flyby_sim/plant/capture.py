@@ -212,8 +212,10 @@ class CapturePhases:
                                 com_body_m=props.com_body_m)
         combined.set_attitude(q_eci, state.omega_body)
         combined.set_translation(r.tolist() + v.tolist(), t)
-        combined.set_health(self._body.health)  # injected faults stay with the hardware
+        combined.set_health(self._body.health)  # injected faults stay with the hardware, closed valves too
         self._body = combined
+        if self._isolated:
+            self._restrict()
         self._mode = 'combined'
         self._t_locked = t
         self._dv_before_lock = self._dv_total_mps

@@ -23,6 +23,8 @@ from flyby_sim.plant.config import Measurement
 class FaultInjection:
     """Mixin of ``Plant``: the fault schedule, its events, the hardware's health and the sensors' faults."""
 
+    _isolated = frozenset()  # before _init_faults (a run that starts attached locks in the constructor)
+
     def _init_faults(self, rng):
         """The schedule of config.faults on rng (the fault stream of the scenario's seed)."""
         self._faults = FaultSchedule(self.config.faults, rng)
@@ -45,11 +47,11 @@ class FaultInjection:
         self._thrusters.cancel_all()
         self._burn_rhs = None
         if self._chaser is not None:
-            self._chaser.cancel_all()
+            self._chaser.cancel_thrust()
         try:
             self.command_maneuver(t_stamp, dv_hill, full_thrust=True)
         except ManeuverRejected:
-            pass  # recorded (maneuver_rejected); the lockout stands
+            return  # recorded (maneuver_rejected): no CAM, the chain keeps the thrusters
         self._t_cam = float(t_stamp)
         self._events.append(Event(self.t, 'WARN', events.CAM_EXECUTED,
                                   f'CAM of {float(np.linalg.norm(dv_hill)):.4g} m/s stamped {t_stamp:.3f} s: the '
@@ -88,9 +90,12 @@ class FaultInjection:
         allowed = np.ones(self._chaser.layout.count, dtype=bool) if self._transport_mask is None \
             else self._transport_mask.copy()
         allowed[sorted(self._isolated)] = False
-        if allowed.any():
-            for body in {id(b): b for b in (self._chaser, self._body)}.values():
-                body.restrict_thrusters(allowed)
+        if not allowed.any():  # every thruster closed: nothing fires (their health gives nothing)
+            self._events.append(Event(self.t, 'ERROR', events.THRUSTERS_CLOSED, 'every thruster allowed is closed: '
+                                      'no thrust is left', dict(thrusters=sorted(self._isolated))))
+            return
+        for body in {id(b): b for b in (self._chaser, self._body)}.values():
+            body.restrict_thrusters(allowed)
 
     def _apply_health(self):
         health = self._health()
@@ -185,8 +190,7 @@ class FaultInjection:
     def _outlier(self, i, m):
         """Sample m of relative_position or target_attitude off by fault i's value times its sensor's sigma."""
         rng, value = self._faults.rng(i), self._faults.specs[i].magnitude
-        direction = rng.standard_normal(3)
-        direction /= np.linalg.norm(direction)
+        direction = random_unit(rng)
         if m.kind == 'relative_position':
             return m._replace(value=m.value + value * self.config.position_sigma_m * direction)
         turn = quat_from_rotation_vector(value * self.config.attitude_sigma_rad * direction)
