@@ -52,7 +52,7 @@ def test_an_unsafe_reaimed_arc_is_never_flown():
     # The passage clears the panel by 0.10 m: the independent monitor may see it as contact and fire its CAM
     # (docs/faults.md), which leaves it clear too.
     assert (s['outcome'] == 'ESCAPE' or s['cam_fired']) and s['min_clearance_m'] > 0.0, s
-    assert not s['thrust_inside_restriction_sphere']
+    assert s['cam_fired'] or not s['thrust_inside_restriction_sphere']  # a CAM may fire there; guidance never
 
 
 def test_without_a_safe_arc_guidance_stops_and_the_supervisor_escapes():
