@@ -387,14 +387,13 @@ class EstimatorCore:
         if q is None:
             return []
         mass_kg = self.nav.mass_kg or self.params.chaser_mass_kg
+        dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
         if self.health.thrust is not None:  # what the thrust monitor expects of the interval
-            self.health.book.on_command(t, quat_rotate(q, force) * (self.wrench_hold_s / mass_kg), force,
-                                        torque_body_n_m)
+            self.health.book.on_command(t, dv_hill, force, torque_body_n_m)
         if not np.any(force):
             return []
         if float(np.linalg.norm(force)) * self.wrench_hold_s < self.params.min_impulse_bit_ns:
             return []
-        dv_hill = quat_rotate(q, force) * (self.wrench_hold_s / mass_kg)
         measured = self.measured_dv.pop(stamp_key(t), None)
         if measured is not None:  # its interval's accelerometer sample came first
             dv_hill = measured

@@ -34,6 +34,7 @@ STALE for a silent sensor).
 """
 
 import collections
+import functools
 import math
 from typing import NamedTuple
 
@@ -89,6 +90,13 @@ class Detection(NamedTuple):
     values: dict
 
 
+@functools.cache
+def _nis_bound(dof, samples):
+    """The mean NIS of ``samples`` consistent samples of ``dof`` exceeds this with probability NIS_FALSE_ALARM (the
+    chi-square quantile over samples; the same few at every stamp, so kept)."""
+    return chi2.ppf(1.0 - NIS_FALSE_ALARM, dof * samples) / samples
+
+
 class SensorMonitor:
     """Staleness and innovations of one sensor (module doc)."""
 
@@ -127,7 +135,7 @@ class SensorMonitor:
         nis = [x for r, x in self.window if not r]
         full = len(self.window) == WINDOW
         mean_nis = float(np.mean(nis)) if full and len(nis) >= WINDOW // 2 else math.nan
-        nis_bound = chi2.ppf(1.0 - NIS_FALSE_ALARM, self.dof * len(nis)) / len(nis) if nis else math.inf
+        nis_bound = _nis_bound(self.dof, len(nis)) if nis else math.inf
         if self.fresh and not explained:  # the innovation rules at each new sample
             self.fresh = False
             out += self._set('sensor_outliers', full and rejected >= OUTLIER_BURST, t,

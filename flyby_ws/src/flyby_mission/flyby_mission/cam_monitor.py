@@ -38,6 +38,7 @@ from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import (
+    quat_conjugate,
     quat_from_rotation_vector,
     quat_multiply,
     quat_rotate,
@@ -115,6 +116,11 @@ class CamMonitor:
         self.fired = None
         self.q_chaser = None  # the star tracker's last attitude of chaser_body in hill
         self.thrust = None  # (t, u [m/s], s [m], a [m/s^2]) hill: the thrust's integrals since the first IMU sample
+        self.taus = np.arange(0.0, HORIZON_S + 1e-9, STEP_S)
+        # CW's position rows at each step of the horizon, (K, 3, 6): the same at every sample
+        self.phi_r = np.array([cw_transition_matrix(p.mean_motion_rad_s, tau)[:3] for tau in self.taus])
+        # the geometry lies within this of the target's CoM: a path farther off meets none of it, whatever the attitude
+        self.reach_m = max(float(np.linalg.norm(c)) + 0.5 * float(np.linalg.norm(s)) for c, s in p.boxes)
 
     def on_phase(self, phase):
         if phase in STAND_DOWN_PHASES:
@@ -154,15 +160,15 @@ class CamMonitor:
         if self.standing_down or self.fired is not None:
             return []
         state = self.chaser_state(t)
-        attitude = self.target_attitude(t)
-        if state is None or attitude is None:
+        if state is None or len(self.attitudes.samples) < MIN_SAMPLES:
             return []
-        taus = np.arange(0.0, HORIZON_S + 1e-9, STEP_S)
+        taus = self.taus
         u, s, accel = self._thrust_at(t)
         state = state + np.concatenate((s, u))
-        r = np.array([cw_transition_matrix(self.p.mean_motion_rad_s, tau)[:3] @ state + 0.5 * accel * tau**2
-                      for tau in taus])
-        q = attitude.states_at(t + taus)[0]  # hill as inertial over the horizon (n t is 0.03 rad in 30 s)
+        r = self.phi_r @ state + 0.5 * np.outer(taus**2, accel)
+        if float(np.linalg.norm(r, axis=1).min()) >= self.reach_m + self.p.envelope_radius_m:
+            return []  # every predicted clearance is positive: the attitude need not be predicted
+        q = self.target_attitude(t).states_at(t + taus)[0]  # hill as inertial over the horizon (n t: 0.03 rad)
         gaps = clearance(r, q, self.p.boxes, self.p.envelope_radius_m)
         if not np.any(gaps < 0.0):
             return []
@@ -202,14 +208,14 @@ class CamMonitor:
         if len(self.attitudes.samples) < MIN_SAMPLES:
             return None
         _, q_ref = self.attitudes.samples[-1]
-        q_ref_conj = q_ref * np.array([-1.0, -1.0, -1.0, 1.0])
+        q_ref_conj = quat_conjugate(q_ref)
         times = np.array([s for s, _ in self.attitudes.samples])
         t_mid = float(times.mean())
         rotvecs = np.array([rotation_vector_from_quat(quat_multiply(q, q_ref_conj)) for _, q in self.attitudes.samples])
         design = np.column_stack((np.ones_like(times), times - t_mid))
         coef, *_ = np.linalg.lstsq(design, rotvecs, rcond=None)
         q_mid = quat_multiply(quat_from_rotation_vector(coef[0]), q_ref)
-        omega_body = quat_rotate(q_mid * np.array([-1.0, -1.0, -1.0, 1.0]), coef[1])
+        omega_body = quat_rotate(quat_conjugate(q_mid), coef[1])
         return AttitudePropagator(q_mid, omega_body, np.array(self.p.target_inertia_kg_m2), t0=t_mid, rtol=1e-8,
                                   atol=1e-10)
 

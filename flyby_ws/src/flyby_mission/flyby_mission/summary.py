@@ -142,6 +142,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     def count(name):
         return sum(1 for e in events if e['name'] == name)
 
+    t_cam = cam_time(events)
+
     return {
         'outcome': outcome,
         'final_phase': final_phase,
@@ -177,8 +179,8 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
                             'plant': plant_faults(events)},
         'faults_detected': fault_detections(events),
         'fault_responses': fault_responses(events),
-        'cam_fired': cam_time(events) is not None,
-        't_cam_s': cam_time(events),
+        'cam_fired': t_cam is not None,
+        't_cam_s': t_cam,
     }
 
 

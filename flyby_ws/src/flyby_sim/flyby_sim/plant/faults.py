@@ -94,12 +94,16 @@ class FaultInjection:
             self._events.append(Event(self.t, 'ERROR', events.THRUSTERS_CLOSED, 'every thruster allowed is closed: '
                                       'no thrust is left', dict(thrusters=sorted(self._isolated))))
             return
-        for body in {id(b): b for b in (self._chaser, self._body)}.values():
+        for body in self._bodies():
             body.restrict_thrusters(allowed)
+
+    def _bodies(self):
+        """The chaser and, after the lock, the combined body the plant integrates (each once)."""
+        return [self._chaser] if self._body is self._chaser else [self._chaser, self._body]
 
     def _apply_health(self):
         health = self._health()
-        for body in {id(b): b for b in (self._chaser, self._body)}.values():
+        for body in self._bodies():
             body.set_health(health)
 
     def _inject_due(self):
