@@ -313,8 +313,9 @@ class EstimatorCore:
             return out + self._attached_imu(t, a, specific_force_body, q_hill_from_body)
         self.attitudes.append((a.t, a.q_hill_from_body))
         if specific_force_body is not None and t_last is not None:
-            out += self._measured_thrust(t_last, t, a, specific_force_body)
-            if self.health.thrust is not None:
+            rejected = self._measured_thrust(t_last, t, a, specific_force_body)
+            out += rejected
+            if self.health.thrust is not None and not rejected:  # a non-finite sample judges nothing
                 self.health.on_interval(self.nav.burns, t_last, t, a.q_hill_from_body, specific_force_body,
                                         self.nav.mass_kg or self.params.chaser_mass_kg)
         s = self.nav.state() if self.nav.t >= t else self.nav.predict(t)

@@ -145,3 +145,21 @@ def test_a_force_command_heard_after_its_accelerometer_sample_is_taken_as_measur
     _, late = _fly_constant_force(accelerometer=True, late_commands=True, duration_s=4.0)
     np.testing.assert_allclose(late.v_hill, in_order.v_hill, atol=1e-6)
     np.testing.assert_allclose(late.r_hill, in_order.r_hill, atol=1e-6)
+
+
+def test_a_non_finite_accelerometer_sample_is_refused_and_reaches_neither_the_navigation_nor_the_thrust_monitor():
+    scenario = load_scenario(SCENARIOS / 'paper_flyby_6dof.yaml')
+    plant = Plant(PlantConfig.from_scenario(scenario))
+    estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
+    while plant.t < 5.0:
+        _step_and_estimate(plant, estimator)
+    pending = estimator.health.book.pending
+    assert pending is not None
+    imu = None
+    while imu is None:
+        plant.step()
+        imu = next((m for m in plant.measurements() if m.kind == 'chaser_imu'), None)
+    out = estimator.on_imu(wire_time(imu.t), imu.value.q_hill_from_body, imu.value.omega_body_meas,
+                           np.array([np.nan, 0.0, 0.0]))
+    assert any('non_finite' in repr(o) for o in out)
+    assert estimator.health.book.pending is pending

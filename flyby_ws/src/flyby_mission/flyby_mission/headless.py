@@ -232,7 +232,7 @@ class HeadlessGraph:
         """A message the simulator takes: commands from their stamps, the phase's capture and transport."""
         topic, t, value = message
         if topic == c.MISSION_PHASE:
-            self.plant.on_phase(value)
+            self.plant.on_phase(value, t)
         if topic == c.GUIDANCE_WHEELS:
             self.plant.command_wheels(t, value.wheel_torque_n_m)
             return

@@ -79,3 +79,26 @@ def test_the_plant_flies_the_cam_ahead_of_the_queue_and_ignores_the_chain_after_
         runs.append(plant.truth().v_hill)
         assert names.count(events.CAM_EXECUTED) == 1 and names.count(events.BURN_STARTED) == 1
     np.testing.assert_allclose(runs[1], runs[0], atol=1e-12)
+
+
+def test_a_cam_the_remaining_thrusters_cannot_fly_when_it_starts_leaves_them_to_the_chain():
+    """The CAM accepted, then every thruster pushing along it closed before its start: its burn is refused there
+    (maneuver_rejected) and the planning chain's commands are flown again."""
+    from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
+
+    plant = Plant(PlantConfig.from_scenario(SCENARIO))
+    dv_hill = np.array([0.2, 0.0, 0.0])
+    plant.command_cam(1.0, dv_hill)
+    along_body = quat_rotate(quat_conjugate(plant.truth().q_hill_from_body), dv_hill)
+    plant.isolate_thrusters(np.flatnonzero(plant.chaser.layout.force_directions_body @ along_body > 0.0))
+    names = []
+    while plant.t < 3.0:
+        plant.step()
+        names += [e.name for e in plant.drain_events()]
+    assert events.MANEUVER_REJECTED in names and events.BURN_STARTED not in names
+    assert plant.command_maneuver(5.0, -dv_hill) is not None  # None: ignored after a CAM
+    plant.command_wrench(6.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.01))
+    while plant.t < 10.0:
+        plant.step()
+        names += [e.name for e in plant.drain_events()]
+    assert events.COMMAND_IGNORED not in names

@@ -490,11 +490,9 @@ class SimNode(Node):
 
     # -- commands -------------------------------------------------------------------------
     def on_phase(self, ch, msg):
-        """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on. Every phase: the
-        injected faults that start with it (``Plant.on_phase``)."""
+        """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
         phase = convert.string_to_str(msg)
         ch.phase = phase
-        ch.plant.on_phase(phase)
         if phase in ATTITUDE_QUIET_PHASES and not (ch.locked and phase == c.PHASE_CAPTURE):
             ch.attitude_quiet = True
         if phase == c.PHASE_CAPTURE:
@@ -507,8 +505,11 @@ class SimNode(Node):
     def on_events(self, ch, msg):
         """A node of the command chain whose core failed (flyby_msgs_py.core_guard) commands no more: time is not held
         for its announced commands, as for a node that left the graph. The supervisor's ``thrusters_isolated``: their
-        valves closed."""
+        valves closed. A phase change: the injected faults that start with it, from its stamp (``Plant.on_phase``)."""
         for e in convert.events_from_msg(msg):
+            if e['name'] == events.PHASE_CHANGED:
+                ch.plant.on_phase(event_payloads.decode_values(e['name'], e['values']).to_phase, e['t'])
+                continue
             if e['name'] == events.THRUSTERS_ISOLATED:  # the supervisor's fault response (docs/faults.md)
                 ch.plant.isolate_thrusters(event_payloads.decode_values(e['name'], e['values']).thrusters)
                 self.publish_plant_events()

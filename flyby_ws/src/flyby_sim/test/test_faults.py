@@ -139,14 +139,15 @@ def test_a_gyro_bias_jump_steps_the_bias_and_a_star_tracker_dropout_leaves_the_g
     assert imu and all(x.q_hill_from_body is None for x in imu)
 
 
-def test_a_fault_at_a_phase_starts_after_its_delay_and_the_summary_reads_it_back():
+def test_a_fault_at_a_phase_starts_after_its_delay_from_the_transitions_stamp_and_the_summary_reads_it_back():
+    """The phase message reaches the plant at 1.0 s, the transition is stamped 0.8 s: the fault is due from 1.3 s."""
     plant = _plant(FaultSpec('thruster_off', index=5, start_phase='FLYBY', delay_s=0.5, duration_s=1.0))
     step_to(plant, 1.0)
-    plant.on_phase('FLYBY')
+    plant.on_phase('FLYBY', 0.8)
     _, events = step_to(plant, 4.0)
     faults = plant_faults([wire_event(e)._asdict() | {'hardware_id': 'sim'} for e in events])
-    assert faults == [dict(fault=0, kind='thruster_off', target='thruster 5', t_start_s=1.5, t_end_s=2.5,
-                           value=None)]
+    assert faults == [dict(fault=0, kind='thruster_off', target='thruster 5', t_start_s=1.3,
+                           t_end_s=pytest.approx(2.3), value=None)]
 
 
 def _with_faults(base, faults):

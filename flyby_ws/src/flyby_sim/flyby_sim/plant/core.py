@@ -106,6 +106,7 @@ class Plant(PointMassFlight, CapturePhases, FaultInjection):
 
     def _events_append(self, event):
         self._events.append(event)
+        self._cam_not_flown(event)
 
     @property
     def chaser(self):

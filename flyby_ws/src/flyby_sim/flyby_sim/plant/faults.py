@@ -24,6 +24,7 @@ class FaultInjection:
     """Mixin of ``Plant``: the fault schedule, its events, the hardware's health and the sensors' faults."""
 
     _isolated = frozenset()  # before _init_faults (a run that starts attached locks in the constructor)
+    _t_cam = None  # before _init_faults (the chaser body reports events from its constructor on)
 
     def _init_faults(self, rng):
         """The schedule of config.faults on rng (the fault stream of the scenario's seed)."""
@@ -31,11 +32,13 @@ class FaultInjection:
         self._fault_effect = {}  # index -> what it drew at its start (a turn, a bias step)
         self._isolated = set()  # thrusters whose valves the supervisor closed (isolate_thrusters)
         self._t_cam = None  # the stamp of the independent monitor's CAM (command_cam)
+        self._cam_seq = None  # its burn's sequence number (the six-degree-of-freedom chaser's)
         self._cam_ignored = set()
 
-    def on_phase(self, phase):
-        """The supervisor's phase began now (the faults that start with it are due from its time on)."""
-        self._faults.on_phase(phase, self.t)
+    def on_phase(self, phase, t_stamp):
+        """The supervisor's phase began at its transition's stamp t_stamp [s] (the faults that start with it are due
+        from then on; one that arrives late starts at once)."""
+        self._faults.on_phase(phase, t_stamp)
 
     def command_cam(self, t_stamp, dv_hill):
         """The independent monitor's collision-avoidance manoeuvre (safety/cam): every command queued and the burn
@@ -49,14 +52,22 @@ class FaultInjection:
         if self._chaser is not None:
             self._chaser.cancel_thrust()
         try:
-            self.command_maneuver(t_stamp, dv_hill, full_thrust=True)
+            request = self.command_maneuver(t_stamp, dv_hill, full_thrust=True)
         except ManeuverRejected:
             return  # recorded (maneuver_rejected): no CAM, the chain keeps the thrusters
+        self._cam_seq = getattr(request, 'seq', None)
         self._t_cam = float(t_stamp)
         self._events.append(Event(self.t, 'WARN', events.CAM_EXECUTED,
                                   f'CAM of {float(np.linalg.norm(dv_hill)):.4g} m/s stamped {t_stamp:.3f} s: the '
                                   f'planning chain\'s thrust commands are ignored from now on',
                                   dict(t_stamp=float(t_stamp), dv_hill=np.asarray(dv_hill, dtype=float))))
+
+    def _cam_not_flown(self, event):
+        """The CAM's burn refused when it was to start (the thrusters left by an isolation give no pure force along
+        it): the planning chain keeps the thrusters, as for a CAM refused when commanded."""
+        if (event.name == events.MANEUVER_REJECTED and self._t_cam is not None
+                and event.values.get('seq') == self._cam_seq):
+            self._t_cam = None
 
     def cam_lockout(self, kind, t_stamp):
         """True for a planning chain's thrust command after the CAM (a command_ignored event, the first of each
