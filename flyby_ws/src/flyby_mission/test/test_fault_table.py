@@ -108,6 +108,13 @@ def test_the_single_fault_campaign_draws_one_valid_fault_of_each_type():
     assert len(kinds) == 9
 
 
+def test_the_double_fault_campaign_draws_two_independent_valid_faults():
+    from flyby_mission.campaign.dispersions import load_campaign
+    campaign = load_campaign(REPO / 'campaigns' / 'faults_double.yaml', checked_draws=30)
+    pairs = [tuple((f.type, f.start_phase) for f in campaign.draw(run)[0].faults) for run in range(30)]
+    assert all(len(p) == 2 for p in pairs) and sum(a != b for a, b in pairs) >= 25
+
+
 def test_an_isolation_without_candidates_aborts():
     core = _supervisor_in(c.PHASE_FLYBY)
     out = core.on_event(_detection(800.0, 'thrust_excess', 'thrusters', ()))
