@@ -299,6 +299,7 @@ class EstimatorCore:
             return []
         out = []
         self.health.on_sample('imu', t)
+        self.health.wheels.on_sample(t, omega_body_rad_s=omega_body_meas)
         for sensor, result in zip(('gyro', 'star_tracker'), self.attitude.on_imu(t, omega_body_meas, q_hill_from_body),
                                   strict=True):
             if sensor == 'star_tracker' and result is not None:
@@ -372,6 +373,19 @@ class EstimatorCore:
         if self.health.thrust is not None:
             self.health.book.on_maneuver(burn.seq)
         return []
+
+    def on_wheels(self, t, torques_n_m):
+        """Guidance's wheel motor torques [N m] held from t (guidance/wheels): what the wheel monitor expects."""
+        if self.health.wheels is not None:
+            self.health.wheels.on_command(t, torques_n_m)
+        return []
+
+    def on_wheel_speeds(self, t, speeds_rad_s):
+        """The wheels' tachometers at t [rad/s] (sensors/chaser/wheels); then the health monitors' judgement."""
+        if self.health.wheels is None or (self.attached and not self.post_capture):
+            return []
+        self.health.wheels.on_sample(t, speeds_rad_s=speeds_rad_s)
+        return self._health(t)
 
     def on_wrench(self, t, force_body_n, torque_body_n_m=(0.0, 0.0, 0.0)):
         """A commanded thruster force [N, chaser_body] (and torque [N m]) held from t for one control period

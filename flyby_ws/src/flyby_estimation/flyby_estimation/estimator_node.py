@@ -68,6 +68,7 @@ class EstimatorNode(CoreNode):
         self.subscribe_inputs(scenario, {
             c.SENSOR_CHASER_IMU: (self.on_imu, True), c.GUIDANCE_WRENCH: (self.on_wrench, True),
             c.SENSOR_TARGET_ATTITUDE: (self.on_attitude, True), c.SENSOR_RELATIVE_POSITION: (self.on_position, True),
+            c.SENSOR_CHASER_WHEELS: (self.on_wheel_speeds, True), c.GUIDANCE_WHEELS: (self.on_wheels, True),
             c.GUIDANCE_MANEUVER: self.on_maneuver, c.MISSION_PHASE: self.on_phase_message,
             c.MISSION_EVENTS: self.on_events_message})
 
@@ -96,6 +97,14 @@ class EstimatorNode(CoreNode):
     def on_wrench(self, data):
         w = convert.wrench_stamped_cdr_to_numpy(data)
         self.publish(self.core.on_wrench(w.t, w.force, w.torque))
+
+    def on_wheel_speeds(self, data):
+        wheels = convert.joint_state_cdr_to_numpy(data)
+        self.publish(self.core.on_wheel_speeds(wheels.t, wheels.velocity))
+
+    def on_wheels(self, data):
+        wheels = convert.joint_state_cdr_to_numpy(data)
+        self.publish(self.core.on_wheels(wheels.t, wheels.effort))
 
     def on_maneuver(self, msg):
         self.publish(self.core.on_maneuver(*convert.vector3_stamped_to_numpy(msg)))

@@ -28,6 +28,14 @@ Each monitor has a stated rule:
   thrusters whose force lies within ``ISOLATION_DEG`` of the residual (or against it, for a deficit) as the
   candidates.
 
+* **Wheels** (the rigid-body chaser's tachometers and gyro): each wheel's axial momentum J (spin + axis . gyro rate)
+  changes by the impulse of its motor torque, so over the last ``WHEEL_WINDOW`` paired samples, judged one sample
+  late (a command is known by then), the change against guidance's commands (held from their stamps, clipped to
+  the motor's limit) beyond ``THRUST_SIGMAS`` of the two samples' noise plus ``WHEEL_RELATIVE`` of the commanded
+  impulse: ``wheel_torque_deficit`` where the wheel gave less than commanded (failed, torque-limited),
+  ``wheel_torque_excess`` otherwise, naming the wheel. A wheel within ``WHEEL_SATURATION`` of its momentum limit at
+  either end is not judged (the plant stops it there).
+
 A detection is cleared after ``CLEAR_WINDOWS`` windows within its rule's bound. The monitors' statuses go out every
 ``DIAGNOSTICS_PERIOD_S`` of stamps (OK, WARN for a residual above half its bound, ERROR while a fault is detected,
 STALE for a silent sensor).
@@ -56,6 +64,9 @@ ISOLATION_DEG = 25.0
 CLEAR_WINDOWS = 2
 DIAGNOSTICS_PERIOD_S = 1.0
 THRUST_SETTLE_S = 30.0  # after a firing the navigation models, its execution error settles in the innovations
+WHEEL_WINDOW = 10
+WHEEL_RELATIVE = 0.05  # the motor's torque error allowed, of the commanded impulse
+WHEEL_SATURATION = 0.95  # of the momentum limit
 LEVEL_OK = 'OK'
 LEVEL_WARN = 'WARN'
 LEVEL_ERROR = 'ERROR'
@@ -302,6 +313,94 @@ class ThrustBook:
         return judged
 
 
+class WheelMonitor:
+    """Each wheel's momentum change against its commanded torque (module doc)."""
+
+    def __init__(self, wheels, tachometer_sigma_rad_s, gyro_sigma_rad_s):
+        """wheels: the ``ReactionWheels`` (axes, limits, spin inertia); the tachometers' and the gyro's 1-sigma
+        [rad/s]."""
+        self.axes, self.spin_inertia = wheels.axes_body, wheels.spin_inertia_kg_m2
+        self.max_torque, self.max_momentum = wheels.max_torque_n_m, wheels.max_momentum_n_m_s
+        self.noise = THRUST_SIGMAS * math.sqrt(2.0) * self.spin_inertia * math.hypot(tachometer_sigma_rad_s,
+                                                                                     gyro_sigma_rad_s)
+        self.commands = []  # (stamp, torques clipped), by stamp
+        self.halves = {}  # stamp key -> the tachometers' speeds or the gyro's rate, whichever came first
+        self.momenta = collections.deque(maxlen=WHEEL_WINDOW + 2)  # (t, each wheel's axial momentum)
+        self.active = None  # (kind, t)
+        self.nominal = 0
+        self.fresh = False
+        self.status = MonitorStatus('wheels', LEVEL_OK, 'waiting for a window', {})
+
+    def on_command(self, t_stamp, torques_n_m):
+        """Guidance's motor torques [N m], held from t_stamp [s]."""
+        torques = np.clip(np.asarray(torques_n_m, dtype=float), -self.max_torque, self.max_torque)
+        self.commands = sorted([c for c in self.commands if c[0] != t_stamp] + [(float(t_stamp), torques)],
+                               key=lambda c: c[0])
+
+    def on_sample(self, t, speeds_rad_s=None, omega_body_rad_s=None):
+        """The tachometers' speeds [rad/s] or the gyro's rate [rad/s, chaser_body] at t: paired by stamp."""
+        key = stamp_key(t)
+        other = self.halves.pop(key, None)
+        if other is None:
+            put_bounded(self.halves, key, (speeds_rad_s, omega_body_rad_s), 4)
+            return
+        speeds = np.asarray(speeds_rad_s if speeds_rad_s is not None else other[0], dtype=float)
+        omega = np.asarray(omega_body_rad_s if omega_body_rad_s is not None else other[1], dtype=float)
+        if speeds.shape != self.spin_inertia.shape or not (np.all(np.isfinite(speeds))
+                                                           and np.all(np.isfinite(omega))):
+            return
+        self.momenta.append((float(t), self.spin_inertia * (speeds + self.axes @ omega)))
+        self.fresh = True
+
+    def _impulse(self, t0, t1):
+        """Each wheel's commanded impulse over [t0, t1] [N m s] and its magnitude's."""
+        impulse, size = np.zeros(len(self.axes)), np.zeros(len(self.axes))
+        for k, (t_stamp, torques) in enumerate(self.commands):
+            t_next = self.commands[k + 1][0] if k + 1 < len(self.commands) else math.inf
+            overlap = min(t1, t_next) - max(t0, t_stamp)
+            if overlap > 0.0:
+                impulse, size = impulse + torques * overlap, size + np.abs(torques) * overlap
+        return impulse, size
+
+    def judge(self, t):
+        """Detections at a new paired sample's stamp t, and the status."""
+        if not self.fresh or len(self.momenta) < self.momenta.maxlen:
+            return [], self.status
+        self.fresh = False
+        (t0, h0), (t1, h1) = self.momenta[0], self.momenta[-2]
+        while len(self.commands) > 1 and self.commands[1][0] <= t0:
+            self.commands.pop(0)
+        expected, size = self._impulse(t0, t1)
+        residual = (h1 - h0) - expected
+        bound = self.noise + WHEEL_RELATIVE * size
+        judged = np.maximum(np.abs(h0), np.abs(h1)) < WHEEL_SATURATION * self.max_momentum
+        failing = [int(i) for i in np.flatnonzero(judged & (np.abs(residual) > bound))]
+        values = dict(residual_n_m_s=np.round(residual, 6).tolist(), bound_n_m_s=np.round(bound, 6).tolist())
+        out = []
+        if failing:
+            self.nominal = 0
+            if self.active is None:
+                deficit = [i for i in failing if residual[i] * expected[i] < 0.0
+                           and abs(residual[i]) <= abs(expected[i]) + bound[i]]
+                kind = 'wheel_torque_deficit' if deficit else 'wheel_torque_excess'
+                candidates = deficit or failing
+                self.active = (kind, t)
+                out.append(Detection(t, 'wheels', kind, f'wheels {candidates}', True,
+                                     f'{kind}: wheels {candidates} changed their momentum by '
+                                     f'{np.round(h1 - h0, 5)[candidates].tolist()} N m s over {t1 - t0:.2f} s '
+                                     f'against {np.round(expected, 5)[candidates].tolist()} commanded',
+                                     dict(values, candidates=candidates)))
+        elif self.active is not None:
+            self.nominal += 1
+            if self.nominal >= CLEAR_WINDOWS * WHEEL_WINDOW:
+                kind, _ = self.active
+                self.active = None
+                out.append(Detection(t, 'wheels', kind, 'wheels', False, f'{kind} cleared', {}))
+        level = LEVEL_ERROR if self.active else LEVEL_WARN if np.any(np.abs(residual) > 0.5 * bound) else LEVEL_OK
+        self.status = MonitorStatus('wheels', level, self.active[0] if self.active else 'nominal', values)
+        return out, self.status
+
+
 class HealthMonitor:
     """Every monitor of the chaser, their detections and their statuses (module doc)."""
 
@@ -310,7 +409,7 @@ class HealthMonitor:
         self.params = params
         self.sensors = {'relative_position': SensorMonitor('relative_position', params.position_rate_hz),
                         'target_attitude': SensorMonitor('target_attitude', params.attitude_rate_hz)}
-        self.thrust = None
+        self.thrust = self.wheels = None
         if params.rigid_body:
             self.sensors['imu'] = SensorMonitor('imu', params.imu_rate_hz, innovations=False)
             self.sensors['star_tracker'] = SensorMonitor('star_tracker', params.star_tracker_rate_hz)
@@ -319,6 +418,7 @@ class HealthMonitor:
             self.thrust = ThrustMonitor(params.accel_sigma_mps2, relative, layout.force_directions_body)
             levers = np.linalg.norm(np.cross(layout.positions_body_m, layout.force_directions_body), axis=1)
             self.book = ThrustBook(max(float(levers.min()), 1e-3), params.min_impulse_bit_ns * params.imu_rate_hz)
+            self.wheels = WheelMonitor(params.wheels, params.tachometer_sigma_rad_s, params.gyro_sigma_rad_s)
         self.suspended = set()  # sensors no longer expected (the target's after the capture)
         self.t_diagnostics = -math.inf
 
@@ -354,6 +454,10 @@ class HealthMonitor:
         detections, statuses = [], []
         if self.thrust is not None:
             found, status = self.thrust.judge(t)
+            detections += found
+            statuses.append(status)
+        if self.wheels is not None:
+            found, status = self.wheels.judge(t)
             detections += found
             statuses.append(status)
         thrust_fault = self.thrust is not None and self.thrust.active is not None

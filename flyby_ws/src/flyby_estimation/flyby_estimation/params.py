@@ -185,6 +185,9 @@ class HealthParams:
     thrust_misalignment_sigma_rad: float = params.key('chaser.thrusters.direction_error_sigma_deg', math.radians)
     thruster_layout: object = params.key('thruster_layout')
     min_impulse_bit_ns: float = params.key('chaser.thrusters.min_impulse_bit_ns')
+    wheels: object = params.key('reaction_wheels')
+    tachometer_sigma_rad_s: float = params.key('chaser.wheels.tachometer_sigma_rad_s')
+    gyro_sigma_rad_s: float = params.key('sensors.chaser_imu.gyro_noise_sigma_rad_s')
 
 
 @params.record

@@ -9,19 +9,24 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_estimation import health
-from flyby_estimation.health import HealthMonitor, SensorMonitor, ThrustBook, ThrustMonitor
+from flyby_estimation.health import HealthMonitor, SensorMonitor, ThrustBook, ThrustMonitor, WheelMonitor
 from flyby_estimation.params import HealthParams
 from flyby_sim.dynamics.actuators import default_thruster_layout
+from flyby_sim.dynamics.rigid_body import ReactionWheels
 
 LAYOUT = default_thruster_layout(10.0, 220.0, 0.0)
+WHEELS = ReactionWheels.orthogonal(0.1, 4.0, 0.01)
 SIGMA_A = 1e-4
+SIGMA_TACH = 0.01
+SIGMA_GYRO = 1e-5
 
 
 def _params(rigid=True):
     return HealthParams(position_rate_hz=10.0, attitude_rate_hz=10.0, rigid_body=rigid, imu_rate_hz=10.0,
                         star_tracker_rate_hz=2.0, accel_sigma_mps2=SIGMA_A, thrust_magnitude_sigma=0.01,
                         thrust_misalignment_sigma_rad=math.radians(0.5), thruster_layout=LAYOUT,
-                        min_impulse_bit_ns=0.01)
+                        min_impulse_bit_ns=0.01, wheels=WHEELS, tachometer_sigma_rad_s=SIGMA_TACH,
+                        gyro_sigma_rad_s=SIGMA_GYRO)
 
 
 def test_a_sensor_silent_for_five_periods_is_stale_and_recovers_at_its_next_sample():
@@ -133,7 +138,7 @@ def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has
         assert detections == []
         statuses = diagnostics.statuses if diagnostics is not None else statuses
     assert {s.name for s in statuses} == {'thrusters', 'sensor/relative_position', 'sensor/target_attitude',
-                                          'sensor/imu', 'sensor/star_tracker'}
+                                          'sensor/imu', 'sensor/star_tracker', 'wheels'}
     assert HealthMonitor(_params(rigid=False)).thrust is None
 
 
@@ -159,3 +164,54 @@ def test_a_leak_while_a_small_wrench_is_commanded_is_an_excess_naming_the_leakin
         monitor.on_interval(0.01 * d[5], 0.001, np.zeros(3), 0.002)  # 1 N leaking, 0.1 N commanded, a bit's slack
         found += monitor.judge(0.1 * k)[0]
     assert [f.kind for f in found] == ['thrust_excess'] and 5 in found[0].values['candidates']
+
+
+def _spin(monitor, torque_of, gain, seconds, seed=0, h0=(0.0, 0.0, 0.0), inertia=10.0):
+    """The wheels (J 0.01 kg m^2 on x, y, z) of a 10 kg m^2 chaser driven at 10 Hz by the commands
+    ``torque_of(t)`` [N m], each wheel giving ``gain`` times its command, sampled with the tachometers' and the
+    gyro's noise, the samples fed in turn as the two topics come (the gyro's first at even steps); the detections."""
+    rng = np.random.default_rng(seed)
+    h, omega = np.array(h0, dtype=float), np.zeros(3)
+    found = []
+    for k in range(int(seconds * 10)):
+        t = 0.1 * k
+        speeds = h / 0.01 - omega + SIGMA_TACH * rng.standard_normal(3)
+        rate = omega + SIGMA_GYRO * rng.standard_normal(3)
+        for each in ((dict(omega_body_rad_s=rate), dict(speeds_rad_s=speeds))[::1 if k % 2 else -1]):
+            monitor.on_sample(t, **each)
+            found += monitor.judge(t)[0]
+        torque = np.clip(torque_of(t), -0.1, 0.1)
+        monitor.on_command(t, torque_of(t))
+        delivered = np.asarray(gain) * torque
+        h = h + 0.1 * delivered
+        omega = omega - 0.1 * delivered / inertia
+    return found
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_nominal_wheels_raise_nothing_at_their_limits_and_turning_the_chaser(seed):
+    """Ten minutes of slews at up to twice the torque limit (clipped, as the plant does) with every wheel within 2 %
+    of its command: no detection."""
+    rng = np.random.default_rng(seed)
+    phases = rng.uniform(0.0, 2.0 * np.pi, 3)
+    found = _spin(WheelMonitor(WHEELS, SIGMA_TACH, SIGMA_GYRO),
+                  lambda t: 0.2 * np.sin(0.05 * t + phases), 1.0 + 0.02 * rng.uniform(-1.0, 1.0, 3), 600.0, seed)
+    assert found == []
+
+
+def test_a_failed_wheel_is_a_torque_deficit_naming_it_within_the_window_and_a_wheel_beyond_its_command_an_excess():
+    monitor = WheelMonitor(WHEELS, SIGMA_TACH, SIGMA_GYRO)
+    found = _spin(monitor, lambda t: np.array([0.0, 0.0, 0.02]), (1.0, 1.0, 0.0), 3.0)
+    assert [(d.kind, d.values['candidates']) for d in found] == [('wheel_torque_deficit', [2])]
+    assert found[0].t <= 1.2 + 1e-9  # the first full window, one sample late
+    monitor = WheelMonitor(WHEELS, SIGMA_TACH, SIGMA_GYRO)
+    found = _spin(monitor, lambda t: np.array([0.01, 0.0, 0.0]), (3.0, 1.0, 1.0), 3.0)
+    assert [(d.kind, d.values['candidates']) for d in found] == [('wheel_torque_excess', [0])]
+
+
+def test_a_wheel_at_its_momentum_limit_is_not_judged():
+    """The plant stops a wheel at its limit whatever the command: near it, no detection."""
+    found = _spin(WheelMonitor(WHEELS, SIGMA_TACH, SIGMA_GYRO), lambda t: np.array([0.05, 0.0, 0.0]),
+                  (0.0, 1.0, 1.0), 3.0, h0=(3.9, 0.0, 0.0))
+    assert found == []

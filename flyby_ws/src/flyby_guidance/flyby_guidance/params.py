@@ -34,12 +34,6 @@ def _transports(scenario):
     return _captures(scenario) and scenario.post_capture.transport is not None
 
 
-def _wheels(scenario):
-    """The chaser's ReactionWheels (chaser.wheels)."""
-    w = scenario.chaser.wheels
-    return ReactionWheels(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.spin_inertia_kg_m2)
-
-
 def _initial_wheel_momentum(scenario):
     """The wheels' initial momenta [N m s] (chaser.wheels.initial_momentum_n_m_s; omitted: none)."""
     h0 = scenario.chaser.wheels.initial_momentum_n_m_s
@@ -75,7 +69,7 @@ class ChaserParams:
     control_period_s: float = params.key('sensors.chaser_imu.rate_hz', lambda hz: 1.0 / hz)
     momentum_dump_start_n_m_s: float = params.key('guidance.momentum_dump_start_n_m_s')
     momentum_dump_stop_n_m_s: float = params.key('guidance.momentum_dump_stop_n_m_s')
-    wheels: ReactionWheels = params.derived(_wheels)
+    wheels: ReactionWheels = params.key('reaction_wheels')
     initial_wheel_momentum_n_m_s: np.ndarray = params.derived(_initial_wheel_momentum)
     inertia_kg_m2: np.ndarray = params.key('chaser_inertia')
     mass_kg: float = params.key('chaser.mass_kg')

@@ -69,9 +69,9 @@ class FaultTable:
         return cls(yaml.safe_load(Path(path).read_text())['faults'])
 
     def response(self, kind, component, phase):
-        """The Answer to a detection of ``kind`` on ``component`` (a thrust fault's component is 'thrusters',
-        whatever its candidates) in ``phase``."""
-        row = self.rows.get((kind, 'thrusters' if component.startswith('thrusters') else component))
+        """The Answer to a detection of ``kind`` on ``component`` (a thrust or wheel fault's component is
+        'thrusters' or 'wheels', whatever its candidates) in ``phase``."""
+        row = self.rows.get((kind, component.split(' ')[0]))
         if row is None:
             return Answer(UNLISTED, None, None)
         group = next((g for g, phases in PHASE_GROUPS.items() if phase in phases), 'after_capture')

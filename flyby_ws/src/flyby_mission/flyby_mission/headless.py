@@ -275,7 +275,7 @@ class _Message(NamedTuple):
 
 
 MEASUREMENT_TOPICS = {'relative_position': c.SENSOR_RELATIVE_POSITION, 'target_attitude': c.SENSOR_TARGET_ATTITUDE,
-                      'chaser_imu': c.SENSOR_CHASER_IMU}
+                      'chaser_imu': c.SENSOR_CHASER_IMU, 'wheel_speeds': c.SENSOR_CHASER_WHEELS}
 
 
 def _chaser_message(out):
@@ -344,6 +344,8 @@ CORE_INPUTS = {
     (wiring.ESTIMATOR, c.SENSOR_RELATIVE_POSITION): lambda g, m: g.estimator.on_position(m.t, m.value),
     (wiring.ESTIMATOR, c.SENSOR_TARGET_ATTITUDE): lambda g, m: g.estimator.on_attitude(m.t, m.value),
     (wiring.ESTIMATOR, c.SENSOR_CHASER_IMU): _imu,
+    (wiring.ESTIMATOR, c.SENSOR_CHASER_WHEELS): lambda g, m: g.estimator.on_wheel_speeds(m.t, m.value),
+    (wiring.ESTIMATOR, c.GUIDANCE_WHEELS): lambda g, m: g.estimator.on_wheels(m.t, m.value.wheel_torque_n_m),
     (wiring.ESTIMATOR, c.GUIDANCE_MANEUVER): lambda g, m: g.estimator.on_maneuver(m.t, m.value),
     (wiring.ESTIMATOR, c.GUIDANCE_WRENCH): lambda g, m: g.estimator.on_wrench(
         m.t, m.value.force_body_n, m.value.thruster_torque_body_n_m),

@@ -81,9 +81,9 @@ def plant_faults(events):
 def _explains(fault, detection):
     """Whether an injected fault (``plant_faults``' dict) is one the detection (a FaultDetected) may be of."""
     target, component = fault['target'], detection.component
-    if target.startswith('thruster '):
-        return component.startswith('thrusters') and (
-            not detection.candidates or int(target.split()[1]) in detection.candidates)
+    actuator, _, index = target.partition(' ')
+    if actuator in ('thruster', 'wheel'):  # the monitor's component: 'thrusters [i, ...]' or 'wheels [i, ...]'
+        return component.startswith(f'{actuator}s') and (not detection.candidates or int(index) in detection.candidates)
     if fault['kind'] == 'gyro_bias_jump':
         return component in ('imu', 'star_tracker')
     return component == target or (target == 'imu' and component == 'star_tracker')

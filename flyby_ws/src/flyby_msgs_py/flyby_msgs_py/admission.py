@@ -82,6 +82,7 @@ RULES = {
     c.SENSOR_RELATIVE_POSITION: Rule(c.FRAME_HILL, stream=True, planned=False),
     c.SENSOR_TARGET_ATTITUDE: Rule(c.FRAME_HILL, stream=True, planned=False, quaternions=('value',)),
     c.SENSOR_CHASER_IMU: Rule(c.FRAME_CHASER_BODY, stream=True, planned=False, quaternions=('orientation_xyzw',)),
+    c.SENSOR_CHASER_WHEELS: Rule(c.FRAME_CHASER_BODY, stream=True, planned=False, finite=('velocity',)),
     c.EST_TARGET_ODOM: Rule(c.FRAME_HILL, stream=True, planned=False, quaternions=('orientation_xyzw',)),
     c.EST_CHASER_ODOM: Rule(c.FRAME_HILL, stream=True, planned=False, quaternions=('orientation_xyzw',)),
     c.EST_TARGET_INERTIA: Rule(c.FRAME_CHASER_BODY, stream=True, planned=False),

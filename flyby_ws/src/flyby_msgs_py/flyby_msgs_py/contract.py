@@ -21,6 +21,7 @@ SIM_CHASER_THRUST = 'sim/chaser/thrust'
 SIM_CHASER_WHEELS = 'sim/chaser/wheels'
 SIM_CHASER_THRUSTERS = 'sim/chaser/thrusters'
 SENSOR_CHASER_IMU = 'sensors/chaser/imu'
+SENSOR_CHASER_WHEELS = 'sensors/chaser/wheels'  # the wheels' tachometers (velocity: spin relative to the body)
 SENSOR_RELATIVE_POSITION = 'sensors/chaser/relative_position'
 SENSOR_TARGET_ATTITUDE = 'sensors/target/attitude'
 EST_TARGET_ODOM = 'estimation/target/odom'
@@ -67,6 +68,7 @@ TOPIC_TYPES = {
     SIM_CHASER_WHEELS: 'sensor_msgs/msg/JointState',
     SIM_CHASER_THRUSTERS: 'sensor_msgs/msg/JointState',
     SENSOR_CHASER_IMU: 'sensor_msgs/msg/Imu',
+    SENSOR_CHASER_WHEELS: 'sensor_msgs/msg/JointState',
     SENSOR_RELATIVE_POSITION: 'geometry_msgs/msg/PointStamped',
     SENSOR_TARGET_ATTITUDE: 'geometry_msgs/msg/QuaternionStamped',
     EST_TARGET_ODOM: 'nav_msgs/msg/Odometry',

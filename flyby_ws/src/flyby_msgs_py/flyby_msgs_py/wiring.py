@@ -42,6 +42,7 @@ SUBSCRIPTIONS = {
     c.SENSOR_RELATIVE_POSITION: ((ESTIMATOR, always), (CAM, always)),
     c.SENSOR_TARGET_ATTITUDE: ((ESTIMATOR, always), (CAM, always)),
     c.SENSOR_CHASER_IMU: ((ESTIMATOR, rigid), (CAM, rigid)),
+    c.SENSOR_CHASER_WHEELS: ((ESTIMATOR, rigid),),  # the wheel monitor (flyby_estimation.health)
     c.EST_TARGET_ODOM: ((SUPERVISOR, always), (PLANNER, always), (GUIDANCE, always)),
     c.EST_CHASER_ODOM: ((SUPERVISOR, always), (PLANNER, always), (GUIDANCE, always)),
     c.EST_TARGET_INERTIA: (),  # recorded; its numbers reach guidance as the mass_properties_estimated event
@@ -50,13 +51,14 @@ SUBSCRIPTIONS = {
     c.PLANNER_PATH: ((GUIDANCE, always),),
     c.PLANNER_TRAJECTORY: ((GUIDANCE, rigid),),
     c.GUIDANCE_MANEUVER: ((SIM, always), (ESTIMATOR, always)),
-    c.GUIDANCE_WHEELS: ((SIM, rigid),),
+    c.GUIDANCE_WHEELS: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.GUIDANCE_WRENCH: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
     c.SAFETY_CAM: ((SIM, always),),
-    # The simulator reads a command-chain node's node_error (it holds time for its commands no more).
+    # The simulator reads a command-chain node's node_error (it holds time for its commands no more), the phase_changed
+    # stamps (the faults that start with a phase) and thrusters_isolated.
     c.MISSION_EVENTS: ((SUPERVISOR, always), (PLANNER, always), (ESTIMATOR, post_capture),
-                       (GUIDANCE, rigid_post_capture), (SIM, rigid)),
+                       (GUIDANCE, rigid_post_capture), (SIM, always)),
 }
 
 

@@ -192,6 +192,8 @@ def _nominal_messages(t):
         c.SENSOR_RELATIVE_POSITION: (convert.point_stamped_cdr(t, c.FRAME_HILL, (50.0, 0.0, 0.0)), True),
         c.SENSOR_TARGET_ATTITUDE: (convert.quaternion_stamped_cdr(t, c.FRAME_HILL, _Q), True),
         c.SENSOR_CHASER_IMU: (convert.imu_cdr(t, c.FRAME_CHASER_BODY, q, z3, z3, eye3, eye3, eye3), True),
+        c.SENSOR_CHASER_WHEELS: (convert.joint_state_cdr(t, c.FRAME_CHASER_BODY, ['w0', 'w1'], velocity=[1.0, -2.0]),
+                                  True),
         c.EST_TARGET_ODOM: (odometry, True),
         c.EST_CHASER_ODOM: (odometry, True),
         c.PLANNER_FLYBY_TARGET: (convert.odometry(t, c.FRAME_HILL, 'flyby_target', z3, q, z3, z3), False),

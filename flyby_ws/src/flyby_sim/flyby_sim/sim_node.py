@@ -178,9 +178,9 @@ class SimNode(Node):
     def _wire(self, ch, pubs):
         """The publishers (into ``pubs``) and subscriptions of one chaser."""
         ch.pubs = pubs
+        rigid_topics = (c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS, c.SENSOR_CHASER_IMU, c.SENSOR_CHASER_WHEELS)
         for topic in (c.SIM_CHASER_ODOM, c.SIM_CHASER_THRUST, c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE,
-                      c.MISSION_EVENTS) + ((c.SIM_CHASER_WHEELS, c.SIM_CHASER_THRUSTERS, c.SENSOR_CHASER_IMU)
-                                           if ch.rigid else ()):
+                      c.MISSION_EVENTS) + (rigid_topics if ch.rigid else ()):
             pubs[topic] = self.create_publisher(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic),
                                                 qos.qos_for(topic))
         ch.commands_expected = ch.rigid and all(name in self.progress_s for name in ch.chain)
@@ -202,8 +202,6 @@ class SimNode(Node):
                   c.MISSION_EVENTS: (lambda msg: self.on_events(ch, msg), False),
                   c.PLANNER_FLYBY_TARGET: (lambda msg: self.on_flyby_target(ch, msg), False)}
         for topic in wiring.topics_of(wiring.SIM, ch.scenario):
-            if topic == c.MISSION_EVENTS and not ch.commands_expected:
-                continue  # a node_error matters only to a command chain the simulator waits for
             callback, raw = inputs[topic]
             self.create_subscription(c.message_class(c.TOPIC_TYPES[topic]), ch.topic(topic),
                                      ch.gate.admit(topic, callback, raw), qos.qos_for(topic), raw=raw)
@@ -460,6 +458,9 @@ class SimNode(Node):
         elif m.kind == 'target_attitude':
             ch.pubs[c.SENSOR_TARGET_ATTITUDE].publish(
                 convert.quaternion_stamped_cdr(m.t, c.FRAME_HILL, m.value))
+        elif m.kind == 'wheel_speeds':
+            ch.pubs[c.SENSOR_CHASER_WHEELS].publish(
+                convert.joint_state_cdr(m.t, c.FRAME_CHASER_BODY, ch.wheel_names, velocity=m.value))
         else:  # chaser_imu: announces the attitude command of its estimate (module doc)
             imu = m.value
             orientation_cov, rate_cov, accel_cov = ch.imu_covariances

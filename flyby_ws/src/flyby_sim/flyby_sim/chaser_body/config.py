@@ -92,6 +92,7 @@ class RigidChaserConfig:
     wheel_max_torque_n_m: float = params.key('chaser.wheels.max_torque_n_m')
     wheel_max_momentum_n_m_s: float = params.key('chaser.wheels.max_momentum_n_m_s')
     wheel_spin_inertia_kg_m2: float = params.key('chaser.wheels.spin_inertia_kg_m2')
+    wheel_tachometer_sigma_rad_s: float = params.key('chaser.wheels.tachometer_sigma_rad_s')
     # one per wheel; None: zero (stored as zeros)
     wheel_momentum0_n_m_s: tuple = params.key('chaser.wheels.initial_momentum_n_m_s', _vector)
     imu: ImuConfig = params.sub(ImuConfig)

@@ -187,7 +187,8 @@ class TruthSample:
 
 class Measurement(NamedTuple):
     """One sensor sample: kind 'relative_position' (value r_hill [m]), 'target_attitude' (q_hill_from_body) or,
-    for the six-degree-of-freedom chaser, 'chaser_imu' (a sensors.ImuSample)."""
+    for the six-degree-of-freedom chaser, 'chaser_imu' (a sensors.ImuSample) and, with it, 'wheel_speeds' (each
+    wheel's tachometer [rad/s])."""
 
     kind: str
     t: float

@@ -82,6 +82,8 @@ class Plant(PointMassFlight, CapturePhases, FaultInjection):
         else:
             self._last = self._truth(np.zeros(3), False)
         self._init_faults(np.random.default_rng(root_seed.spawn(1)[0]))  # after the other streams: theirs unchanged
+        if self._chaser is not None:  # the wheels' tachometers, after the faults' stream
+            self._tachometer_rng = np.random.default_rng(root_seed.spawn(1)[0])
 
     def _init_rigid_body(self, root_seed, sensor_rng):
         """The six-degree-of-freedom chaser and its IMU, from streams spawned after the point-mass ones (a third
@@ -205,8 +207,15 @@ class Plant(PointMassFlight, CapturePhases, FaultInjection):
         self._last = self._truth_rigid(body.totals, body)
         self._sample(self._last)
         if imu is not None:
-            self._measurements.append(imu)
+            self._measurements += [imu, self._wheel_speeds(imu.t, body)]
         return self._last
+
+    def _wheel_speeds(self, t, body):
+        """The wheels' tachometers with the IMU's sample: each wheel's spin rate relative to the chaser [rad/s], with
+        its noise (chaser.wheels.tachometer_sigma_rad_s)."""
+        sigma = self.config.chaser_body.wheel_tachometer_sigma_rad_s
+        speeds = body.wheel_speeds_rad_s()
+        return Measurement('wheel_speeds', t, speeds + sigma * self._tachometer_rng.standard_normal(speeds.size))
 
     def step(self):
         """Advance exactly one step_s; returns the TruthSample at the new time."""

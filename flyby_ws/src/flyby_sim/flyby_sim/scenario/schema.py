@@ -221,6 +221,8 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
             'max_momentum_n_m_s': Field(FLOAT, 4.0, '> 0', 'Axial angular momentum limit of each wheel (its speed '
                                                            'limit).'),
             'spin_inertia_kg_m2': Field(FLOAT, 0.01, '> 0', 'Spin-axis inertia of each wheel.'),
+            'tachometer_sigma_rad_s': Field(FLOAT, 0.01, '> 0', "1-sigma noise of each wheel's tachometer (its "
+                                                               'speed relative to the body), sampled with the IMU.'),
             'initial_momentum_n_m_s': Field(FLOAT_LIST, None, None,
                                             'Axial angular momentum of each wheel at t = 0 (one per axis, within '
                                             'max_momentum_n_m_s); omitted: zero.'),

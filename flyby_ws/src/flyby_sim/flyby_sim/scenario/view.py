@@ -14,6 +14,7 @@ from flyby_sim.dynamics.actuators import ThrusterLayout, default_thruster_layout
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M
 from flyby_sim.dynamics.grasp import Impedance
 from flyby_sim.dynamics.orbital import mean_motion_rad_s
+from flyby_sim.dynamics.rigid_body import ReactionWheels
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
     quat_multiply,
@@ -204,6 +205,12 @@ class Scenario:
             return default_thruster_layout(th.max_thrust_n, th.isp_s, th.min_impulse_bit_ns)
         return ThrusterLayout([x.position_m for x in th.layout], [x.direction for x in th.layout], th.max_thrust_n,
                               th.isp_s, th.min_impulse_bit_ns)
+
+    @property
+    def reaction_wheels(self):
+        """The rigid-body chaser's ReactionWheels (chaser.wheels: axes, limits, spin inertia)."""
+        w = self.chaser.wheels
+        return ReactionWheels(w.axes, w.max_torque_n_m, w.max_momentum_n_m_s, w.spin_inertia_kg_m2)
 
     @property
     def q_chaser_from_target_attached(self):
