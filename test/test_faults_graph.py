@@ -1,7 +1,7 @@
 """Faults in the graph (docs/faults.md), judged from the truth in the bag: a thruster stuck on during
 paper_flyby_6dof's terminal approach is detected, its thrusters closed and the approach aborted, and a chaser
 coasting into the target with the planner and guidance out of the graph is turned away by the independent
-monitor's CAM alone."""
+monitor's CAM alone; a wheel failed in the approach is named from its tachometer and the approach aborted."""
 
 import pytest
 
@@ -35,8 +35,9 @@ def test_the_cam_fires_with_the_planner_and_guidance_out_of_the_graph(tmp_path):
 
 def test_a_thruster_stuck_on_in_the_approach_is_closed_and_the_chaser_escapes(tmp_path):
     scenario = write_scenario(tmp_path, base='paper_flyby_6dof', name='stuck', edit=_stuck_thruster)
-    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run')
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--report')
     summary = read_summary(tmp_path / 'run')
+    assert (tmp_path / 'run' / 'faults_timeline.png').stat().st_size > 10_000
     first = summary['faults_detected'][0]
     assert (first['kind'], first['fault'], first['isolated']) == ('thrust_excess', 0, True), done.stdout[-2000:]
     assert first['delay_s'] < 2.0
@@ -44,3 +45,19 @@ def test_a_thruster_stuck_on_in_the_approach_is_closed_and_the_chaser_escapes(tm
     assert summary['outcome'] == 'ABORTED' and not summary['cam_fired'] and summary['min_clearance_m'] > 10.0
     checked = analyze_bag(tmp_path / 'run')
     assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]
+
+
+def _failed_wheel(data):
+    data['faults'] = [{'type': 'wheel_failed', 'index': 2, 'start_phase': 'TERMINAL_APPROACH', 'delay_s': 10.0}]
+    data['simulation']['duration_s'] = 150.0
+
+
+def test_a_wheel_failed_in_the_approach_is_named_from_its_tachometer_within_two_seconds_and_aborts(tmp_path):
+    scenario = write_scenario(tmp_path, base='paper_flyby_6dof', name='wheel', edit=_failed_wheel)
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run')
+    summary = read_summary(tmp_path / 'run')
+    first = summary['faults_detected'][0]
+    assert (first['kind'], first['component'], first['isolated']) == ('wheel_torque_deficit', 'wheels [2]', True), \
+        done.stdout[-2000:]
+    assert first['delay_s'] < 2.0 and summary['fault_responses'][0]['response'] == 'abort'
+    assert summary['outcome'] == 'ABORTED' and not summary['cam_fired']

@@ -61,6 +61,12 @@ from both bodies' truth by flyby_mission's summary functions (the figures of sum
                      separation; the least distance between two chasers' envelopes over time; each chaser's
                      clearance to the target's boxes (truth attitude)
 
+``faults``, for a run with an injected fault, a detection, a response or a CAM (docs/faults.md):
+
+* faults_timeline.png  each injected fault as a bar over its time, its detections on its row with their delay (the
+                     ones no fault explains on a row of false alarms), the supervisor's responses and isolations as
+                     labelled lines, the CAM; below, the truth range with the restriction sphere
+
 ``families`` draws seed 000 Fig. 6-8 (the fly-by families of flyby_planner, scripts/paper_figures.py).
 
 A figure whose essential data is missing is not written (loading.Skipped); what was left out is said on stderr.

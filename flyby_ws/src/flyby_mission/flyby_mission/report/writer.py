@@ -4,7 +4,7 @@ figure drawn on its own so that one whose data is missing is skipped and one tha
 import traceback
 from pathlib import Path
 
-from flyby_mission.report import flyby, post_capture, rigid_body, sync
+from flyby_mission.report import faults, flyby, post_capture, rigid_body, sync
 from flyby_mission.report.loading import FleetRun, Run, Skipped, say
 from flyby_mission.report.plotting import plt
 from flyby_mission.report.two_robots import fig_chasers
@@ -42,7 +42,8 @@ def write_figures(run_dir, out_dir):
     written, failed = [], []
     for name, draw in (flyby.FIGURES + (rigid_body.FIGURES if run.rigid_body else ())
                        + (sync.FIGURES if run.sync else ()) + (post_capture.FIGURES if run.post_capture else ())
-                       + (post_capture.TRANSPORT_FIGURES if run.transport else ())):
+                       + (post_capture.TRANSPORT_FIGURES if run.transport else ())
+                       + (faults.FIGURES if faults.has_faults(run.events) else ())):
         path = out / name
         try:
             draw(run, path)
