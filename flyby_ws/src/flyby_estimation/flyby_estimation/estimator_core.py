@@ -163,6 +163,8 @@ class EstimatorCore:
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_phase(self, phase):
+        if self.health.wheels is not None:
+            self.health.wheels.pause(phase in (c.PHASE_CAPTURE, c.PHASE_GRASP))
         if phase != c.PHASE_CAPTURE or self.attached:
             return []
         self.attached = True

@@ -34,7 +34,8 @@ Each monitor has a stated rule:
   the motor's limit) beyond ``THRUST_SIGMAS`` of the two samples' noise plus ``WHEEL_RELATIVE`` of the commanded
   impulse: ``wheel_torque_deficit`` where the wheel gave less than commanded (failed, torque-limited),
   ``wheel_torque_excess`` otherwise, naming the wheel. A wheel within ``WHEEL_SATURATION`` of its momentum limit at
-  either end is not judged (the plant stops it there).
+  either end is not judged (the plant stops it there), nor are the wheels while the arm grasps (CAPTURE, GRASP: the
+  grasp's dynamics hold them).
 
 A detection is cleared after ``CLEAR_WINDOWS`` windows within its rule's bound. The monitors' statuses go out every
 ``DIAGNOSTICS_PERIOD_S`` of stamps (OK, WARN for a residual above half its bound, ERROR while a fault is detected,
@@ -329,7 +330,17 @@ class WheelMonitor:
         self.active = None  # (kind, t)
         self.nominal = 0
         self.fresh = False
+        self.paused = False
         self.status = MonitorStatus('wheels', LEVEL_OK, 'waiting for a window', {})
+
+    def pause(self, paused):
+        """While the arm grasps, the wheels fly no command (the plant's grasp holds them): not judged, and judged
+        again from fresh samples after it."""
+        if paused and not self.paused:
+            self.momenta.clear()
+            self.halves.clear()
+            self.status = MonitorStatus('wheels', LEVEL_OK, 'paused: the arm grasps', {})
+        self.paused = paused
 
     def on_command(self, t_stamp, torques_n_m):
         """Guidance's motor torques [N m], held from t_stamp [s]."""
@@ -339,6 +350,8 @@ class WheelMonitor:
 
     def on_sample(self, t, speeds_rad_s=None, omega_body_rad_s=None):
         """The tachometers' speeds [rad/s] or the gyro's rate [rad/s, chaser_body] at t: paired by stamp."""
+        if self.paused:
+            return
         key = stamp_key(t)
         other = self.halves.pop(key, None)
         if other is None:

@@ -215,3 +215,12 @@ def test_a_wheel_at_its_momentum_limit_is_not_judged():
     found = _spin(WheelMonitor(WHEELS, SIGMA_TACH, SIGMA_GYRO), lambda t: np.array([0.05, 0.0, 0.0]),
                   (0.0, 1.0, 1.0), 3.0, h0=(3.9, 0.0, 0.0))
     assert found == []
+
+
+def test_the_wheels_are_not_judged_while_the_arm_grasps_and_from_fresh_samples_after():
+    monitor = WheelMonitor(WHEELS, SIGMA_TACH, SIGMA_GYRO)
+    monitor.pause(True)
+    assert _spin(monitor, lambda t: np.array([0.0, 0.02, 0.0]), (1.0, 0.0, 1.0), 3.0) == []
+    monitor.pause(False)
+    found = _spin(monitor, lambda t: np.array([0.0, 0.02, 0.0]), (1.0, 0.0, 1.0), 3.0)
+    assert [(d.kind, d.values['candidates']) for d in found] == [('wheel_torque_deficit', [1])]
