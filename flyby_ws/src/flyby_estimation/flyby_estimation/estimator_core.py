@@ -376,6 +376,14 @@ class EstimatorCore:
             self.health.book.on_maneuver(burn.seq)
         return []
 
+    def on_cam(self, t):
+        """The independent monitor's CAM from t (safety/cam): thrust the navigation does not model, at full force. The
+        thrust monitor stops (its burn is none of guidance's) and the relative position's innovation rules wait
+        from then on (the escape is flown)."""
+        self.health.suspend_thrust()
+        self.t_thrust_end = math.inf
+        return []
+
     def on_wheels(self, t, torques_n_m):
         """Guidance's wheel motor torques [N m] held from t (guidance/wheels): what the wheel monitor expects."""
         if self.health.wheels is not None:

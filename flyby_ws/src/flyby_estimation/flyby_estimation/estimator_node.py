@@ -69,7 +69,7 @@ class EstimatorNode(CoreNode):
             c.SENSOR_CHASER_IMU: (self.on_imu, True), c.GUIDANCE_WRENCH: (self.on_wrench, True),
             c.SENSOR_TARGET_ATTITUDE: (self.on_attitude, True), c.SENSOR_RELATIVE_POSITION: (self.on_position, True),
             c.SENSOR_CHASER_WHEELS: (self.on_wheel_speeds, True), c.GUIDANCE_WHEELS: (self.on_wheels, True),
-            c.GUIDANCE_MANEUVER: self.on_maneuver, c.MISSION_PHASE: self.on_phase_message,
+            c.GUIDANCE_MANEUVER: self.on_maneuver, c.MISSION_PHASE: self.on_phase_message, c.SAFETY_CAM: self.on_cam,
             c.MISSION_EVENTS: self.on_events_message})
 
     def on_attitude(self, data):
@@ -105,6 +105,9 @@ class EstimatorNode(CoreNode):
     def on_wheels(self, data):
         wheels = convert.joint_state_cdr_to_numpy(data)
         self.publish(self.core.on_wheels(wheels.t, wheels.effort))
+
+    def on_cam(self, msg):
+        self.publish(self.core.on_cam(convert.vector3_stamped_to_numpy(msg)[0]))
 
     def on_maneuver(self, msg):
         self.publish(self.core.on_maneuver(*convert.vector3_stamped_to_numpy(msg)))

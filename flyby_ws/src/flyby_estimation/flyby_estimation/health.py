@@ -19,8 +19,9 @@ Each monitor has a stated rule:
   one interval late (a command may come after its interval's sample); a force command's shortfall along itself
   is the allocation's (the minimum impulse bit, saturation), taken out. Over the last ``THRUST_WINDOW`` intervals
   the mean residual beyond ``THRUST_SIGMAS`` of the accelerometer's noise on that mean, plus the thrusters'
-  specified errors at 3 sigma and ``THRUST_RELATIVE`` of the expected thrust (the plant's burn is fixed in the body
-  and turns with it, the filter's model fixed in hill: 12 % after 15 s of a burn in an auto_envelope run), a burn's
+  specified errors at 3 sigma and ``THRUST_RELATIVE`` of the expected thrust (the attitude estimate a burn is
+  turned by: the plant's burn is fixed in the body at its start and turns with it, so the filter's burn, fixed in
+  hill, is turned by the attitude estimate's change since), a burn's
   whole acceleration in the intervals of its start and end (the plant's ends as its magnitude error makes it), plus
   ``BIT_THRUSTERS`` minimum impulse
   bits over a control period where a wrench is commanded: ``thrust_excess`` where the residual exceeds the
@@ -59,7 +60,7 @@ OUTLIER_BURST = 3
 NIS_FALSE_ALARM = 1e-6
 THRUST_WINDOW = 10
 THRUST_SIGMAS = 6.0
-THRUST_RELATIVE = 0.15  # beyond the specified errors: a long burn fixed in the body turns with it (module doc)
+THRUST_RELATIVE = 0.05  # beyond the specified errors: the attitude estimates a burn is turned by (module doc)
 BIT_THRUSTERS = 2  # a commanded wrench may miss this many thrusters' minimum impulse bit
 ISOLATION_DEG = 25.0
 CLEAR_WINDOWS = 2
@@ -269,6 +270,7 @@ class ThrustBook:
         self.bit_force_n = bit_force_n
         self.maneuvers = set()  # the seqs of the filter's burns that are guidance's maneuvers (not force commands)
         self.burns = {}  # seq -> the filter's ScheduledBurn as last scheduled
+        self.burn_frames = {}  # seq -> q_body_from_hill as it started: the plant's burn is fixed in the body then
         self.commands = {}  # interval start -> (delta-v [m/s, hill], total thrust [N])
         self.pending = None  # the last interval, judged at the next
 
@@ -301,14 +303,18 @@ class ThrustBook:
             judged = (quat_rotate(q, residual_hill), burn_thrust / dt + thrust / mass, quat_rotate(q, commanded / dt),
                       granularity / mass + edges)
         burn_dv, burn_speed, edges = np.zeros(3), 0.0, 0.0
+        q_hill_from_body = quat_conjugate(q_body_from_hill)
         for b in self.burns.values():
             overlap = min(t1, b.end_s) - max(t0, b.start_s)
             if overlap > 0.0:
-                accel = b.accel_hill(0.5 * (max(t0, b.start_s) + min(t1, b.end_s)))
+                q_start = self.burn_frames.setdefault(b.seq, q_body_from_hill)  # within an interval of its start
+                accel = quat_rotate(q_hill_from_body,
+                                    quat_rotate(q_start, b.accel_hill(0.5 * (max(t0, b.start_s) + min(t1, b.end_s)))))
                 burn_dv, burn_speed = burn_dv + accel * overlap, burn_speed + float(np.linalg.norm(accel)) * overlap
                 if t0 <= b.start_s <= t1 or t0 <= b.end_s <= t1:  # its edges: the plant's burn ends as its
                     edges += float(np.linalg.norm(accel))  # magnitude error makes it, the filter's as nominal
         self.burns = {seq: b for seq, b in self.burns.items() if b.end_s > t0}
+        self.burn_frames = {seq: q for seq, q in self.burn_frames.items() if seq in self.burns}
         self.pending = (t0, t1, np.asarray(dv_measured_hill, dtype=float), q_body_from_hill, mass_kg, burn_dv,
                         burn_speed, edges)
         return judged

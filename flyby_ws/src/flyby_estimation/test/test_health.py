@@ -125,6 +125,32 @@ def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overla
     np.testing.assert_allclose(residual, [-0.1, 0.0, 0.0], atol=1e-12)  # [1.2, 1.3]: the burn missing
 
 
+def test_a_burn_turns_with_the_body_it_started_in():
+    """The plant fixes a burn's direction in the body at its start: the chaser turning 20 deg about z during it, the
+    accelerometer's hill delta-v turns too, and the book expects that, not the filter's hill-fixed burn."""
+    from flyby_sim.dynamics.rotation import quat_from_axis_angle
+
+    class Burn:
+        seq, start_s, end_s = 0, 0.95, 5.0
+
+        @staticmethod
+        def accel_hill(_t):
+            return np.array([0.1, 0.0, 0.0])
+
+    book = ThrustBook(lever_min_m=0.2, bit_force_n=0.0)
+    book.on_maneuver(0)
+    book.on_burns([Burn])
+    residuals = []
+    for k in range(10, 40):
+        t0, t1 = 0.1 * k, 0.1 * (k + 1)
+        turn = math.radians(20.0) * (t1 - 1.0) / 3.0
+        dv_hill = 0.1 * (t1 - t0) * np.array([math.cos(turn), math.sin(turn), 0.0])
+        judged = book.on_interval(t0, t1, dv_hill, quat_from_axis_angle((0.0, 0.0, 1.0), -turn), 100.0)
+        if judged is not None and k > 10:
+            residuals.append(np.linalg.norm(judged[0]))
+    assert max(residuals) < 2e-3  # against 0.1 * sin(20 deg) = 0.034 m/s^2 of the burn fixed in hill
+
+
 def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has_no_thrust_monitor():
     monitor = HealthMonitor(_params())
     monitor.thrust.active = ('thrust_excess', 0.0)

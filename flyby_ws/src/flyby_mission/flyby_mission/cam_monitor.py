@@ -1,24 +1,22 @@
 """The independent collision-avoidance monitor (docs/faults.md): ATV's monitoring and safing unit for flyby.
 
-It shares nothing with the planning chain but the sensors' raw samples and the scenario's geometry: its own
-estimate of the chaser's motion (the IMU's raw thrust acceleration, turned into hill by its raw star-tracker
-attitude and integrated twice, taken off the last ``POSITION_FIT_S`` of relative positions, whose least-squares line
-is then the coast's: position and velocity now; coasted by Clohessy-Wiltshire, Matsumoto et al. eq 22, with the
-thrust acceleration of the last IMU sample held) and of the target's attitude (the rotation vectors of the last
-``ATTITUDE_FIT_S`` of vision attitudes about the latest: a least-squares line gives the attitude and the rate at the
-window's middle, from which the target turns torque-free on the scenario's inertia, Euler's equations: a constant
-rate missed a nutating tumbler's panel by 0.9 m over 3 s), so a fault of the navigation
-filter, the planner, guidance or the supervisor does not reach it. At every relative-position sample it predicts the
-clearance between the chaser's envelope and the target's real geometry (its boxes at the predicted attitude,
-``geometry.clearance``) every ``STEP_S`` over ``HORIZON_S``; where the coast meets the geometry (a planned passage
-may clear it by centimetres: a margin there would fire on nominal fly-bys) within the time the
-chaser still needs to stop, ``REACTION_S`` plus the time its closing speed takes to cover its braking distance
-(the thrusters' braking: the least of their largest pure forces along 26 body directions over its mass; an approach
-that brakes on its own later, as a thrusting approach does, is left to the planning chain until then), it
-commands a collision-avoidance manoeuvre (CAM) straight to the plant's thrusters on ``safety/cam``: the chaser's
-closing speed along the line from the target's CoM cancelled and ``avoidance_delta_v_mps`` away, once. The plant
-executes it ahead of everything queued and takes no more commands of the planning chain (``Plant.command_cam``);
-the supervisor aborts at its ``cam_fired``.
+It shares nothing with the planning chain but the sensors' raw samples and the scenario's geometry: its own estimate
+of the chaser's motion (the IMU's raw thrust acceleration, turned into hill by its raw star-tracker attitude and
+integrated twice, taken off the last ``POSITION_FIT_S`` of relative positions, whose least-squares line is then the
+coast's: position and velocity now; coasted by Clohessy-Wiltshire, Matsumoto et al. eq 22, with the thrust
+acceleration of the last IMU sample held) and of the target's attitude (``cam_attitude``: the torque-free motion on
+the scenario's inertia fitted to the last 30 s of vision attitudes: a tumbler's rate is not constant over a window,
+docs/faults.md), so a fault of the navigation filter, the planner, guidance or the supervisor does not reach it. At
+every relative-position sample it predicts the clearance between the chaser's envelope and the target's real
+geometry (its boxes at the predicted attitude, ``geometry.clearance``) every ``STEP_S`` over ``HORIZON_S``; where
+the coast meets the geometry (a planned passage may clear it by centimetres: a margin there would fire on nominal
+fly-bys) within the time the chaser still needs to stop, ``REACTION_S`` plus the time its closing speed takes to
+cover its braking distance (the thrusters' braking: the least of their largest pure forces along 26 body directions
+over its mass; an approach that brakes on its own later, as a thrusting approach does, is left to the planning chain
+until then), it commands a collision-avoidance manoeuvre (CAM) straight to the plant's thrusters on ``safety/cam``:
+the chaser's closing speed along the line from the target's CoM cancelled and ``avoidance_delta_v_mps`` away, once.
+The plant executes it ahead of everything queued and takes no more commands of the planning chain
+(``Plant.command_cam``); the supervisor aborts at its ``cam_fired``.
 
 Its estimates need ``MIN_SAMPLES`` of each sensor within their windows; it stands down at the capture (the chaser
 then holds the target) and never fires twice.
@@ -30,23 +28,18 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flyby_mission.cam_attitude import TargetAttitudeFit
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events, params
 from flyby_msgs_py.wire import Event
 from flyby_sim.dynamics.actuators import allocate_max_force
-from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import cw_transition_matrix
 from flyby_sim.dynamics.rotation import (
-    quat_conjugate,
-    quat_from_rotation_vector,
-    quat_multiply,
     quat_rotate,
-    rotation_vector_from_quat,
 )
 
-POSITION_FIT_S = 2.0
-ATTITUDE_FIT_S = 5.0
+POSITION_FIT_S = 5.0
 MIN_SAMPLES = 5
 HORIZON_S = 30.0
 STEP_S = 0.25
@@ -111,7 +104,7 @@ class CamMonitor:
         self.p = p
         self.name = name
         self.positions = _Fit(POSITION_FIT_S)
-        self.attitudes = _Fit(ATTITUDE_FIT_S)
+        self.attitudes = TargetAttitudeFit(p.target_inertia_kg_m2, p.mean_motion_rad_s)
         self.standing_down = False
         self.fired = None
         self.q_chaser = None  # the star tracker's last attitude of chaser_body in hill
@@ -160,7 +153,7 @@ class CamMonitor:
         if self.standing_down or self.fired is not None:
             return []
         state = self.chaser_state(t)
-        if state is None or len(self.attitudes.samples) < MIN_SAMPLES:
+        if state is None or not self.attitudes.ready:
             return []
         taus = self.taus
         u, s, accel = self._thrust_at(t)
@@ -168,7 +161,7 @@ class CamMonitor:
         r = self.phi_r @ state + 0.5 * np.outer(taus**2, accel)
         if float(np.linalg.norm(r, axis=1).min()) >= self.reach_m + self.p.envelope_radius_m:
             return []  # every predicted clearance is positive: the attitude need not be predicted
-        q = self.target_attitude(t).states_at(t + taus)[0]  # hill as inertial over the horizon (n t: 0.03 rad)
+        q = self.attitudes.q_hill_at(t, t + taus)
         gaps = clearance(r, q, self.p.boxes, self.p.envelope_radius_m)
         if not np.any(gaps < 0.0):
             return []
@@ -201,23 +194,6 @@ class CamMonitor:
         design = np.column_stack((np.ones_like(ts), ts))
         coef, *_ = np.linalg.lstsq(design, ys, rcond=None)
         return np.concatenate((coef[0], coef[1]))
-
-    def target_attitude(self, t):
-        """The target's torque-free AttitudePropagator from the window's middle (module doc), or None with too few
-        attitudes."""
-        if len(self.attitudes.samples) < MIN_SAMPLES:
-            return None
-        _, q_ref = self.attitudes.samples[-1]
-        q_ref_conj = quat_conjugate(q_ref)
-        times = np.array([s for s, _ in self.attitudes.samples])
-        t_mid = float(times.mean())
-        rotvecs = np.array([rotation_vector_from_quat(quat_multiply(q, q_ref_conj)) for _, q in self.attitudes.samples])
-        design = np.column_stack((np.ones_like(times), times - t_mid))
-        coef, *_ = np.linalg.lstsq(design, rotvecs, rcond=None)
-        q_mid = quat_multiply(quat_from_rotation_vector(coef[0]), q_ref)
-        omega_body = quat_rotate(quat_conjugate(q_mid), coef[1])
-        return AttitudePropagator(q_mid, omega_body, np.array(self.p.target_inertia_kg_m2), t0=t_mid, rtol=1e-8,
-                                  atol=1e-10)
 
     def _escape(self, state):
         """The CAM's delta-v: the closing speed along the line from the target's CoM cancelled, and

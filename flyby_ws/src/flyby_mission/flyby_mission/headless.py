@@ -347,6 +347,7 @@ CORE_INPUTS = {
     (wiring.ESTIMATOR, c.SENSOR_CHASER_WHEELS): lambda g, m: g.estimator.on_wheel_speeds(m.t, m.value),
     (wiring.ESTIMATOR, c.GUIDANCE_WHEELS): lambda g, m: g.estimator.on_wheels(m.t, m.value.wheel_torque_n_m),
     (wiring.ESTIMATOR, c.GUIDANCE_MANEUVER): lambda g, m: g.estimator.on_maneuver(m.t, m.value),
+    (wiring.ESTIMATOR, c.SAFETY_CAM): lambda g, m: g.estimator.on_cam(m.t),
     (wiring.ESTIMATOR, c.GUIDANCE_WRENCH): lambda g, m: g.estimator.on_wrench(
         m.t, m.value.force_body_n, m.value.thruster_torque_body_n_m),
     (wiring.ESTIMATOR, c.MISSION_PHASE): lambda g, m: g.estimator.on_phase(m.value),

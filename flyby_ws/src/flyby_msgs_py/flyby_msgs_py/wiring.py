@@ -54,7 +54,7 @@ SUBSCRIPTIONS = {
     c.GUIDANCE_WHEELS: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.GUIDANCE_WRENCH: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
-    c.SAFETY_CAM: ((SIM, always),),
+    c.SAFETY_CAM: ((SIM, always), (ESTIMATOR, always)),  # the estimator's monitors: thrust no chain commanded
     # The simulator reads a command-chain node's node_error (it holds time for its commands no more), the phase_changed
     # stamps (the faults that start with a phase) and thrusters_isolated.
     c.MISSION_EVENTS: ((SUPERVISOR, always), (PLANNER, always), (ESTIMATOR, post_capture),
