@@ -121,8 +121,10 @@ class SensorMonitor:
         self.t_last = None
         self.t_first_input = None
         self.window = collections.deque(maxlen=WINDOW)  # (rejected, nis)
-        self.active = {}  # kind -> the stamp it was detected at
-        self.nominal = collections.Counter()  # kind -> judgements within its bound since it last held
+        monitor = f'sensor/{name}'
+        self.latches = {'sensor_stale': _Latch(monitor, 1, name),
+                        'sensor_outliers': _Latch(monitor, CLEAR_WINDOWS * WINDOW, name),
+                        'sensor_inconsistent': _Latch(monitor, CLEAR_WINDOWS * WINDOW, name)}
         self.fresh = False  # a sample since the last judgement
 
     def on_sample(self, t, rejected=False, nis=math.nan, transient=False):
@@ -143,7 +145,7 @@ class SensorMonitor:
         silent_s = t - since
         stale = silent_s > STALE_PERIODS * self.period_s + 1e-9
         out += self._set('sensor_stale', stale, t, f'{self.name}: no sample for {silent_s:.2f} s',
-                         dict(silent_s=silent_s), clear_after=1)
+                         dict(silent_s=silent_s))
         rejected = sum(1 for r, _ in self.window if r)
         nis = [x for r, x in self.window if not r]
         full = len(self.window) == WINDOW
@@ -157,27 +159,51 @@ class SensorMonitor:
             out += self._set('sensor_inconsistent', mean_nis > nis_bound, t,
                              f'{self.name}: mean NIS {mean_nis:.3g} over its last {len(nis)} accepted samples above '
                              f'{nis_bound:.3g}', dict(mean_nis=mean_nis, bound=nis_bound))
-        level = LEVEL_STALE if stale else LEVEL_ERROR if self.active else (
+        active = sorted(kind for kind, latch in self.latches.items() if latch.active)
+        level = LEVEL_STALE if stale else LEVEL_ERROR if active else (
             LEVEL_WARN if rejected or mean_nis > 0.5 * (nis_bound + self.dof) else LEVEL_OK)
         values = dict(silent_s=silent_s, rejected=rejected, mean_nis=mean_nis, nis_bound=nis_bound)
-        return out, MonitorStatus(f'sensor/{self.name}', level, ', '.join(sorted(self.active)) or 'nominal', values)
+        return out, MonitorStatus(f'sensor/{self.name}', level, ', '.join(active) or 'nominal', values)
 
-    def _set(self, kind, condition, t, message, values, clear_after=CLEAR_WINDOWS * WINDOW):
-        """A detection where the condition starts to hold, a clearing once it has not held for clear_after
-        judgements."""
-        if condition:
-            self.nominal[kind] = 0
-            if kind not in self.active:
-                self.active[kind] = t
-                return [Detection(t, f'sensor/{self.name}', kind, self.name, True, message, values)]
+    def _set(self, kind, condition, t, message, values):
+        """The latch of ``kind``: a detection where the condition starts to hold, a clearing after it."""
+        return self.latches[kind].update(t, condition, lambda: (kind, self.name, message, values))
+
+
+class _Latch:
+    """A monitor's detection, held from the judgement its rule starts to hold at until ``clear_after`` judgements
+    within its bound."""
+
+    def __init__(self, monitor, clear_after, component=None):
+        """component: what a clearing names (the monitor's own name by default)."""
+        self.monitor, self.clear_after = monitor, clear_after
+        self.component = monitor if component is None else component
+        self.active = None  # (kind, t) of the detection
+        self.nominal = 0
+
+    @property
+    def kind(self):
+        """The kind detected, or None."""
+        return None if self.active is None else self.active[0]
+
+    def update(self, t, beyond, describe):
+        """Detections at stamp t: where the rule holds (beyond) and nothing is detected, ``describe()`` gives
+        (kind, component, message, values); a clearing once it has not held for clear_after judgements."""
+        if beyond:
+            self.nominal = 0
+            if self.active is not None:
+                return []
+            kind, component, message, values = describe()
+            self.active = (kind, t)
+            return [Detection(t, self.monitor, kind, component, True, message, values)]
+        if self.active is None:
             return []
-        if kind in self.active:
-            self.nominal[kind] += 1
-            if self.nominal[kind] >= clear_after:
-                del self.active[kind]
-                return [Detection(t, f'sensor/{self.name}', kind, self.name, False, f'{self.name}: {kind} cleared',
-                                  {})]
-        return []
+        self.nominal += 1
+        if self.nominal < self.clear_after:
+            return []
+        kind, _ = self.active
+        self.active = None
+        return [Detection(t, self.monitor, kind, self.component, False, f'{self.component}: {kind} cleared', {})]
 
 
 class ThrustMonitor:
@@ -190,8 +216,7 @@ class ThrustMonitor:
         self.relative_error = relative_error
         self.force_directions_body = np.asarray(force_directions_body, dtype=float)
         self.window = collections.deque(maxlen=THRUST_WINDOW)  # (residual f [body], its slack, expected |thrust|)
-        self.active = None  # (kind, t) of the detection
-        self.nominal = 0
+        self.latch = _Latch('thrusters', CLEAR_WINDOWS * THRUST_WINDOW)
         self.fresh = False
         self.status = MonitorStatus('thrusters', LEVEL_OK, 'waiting for a window', {})
 
@@ -225,25 +250,17 @@ class ThrustMonitor:
         bound = THRUST_SIGMAS * noise + slack
         size = float(np.linalg.norm(residual))
         values = dict(residual_mps2=size, bound_mps2=bound, residual_body=residual.round(6).tolist())
-        out = []
-        if size > bound:
-            self.nominal = 0
-            if self.active is None:
-                kind, candidates = self._isolate(residual, expected)
-                self.active = (kind, t)
-                what = f'thrusters {candidates}' if candidates else 'thrusters'
-                out.append(Detection(t, 'thrusters', kind, what, True,
-                                     f'{kind}: residual {size:.3g} m/s^2 above {bound:.3g} along '
-                                     f'{np.round(residual / size, 3).tolist()} (chaser_body); candidates {candidates}',
-                                     dict(values, candidates=candidates)))
-        elif self.active is not None:
-            self.nominal += 1
-            if self.nominal >= CLEAR_WINDOWS * THRUST_WINDOW:
-                kind, _ = self.active
-                self.active = None
-                out.append(Detection(t, 'thrusters', kind, 'thrusters', False, f'{kind} cleared', {}))
-        level = LEVEL_ERROR if self.active else LEVEL_WARN if size > 0.5 * bound else LEVEL_OK
-        self.status = MonitorStatus('thrusters', level, self.active[0] if self.active else 'nominal', values)
+
+        def describe():
+            kind, candidates = self._isolate(residual, expected)
+            return (kind, f'thrusters {candidates}' if candidates else 'thrusters',
+                    f'{kind}: residual {size:.3g} m/s^2 above {bound:.3g} along '
+                    f'{np.round(residual / size, 3).tolist()} (chaser_body); candidates {candidates}',
+                    dict(values, candidates=candidates))
+
+        out = self.latch.update(t, size > bound, describe)
+        level = LEVEL_ERROR if self.latch.active else LEVEL_WARN if size > 0.5 * bound else LEVEL_OK
+        self.status = MonitorStatus('thrusters', level, self.latch.kind or 'nominal', values)
         return out, self.status
 
     def _isolate(self, residual, expected):
@@ -333,8 +350,7 @@ class WheelMonitor:
         self.commands = []  # (stamp, torques clipped), by stamp
         self.halves = {}  # stamp key -> the tachometers' speeds or the gyro's rate, whichever came first
         self.momenta = collections.deque(maxlen=WHEEL_WINDOW + 2)  # (t, each wheel's axial momentum)
-        self.active = None  # (kind, t)
-        self.nominal = 0
+        self.latch = _Latch('wheels', CLEAR_WINDOWS * WHEEL_WINDOW)
         self.fresh = False
         self.paused = False
         self.status = MonitorStatus('wheels', LEVEL_OK, 'waiting for a window', {})
@@ -395,28 +411,19 @@ class WheelMonitor:
         judged = np.maximum(np.abs(h0), np.abs(h1)) < WHEEL_SATURATION * self.max_momentum
         failing = [int(i) for i in np.flatnonzero(judged & (np.abs(residual) > bound))]
         values = dict(residual_n_m_s=np.round(residual, 6).tolist(), bound_n_m_s=np.round(bound, 6).tolist())
-        out = []
-        if failing:
-            self.nominal = 0
-            if self.active is None:
-                deficit = [i for i in failing if residual[i] * expected[i] < 0.0
-                           and abs(residual[i]) <= abs(expected[i]) + bound[i]]
-                kind = 'wheel_torque_deficit' if deficit else 'wheel_torque_excess'
-                candidates = deficit or failing
-                self.active = (kind, t)
-                out.append(Detection(t, 'wheels', kind, f'wheels {candidates}', True,
-                                     f'{kind}: wheels {candidates} changed their momentum by '
-                                     f'{np.round(h1 - h0, 5)[candidates].tolist()} N m s over {t1 - t0:.2f} s '
-                                     f'against {np.round(expected, 5)[candidates].tolist()} commanded',
-                                     dict(values, candidates=candidates)))
-        elif self.active is not None:
-            self.nominal += 1
-            if self.nominal >= CLEAR_WINDOWS * WHEEL_WINDOW:
-                kind, _ = self.active
-                self.active = None
-                out.append(Detection(t, 'wheels', kind, 'wheels', False, f'{kind} cleared', {}))
-        level = LEVEL_ERROR if self.active else LEVEL_WARN if np.any(np.abs(residual) > 0.5 * bound) else LEVEL_OK
-        self.status = MonitorStatus('wheels', level, self.active[0] if self.active else 'nominal', values)
+
+        def describe():
+            deficit = [i for i in failing if residual[i] * expected[i] < 0.0
+                       and abs(residual[i]) <= abs(expected[i]) + bound[i]]
+            kind, candidates = ('wheel_torque_deficit', deficit) if deficit else ('wheel_torque_excess', failing)
+            return (kind, f'wheels {candidates}',
+                    f'{kind}: wheels {candidates} changed their momentum by '
+                    f'{np.round(h1 - h0, 5)[candidates].tolist()} N m s over {t1 - t0:.2f} s against '
+                    f'{np.round(expected, 5)[candidates].tolist()} commanded', dict(values, candidates=candidates))
+
+        out = self.latch.update(t, bool(failing), describe)
+        level = LEVEL_ERROR if self.latch.active else LEVEL_WARN if np.any(np.abs(residual) > 0.5 * bound) else LEVEL_OK
+        self.status = MonitorStatus('wheels', level, self.latch.kind or 'nominal', values)
         return out, self.status
 
 
@@ -479,7 +486,7 @@ class HealthMonitor:
             found, status = self.wheels.judge(t)
             detections += found
             statuses.append(status)
-        thrust_fault = self.thrust is not None and self.thrust.active is not None
+        thrust_fault = self.thrust is not None and self.thrust.latch.active is not None
         for name, monitor in self.sensors.items():
             if name in self.suspended:
                 continue

@@ -97,21 +97,29 @@ def test_a_leak_along_a_thruster_is_thrust_excess_naming_it_and_a_missing_half_i
     assert 0 in found_weak[0].values['candidates']
 
 
-def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overlap():
-    """A force command that comes after its interval's sample is still expected of that interval; a burn half inside
-    an interval is expected for that half."""
+def _book_with_burn(start_s, end_s):
+    """A ThrustBook expecting one maneuver's burn of 0.1 m/s^2 along hill x over [start_s, end_s]."""
 
     class Burn:
-        seq, start_s, end_s = 0, 1.05, 2.0
+        seq = 0
 
         @staticmethod
         def accel_hill(_t):
             return np.array([0.1, 0.0, 0.0])
 
+    Burn.start_s, Burn.end_s = start_s, end_s
     book = ThrustBook(lever_min_m=0.2, bit_force_n=0.0)
-    q = np.array([0.0, 0.0, 0.0, 1.0])
     book.on_maneuver(0)
     book.on_burns([Burn])
+    return book
+
+
+def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overlap():
+    """A force command that comes after its interval's sample is still expected of that interval; a burn half inside
+    an interval is expected for that half."""
+
+    book = _book_with_burn(1.05, 2.0)
+    q = np.array([0.0, 0.0, 0.0, 1.0])
     assert book.on_interval(1.0, 1.1, np.array([0.005, 0.0, 0.0]), q, 100.0) is None
     book.on_command(1.1, np.array([0.0, 0.001, 0.0]), np.array([0.0, 1.0, 0.0]), np.zeros(3))
     residual, expected, _, _ = book.on_interval(1.1, 1.2, np.array([0.01, 0.001, 0.0]), q, 100.0)
@@ -130,16 +138,7 @@ def test_a_burn_turns_with_the_body_it_started_in():
     accelerometer's hill delta-v turns too, and the book expects that, not the filter's hill-fixed burn."""
     from flyby_sim.dynamics.rotation import quat_from_axis_angle
 
-    class Burn:
-        seq, start_s, end_s = 0, 0.95, 5.0
-
-        @staticmethod
-        def accel_hill(_t):
-            return np.array([0.1, 0.0, 0.0])
-
-    book = ThrustBook(lever_min_m=0.2, bit_force_n=0.0)
-    book.on_maneuver(0)
-    book.on_burns([Burn])
+    book = _book_with_burn(0.95, 5.0)
     residuals = []
     for k in range(10, 40):
         t0, t1 = 0.1 * k, 0.1 * (k + 1)
@@ -153,7 +152,7 @@ def test_a_burn_turns_with_the_body_it_started_in():
 
 def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has_no_thrust_monitor():
     monitor = HealthMonitor(_params())
-    monitor.thrust.active = ('thrust_excess', 0.0)
+    monitor.thrust.latch.active = ('thrust_excess', 0.0)
     statuses = ()
     for k in range(30):
         monitor.on_sample('relative_position', 0.1 * k, nis=50.0)
