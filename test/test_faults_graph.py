@@ -1,10 +1,12 @@
 """Faults in the graph (docs/faults.md), judged from the truth in the bag: a thruster stuck on during
 paper_flyby_6dof's terminal approach is detected, its thrusters closed and the approach aborted, and a chaser
 coasting into the target with the planner and guidance out of the graph is turned away by the independent
-monitor's CAM alone; a wheel failed in the approach is named from its tachometer and the approach aborted."""
+monitor's CAM alone; a wheel failed in the approach is named from its tachometer and the approach aborted; a planner
+killed and respawned by the launcher is found silent by the watchdog, answered continue, and seen back."""
 
 import pytest
 
+from flyby_msgs_py.bag import read_bag
 from flyby_testing import analyze_bag, read_summary, run_mission, write_scenario
 
 pytestmark = pytest.mark.slow
@@ -61,3 +63,26 @@ def test_a_wheel_failed_in_the_approach_is_named_from_its_tachometer_within_two_
         done.stdout[-2000:]
     assert first['delay_s'] < 2.0 and summary['fault_responses'][0]['response'] == 'abort'
     assert summary['outcome'] == 'ABORTED' and not summary['cam_fired']
+
+
+def _planner_crash(data):
+    data['faults'] = [{'type': 'node_crash', 'node': 'planner', 'start_phase': 'TERMINAL_APPROACH', 'delay_s': 10.0,
+                       'duration_s': 20.0}]
+    data['simulation']['duration_s'] = 120.0
+
+
+def test_a_planner_killed_and_respawned_by_the_launcher_is_lost_answered_and_seen_back(tmp_path):
+    scenario = write_scenario(tmp_path, base='paper_flyby', name='crash', edit=_planner_crash)
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--in-process')
+    summary = read_summary(tmp_path / 'run')
+    [detected] = summary['faults_detected']
+    assert (detected['kind'], detected['component'], detected['isolated']) == ('node_lost', 'flyby_planner', True), \
+        done.stdout[-2000:]
+    assert 4.4 < detected['delay_s'] < 6.0  # silent for watchdog_s since its last heartbeat (every 0.5 s)
+    assert summary['fault_responses'][0]['response'] == 'continue'
+    assert summary['outcome'] == 'TIME_LIMIT'
+    events = read_bag(tmp_path / 'run' / 'bag', topics=['/mission/events'])['/mission/events']
+    back = [e for e in events if e['name'] == 'fault_recovered' and e['values'].get('component') == 'flyby_planner']
+    assert back and back[0]['t'] >= detected['t_s'], 'the respawned planner never reported'
+    checked = analyze_bag(tmp_path / 'run')
+    assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]

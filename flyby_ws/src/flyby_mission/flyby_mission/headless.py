@@ -37,7 +37,14 @@ from flyby_guidance.params import GuidanceParams
 from flyby_mission.cam_monitor import CamBurn, CamMonitor, CamParams
 from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, WheelTruth, chaser_truth_from_odometry
 from flyby_mission.summary import summarize
-from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
+from flyby_mission.supervisor import (
+    HEARTBEAT_NODES,
+    WATCHED_NODES,
+    AvoidanceBurn,
+    SupervisorCore,
+    SupervisorParams,
+    Transition,
+)
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events, wiring
 from flyby_msgs_py.admission import RULES, Admission
@@ -55,6 +62,11 @@ from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import scenario_from_dict
 
 SIM_NODE = 'flyby_sim'
+# The cores a node_crash may take down and the launcher respawns (flyby_sim.faults.NODES): node -> (attribute, build).
+RESPAWNABLE = {wiring.ESTIMATOR: ('estimator', lambda sc: EstimatorCore(EstimatorParams.from_scenario(sc))),
+               wiring.PLANNER: ('planner', lambda sc: PlannerCore(PlannerParams.from_scenario(sc))),
+               wiring.GUIDANCE: ('guidance', lambda sc: GuidanceCore(GuidanceParams.from_scenario(sc))),
+               wiring.CAM: ('cam', lambda sc: CamMonitor(CamParams.from_scenario(sc)))}
 
 
 @dataclasses.dataclass
@@ -130,13 +142,12 @@ class HeadlessGraph:
         require_one_chaser(scenario)
         self.scenario = scenario
         self.plant = Plant(PlantConfig.from_scenario(scenario))
-        self.estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
-        self.planner = PlannerCore(PlannerParams.from_scenario(scenario))
-        self.guidance = GuidanceCore(GuidanceParams.from_scenario(scenario))
         self.supervisor = SupervisorCore(SupervisorParams.from_scenario(scenario), WATCHED_NODES)
-        self.cam = CamMonitor(CamParams.from_scenario(scenario))
-        self.guards = {node: CoreGuard(node) for node in (wiring.ESTIMATOR, wiring.PLANNER, wiring.GUIDANCE,
-                                                          wiring.SUPERVISOR, wiring.CAM)}
+        self.guards = {wiring.SUPERVISOR: CoreGuard(wiring.SUPERVISOR)}
+        for node in RESPAWNABLE:
+            self._build(node)
+        self.down = set()  # the nodes a node_crash holds down (flyby_sim.faults)
+        self.latched = {}  # topic -> its last message, for a respawned node (transient local in the graph)
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
         self.admissions = {node: Admission() for node in wiring.NODES}
         self.phases = []
@@ -149,6 +160,34 @@ class HeadlessGraph:
     def phase(self):
         return self.phases[-1] if self.phases else None
 
+    def _build(self, node):
+        """A fresh core of the node, in its guard (at the start, and as the launcher respawns it)."""
+        attribute, make = RESPAWNABLE[node]
+        setattr(self, attribute, make(self.scenario))
+        self.guards[node] = CoreGuard(node)
+
+    def _node_fault(self, event):
+        """A node_crash's start (its core fed nothing more, its progress stopped) or end (a fresh core fed the
+        latched topics' last messages and the events so far, as a respawned node joins the graph)."""
+        if event.name not in (events.FAULT_INJECTED, events.FAULT_ENDED):
+            return
+        fault = event_payloads.decode(wire_event(event))
+        if fault.kind != 'node_crash':
+            return
+        node = fault.target.split(' ', 1)[1]
+        if event.name == events.FAULT_INJECTED:
+            self.down.add(node)
+            return
+        self.down.discard(node)
+        self._build(node)
+        topics = wiring.topics_of(node, self.scenario)
+        history = [self.latched[t] for t in topics if t in self.latched and t != c.MISSION_EVENTS]
+        if c.MISSION_EVENTS in topics:
+            history += self.latched.get(c.MISSION_EVENTS, [])
+        for message in history:
+            self._queue.extend(self._guarded(node, message.topic, message.t, CORE_INPUTS[node, message.topic], self,
+                                             message))
+
     def start(self):
         self.truth.add(self.plant.truth())
         self._publish(self._guarded(wiring.SUPERVISOR, 'start', 0.0, self.supervisor.start))
@@ -158,8 +197,9 @@ class HeadlessGraph:
         s = self.plant.step()
         self.truth.add(s)
         t = wire_time(s.t)
-        for node in WATCHED_NODES:
-            self._publish(self._guarded(wiring.SUPERVISOR, 'on_progress', t, self.supervisor.on_progress, node, t))
+        for node in HEARTBEAT_NODES:
+            if node not in self.down:
+                self._publish(self._guarded(wiring.SUPERVISOR, 'on_progress', t, self.supervisor.on_progress, node, t))
         self._publish(self._guarded(wiring.SUPERVISOR, 'on_clock', t, self.supervisor.on_clock, t))
         for m in self.plant.measurements():
             self._publish([_Message(MEASUREMENT_TOPICS[m.kind], wire_time(m.t), m.value)])
@@ -173,7 +213,10 @@ class HeadlessGraph:
             self._deliver(self._queue.popleft())
 
     def _publish_plant_events(self):
-        self._publish([Event(e.t, e.level, e.name, e.message, e.values, SIM_NODE) for e in self.plant.drain_events()])
+        out = [Event(e.t, e.level, e.name, e.message, e.values, SIM_NODE) for e in self.plant.drain_events()]
+        for event in out:
+            self._node_fault(event)
+        self._publish(out)
 
     def _guarded(self, node, callback, t, fn, *args):
         """fn(*args) of a node's core inside its guard: its outputs, or its node_error event once (module doc)."""
@@ -195,8 +238,9 @@ class HeadlessGraph:
         elif isinstance(out, Transition):
             self.phases.append(out.phase_to)
         for message in _messages(out):
+            self._latch(message)
             for node in self.subscribers.get(message.topic, ()):  # /diagnostics: recorded only
-                if not self._admitted(node, message):
+                if node in self.down or not self._admitted(node, message):
                     continue
                 if node == wiring.SIM:
                     self._to_plant(message)
@@ -210,6 +254,14 @@ class HeadlessGraph:
                                    'dv_mps': float(np.linalg.norm(dv_hill))})
         elif isinstance(out, PlanPublished):
             self._ideal_delta_v(out)
+
+    def _latch(self, message):
+        """What a node joining later gets: a latched topic's last message, the events' history."""
+        if message.topic == c.MISSION_EVENTS:
+            kept = self.latched.setdefault(c.MISSION_EVENTS, collections.deque(maxlen=c.EVENTS_HISTORY))
+            kept.append(message)
+        elif message.topic in c.LATCHED_TOPICS:
+            self.latched[message.topic] = message
 
     def _admitted(self, node, message):
         """Whether the node admits the message's stamp (flyby_msgs_py.admission) at the plant's time, as its node

@@ -84,6 +84,8 @@ def _explains(fault, detection):
     actuator, _, index = target.partition(' ')
     if actuator in ('thruster', 'wheel'):  # the monitor's component: 'thrusters [i, ...]' or 'wheels [i, ...]'
         return component.startswith(f'{actuator}s') and (not detection.candidates or int(index) in detection.candidates)
+    if actuator == 'node':  # the watchdog names the node
+        return component == index
     if fault['kind'] == 'gyro_bias_jump':
         return component in ('imu', 'star_tracker')
     return component == target or (target == 'imu' and component == 'star_tracker')

@@ -36,7 +36,8 @@ observable condition and carries its reason:
     TRANSPORT         -> COMPLETE           guidance's ``transport_complete`` (the conditions held hold_s, or the run's
                                             end) or ``transport_refused`` (no plan meets them: the body is held)
     ESCAPE            -> COMPLETE           after escape_observation_s of passive escape
-    any active phase  -> ABORTED            abort request, a watched node silent for watchdog_s, or a
+    any active phase  -> ABORTED            abort request, the fault table's answer to a node silent for
+                                            watchdog_s (the watchdog's node_lost), or a
                                             fault (ERROR event) reported by a watched node, or a
                                             ``node_error`` of any node (its core raised, core_guard), or the
                                             fault table's answer to a ``fault_detected`` (docs/faults.md), or the
@@ -85,8 +86,12 @@ _POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, events.CAPTURED): c.PHASE_GRASP,
 _TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, events.MASS_PROPERTIES_ESTIMATED): c.PHASE_TRANSPORT,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_COMPLETE): c.PHASE_COMPLETE,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_REFUSED): c.PHASE_COMPLETE}
-# Nodes whose silence or ERROR events abort the mission: they estimate and command.
+# Nodes whose ERROR events abort the mission, watched from the start: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
+# Nodes whose heartbeat (their progress) the watchdog judges, the watched ones from the start, the others once they
+# have reported (a node left out of the graph is not lost): silent for watchdog_s is a node_lost the fault table
+# answers (docs/faults.md).
+HEARTBEAT_NODES = WATCHED_NODES + ('flyby_planner', 'flyby_cam_monitor')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
 NO_SAFE_PLAN_PREFIX = 'no safe plan: '
 _LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN'}
@@ -200,7 +205,6 @@ class PhaseMachine:
         self.offset_m = None  # the plan's fly-by offset delta r [m]
         self.method = None  # the plan's method (DESIGN §10)
         self.t_entered = 0.0
-        self.progress = {}  # watched node -> sim time it last reported
         self.decision = None
 
     # -- helpers --------------------------------------------------------------------------------
@@ -309,19 +313,8 @@ class PhaseMachine:
         return self._go(t, c.PHASE_CAPTURE if decision.capture else c.PHASE_ESCAPE, decision.reason,
                         {'t_grasp_s': self.t_grasp, **decision.values})
 
-    def node_progress(self, node, t):
-        if node in self.watched_nodes:
-            self.progress[node] = max(t, self.progress.get(node, -math.inf))
-        return []
-
     def clock(self, t):
-        """Timers: the watchdog in the active phases, the holds before COMPLETE."""
-        if self.phase in ACTIVE_PHASES:
-            for node in self.watched_nodes:
-                last = self.progress.get(node, 0.0)
-                if t - last > self.params.watchdog_s:
-                    return self._go(t, c.PHASE_ABORTED, f'watchdog: {node} silent for {t - last:.1f} s',
-                                    {'node': node, 'last_progress_s': last})
+        """Timers: the holds before COMPLETE."""
         if self.phase == c.PHASE_CAPTURE and not self.params.post_capture and \
                 t - self.t_entered >= self.params.capture_hold_s:
             return self._go(t, c.PHASE_COMPLETE, f'attached for {t - self.t_entered:.1f} s')
@@ -358,6 +351,8 @@ class SupervisorCore:
         self.t_clock = 0.0
         self.fault_table = FaultTable.load()
         self.cam_fired = False
+        self.heartbeats = dict.fromkeys(self.machine.watched_nodes, 0.0)  # node -> the sim time it last reported
+        self.lost = set()  # the nodes the watchdog has found silent
 
     @property
     def phase(self):
@@ -390,21 +385,49 @@ class SupervisorCore:
             self.cam_fired = True
             return self._apply(self.machine.abort(event.t, f'CAM fired by {event.source}'))
         if event.name == events.FAULT_DETECTED:
-            answers, abort = respond(self.fault_table, event, self.phase, self.cam_fired)
-            out = [self._event(event.t, *a) for a in answers]
-            if abort is not None and self.machine.active:
-                out += self._apply(self.machine.abort(event.t, abort))
-            return out
+            return self._respond(event)
         values = dict(event.values, reason=event.message)
         return self._apply(self.machine.event(event.t, event.level, event.name, event.source, values))
 
+    def _respond(self, event):
+        """The fault table's answer to a fault_detected (fault_response): its events and the abort it may cause."""
+        answers, abort = respond(self.fault_table, event, self.phase, self.cam_fired)
+        out = [self._event(event.t, *a) for a in answers]
+        if abort is not None and self.machine.active:
+            out += self._apply(self.machine.abort(event.t, abort))
+        return out
+
     def on_progress(self, node, t):
-        self.machine.node_progress(node, t)
+        """A node's heartbeat: the sim time it has got to."""
+        if node in HEARTBEAT_NODES:
+            self.heartbeats[node] = max(t, self.heartbeats.get(node, -math.inf))
         return []
 
     def on_clock(self, t):
         self.t_clock = t
-        return self._apply(self.machine.clock(t))
+        return self._watchdog(t) + self._apply(self.machine.clock(t))
+
+    def _watchdog(self, t):
+        """Each node's heartbeat judged at the clock: silent for watchdog_s, a fault_detected (node_lost, monitor
+        watchdog) answered by the fault table; reporting again, a fault_recovered."""
+        out = []
+        for node, last in self.heartbeats.items():
+            silent = t - last > self.params.watchdog_s
+            if silent == (node in self.lost):
+                continue
+            if silent:
+                self.lost.add(node)
+                payload = event_payloads.FaultDetected('watchdog', 'node_lost', node, t, None)
+                detected = self._event(t, 'ERROR', events.FAULT_DETECTED,
+                                       f'watchdog: {node} silent for {t - last:.1f} s',
+                                       event_payloads.encode(payload, {'last_progress_s': last}))
+                out += [detected] + self._respond(detected)
+            else:
+                self.lost.discard(node)
+                payload = event_payloads.FaultRecovered('watchdog', 'node_lost', node, t)
+                out.append(self._event(t, 'OK', events.FAULT_RECOVERED, f'watchdog: {node} reports again',
+                                       event_payloads.encode(payload)))
+        return out
 
     def abort(self, why):
         """(aborted, outputs) for an abort request at the current clock."""

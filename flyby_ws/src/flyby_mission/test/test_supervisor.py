@@ -38,10 +38,10 @@ X_G = np.array((0.36, 2.09, 0.0))
 X_FT, V_FT = X_G * (1.0 + 1.0 / np.linalg.norm(X_G)), np.array((0.0, 0.0, 0.19))  # offset 1 m (eq 20)
 
 
-def _alive(m, t):
+def _alive(core, t):
     """Both watched nodes report progress up to t (the watchdog stays quiet)."""
-    for node in m.watched_nodes:
-        m.node_progress(node, t)
+    for node in core.machine.watched_nodes:
+        core.on_progress(node, t)
 
 
 def _flyby(m):
@@ -49,12 +49,10 @@ def _flyby(m):
     out = []
     for k in range(1, 702):
         t = 0.1 * k
-        _alive(m, t)
         out += m.clock(t) + m.target_estimate(t)
         if k == 180:
             out += m.event(t, 'OK', 'target_converged', 'flyby_estimator', {})
     out += m.event(70.3, 'OK', 'plan_selected', 'flyby_planner', {'t_i_s': '513.0', 't_grasp_s': '813.0'})
-    _alive(m, 513.0)
     out += m.chaser_estimate(512.9, FAR) + m.chaser_estimate(513.0, FAR)
     out += m.event(733.0, 'OK', 'target_refined', 'flyby_guidance', {'t_grasp_s': '813.004'})
     out += m.event(733.0, 'OK', 'thrusting_ended', 'flyby_guidance', {})
@@ -102,13 +100,27 @@ def test_escape_then_complete_after_the_observation():
     assert m.clock(813.1 + 5829.0)[0].phase_to == c.PHASE_COMPLETE
 
 
-def test_watchdog_and_faults_abort_only_in_active_phases():
-    m = PhaseMachine(CONFIG)
-    _alive(m, 100.0)
-    m.node_progress('flyby_estimator', 104.0)
-    out = m.clock(105.5)
-    assert out[0].phase_to == c.PHASE_ABORTED and out[0].reason == 'watchdog: flyby_guidance silent for 5.5 s'
-    assert m.clock(200.0) == [] and m.abort(200.0, 'again') == []
+def test_the_watchdog_detects_a_silent_node_answers_it_from_the_table_and_sees_it_back():
+    """A watched node silent for watchdog_s in an active phase: node_lost, the table's abort; the planner, once it
+    has reported, answered continue in the approach; a node that never reported (left out of the graph) is not lost;
+    each back: fault_recovered."""
+    core = SupervisorCore(CONFIG)
+    core.machine.phase = c.PHASE_TERMINAL_APPROACH
+    _alive(core, 100.0)
+    core.on_progress('flyby_planner', 100.0)
+    core.on_progress('flyby_estimator', 104.0)
+    out = core.on_clock(105.5)
+    names = [(o.name, o.values.get('component')) for o in out if isinstance(o, Event)]
+    assert ('fault_detected', 'flyby_guidance') in names and ('fault_detected', 'flyby_planner') in names
+    assert ('fault_detected', 'flyby_cam_monitor') not in names
+    responses = {o.values['component']: o.values['response'] for o in out if getattr(o, 'name', '') == 'fault_response'}
+    assert responses == {'flyby_guidance': 'abort', 'flyby_planner': 'continue'}
+    aborted = [o for o in out if isinstance(o, Transition) and o.phase_to == c.PHASE_ABORTED]
+    assert aborted and aborted[0].reason == 'node_lost on flyby_guidance: the fault table answers abort'
+    assert core.on_clock(106.0) == []  # detected once
+    core.on_progress('flyby_guidance', 106.1)
+    back = core.on_clock(106.2)
+    assert [(o.name, o.values['component']) for o in back] == [('fault_recovered', 'flyby_guidance')]
 
     m = PhaseMachine(CONFIG)
     out = m.event(50.0, 'ERROR', 'filter_diverged', 'flyby_estimator', {})
@@ -196,7 +208,7 @@ def test_core_abort_outside_the_sphere_fires_an_avoidance_burn_only_if_the_coast
     core.machine.phase, core.machine.t_i = c.PHASE_TERMINAL_APPROACH, 500.0
     core.on_target_estimate(100.0, q0, sc.omega_body0_rad_s)
     core.on_chaser_estimate(100.0, np.array((50.0, 0.0, 0.0)), np.zeros(3))
-    _alive(core.machine, 100.0)
+    _alive(core, 100.0)
     core.on_clock(100.0)
     aborted, out = core.abort('test')
     assert aborted and not any(isinstance(o, AvoidanceBurn) for o in out)
@@ -206,7 +218,7 @@ def test_core_abort_outside_the_sphere_fires_an_avoidance_burn_only_if_the_coast
     core.machine.phase, core.machine.t_i = c.PHASE_TERMINAL_APPROACH, 500.0
     core.on_target_estimate(100.0, q0, sc.omega_body0_rad_s)
     core.on_chaser_estimate(100.0, np.array((20.0, 0.0, 0.0)), np.array((-0.2, 0.0, 0.0)))
-    _alive(core.machine, 100.0)
+    _alive(core, 100.0)
     core.on_clock(100.0)
     aborted, out = core.abort('test')
     burns = [o for o in out if isinstance(o, AvoidanceBurn)]

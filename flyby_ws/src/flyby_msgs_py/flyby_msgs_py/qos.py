@@ -2,7 +2,7 @@
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from flyby_msgs_py.contract import LATCHED_TOPICS, MISSION_EVENTS
+from flyby_msgs_py.contract import EVENTS_HISTORY, LATCHED_TOPICS, MISSION_EVENTS
 
 
 def _reliable(depth, durability):
@@ -19,7 +19,7 @@ QOS_LATCHED = _reliable(1, DurabilityPolicy.TRANSIENT_LOCAL)
 # Events: a late joiner gets the recent history. Deep: a plan publishes one plan_candidate event per candidate
 # in one burst (hundreds, a slow tumbler's extended window thousands), and a keep-last writer or reader that
 # overflows drops the oldest, delivered or not.
-QOS_EVENTS = _reliable(5000, DurabilityPolicy.TRANSIENT_LOCAL)
+QOS_EVENTS = _reliable(EVENTS_HISTORY, DurabilityPolicy.TRANSIENT_LOCAL)
 # The recorder subscribes deeper than any publisher keeps, so a slow callback never drops a sample.
 QOS_RECORDER = _reliable(5000, DurabilityPolicy.VOLATILE)
 QOS_RECORDER_LATCHED = _reliable(100, DurabilityPolicy.TRANSIENT_LOCAL)

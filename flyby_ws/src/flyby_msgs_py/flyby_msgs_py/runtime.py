@@ -165,7 +165,7 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
     would outrun the subscribers of its own process and overflow their queues.
     """
     tickers = [n for n in nodes if hasattr(n, 'tick')]
-    reporters = [ProgressReporter(n) for n in nodes if not hasattr(n, 'tick')]
+    reporters = {}
     announcers = [announce_ready(node) for node in nodes]
     reached = [True]
     barrier = None
@@ -174,6 +174,9 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
         nodes[0].create_subscription(Empty, BARRIER_TOPIC, lambda _m: reached.__setitem__(0, True), 1)
     announced_at = -math.inf
     while executor.context.ok() and not should_stop():
+        for node in nodes:  # a node started since (a respawn, graph_run) reports too
+            if not hasattr(node, 'tick') and node not in reporters:
+                reporters[node] = ProgressReporter(node)
         wait_s = idle_s
         for node in tickers:
             wait_s = min(wait_s, node.tick())
@@ -192,11 +195,11 @@ def run_loop(executor, nodes, should_stop=lambda: False, idle_s=0.05, drain=Fals
             # Only reacting: the executor handles messages in C++ until a report is due or wait_s has passed
             # (one Python turn of this loop per message cost these nodes 5-15 % of their CPU on the 6-DOF mission).
             due = Future()
-            for reporter in reporters:
+            for reporter in reporters.values():
                 reporter.due = due
             executor.spin_until_future_complete(due, timeout_sec=wait_s)
         idle = wait_s > 0.0 and time.monotonic() - started >= 0.9 * wait_s
-        for reporter in reporters:
+        for reporter in reporters.values():
             reporter.report(idle)
         now = time.monotonic()
         if now - announced_at >= ANNOUNCE_PERIOD_S:

@@ -12,7 +12,10 @@ A fault acts on the hardware the truth simulates, the same in the headless loop 
 * a sensor (``sensor``): ``sensor_dropout`` (no sample; ``imu`` is the gyro and the accelerometer, sampled together,
   ``star_tracker`` the IMU's attitude), ``sensor_outliers`` (each sample off by ``value`` times the sensor's 1-sigma
   in a direction drawn from the seed), ``gyro_bias_jump`` (the gyro's bias steps by ``value`` rad/s along ``axis``
-  or a direction drawn from the seed).
+  or a direction drawn from the seed);
+* a node of the graph (``node``): ``node_crash`` (the process killed at the start and started again by the launcher,
+  a respawn, at the end; none: it stays down). The plant only reports it: the drivers act on its events (the
+  headless loop stops feeding the node's core and builds a fresh one, the launcher kills and restarts the process).
 
 Nothing here tells the flight software: the plant reports each fault's start and end on ``mission/events``
 (``fault_injected``, ``fault_ended``) for the record and the summary, and the monitors see only its effects.
@@ -31,7 +34,12 @@ from flyby_msgs_py.schema import Invalid
 THRUSTER_KINDS = ('thruster_off', 'thruster_stuck_on', 'thruster_degraded', 'thruster_misaligned')
 WHEEL_KINDS = ('wheel_failed', 'wheel_torque_limited')
 SENSOR_KINDS = ('sensor_dropout', 'sensor_outliers', 'gyro_bias_jump')
-KINDS = THRUSTER_KINDS + WHEEL_KINDS + SENSOR_KINDS
+NODE_KINDS = ('node_crash',)
+KINDS = THRUSTER_KINDS + WHEEL_KINDS + SENSOR_KINDS + NODE_KINDS
+# The nodes a node_crash may kill (the scenario's name -> the node's): the supervisor and the simulator hold the
+# mission itself and are not among them.
+NODES = {'estimator': 'flyby_estimator', 'planner': 'flyby_planner', 'guidance': 'flyby_guidance',
+         'cam_monitor': 'flyby_cam_monitor'}
 SENSORS = ('relative_position', 'target_attitude', 'star_tracker', 'imu')
 RIGID_SENSORS = ('star_tracker', 'imu')  # the six-degree-of-freedom chaser's own
 # value when omitted, and the interval it must lie in (lo, hi, lo closed, hi closed), by kind; None: no value
@@ -63,6 +71,7 @@ class FaultSpec:
     duration_s: float | None = None  # None: permanent
     value: float | None = None  # by kind (module doc); None: VALUES' default
     axis: tuple | None = None  # misalignment's or bias jump's axis, chaser_body; None: drawn from the seed
+    node: str | None = None  # a node_crash's (NODES' key)
 
     @property
     def target(self):
@@ -71,6 +80,8 @@ class FaultSpec:
             return f'thruster {self.index}'
         if self.kind in WHEEL_KINDS:
             return f'wheel {self.index}'
+        if self.kind in NODE_KINDS:
+            return f'node {NODES[self.node]}'
         return 'imu' if self.kind == 'gyro_bias_jump' else self.sensor
 
     @property
@@ -85,7 +96,7 @@ def fault_specs(items):
     """The FaultSpecs of the scenario's validated ``faults`` list (its item views), in its order."""
     return tuple(FaultSpec(kind=x.type, index=x.index, sensor=x.sensor, start_s=x.start_s, start_phase=x.start_phase,
                            delay_s=x.delay_s, duration_s=x.duration_s, value=x.value,
-                           axis=None if x.axis is None else tuple(x.axis)) for x in items)
+                           axis=None if x.axis is None else tuple(x.axis), node=x.node) for x in items)
 
 
 def check_faults(d):
@@ -128,6 +139,9 @@ def check_faults(d):
                                            f'{value:g} sigma would be none')
         if f['axis'] is not None and kind not in ('thruster_misaligned', 'gyro_bias_jump'):
             raise Invalid(f'{key}.axis', f'is for thruster_misaligned and gyro_bias_jump, not {kind}')
+        if (kind in NODE_KINDS) != (f['node'] is not None):
+            raise Invalid(f'{key}.node', f'is required for node_crash: one of {", ".join(NODES)}' if kind in NODE_KINDS
+                          else f'is for node_crash, not {kind}')
         if f['axis'] is not None and not math.hypot(*f['axis']) > 0.0:
             raise Invalid(f'{key}.axis', f'must be nonzero, got {list(f["axis"])}')
 

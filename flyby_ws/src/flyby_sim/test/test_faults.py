@@ -170,6 +170,9 @@ def _with_faults(base, faults):
     ({'type': 'gyro_bias_jump', 'start_s': 1.0, 'axis': [0, 0, 0]}, 'faults[0].axis', 'nonzero'),
     ({'type': 'sensor_dropout', 'sensor': 'gps', 'start_s': 1.0}, 'faults[0].sensor', 'must be one of'),
     ({'type': 'thruster_off', 'index': 1, 'start_phase': 'LUNCH'}, 'faults[0].start_phase', 'must be one of'),
+    ({'type': 'node_crash', 'start_s': 1.0}, 'faults[0].node', 'required for node_crash'),
+    ({'type': 'thruster_off', 'index': 1, 'node': 'planner', 'start_s': 1.0}, 'faults[0].node', 'not thruster_off'),
+    ({'type': 'node_crash', 'node': 'flyby_sim', 'start_s': 1.0}, 'faults[0].node', 'must be one of'),
 ])
 def test_a_bad_fault_is_refused_in_one_line_naming_its_key(fault, key, words):
     with pytest.raises(ScenarioError) as err:

@@ -29,6 +29,7 @@ from flyby_msgs_py.schema import (
 )
 from flyby_sim.dynamics.constants import EARTH_RADIUS_M, MU_EARTH_M3_S2
 from flyby_sim.faults import KINDS as FAULT_KINDS
+from flyby_sim.faults import NODES as FAULT_NODES
 from flyby_sim.faults import PHASES as FAULT_PHASES
 from flyby_sim.faults import SENSORS as FAULT_SENSORS
 from flyby_sim.scenario.checks import check_direction, check_direction_rows, check_inertia, check_unique_names
@@ -576,7 +577,7 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
         desc='Faults injected into the plant (docs/faults.md); omitted: none', optional=True,
         item=Section(desc='One fault', fields={
             'type': Field(ENUM, REQUIRED, None, 'What fails (docs/faults.md): thrusters and wheels of the rigid_body '
-                                                'chaser by index, sensors by name.', choices=FAULT_KINDS),
+                                                'chaser by index, sensors and nodes by name.', choices=FAULT_KINDS),
             'index': Field(INT, None, '>= 0', 'The thruster (chaser.thrusters.layout order, the default 12 '
                                               'otherwise) or the wheel (chaser.wheels.axes order).'),
             'sensor': Field(ENUM, None, None, 'The sensor of sensor_dropout and sensor_outliers (imu: the gyro and '
@@ -589,5 +590,7 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
             'value': Field(FLOAT, None, None, 'How much, by type (docs/faults.md); omitted: the type\'s default.'),
             'axis': Field(VEC3, None, None, 'The misalignment\'s rotation axis or the bias jump\'s direction, '
                                             'chaser_body; omitted: drawn from the seed.'),
+            'node': Field(ENUM, None, None, 'The node of node_crash: killed at the start, respawned at the end.',
+                          choices=tuple(FAULT_NODES)),
         })),
 }))
