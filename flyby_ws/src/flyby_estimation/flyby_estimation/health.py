@@ -57,7 +57,7 @@ from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 STALE_PERIODS = 5.0
 WINDOW = 20
 OUTLIER_BURST = 3
-NIS_FALSE_ALARM = 1e-6
+NIS_FALSE_ALARM = 1e-8  # per window; judged at every sample, about 4e-5 an hour of a 10 Hz sensor
 THRUST_WINDOW = 10
 THRUST_SIGMAS = 6.0
 THRUST_RELATIVE = 0.05  # beyond the specified errors: the attitude estimates a burn is turned by (module doc)
@@ -69,6 +69,7 @@ THRUST_SETTLE_S = 30.0  # after a firing the navigation models, its execution er
 WHEEL_WINDOW = 10
 WHEEL_RELATIVE = 0.05  # the motor's torque error allowed, of the commanded impulse
 WHEEL_SATURATION = 0.95  # of the momentum limit
+COMMANDS_KEPT = 4 * WHEEL_WINDOW  # the wheel commands kept (one per IMU sample, the window's and a margin)
 LEVEL_OK = 'OK'
 LEVEL_WARN = 'WARN'
 LEVEL_ERROR = 'ERROR'
@@ -368,7 +369,7 @@ class WheelMonitor:
         """Guidance's motor torques [N m], held from t_stamp [s]."""
         torques = np.clip(np.asarray(torques_n_m, dtype=float), -self.max_torque, self.max_torque)
         self.commands = sorted([c for c in self.commands if c[0] != t_stamp] + [(float(t_stamp), torques)],
-                               key=lambda c: c[0])
+                               key=lambda c: c[0])[-COMMANDS_KEPT:]
 
     def on_sample(self, t, speeds_rad_s=None, omega_body_rad_s=None):
         """The tachometers' speeds [rad/s] or the gyro's rate [rad/s, chaser_body] at t: paired by stamp."""
@@ -405,6 +406,8 @@ class WheelMonitor:
         (t0, h0), (t1, h1) = self.momenta[0], self.momenta[-2]
         while len(self.commands) > 1 and self.commands[1][0] <= t0:
             self.commands.pop(0)
+        if not self.commands or self.commands[0][0] > t0:  # the torque held before the first command heard is
+            return [], self.status  # unknown (a monitor started late, a respawned estimator)
         expected, size = self._impulse(t0, t1)
         residual = (h1 - h0) - expected
         bound = self.noise + WHEEL_RELATIVE * size

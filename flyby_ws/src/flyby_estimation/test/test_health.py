@@ -64,7 +64,7 @@ def test_three_rejections_in_twenty_samples_are_outliers_and_a_biased_sensor_is_
 @given(st.integers(0, 2**32 - 1))
 def test_nominal_innovations_and_accelerometer_noise_raise_nothing(seed):
     """An hour of a sensor's chi-square(3) NIS at 10 Hz and of the accelerometer's noise with a thrust at the
-    thrusters' specified errors: no detection (the NIS bound's false-alarm probability is 1e-6 per window)."""
+    thrusters' specified errors: no detection (the NIS bound's false-alarm probability is 1e-8 per window)."""
     rng = np.random.default_rng(seed)
     sensor = SensorMonitor('relative_position', 10.0)
     thrust = ThrustMonitor(SIGMA_A, 3.0 * math.hypot(0.01, math.radians(0.5)), LAYOUT.force_directions_body)

@@ -8,6 +8,7 @@ fault's start and started again, a respawn, at its end (a fresh node: the latche
 give it what it missed, as they give any late joiner).
 """
 
+import collections
 import ctypes
 import os
 import signal
@@ -32,7 +33,6 @@ SIGTERM_GRACE_S = 5.0
 
 class Interrupted(Exception):
     """SIGINT or SIGTERM reached the launcher."""
-
 
 
 def _child_setup(nice):
@@ -113,7 +113,10 @@ class ProcessGraph:
         proc = self.procs.get(name)
         if proc is not None and proc.poll() is None:
             proc.kill()
-            proc.wait(timeout=SIGTERM_GRACE_S)
+            try:
+                proc.wait(timeout=SIGTERM_GRACE_S)
+            except subprocess.TimeoutExpired:
+                pass  # poll() sees it go; a respawn before then starts the new process beside it
 
     def stop(self):
         """Stop in order (simulator first, recorder last): SIGINT, then SIGTERM, then SIGKILL."""
@@ -259,7 +262,7 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s, f
     monitor = Monitor(context, abort_hold_s, faults=faults, namespaces=specs[0].params['namespaces'])
     graph = ProcessGraph(specs, run_dir, env)
     reason = None
-    down = set()  # the nodes a node_crash holds down: their exit is the fault's
+    down = collections.Counter()  # node -> the node_crash faults holding it down: its exit is theirs
     try:
         graph.start()
         deadline = time.monotonic() + wall_timeout_s
@@ -269,18 +272,17 @@ def run_processes(specs, run_dir, env, wall_timeout_s, progress, abort_hold_s, f
             victim = monitor.due_kill()
             if victim:
                 graph.kill(victim)
-            for action, label in monitor.due_crashes():
-                if action == 'kill':
-                    down.add(label)
+            for action, label in monitor.due_crashes():  # overlapping crashes: up again after the last
+                down[label] += 1 if action == 'kill' else -1 if down[label] else 0
+                if action == 'kill' and down[label] == 1:
                     graph.kill(label)
-                elif label in down:
-                    down.discard(label)
+                elif action == 'respawn' and not down[label]:
                     graph.respawn(label)
             for name, code in graph.poll().items():
                 spec = next(s for s in specs if s.label == name)
                 if name == 'flyby_sim' and code == 0:
                     reason = 'time_limit'
-                elif spec.essential and name != faults.kill_node and name not in down:
+                elif spec.essential and name != faults.kill_node and not down[name]:
                     reason = f'error: node {name} exited with code {code}'
             if monitor.done:
                 reason = f'phase {monitor.phase}'

@@ -146,8 +146,9 @@ class HeadlessGraph:
         self.guards = {wiring.SUPERVISOR: CoreGuard(wiring.SUPERVISOR)}
         for node in RESPAWNABLE:
             self._build(node)
-        self.down = set()  # the nodes a node_crash holds down (flyby_sim.faults)
+        self.down = collections.Counter()  # node -> the node_crash faults holding it down (flyby_sim.faults)
         self.latched = {}  # topic -> its last message, for a respawned node (transient local in the graph)
+        self.events_kept = collections.defaultdict(lambda: collections.deque(maxlen=c.EVENTS_HISTORY))  # by source
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
         self.admissions = {node: Admission() for node in wiring.NODES}
         self.phases = []
@@ -175,18 +176,19 @@ class HeadlessGraph:
         if fault.kind != 'node_crash':
             return
         node = fault.target.split(' ', 1)[1]
-        if event.name == events.FAULT_INJECTED:
-            self.down.add(node)
+        self.down[node] += 1 if event.name == events.FAULT_INJECTED else -1
+        if event.name == events.FAULT_INJECTED or self.down[node] > 0:  # overlapping crashes: up after the last
             return
-        self.down.discard(node)
         self._build(node)
+        self.admissions[node] = Admission()  # a new node's: the history it gets passes it as in the graph
         topics = wiring.topics_of(node, self.scenario)
         history = [self.latched[t] for t in topics if t in self.latched and t != c.MISSION_EVENTS]
         if c.MISSION_EVENTS in topics:
-            history += self.latched.get(c.MISSION_EVENTS, [])
+            history += sorted((m for kept in self.events_kept.values() for m in kept), key=lambda m: m.t)
         for message in history:
-            self._queue.extend(self._guarded(node, message.topic, message.t, CORE_INPUTS[node, message.topic], self,
-                                             message))
+            if self._admitted(node, message):
+                self._queue.extend(self._guarded(node, message.topic, message.t, CORE_INPUTS[node, message.topic],
+                                                 self, message))
 
     def start(self):
         self.truth.add(self.plant.truth())
@@ -198,7 +200,7 @@ class HeadlessGraph:
         self.truth.add(s)
         t = wire_time(s.t)
         for node in HEARTBEAT_NODES:
-            if node not in self.down:
+            if not self.down[node]:
                 self._publish(self._guarded(wiring.SUPERVISOR, 'on_progress', t, self.supervisor.on_progress, node, t))
         self._publish(self._guarded(wiring.SUPERVISOR, 'on_clock', t, self.supervisor.on_clock, t))
         for m in self.plant.measurements():
@@ -240,7 +242,7 @@ class HeadlessGraph:
         for message in _messages(out):
             self._latch(message)
             for node in self.subscribers.get(message.topic, ()):  # /diagnostics: recorded only
-                if node in self.down or not self._admitted(node, message):
+                if self.down[node] or not self._admitted(node, message):
                     continue
                 if node == wiring.SIM:
                     self._to_plant(message)
@@ -256,10 +258,9 @@ class HeadlessGraph:
             self._ideal_delta_v(out)
 
     def _latch(self, message):
-        """What a node joining later gets: a latched topic's last message, the events' history."""
+        """What a node joining later gets: a latched topic's last message, each writer's events' history."""
         if message.topic == c.MISSION_EVENTS:
-            kept = self.latched.setdefault(c.MISSION_EVENTS, collections.deque(maxlen=c.EVENTS_HISTORY))
-            kept.append(message)
+            self.events_kept[message.value.source].append(message)
         elif message.topic in c.LATCHED_TOPICS:
             self.latched[message.topic] = message
 

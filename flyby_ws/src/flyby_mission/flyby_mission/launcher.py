@@ -123,7 +123,6 @@ def faults_from_args(args):
     return faults
 
 
-
 class LaunchError(Exception):
     """A bad input or option: the run does not start (the command line's exit code 1; 2 for a misused option that
     scripts/run_mission.py refuses before)."""

@@ -68,7 +68,7 @@ from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_att
 from flyby_planner.flyby.keepout import swept_region
 from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
-# Phases in which a silent or faulty watched node aborts the mission (after FLYBY nothing is left to command).
+# Phases in which a faulty watched node (its ERROR event) aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
                  c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
 # Guidance's events that move the synchronized approach from one stage to the next (seed 001 section 2).
@@ -193,8 +193,8 @@ class PhaseMachine:
     """The phase logic (module doc). Each input method returns the list of transitions it caused."""
 
     def __init__(self, params, watched_nodes=WATCHED_NODES):
-        """params: SupervisorParams; watched_nodes: the nodes whose silence or faults abort (the node's parameter,
-        not the scenario's)."""
+        """params: SupervisorParams; watched_nodes: the nodes whose faults abort and whose heartbeat the watchdog
+        judges from the start (the node's parameter, not the scenario's)."""
         self.params = params
         self.watched_nodes = tuple(watched_nodes)
         self.phase = c.PHASE_MASS_ESTIMATION if params.start_attached else c.PHASE_ESTIMATION

@@ -171,8 +171,8 @@ class Admission:
             return NAN if math.isnan(t) else INFINITE
         if now_s is not None and t - now_s > (PLAN_HORIZON_S if rule.planned else MAX_LEAD_S):
             return FUTURE_STAMP
-        if t < 0.0 or (now_s is not None and t < now_s - MAX_AGE_S):
-            return PAST_STAMP
+        if t < 0.0 or (now_s is not None and t < now_s - MAX_AGE_S and topic not in c.LATCHED_TOPICS):
+            return PAST_STAMP  # a latched topic's last message is its value now, however old (a late joiner's)
         if rule.stream:
             last = self.last_stamp_s.get(topic)
             if last is not None and t <= last:

@@ -149,8 +149,11 @@ class CoreNode(Node):
         self.admission_gate = AdmissionGate(self, self.known_time_s, self._report)
 
     def known_time_s(self):
-        """The node's latest known sim time [s] (its run loop's /clock or /flyby/tick), None outside a run loop."""
-        return None if self.progress_reporter is None else self.progress_reporter.clock_ns / 1e9
+        """The node's latest known sim time [s] (its run loop's /clock or /flyby/tick), None outside a run loop or
+        before its first time message (a node started late, a respawn, knows no time yet)."""
+        if self.progress_reporter is None or not self.progress_reporter.clock_ns:
+            return None
+        return self.progress_reporter.clock_ns / 1e9
 
     def _report(self, event):
         publish_event(self, self.events_publisher or self.publisher(c.MISSION_EVENTS), event)

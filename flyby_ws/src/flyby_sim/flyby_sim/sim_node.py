@@ -146,7 +146,8 @@ class SimNode(Node):
         self.steps_per_tick = max(1, round(self.get_parameter('command_poll_period_s').value
                                            / self.step_s))
         self.wait_for_nodes = self.declare_node_list('wait_for_nodes')
-        self.progress_s = {name: 0.0 for name in self.declare_node_list('keep_up_with')}
+        self.keep_up_with = tuple(self.declare_node_list('keep_up_with'))
+        self.progress_s = dict.fromkeys(self.keep_up_with, 0.0)  # a node that left the graph is dropped from it
         self.create_subscription(Header, PROGRESS_TOPIC, self.on_progress, qos.QOS_STREAM, raw=True)
         self.subscriptions_of = {}  # node name -> the topics it subscribes, as it announced them
         self.publications_of = {}  # node name -> {topic: subscriptions its publisher has matched}
@@ -378,8 +379,9 @@ class SimNode(Node):
             self.pubs[TICK_TOPIC].publish(self.msgs[c.CLOCK])
 
     def on_progress(self, data):
+        """A node's progress; one that left the graph and reports again (a respawn) is kept up with again."""
         ns, name = convert.header_cdr_to_ns(data)
-        if name in self.progress_s:
+        if name in self.keep_up_with:
             self.progress_s[name] = ns / 1e9
 
     def others_caught_up(self):

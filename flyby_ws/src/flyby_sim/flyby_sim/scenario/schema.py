@@ -450,7 +450,7 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
     'supervisor': Section(desc='Mission phases, capture decision, watchdog and abort', fields={
         'capture_hold_s': Field(FLOAT, 10.0, '>= 0', 'Time attached to the target before COMPLETE.'),
         'watchdog_s': Field(FLOAT, 5.0, '> 0',
-                            'Abort and escape when the estimator or guidance has been silent this long (sim time).'),
+                            'A node silent this long (sim time) is lost: the fault table answers (docs/faults.md).'),
         'abort_observation_s': Field(FLOAT, 60.0, '>= 0',
                                      'The run goes on this long after ABORTED, to record the escape.'),
         'avoidance_delta_v_mps': Field(FLOAT, 0.05, '> 0',
