@@ -35,9 +35,7 @@ from flyby_msgs_py.wire import Event
 from flyby_sim.dynamics.actuators import allocate_max_force
 from flyby_sim.dynamics.geometry import clearance
 from flyby_sim.dynamics.orbital import cw_transition_matrix
-from flyby_sim.dynamics.rotation import (
-    quat_rotate,
-)
+from flyby_sim.dynamics.rotation import quat_rotate
 
 POSITION_FIT_S = 5.0
 MIN_SAMPLES = 5

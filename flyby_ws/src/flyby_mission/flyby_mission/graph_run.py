@@ -22,8 +22,9 @@ import yaml
 
 from flyby_mission import cli
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, event_payloads, events, qos
+from flyby_msgs_py import convert, qos
 from flyby_msgs_py.runtime import TICK_TOPIC
+from flyby_sim.faults import node_crash_event
 
 VENV_PYTHON = sys.executable
 FASTDDS_TOOL = Path(sys.prefix) / 'tools' / 'fastdds' / 'fastdds.py'
@@ -200,11 +201,10 @@ class Monitor:
 
     def _on_events(self, ns, msg):
         for e in convert.events_from_msg(msg):
-            if e['name'] not in (events.FAULT_INJECTED, events.FAULT_ENDED) or e['values'].get('kind') != 'node_crash':
-                continue
-            node = event_payloads.decode_values(e['name'], e['values']).target.split(' ', 1)[1]
-            label = f'{ns.strip("/")}/{node}' if ns else node
-            self.crashes.append(('kill' if e['name'] == events.FAULT_INJECTED else 'respawn', label))
+            crash = node_crash_event(e['name'], e['values'])
+            if crash is not None:
+                node, down = crash
+                self.crashes.append(('kill' if down else 'respawn', f'{ns.strip("/")}/{node}' if ns else node))
 
     def due_crashes(self):
         """The node_crash actions that have come since the last call."""

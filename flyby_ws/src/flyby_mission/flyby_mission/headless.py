@@ -58,6 +58,7 @@ from flyby_planner.transfer import terminal_impulses
 from flyby_sim.dynamics.orbital import cw_coast
 from flyby_sim.dynamics.propulsion import ManeuverRejected
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
+from flyby_sim.faults import node_crash_event
 from flyby_sim.plant import Plant, PlantConfig
 from flyby_sim.scenario import scenario_from_dict
 
@@ -170,14 +171,12 @@ class HeadlessGraph:
     def _node_fault(self, event):
         """A node_crash's start (its core fed nothing more, its progress stopped) or end (a fresh core fed the
         latched topics' last messages and the events so far, as a respawned node joins the graph)."""
-        if event.name not in (events.FAULT_INJECTED, events.FAULT_ENDED):
+        crash = node_crash_event(event.name, event.values)
+        if crash is None:
             return
-        fault = event_payloads.decode(wire_event(event))
-        if fault.kind != 'node_crash':
-            return
-        node = fault.target.split(' ', 1)[1]
-        self.down[node] += 1 if event.name == events.FAULT_INJECTED else -1
-        if event.name == events.FAULT_INJECTED or self.down[node] > 0:  # overlapping crashes: up after the last
+        node, down = crash
+        self.down[node] += 1 if down else -1
+        if down or self.down[node] > 0:  # overlapping crashes: up after the last
             return
         self._build(node)
         self.admissions[node] = Admission()  # a new node's: the history it gets passes it as in the graph

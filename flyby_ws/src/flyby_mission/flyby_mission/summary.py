@@ -142,8 +142,6 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
     def count(name):
         return sum(1 for e in events if e['name'] == name)
 
-    t_cam = cam_time(events)
-
     return {
         'outcome': outcome,
         'final_phase': final_phase,
@@ -175,8 +173,16 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'node_exit_codes': node_exit_codes or {},
         'nodes_killed': list(nodes_killed),
         'bag_repair': bag_repair,
-        'faults_injected': {**(faults_injected or {'abort_at_s': None, 'kill': None}),
-                            'plant': plant_faults(events)},
+        **_fault_keys(events, faults_injected),
+    }
+
+
+def _fault_keys(events, faults_injected):
+    """The faults of the run (docs/faults.md): the launcher's (``faults_injected``, None headless) and the plant's
+    injected, the monitors' detections, the supervisor's responses and the independent monitor's CAM."""
+    t_cam = cam_time(events)
+    return {
+        'faults_injected': {**(faults_injected or {'abort_at_s': None, 'kill': None}), 'plant': plant_faults(events)},
         'faults_detected': fault_detections(events),
         'fault_responses': fault_responses(events),
         'cam_fired': t_cam is not None,

@@ -29,6 +29,8 @@ import math
 import numpy as np
 
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events
+from flyby_msgs_py.event_payloads import decode_values
 from flyby_msgs_py.schema import Invalid
 
 THRUSTER_KINDS = ('thruster_off', 'thruster_stuck_on', 'thruster_degraded', 'thruster_misaligned')
@@ -97,6 +99,14 @@ def fault_specs(items):
     return tuple(FaultSpec(kind=x.type, index=x.index, sensor=x.sensor, start_s=x.start_s, start_phase=x.start_phase,
                            delay_s=x.delay_s, duration_s=x.duration_s, value=x.value,
                            axis=None if x.axis is None else tuple(x.axis), node=x.node) for x in items)
+
+
+def node_crash_event(name, values):
+    """(node, down) of a node_crash's ``fault_injected`` (down True: kill it) or ``fault_ended`` (respawn it), from
+    the event's name and wire values; None for any other event. What both drivers act on."""
+    if name not in (events.FAULT_INJECTED, events.FAULT_ENDED) or values.get('kind') not in NODE_KINDS:
+        return None
+    return decode_values(name, values).target.split(' ', 1)[1], name == events.FAULT_INJECTED
 
 
 def check_faults(d):
