@@ -34,26 +34,33 @@ class WorkerFailed(RuntimeError):
     """A run raised in its worker process, or the worker died: the command ends with its message (one line)."""
 
 
-def _result(job, future, pool):
-    """The run's result; a worker's exception (picklable) raised again here, any but a ScenarioError as
-    WorkerFailed naming the seed, the pending runs cancelled. A worker that dies breaks the pool
-    (BrokenProcessPool) rather than leaving it waiting."""
-    try:
-        return future.result()
-    except ScenarioError:
-        pool.shutdown(wait=False, cancel_futures=True)
-        raise
-    except Exception as err:
-        pool.shutdown(wait=False, cancel_futures=True)
-        raise WorkerFailed(f'seed {job[1]}: {type(err).__name__}: {err}') from err
+def _failure(job, err):
+    """The error a run raised in its worker: a ScenarioError as it is, any other as WorkerFailed naming the seed."""
+    if isinstance(err, ScenarioError):
+        return err
+    return WorkerFailed(f'seed {job[1]}: {type(err).__name__}: {err}')
 
 
 def run_seeds(scenario_path, first_seed, runs, nav_noise_scale, jobs):
-    """The summaries of ``runs`` headless runs from seed ``first_seed`` on, in ``jobs`` processes."""
+    """The summaries of ``runs`` headless runs from seed ``first_seed`` on, in ``jobs`` processes. A worker's error
+    (picklable) cancels the pending runs, lets the running ones end and is raised once the pool is gone: a pool
+    still referenced at the interpreter's exit breaks its atexit hook (Python 3.11) into a traceback. A worker that
+    dies breaks the pool (BrokenProcessPool) rather than leaving it waiting."""
     work = [(scenario_path, first_seed + k, nav_noise_scale) for k in range(runs)]
+    results, failure = [], None
     with ProcessPoolExecutor(jobs) as pool:
         futures = [pool.submit(one_run, j) for j in work]
-        return [_result(job, future, pool) for job, future in zip(work, futures, strict=True)]
+        for job, future in zip(work, futures, strict=True):
+            try:
+                results.append(future.result())
+            except Exception as err:
+                failure = _failure(job, err)
+                pool.shutdown(wait=True, cancel_futures=True)
+                break
+    del pool, futures
+    if failure is not None:
+        raise failure.with_traceback(None)
+    return results
 
 
 def statistics_line(label, values, unit, scale=1.0):
