@@ -9,9 +9,11 @@ torques and the thrusters' torque, each from its stamp) and attaches the chaser 
 CAPTURE; the run ends as the launcher ends it (at COMPLETE, abort_observation_s after ABORTED, or at
 simulation.duration_s), and its summary is ``flyby_mission.summary.summarize`` of the plant's truth,
 stamped as the truth topics are: the same keys, outcome classes and figures as the graph's summary.json,
-so a Monte Carlo row is a statement about the graph. The six-degree-of-freedom chaser's velocities, truth and
-estimate, travel in chaser_body axes as its Odometry twists do (DESIGN §10), turned there and back by the same
-functions as the nodes and the bag's reader turn them.
+so a Monte Carlo row is a statement about the graph. A topic fault acts on each receiving node's link by the
+graph's rule (``flyby_msgs_py.link_faults``): learnt from the simulator's events, its held messages released at the
+plant's time after the step's samples, as /clock follows them in the graph. The six-degree-of-freedom chaser's
+velocities, truth and estimate, travel in chaser_body axes as its Odometry twists do (DESIGN §10), turned there and
+back by the same functions as the nodes and the bag's reader turn them.
 
 It flies one chaser: a ``chasers:`` scenario (or one chaser's view of it) is refused with a ScenarioError naming
 the file and the key ``chasers`` (``require_one_chaser``); the graph (scripts/run_mission.py) flies several.
@@ -49,6 +51,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events, wiring
 from flyby_msgs_py.admission import RULES, Admission
 from flyby_msgs_py.core_guard import CoreGuard
+from flyby_msgs_py.link_faults import LinkFaults
 from flyby_msgs_py.schema import ScenarioError
 from flyby_msgs_py.wire import Event, wire_event, wire_time
 from flyby_planner.params import PlannerParams
@@ -152,6 +155,7 @@ class HeadlessGraph:
         self.events_kept = collections.defaultdict(lambda: collections.deque(maxlen=c.EVENTS_HISTORY))  # by source
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
         self.admissions = {node: Admission() for node in wiring.NODES}
+        self.links = {node: LinkFaults() for node in wiring.NODES}  # each receiver's (flyby_msgs_py.link_faults)
         self.phases = []
         self.truth = _Truth()
         self.run = HeadlessRun(summary={})
@@ -180,6 +184,7 @@ class HeadlessGraph:
             return
         self._build(node)
         self.admissions[node] = Admission()  # a new node's: the history it gets passes it as in the graph
+        self.links[node].held.clear()  # what the old node's link held died with it; the faults' windows stay known
         topics = wiring.topics_of(node, self.scenario)
         history = [self.latched[t] for t in topics if t in self.latched and t != c.MISSION_EVENTS]
         if c.MISSION_EVENTS in topics:
@@ -204,6 +209,7 @@ class HeadlessGraph:
         self._publish(self._guarded(wiring.SUPERVISOR, 'on_clock', t, self.supervisor.on_clock, t))
         for m in self.plant.measurements():
             self._publish([_Message(MEASUREMENT_TOPICS[m.kind], wire_time(m.t), m.value)])
+        self._release(t)
         self._publish_plant_events()
         return s
 
@@ -217,6 +223,8 @@ class HeadlessGraph:
         out = [Event(e.t, e.level, e.name, e.message, e.values, SIM_NODE) for e in self.plant.drain_events()]
         for event in out:
             self._node_fault(event)
+            for link in self.links.values():
+                link.on_event(event.name, event.values)
         self._publish(out)
 
     def _guarded(self, node, callback, t, fn, *args):
@@ -241,13 +249,9 @@ class HeadlessGraph:
         for message in _messages(out):
             self._latch(message)
             for node in self.subscribers.get(message.topic, ()):  # /diagnostics: recorded only
-                if self.down[node] or not self._admitted(node, message):
-                    continue
-                if node == wiring.SIM:
-                    self._to_plant(message)
-                else:
-                    handler = CORE_INPUTS[node, message.topic]
-                    self._queue.extend(self._guarded(node, message.topic, message.t, handler, self, message))
+                if not self.down[node]:
+                    for item in self.links[node].arrive(message.topic, message.t, message):
+                        self._take(node, item)
         if isinstance(out, (Maneuver, AvoidanceBurn)):
             dv_hill = np.asarray(out.dv_hill, dtype=float)
             self.run.dv_commanded_mps += float(np.linalg.norm(dv_hill))
@@ -255,6 +259,25 @@ class HeadlessGraph:
                                    'dv_mps': float(np.linalg.norm(dv_hill))})
         elif isinstance(out, PlanPublished):
             self._ideal_delta_v(out)
+
+    def _take(self, node, message):
+        """A message that reached the node: past its admission, to the plant or the node's core."""
+        if not self._admitted(node, message):
+            return
+        if node == wiring.SIM:
+            self._to_plant(message)
+        else:
+            handler = CORE_INPUTS[node, message.topic]
+            self._queue.extend(self._guarded(node, message.topic, message.t, handler, self, message))
+
+    def _release(self, t):
+        """The messages each link held whose time has come at t [s] (the graph releases them at /clock, which the
+        simulator sends after the step's samples), to their nodes and what they cause."""
+        for node, link in self.links.items():
+            for _topic, message in link.due(t):
+                if not self.down[node]:
+                    self._take(node, message)
+        self._publish([])
 
     def _latch(self, message):
         """What a node joining later gets: a latched topic's last message, each writer's events' history."""

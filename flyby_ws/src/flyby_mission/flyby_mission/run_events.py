@@ -5,6 +5,7 @@ Events are dicts with t, level, name, message, values (text), hardware_id."""
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events as ev
 from flyby_msgs_py.event_payloads import decode_values
+from flyby_msgs_py.link_faults import SENSOR_OF_TOPIC
 
 
 def no_safe_plan_reason(events):
@@ -86,6 +87,8 @@ def _explains(fault, detection):
         return component.startswith(f'{actuator}s') and (not detection.candidates or int(index) in detection.candidates)
     if actuator == 'node':  # the watchdog names the node
         return component == index
+    if actuator == 'topic':  # a link fault: the monitors name the sensor the topic carries
+        return component == SENSOR_OF_TOPIC.get(index)
     if fault['kind'] == 'gyro_bias_jump':
         return component in ('imu', 'star_tracker')
     return component == target or (target == 'imu' and component == 'star_tracker')

@@ -13,6 +13,9 @@ callback: one refused (a NaN, a quaternion that is no rotation, a stamp that is 
 a stream, a frame the contract does not give the topic) never reaches the core; it is counted, the 1st, 10th,
 100th ... refusal of each topic and reason is a WARN ``message_rejected`` on ``mission/events``, and the counts go
 to the node's log when it is destroyed. The simulator, which is no CoreNode, takes its commands through the same gate.
+Before its admission a message passes the link (flyby_msgs_py.link_faults): where the scenario has a topic fault on
+one of a node's topics, the gate hears the simulator's fault events and the clock, and holds or drops the messages
+the fault's window holds, as the headless driver does with the same rule.
 
 Every callback that feeds the core (the subscriptions made here; a node's own subscriptions, services and
 timers through ``guard``) runs inside the core's guard (flyby_msgs_py.core_guard): an exception is logged with
@@ -30,7 +33,7 @@ import numpy as np
 from rclpy.node import Node
 
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import convert, qos, wiring
+from flyby_msgs_py import convert, link_faults, qos, wiring
 from flyby_msgs_py.admission import MALFORMED, Admission
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.runtime import publish_event
@@ -101,12 +104,45 @@ class AdmissionGate:
         self.report = report
         self.label = label
         self.admission = Admission()
+        self.link = link_faults.LinkFaults()
+        self._admitted = {}  # topic -> the callback behind its admission, for the messages the link releases
 
     def admit(self, topic, callback, raw=False):
-        """``callback`` of a contract topic behind the topic's admission (the callback itself for a topic without
-        a rule: mission/phase, a text without a header)."""
+        """``callback`` of a contract topic behind the link (``link_faults``) and the topic's admission (the callback
+        itself for a topic without a rule: mission/phase, a text without a header)."""
         if topic not in self.admission.rules:
             return callback
+        admitted = self._admission(topic, callback, raw)
+        self._admitted[topic] = admitted
+
+        def received(msg):
+            if not self.link.concerns(topic):
+                return admitted(msg)
+            try:
+                t = convert.header_cdr_to_ns(msg)[0] / 1e9 if raw else convert.stamp_to_sec(msg.header.stamp)
+            except (ValueError, IndexError, struct.error):  # unreadable: its admission refuses it
+                return admitted(msg)
+            for item in self.link.arrive(topic, t, msg):
+                admitted(item)
+            return None
+        return received
+
+    def on_link_events(self, msg):
+        """mission/events for the link: a topic fault's fault_injected opens its window (an event no reader can
+        decode opens none)."""
+        for e in convert.events_from_msg(msg):
+            try:
+                self.link.on_event(e['name'], e['values'])
+            except (KeyError, ValueError):
+                continue
+
+    def release(self, now_s):
+        """Hand on the messages the link held whose time has come at the receiver's time now_s [s]."""
+        for topic, msg in self.link.due(now_s):
+            self._admitted[topic](msg)
+
+    def _admission(self, topic, callback, raw):
+        """``callback`` behind the topic's admission (module doc)."""
         type_name, admission = c.TOPIC_TYPES[topic], self.admission
 
         def admitted(msg):
@@ -212,9 +248,24 @@ class CoreNode(Node):
     def subscribe_inputs(self, scenario, callbacks):
         """A subscription of every contract topic flyby_msgs_py.wiring gives this node in the scenario, each to its
         callback in ``callbacks`` (topic -> callback, or (callback, raw))."""
-        for topic in wiring.topics_of(self.get_name(), scenario):
+        topics = wiring.topics_of(self.get_name(), scenario)
+        for topic in topics:
             callback, raw = callbacks[topic] if isinstance(callbacks[topic], tuple) else (callbacks[topic], False)
             self.subscribe(topic, callback, raw=raw)
+        self._watch_links(scenario, topics)
+
+    def _watch_links(self, scenario, topics):
+        """Where the scenario has a topic fault on one of ``topics``: the simulator's events, which open the faults'
+        windows, and /clock, the receiver's time that releases what the link holds (flyby_msgs_py.link_faults). The
+        link's own subscriptions, outside the node's wiring: its core reads neither."""
+        if not {f.topic for f in scenario.faults or () if f.type in link_faults.KINDS} & set(topics):
+            return
+        gate = self.admission_gate
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]), _name(c.MISSION_EVENTS),
+                                 self.guard(gate.on_link_events, 'link faults'), qos.qos_for(c.MISSION_EVENTS))
+        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), c.absolute(c.CLOCK),
+                                 self.guard(lambda data: gate.release(convert.clock_cdr_to_ns(data) / 1e9), '/clock'),
+                                 qos.qos_for(c.CLOCK), raw=True)
 
     def odometry_input(self, core_input, *fields):
         """The raw callback of a contract Odometry into ``core_input(t, *fields)`` (fields of

@@ -15,7 +15,11 @@ A fault acts on the hardware the truth simulates, the same in the headless loop 
   or a direction drawn from the seed);
 * a node of the graph (``node``): ``node_crash`` (the process killed at the start and started again by the launcher,
   a respawn, at the end; none: it stays down). The plant only reports it: the drivers act on its events (the
-  headless loop stops feeding the node's core and builds a fresh one, the launcher kills and restarts the process).
+  headless loop stops feeding the node's core and builds a fresh one, the launcher kills and restarts the process);
+* a topic's link (``topic``, one of ``flyby_msgs_py.link_faults.TOPICS``): ``topic_delay`` (its messages stamped in
+  the window reach their subscribers ``value`` s after their stamp), ``topic_loss`` (they never reach them). The plant
+  only reports it: each receiving node's link acts on its events (``flyby_msgs_py.link_faults``, the same rule in
+  both drivers); the publisher, and so the bag, are untouched.
 
 Nothing here tells the flight software: the plant reports each fault's start and end on ``mission/events``
 (``fault_injected``, ``fault_ended``) for the record and the summary, and the monitors see only its effects.
@@ -28,8 +32,8 @@ import math
 
 import numpy as np
 
+from flyby_msgs_py import admission, events, link_faults
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
 from flyby_msgs_py.event_payloads import decode_values
 from flyby_msgs_py.schema import Invalid
 
@@ -37,7 +41,13 @@ THRUSTER_KINDS = ('thruster_off', 'thruster_stuck_on', 'thruster_degraded', 'thr
 WHEEL_KINDS = ('wheel_failed', 'wheel_torque_limited')
 SENSOR_KINDS = ('sensor_dropout', 'sensor_outliers', 'gyro_bias_jump')
 NODE_KINDS = ('node_crash',)
-KINDS = THRUSTER_KINDS + WHEEL_KINDS + SENSOR_KINDS + NODE_KINDS
+LINK_KINDS = link_faults.KINDS
+KINDS = THRUSTER_KINDS + WHEEL_KINDS + SENSOR_KINDS + NODE_KINDS + LINK_KINDS
+TOPICS = link_faults.TOPICS
+# The topics of a link fault the six-degree-of-freedom chaser has alone, and the one it may not target: each of its
+# chaser estimates leads to the attitude command the simulator holds its time for (flyby_sim.sim_node).
+RIGID_TOPICS = (c.SENSOR_CHASER_WHEELS,)
+POINT_MASS_TOPICS = (c.EST_CHASER_ODOM,)
 # The nodes a node_crash may kill (the scenario's name -> the node's): the supervisor and the simulator hold the
 # mission itself and are not among them.
 NODES = {'estimator': 'flyby_estimator', 'planner': 'flyby_planner', 'guidance': 'flyby_guidance',
@@ -52,6 +62,8 @@ VALUES = {
     'wheel_torque_limited': (0.1, (0.0, 1.0, True, False)),  # share of the torque limit left
     'sensor_outliers': (20.0, (0.0, 1e6, False, True)),  # the sensor's 1-sigma
     'gyro_bias_jump': (1e-3, (0.0, 1.0, False, True)),  # rad/s
+    # s; a message older than admission.MAX_AGE_S is refused by its receiver: a longer delay is a topic_loss
+    'topic_delay': (1.0, (0.0, admission.MAX_AGE_S, False, True)),
 }
 DEFAULT_THRUSTERS = 12  # the default layout's (actuators.default_thruster_layout)
 PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY,
@@ -74,6 +86,7 @@ class FaultSpec:
     value: float | None = None  # by kind (module doc); None: VALUES' default
     axis: tuple | None = None  # misalignment's or bias jump's axis, chaser_body; None: drawn from the seed
     node: str | None = None  # a node_crash's (NODES' key)
+    topic: str | None = None  # a link fault's (TOPICS)
 
     @property
     def target(self):
@@ -84,6 +97,8 @@ class FaultSpec:
             return f'wheel {self.index}'
         if self.kind in NODE_KINDS:
             return f'node {NODES[self.node]}'
+        if self.kind in LINK_KINDS:
+            return link_faults.fault_target(self.topic)
         return 'imu' if self.kind == 'gyro_bias_jump' else self.sensor
 
     @property
@@ -98,7 +113,8 @@ def fault_specs(items):
     """The FaultSpecs of the scenario's validated ``faults`` list (its item views), in its order."""
     return tuple(FaultSpec(kind=x.type, index=x.index, sensor=x.sensor, start_s=x.start_s, start_phase=x.start_phase,
                            delay_s=x.delay_s, duration_s=x.duration_s, value=x.value,
-                           axis=None if x.axis is None else tuple(x.axis), node=x.node) for x in items)
+                           axis=None if x.axis is None else tuple(x.axis), node=x.node, topic=x.topic)
+                 for x in items)
 
 
 def node_crash_event(name, values):
@@ -154,6 +170,22 @@ def check_faults(d):
                           else f'is for node_crash, not {kind}')
         if f['axis'] is not None and not math.hypot(*f['axis']) > 0.0:
             raise Invalid(f'{key}.axis', f'must be nonzero, got {list(f["axis"])}')
+        _check_topic(key, kind, f['topic'], rigid)
+
+
+def _check_topic(key, kind, topic, rigid):
+    """A link fault names one of TOPICS that this chaser's graph carries; no other fault names a topic."""
+    if kind not in LINK_KINDS:
+        if topic is not None:
+            raise Invalid(f'{key}.topic', f'is for topic_delay and topic_loss, not {kind}')
+        return
+    if topic is None:
+        raise Invalid(f'{key}.topic', f'is required for {kind}: one of {", ".join(TOPICS)}')
+    if topic in RIGID_TOPICS and not rigid:
+        raise Invalid(f'{key}.topic', f'{topic} needs chaser.model rigid_body (the point mass has no wheels)')
+    if topic in POINT_MASS_TOPICS and rigid:
+        raise Invalid(f'{key}.topic', f'{topic} of the rigid_body chaser leads to the attitude commands the '
+                                      f'simulator holds its time for: lost or late, they would stop the graph')
 
 
 def _check_value(key, kind, value):
