@@ -105,7 +105,7 @@ def test_the_single_fault_campaign_draws_one_valid_fault_of_each_type():
     from flyby_mission.campaign.dispersions import load_campaign
     campaign = load_campaign(REPO / 'campaigns' / 'faults_single.yaml', checked_draws=60)
     kinds = {campaign.draw(run)[0].faults[0].type for run in range(60)}
-    assert len(kinds) == 10
+    assert len(kinds) == 12
 
 
 def test_the_double_fault_campaign_draws_two_independent_valid_faults():
