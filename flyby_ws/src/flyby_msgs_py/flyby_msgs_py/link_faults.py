@@ -70,8 +70,10 @@ class LinkFaults:
     def arrive(self, topic, t_stamp_s, item):
         """The items to hand on now for a message of ``topic`` stamped t_stamp_s [s] that reached the receiver: itself,
         or none (lost, or held until its release)."""
+        if topic not in self.windows:
+            return [item]
         release_s = t_stamp_s
-        for kind, t_start, t_end, delay_s in self.windows.get(topic, ()):
+        for kind, t_start, t_end, delay_s in self.windows[topic]:
             if t_start - STAMP_TOLERANCE_S <= t_stamp_s < t_end - STAMP_TOLERANCE_S:
                 if kind == TOPIC_LOSS:
                     return []
@@ -87,6 +89,8 @@ class LinkFaults:
 
     def due(self, now_s):
         """(topic, item) of the held messages released by the receiver's time now_s [s], in their release order."""
+        if not self.held:
+            return []
         out = []
         for topic, queue in self.held.items():
             while queue and queue[0][0] <= now_s + STAMP_TOLERANCE_S:
