@@ -4,6 +4,7 @@ turning body damped first, a turn or a new transfer where the program has no hor
 
 import numpy as np
 import pytest
+from scipy.optimize import linprog
 from transport_guidance_testing import (
     P,
     arrived,
@@ -154,13 +155,14 @@ def test_a_body_turning_in_the_terminal_phase_is_damped_then_held_again_at_its_n
         assert not (events or np.any(force) or np.any(torque)) and control.hold is hold
 
 
-def _turning(control, q_eci):
-    """control, its terminal entered at rest at the rest point, turned by the wheels (``_terminal`` with 2 mm/s along
-    the push axis, time left for the shortest horizon only): the turn's (t0, q0_eci, axis_eci, angle, rate)."""
+def _turning(control, q_eci, speed_mps=2e-3, left_s=100.0):
+    """control, its terminal entered at rest at the rest point, turned by the wheels (``_terminal`` with speed_mps
+    along the push axis, left_s before the judgement's latest time: the shortest horizon only by default): the
+    turn's (t0, q0_eci, axis_eci, angle, rate)."""
     t0 = control.t_terminal
-    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0
+    t = control.deadline - control.config.hold_s - 2.0 * P - left_s
     q_hill = held(control, t, q_eci)
-    v_hill = quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0])
+    v_hill = quat_to_matrix(q_hill) @ np.array([speed_mps, 0.0, 0.0])
     events = control._terminal(TransportState(t, control.rest.copy(), v_hill, q_hill, np.zeros(3)), np.zeros(3))
     assert [e[1] for e in events] == [TRANSPORT_TURN] and control.t_terminal == t0
     return control.turning
@@ -189,15 +191,19 @@ def test_a_turn_under_way_is_not_damped_the_wheels_keep_turning_the_body():
     assert control.body_momentum > 0.05 and control.hold is not None and control.turning == turn
 
 
-def test_a_body_the_wheels_do_not_steer_turns_by_the_thrusters_couples_at_the_slews_rate():
+def test_a_body_the_wheels_do_not_steer_turns_by_the_thrusters_couples_at_the_slews_rate(monkeypatch):
     """Where the wheels cannot turn the body (a heavy one: their share of momentum would take hours), a terminal turn
-    (at the transfer's slew rate, ``start``) is the thrusters' couples' (in pulses, against the PD's torque from the
-    turning reference): at rest at the turn's start the couple fired is along the turn's axis."""
-    body, control, t0, q_eci = arrived()
+    (at the transfer's slew rate, ``start``, where its side force is affordable) is the thrusters' couples' (in
+    pulses, against the PD's torque from the turning reference): at rest at the turn's start the couple fired is
+    along the turn's axis."""
+    body, control, t0, q_eci = arrived(duration_s=20000.0)
     control.wheels_steer = False
     control.turn_rate_rad_s = control.config.planner.slew_rate_rad_s
     estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))
-    t_turn, _, axis, _, _ = _turning(control, q_eci)
+    monkeypatch.setattr(planner_terminal, 'solve', lambda problem, horizons: None)
+    monkeypatch.setattr(control, '_transfer_again', lambda state: None)
+    t_turn, _, axis, _, rate = _turning(control, q_eci, speed_mps=1.0, left_s=2000.0)
+    assert rate == control.config.planner.slew_rate_rad_s
     impulse = np.zeros(3)
     for k in range(1, 31):
         t = t_turn + k * P
@@ -206,6 +212,53 @@ def test_a_body_the_wheels_do_not_steer_turns_by_the_thrusters_couples_at_the_sl
         impulse += (torque - np.cross(body.com_body_m, force)) * P  # about the combined CoM, body axes
     axis_body = quat_rotate(quat_conjugate(q_eci), axis)
     assert np.linalg.norm(impulse) > 0.0 and float(impulse @ axis_body) > 0.9 * np.linalg.norm(impulse)
+
+
+def test_a_turn_by_the_thrusters_couples_adds_at_most_a_quarter_of_the_momentum_it_corrects():
+    """A couple about a CoM metres off the tug comes with a force: a terminal turn by the thrusters' couples goes no
+    faster than the rate at which its spin-up's and spin-down's side force is STAGE_FRACTION of the momentum it is
+    for (a 1149 kg pair turned 145 deg at 0.01 rad/s to correct 0.035 N s ended with 43 N s: transport_envelope run
+    1). The TugRobot's pair has a pure couple about its x and y axes, none about z (its CoM 0.2 m along x): the side
+    force per couple about z by an independent LP of the thrusters' wrenches about the combined CoM."""
+    body, control, t0, q_eci = arrived()
+    corrected_n_s = 0.05
+    for axis_body in np.eye(3)[:2]:
+        assert control._affordable_turn_rate(q_eci, quat_rotate(q_eci, axis_body), corrected_n_s) == np.inf
+    layout = control.body.layout
+    arms = layout.positions_body_m - body.com_body_m
+    couples = np.cross(arms, layout.force_directions_body).T  # (3, J) per newton
+    forces = layout.force_directions_body.T
+    count = forces.shape[1]
+    # min sum s  s.t.  couples f = z, -s <= forces f <= s, 0 <= f: the least side force per N m about z
+    result = linprog(np.concatenate((np.zeros(count), np.ones(3))),
+                     A_ub=np.block([[forces, -np.eye(3)], [-forces, -np.eye(3)]]), b_ub=np.zeros(6),
+                     A_eq=np.hstack((couples, np.zeros((3, 3)))), b_eq=[0.0, 0.0, 1.0],
+                     bounds=[(0.0, None)] * (count + 3), method='highs')
+    side_n_per_n_m = np.linalg.norm(forces @ result.x[:count])
+    momentum_per_rad_s = np.linalg.norm(body.inertia_body_kg_m2 @ [0.0, 0.0, 1.0])
+    rate = control._affordable_turn_rate(q_eci, quat_rotate(q_eci, [0.0, 0.0, 1.0]), corrected_n_s)
+    assert side_n_per_n_m > 1.0
+    assert rate == pytest.approx(planner_terminal.STAGE_FRACTION * corrected_n_s
+                                 / (2.0 * momentum_per_rad_s * side_n_per_n_m), rel=1e-3)
+
+
+def test_a_turn_the_thrusters_cannot_afford_before_the_judgement_is_not_made(monkeypatch):
+    """No horizon feasible, 2 mm/s along the push axis, time for the shortest horizon only: on a body the wheels do
+    not steer, the turn at the rate its side force affords would end after the judgement's latest time, so no turn:
+    the first impulse of CW's transfer is fired as near as the thrusters give it at the attitude held."""
+    body, control, t0, q_eci = arrived()
+    control.wheels_steer = False
+    control.turn_rate_rad_s = control.config.planner.slew_rate_rad_s
+    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))
+    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0
+    q_hill = held(control, t, q_eci)
+    monkeypatch.setattr(planner_terminal, 'solve', lambda problem, horizons: None)
+    monkeypatch.setattr(control, '_transfer_again', lambda state: None)
+    state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
+                           np.zeros(3))
+    events = control._terminal(state, np.zeros(3))
+    assert control.turning is None and TRANSPORT_TURN not in [e[1] for e in events]
+    assert [e[1] for e in events] in ([], [TRANSPORT_TERMINAL])
 
 
 def test_after_the_turn_a_turning_body_is_damped():

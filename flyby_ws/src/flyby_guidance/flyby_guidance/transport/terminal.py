@@ -15,6 +15,7 @@ from flyby_guidance.transport.attitude import WHEEL_SPINUP_S
 from flyby_msgs_py import events
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import terminal
+from flyby_planner.transport.thrusters import torque_wrench
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci, q_eci_from_body
 from flyby_sim.dynamics.rotation import (
     quat_conjugate,
@@ -31,6 +32,7 @@ POSITION_AIM_FRACTION = 0.25  # ... and of the position bound (a rest point drif
 WHEEL_AIM_FRACTION = 0.8  # ... and of the wheels' share (their momentum is measured, not estimated)
 TERMINAL_ROUNDS = 3  # the settle bound: this many rounds of navigation and firing after the arrival
 MIN_TURN_RAD = math.radians(1.0)  # a push axis this near CW's first impulse is not turned: the impulse is fired
+TURN_PROBE_N_M = 0.01  # the couple at which a turn's side force per couple is found (within any thrusters' reach)
 
 
 def settle_bound_s(mass_kg, bound_n_s, position_sigma_m, position_rate_hz, hold_s, com_period_s,
@@ -172,8 +174,9 @@ class TransportTerminal:
     def _turn(self, state):
         """The wheels turn the push axis onto the first impulse of CW's transfer to the rest point over the longest
         horizon (seed 000 eq 28-29), at the rate their share of momentum gives the body (the thrusters' couples at the
-        slews' rate, where the wheels do not steer it), from the attitude held; no turn (none) where it lies within
-        MIN_TURN_RAD of it already."""
+        slews' rate, where the wheels do not steer it, or slower: ``_affordable_turn_rate``), from the attitude held;
+        no turn (none) where it lies within MIN_TURN_RAD of it already or where the affordable turn would not end
+        before the judgement's latest time."""
         t = state.t
         dv_hill = self._transfer_impulse(state)
         if not np.any(dv_hill):
@@ -186,12 +189,33 @@ class TransportTerminal:
         if angle <= MIN_TURN_RAD:
             return []
         rate = self.turn_rate_rad_s
+        if not self.wheels_steer:
+            rate = min(rate, self._affordable_turn_rate(q_now, arc / angle, self.body.mass_kg * float(
+                np.linalg.norm(dv_hill))))
+            if rate <= 0.0 or t + angle / rate + WHEEL_SPINUP_S > self.deadline - self.config.hold_s:
+                return []
         self.turning = (t, q_now, arc / angle, angle, rate)
         self.t_check = t + angle / rate + WHEEL_SPINUP_S
         by = 'wheels' if self.wheels_steer else 'thrusters\' couples'
         return [('OK', events.TRANSPORT_TURN, f'no terminal firing reaches rest at the attitude held: the {by} turn '
                                               f'the push axis {math.degrees(angle):.1f} deg at {rate:.3g} rad/s',
                  {'angle_rad': angle, 'rate_rad_s': rate})]
+
+    def _affordable_turn_rate(self, q_eci_from_body, axis_eci, corrected_n_s):
+        """The fastest rate [rad/s] of a turn by the thrusters' couples about axis_eci whose side force, spinning the
+        body up and down (the least side force per couple, ``torque_wrench``), adds at most STAGE_FRACTION of the
+        momentum the turn is for: about a CoM metres off the tug a couple comes with a force, and a turn of a heavy
+        body at the slews' rate (0.01 rad/s of 1000 kg m^2: some 100 N s of side force) to correct centinewton
+        seconds leaves more than it corrects. 0 where the thrusters give no couple about that axis."""
+        axis_body = quat_rotate(quat_conjugate(q_eci_from_body), axis_eci)
+        momentum = self.body.inertia_body_kg_m2 @ axis_body  # per rad/s of the turn's rate [N m s]
+        size = float(np.linalg.norm(momentum))
+        wrench = torque_wrench(self.body, self.config.planner, TURN_PROBE_N_M * momentum / size)  # the LP is linear
+        if wrench is None:
+            return 0.0
+        # Its spin-up and its spin-down: a side force per couple times the angular impulse, twice.
+        side_n_s_per_rad_s = 2.0 * size * float(np.linalg.norm(wrench[0])) / TURN_PROBE_N_M
+        return terminal.STAGE_FRACTION * corrected_n_s / side_n_s_per_rad_s if side_n_s_per_rad_s > 0.0 else math.inf
 
     def _turn_under_way(self, t):
         """True from a turn's start until its check: its angle at its rate and the wheels' spin-down after it."""
