@@ -14,7 +14,9 @@ With the six-degree-of-freedom chaser the IMU (``sensors/chaser/imu``) comes in 
 published at its samples: pose.orientation = the estimated chaser_body in hill with its attitude covariance
 about hill axes, twist in chaser_body axes (nav_msgs' rule): the velocity (its covariance turned into body
 axes) and the inertial body rate with its covariance. The relative positions and the IMU samples go to the core
-in the plant's order (``measurement_order``), however DDS interleaves the two topics. The force guidance
+in the plant's order (``measurement_order``), however DDS interleaves the two topics; a sample not in by the clock
+of its stamp (a sensor's dropout, a topic's loss or delay) is waited for no longer, so the node then reads
+``/clock`` every step (``on_clock``) instead of the progress tick. The force guidance
 commands on ``guidance/wrench`` (an optimal approach's tracking) is a known input of the navigation filter.
 
 With a post_capture section (DESIGN §10) the events of ``mission/events`` come in too (the capture's stamp, the arm's
@@ -62,6 +64,9 @@ class EstimatorNode(CoreNode):
             self.order = MeasurementOrder(scenario.simulation.step_s,
                                           [('position', scenario.sensors.relative_position.rate_hz),
                                            ('imu', scenario.sensors.chaser_imu.rate_hz)])
+            # The run loop's ProgressReporter then reads /clock and calls on_clock at every step (only then: the
+            # point-mass chaser's estimator has nothing to do at a clock).
+            self.on_clock = self._on_clock
         if scenario.post_capture is not None:
             self.pub_inertia = self.publisher(c.EST_TARGET_INERTIA)
         # The measurements come as CDR bytes (convert.*_cdr_to_numpy: no Python messages on the hot path).
@@ -85,6 +90,10 @@ class EstimatorNode(CoreNode):
     def on_imu(self, data):
         imu = convert.imu_cdr_to_numpy(data)
         self._in_order(self.order.push('imu', imu.t, imu))
+
+    def _on_clock(self, t):
+        """The simulator's clock of t [s]: the samples a measurement of a step up to t that never came held back."""
+        self._in_order(self.order.clock(t))
 
     def _in_order(self, samples):
         for kind, t, value in samples:
