@@ -48,11 +48,14 @@ class MeasurementOrder:
         if step <= self._last_step[name]:
             raise ValueError(f'{name} sample of t = {t!r} s is not after its last one (step {self._last_step[name]})')
         self._last_step[name] = step
-        if step <= self._settled_step[name]:  # given up: behind everything of the steps that came in so far
+        # Late: given up, or behind a late sample of its own stream (a topic's link releases what it held at once,
+        # the samples stamped at the clock that releases them included): a stream's own order is never changed.
+        late = step <= self._settled_step[name] or any(late_name == name for _s, late_name, _t, _i in self._late)
+        self._settled_step[name] = max(self._settled_step[name], step)
+        self._latest_step = max(self._latest_step, step)
+        if late:  # behind everything of the steps that came in so far
             self._late.append((self._latest_step, name, t, item))
         else:
-            self._settled_step[name] = step
-            self._latest_step = max(self._latest_step, step)
             self._queues[name].append((step, t, item))
         return self._due()
 

@@ -67,13 +67,26 @@ def test_a_given_up_sample_that_comes_after_all_is_handed_on_behind_the_steps_al
     assert order.push('imu', 0.1, 'i1') == []
     assert [x[2] for x in order.clock(0.1)] == ['i1']
     assert order.push('imu', 0.2, 'i2') == []  # held behind the position of t = 0.2
-    # The position of t = 0.1, late (a topic_delay), goes after the IMU sample of t = 0.2, as the headless link
-    # hands it on after the samples of the step it is released at; the position of t = 0.2 still waited for.
+    # The position of t = 0.1, late (a topic_delay released at the clock of t = 0.2), goes after the IMU sample of
+    # t = 0.2, as the headless link hands it on after the samples of the step it is released at.
     assert order.push('position', 0.1, 'p1 late') == []
-    assert [x[2] for x in order.push('position', 0.2, 'p2')] == ['p2', 'i2', 'p1 late']
+    assert [x[2] for x in order.clock(0.2)] == ['i2', 'p1 late']
     # Released at a clock with nothing held: at once.
     assert order.clock(0.3) == []
     assert [x[2] for x in order.push('position', 0.3, 'p3 late')] == ['p3 late']
+
+
+def test_a_sample_behind_a_late_one_of_its_stream_is_late_too():
+    order = MeasurementOrder(STEP_S, [('position', 10.0), ('imu', 10.0)])
+    assert order.push('imu', 0.1, 'i1') == []
+    assert [x[2] for x in order.clock(0.1)] == ['i1']
+    assert order.push('imu', 0.2, 'i2') == []
+    # A link releases what it held at the clock of t = 0.2, that clock's own position with it: in the stream's order,
+    # all after the IMU sample of t = 0.2 (the headless link: held, then released after the step's samples).
+    assert order.push('position', 0.1, 'p1 late') == []
+    assert [x[2] for x in order.push('position', 0.2, 'p2 held')] == ['i2', 'p1 late', 'p2 held']
+    assert order.clock(0.2) == []
+    assert [x[2] for x in order.push('position', 0.3, 'p3')] == ['p3']
 
 
 def test_a_later_sample_of_its_own_stream_gives_a_sample_up():
