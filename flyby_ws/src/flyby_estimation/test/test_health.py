@@ -9,8 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flyby_estimation import health
-from flyby_estimation.health import HealthMonitor, SensorMonitor, ThrustBook, ThrustMonitor, WheelMonitor
+from flyby_estimation.health import HealthMonitor, SensorMonitor, ThrustMonitor, WheelMonitor
 from flyby_estimation.params import HealthParams
+from flyby_estimation.thrust_book import ThrustBook
 from flyby_sim.dynamics.actuators import default_thruster_layout
 from flyby_sim.dynamics.rigid_body import ReactionWheels
 
