@@ -4,9 +4,16 @@ its outputs (``Diagnostics`` on /diagnostics, ``fault_detected`` and ``fault_rec
 
 Each monitor has a stated rule:
 
-* **Staleness** (every sensor the chaser has): no sample for ``STALE_PERIODS`` of the sensor's periods, judged at
-  every input's stamp (the estimator acts on stamps, not on a clock): ``sensor_stale``. The IMU's star tracker is
-  judged at the IMU's samples.
+* **Staleness** (every sensor the chaser has), by the receiver's time: the latest stamp judged (the estimator acts
+  on stamps, not on a clock; judged at every input's stamp). A sample is fresh where it arrives within
+  ``STALE_PERIODS`` of the sensor's periods of its stamp by that time. ``sensor_stale`` where no sample came for
+  ``STALE_PERIODS`` periods, or one arrived older than that: a delayed stream's late samples are no proof the sensor
+  is fresh (judging the silence alone, a delay beyond the bound raised and cleared a detection at every sample: 299
+  over a 30 s delay of the relative position). Cleared once its last ``FRESH_SAMPLES`` samples arrived fresh: at a
+  dropout's first sample after it (the ones before it were fresh), a delayed stream ``FRESH_SAMPLES`` periods after
+  its samples come fresh again. A delay at the bound, its samples fresh or late at even odds, clears by chance once
+  in about 1e6 samples (with 5 samples: 92 detections over 590 s at 10 Hz). The IMU's star tracker is judged at the
+  IMU's samples.
 * **Innovations** (relative position, target attitude, star tracker; the relative position's not during a firing
   the navigation filter models nor ``THRUST_SETTLE_S`` after it, while its execution error settles): among the
   sensor's last ``WINDOW`` samples,
@@ -75,6 +82,7 @@ from flyby_msgs_py.stamped import put_bounded, stamp_key
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 
 STALE_PERIODS = 5.0
+FRESH_SAMPLES = 20  # a stale sensor clears once this many of its samples in a row arrived fresh (module doc)
 WINDOW = 20
 OUTLIER_BURST = 3
 NIS_FALSE_ALARM = 1e-8  # per window; judged at every sample, about 4e-5 an hour of a 10 Hz sensor
@@ -140,7 +148,9 @@ class SensorMonitor:
         self.period_s = 1.0 / rate_hz
         self.dof = dof
         self.innovations = innovations
-        self.t_last = None
+        self.t_now = -math.inf  # the receiver's time: the latest stamp judged [s]
+        self.t_arrival = None  # the receiver's time the last sample arrived at [s]
+        self.ages = collections.deque(maxlen=FRESH_SAMPLES)  # the last samples' ages at their arrival [s]
         self.t_first_input = None
         self.window = collections.deque(maxlen=WINDOW)  # (rejected, nis)
         monitor = f'sensor/{name}'
@@ -152,7 +162,8 @@ class SensorMonitor:
     def on_sample(self, t, rejected=False, nis=math.nan, transient=False):
         """A sample at t: rejected by the filter's gate, or its NIS; transient: the filter settles a firing's
         execution error (the innovation rules skip it)."""
-        self.t_last = t
+        self.t_arrival = max(self.t_now, t)
+        self.ages.append(self.t_arrival - t)
         if self.innovations and not transient and (rejected or math.isfinite(nis)):
             self.window.append((rejected, nis))
             self.fresh = True
@@ -160,14 +171,16 @@ class SensorMonitor:
     def judge(self, t, explained=False):
         """Detections (and clearings) at stamp t; the status. explained: a detected thrust fault explains the
         innovations (the filter does not know the thrust): the innovation rules wait."""
-        out = []
+        self.t_now = max(self.t_now, t)
         if self.t_first_input is None:
             self.t_first_input = t
-        since = self.t_last if self.t_last is not None else self.t_first_input
-        silent_s = t - since
-        stale = silent_s > STALE_PERIODS * self.period_s + 1e-9
-        out += self._set('sensor_stale', stale, t, f'{self.name}: no sample for {silent_s:.2f} s',
-                         dict(silent_s=silent_s))
+        silent_s = self.t_now - (self.t_arrival if self.t_arrival is not None else self.t_first_input)
+        bound_s = STALE_PERIODS * self.period_s + 1e-9
+        age_s = max(self.ages, default=0.0)  # the oldest of the last FRESH_SAMPLES at its arrival
+        stale = silent_s > bound_s or age_s > bound_s
+        out = self._set('sensor_stale', stale, t, f'{self.name}: no sample for {silent_s:.2f} s' if silent_s > bound_s
+                        else f'{self.name}: a sample arrived {age_s:.2f} s after its stamp',
+                        dict(silent_s=silent_s, age_s=age_s))
         rejected = sum(1 for r, _ in self.window if r)
         nis = [x for r, x in self.window if not r]
         full = len(self.window) == WINDOW
@@ -184,7 +197,7 @@ class SensorMonitor:
         active = sorted(kind for kind, latch in self.latches.items() if latch.active)
         level = LEVEL_STALE if stale else LEVEL_ERROR if active else (
             LEVEL_WARN if rejected or mean_nis > 0.5 * (nis_bound + self.dof) else LEVEL_OK)
-        values = dict(silent_s=silent_s, rejected=rejected, mean_nis=mean_nis, nis_bound=nis_bound)
+        values = dict(silent_s=silent_s, age_s=age_s, rejected=rejected, mean_nis=mean_nis, nis_bound=nis_bound)
         return out, MonitorStatus(f'sensor/{self.name}', level, ', '.join(active) or 'nominal', values)
 
     def _set(self, kind, condition, t, message, values):

@@ -46,6 +46,53 @@ def test_a_sensor_silent_for_five_periods_is_stale_and_recovers_at_its_next_samp
     assert [(d.kind, d.detected) for d in again] == [('sensor_stale', False)] and status.level != health.LEVEL_STALE
 
 
+def _received(delay_of, seconds=60.0):
+    """A 10 Hz sensor's samples, each stamped s reaching the receiver ``delay_of(s)`` [s] later (None: never), in
+    their order (a link keeps it: a sample waits behind a held one), beside a 10 Hz input that gives the receiver's
+    time (the IMU): at each tick the tick judged, then the samples due taken and judged at their stamps, as the
+    estimator core does (headless, a link releases after the step's samples). The staleness detections (kind,
+    detected, t)."""
+    monitor = SensorMonitor('relative_position', 10.0)
+    due, found = [], []
+    arrival = -math.inf
+    for k in range(1, int(seconds * 10) + 1):
+        tick, delay_s = 0.1 * k, delay_of(0.1 * k)
+        if delay_s is not None:
+            arrival = max(arrival, tick + delay_s)
+            due.append((arrival, tick))
+        found += monitor.judge(tick)[0]
+        while due and due[0][0] <= tick + 1e-9:
+            _, stamp = due.pop(0)
+            monitor.on_sample(stamp, nis=3.0)
+            found += monitor.judge(stamp)[0]
+    return [(d.kind, d.detected, round(d.t, 6)) for d in found if d.kind == 'sensor_stale']
+
+
+def test_a_stream_delayed_beyond_the_bound_is_stale_once_and_clears_once_fresh_again():
+    """The relative position 1 s late over [10, 40) s (a topic_delay): one detection once it has been silent for five
+    periods, held while its samples arrive late, and one clearing once FRESH_SAMPLES in a row arrive fresh (judging
+    the silence alone, it raised and cleared at every sample: 299 over a 30 s delay in paper_flyby_6dof)."""
+    found = _received(lambda s: 1.0 if 10.0 <= s < 40.0 else 0.0)
+    assert [f[:2] for f in found] == [('sensor_stale', True), ('sensor_stale', False)]
+    assert found[0][2] == pytest.approx(10.5)  # the last fresh sample at 9.9, silent beyond 0.5 s at 10.5
+    # At 40.9 the queue drains: 40.4-40.9 arrive within 0.5 s of their stamps, then 14 more to FRESH_SAMPLES.
+    assert found[1][2] == pytest.approx(40.9 + 0.1 * (health.FRESH_SAMPLES - 6))
+
+
+def test_a_dropout_clears_at_its_first_sample_and_nominal_jitter_raises_nothing():
+    """An ordinary dropout (no samples over [10, 13) s) is stale and clears at the first sample after it, as the
+    samples before it came fresh; samples up to 0.3 s late at random raise nothing. A delay at the bound, its samples
+    now fresh and now late, over 590 s: one detection held from its onset (its onset's silence, 0.6 s, may be
+    cleared by a first sample that came fresh, then one more), where FRESH_SAMPLES 5 gave 92 detections."""
+    found = _received(lambda s: None if 10.0 <= s < 13.0 else 0.0)
+    assert [f[:2] for f in found] == [('sensor_stale', True), ('sensor_stale', False)]
+    assert found[1][2] == pytest.approx(13.0)
+    rng = np.random.default_rng(11)
+    assert _received(lambda s: float(rng.uniform(0.0, 0.3)), 600.0) == []
+    found = _received(lambda s: float(rng.uniform(0.45, 0.55)) if s >= 10.0 else 0.0, 600.0)
+    assert found[-1][1] and len(found) <= 3 and max(f[2] for f in found) < 11.0
+
+
 def test_three_rejections_in_twenty_samples_are_outliers_and_a_biased_sensor_is_inconsistent():
     rng = np.random.default_rng(3)
     outliers, biased = SensorMonitor('target_attitude', 10.0), SensorMonitor('relative_position', 10.0)
