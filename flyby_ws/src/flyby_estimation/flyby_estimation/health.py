@@ -53,7 +53,10 @@ Each monitor has a stated rule:
   outliers of 20 sigma line up for four intervals about once in 1e5 (none in 400 simulated 10 s bursts; of 10 sigma,
   7 in 400 bursts detected). A leak is then seen ``LEAK_INTERVALS`` intervals after its onset; while the outliers
   last, not at all. (Without it, a burst of 20-sigma outliers was taken for a thruster stuck on: faults_double
-  run 61.)
+  run 61.) The outliers it leaves out are the accelerometer's, whose only witness this is (the IMU's own monitor
+  has no innovations): ``OUTLIER_BURST`` or more settled ones in the window, each in a run no later interval can
+  lengthen into a leak (not one still open at the window's end: a leak's onset), are ``sensor_outliers`` on
+  ``imu``.
 
 * **Wheels** (the rigid-body chaser's tachometers and gyro): each wheel's axial momentum J (spin + axis . gyro rate)
   changes by the impulse of its motor torque, so over the last ``WHEEL_WINDOW`` paired samples, judged one sample
@@ -281,6 +284,7 @@ class ThrustMonitor:
         self.force_directions_body = np.asarray(force_directions_body, dtype=float)
         self.window = collections.deque(maxlen=THRUST_WINDOW + 1)  # the window's _Intervals and the one before it
         self.latch = _Latch('thrusters', CLEAR_WINDOWS * THRUST_WINDOW)
+        self.outlier_latch = _Latch('thrusters', CLEAR_WINDOWS * THRUST_WINDOW, 'imu')  # the accelerometer's
         self.fresh = False
         self.status = MonitorStatus('thrusters', LEVEL_OK, 'waiting for a window', {})
 
@@ -309,7 +313,9 @@ class ThrustMonitor:
         edge in it or next to it included: its timing moves impulse into the neighbour) is thrust no command asked
         for, which a thruster stuck on gives from its onset on, the same in every interval; one not in a run of
         LEAK_INTERVALS consecutive such intervals, each within STEADY_SIGMAS of the two samples' noise and their
-        allowances of the one before, is no thruster's."""
+        allowances of the one before, is no thruster's. Returns them and the settled ones: in a run that neither
+        starts in the window's first interval (it may have begun before) nor ends in its last two (the interval
+        after it has its whole allowance: its neighbour's edges are in), which no later interval changes."""
         sigma = self.accel_sigma_mps2
         edges = [sum(e[1] for e in iv.edges) for iv in ([before] if before is not None else []) + window]
         edges = ([0.0] if before is None else []) + edges + [0.0]  # [the one before, the window's, the one after]
@@ -326,7 +332,9 @@ class ThrustMonitor:
             if excess[i]:
                 run.append(i)
         runs.append(run)
-        return {i for r in runs if len(r) < LEAK_INTERVALS for i in r}
+        short = [r for r in runs if 0 < len(r) < LEAK_INTERVALS]
+        return ({i for r in short for i in r},
+                {i for r in short if r[0] > 0 and r[-1] < len(window) - 2 for i in r})
 
     def judge(self, t):
         """Detections at a new interval's stamp t, and the status."""
@@ -335,13 +343,17 @@ class ThrustMonitor:
         self.fresh = False
         before, window = (self.window[0], list(self.window)[1:]) if len(self.window) > THRUST_WINDOW else (
             None, list(self.window))
-        outliers = self._outliers(before, window)
+        outliers, settled = self._outliers(before, window)
+        out = self.outlier_latch.update(t, len(settled) >= OUTLIER_BURST, lambda: (
+            'sensor_outliers', 'imu', f'imu: {len(settled)} accelerometer outliers in the last {THRUST_WINDOW} '
+            'intervals', dict(outliers=len(settled))))
         kept = [iv for i, iv in enumerate(window) if i not in outliers]
         if len(kept) < THRUST_WINDOW // 2:  # the accelerometer is not to be believed: neither raised nor cleared
-            level = LEVEL_ERROR if self.latch.active else LEVEL_WARN
-            self.status = MonitorStatus('thrusters', level, f'not judged: {len(outliers)} accelerometer outliers in '
-                                        f'the last {THRUST_WINDOW} intervals', dict(outliers=len(outliers)))
-            return [], self.status
+            self.status = MonitorStatus('thrusters', LEVEL_ERROR if self.latch.active or self.outlier_latch.active
+                                        else LEVEL_WARN,
+                                        f'not judged: {len(outliers)} accelerometer outliers in the last '
+                                        f'{THRUST_WINDOW} intervals', dict(outliers=len(outliers)))
+            return out, self.status
         residual = np.mean([iv.residual for iv in kept], axis=0)
         slack = (sum(iv.slack for iv in kept) + _edge_allowance(before, window)) / len(kept)
         expected = float(np.mean([iv.expected for iv in kept]))
@@ -358,9 +370,10 @@ class ThrustMonitor:
                     f'{np.round(residual / size, 3).tolist()} (chaser_body); candidates {candidates}',
                     dict(values, candidates=candidates))
 
-        out = self.latch.update(t, size > bound, describe)
-        level = LEVEL_ERROR if self.latch.active else LEVEL_WARN if size > 0.5 * bound or outliers else LEVEL_OK
-        self.status = MonitorStatus('thrusters', level, self.latch.kind or 'nominal', values)
+        out += self.latch.update(t, size > bound, describe)
+        active = [latch.kind for latch in (self.latch, self.outlier_latch) if latch.active]
+        level = LEVEL_ERROR if active else LEVEL_WARN if size > 0.5 * bound or outliers else LEVEL_OK
+        self.status = MonitorStatus('thrusters', level, ', '.join(active) or 'nominal', values)
         return out, self.status
 
     def _isolate(self, residual, expected):
