@@ -77,6 +77,21 @@ wheel's limit, the dump is scaled down (and an axis below tau_min dropped), poin
 restriction sphere the thruster torque is exactly zero and dumping stops (no thruster fires there,
 attitude control included: seed 000 section 4.1).
 
+**Wheels taken out** (``take_wheels_out``: a wheel fault's ``reallocate``, docs/faults.md). A failed wheel (no
+motor torque, or less than commanded, or a runaway's torque of its own) is commanded nothing from then on: the wheels
+left take the control torque's part in their span, u = -A_k^+ tau with A_k the axis matrix with the out wheels'
+columns zero (its pseudo-inverse has their rows zero); the rest, (1 - A_k A_k^+) tau (with three orthogonal wheels,
+the torque about the lost wheel's axis), goes to the thrusters' couples (the plant allocates the commanded torque on
+its thrusters, ``actuators.allocate_wrench``, as the dump's), pulse-modulated: that part's angular impulse is carried
+from period to period and fired once it is worth ``axis_pulse_n_m_s`` (``damping.pulse_modulated``; a couple below
+the minimum impulse bit would not be fired at all, and the axis's mean torque would be lost). The PD law's error on
+that axis then cycles within a few pulses' rate (0.01 N m s / 10 kg m^2 = 1e-3 rad/s for paper_flyby_6dof's
+chaser). Inside the restriction sphere no thruster fires: the axis is left to its own motion, and what was carried
+is dropped. The dump takes out only the momentum of the wheels left (an out wheel's is no longer the control's). A
+runaway wheel, commanded nothing, still turns the body by its own torque: the same feedback on the thrusters holds
+against it outside the sphere (its steady error d / (k_p J) for a torque d), until the plant stops it at its momentum
+limit; guidance's account of its momentum (what it commanded) is then wrong in the gyroscopic term.
+
 **Integral action** (``integral_time_s``, off by default; the synchronized approach's hold sets it): a constant
 disturbance torque d (the thrusters' errors under a force held in the body) leaves the proportional-derivative
 law a steady error e = d / (k_p J). ``track`` adds -(k_p / T_i) J integral(e dt), the error integrated over the control
@@ -91,6 +106,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flyby_guidance.damping import pulse_modulated
 from flyby_sim.dynamics.attitude_control import (
     QuaternionFeedbackController,
     attitude_error_rotation_vector,
@@ -137,11 +153,14 @@ class AttitudeGuidanceConfig:
     dump_max_torque_n_m: float = 0.05  # tau_max per axis (half the default wheels' 0.1 N m)
     integral_time_s: float = None  # [s] T_i of the integral action of ``track`` (None: none)
     integral_max_torque_n_m: float = 1.0  # its term's clamp per body axis
+    # [N m s] a wheel-less axis's thruster torque fired in pulses of this angular impulse (module doc): four minimum
+    # impulse bits (0.01 N s) at the default layout's 0.25 m, as the damping's pulse (damping.DAMPING_PULSE_BITS)
+    axis_pulse_n_m_s: float = 0.01
 
     def __post_init__(self):
         for name in ('natural_frequency_rad_s', 'damping_ratio', 'max_rate_rad_s', 'control_period_s',
                      'roll_time_constant_s', 'max_gap_s', 'dump_start_n_m_s', 'dump_gain_per_s',
-                     'dump_max_torque_n_m'):
+                     'dump_max_torque_n_m', 'axis_pulse_n_m_s'):
             require_positive(name, getattr(self, name))
         for name in ('max_roll_rate_rad_s', 'dump_stop_n_m_s', 'dump_min_torque_n_m'):
             require_positive(name, getattr(self, name), allow_zero=True)
@@ -304,7 +323,8 @@ class AttitudeGuidance:
 
     After each call: ``goal`` (the PointingGoal used), ``dumping`` (a dump is under way),
     ``body_torque_n_m`` (the control torque asked of wheels and thrusters together) and ``saturated`` (the
-    wheel command was scaled down to the wheels' torque limit).
+    wheel command was scaled down to the wheels' torque limit). ``wheels_out``: the wheels taken out
+    (``take_wheels_out``).
     """
 
     def __init__(self, config, inertia_kg_m2, wheels):
@@ -321,6 +341,19 @@ class AttitudeGuidance:
         self.dumping = False
         self.saturated = False
         self.body_torque_n_m = np.zeros(3)
+        self.wheels_out = frozenset()
+        self.axes_pinv = self.controller.axes_pinv  # A_k^+ of the wheels left (module doc)
+        self.wheel_span = np.eye(3)  # A_k A_k^+: the body torques the wheels left can give
+        self.axis_carried_n_m_s = np.zeros(3)  # the wheel-less axes' angular impulse not yet fired
+
+    def take_wheels_out(self, indices):
+        """Command these wheels (indices into the wheels) nothing from the next call on, their torque to the wheels
+        left and the thrusters' couples (module doc)."""
+        self.wheels_out = self.wheels_out | {int(i) for i in indices if 0 <= int(i) < self.wheels.count}
+        axes_left = self.wheels.axis_matrix.copy()
+        axes_left[:, sorted(self.wheels_out)] = 0.0
+        self.axes_pinv = np.linalg.pinv(axes_left)
+        self.wheel_span = axes_left @ self.axes_pinv
 
     def command(self, t, q_hill_from_body, omega_body, h_wheels_n_m_s, r_hill, v_hill, n,
                 inside_restriction_sphere, a_hill=None):
@@ -358,11 +391,23 @@ class AttitudeGuidance:
         thruster_torque = np.zeros(3)
         if inside_restriction_sphere:
             self.dumping = False
+            self.axis_carried_n_m_s = np.zeros(3)
         else:
-            thruster_torque = self._dump_torque(torque, h)
+            thruster_torque = self._dump_torque(torque, h) + self._axis_torque(torque)
         wheel_share = torque - thruster_torque if thruster_torque.any() else torque
-        self.saturated = bool(np.any(np.abs(self.controller.axes_pinv @ wheel_share) > self.wheels.max_torque_n_m))
-        return AttitudeCommand(self.controller.wheel_torque_for(wheel_share), thruster_torque)
+        self.saturated = bool(np.any(np.abs(self.axes_pinv @ wheel_share) > self.wheels.max_torque_n_m))
+        return AttitudeCommand(self.controller.wheel_torque_for(wheel_share, axes_pinv=self.axes_pinv),
+                               thruster_torque)
+
+    def _axis_torque(self, torque_body):
+        """Thruster torque [N m] (3,) of the part of the control torque no wheel left can give, pulse-modulated
+        (module doc; zero with every wheel in)."""
+        if not self.wheels_out:
+            return np.zeros(3)
+        lost = torque_body - self.wheel_span @ torque_body
+        pulse, self.axis_carried_n_m_s = pulse_modulated(self.axis_carried_n_m_s, lost,
+                                                         self.config.control_period_s, self.config.axis_pulse_n_m_s)
+        return pulse
 
     def _integral_torque(self, q_hill_from_body, q_hill_from_goal):
         """The integral action's torque [N m] (3,), body axes (module doc)."""
@@ -380,7 +425,7 @@ class AttitudeGuidance:
     def _dump_torque(self, torque_body, h):
         """Thruster torque [N m] (3,) of the dump within the wheels' headroom (module doc)."""
         cfg = self.config
-        h_body = self.wheels.axis_matrix @ h
+        h_body = self.wheel_span @ (self.wheels.axis_matrix @ h)  # the wheels left's (module doc)
         if not self.dumping and float(np.linalg.norm(h_body)) > cfg.dump_start_n_m_s:
             self.dumping = True
         active = np.abs(h_body) > cfg.dump_stop_n_m_s
@@ -391,7 +436,7 @@ class AttitudeGuidance:
         magnitude = np.clip(cfg.dump_gain_per_s * np.abs(h_body), cfg.dump_min_torque_n_m, cfg.dump_max_torque_n_m)
         dump = np.where(active, -np.sign(h_body) * magnitude, 0.0)
         # headroom: the largest s <= 1 with |u_ctrl + s A^+ dump| <= limit on every wheel (pointing first)
-        pinv = self.controller.axes_pinv
+        pinv = self.axes_pinv
         u_ctrl = -pinv @ torque_body
         u_dump = pinv @ dump
         limit = self.wheels.max_torque_n_m

@@ -98,9 +98,10 @@ class GuidanceCore:
         return self.flyby.step_waiting(self.phase)
 
     def on_event(self, event):
-        """An event of mission/events (wire.Event): the arm's lock or release after the capture, the estimator's
-        final mass-property estimate and refined combined CoM (``modes.damping``, ``modes.transport``)."""
-        return self.capture.on_event(event, self.phase)
+        """An event of mission/events (wire.Event): a wheel fault's wheels_reallocated (``modes.chaser``), the arm's
+        lock or release after the capture, the estimator's final mass-property estimate and refined combined CoM
+        (``modes.damping``, ``modes.transport``)."""
+        return self.chaser.on_event(event, self.phase) + self.capture.on_event(event, self.phase)
 
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
         """A chaser estimate (estimation/chaser/odom), with the rigid-body chaser's attitude and body rate."""

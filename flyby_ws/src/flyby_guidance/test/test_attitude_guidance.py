@@ -253,3 +253,61 @@ def test_bad_settings_name_themselves():
         AttitudeGuidanceConfig(dump_stop_n_m_s=2.0)
     with pytest.raises(ValueError, match='r_hill'):
         line_of_sight([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], N)
+
+
+def test_a_wheel_taken_out_is_commanded_nothing_and_the_thrusters_give_its_axis_torque():
+    """Wheel 2 (body z) out, on V-bar at 30 m (outside the sphere) from 2 deg off the goal about z and x: wheel 2 is
+    commanded nothing, the wheels left give the x and y torque, and the thrusters' z torque, fired in pulses of
+    axis_pulse_n_m_s each passing the minimum impulse bit, is the control law's z torque in the mean (what is
+    carried stays under a pulse); closed loop, the pointing settles on the thrusters about z (measured: 0.022 deg at
+    most over 100-200 s, the pulses' limit cycle)."""
+    config = AttitudeGuidanceConfig()
+    layout = default_thruster_layout()
+    guidance = AttitudeGuidance(config, SEED001_SERVICER, WHEELS)
+    guidance.take_wheels_out([2])
+    r, v = np.array([30.0, 0.0, 0.0]), np.zeros(3)
+    goal = LineOfSightGoal().update(0.0, r, v, N)
+    q = quat_multiply(goal.q_hill_from_goal, quat_from_axis_angle([1.0, 0.0, 1.0], math.radians(2.0)))
+    asked, fired = np.zeros(3), np.zeros(3)
+    for k in range(50):  # open loop: the same state, the law's torque integrated against what the thrusters give
+        cmd = guidance.command(0.1 * k, q, goal.omega_goal, np.zeros(3), r, v, N, inside_restriction_sphere=False)
+        assert cmd.wheel_torque_n_m[2] == 0.0
+        np.testing.assert_allclose(-WHEELS.axis_matrix[:2] @ cmd.wheel_torque_n_m, guidance.body_torque_n_m[:2],
+                                   atol=1e-15)
+        assert cmd.thruster_torque_body_n_m[:2].tolist() == [0.0, 0.0]
+        if cmd.thruster_torque_body_n_m[2]:
+            firing = fire(layout, allocate_wrench(layout, np.zeros(3), cmd.thruster_torque_body_n_m).thrusts_n,
+                          config.control_period_s)
+            assert not firing.below_minimum_impulse.any()
+            np.testing.assert_allclose(firing.torque_body_n_m, cmd.thruster_torque_body_n_m, atol=1e-12)
+        asked += guidance.body_torque_n_m * config.control_period_s
+        fired += cmd.thruster_torque_body_n_m * config.control_period_s
+    assert abs(asked[2]) > 5 * config.axis_pulse_n_m_s  # several pulses' worth was asked
+    assert abs(asked[2] - fired[2]) < config.axis_pulse_n_m_s
+    assert abs(asked[2] - fired[2]) == pytest.approx(abs(guidance.axis_carried_n_m_s[2]), abs=1e-15)
+
+    guidance = AttitudeGuidance(config, SEED001_SERVICER, WHEELS)
+    guidance.take_wheels_out([2])
+
+    def at_rest(_t):
+        return r, v
+    run = simulate_pointing(guidance, GyrostatPropagator(SEED001_SERVICER, WHEELS), at_rest, 0.0, 200.0, N,
+                            restriction_sphere_radius_m=SPHERE_M, q_hill_from_body0=q)
+    assert np.all(run.wheel_torque_n_m[:, 2] == 0.0) and run.h_wheels_n_m_s[-1, 2] == 0.0
+    assert np.any(run.thruster_torque_body_n_m[:, 2] != 0.0)
+    print(f'wheel 2 out: pointing {run.percentile_deg(95, start_s=100.0):.3f} deg p95 over 100-200 s, '
+          f'max {math.degrees(run.pointing_error_rad[run.t_s >= 100.0].max()):.3f} deg')
+    assert math.degrees(run.pointing_error_rad[run.t_s >= 100.0].max()) < 0.05
+
+
+def test_inside_the_sphere_a_wheel_taken_out_leaves_its_axis_without_torque():
+    """No thruster fires inside the restriction sphere: with wheel 2 out its axis gets no torque at all there."""
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, WHEELS)
+    guidance.take_wheels_out([2])
+    r, v = np.array([10.0, 0.0, 0.0]), np.zeros(3)
+    goal = LineOfSightGoal().update(0.0, r, v, N)
+    q = quat_multiply(goal.q_hill_from_goal, quat_from_axis_angle([0.0, 0.0, 1.0], math.radians(2.0)))
+    for k in range(20):
+        cmd = guidance.command(0.1 * k, q, goal.omega_goal, np.zeros(3), r, v, N, inside_restriction_sphere=True)
+        assert cmd.wheel_torque_n_m[2] == 0.0 and not cmd.thruster_torque_body_n_m.any()
+    assert abs(guidance.body_torque_n_m[2]) > 0.0 and not guidance.axis_carried_n_m_s.any()

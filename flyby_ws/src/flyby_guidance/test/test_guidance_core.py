@@ -149,3 +149,37 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
         assert a.t == b.t
         np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
         np.testing.assert_array_equal(a.force_body_n, b.force_body_n)
+
+
+def test_a_wheel_reallocated_is_commanded_nothing_from_the_events_stamp_whatever_came_first():
+    """The supervisor's wheels_reallocated (wheel 2, stamped 100.2 s): the estimates before its stamp command wheel 2
+    as before, from it on wheel 2 gets nothing and its axis's torque goes to the thrusters (50 m out on V-bar, outside
+    the sphere); the same commands whether the event came first or between the estimates."""
+    from flyby_guidance.modes.interface import AttitudeCommandStamped
+    from flyby_msgs_py import event_payloads, events
+    from flyby_sim.dynamics.rotation import quat_from_axis_angle
+
+    sc = load_scenario(SCENARIOS / 'paper_flyby_6dof.yaml')
+    r, q = np.array((50.0, 0.0, 0.0)), quat_from_axis_angle((0.0, 0.0, 1.0), np.pi + 0.05)  # body +x 3 deg off -x
+    stamps = [round(100.0 + 0.1 * k, 6) for k in range(8)]
+    out_event = Event(100.2, 'WARN', events.WHEELS_REALLOCATED, 'wheel 2 out',
+                      event_payloads.encode(event_payloads.WheelsReallocated((2,))), 'flyby_supervisor')
+
+    def commands(event_at):
+        core = GuidanceCore(GuidanceParams.from_scenario(sc))
+        core.on_phase(c.PHASE_ESTIMATION)
+        out = []
+        for k, t in enumerate(stamps):
+            if k == event_at:
+                assert core.on_event(out_event) == []
+            out += core.on_chaser_estimate(t, r, np.zeros(3), q, np.zeros(3))
+        return [o for o in out if isinstance(o, AttitudeCommandStamped)]
+
+    first, between = commands(0), commands(2)
+    assert len(first) == len(stamps)
+    for a, b in zip(first, between, strict=True):
+        np.testing.assert_array_equal(a.wheel_torque_n_m, b.wheel_torque_n_m)
+        np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
+    assert all(cmd.wheel_torque_n_m[2] != 0.0 for cmd in first[:2])
+    assert all(cmd.wheel_torque_n_m[2] == 0.0 for cmd in first[2:])
+    assert any(cmd.thruster_torque_body_n_m[2] != 0.0 for cmd in first[2:])

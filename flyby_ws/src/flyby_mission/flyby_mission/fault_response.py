@@ -3,7 +3,9 @@
 
 ``respond`` returns the ``fault_response`` event (ERROR where the mission changes, WARN where it goes on), the
 ``thrusters_isolated`` event where the response closes the candidate thrusters (the simulator closes their valves),
-and whether to abort. The machine's other rule (an ERROR event of a watched node aborts) does not apply to a
+the ``wheels_reallocated`` event where it takes the named wheels out of the attitude control (guidance commands them
+nothing and gives their axes' torque to the wheels left and the thrusters' couples: docs/faults.md), and whether to
+abort. The machine's other rule (an ERROR event of a watched node aborts) does not apply to a
 detection: the table answers it.
 """
 
@@ -15,7 +17,7 @@ def respond(table: FaultTable, event, phase, cam_fired=False):
     """(events as (level, name, message, values), abort reason or None) for the wire event ``fault_detected`` in
     ``phase``. After the independent monitor's CAM (cam_fired) the answer is ``continue``: its burn is thrust the
     flight software did not command, and closing the thrusters that give it would undo it. An ``isolate`` with no
-    candidate thruster to close is an ``abort``."""
+    candidate thruster to close, or a ``reallocate`` naming no wheel, is an ``abort``."""
     detected = event_payloads.decode(event)
     answer = table.response(detected.kind, detected.component, phase)
     candidates = [int(i) for i in detected.candidates or ()]
@@ -23,6 +25,8 @@ def respond(table: FaultTable, event, phase, cam_fired=False):
         answer = Answer('continue', answer.severity, 'the CAM has the thrusters')
     elif answer.response in ('isolate', 'isolate_abort') and not candidates:
         answer = Answer('abort', answer.severity, f'{answer.effect}; no candidate thruster to close')
+    elif answer.response == 'reallocate' and not candidates:
+        answer = Answer('abort', answer.severity, f'{answer.effect}; no wheel named to take out')
     payload = event_payloads.FaultResponse(detected.kind, detected.component, answer.response, phase, event.t,
                                            answer.severity)
     why = answer.effect or 'not in the fault table'
@@ -32,5 +36,9 @@ def respond(table: FaultTable, event, phase, cam_fired=False):
     if answer.response in ('isolate', 'isolate_abort'):
         out.append(('WARN', events.THRUSTERS_ISOLATED, f'thrusters {candidates} isolated: {detected.kind}',
                     event_payloads.encode(event_payloads.ThrustersIsolated(tuple(candidates)))))
+    if answer.response == 'reallocate':
+        out.append(('WARN', events.WHEELS_REALLOCATED, f'wheels {candidates} out of the attitude control, their '
+                    f'torque to the wheels left and the thrusters: {detected.kind}',
+                    event_payloads.encode(event_payloads.WheelsReallocated(tuple(candidates)))))
     abort = answer.response in ('abort', 'isolate_abort')
     return out, f'{detected.kind} on {detected.component}: the fault table answers {answer.response}' if abort else None

@@ -13,7 +13,7 @@ import yaml
 from flyby_msgs_py import contract as c
 
 TABLE_PATH = Path(__file__).with_name('fault_table.yaml')
-RESPONSES = ('continue', 'abort', 'isolate', 'isolate_abort')
+RESPONSES = ('continue', 'abort', 'isolate', 'isolate_abort', 'reallocate')
 PHASE_GROUPS = {
     'standby': (c.PHASE_ESTIMATION, c.PHASE_PLANNING),
     'approach': (c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES,

@@ -40,14 +40,18 @@ def test_a_malformed_fmeca_row_is_refused_naming_it():
     ('sensor_outliers', 'target_attitude', c.PHASE_DOCKING, 'continue'),
     ('sensor_inconsistent', 'star_tracker', c.PHASE_MASS_ESTIMATION, 'continue'),
     ('sensor_stale', 'lidar', c.PHASE_FLYBY, 'abort'),  # not in the table
+    ('wheel_torque_deficit', 'wheels [2]', c.PHASE_PLANNING, 'reallocate'),
+    ('wheel_torque_excess', 'wheels [0]', c.PHASE_TRAJECTORY_ADJUST, 'reallocate'),
+    ('wheel_torque_deficit', 'wheels [2]', c.PHASE_FLYBY, 'continue'),
 ])
 def test_the_table_answers_by_phase_group(kind, component, phase, response):
     assert FaultTable.load().response(kind, component, phase).response == response
 
 
 def _detection(t, kind, component, candidates=None):
-    payload = event_payloads.FaultDetected('thrusters' if kind.startswith('thrust') else f'sensor/{component}', kind,
-                                           component, t, candidates)
+    monitor = ('thrusters' if kind.startswith('thrust') else 'wheels' if kind.startswith('wheel')
+               else f'sensor/{component}')
+    payload = event_payloads.FaultDetected(monitor, kind, component, t, candidates)
     return wire_event(Event(t, 'ERROR', events.FAULT_DETECTED, 'detected', event_payloads.encode(payload),
                             'flyby_estimator'))
 
@@ -121,3 +125,17 @@ def test_an_isolation_without_candidates_aborts():
     response = event_payloads.decode_values(out[0].name, out[0].values)
     assert response.response == 'abort' and core.phase == c.PHASE_ABORTED
     assert not any(isinstance(o, Event) and o.name == events.THRUSTERS_ISOLATED for o in out)
+
+
+def test_a_wheel_fault_in_the_approach_takes_the_wheel_out_and_the_approach_goes_on():
+    core = _supervisor_in(c.PHASE_TERMINAL_APPROACH)
+    out = core.on_event(_detection(400.0, 'wheel_torque_deficit', 'wheels [2]', (2,)))
+    assert [o.name for o in out if isinstance(o, Event)] == [events.FAULT_RESPONSE, events.WHEELS_REALLOCATED]
+    assert core.phase == c.PHASE_TERMINAL_APPROACH
+    response = event_payloads.decode_values(out[0].name, out[0].values)
+    assert (response.response, response.phase, response.severity) == ('reallocate', c.PHASE_TERMINAL_APPROACH, 2)
+    assert event_payloads.decode_values(out[1].name, out[1].values).wheels == (2,)
+    empty = _supervisor_in(c.PHASE_TERMINAL_APPROACH)  # a reallocation naming no wheel: nothing to take out
+    out = empty.on_event(_detection(400.0, 'wheel_torque_excess', 'wheels []', ()))
+    assert event_payloads.decode_values(out[0].name, out[0].values).response == 'abort'
+    assert empty.phase == c.PHASE_ABORTED

@@ -184,7 +184,7 @@ class FaultDetected(_Payload):
     kind: str
     component: str
     t: float
-    candidates: Vector | None = None  # a thrust fault's candidate thrusters
+    candidates: Vector | None = None  # a thrust fault's candidate thrusters, a wheel fault's wheels
 
 
 @payload(events.FAULT_RECOVERED)
@@ -210,6 +210,14 @@ class ThrustersIsolated(_Payload):
     """The supervisor closes these thrusters' valves (the plant gives them no thrust and allocates without them)."""
 
     thrusters: Vector
+
+
+@payload(events.WHEELS_REALLOCATED)
+class WheelsReallocated(_Payload):
+    """The supervisor takes these wheels out of the attitude control (a wheel fault's ``reallocate``): guidance
+    commands them no torque and gives what they gave to the wheels left and the thrusters' couples."""
+
+    wheels: Vector
 
 
 @payload(events.DAMPING_COMPLETE)
@@ -324,7 +332,7 @@ class MessageRejected(_Payload):
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
                                       AttitudeSynchronized, DockingStarted, GraspDamped, FaultInjected,
                                       FaultEnded, FaultDetected, FaultRecovered, FaultResponse,
-                                      ThrustersIsolated, DampingComplete,
+                                      ThrustersIsolated, WheelsReallocated, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
                                       TransportComEstimate, TransportPlanned, TransportTerminal, TransportComplete,
                                       MessageRejected)}

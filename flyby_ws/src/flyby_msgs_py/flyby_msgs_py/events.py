@@ -88,6 +88,7 @@ WAITING_FOR_LEADERS = 'waiting_for_leaders'
 WAITING_FOR_NODES = 'waiting_for_nodes'
 WHEEL_MOMENTUM_LIMITED = 'wheel_momentum_limited'
 WHEEL_TORQUE_LIMITED = 'wheel_torque_limited'
+WHEELS_REALLOCATED = 'wheels_reallocated'
 WRENCH_LIMITED_BY_BURN = 'wrench_limited_by_burn'
 WRENCH_UNDELIVERED = 'wrench_undelivered'
 

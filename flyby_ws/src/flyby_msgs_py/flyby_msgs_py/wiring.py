@@ -33,10 +33,6 @@ def post_capture(scenario):
     return scenario.post_capture is not None
 
 
-def rigid_post_capture(scenario):
-    return rigid(scenario) and post_capture(scenario)
-
-
 # topic -> ((node, when), ...): the nodes whose core takes the topic, in the order the headless driver delivers it.
 SUBSCRIPTIONS = {
     c.SENSOR_RELATIVE_POSITION: ((ESTIMATOR, always), (CAM, always)),
@@ -56,9 +52,10 @@ SUBSCRIPTIONS = {
     c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
     c.SAFETY_CAM: ((SIM, always), (ESTIMATOR, always)),  # the estimator's monitors: thrust no chain commanded
     # The simulator reads a command-chain node's node_error (it holds time for its commands no more), the phase_changed
-    # stamps (the faults that start with a phase) and thrusters_isolated.
+    # stamps (the faults that start with a phase) and thrusters_isolated; guidance a wheel fault's wheels_reallocated
+    # and after the capture the arm's lock and the mass-property estimates.
     c.MISSION_EVENTS: ((SUPERVISOR, always), (PLANNER, always), (ESTIMATOR, post_capture),
-                       (GUIDANCE, rigid_post_capture), (SIM, always)),
+                       (GUIDANCE, rigid), (SIM, always)),
 }
 
 

@@ -5,6 +5,11 @@ chaser, which only translates by the fly-by's maneuvers (``PointMassChaser``).
 The wheels' momentum is the guidance's own account of the torques it commanded (what the wheels received, unless a
 wheel met its momentum limit, which the plant reports). The mass is counted down by the fuel of the forces
 commanded.
+
+A wheel fault's ``wheels_reallocated`` (the supervisor's ``reallocate``, docs/faults.md) takes the named wheels out of
+both attitude laws (the pointing's and the synchronized hold's, ``AttitudeGuidance.take_wheels_out``) from the first
+chaser estimate stamped at or after the event: a rule on stamps, so the commands are the same whether the event or
+the estimate comes first.
 """
 
 import collections
@@ -17,7 +22,7 @@ from flyby_guidance.modes.synchronized import SynchronizedHold
 from flyby_guidance.modes.tracking import TrackingApproach
 from flyby_guidance.tracking import ReferenceTrajectory
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_sim.dynamics.actuators import allocate_wrench, fire
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 
@@ -60,9 +65,21 @@ class RigidBodyChaser(GuidanceMode):
         self.tracking = TrackingApproach(tracking, params.mean_motion_rad_s, source, self)
         self.sync_hold = SynchronizedHold(synchronized, source, self, targets)
         self.modes = (self.sync_hold, self.tracking)
+        self.wheels_out_pending = []  # (t [s], wheel indices) of wheels_reallocated not yet applied (module doc)
+
+    def on_event(self, event, phase):
+        """wheels_reallocated: its wheels out from its stamp on (module doc)."""
+        if event.name == events.WHEELS_REALLOCATED:
+            self.wheels_out_pending.append((event.t, event_payloads.decode(event).wheels))
+        return []
 
     def command(self, estimate, phase):
         self.account_wheels(estimate.t)
+        due = [wheels for t, wheels in self.wheels_out_pending if t <= estimate.t]
+        if due:
+            self.wheels_out_pending = [p for p in self.wheels_out_pending if p[0] > estimate.t]
+            for law in (self.attitude, self.sync_hold.sync_attitude):
+                law.take_wheels_out([i for wheels in due for i in wheels])
         for mode in self.modes:
             out = mode.command(estimate, phase)
             if out is not None:

@@ -111,13 +111,14 @@ class QuaternionFeedbackController:
         feed_forward = self.inertia @ (omega_dot_goal_body - cross3(omega, omega_goal_body))
         return feed_forward + self.k_d * (self.inertia @ (omega_ref - omega)) + cross3(omega, h_body)
 
-    def wheel_torque_for(self, torque_body_n_m, thruster_torque_body_n_m=None):
+    def wheel_torque_for(self, torque_body_n_m, thruster_torque_body_n_m=None, axes_pinv=None):
         """Wheel motor torques u [N m] (N,) giving the body torque torque_body_n_m together with a thruster
-        torque (body axes, None: none): u = -A^+ (tau - tau_thr), scaled down as a whole to the torque limits."""
+        torque (body axes, None: none): u = -A^+ (tau - tau_thr), scaled down as a whole to the torque limits.
+        axes_pinv: another A^+ (N, 3) (None: all the wheels'), e.g. with a failed wheel's row zero."""
         torque = np.asarray(torque_body_n_m, dtype=float)
         if thruster_torque_body_n_m is not None:
             torque = torque - np.asarray(thruster_torque_body_n_m, dtype=float)
-        u = -self._axes_pinv @ torque  # body torque -A u (+ tau_thr) = tau
+        u = -(self._axes_pinv if axes_pinv is None else axes_pinv) @ torque  # body torque -A u (+ tau_thr) = tau
         limit = self.wheels.max_torque_n_m
         excess = float(np.max(np.abs(u) / limit))
         if excess <= 1.0:
