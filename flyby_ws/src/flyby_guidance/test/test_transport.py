@@ -18,11 +18,12 @@ from transport_guidance_testing import (
     until_planned,
 )
 
+from flyby_guidance.transport import push as push_module
 from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
 )
-from flyby_guidance.transport.push import STEER_MAX_RAD, push_response
+from flyby_guidance.transport.push import STEER_MAX_RAD, STEER_SETTLE_S, push_response
 from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
 from flyby_msgs_py.events import (
     TRANSPORT_COMPLETE,
@@ -374,3 +375,29 @@ def test_a_push_steers_its_axis_toward_the_force_wanted_by_at_most_steer_max():
         assert math.acos(min(1.0, float(steered @ now))) == pytest.approx(min(angle, STEER_MAX_RAD), rel=1e-9)
         assert abs(float(steered @ np.cross(now, toward))) < 1e-12  # in the plane of the two
         assert float(steered @ toward) > float(now @ toward)
+
+
+def test_on_a_body_the_wheels_do_not_steer_a_push_ends_with_the_body_and_the_wheels_at_rest(monkeypatch):
+    """Over a push's last STEER_SETTLE_S on a body the wheels do not steer, the push's thrusters take out the body's
+    angular momentum I omega and the wheels' h by its end, the wheels idle: the thrusters' hold (a PD) had left a
+    210 kg pair turning at 1 kg m^2/s, which the wheels, holding the attitude after it, could not take up. Before a
+    push's last STEER_SETTLE_S (here made 1 s) the wheels damp the rate and the thrusters hold the attitude."""
+    body, control = planned()
+    control.wheels_steer = False
+    push = [b for b in control.plan.burns if b.purpose == 'push'][0]
+    end = push.t_start_s + push.duration_s
+    t = max(push.t_start_s, end - STEER_SETTLE_S) + 1.0
+    omega = np.array([0.0, 0.002, -0.003])
+    h_wheels = np.array([0.05, -0.1, 0.2])
+    on_plan = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < t], t,
+                        control.config.planner)
+    r_point, v_point = body_point_state(quat_to_matrix(on_plan.q_hill_from_body), omega, -body.com_body_m, control.n)
+    estimate_at_t = (t, on_plan.r_hill + r_point, on_plan.v_hill + v_point, on_plan.q_hill_from_body, omega,
+                     h_wheels)
+    force, torque, wheels, _ = control.command(*estimate_at_t)
+    assert not np.any(wheels) and not allocate_wrench(body.layout, force, torque).saturated
+    np.testing.assert_allclose(torque - np.cross(body.com_body_m, force),
+                               -(body.inertia_body_kg_m2 @ omega + h_wheels) / (end - (t + P)), atol=1e-9)
+    monkeypatch.setattr(push_module, 'STEER_SETTLE_S', 1.0)
+    _, _, wheels, _ = control.command(*estimate_at_t)
+    np.testing.assert_allclose(wheels, control._hold(omega))
