@@ -243,9 +243,10 @@ def test_a_turn_by_the_thrusters_couples_adds_at_most_a_quarter_of_the_momentum_
 
 
 def test_a_turn_the_thrusters_cannot_afford_before_the_judgement_is_not_made(monkeypatch):
-    """No horizon feasible, 2 mm/s along the push axis, time for the shortest horizon only: on a body the wheels do
-    not steer, the turn at the rate its side force affords would end after the judgement's latest time, so no turn:
-    the first impulse of CW's transfer is fired as near as the thrusters give it at the attitude held."""
+    """No horizon feasible, 1 mm/s against the push axis and 2 mm/s along -y, time for the shortest horizon only: on
+    a body the wheels do not steer, the turn onto CW's first impulse (some 60 deg off the push axis) at the rate its
+    side force affords would end after the judgement's latest time, so no turn: that impulse is fired as near as
+    the thrusters give it at the attitude held (+x and +y firings)."""
     body, control, t0, q_eci = arrived()
     control.wheels_steer = False
     control.turn_rate_rad_s = control.config.planner.slew_rate_rad_s
@@ -254,11 +255,12 @@ def test_a_turn_the_thrusters_cannot_afford_before_the_judgement_is_not_made(mon
     q_hill = held(control, t, q_eci)
     monkeypatch.setattr(planner_terminal, 'solve', lambda problem, horizons: None)
     monkeypatch.setattr(control, '_transfer_again', lambda state: None)
-    state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
+    state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([-1e-3, -2e-3, 0.0]), q_hill,
                            np.zeros(3))
     events = control._terminal(state, np.zeros(3))
-    assert control.turning is None and TRANSPORT_TURN not in [e[1] for e in events]
-    assert [e[1] for e in events] in ([], [TRANSPORT_TERMINAL])
+    assert control.turning is None and [e[1] for e in events] == [TRANSPORT_TERMINAL] and control.pulses
+    impulse = sum(force * (t_b - t_a) for t_a, t_b, force, _ in control.pulses)
+    assert impulse[0] > 0.0 and impulse[1] > 0.0
 
 
 def test_after_the_turn_a_turning_body_is_damped():

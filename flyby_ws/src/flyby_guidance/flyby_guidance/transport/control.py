@@ -285,7 +285,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
                 force, torque = (np.asarray(burn.force_body_n, dtype=float),
                                  np.asarray(burn.torque_body_n_m, dtype=float))
                 if burn.purpose == 'push':  # the hold's couple from the push's own thrusters
-                    if self._push_stopping(burn.t_start_s + burn.duration_s - t_mid):
+                    if self._push_stopping(t, burn):
                         wheels = np.zeros(3)
                     force, torque = self._closed_loop_push(t, state, burn, force, torque, h_wheels, hold)
                     return force, torque, wheels, events

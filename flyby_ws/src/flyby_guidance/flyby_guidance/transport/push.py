@@ -243,18 +243,21 @@ class TransportPush:
         # angular momentum the wheels gained (the thrusters' misalignment and the CoM's error make a torque), by the
         # push's end.
         torque_com = hold_com
-        if self.wheels_steer or self._push_stopping(remaining_s):
+        if self.wheels_steer or self._push_stopping(t, burn):
             torque_com = -(self.body.inertia_body_kg_m2 @ state.omega_body + h_wheels) / remaining_s
         torque_body = torque_com + np.cross(self.body.com_body_m, force_body)  # about the chaser's CoM
         if allocate_wrench(self.body.layout, force_body, torque_body).saturated:
             return nearest_wrench(self.body, self.config.planner, force_body, torque_com)
         return force_body, torque_body
 
-    def _push_stopping(self, remaining_s):
-        """True over a push's last STEER_SETTLE_S on a body the wheels do not steer: its thrusters take out the body's
-        angular momentum and the wheels' by its end, the wheels idle. The thrusters' hold (a PD against the
-        misalignment's torque, metres from the CoM) leaves the body turning at its end (1 kg m^2/s on a 210 kg
-        pair), which the wheels, holding the attitude after it, could not take up (transport_envelope run 5)."""
+    def _push_stopping(self, t, burn):
+        """True where the command of the estimate at t falls in the push's last STEER_SETTLE_S on a body the wheels do
+        not steer: its thrusters then take the total angular momentum I omega + h, the body's and the wheels', to
+        nil by the push's end, the wheels idle (the body still at the end, the wheels' momentum dumped). The
+        thrusters' hold (a PD against the misalignment's torque, metres from the CoM) left the body turning at the
+        push's end (1 kg m^2/s on a 210 kg pair), which the wheels, holding the attitude after it, could not take
+        up (transport_envelope run 5)."""
+        remaining_s = burn.t_start_s + burn.duration_s - (t + self.config.planner.period_s)
         return not self.wheels_steer and remaining_s <= STEER_SETTLE_S
 
     def _steer(self, state, planned_force_body, force_body):

@@ -153,8 +153,9 @@ class TransportTerminal:
         return dv_hill
 
     def _nearest_firing(self, state, problem):
-        """Where no horizon is feasible and the push axis already lies along CW's first impulse (no turn to make):
-        that impulse as near as the thrusters give it at the attitude held (``terminal.impulses_for``), fired now."""
+        """Where no horizon is feasible and no turn is made (the push axis lies along CW's first impulse already, or
+        the turn the thrusters' side force affords would end after the judgement): that impulse as near as the
+        thrusters give it at the attitude held (``terminal.impulses_for``), fired now; none where they give none."""
         impulses, dv_given = terminal.impulses_for(self._transfer_impulse(state), problem)
         pulses = self._pulses_of(impulses, problem.t0)
         if not pulses:
