@@ -87,7 +87,13 @@ from period to period and fired once it is worth ``axis_pulse_n_m_s`` (``damping
 the minimum impulse bit would not be fired at all, and the axis's mean torque would be lost). The PD law's error on
 that axis then cycles within a few pulses' rate (0.01 N m s / 10 kg m^2 = 1e-3 rad/s for paper_flyby_6dof's
 chaser). Inside the restriction sphere no thruster fires: the axis is left to its own motion, and what was carried
-is dropped. The dump takes out only the momentum of the wheels left (an out wheel's is no longer the control's). A
+is dropped. The dump takes out only the momentum of the wheels left, A_k h (an out wheel's is no longer the
+control's; A_k A_k^+ A h would keep it wherever the wheels left span its axis, as on a four-wheel pyramid). How many
+wheels may go: ``take_wheels_out`` refuses (ValueError, ``wheels_out_refusal``) a further wheel once the wheels left
+span fewer than three axes. The law itself would give any number of axes to the thrusters, but inside the
+restriction sphere each such axis has no torque at all, so one lost axis is the most the approach is flown with: on
+three orthogonal wheels the first loss is taken, the second refused; on a four-wheel pyramid the first two. An index
+that is no wheel is refused the same way (guidance reports either as an ERROR event, ``modes.chaser``). A
 runaway wheel, commanded nothing, still turns the body by its own torque: the same feedback on the thrusters holds
 against it outside the sphere (its steady error d / (k_p J) for a torque d), until the plant stops it at its momentum
 limit; guidance's account of its momentum (what it commanded) is then wrong in the gyroscopic term.
@@ -342,18 +348,44 @@ class AttitudeGuidance:
         self.saturated = False
         self.body_torque_n_m = np.zeros(3)
         self.wheels_out = frozenset()
-        self.axes_pinv = self.controller.axes_pinv  # A_k^+ of the wheels left (module doc)
+        self.axes_left = wheels.axis_matrix  # A_k: the axis matrix, the out wheels' columns zero (module doc)
+        self.axes_pinv = self.controller.axes_pinv  # A_k^+ of the wheels left
         self.wheel_span = np.eye(3)  # A_k A_k^+: the body torques the wheels left can give
         self.axis_carried_n_m_s = np.zeros(3)  # the wheel-less axes' angular impulse not yet fired
 
+    def wheels_out_refusal(self, indices, also_out=()):
+        """Why taking these wheels out (with ``also_out`` already promised) is refused, or None: a ValueError's text
+        naming an index that is no wheel, or the wheels left already short of three axes (module doc: a second
+        loss on three orthogonal wheels; the thrusters would then hold two axes, and none inside the sphere)."""
+        count = self.wheels.count
+        for i in indices:
+            if not float(i).is_integer() or not 0 <= int(i) < count:
+                return f'wheel index {i} is not one of the {count} wheels (0 to {count - 1})'
+        before = self.wheels_out | {int(i) for i in also_out}
+        new = {int(i) for i in indices} - before
+        if new and np.linalg.matrix_rank(self._axes_left(before)) < 3:
+            left = sorted(set(range(count)) - before)
+            return (f'wheels {sorted(new)} cannot be taken out: the wheels left {left} already span fewer than '
+                    f'three axes')
+        return None
+
     def take_wheels_out(self, indices):
         """Command these wheels (indices into the wheels) nothing from the next call on, their torque to the wheels
-        left and the thrusters' couples (module doc)."""
-        self.wheels_out = self.wheels_out | {int(i) for i in indices if 0 <= int(i) < self.wheels.count}
+        left and the thrusters' couples (module doc). ValueError (``wheels_out_refusal``) for an index that is no
+        wheel, or a further wheel once the wheels left span fewer than three axes; nothing changes then."""
+        reason = self.wheels_out_refusal(indices)
+        if reason is not None:
+            raise ValueError(reason)
+        self.wheels_out = self.wheels_out | {int(i) for i in indices}
+        self.axes_left = self._axes_left(self.wheels_out)
+        self.axes_pinv = np.linalg.pinv(self.axes_left)
+        self.wheel_span = self.axes_left @ self.axes_pinv
+
+    def _axes_left(self, out):
+        """The axis matrix (3, N) with the columns of the wheels ``out`` zero: A_k of the module doc."""
         axes_left = self.wheels.axis_matrix.copy()
-        axes_left[:, sorted(self.wheels_out)] = 0.0
-        self.axes_pinv = np.linalg.pinv(axes_left)
-        self.wheel_span = axes_left @ self.axes_pinv
+        axes_left[:, sorted(out)] = 0.0
+        return axes_left
 
     def command(self, t, q_hill_from_body, omega_body, h_wheels_n_m_s, r_hill, v_hill, n,
                 inside_restriction_sphere, a_hill=None):
@@ -425,7 +457,7 @@ class AttitudeGuidance:
     def _dump_torque(self, torque_body, h):
         """Thruster torque [N m] (3,) of the dump within the wheels' headroom (module doc)."""
         cfg = self.config
-        h_body = self.wheel_span @ (self.wheels.axis_matrix @ h)  # the wheels left's (module doc)
+        h_body = self.axes_left @ h  # the wheels left's momentum only, A_k h (module doc)
         if not self.dumping and float(np.linalg.norm(h_body)) > cfg.dump_start_n_m_s:
             self.dumping = True
         active = np.abs(h_body) > cfg.dump_stop_n_m_s

@@ -311,3 +311,59 @@ def test_inside_the_sphere_a_wheel_taken_out_leaves_its_axis_without_torque():
         cmd = guidance.command(0.1 * k, q, goal.omega_goal, np.zeros(3), r, v, N, inside_restriction_sphere=True)
         assert cmd.wheel_torque_n_m[2] == 0.0 and not cmd.thruster_torque_body_n_m.any()
     assert abs(guidance.body_torque_n_m[2]) > 0.0 and not guidance.axis_carried_n_m_s.any()
+
+
+PYRAMID = ReactionWheels(np.vstack([np.eye(3), np.ones(3)]), max_torque_n_m=0.1, max_momentum_n_m_s=4.0,
+                         spin_inertia_kg_m2=0.01)  # three orthogonal wheels and a skew fourth along (1, 1, 1)
+
+
+def test_the_dump_drains_only_the_wheels_left_on_a_redundant_set():
+    """Four wheels, wheel 3 (the skew one) out holding 2 N m s: the wheels left span the body, yet the out wheel's
+    momentum (1.15 N m s on each body axis, past dump_start) is not theirs to dump, so no dump; the same momentum on
+    wheel 0, a wheel left, is dumped about x."""
+    r, v = np.array([30.0, 0.0, 0.0]), np.zeros(3)
+    goal = LineOfSightGoal().update(0.0, r, v, N)
+    for h, dumps in (([0.0, 0.0, 0.0, 2.0], False), ([2.0, 0.0, 0.0, 0.0], True)):
+        guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, PYRAMID)
+        guidance.take_wheels_out([3])
+        cmd = guidance.command(0.0, goal.q_hill_from_goal, goal.omega_goal, h, r, v, N,
+                               inside_restriction_sphere=False)
+        assert guidance.dumping is dumps and cmd.wheel_torque_n_m[3] == 0.0
+        assert bool(cmd.thruster_torque_body_n_m.any()) is dumps
+        if dumps:
+            assert cmd.thruster_torque_body_n_m[0] < 0.0 and not cmd.thruster_torque_body_n_m[1:].any()
+
+
+@pytest.mark.parametrize('wheels, first, refused, match', [
+    (WHEELS, [3], None, r'wheel index 3 is not one of the 3 wheels \(0 to 2\)'),
+    (WHEELS, [-1], None, r'wheel index -1 is not one of the 3 wheels'),
+    (WHEELS, [1.5], None, r'wheel index 1.5 is not one of the 3 wheels'),
+    (WHEELS, [2], [0], r'wheels \[0\] cannot be taken out: the wheels left \[0, 1\] already span fewer than three'),
+    (PYRAMID, [3, 0], [1], r'wheels \[1\] cannot be taken out: the wheels left \[1, 2\] already span fewer than'),
+])
+def test_a_wheel_that_cannot_be_taken_out_is_refused_naming_it_and_nothing_changes(wheels, first, refused, match):
+    """An index that is no wheel, or a further wheel once the wheels left span fewer than three axes (three
+    orthogonal wheels: the second; the pyramid: the third), is a ValueError naming it, the law as it was."""
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, wheels)
+    if refused is None:
+        bad = first
+    else:
+        guidance.take_wheels_out(first)
+        bad = refused
+    out, pinv = guidance.wheels_out, guidance.axes_pinv.copy()
+    with pytest.raises(ValueError, match=match):
+        guidance.take_wheels_out(bad)
+    assert guidance.wheels_out == out and np.array_equal(guidance.axes_pinv, pinv)
+    assert guidance.wheels_out_refusal(sorted(out)) is None  # a wheel already out again: nothing new, no refusal
+
+
+def test_a_redundant_set_keeps_three_axes_on_its_wheels_after_one_loss():
+    """The pyramid with wheel 3 out spans the body: no thruster torque for the control, every axis on the wheels."""
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, PYRAMID)
+    guidance.take_wheels_out([3])
+    r, v = np.array([30.0, 0.0, 0.0]), np.zeros(3)
+    goal = LineOfSightGoal().update(0.0, r, v, N)
+    q = quat_multiply(goal.q_hill_from_goal, quat_from_axis_angle([1.0, 1.0, 1.0], math.radians(2.0)))
+    cmd = guidance.command(0.0, q, goal.omega_goal, np.zeros(4), r, v, N, inside_restriction_sphere=False)
+    assert cmd.wheel_torque_n_m[3] == 0.0 and not cmd.thruster_torque_body_n_m.any()
+    np.testing.assert_allclose(-PYRAMID.axis_matrix @ cmd.wheel_torque_n_m, guidance.body_torque_n_m, atol=1e-15)

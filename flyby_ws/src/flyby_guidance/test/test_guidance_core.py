@@ -5,13 +5,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flyby_estimation.transport_navigation import COM_PERIOD_S
 from flyby_guidance.guidance import Maneuver
 from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_guidance.params import GuidanceParams
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.wire import Event
+from flyby_planner.flyby.grasp_search import flyby_target_from_attitude
 from flyby_planner.transfer import terminal_impulses
-from flyby_sim.dynamics.orbital import cw_transition_matrix
+from flyby_sim.dynamics.attitude import AttitudePropagator
+from flyby_sim.dynamics.orbital import cw_transition_matrix, q_eci_from_body, q_hill_from_body
+from flyby_sim.dynamics.rotation import quat_from_axis_angle
 from flyby_sim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
@@ -56,9 +62,6 @@ def test_nothing_is_commanded_after_the_fly_by():
 def test_a_re_aim_keeps_the_offset_of_the_plan():
     """The plan flies delta r = 1.3 m (|X_Ft| - |x_g|, eq 20); the grasp re-solved from a newer estimate is
     offset by the same 1.3 m, not by the scenario's preferred planner.offset_m."""
-    from flyby_planner.flyby.grasp_search import flyby_target_from_attitude
-    from flyby_sim.dynamics.attitude import AttitudePropagator
-    from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     n = sc.mean_motion_rad_s
     truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
@@ -79,7 +82,6 @@ def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_fir
     """After the capture: nothing for the estimates before the simulator's grasp_damped stamp, the damping law's command
     for each one from it on, one control period later; the same commands whether the event came before or after the
     estimates (the topics race in the graph), and none after the arm lets go."""
-    from flyby_guidance.modes.interface import AttitudeCommandStamped
 
     sc = load_scenario(SCENARIOS / 'paper_flyby_tug.yaml')
     q, omega, r = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.01, -0.02, 0.03)), np.array((0.5, 3.07, 0.0))
@@ -112,8 +114,6 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
     (``transport_navigation.on_com_grid``), before the chaser estimate of that stamp, but the topics race in the graph:
     guidance keeps the estimate of a grid stamp until the CoM of that stamp has come, and flies the body of that CoM
     from then on; the same commands whichever came first."""
-    from flyby_estimation.transport_navigation import COM_PERIOD_S
-    from flyby_guidance.modes.interface import AttitudeCommandStamped
 
     sc = load_scenario(SCENARIOS / 'paper_flyby_transport.yaml')
     q, omega, r = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.001, -0.002, 0.003)), np.array((0.5, 3.07, 0.0))
@@ -151,35 +151,65 @@ def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_what
         np.testing.assert_array_equal(a.force_body_n, b.force_body_n)
 
 
-def test_a_wheel_reallocated_is_commanded_nothing_from_the_events_stamp_whatever_came_first():
-    """The supervisor's wheels_reallocated (wheel 2, stamped 100.2 s): the estimates before its stamp command wheel 2
-    as before, from it on wheel 2 gets nothing and its axis's torque goes to the thrusters (50 m out on V-bar, outside
-    the sphere); the same commands whether the event came first or between the estimates."""
-    from flyby_guidance.modes.interface import AttitudeCommandStamped
-    from flyby_msgs_py import event_payloads, events
-    from flyby_sim.dynamics.rotation import quat_from_axis_angle
+def _reallocated(wheels, t=100.2):
+    return Event(t, 'WARN', events.WHEELS_REALLOCATED, f'wheels {list(wheels)} out',
+                 event_payloads.encode(event_payloads.WheelsReallocated(tuple(wheels))), 'flyby_supervisor')
 
+
+def _attitude_commands(sc, arrivals, stamps):
+    """The attitude commands of paper_flyby_6dof's guidance on the estimates at ``stamps`` (50 m out on V-bar,
+    outside the sphere, body +x 3 deg off the line of sight), with each event of ``arrivals`` (estimate index ->
+    events) delivered just before that estimate; and what guidance answered the events."""
+    r, q = np.array((50.0, 0.0, 0.0)), quat_from_axis_angle((0.0, 0.0, 1.0), np.pi + 0.05)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
+    core.on_phase(c.PHASE_ESTIMATION)
+    out, answers = [], []
+    for k, t in enumerate(stamps):
+        for event in arrivals.get(k, ()):
+            answers += core.on_event(event)
+        out += core.on_chaser_estimate(t, r, np.zeros(3), q, np.zeros(3))
+    return [o for o in out if isinstance(o, AttitudeCommandStamped)], answers, core
+
+
+def test_a_wheel_reallocated_is_commanded_nothing_after_the_events_stamp_whenever_it_came_before_that():
+    """The supervisor's wheels_reallocated (wheel 2, stamped 100.2 s, its detection's stamp): the estimates up to its
+    stamp command wheel 2 as before, from the next on wheel 2 gets nothing and its axis's torque goes to the
+    thrusters; the same commands whether the event came first, just before its stamp's estimate, or just after it
+    (as headless, where the estimator publishes that estimate before its detection). Later still it applies from its
+    arrival, counted late (modes.chaser's module doc)."""
     sc = load_scenario(SCENARIOS / 'paper_flyby_6dof.yaml')
-    r, q = np.array((50.0, 0.0, 0.0)), quat_from_axis_angle((0.0, 0.0, 1.0), np.pi + 0.05)  # body +x 3 deg off -x
-    stamps = [round(100.0 + 0.1 * k, 6) for k in range(8)]
-    out_event = Event(100.2, 'WARN', events.WHEELS_REALLOCATED, 'wheel 2 out',
-                      event_payloads.encode(event_payloads.WheelsReallocated((2,))), 'flyby_supervisor')
-
-    def commands(event_at):
-        core = GuidanceCore(GuidanceParams.from_scenario(sc))
-        core.on_phase(c.PHASE_ESTIMATION)
-        out = []
-        for k, t in enumerate(stamps):
-            if k == event_at:
-                assert core.on_event(out_event) == []
-            out += core.on_chaser_estimate(t, r, np.zeros(3), q, np.zeros(3))
-        return [o for o in out if isinstance(o, AttitudeCommandStamped)]
-
-    first, between = commands(0), commands(2)
+    stamps = [round(100.0 + 0.1 * k, 6) for k in range(10)]
+    runs = {at: _attitude_commands(sc, {at: [_reallocated((2,))]}, stamps) for at in (0, 2, 3, 5)}
+    first = runs[0][0]
     assert len(first) == len(stamps)
-    for a, b in zip(first, between, strict=True):
-        np.testing.assert_array_equal(a.wheel_torque_n_m, b.wheel_torque_n_m)
-        np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
-    assert all(cmd.wheel_torque_n_m[2] != 0.0 for cmd in first[:2])
-    assert all(cmd.wheel_torque_n_m[2] == 0.0 for cmd in first[2:])
-    assert any(cmd.thruster_torque_body_n_m[2] != 0.0 for cmd in first[2:])
+    for at in (2, 3):
+        assert runs[at][1] == [] and runs[at][2].chaser.wheels_late == 0
+        for a, b in zip(first, runs[at][0], strict=True):
+            np.testing.assert_array_equal(a.wheel_torque_n_m, b.wheel_torque_n_m)
+            np.testing.assert_array_equal(a.thruster_torque_body_n_m, b.thruster_torque_body_n_m)
+    assert all(cmd.wheel_torque_n_m[2] != 0.0 for cmd in first[:3])
+    assert all(cmd.wheel_torque_n_m[2] == 0.0 for cmd in first[3:])
+    assert any(cmd.thruster_torque_body_n_m[2] != 0.0 for cmd in first[3:])
+    late, _, core = runs[5]
+    assert core.chaser.wheels_late == 1
+    assert late[4].wheel_torque_n_m[2] != 0.0 and all(cmd.wheel_torque_n_m[2] == 0.0 for cmd in late[5:])
+
+
+@pytest.mark.parametrize('second, reason', [
+    ((0,), 'wheels [0] cannot be taken out: the wheels left [0, 1] already span fewer than three axes'),
+    ((3,), 'wheel index 3 is not one of the 3 wheels (0 to 2)'),
+])
+def test_a_reallocation_the_law_cannot_take_is_an_error_event_and_takes_nothing_out(second, reason):
+    """After wheel 2 (paper_flyby_6dof's three orthogonal wheels), a second wheel or an index that is no wheel:
+    guidance answers an ERROR command_rejected naming why (the supervisor aborts on a watched node's ERROR), no
+    exception, and only wheel 2 is out."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby_6dof.yaml')
+    stamps = [round(100.0 + 0.1 * k, 6) for k in range(6)]
+    cmds, answers, core = _attitude_commands(sc, {0: [_reallocated((2,))], 4: [_reallocated(second, 100.3)]},
+                                             stamps)
+    (refused,) = answers
+    assert (refused.level, refused.name, refused.t) == ('ERROR', events.COMMAND_REJECTED, 100.3)
+    assert refused.message == f'wheels_reallocated refused: {reason}'
+    assert core.chaser.attitude.wheels_out == {2} and core.chaser.wheels_out_pending == []
+    assert all(cmd.wheel_torque_n_m[0] != 0.0 for cmd in cmds) and all(cmd.wheel_torque_n_m[2] == 0.0
+                                                                        for cmd in cmds[3:])

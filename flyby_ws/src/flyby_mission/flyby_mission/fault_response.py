@@ -5,8 +5,10 @@
 ``thrusters_isolated`` event where the response closes the candidate thrusters (the simulator closes their valves),
 the ``wheels_reallocated`` event where it takes the named wheels out of the attitude control (guidance commands them
 nothing and gives their axes' torque to the wheels left and the thrusters' couples: docs/faults.md), and whether to
-abort. The machine's other rule (an ERROR event of a watched node aborts) does not apply to a
-detection: the table answers it.
+abort. The machine's other rule (an ERROR event of a watched node aborts) does not apply to a detection: the table
+answers it. It does apply to guidance's refusal of a reallocation (an ERROR ``command_rejected`` once the wheels left
+span fewer than three axes, or for an index that is no wheel: guidance knows the wheels' geometry, the supervisor does
+not), which aborts after this module's ``reallocate``.
 """
 
 from flyby_mission.fault_table import Answer, FaultTable

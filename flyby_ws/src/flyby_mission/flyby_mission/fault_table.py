@@ -14,6 +14,9 @@ from flyby_msgs_py import contract as c
 
 TABLE_PATH = Path(__file__).with_name('fault_table.yaml')
 RESPONSES = ('continue', 'abort', 'isolate', 'isolate_abort', 'reallocate')
+# The responses that act on one component's candidates: isolate closes thrusters' valves, reallocate takes wheels out
+# of the attitude control; on another component's row they would act on nothing (or on the wrong indices).
+RESPONSE_COMPONENT = {'isolate': 'thrusters', 'isolate_abort': 'thrusters', 'reallocate': 'wheels'}
 PHASE_GROUPS = {
     'standby': (c.PHASE_ESTIMATION, c.PHASE_PLANNING),
     'approach': (c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES,
@@ -36,7 +39,8 @@ class Answer:
 
 def fmeca_rows(markdown):
     """The FMECA's rows (dicts of COLUMNS) from the markdown between BEGIN and END; ValueError naming the row for a
-    malformed one."""
+    malformed one (a cell count, a severity, a response unknown or on a component it cannot act on:
+    RESPONSE_COMPONENT)."""
     if BEGIN not in markdown or END not in markdown:
         raise ValueError(f'the FMECA table must lie between {BEGIN} and {END}')
     lines = [x.strip() for x in markdown.split(BEGIN, 1)[1].split(END, 1)[0].strip().splitlines()]
@@ -54,6 +58,10 @@ def fmeca_rows(markdown):
             if row[group] not in RESPONSES:
                 raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): {group} response '
                                  f'{row[group]!r} is not one of {", ".join(RESPONSES)}')
+            needs = RESPONSE_COMPONENT.get(row[group])
+            if needs is not None and row['component'] != needs:
+                raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): {group} response '
+                                 f'{row[group]!r} acts on {needs} only, not on {row["component"]}')
         rows.append(row)
     return rows
 

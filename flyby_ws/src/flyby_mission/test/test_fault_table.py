@@ -31,6 +31,45 @@ def test_a_malformed_fmeca_row_is_refused_naming_it():
         fmeca_rows(text)
 
 
+@pytest.mark.parametrize('old, new, refusal', [
+    ('| wheels | 2 | reallocate | reallocate |', '| wheels | 2 | continue | reallocate |', None),  # on wheels: kept
+    ('| thrusters | 2 | abort | abort |', '| thrusters | 2 | reallocate | abort |',
+     r"FMECA row 2 \(thrust_deficit thrusters\): standby response 'reallocate' acts on wheels only, not on thrusters"),
+    ('| watchdog | 2 | abort | continue |', '| watchdog | 2 | abort | isolate |',
+     r"FMECA row 7 \(node_lost flyby_planner\): approach response 'isolate' acts on thrusters only, not on "
+     r"flyby_planner"),
+    ('| wheels | 2 | reallocate | reallocate |', '| wheels | 2 | reallocate | isolate_abort |',
+     r"FMECA row 3 \(wheel_torque_deficit wheels\): approach response 'isolate_abort' acts on thrusters only"),
+])
+def test_a_response_on_a_component_it_cannot_act_on_is_refused_naming_the_row(old, new, refusal):
+    text = (REPO / 'docs' / 'faults.md').read_text()
+    assert old in text
+    text = text.replace(old, new, 1)
+    if refusal is None:
+        assert fmeca_rows(text)[2]['standby'] == 'continue'
+    else:
+        with pytest.raises(ValueError, match=refusal):
+            fmeca_rows(text)
+
+
+def test_the_script_refuses_a_misplaced_response_in_one_line(tmp_path):
+    """scripts/fault_table.py --check (it writes nothing, whatever happens) on an FMECA with a reallocate on the
+    thrusters: exit 2 and one line naming the row, no traceback."""
+    script = (REPO / 'scripts' / 'fault_table.py').read_text()
+    docs = tmp_path / 'docs'
+    docs.mkdir()
+    docs.joinpath('faults.md').write_text((REPO / 'docs' / 'faults.md').read_text().replace(
+        '| thrusters | 2 | abort | abort |', '| thrusters | 2 | reallocate | abort |', 1))
+    (tmp_path / 'scripts').mkdir()
+    (tmp_path / 'scripts' / 'fault_table.py').write_text(script)  # REPO is the script's parent's parent: tmp_path
+    run = subprocess.run([sys.executable, str(tmp_path / 'scripts' / 'fault_table.py'), '--check'],
+                         capture_output=True, text=True, check=False)
+    assert run.returncode == 2 and run.stdout == ''
+    assert run.stderr.splitlines() == [
+        "docs/faults.md: FMECA row 2 (thrust_deficit thrusters): standby response 'reallocate' acts on wheels only, "
+        "not on thrusters"]
+
+
 @pytest.mark.parametrize('kind, component, phase, response', [
     ('thrust_excess', 'thrusters [4, 5]', c.PHASE_TRAJECTORY_ADJUST, 'isolate_abort'),
     ('thrust_excess', 'thrusters [4, 5]', c.PHASE_FLYBY, 'isolate'),
@@ -139,3 +178,18 @@ def test_a_wheel_fault_in_the_approach_takes_the_wheel_out_and_the_approach_goes
     out = empty.on_event(_detection(400.0, 'wheel_torque_excess', 'wheels []', ()))
     assert event_payloads.decode_values(out[0].name, out[0].values).response == 'abort'
     assert empty.phase == c.PHASE_ABORTED
+
+
+def test_a_second_wheel_guidance_refuses_aborts_the_approach():
+    """Wheel 2 reallocated, then wheel 0 detected: the table answers reallocate again, guidance refuses it (three
+    orthogonal wheels, the wheels left no longer span three axes: modes.chaser) with an ERROR command_rejected, and
+    the supervisor aborts on that watched node's ERROR."""
+    core = _supervisor_in(c.PHASE_TERMINAL_APPROACH)
+    core.on_event(_detection(400.0, 'wheel_torque_deficit', 'wheels [2]', (2,)))
+    out = core.on_event(_detection(420.0, 'wheel_torque_deficit', 'wheels [0]', (0,)))
+    assert event_payloads.decode_values(out[0].name, out[0].values).response == 'reallocate'
+    assert core.phase == c.PHASE_TERMINAL_APPROACH
+    refused = Event(420.0, 'ERROR', events.COMMAND_REJECTED, 'wheels_reallocated refused: wheels [0] cannot be taken '
+                    'out: the wheels left [0, 1] already span fewer than three axes', {'wheels': [0]}, 'flyby_guidance')
+    core.on_event(wire_event(refused))
+    assert core.phase == c.PHASE_ABORTED

@@ -8,8 +8,16 @@ commanded.
 
 A wheel fault's ``wheels_reallocated`` (the supervisor's ``reallocate``, docs/faults.md) takes the named wheels out of
 both attitude laws (the pointing's and the synchronized hold's, ``AttitudeGuidance.take_wheels_out``) from the first
-chaser estimate stamped at or after the event: a rule on stamps, so the commands are the same whether the event or
-the estimate comes first.
+chaser estimate stamped after the event (strictly: the event carries its detection's stamp t, and the estimator's
+estimate of t may go out before or after the detection, the IMU's and the tachometers' samples of t coming in either
+order; so that estimate is never the one that drops the wheel, whichever reaches guidance first). Headless, the event
+always comes in before any later estimate (the detection, the supervisor's answer and guidance's event are delivered
+within the step that made them). In the graph nothing holds the next estimate back for the supervisor's answer: an
+event reaching guidance after an estimate stamped after t applies from the first estimate after its arrival, later
+than headless (``wheels_late`` counts such events; docs/faults.md). A
+reallocation the law refuses (a wheel index that is no wheel, or a further wheel once the wheels left span fewer than
+three axes) is answered at its arrival with an ERROR ``command_rejected`` naming it, which aborts the approach (the
+supervisor's rule for a watched node's ERROR), and nothing is taken out.
 """
 
 import collections
@@ -66,18 +74,31 @@ class RigidBodyChaser(GuidanceMode):
         self.sync_hold = SynchronizedHold(synchronized, source, self, targets)
         self.modes = (self.sync_hold, self.tracking)
         self.wheels_out_pending = []  # (t [s], wheel indices) of wheels_reallocated not yet applied (module doc)
+        self.last_estimate_t = -np.inf  # [s] the stamp of the last estimate commanded
+        self.wheels_late = 0  # wheels_reallocated that came in after an estimate stamped after them (module doc)
 
     def on_event(self, event, phase):
-        """wheels_reallocated: its wheels out from its stamp on (module doc)."""
-        if event.name == events.WHEELS_REALLOCATED:
-            self.wheels_out_pending.append((event.t, event_payloads.decode(event).wheels))
+        """wheels_reallocated: its wheels out from the first estimate stamped after it (module doc), or its refusal
+        (an ERROR command_rejected naming why) where the attitude law would not take them."""
+        if event.name != events.WHEELS_REALLOCATED:
+            return []
+        wheels = tuple(event_payloads.decode(event).wheels)
+        promised = [i for _, pending in self.wheels_out_pending for i in pending]
+        reason = self.attitude.wheels_out_refusal(wheels, also_out=promised)
+        if reason is not None:
+            return [self._event(event.t, 'ERROR', events.COMMAND_REJECTED, f'wheels_reallocated refused: {reason}',
+                                {'wheels': list(wheels)})]
+        if event.t < self.last_estimate_t:
+            self.wheels_late += 1
+        self.wheels_out_pending.append((event.t, wheels))
         return []
 
     def command(self, estimate, phase):
         self.account_wheels(estimate.t)
-        due = [wheels for t, wheels in self.wheels_out_pending if t <= estimate.t]
+        self.last_estimate_t = estimate.t
+        due = [wheels for t, wheels in self.wheels_out_pending if t < estimate.t]
         if due:
-            self.wheels_out_pending = [p for p in self.wheels_out_pending if p[0] > estimate.t]
+            self.wheels_out_pending = [p for p in self.wheels_out_pending if p[0] >= estimate.t]
             for law in (self.attitude, self.sync_hold.sync_attitude):
                 law.take_wheels_out([i for wheels in due for i in wheels])
         for mode in self.modes:
