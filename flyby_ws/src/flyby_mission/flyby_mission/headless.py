@@ -22,6 +22,7 @@ the file and the key ``chasers`` (``require_one_chaser``); the graph (scripts/ru
 import collections
 import copy
 import dataclasses
+import logging
 import time
 from typing import NamedTuple
 
@@ -48,7 +49,7 @@ from flyby_mission.supervisor import (
     Transition,
 )
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import event_payloads, events, wiring
+from flyby_msgs_py import event_payloads, events, link_faults, wiring
 from flyby_msgs_py.admission import RULES, Admission
 from flyby_msgs_py.core_guard import CoreGuard
 from flyby_msgs_py.link_faults import LinkFaults
@@ -127,6 +128,13 @@ class _Truth:
                 WheelTruth(t, np.array(self.wheels)) if rigid else None)
 
 
+def _node_log(node):
+    """Where a node's link logs a refused event headless (link_faults): this module's Python log, naming the node as
+    its own log does in the graph."""
+    log = logging.getLogger(__name__)
+    return lambda line: log.warning('%s: %s', node, line)
+
+
 def require_one_chaser(scenario):
     """Raise ScenarioError (file, key ``chasers``) for a scenario of several chasers (module doc)."""
     if scenario.chaser_names:
@@ -155,7 +163,10 @@ class HeadlessGraph:
         self.events_kept = collections.defaultdict(lambda: collections.deque(maxlen=c.EVENTS_HISTORY))  # by source
         self.subscribers = {topic: wiring.subscribers(topic, scenario) for topic in wiring.SUBSCRIPTIONS}
         self.admissions = {node: Admission() for node in wiring.NODES}
-        self.links = {node: LinkFaults() for node in wiring.NODES}  # each receiver's (flyby_msgs_py.link_faults)
+        self.links = {node: LinkFaults(log=_node_log(node)) for node in wiring.NODES}  # each receiver's (link_faults)
+        # The receivers that hear the simulator's events for their links, as in the graph (link_faults.watches).
+        self.watching = [node for node in wiring.NODES
+                         if link_faults.watches(scenario.faults, wiring.topics_of(node, scenario))]
         self.phases = []
         self.truth = _Truth()
         self.run = HeadlessRun(summary={})
@@ -223,8 +234,8 @@ class HeadlessGraph:
         out = [Event(e.t, e.level, e.name, e.message, e.values, SIM_NODE) for e in self.plant.drain_events()]
         for event in out:
             self._node_fault(event)
-            for link in self.links.values():
-                link.on_event(event.name, event.values)
+            for node in self.watching:
+                self.links[node].on_event(event.name, event.values)
         self._publish(out)
 
     def _guarded(self, node, callback, t, fn, *args):

@@ -14,8 +14,9 @@ a stream, a frame the contract does not give the topic) never reaches the core; 
 100th ... refusal of each topic and reason is a WARN ``message_rejected`` on ``mission/events``, and the counts go
 to the node's log when it is destroyed. The simulator, which is no CoreNode, takes its commands through the same gate.
 Before its admission a message passes the link (flyby_msgs_py.link_faults): where the scenario has a topic fault on
-one of a node's topics, the gate hears the simulator's fault events and the clock, and holds or drops the messages
-the fault's window holds, as the headless driver does with the same rule.
+one of a node's topics, the gate hears the simulator's fault events (on the node's own mission/events subscription
+where it has one) and the clock (the run loop's, runtime.ProgressReporter), and holds or drops the messages the
+fault's window holds, as the headless driver does with the same rule.
 
 Every callback that feeds the core (the subscriptions made here; a node's own subscriptions, services and
 timers through ``guard``) runs inside the core's guard (flyby_msgs_py.core_guard): an exception is logged with
@@ -104,12 +105,21 @@ class AdmissionGate:
         self.report = report
         self.label = label
         self.admission = Admission()
-        self.link = link_faults.LinkFaults()
+        self.link = link_faults.LinkFaults(log=lambda line: node.get_logger().warning(line))
+        self.watching = False  # whether the node hears the events for its link (``CoreNode.subscribe_inputs``)
         self._admitted = {}  # topic -> the callback behind its admission, for the messages the link releases
 
     def admit(self, topic, callback, raw=False):
         """``callback`` of a contract topic behind the link (``link_faults``) and the topic's admission (the callback
-        itself for a topic without a rule: mission/phase, a text without a header)."""
+        itself for a topic without a rule: mission/phase, a text without a header). A watching node's mission/events
+        are heard by the link first, before their admission, as the headless driver's links hear every event."""
+        if topic == c.MISSION_EVENTS and self.watching:
+            admitted = self._admission(topic, callback, raw)
+
+            def heard(msg):
+                self.on_link_events(msg)
+                return admitted(msg)
+            return heard
         if topic not in self.admission.rules:
             return callback
         admitted = self._admission(topic, callback, raw)
@@ -128,13 +138,10 @@ class AdmissionGate:
         return received
 
     def on_link_events(self, msg):
-        """mission/events for the link: a topic fault's fault_injected opens its window (an event no reader can
-        decode opens none)."""
+        """mission/events for the link: a topic fault's fault_injected opens its window (one the link cannot read
+        as a fault it refuses, in one line of the node's log: link_faults.LinkFaults.on_event)."""
         for e in convert.events_from_msg(msg):
-            try:
-                self.link.on_event(e['name'], e['values'])
-            except (KeyError, ValueError):
-                continue
+            self.link.on_event(e['name'], e['values'])
 
     def release(self, now_s):
         """Hand on the messages the link held whose time has come at the receiver's time now_s [s]."""
@@ -249,23 +256,19 @@ class CoreNode(Node):
         """A subscription of every contract topic flyby_msgs_py.wiring gives this node in the scenario, each to its
         callback in ``callbacks`` (topic -> callback, or (callback, raw))."""
         topics = wiring.topics_of(self.get_name(), scenario)
+        gate = self.admission_gate
+        gate.watching = link_faults.watches(scenario.faults, topics)
         for topic in topics:
             callback, raw = callbacks[topic] if isinstance(callbacks[topic], tuple) else (callbacks[topic], False)
             self.subscribe(topic, callback, raw=raw)
-        self._watch_links(scenario, topics)
-
-    def _watch_links(self, scenario, topics):
-        """Where the scenario has a topic fault on one of ``topics``: the simulator's events, which open the faults'
-        windows, and /clock, the receiver's time that releases what the link holds (flyby_msgs_py.link_faults). The
-        link's own subscriptions, outside the node's wiring: its core reads neither."""
-        if not {f.topic for f in scenario.faults or () if f.type in link_faults.KINDS} & set(topics):
+        if not gate.watching:
             return
-        gate = self.admission_gate
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]), _name(c.MISSION_EVENTS),
-                                 self.guard(gate.on_link_events, 'link faults'), qos.qos_for(c.MISSION_EVENTS))
-        self.create_subscription(c.message_class(c.TOPIC_TYPES[c.CLOCK]), c.absolute(c.CLOCK),
-                                 self.guard(lambda data: gate.release(convert.clock_cdr_to_ns(data) / 1e9), '/clock'),
-                                 qos.qos_for(c.CLOCK), raw=True)
+        # The link's time: the run loop's ProgressReporter then reads /clock, every step, and releases what the link
+        # holds from it (runtime), the node's one time subscription.
+        self.on_link_clock = gate.release
+        if c.MISSION_EVENTS not in topics:  # the link's own: the events open the faults' windows, the core reads none
+            self.create_subscription(c.message_class(c.TOPIC_TYPES[c.MISSION_EVENTS]), _name(c.MISSION_EVENTS),
+                                     self.guard(gate.on_link_events, 'link faults'), qos.qos_for(c.MISSION_EVENTS))
 
     def odometry_input(self, core_input, *fields):
         """The raw callback of a contract Odometry into ``core_input(t, *fields)`` (fields of

@@ -62,16 +62,18 @@ def node_label(node):
 class ProgressReporter:
     """Tells the simulator how far a node has got: the last simulator time it handled.
 
-    EventsExecutor handles a node's messages in arrival order, so once a node has handled the
-    time message of t it has handled everything published before it. The reporter keeps its own
-    reliable subscription: the time source's is best effort, and a lost last time message would
-    leave the simulator waiting forever. Reported every PROGRESS_PERIOD_NS of sim time, and whenever
-    the node has gone idle with news to tell. It reads ``TICK_TOPIC`` (the time every PROGRESS_PERIOD_NS), from
-    the CDR bytes; a node that acts on the clock (the supervisor's watchdog and holds) reads ``/clock`` instead,
-    every step, and has its ``on_clock(t)`` [s] called from it, inside its core's guard (node_base.CoreNode.guard).
-    Either is the node's only time subscription. The reporter itself is outside the guard: a node whose core has
-    failed goes on reporting, so the simulator is not held for it. It is the node's ``progress_reporter``: its last
-    known sim time, for an input without a stamp.
+    EventsExecutor handles a node's messages in arrival order, so once a node has handled the time message of t it
+    has handled everything published before it. The reporter keeps its own reliable subscription: the time source's
+    is best effort, and a lost last time message would leave the simulator waiting forever. Reported every
+    PROGRESS_PERIOD_NS of sim time, and whenever the node has gone idle with news to tell. It reads ``TICK_TOPIC``
+    (the time every PROGRESS_PERIOD_NS), from the CDR bytes; a node that acts on the clock reads ``/clock`` instead,
+    every step, and calls from it, inside its core's guard (node_base.CoreNode.guard), its ``on_clock(t)`` [s] (the
+    supervisor's watchdog and holds, the rigid-body chaser's estimator's measurement order), then its
+    ``on_link_clock(t)`` (a link holding messages of a topic fault releases them, flyby_msgs_py.link_faults: after
+    the clock's own work, as the headless driver releases them at the end of its step). Either topic is the node's
+    only time subscription. The reporter itself is outside the guard: a node whose core has failed goes on
+    reporting, so the simulator is not held for it. It is the node's ``progress_reporter``: its last known sim time,
+    for an input without a stamp.
     """
 
     def __init__(self, node):
@@ -81,16 +83,15 @@ class ProgressReporter:
         self.clock_ns = 0
         self.reported_ns = -1
         self.due = None  # a Future the loop spins on: done once a report is due
-        self.listener = getattr(node, 'on_clock', None)
-        if self.listener is not None:
-            self.listener = node.guard(self.listener, '/clock')
-        node.create_subscription(Clock, '/clock' if self.listener is not None else TICK_TOPIC, self._on_clock,
-                                 QOS_STREAM, raw=True)
+        listeners = (getattr(node, 'on_clock', None), getattr(node, 'on_link_clock', None))
+        self.listeners = [node.guard(listener, '/clock') for listener in listeners if listener is not None]
+        node.create_subscription(Clock, '/clock' if self.listeners else TICK_TOPIC, self._on_clock, QOS_STREAM,
+                                 raw=True)
 
     def _on_clock(self, data):
         self.clock_ns = convert.clock_cdr_to_ns(data)
-        if self.listener is not None:
-            self.listener(self.clock_ns / 1e9)
+        for listener in self.listeners:
+            listener(self.clock_ns / 1e9)
         if self.due is not None and self.clock_ns - self.reported_ns >= PROGRESS_PERIOD_NS and not self.due.done():
             self.due.set_result(True)
 

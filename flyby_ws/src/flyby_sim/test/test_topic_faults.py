@@ -1,6 +1,7 @@
 """Topic faults (flyby_msgs_py.link_faults, flyby_sim.faults): the link's rule on one receiver (a delayed message
-handed on at its stamp plus the delay, a lost one never, nothing changed outside the window, the topic's order kept),
-the window learnt from the simulator's event as the plant reports it, and the scenario's one-line refusals."""
+handed on at its stamp plus the delay, a lost one never, nothing changed outside the window, the topic's order kept,
+nothing left held once released), the window learnt from the simulator's event as the plant reports it, an event that
+is no link fault refused in one logged line, and the scenario's one-line refusals."""
 
 import dataclasses
 from pathlib import Path
@@ -73,6 +74,36 @@ def test_a_permanent_loss_and_events_that_are_no_link_fault():
                                                   't_start': '1.0'})
     assert not other.on_event(ev.FAULT_ENDED, _injected(TOPIC_LOSS, 1.0, 2.0))
     assert not other.concerns(POSITION) and other.arrive(POSITION, 1.5, 'm') == ['m']
+
+
+def test_a_released_topic_leaves_held_so_that_an_idle_link_is_one_test():
+    link = _link(TOPIC_DELAY, value=0.3)
+    assert link.arrive(POSITION, 10.0, 'a') == [] and link.arrive(POSITION, 10.1, 'b') == []
+    assert link.due(10.35) == [(POSITION, 'a')] and POSITION in link.held
+    assert link.due(10.4) == [(POSITION, 'b')]
+    assert link.held == {}
+
+
+@pytest.mark.parametrize('change, why', [
+    ({'t_start': None}, 'no t_start'),
+    ({'t_start': 'soon'}, 'is no number'),
+    ({'t_start': 'nan'}, 'are no window'),
+    ({'duration_s': '-1.0'}, 'are no window'),
+    ({'target': 'topic'}, "target 'topic' is no"),
+    ({'target': f'sensor {POSITION}'}, 'is no'),
+    ({'target': 'topic clock'}, 'is no'),
+    ({'value': None}, 'delay None s is not in (0, 60]'),
+    ({'value': '0.0'}, 'delay 0.0 s is not in (0, 60]'),
+    ({'value': '61.0'}, 'delay 61.0 s is not in (0, 60]'),
+])
+def test_a_link_fault_event_that_is_no_such_fault_is_refused_in_one_logged_line(change, why):
+    lines = []
+    link = LinkFaults(log=lines.append)
+    values = {k: v for k, v in {**_injected(TOPIC_DELAY, 10.0, 5.0, 1.0), **change}.items() if v is not None}
+    assert not link.on_event(ev.FAULT_INJECTED, values)
+    [line] = lines
+    assert line.startswith(f'link faults: {ev.FAULT_INJECTED} ') and 'refused' in line and why in line
+    assert not link.windows and link.arrive(POSITION, 11.0, 'm') == ['m']
 
 
 def test_the_plant_reports_a_link_fault_whose_event_opens_the_window_on_the_receiver():
