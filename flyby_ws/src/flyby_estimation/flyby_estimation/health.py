@@ -42,20 +42,20 @@ Each monitor has a stated rule:
   than an interval: campaign faults_single runs 413, 166 and 259, whose trims fired the failed thruster for 10-230
   ms, missed it and did not capture.)
 
-  Accelerometer outliers: a thruster's force persists (a thruster stuck on leaks the same force from its onset on;
-  one off or weak lacks thrust only where it was commanded), while an outlier is one sample off in a random
-  direction. So an interval whose residual is more than its expected thrust could lack (beyond ``THRUST_SIGMAS``
-  of one sample's noise and its allowances, a burn's edge in it or next to it included) is thrust no command asked
-  for, a leak, only in a run of ``LEAK_INTERVALS`` consecutive such intervals each within ``STEADY_SIGMAS`` of the
-  two samples' noise (and their allowances) of the one before; any other is an outlier, left out of the window's
-  mean, and a window with fewer than half its intervals left is not judged (neither raised nor cleared). A steady
-  leak breaks such a run with probability 1e-3 a pair (a chi(3) bound: it only delays its detection), while random
-  outliers of 20 sigma line up for four intervals about once in 1e5 (none in 400 simulated 10 s bursts; of 10 sigma,
-  7 in 400 bursts detected). A leak is then seen ``LEAK_INTERVALS`` intervals after its onset; while the outliers
-  last, not at all. (Without it, a burst of 20-sigma outliers was taken for a thruster stuck on: faults_double
-  run 61.) The outliers it leaves out are the accelerometer's, whose only witness this is (the IMU's own monitor
-  has no innovations): ``OUTLIER_BURST`` or more settled ones in the window, each in a run no later interval can
-  lengthen into a leak (not one still open at the window's end: a leak's onset), are ``sensor_outliers`` on
+  Accelerometer outliers: a thruster's force persists (a thruster stuck on leaks the same force from its onset on; one
+  off or weak lacks thrust only where it was commanded), while an outlier is one sample off in a random direction. So
+  an interval whose residual is more than its expected thrust could lack (beyond ``THRUST_SIGMAS`` of one sample's
+  noise and its allowances, a burn's edge in it or next to it included) is thrust no command asked for, a leak, only
+  in a run of ``LEAK_INTERVALS`` consecutive such intervals each within ``STEADY_SIGMAS`` of the two samples' noise
+  (and their allowances) of the one before; any other is an outlier, left out of the window's mean, and a window with
+  fewer than half its intervals left is not judged (neither raised nor cleared). A steady leak breaks such a run with
+  probability 1e-3 a pair (a chi(3) bound: it only delays its detection), while random outliers of 20 sigma line up
+  for four intervals about once in 1e5 (no thrust detection in 400 simulated 10 s bursts; of 10 sigma, 4 in 400:
+  docs/faults.md gives the command, at 3c802a9). A leak is then seen ``LEAK_INTERVALS`` intervals after its onset;
+  while the outliers last, not at all. (Without it, a burst of 20-sigma outliers was taken for a thruster stuck on:
+  faults_double run 61.) The outliers it leaves out are the accelerometer's, whose only witness this is (the IMU's own
+  monitor has no innovations): ``OUTLIER_BURST`` or more settled ones in the window, each in a run no later interval
+  can lengthen into a leak (not one still open at the window's end: a leak's onset), are ``sensor_outliers`` on
   ``imu``.
 
 * **Wheels** (the rigid-body chaser's tachometers and gyro): each wheel's axial momentum J (spin + axis . gyro rate)

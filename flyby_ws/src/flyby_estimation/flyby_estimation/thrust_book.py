@@ -25,7 +25,9 @@ class ThrustBook:
         self.maneuvers = set()  # the seqs of the filter's burns that are guidance's maneuvers (not force commands)
         self.burns = {}  # seq -> the filter's ScheduledBurn as last scheduled
         self.burn_frames = {}  # seq -> q_body_from_hill as it started: the plant's burn is fixed in the body then
-        self.commands = {}  # interval start -> (delta-v [m/s, hill], total thrust [N])
+        # interval start -> (delta-v [m/s, hill], total thrust [N], granularity [N]: the force BIT_THRUSTERS left
+        # off below their minimum impulse bit may not give, 0 for no thrust)
+        self.commands = {}
         self.pending = None  # the last interval, judged at the next
 
     def on_maneuver(self, seq):
