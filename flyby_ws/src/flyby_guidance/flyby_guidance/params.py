@@ -10,6 +10,7 @@ No ROS here.
 
 import numpy as np
 
+from flyby_estimation.target_filter import ConvergenceThresholds
 from flyby_guidance.attitude_guidance import AttitudeGuidanceConfig
 from flyby_guidance.damping import PostCaptureConfig
 from flyby_guidance.guidance import GuidanceConfig
@@ -60,6 +61,7 @@ class FlybyParams:
     torque_psd_n2m2s: float = params.key('estimation.torque_psd_n2m2s')
     x_grasp_body_m: np.ndarray = params.key('target.grasp_point_body_m', np.array)
     refine_target: bool = params.key('guidance.refine_target')
+    convergence: ConvergenceThresholds = params.sub(ConvergenceThresholds)  # the re-aim's: a converged estimate
 
 
 @params.record

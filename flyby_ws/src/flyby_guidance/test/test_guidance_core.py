@@ -109,6 +109,35 @@ def test_after_the_capture_the_commands_key_on_the_locks_stamp_whatever_came_fir
     assert core.on_chaser_estimate(820.1, r, np.zeros(3), q, omega) == []
 
 
+def test_a_re_aim_takes_only_a_converged_estimate_with_a_spin_axis():
+    """fd_s8 run 59: 20 target-attitude outliers in a row restarted the target filter (omega zero, the initial
+    covariance); the re-aim raised on it (no spin axis), guidance and the supervisor died and the mission idled to its
+    time limit. Such an estimate, or any the estimator would not call converged, keeps the aim and says so; a
+    converged one re-aims."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    n = sc.mean_motion_rad_s
+    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
+    q, w = truth.state_at(400.0)
+    q_g, w_g = truth.state_at(741.0)
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(741.0, n, q_g), w_g, sc.target.grasp_point_body_m, 1.0, n)
+    core = GuidanceCore(GuidanceParams.from_scenario(sc))
+    core.on_flyby_target(741.0, x_ft + 0.01, v_ft)
+    core.on_flyby_initial(441.0, X_FI, V_FI)
+    core.on_path(60.0)
+    q_hb = q_hill_from_body(400.0, n, q)
+    small = (np.eye(3) * np.radians(0.1) ** 2, np.eye(3) * np.radians(0.005) ** 2)  # 3-sigma 0.3 deg, 0.015 deg/s
+    large = (np.eye(3) * np.radians(0.1) ** 2, np.eye(3) * np.radians(0.05) ** 2)  # 3-sigma 0.15 deg/s > 0.05
+    for omega, blocks, why in ((np.zeros(3), small, 'has no spin axis'), ([np.nan] * 3, None, 'has no spin axis'),
+                               (w, large, 'not converged')):
+        (kept,) = core.flyby._refine(400.0, (400.0, (q_hb, np.asarray(omega), blocks)))
+        assert kept.name == 'target_refined' and kept.level == 'WARN' and why in kept.message
+        assert event_payloads.decode(kept).t_grasp_s is None  # the supervisor keeps its grasp time
+        assert core.flyby.guidance.target.x_ft == pytest.approx(x_ft + 0.01, abs=0.0)
+    (refined,) = core.flyby._refine(400.0, (400.0, (q_hb, w, small)))
+    assert refined.level == 'OK' and refined.values['shift_m'] > 0.005
+    assert core.flyby.guidance.target.x_ft == pytest.approx(refined.values['x_ft_hill_m'], abs=1e-9)
+
+
 def test_in_transport_an_estimate_on_the_com_grid_waits_for_the_refined_com_whatever_came_first():
     """In TRANSPORT the estimator gives the combined CoM at every stamp of its grid after the final estimate
     (``transport_navigation.on_com_grid``), before the chaser estimate of that stamp, but the topics race in the graph:

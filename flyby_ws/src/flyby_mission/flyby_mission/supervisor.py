@@ -65,7 +65,7 @@ from flyby_msgs_py.wire import Event
 from flyby_planner.flyby.avoidance import avoidance_burn
 from flyby_planner.flyby.config import PlannerConfig
 from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
-from flyby_planner.flyby.keepout import swept_region
+from flyby_planner.flyby.keepout import any_attitude_region, has_spin_axis, swept_region
 from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
 # Phases in which a faulty watched node (its ERROR event) aborts the mission (after FLYBY nothing is left to command).
@@ -346,6 +346,7 @@ class SupervisorCore:
         self.dynamics = ErrorStateDynamics(params.target_inertia_kg_m2)
         self.n = params.n_rad_s
         self.targets = StampedBuffer()  # (t, q_hill_from_body, omega_body) of the target estimates
+        self.spinning_target = None  # the latest of them with a spin axis (keepout.has_spin_axis): _escape_burn
         self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
         self.decision_at = None  # the chaser estimate the capture decision waits to be made at
         self.t_clock = 0.0
@@ -367,7 +368,10 @@ class SupervisorCore:
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_target_estimate(self, t, q_hill_from_body, omega_body):
-        self.targets.add(t, (t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float)))
+        estimate = (t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float))
+        self.targets.add(t, estimate)
+        if has_spin_axis(self.params.target_inertia_kg_m2, estimate[2]):
+            self.spinning_target = estimate
         return self._apply(self.machine.target_estimate(t)) + self._try_decision()
 
     def on_chaser_estimate(self, t, r_hill, v_hill):
@@ -454,9 +458,14 @@ class SupervisorCore:
         return self._apply(self.machine.decide(self.decision_at[0], decision))
 
     def _escape_burn(self, t):
-        """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast is unsafe."""
-        latest = self.targets.latest
-        if self.chaser is None or latest is None:
+        """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast is unsafe.
+
+        The keep-out region is swept about the spin axis of the latest target estimate that has one; a filter just
+        restarted from a measurement (its omega zero, target_filter's reset after its run of outliers) has none, so
+        an estimate before it is taken, and with none at all the region that holds the body at every attitude
+        (keepout.any_attitude_region). Never raising here: the abort must be published (a raise fences the core off,
+        and the mission would idle in the phase it aborted from, fd_s8 run 59)."""
+        if self.chaser is None or self.targets.latest is None:
             return []
         p = self.params
         t_c, r, v = self.chaser
@@ -465,16 +474,21 @@ class SupervisorCore:
         if np.linalg.norm(state[:3]) < p.restriction_sphere_radius_m + p.sphere_margin_m:
             return [self._event(t, 'WARN', events.NO_AVOIDANCE_BURN, 'inside the restriction sphere: coasting, never '
                                                                        'thrusting', {})]
-        t_t, q_hb, omega_body = latest[1]
-        region = swept_region(p.boxes, p.target_inertia_kg_m2, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
+        if self.spinning_target is not None:
+            t_t, q_hb, omega_body = self.spinning_target
+            region = swept_region(p.boxes, p.target_inertia_kg_m2, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
+            basis = '' if t_t == self.targets.latest[0] else f' (region about the spin axis of t = {t_t:.2f} s)'
+        else:
+            region = any_attitude_region(p.boxes)
+            basis = ' (no target estimate with a spin axis: the region of every attitude)'
         dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, p.planner, p.avoidance_delta_v_mps)
         if dv is None:
             return [self._event(t, 'OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
-                                                                    f'{before:.2f} m)', {'clearance_m': before})]
+                                                                    f'{before:.2f} m){basis}', {'clearance_m': before})]
         return [AvoidanceBurn(t_burn, dv),
                 self._event(t, 'WARN', events.AVOIDANCE_BURN,
                             f'coast would come {before:.2f} m from the keep-out region; burn of '
-                            f'{np.linalg.norm(dv):.3f} m/s at t = {t_burn:.2f} s keeps {after:.2f} m',
+                            f'{np.linalg.norm(dv):.3f} m/s at t = {t_burn:.2f} s keeps {after:.2f} m{basis}',
                             {'dv_hill_mps': [float(x) for x in dv]})]
 
     # -- outputs --------------------------------------------------------------------------------

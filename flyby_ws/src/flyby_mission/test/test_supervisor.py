@@ -21,6 +21,7 @@ from flyby_mission.supervisor import (
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event
 from flyby_planner.flyby.grasp_search import capture_target_body, flyby_target_from_attitude
+from flyby_planner.flyby.keepout import any_attitude_region, has_spin_axis, swept_region
 from flyby_sim.dynamics.attitude import AttitudePropagator
 from flyby_sim.dynamics.orbital import cw_accel, cw_coast, q_eci_from_body, q_hill_from_body
 from flyby_sim.scenario import load_scenario
@@ -224,6 +225,47 @@ def test_core_abort_outside_the_sphere_fires_an_avoidance_burn_only_if_the_coast
     burns = [o for o in out if isinstance(o, AvoidanceBurn)]
     assert aborted and len(burns) == 1 and burns[0].t == 100.0 + sc.guidance.command_lead_s
     assert burns[0].dv_hill[0] > 0.0  # it turns the chaser away from the target
+
+
+def test_an_abort_on_a_restarted_target_estimate_is_published_with_its_avoidance_burn():
+    """fd_s8 run 59: the target filter restarted after 20 outliers in a row (its omega zero: no spin axis), guidance
+    raised on it and the supervisor, aborting on guidance's node_error, raised in the avoidance burn's keep-out
+    region: its core fenced off, the ABORTED never published, the mission idled in TRAJECTORY_ADJUST to its time
+    limit. The region is now swept about the last estimate that has a spin axis, or with none the region of every
+    attitude; the abort and its burn are published."""
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    q0 = sc.q_hill_from_body0
+    for spinning in (True, False):
+        core = SupervisorCore(SupervisorParams.from_scenario(sc))
+        core.machine.phase, core.machine.t_i = c.PHASE_TRAJECTORY_ADJUST, 90.0
+        if spinning:
+            core.on_target_estimate(99.9, q0, sc.omega_body0_rad_s)
+        core.on_target_estimate(100.0, q0, np.zeros(3))  # the restarted filter
+        core.on_chaser_estimate(100.0, np.array((20.0, 0.0, 0.0)), np.array((-0.2, 0.0, 0.0)))
+        _alive(core, 100.0)
+        core.on_clock(100.0)
+        out = core.on_event(Event(100.0, 'ERROR', 'node_error', 'flyby_guidance: ValueError: no spin axis',
+                                  {'node': 'flyby_guidance'}, 'flyby_guidance'))
+        assert core.phase == c.PHASE_ABORTED
+        assert [o.phase_to for o in out if hasattr(o, 'phase_to')] == [c.PHASE_ABORTED]
+        burns = [o for o in out if isinstance(o, AvoidanceBurn)]
+        assert len(burns) == 1 and burns[0].dv_hill[0] > 0.0
+        (said,) = [o.message for o in out if isinstance(o, Event) and o.name == 'avoidance_burn']
+        assert ('spin axis of t = 99.90 s' in said) == spinning and ('every attitude' in said) == (not spinning)
+
+
+def test_the_region_of_every_attitude_holds_every_swept_region():
+    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    anywhere = any_attitude_region(sc.boxes)
+    assert not has_spin_axis(sc.target_inertia, np.zeros(3)) and not has_spin_axis(sc.target_inertia, [np.nan] * 3)
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        q = rng.normal(size=4)
+        region = swept_region(sc.boxes, sc.target_inertia, [q / np.linalg.norm(q)], [rng.normal(size=3)])
+        assert region.bounding_radius_m <= anywhere.bounding_radius_m + 1e-12
+        assert np.all(region.radius_m <= anywhere.radius_m + 1e-12)
+        assert np.all(region.axial_max_m <= anywhere.axial_max_m + 1e-12)
+        assert np.all(region.axial_min_m >= anywhere.axial_min_m - 1e-12)
 
 
 def test_core_decides_against_the_offset_of_the_plan_selected():

@@ -5,7 +5,11 @@ the plan time) starts ``FlybyGuidance`` (flyby_guidance.guidance) with its first
 after the plan time, as the planner assumed (t_Ti). Each chaser estimate steps it, in order; the maneuvers it returns
 are commanded ahead of their start. Before each adjusting burn the grasp is re-solved from the target estimate of the
 deciding chaser estimate's stamp and the burn aims at it (seed 000 §4.6): a chaser estimate that re-aims waits for
-that target estimate, so the aim is the same at any pace of the run. In the phases CAPTURE, ESCAPE, COMPLETE and
+that target estimate, so the aim is the same at any pace of the run. Only an estimate the estimator would call
+converged re-aims (its published covariance within the ``estimation.convergence_*`` bounds, and a spin axis): one
+that is not (the target filter restarted after a run of outliers, its rate zero and its covariance the initial one)
+keeps the aim, which the last converged estimate checked, and says so (fd_s8 run 59: it raised, guidance and the
+supervisor died, the mission idled to its time limit). In the phases CAPTURE, ESCAPE, COMPLETE and
 ABORTED nothing is commanded.
 """
 
@@ -20,6 +24,7 @@ from flyby_guidance.modes.interface import GuidanceMode
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events
 from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, flyby_target_point, offset_of_flyby_target, refine_grasp
+from flyby_planner.flyby.keepout import has_spin_axis
 from flyby_planner.flyby.passive_safety import check_passage
 
 QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
@@ -111,6 +116,20 @@ class FlybyAdjusting(GuidanceMode):
                                     **mv.values}))
         return out + [e._replace(source=self.source) for e in emitted]
 
+    def _unusable(self, omega_body, covariance):
+        """Why the target estimate (omega_body, its error covariance or None) may not re-aim, or '' (module doc)."""
+        if not has_spin_axis(self.params.target_inertia_kg_m2, omega_body):
+            return 'has no spin axis (the target filter restarted)'
+        if covariance is None:
+            return ''
+        largest = np.linalg.eigvalsh(np.array((covariance[:3, :3], covariance[3:, 3:])))[:, -1]
+        att, rate = 3.0 * np.sqrt(np.maximum(largest, 0.0))
+        if not self.params.convergence.met_by(att, rate):
+            return (f'not converged (3-sigma {np.degrees(att):.3g} deg, {np.degrees(rate):.3g} deg/s; bounds '
+                    f'{np.degrees(self.params.convergence.attitude_3sigma_rad):g} deg, '
+                    f'{np.degrees(self.params.convergence.rate_3sigma_rad_s):g} deg/s)')
+        return ''
+
     def _refine(self, t, target):
         """Re-aim at the grasp re-solved from the target estimate (stamp, (q, omega)), seed 000 §4.6, if the
         passive arc through it keeps off the target by that estimate (plan.check_passage, the planner's
@@ -122,6 +141,11 @@ class FlybyAdjusting(GuidanceMode):
         if aim.t_f <= t_est:
             return []
         covariance = None if blocks is None else covariance_from_published(q_hb, *blocks)
+        unusable = self._unusable(omega_body, covariance)
+        if unusable:
+            return [self._event(t, 'WARN', events.TARGET_REFINED, f'target estimate of t = {t_est:.2f} s {unusable}: '
+                                                                  f'keeping the aim',
+                                event_payloads.encode(event_payloads.TargetRefined()))]
         cfg = self.planner_config
         prediction = prediction_from_estimate(self.dynamics, self.n, t_est, q_hb, omega_body,
                                               aim.t_f + max(REFINE_HORIZON_S, cfg.geometry_window_s), covariance)

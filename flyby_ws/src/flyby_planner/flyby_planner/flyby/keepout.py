@@ -81,6 +81,29 @@ class SweptRegion:
         return self.signed_distance(r_hill, t, n) - envelope_radius_m
 
 
+def has_spin_axis(inertia, omega_body):
+    """True if the rate omega_body [rad/s] gives the target an angular momentum I omega (finite, nonzero): the axis
+    swept_region needs. A filter restarted from one measurement (flyby_estimation.target_filter, its reset) has
+    omega_body zero: no axis."""
+    h = np.asarray(inertia, dtype=float) @ np.asarray(omega_body, dtype=float)
+    norm = float(np.linalg.norm(h))
+    return bool(np.isfinite(norm) and norm > 0.0)
+
+
+def any_attitude_region(boxes):
+    """The SweptRegion that holds the body at every attitude, for a target whose spin axis is unknown: each box's
+    cylinder of radius and half-height its farthest corner's distance from the centre of mass (it holds that
+    sphere), about an arbitrary axis (ECI z). Conservative beyond any swept_region of the same boxes."""
+    names, reach = [], []
+    for name, center, size in zip(boxes.names, boxes.center_body_m, boxes.size_m, strict=True):
+        corners = np.asarray(center, dtype=float) + 0.5 * _CORNER_SIGNS * np.asarray(size, dtype=float)
+        names.append(name)
+        reach.append(float(np.linalg.norm(corners, axis=1).max()))
+    reach = np.array(reach)
+    return SweptRegion(axis_eci=np.array((0.0, 0.0, 1.0)), names=tuple(names), axial_min_m=-reach,
+                       axial_max_m=reach.copy(), radius_m=reach.copy())
+
+
 def swept_region(boxes, inertia, q_eci_from_body, omega_body):
     """SweptRegion of body boxes rotating torque-free, from attitude samples of the motion.
 
