@@ -300,13 +300,20 @@ def test_a_wheel_taken_out_is_commanded_nothing_and_the_thrusters_give_its_axis_
     assert math.degrees(run.pointing_error_rad[run.t_s >= 100.0].max()) < 0.05
 
 
+def _wheel_out(wheels, index, range_m, tilt_axis):
+    """(guidance with wheel index out, r, v, the line-of-sight goal at range_m on R-bar, an attitude 2 deg off it
+    about tilt_axis)."""
+    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, wheels)
+    guidance.take_wheels_out([index])
+    r, v = np.array([range_m, 0.0, 0.0]), np.zeros(3)
+    goal = LineOfSightGoal().update(0.0, r, v, N)
+    q = quat_multiply(goal.q_hill_from_goal, quat_from_axis_angle(tilt_axis, math.radians(2.0)))
+    return guidance, r, v, goal, q
+
+
 def test_inside_the_sphere_a_wheel_taken_out_leaves_its_axis_without_torque():
     """No thruster fires inside the restriction sphere: with wheel 2 out its axis gets no torque at all there."""
-    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, WHEELS)
-    guidance.take_wheels_out([2])
-    r, v = np.array([10.0, 0.0, 0.0]), np.zeros(3)
-    goal = LineOfSightGoal().update(0.0, r, v, N)
-    q = quat_multiply(goal.q_hill_from_goal, quat_from_axis_angle([0.0, 0.0, 1.0], math.radians(2.0)))
+    guidance, r, v, goal, q = _wheel_out(WHEELS, 2, 10.0, [0.0, 0.0, 1.0])
     for k in range(20):
         cmd = guidance.command(0.1 * k, q, goal.omega_goal, np.zeros(3), r, v, N, inside_restriction_sphere=True)
         assert cmd.wheel_torque_n_m[2] == 0.0 and not cmd.thruster_torque_body_n_m.any()
@@ -359,11 +366,7 @@ def test_a_wheel_that_cannot_be_taken_out_is_refused_naming_it_and_nothing_chang
 
 def test_a_redundant_set_keeps_three_axes_on_its_wheels_after_one_loss():
     """The pyramid with wheel 3 out spans the body: no thruster torque for the control, every axis on the wheels."""
-    guidance = AttitudeGuidance(AttitudeGuidanceConfig(), SEED001_SERVICER, PYRAMID)
-    guidance.take_wheels_out([3])
-    r, v = np.array([30.0, 0.0, 0.0]), np.zeros(3)
-    goal = LineOfSightGoal().update(0.0, r, v, N)
-    q = quat_multiply(goal.q_hill_from_goal, quat_from_axis_angle([1.0, 1.0, 1.0], math.radians(2.0)))
+    guidance, r, v, goal, q = _wheel_out(PYRAMID, 3, 30.0, [1.0, 1.0, 1.0])
     cmd = guidance.command(0.0, q, goal.omega_goal, np.zeros(4), r, v, N, inside_restriction_sphere=False)
     assert cmd.wheel_torque_n_m[3] == 0.0 and not cmd.thruster_torque_body_n_m.any()
     np.testing.assert_allclose(-PYRAMID.axis_matrix @ cmd.wheel_torque_n_m, guidance.body_torque_n_m, atol=1e-15)
