@@ -59,19 +59,27 @@ def test_nothing_is_commanded_after_the_fly_by():
     assert core.on_chaser_estimate(70.0, np.array((50.0, 0.0, 0.0)), np.zeros(3)) == []
 
 
-def test_a_re_aim_keeps_the_offset_of_the_plan():
-    """The plan flies delta r = 1.3 m (|X_Ft| - |x_g|, eq 20); the grasp re-solved from a newer estimate is
-    offset by the same 1.3 m, not by the scenario's preferred planner.offset_m."""
+def _aimed_at_paper_flyby(offset_m, aim_error_m):
+    """(guidance core on paper_flyby's fly-by, aimed at the grasp point offset_m out at 741 s, off by aim_error_m
+    along each hill axis; n; the target's true attitude and rate at 400 s)."""
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     n = sc.mean_motion_rad_s
     truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
     q, w = truth.state_at(400.0)
     q_g, w_g = truth.state_at(741.0)
-    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(741.0, n, q_g), w_g, sc.target.grasp_point_body_m, 1.3, n)
+    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(741.0, n, q_g), w_g, sc.target.grasp_point_body_m,
+                                            offset_m, n)
     core = GuidanceCore(GuidanceParams.from_scenario(sc))
-    core.on_flyby_target(741.0, x_ft, v_ft)
+    core.on_flyby_target(741.0, x_ft + aim_error_m, v_ft)
     core.on_flyby_initial(441.0, X_FI, V_FI)
     core.on_path(60.0)
+    return core, n, q, w
+
+
+def test_a_re_aim_keeps_the_offset_of_the_plan():
+    """The plan flies delta r = 1.3 m (|X_Ft| - |x_g|, eq 20); the grasp re-solved from a newer estimate is
+    offset by the same 1.3 m, not by the scenario's preferred planner.offset_m."""
+    core, n, q, w = _aimed_at_paper_flyby(1.3, 0.0)
     (refined,) = core.flyby._refine(400.0, (400.0, (q_hill_from_body(400.0, n, q), w, None)))
     assert refined.name == 'target_refined'
     offset = np.linalg.norm(refined.values['x_ft_hill_m']) - np.linalg.norm(refined.values['x_g_hill_m'])
@@ -114,16 +122,8 @@ def test_a_re_aim_takes_only_a_converged_estimate_with_a_spin_axis():
     covariance); the re-aim raised on it (no spin axis), guidance and the supervisor died and the mission idled to its
     time limit. Such an estimate, or any the estimator would not call converged, keeps the aim and says so; a
     converged one re-aims."""
-    sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
-    n = sc.mean_motion_rad_s
-    truth = AttitudePropagator(q_eci_from_body(0.0, n, sc.q_hill_from_body0), sc.omega_body0_rad_s, sc.target_inertia)
-    q, w = truth.state_at(400.0)
-    q_g, w_g = truth.state_at(741.0)
-    x_ft, v_ft = flyby_target_from_attitude(q_hill_from_body(741.0, n, q_g), w_g, sc.target.grasp_point_body_m, 1.0, n)
-    core = GuidanceCore(GuidanceParams.from_scenario(sc))
-    core.on_flyby_target(741.0, x_ft + 0.01, v_ft)
-    core.on_flyby_initial(441.0, X_FI, V_FI)
-    core.on_path(60.0)
+    core, n, q, w = _aimed_at_paper_flyby(1.0, 0.01)
+    aimed = np.array(core.flyby.guidance.target.x_ft, dtype=float)
     q_hb = q_hill_from_body(400.0, n, q)
     small = (np.eye(3) * np.radians(0.1) ** 2, np.eye(3) * np.radians(0.005) ** 2)  # 3-sigma 0.3 deg, 0.015 deg/s
     large = (np.eye(3) * np.radians(0.1) ** 2, np.eye(3) * np.radians(0.05) ** 2)  # 3-sigma 0.15 deg/s > 0.05
@@ -132,7 +132,7 @@ def test_a_re_aim_takes_only_a_converged_estimate_with_a_spin_axis():
         (kept,) = core.flyby._refine(400.0, (400.0, (q_hb, np.asarray(omega), blocks)))
         assert kept.name == 'target_refined' and kept.level == 'WARN' and why in kept.message
         assert event_payloads.decode(kept).t_grasp_s is None  # the supervisor keeps its grasp time
-        assert core.flyby.guidance.target.x_ft == pytest.approx(x_ft + 0.01, abs=0.0)
+        assert core.flyby.guidance.target.x_ft == pytest.approx(aimed, abs=0.0)
     (refined,) = core.flyby._refine(400.0, (400.0, (q_hb, w, small)))
     assert refined.level == 'OK' and refined.values['shift_m'] > 0.005
     assert core.flyby.guidance.target.x_ft == pytest.approx(refined.values['x_ft_hill_m'], abs=1e-9)
