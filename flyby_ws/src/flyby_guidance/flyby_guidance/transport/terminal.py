@@ -193,10 +193,13 @@ class TransportTerminal:
         if not self.wheels_steer:
             rate = min(rate, self._affordable_turn_rate(q_now, arc / angle, self.body.mass_kg * float(
                 np.linalg.norm(dv_hill))))
-            if rate <= 0.0 or t + angle / rate + WHEEL_SPINUP_S > self.deadline - self.config.hold_s:
+            if rate <= 0.0:
                 return []
+        t_check = t + angle / rate + WHEEL_SPINUP_S
+        if not self.wheels_steer and t_check > self.deadline - self.config.hold_s:
+            return []
         self.turning = (t, q_now, arc / angle, angle, rate)
-        self.t_check = t + angle / rate + WHEEL_SPINUP_S
+        self.t_check = t_check
         by = 'wheels' if self.wheels_steer else 'thrusters\' couples'
         return [('OK', events.TRANSPORT_TURN, f'no terminal firing reaches rest at the attitude held: the {by} turn '
                                               f'the push axis {math.degrees(angle):.1f} deg at {rate:.3g} rad/s',
