@@ -1,0 +1,83 @@
+"""Whether an undetected fault changed its run's outcome: each run of a fault campaign whose injected fault went
+undetected is flown again without its faults (its twin: the same scenario, seed and draws), and the two outcomes are
+compared (issue 40's acceptance: every fault that changes the outcome must be detected; docs/faults.md).
+
+The campaign directory (flyby_mission.campaign.runner) gains ``runs/<i>/twin_summary.json`` per twin flown and
+``fault_effect.csv``, one row per undetected fault: its run, kind and target, the outcome with and without it, and the
+least clearance of both. A run whose twin was flown is not flown again (resume).
+"""
+
+import csv
+import json
+from pathlib import Path
+
+import yaml
+
+TWIN_SUMMARY = 'twin_summary.json'
+EFFECT_CSV = 'fault_effect.csv'
+EFFECT_COLUMNS = ('run', 'fault', 'kind', 'target', 'outcome', 'twin_outcome', 'changed', 'min_clearance_m',
+                  'twin_min_clearance_m')
+
+
+def _read_json(path):
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def undetected_faults(summary):
+    """The injected plant faults of a run's summary that no isolated detection names (fault_report's rule)."""
+    injected = (summary.get('faults_injected') or {}).get('plant') or []
+    detections = summary.get('faults_detected') or []
+    named = {d.get('fault') for d in detections if d.get('isolated', True)}
+    return [f for f in injected if f['fault'] not in named]
+
+
+def runs_to_twin(out_dir):
+    """{run: its summary} of the campaign's runs with an undetected injected fault, in run order."""
+    todo = {}
+    for run_dir in sorted((Path(out_dir) / 'runs').iterdir(), key=lambda p: int(p.name)):
+        summary = _read_json(run_dir / 'summary.json')
+        if summary is not None and undetected_faults(summary):
+            todo[int(run_dir.name)] = summary
+    return todo
+
+
+def twin_scenario(out_dir, run):
+    """The run's scenario dict (runs/<i>/scenario.yaml) with its faults removed."""
+    scenario = yaml.safe_load((Path(out_dir) / 'runs' / str(run) / 'scenario.yaml').read_text())
+    scenario['faults'] = []
+    return scenario
+
+
+def effect_rows(out_dir, summaries):
+    """fault_effect.csv's rows of the runs in ``summaries`` whose twin was flown."""
+    rows = []
+    for run, summary in summaries.items():
+        twin = _read_json(Path(out_dir) / 'runs' / str(run) / TWIN_SUMMARY)
+        if twin is None:
+            continue
+        for f in undetected_faults(summary):
+            rows.append(dict(run=run, fault=f['fault'], kind=f['kind'], target=f.get('target'),
+                             outcome=summary['outcome'], twin_outcome=twin['outcome'],
+                             changed=summary['outcome'] != twin['outcome'],
+                             min_clearance_m=summary.get('min_clearance_m'),
+                             twin_min_clearance_m=twin.get('min_clearance_m')))
+    return rows
+
+
+def write_effect(out_dir, rows):
+    """fault_effect.csv in the campaign directory."""
+    with (Path(out_dir) / EFFECT_CSV).open('w', newline='') as f:
+        writer = csv.DictWriter(f, fieldnames=EFFECT_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def effect_by_kind(rows):
+    """{kind: {'undetected': n, 'changed': [(run, outcome, twin outcome), ...]}} of fault_effect's rows."""
+    out = {}
+    for r in rows:
+        k = out.setdefault(r['kind'], {'undetected': 0, 'changed': []})
+        k['undetected'] += 1
+        if r['changed']:
+            k['changed'].append((r['run'], r['outcome'], r['twin_outcome']))
+    return dict(sorted(out.items()))
