@@ -13,6 +13,15 @@ mode, None for a mode it does not fly), and each chaser estimate goes, in this o
    first of its modes that has one: the synchronized hold (``modes.synchronized``), else the pointing and the tracking
    of a planned trajectory (``modes.tracking``).
 
+When the supervisor's core raises (its ``node_error``, flyby_msgs_py.core_guard) the mission has no judge: no phase
+changes, no abort, no avoidance burn. Guidance then idles propulsion, as flight software answers a lost mission
+manager (Astrobee's fault table: ``idlePropulsion``): from the event's arrival no burn and no thrust is commanded
+(one ERROR ``propulsion_idled`` says so). The six-degree-of-freedom chaser's commands go on with the wheels alone
+(the simulator holds time for them): before the grasp the pointing (``RigidBodyChaser.idle_command``), which keeps
+the target in the sensors' view, holding the target the capture's modes' wheel commands. A burn commanded before
+the event, up to ``guidance.command_lead_s`` ahead, is already with the thrusters and still flies. The independent
+CAM monitor stays armed (docs/runtime.md).
+
 Which mode commands an estimate follows the estimates' stamps and the modes' own state (a trajectory's start, the
 arm's lock, TRANSPORT's start), not the order in which messages come: the commands are the same at any pace. The
 guidance node and the headless driver (flyby_mission.headless) both run ``GuidanceCore``; every input method returns
@@ -20,19 +29,37 @@ the outputs to publish, in order: ``guidance.Maneuver`` (guidance/maneuver), ``A
 (guidance/wheels and guidance/wrench) and ``wire.Event`` (mission/events).
 """
 
+import dataclasses
+
 import numpy as np
 
 from flyby_guidance.modes.chaser import PointMassChaser, RigidBodyChaser
 from flyby_guidance.modes.damping import DampingMode, NotCaptured
 from flyby_guidance.modes.flyby import FlybyAdjusting
-from flyby_guidance.modes.interface import ChaserEstimate
+from flyby_guidance.modes.interface import AttitudeCommandStamped, ChaserEstimate
 from flyby_guidance.modes.transport import TransportMode
 from flyby_guidance.params import GuidanceParams
 from flyby_msgs_py import contract as c
+from flyby_msgs_py import events, wiring
 from flyby_msgs_py.stamped import StampedBuffer
+from flyby_msgs_py.wire import Event
 
 # The attitude control stops at the grasp (after it the capture's modes command the combined body).
 ATTITUDE_QUIET_PHASES = (c.PHASE_CAPTURE, c.PHASE_COMPLETE)
+# The phases in which the chaser holds the target: with propulsion idle only the capture's modes' wheels command.
+HOLDING_PHASES = (c.PHASE_CAPTURE,) + c.POST_CAPTURE_PHASES + (c.PHASE_COMPLETE,)
+
+
+def without_thrust(outputs):
+    """The attitude commands among outputs with no thruster firing (force and torque zero), nothing else: the capture's
+    modes' commands once propulsion is idle (module doc)."""
+    return [dataclasses.replace(out, thruster_torque_body_n_m=np.zeros(3), force_body_n=(0.0, 0.0, 0.0))
+            for out in outputs if isinstance(out, AttitudeCommandStamped)]
+
+
+def supervisor_lost(event):
+    """Whether a mission/events Event is the supervisor's core's node_error (module doc)."""
+    return event.name == events.NODE_ERROR and event.values.get('node') == wiring.SUPERVISOR
 
 
 def chaser_of(params, source, targets):
@@ -65,6 +92,7 @@ class GuidanceCore:
         self.flyby = FlybyAdjusting(params.flyby, name, self.targets)
         self.chaser = chaser_of(params, name, self.targets)
         self.capture = capture_of(params, name, self.chaser)
+        self.t_idle_s = None  # the stamp of the supervisor's node_error once heard: propulsion idle (module doc)
 
     # -- the plan -------------------------------------------------------------------------------
     def on_flyby_initial(self, t_i, x_fi, v_fi):
@@ -98,15 +126,32 @@ class GuidanceCore:
         return self.flyby.step_waiting(self.phase)
 
     def on_event(self, event):
-        """An event of mission/events (wire.Event): a wheel fault's wheels_reallocated (``modes.chaser``), the arm's
-        lock or release after the capture, the estimator's final mass-property estimate and refined combined CoM
-        (``modes.damping``, ``modes.transport``)."""
+        """An event of mission/events (wire.Event): the supervisor's node_error (propulsion idled, module doc), a wheel
+        fault's wheels_reallocated (``modes.chaser``), the arm's lock or release after the capture, the estimator's
+        final mass-property estimate and refined combined CoM (``modes.damping``, ``modes.transport``)."""
+        if supervisor_lost(event):
+            return self._idle_propulsion(event)
         return self.chaser.on_event(event, self.phase) + self.capture.on_event(event, self.phase)
+
+    def _idle_propulsion(self, error):
+        """Propulsion idle from now on (module doc), once: its ERROR propulsion_idled event, stamped at the error."""
+        if self.t_idle_s is not None:
+            return []
+        self.t_idle_s = error.t
+        attitude = '; the wheels alone hold the attitude' if isinstance(self.chaser, RigidBodyChaser) else ''
+        return [Event(error.t, 'ERROR', events.PROPULSION_IDLED,
+                      f'the supervisor\'s core raised ({error.message}): no burn or thrust commanded from now on'
+                      f'{attitude}', {'t_error_s': error.t, 'exception': error.values.get('exception', '')},
+                      self.name)]
 
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
         """A chaser estimate (estimation/chaser/odom), with the rigid-body chaser's attitude and body rate."""
         estimate = ChaserEstimate(t, np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float),
                                   q_hill_from_body, omega_body)
+        if self.t_idle_s is not None and self.phase in HOLDING_PHASES:
+            return without_thrust(self.capture.command(estimate, self.phase) or [])
+        if self.t_idle_s is not None:
+            return self.chaser.idle_command(estimate)
         out = self.capture.command(estimate, self.phase)
         if out is not None:
             return out

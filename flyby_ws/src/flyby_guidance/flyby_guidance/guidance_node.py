@@ -12,9 +12,10 @@ after the estimate (the simulator holds time there until both are in); and on
 ``mission/events`` ``maneuver_commanded`` per burn, ``adjust_skipped``, ``thrusting_ended``,
 ``target_refined``. An optimization-based approach (``planner/trajectory``) is tracked with the force on
 ``guidance/wrench`` (chaser_body) of every attitude command; ``replan_requested``, ``tracking_ended`` on
-``mission/events``. With the six-degree-of-freedom chaser the events of ``mission/events`` come in too (the
-supervisor's ``wheels_reallocated``: its wheels commanded nothing from its stamp on; with a post_capture section the
-simulator's ``grasp_damped``: the arm locked, the combined body is commanded from its stamp on).
+``mission/events``. The events of ``mission/events`` come in too: the supervisor's ``node_error`` (its core raised:
+no burn or thrust commanded from then on, ``propulsion_idled``); with the six-degree-of-freedom chaser the
+supervisor's ``wheels_reallocated`` (its wheels commanded nothing from its stamp on) and with a post_capture section
+the simulator's ``grasp_damped`` (the arm locked, the combined body is commanded from its stamp on).
 """
 
 from flyby_guidance.guidance import Maneuver

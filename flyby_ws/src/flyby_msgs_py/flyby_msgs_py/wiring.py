@@ -51,11 +51,12 @@ SUBSCRIPTIONS = {
     c.GUIDANCE_WRENCH: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
     c.SAFETY_CAM: ((SIM, always), (ESTIMATOR, always)),  # the estimator's monitors: thrust no chain commanded
-    # The simulator reads a command-chain node's node_error (it holds time for its commands no more), the phase_changed
-    # stamps (the faults that start with a phase) and thrusters_isolated; guidance a wheel fault's wheels_reallocated
-    # and after the capture the arm's lock and the mass-property estimates.
+    # The simulator reads a command-chain node's or the supervisor's node_error (it holds time for their commands or
+    # decisions no more), the phase_changed stamps (the faults that start with a phase) and thrusters_isolated; guidance
+    # the supervisor's node_error (propulsion idled), a wheel fault's wheels_reallocated and after the capture the arm's
+    # lock and the mass-property estimates.
     c.MISSION_EVENTS: ((SUPERVISOR, always), (PLANNER, always), (ESTIMATOR, post_capture),
-                       (GUIDANCE, rigid), (SIM, always)),
+                       (GUIDANCE, always), (SIM, always)),
 }
 
 
