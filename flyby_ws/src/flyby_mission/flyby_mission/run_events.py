@@ -6,6 +6,7 @@ from flyby_msgs_py import contract as c
 from flyby_msgs_py import events as ev
 from flyby_msgs_py.event_payloads import decode_values
 from flyby_msgs_py.link_faults import SENSOR_OF_TOPIC
+from flyby_msgs_py.wiring import SUPERVISOR
 
 
 def no_safe_plan_reason(events):
@@ -15,6 +16,11 @@ def no_safe_plan_reason(events):
         if e['name'] == ev.PHASE_CHANGED and e['values'].get('no_safe_plan') == 'true':
             return e['message'].split(': ', 1)[-1]
     return None
+
+
+def supervisor_error(events):
+    """The supervisor's core's node_error (flyby_msgs_py.core_guard: the mission lost its judge), or None."""
+    return next((e for e in events if e['name'] == ev.NODE_ERROR and e['values'].get('node') == SUPERVISOR), None)
 
 
 def chosen_method(events):

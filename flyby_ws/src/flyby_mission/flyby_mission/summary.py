@@ -32,6 +32,7 @@ from flyby_mission.run_events import (
     phase_start,
     planned_flyby,
     plant_faults,
+    supervisor_error,
 )
 from flyby_mission.run_truth import (
     RIGID_TRUTH_TOPICS,
@@ -135,6 +136,7 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
                              events, scenario, t_g)
 
     refused = no_safe_plan_reason(events)
+    end_reason = _judged_end_reason(end_reason, events)
     outcome = outcome_of(end_reason, phases, collided, refused is not None, held)
     if outcome == c.OUTCOME_NO_SAFE_PLAN:
         end_reason = refused
@@ -175,6 +177,17 @@ def summarize(chaser, target, thrust, phases, events, scenario, end_reason, fina
         'bag_repair': bag_repair,
         **_fault_keys(events, faults_injected),
     }
+
+
+def _judged_end_reason(end_reason, events):
+    """How the run ended, or, once the supervisor's core raised (its node_error), an error naming the exception, its
+    stamp and how the run then ended: the mission had no judge from there (no phase change, no abort, propulsion idle),
+    so whatever phase it stopped in, its outcome is ERROR, unless the truth shows a collision (docs/runtime.md). An
+    interruption, or an error of the launcher's, stays as it was."""
+    error = supervisor_error(events)
+    if error is None or end_reason is None or end_reason == 'interrupted' or end_reason.startswith('error'):
+        return end_reason
+    return f'error: the supervisor\'s core raised at t = {float(error["t"]):.3f} s ({error["message"]}); {end_reason}'
 
 
 def _fault_keys(events, faults_injected):

@@ -107,6 +107,7 @@ class _Chaser:
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
         self.chain_failed = False  # a command-chain node's core failed: never waited for again
+        self.supervisor_failed = False  # the supervisor's core failed: no capture decision waited for again
         self.locked = False  # the plant's combined body after a grasp: commanded again (module doc)
         self.command_wait = _Wait()
         self.chain = tuple(node if name is None else f'{name}/{node}' for node in COMMAND_CHAIN)
@@ -257,7 +258,7 @@ class SimNode(Node):
 
     def _decision_due(self, ch):
         """True while the supervisor's capture decision of a step already out has not come in (module doc)."""
-        if (ch.decision_stamp is None or ch.target_stamp < ch.decision_stamp - 1e-9
+        if (ch.decision_stamp is None or ch.target_stamp < ch.decision_stamp - 1e-9 or ch.supervisor_failed
                 or ch.phase not in c.DECIDING_PHASES or ch.supervisor not in self.progress_s):
             ch.decision_wait.reset()
             return False
@@ -507,7 +508,8 @@ class SimNode(Node):
 
     def on_events(self, ch, msg):
         """A node of the command chain whose core failed (flyby_msgs_py.core_guard) commands no more: time is not held
-        for its announced commands, as for a node that left the graph. The supervisor's ``thrusters_isolated``: their
+        for its announced commands, as for a node that left the graph; nor, once the supervisor's core failed, for its
+        capture decision (the headless driver holds for neither). The supervisor's ``thrusters_isolated``: their
         valves closed. A phase change: the injected faults that start with it, from its stamp (``Plant.on_phase``)."""
         for e in convert.events_from_msg(msg):
             if e['name'] == events.PHASE_CHANGED:
@@ -518,6 +520,8 @@ class SimNode(Node):
                 self.publish_plant_events()
                 continue
             node = e['values'].get('node')
+            if e['name'] == events.NODE_ERROR and node == SUPERVISOR:
+                ch.supervisor_failed = True
             if e['name'] == events.NODE_ERROR and node in COMMAND_CHAIN and not ch.chain_failed:
                 ch.attitude_quiet = ch.chain_failed = True
                 ch.announced_ns.clear()
