@@ -148,7 +148,8 @@ class HeadlessGraph:
     """The plant and the four cores, connected as the topics connect the nodes (module doc): each output is turned
     into the messages its node publishes, and each message goes to the nodes ``flyby_msgs_py.wiring`` gives its
     topic, in the table's order. Every core call runs inside that node's guard (flyby_msgs_py.core_guard), as in
-    the graph: an exception becomes its node_error event and the core is fed nothing more."""
+    the graph: an exception becomes its node_error event and the core is fed nothing more (the supervisor's own:
+    guidance idles propulsion on it, the run goes on to its duration and ends in ERROR, docs/runtime.md)."""
 
     def __init__(self, scenario):
         require_one_chaser(scenario)

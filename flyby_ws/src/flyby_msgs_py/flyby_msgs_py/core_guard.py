@@ -4,8 +4,10 @@ A core (estimator, planner, guidance, supervisor) that raises while handling an 
 it would command next is not to be trusted. Its driver (``flyby_msgs_py.node_base.CoreNode`` in the graph; the
 headless driver alike) catches the exception, turns it into one ``node_error`` Event stamped at the input being
 handled, and from then on gives that core nothing more, so nothing more comes out of it. The supervisor reads a
-``node_error`` of any node as a fault and takes the mission to ABORTED (flyby_mission.supervisor). No ROS here:
-the headless driver uses the same guard.
+``node_error`` of any node as a fault and takes the mission to ABORTED (flyby_mission.supervisor). Its own
+``node_error`` leaves the mission without a judge: guidance idles propulsion on it (flyby_guidance.guidance_core),
+the independent CAM monitor stays armed, and the run's outcome is ERROR unless the truth shows a collision
+(flyby_mission.summary; docs/runtime.md). No ROS here: the headless driver uses the same guard.
 """
 
 from flyby_msgs_py import events

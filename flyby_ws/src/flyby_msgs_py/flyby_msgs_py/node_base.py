@@ -23,7 +23,8 @@ timers through ``guard``) runs inside the core's guard (flyby_msgs_py.core_guard
 its traceback, published once on ``mission/events`` as an ERROR ``node_error`` stamped at the message being
 handled, and from then on the node gives its core nothing more, so nothing more is published from it. The node
 stays in the graph and keeps reporting its progress (runtime.ProgressReporter): the simulator is not held for it,
-and the supervisor takes the mission to ABORTED on the event (docs/runtime.md).
+and the supervisor takes the mission to ABORTED on the event; on the supervisor's own event guidance idles propulsion
+and the run ends in ERROR (docs/runtime.md).
 """
 
 import math
