@@ -394,6 +394,7 @@ class EstimatorCore:
         """The wheels' tachometers at t [rad/s] (sensors/chaser/wheels); then the health monitors' judgement."""
         if self.health.wheels is None or (self.attached and not self.post_capture):
             return []
+        self.health.on_sample('tachometers', t)
         self.health.wheels.on_sample(t, speeds_rad_s=speeds_rad_s)
         return self._health(t)
 

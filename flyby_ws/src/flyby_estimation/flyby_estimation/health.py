@@ -13,7 +13,8 @@ Each monitor has a stated rule:
   dropout's first sample after it (the ones before it were fresh), a delayed stream ``FRESH_SAMPLES`` periods after
   its samples come fresh again. A delay at the bound, its samples fresh or late at even odds, clears by chance once
   in about 1e6 samples (with 5 samples: 92 detections over 590 s at 10 Hz). The IMU's star tracker is judged at the
-  IMU's samples.
+  IMU's samples; the wheels' tachometers (``tachometers``, one sample with each IMU sample, at its rate) at theirs:
+  their only reader is the wheel monitor, which judges no window without them.
 * **Innovations** (relative position, target attitude, star tracker; the relative position's not during a firing
   the navigation filter models nor ``THRUST_SETTLE_S`` after it, while its execution error settles): among the
   sensor's last ``WINDOW`` samples,
@@ -491,6 +492,7 @@ class HealthMonitor:
         if params.rigid_body:
             self.sensors['imu'] = SensorMonitor('imu', params.imu_rate_hz, innovations=False)
             self.sensors['star_tracker'] = SensorMonitor('star_tracker', params.star_tracker_rate_hz)
+            self.sensors['tachometers'] = SensorMonitor('tachometers', params.imu_rate_hz, innovations=False)
             layout = params.thruster_layout
             relative = 3.0 * math.hypot(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
             self.thrust = ThrustMonitor(params.accel_sigma_mps2, relative, layout.force_directions_body)

@@ -277,11 +277,12 @@ def test_a_thrust_fault_explains_the_position_innovations_and_the_point_mass_has
         monitor.on_sample('target_attitude', 0.1 * k, nis=3.0)
         monitor.on_sample('imu', 0.1 * k)
         monitor.on_sample('star_tracker', 0.1 * k, nis=3.0)
+        monitor.on_sample('tachometers', 0.1 * k)
         detections, diagnostics = monitor.judge(0.1 * k)
         assert detections == []
         statuses = diagnostics.statuses if diagnostics is not None else statuses
     assert {s.name for s in statuses} == {'thrusters', 'sensor/relative_position', 'sensor/target_attitude',
-                                          'sensor/imu', 'sensor/star_tracker', 'wheels'}
+                                          'sensor/imu', 'sensor/star_tracker', 'sensor/tachometers', 'wheels'}
     assert HealthMonitor(_params(rigid=False)).thrust is None
 
 
