@@ -40,11 +40,13 @@ observable condition and carries its reason:
                                             watchdog_s (the watchdog's node_lost), or a
                                             fault (ERROR event) reported by a watched node, or a
                                             ``node_error`` of any node (its core raised, core_guard), or the
-                                            fault table's answer to a ``fault_detected`` (docs/faults.md), or the
+                                            fault table's answer to a ``fault_detected`` (docs/faults.md: the
+                                            estimator's monitors', the watchdog's, the estimates' age's), or the
                                             independent monitor's ``cam_fired``
 
 ``SupervisorCore`` adds what the node observes and decides around the phase machine (the estimates
-by stamp, the capture decision from them, the avoidance burn after an abort); the supervisor node and
+by stamp, the capture decision from them, the avoidance burn after an abort, the watchdog of the nodes' heartbeats
+and the age of the estimates, flyby_mission.estimate_age); the supervisor node and
 the headless driver (flyby_mission.headless) both run it, each building its ``SupervisorParams`` (the record of what
 it reads of the scenario, flyby_msgs_py.params) from the scenario.
 """
@@ -56,12 +58,21 @@ import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
+from flyby_mission.estimate_age import (
+    CHASER_ESTIMATE,
+    KIND,
+    MONITOR,
+    TARGET_ESTIMATE,
+    EstimateAgeMonitor,
+    EstimateAgeParams,
+)
 from flyby_mission.fault_response import respond
 from flyby_mission.fault_table import FaultTable
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events, params
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
+from flyby_msgs_py.wiring import ESTIMATOR
 from flyby_planner.flyby.avoidance import avoidance_burn
 from flyby_planner.flyby.config import PlannerConfig
 from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
@@ -146,6 +157,7 @@ class SupervisorParams:
     post_capture: bool = params.derived(_has_post_capture)  # the capture goes on to GRASP
     start_attached: bool = params.derived(_starts_attached)  # the run starts in MASS_ESTIMATION (seed 004 §3.1)
     transport: bool = params.derived(_has_transport)  # the estimation goes on to TRANSPORT
+    estimates: EstimateAgeParams = params.sub(EstimateAgeParams)  # the estimates' age (estimate_age)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -354,6 +366,7 @@ class SupervisorCore:
         self.cam_fired = False
         self.heartbeats = dict.fromkeys(self.machine.watched_nodes, 0.0)  # node -> the sim time it last reported
         self.lost = set()  # the nodes the watchdog has found silent
+        self.estimate_age = EstimateAgeMonitor(params.estimates)
 
     @property
     def phase(self):
@@ -368,15 +381,17 @@ class SupervisorCore:
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_target_estimate(self, t, q_hill_from_body, omega_body):
+        out = self._estimate_arrived(TARGET_ESTIMATE, t)
         estimate = (t, np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float))
         self.targets.add(t, estimate)
         if has_spin_axis(self.params.target_inertia_kg_m2, estimate[2]):
             self.spinning_target = estimate
-        return self._apply(self.machine.target_estimate(t)) + self._try_decision()
+        return out + self._apply(self.machine.target_estimate(t)) + self._try_decision()
 
     def on_chaser_estimate(self, t, r_hill, v_hill):
+        out = self._estimate_arrived(CHASER_ESTIMATE, t)
         self.chaser = (t, np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float))
-        out = self._apply(self.machine.chaser_estimate(t, self.chaser[1]))
+        out += self._apply(self.machine.chaser_estimate(t, self.chaser[1]))
         if self.decision_at is None and self.machine.wants_decision(t):
             self.decision_at = self.chaser
         return out + self._try_decision()
@@ -388,6 +403,9 @@ class SupervisorCore:
         if event.name == events.CAM_FIRED:  # the independent monitor has the thrusters: the mission is over
             self.cam_fired = True
             return self._apply(self.machine.abort(event.t, f'CAM fired by {event.source}'))
+        if event.name in (events.FAULT_DETECTED, events.FAULT_RECOVERED):
+            found = event_payloads.decode(event)  # a gap of a sensor's samples explains its estimates' (estimate_age)
+            self.estimate_age.on_detection(found.kind, found.component, event.name == events.FAULT_DETECTED)
         if event.name == events.FAULT_DETECTED:
             return self._respond(event)
         values = dict(event.values, reason=event.message)
@@ -405,11 +423,16 @@ class SupervisorCore:
         """A node's heartbeat: the sim time it has got to."""
         if node in HEARTBEAT_NODES:
             self.heartbeats[node] = max(t, self.heartbeats.get(node, -math.inf))
+        if node == ESTIMATOR:
+            self.estimate_age.on_progress(t)
         return []
 
     def on_clock(self, t):
         self.t_clock = t
-        return self._watchdog(t) + self._apply(self.machine.clock(t))
+        out = self._watchdog(t)
+        lost = ESTIMATOR in self.lost
+        out += self._estimate_findings(self.estimate_age.judge(t, self.machine.active and not lost, lost))
+        return out + self._apply(self.machine.clock(t))
 
     def _watchdog(self, t):
         """Each node's heartbeat judged at the clock: silent for watchdog_s, a fault_detected (node_lost, monitor
@@ -421,17 +444,32 @@ class SupervisorCore:
                 continue
             if silent:
                 self.lost.add(node)
-                payload = event_payloads.FaultDetected('watchdog', 'node_lost', node, t, None)
-                detected = self._event(t, 'ERROR', events.FAULT_DETECTED,
-                                       f'watchdog: {node} silent for {t - last:.1f} s',
-                                       event_payloads.encode(payload, {'last_progress_s': last}))
-                out += [detected] + self._respond(detected)
+                out += self._found(t, 'watchdog', 'node_lost', node, True, f'watchdog: {node} silent for '
+                                   f'{t - last:.1f} s', {'last_progress_s': last})
             else:
                 self.lost.discard(node)
-                payload = event_payloads.FaultRecovered('watchdog', 'node_lost', node, t)
-                out.append(self._event(t, 'OK', events.FAULT_RECOVERED, f'watchdog: {node} reports again',
-                                       event_payloads.encode(payload)))
+                out += self._found(t, 'watchdog', 'node_lost', node, False, f'watchdog: {node} reports again', {})
         return out
+
+    def _estimate_arrived(self, component, t):
+        """An estimate of the stream ``component`` stamped t [s] admitted: its age judged (estimate_age)."""
+        judged = self.machine.active and ESTIMATOR not in self.lost
+        return self._estimate_findings(self.estimate_age.on_estimate(component, t, self.t_clock, judged))
+
+    def _estimate_findings(self, findings):
+        """The estimate-age monitor's findings as detections answered by the fault table, or recoveries."""
+        return [o for f in findings for o in self._found(f.t, MONITOR, KIND, f.component, f.detected, f.message,
+                                                            f.values)]
+
+    def _found(self, t, monitor, kind, component, detected, message, values):
+        """One of the supervisor's own monitors' detection at t [s] (its fault_detected, ERROR, and the fault table's
+        answer) or recovery (fault_recovered, OK)."""
+        if not detected:
+            payload = event_payloads.FaultRecovered(monitor, kind, component, t)
+            return [self._event(t, 'OK', events.FAULT_RECOVERED, message, event_payloads.encode(payload))]
+        payload = event_payloads.FaultDetected(monitor, kind, component, t, None)
+        event = self._event(t, 'ERROR', events.FAULT_DETECTED, message, event_payloads.encode(payload, values))
+        return [event] + self._respond(event)
 
     def abort(self, why):
         """(aborted, outputs) for an abort request at the current clock."""
