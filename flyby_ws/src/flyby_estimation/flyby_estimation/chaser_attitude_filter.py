@@ -65,9 +65,11 @@ R = sigma_st^2 I (the sensor model exactly); gated, Joseph-form update
 G = I - 1/2 [dtheta x] on the attitude block) and bias += dbias.
 
 Initialization: the first valid star-tracker sample sets the attitude (sigma ``initial_attitude_sigma_rad``,
-default the star tracker's) and the bias starts at 0 with sigma_b0 per axis. The
-``max_consecutive_outliers``-th outlier in a row restarts the attitude from that sample (kind 'reset');
-the bias estimate is kept, its variance raised to at least sigma_b0^2.
+default the star tracker's) and the bias starts at 0 with sigma_b0 per axis. A run of
+``max_consecutive_outliers`` outliers in a row that agree with each other (filter_interface's restart rule:
+a smooth error in the body or the inertial frame; a reference off by a fixed rotation, as after a gyro
+glitch, is off by a constant in the inertial frame) restarts the attitude from the run's last sample (kind
+'reset'); the bias estimate is kept, its variance raised to at least sigma_b0^2. Random outliers do not.
 
 Outcomes are those of ``filter_interface`` (``UpdateResult``): star-tracker samples are counted in
 ``counts`` ('initialized', 'accepted', 'reset', 'non_finite', 'non_unit', 'stale', 'outlier'); gyro
@@ -81,7 +83,10 @@ import numpy as np
 from scipy.linalg import solve_discrete_are
 
 from flyby_estimation.filter_interface import (
+    ATTITUDE_FRAMES,
+    MIN_RUN_SAMPLES,
     FilterBase,
+    attitude_errors,
     attitude_innovation,
     fold_attitude_error,
     kalman_update_first_three,
@@ -117,7 +122,8 @@ class ChaserAttitudeFilterConfig:
         gyro_bias_sigma_rad_s: 1 sigma per axis of the initial bias [rad/s] (``gyro_bias_sigma_rad_s``).
         gyro_bias_walk_rad_s_sqrt_s: bias random walk [rad/s/sqrt(s)] (``gyro_bias_walk_rad_s_sqrt_s``).
         gate_probability: chi2(3) probability of the innovation gate (0.9999: d2 < 21.1).
-        max_consecutive_outliers: the Nth consecutive star-tracker outlier restarts the attitude from it.
+        max_consecutive_outliers: N, the run of consecutive star-tracker outliers whose agreement restarts the
+            attitude from its last sample (filter_interface's restart rule); N >= 4 (MIN_RUN_SAMPLES).
         initial_attitude_sigma_rad: attitude sigma per axis at initialization [rad]; None (default) = the
             star tracker's.
         norm_tolerance: star-tracker samples with |norm - 1| above this are rejected as 'non_unit'.
@@ -148,8 +154,9 @@ class ChaserAttitudeFilterConfig:
             require_positive('initial_attitude_sigma_rad', self.initial_attitude_sigma_rad)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability}')
-        if not (isinstance(self.max_consecutive_outliers, int) and self.max_consecutive_outliers >= 1):
-            raise ValueError(f'max_consecutive_outliers must be an integer >= 1, got {self.max_consecutive_outliers!r}')
+        if not (isinstance(self.max_consecutive_outliers, int) and self.max_consecutive_outliers >= MIN_RUN_SAMPLES):
+            raise ValueError(f'max_consecutive_outliers must be an integer >= {MIN_RUN_SAMPLES}, got '
+                             f'{self.max_consecutive_outliers!r}')
         if self.gyro_interpolation not in GYRO_INTERPOLATIONS:
             raise ValueError(f'gyro_interpolation must be one of {GYRO_INTERPOLATIONS}, '
                              f'got {self.gyro_interpolation!r}')
@@ -331,7 +338,8 @@ class ChaserAttitudeFilter(FilterBase):
     """
 
     def __init__(self, config):
-        super().__init__(config.gate_probability, config.max_consecutive_outliers)
+        super().__init__(config.gate_probability, config.max_consecutive_outliers, config.star_tracker_sigma_rad,
+                         ATTITUDE_FRAMES, rotation=True)
         self.config = config
         self._n = config.mean_motion_rad_s
         self._r = config.star_tracker_sigma_rad ** 2 * np.eye(3)
@@ -487,7 +495,7 @@ class ChaserAttitudeFilter(FilterBase):
         # d2 = nu' S^-1 nu, S = H P H' + R; K = P H' S^-1; dx = K nu (x = 0 after every reset);
         # P = (I - K H) P (I - K H)' + K R K' (Joseph form)
         d2, dx, p = kalman_update_first_three(_ZERO_STATE, self._p, nu, self._r)
-        verdict = self._gate_verdict(d2)
+        verdict = self._gate_verdict(d2, t, lambda: attitude_errors(self._q, q_eci_meas))
         if verdict != 'pass':
             innovation_deg = math.degrees(float(np.linalg.norm(nu)))
             if verdict == 'reset':
@@ -495,9 +503,10 @@ class ChaserAttitudeFilter(FilterBase):
                 floor = self.config.gyro_bias_sigma_rad_s ** 2
                 self._initialize(t, q_eci_meas, p_bias + np.diag(np.maximum(floor - np.diag(p_bias), 0.0)))
                 return self._outcome('reset', t, d2, f'{self.config.max_consecutive_outliers} consecutive star-tracker '
-                                                     f'outliers, the last {innovation_deg:.3g} deg at t = {t} s (d2 = '
-                                                     f'{d2:.4g} > gate {self._gate:.4g}): attitude re-initialized from '
-                                                     f'it, bias kept', nu)
+                                                     f'outliers {self._rejected.agreement}, the last '
+                                                     f'{innovation_deg:.3g} deg at t = {t} s (d2 = {d2:.4g} > gate '
+                                                     f'{self._gate:.4g}): attitude re-initialized from it, bias kept',
+                                     nu)
             return self._outcome('outlier', t, d2, f'star-tracker innovation {innovation_deg:.3g} deg at t = {t} s: '
                                                    f'd2 = {d2:.4g} > gate {self._gate:.4g}', nu)
         # Reset: the error folded into the reference (Markley), the bias correction added
@@ -523,7 +532,7 @@ class ChaserAttitudeFilter(FilterBase):
         p[:3, :3] = self.config.attitude_sigma0_rad ** 2 * np.eye(3)
         p[3:, 3:] = p_bias
         self._p = 0.5 * (p + p.T)
-        self._consecutive_outliers = 0
+        self._rejected.clear()
 
     def _require_initialized(self, what):
         if not self.initialized:

@@ -50,11 +50,12 @@ Measurements (``update``): r_hill with per-axis noise sigma, H = [I 0]. The norm
 squared NIS = y' S^-1 y (y = z - H x, S = H P H' + R) is gated against the chi-square(3) quantile of
 ``gate_probability``. Outcomes: 'initialized', 'accepted', and the rejections 'non_finite' (not a
 finite stamp and 3 finite numbers), 'stale' (t before the filter time), 'outlier' (NIS above the
-gate), counted in ``counts``. The ``max_consecutive_outliers``-th outlier in a row makes the filter
-assume it is lost and restart from that measurement: the position is set to it, the velocity kept
-with at least its prior spread (kind 'reset'). The covariance update is Joseph form (filterpy's
-arithmetic for H = [I 0], ``filter_interface.kalman_update_first_three``), followed by explicit
-symmetrization.
+gate), counted in ``counts``. A run of ``max_consecutive_outliers`` outliers in a row whose innovations
+agree with each other (filter_interface's restart rule: a quadratic in time per hill axis within the noise,
+as a lost filter's are, and random outliers never) makes the filter assume it is lost and restart from the
+run's last measurement: the position is set to it, the velocity kept with at least its prior spread (kind
+'reset'). The covariance update is Joseph form (filterpy's arithmetic for H = [I 0],
+``filter_interface.kalman_update_first_three``), followed by explicit symmetrization.
 
 Initialization: from the first finite measurement, r = z, P_r = sigma^2 I, v = 0 with
 P_v = initial_velocity_sigma_mps^2 I (the schema's 0.1 m/s: the chaser holds station before the approach),
@@ -72,7 +73,7 @@ from typing import NamedTuple
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
+from flyby_estimation.filter_interface import MIN_RUN_SAMPLES, FilterBase, UpdateResult, kalman_update_first_three
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix, relative_accel_components, rk4_step
 from flyby_sim.dynamics.propulsion import (
@@ -99,8 +100,8 @@ class RelativeNavConfig:
 
     The fields up to gate_probability are the scenario's (``params.RelativeNavParams.config``: their defaults are
     the scenario schema's); the rest are the filter's own, with defaults.
-    max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that measurement
-    (module doc); N >= 1.
+    max_consecutive_outliers: N, the run of consecutive outliers whose agreement restarts the filter from its
+    last measurement (module doc, filter_interface's restart rule); N >= 4 (MIN_RUN_SAMPLES).
     """
 
     mean_motion_rad_s: float  # n of the target orbit
@@ -108,7 +109,7 @@ class RelativeNavConfig:
     accel_psd_m2_s3: float  # q: white-acceleration spectral density (estimation.accel_psd_m2_s3)
     initial_velocity_sigma_mps: float  # velocity prior, 1-sigma per axis (estimation.initial_velocity_sigma_mps)
     gate_probability: float  # chi2(3) gate on the NIS (estimation.gate_probability)
-    max_consecutive_outliers: int = 20  # the 20th in a row resets (2 s at 10 Hz)
+    max_consecutive_outliers: int = 20  # the run tested for agreement (2 s at 10 Hz)
     dynamics: str = 'cw'  # 'cw' (seed 000 eq 22) or 'nonlinear' (seed 000 eq 1, needs radius_m)
     radius_m: float = None  # target orbit radius, for 'nonlinear'
     thrusters: ThrusterConfig = None  # max thrust, Isp, execution-error sigmas
@@ -124,8 +125,8 @@ class RelativeNavConfig:
         if not (0.0 < self.gate_probability < 1.0):
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability!r}')
         if isinstance(self.max_consecutive_outliers, bool) or not isinstance(
-                self.max_consecutive_outliers, (int, np.integer)) or self.max_consecutive_outliers < 1:
-            raise ValueError(f'max_consecutive_outliers must be an integer >= 1, got '
+                self.max_consecutive_outliers, (int, np.integer)) or self.max_consecutive_outliers < MIN_RUN_SAMPLES:
+            raise ValueError(f'max_consecutive_outliers must be an integer >= {MIN_RUN_SAMPLES}, got '
                              f'{self.max_consecutive_outliers!r}')
         if self.dynamics not in DYNAMICS:
             raise ValueError(f'dynamics must be one of {DYNAMICS}, got {self.dynamics!r}')
@@ -204,7 +205,7 @@ class RelativeNavFilter(FilterBase):
     def __init__(self, config):
         if not isinstance(config, RelativeNavConfig):
             raise ValueError(f'config must be a RelativeNavConfig, got {config!r}')
-        super().__init__(config.gate_probability, config.max_consecutive_outliers)
+        super().__init__(config.gate_probability, config.max_consecutive_outliers, config.position_sigma_m, ('hill',))
         self.config = config
         self._n = config.mean_motion_rad_s
         self._kf = KalmanFilter(dim_x=6, dim_z=3)  # x and P, and predict; H = [I 0] in the update
@@ -239,7 +240,7 @@ class RelativeNavFilter(FilterBase):
         self._kf.x = x.reshape(6, 1)
         self._kf.P = 0.5 * (covariance + covariance.T)
         self._t = float(t)
-        self._consecutive_outliers = 0
+        self._rejected.clear()
         while self._pending and self._pending[0].start_s < self._t:
             self._take_next_burn()
         self._retire_active()
@@ -408,13 +409,14 @@ class RelativeNavFilter(FilterBase):
         # NIS = y' S^-1 y, S = H P H' + R; K = P H' S^-1; x = x + K y; P = (I - K H) P (I - K H)' + K R K'
         # (Joseph form: stays symmetric positive semi-definite whatever the rounding in K).
         nis, x, p = kalman_update_first_three(kf.x, kf.P, y, self._r)
-        verdict = self._gate_verdict(nis)
+        verdict = self._gate_verdict(nis, t, lambda: (y,))
         if verdict != 'pass':
             if verdict == 'reset':
                 self._reset(z)
                 return self._outcome('reset', t, nis, f'{self.config.max_consecutive_outliers} consecutive '
-                                                      f'outliers, the last NIS {nis:.4g} > gate {self._gate:.4g}: '
-                                                      f'position reset to the measurement', y)
+                                                      f'outliers {self._rejected.agreement}, the last NIS '
+                                                      f'{nis:.4g} > gate {self._gate:.4g}: position reset to the '
+                                                      f'measurement', y)
             return self._outcome('outlier', t, nis, f'NIS {nis:.4g} > gate {self._gate:.4g} (|y| = '
                                                     f'{float(np.linalg.norm(y)):.4g} m)', y)
         kf.x = x
@@ -436,7 +438,7 @@ class RelativeNavFilter(FilterBase):
         p[3:, 3:] = p_v
         kf.x[:3, 0] = z
         kf.P = 0.5 * (p + p.T)
-        self._consecutive_outliers = 0
+        self._rejected.clear()
 
     # ---------------------------------------------------------------------------------------------
     # Time update

@@ -21,8 +21,10 @@ Markley and Shuster 1982):
   R = sigma^2 I per body axis (the plant's sensor model: a Gaussian body-frame rotation error); the
   update is filterpy's arithmetic for that H (filter_interface.kalman_update_first_three).
 - gating: the normalized innovation squared d2 = nu' S^-1 nu against chi2(3) at gate_probability;
-  rejected measurements are not fused. The ``max_consecutive_outliers``-th outlier in a row restarts
-  the filter from that measurement (a wrong first measurement would otherwise lock it out).
+  rejected measurements are not fused. A run of ``max_consecutive_outliers`` outliers in a row that agree
+  with each other (filter_interface's restart rule: a smooth error in the body or the inertial frame)
+  restarts the filter from its last measurement (a wrong first measurement or a real jump would otherwise
+  lock it out); random outliers, however many in a row, do not.
 - reset: the estimated error is folded into the reference (q <- q * exp(dtheta), omega += domega)
   and zeroed, so q stays unit and the attitude covariance stays 3x3.
 
@@ -45,7 +47,14 @@ import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.batch import check_filter, fit_attitude_motion
-from flyby_estimation.filter_interface import FilterBase, UpdateResult, kalman_update_first_three
+from flyby_estimation.filter_interface import (
+    ATTITUDE_FRAMES,
+    MIN_RUN_SAMPLES,
+    FilterBase,
+    UpdateResult,
+    attitude_errors,
+    kalman_update_first_three,
+)
 from flyby_estimation.motion_category import classify_motion
 from flyby_estimation.quaternion_floats import (
     q_eci_from_hill_floats,
@@ -90,8 +99,9 @@ class TargetFilterConfig:
         check_window_max_samples: fused measurements kept for batch_check (estimation.batch_check_max_samples);
             past that the window is dropped and batch_check refuses.
         norm_tolerance: measurements with |norm - 1| above this are rejected as 'non_unit'.
-        max_consecutive_outliers: the Nth consecutive outlier restarts the filter from that
-            measurement (a wrong initial measurement would otherwise lock it out); N >= 1.
+        max_consecutive_outliers: N, the run of consecutive outliers whose agreement restarts the filter from
+            its last measurement (filter_interface's restart rule: a wrong initial measurement or a real jump
+            would otherwise lock it out, random outliers never restart it); N >= 4 (MIN_RUN_SAMPLES).
         max_step_angle_rad: substep limit, as a rotation angle (attitude_error_dynamics.ErrorStateDynamics.propagate).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
     """
@@ -116,10 +126,10 @@ class TargetFilterConfig:
         require_positive('torque_psd', self.torque_psd, allow_zero=True)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability}')
-        for name in ('max_consecutive_outliers', 'check_window_max_samples'):
+        for name, least in (('max_consecutive_outliers', MIN_RUN_SAMPLES), ('check_window_max_samples', 1)):
             value = getattr(self, name)
-            if not (isinstance(value, int) and value >= 1):
-                raise ValueError(f'{name} must be an integer >= 1, got {value!r}')
+            if not (isinstance(value, int) and value >= least):
+                raise ValueError(f'{name} must be an integer >= {least}, got {value!r}')
 
 
 @params.record
@@ -154,7 +164,8 @@ class TargetAttitudeFilter(FilterBase):
     """
 
     def __init__(self, config):
-        super().__init__(config.gate_probability, config.max_consecutive_outliers)
+        super().__init__(config.gate_probability, config.max_consecutive_outliers, config.attitude_sigma_rad,
+                         ATTITUDE_FRAMES, rotation=True)
         self.config = config
         self.dynamics = ErrorStateDynamics(config.inertia, config.torque_psd)
         self._n = config.mean_motion_rad_s
@@ -228,14 +239,15 @@ class TargetAttitudeFilter(FilterBase):
         # definite under rounding, which matters here because the rate variance falls by ~10 orders
         # of magnitude from the 20 deg/s prior.
         d2, dx, p = kalman_update_first_three(_ZERO_STATE, self._p, nu, self._r)
-        verdict = self._gate_verdict(d2)
+        verdict = self._gate_verdict(d2, t, lambda: attitude_errors(self._q, q_eci_meas))
         if verdict != 'pass':
             innovation_deg = math.degrees(float(np.linalg.norm(nu)))
             if verdict == 'reset':
                 self._initialize(t, np.array(q_eci_meas), z)
-                return self._outcome('reset', t, d2, f'{self.config.max_consecutive_outliers} consecutive outliers, '
-                                                     f'the last {innovation_deg:.3g} deg at t = {t} s (d2 = {d2:.4g} '
-                                                     f'> gate {self._gate:.4g}): re-initialized from it', nu)
+                return self._outcome('reset', t, d2, f'{self.config.max_consecutive_outliers} consecutive outliers '
+                                                     f'{self._rejected.agreement}, the last {innovation_deg:.3g} deg '
+                                                     f'at t = {t} s (d2 = {d2:.4g} > gate {self._gate:.4g}): '
+                                                     f're-initialized from it', nu)
             return self._outcome('outlier', t, d2, f'innovation {innovation_deg:.3g} deg at t = {t} s: d2 = {d2:.4g} '
                                                    f'> gate {self._gate:.4g}', nu)
         # Reset: fold the error into the reference and zero it. The attitude block is turned by the
@@ -263,7 +275,7 @@ class TargetAttitudeFilter(FilterBase):
         self._q = q_eci_meas
         self._omega = np.zeros(3)
         self._p = np.diag([self.config.attitude_sigma_rad ** 2] * 3 + [sigma_w ** 2] * 3)
-        self._consecutive_outliers = 0
+        self._rejected.clear()
         self._history.clear()
         self._window = []
         self._accept(t, z)

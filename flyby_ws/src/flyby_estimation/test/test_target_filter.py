@@ -14,7 +14,7 @@ from scipy.stats import chi2
 
 from flyby_estimation.batch import check_filter, error_between, fit_attitude_motion
 from flyby_estimation.estimator_core import EstimatorCore
-from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter
+from flyby_estimation.filter_interface import UPDATE_KINDS, EstimationFilter, attitude_errors
 from flyby_estimation.motion_category import MotionThresholds
 from flyby_estimation.params import EstimatorParams, TargetFilterParams
 from flyby_estimation.target_filter import (
@@ -516,7 +516,7 @@ class PreviousFilter(TargetAttitudeFilter):
         i_kh = np.eye(6)
         i_kh[:, :3] -= k
         dx, p = np.zeros((6, 1)) + k @ nu[:, None], i_kh @ self._p @ i_kh.T + k @ self._r @ k.T
-        verdict = self._gate_verdict(d2)
+        verdict = self._gate_verdict(d2, t, lambda: attitude_errors(self._q, q_eci_meas))
         if verdict != 'pass':
             if verdict == 'reset':
                 self._initialize(t, q_eci_meas, z)
