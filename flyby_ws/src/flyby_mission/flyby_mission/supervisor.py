@@ -58,6 +58,7 @@ import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.target_motion import prediction_from_estimate
+from flyby_mission.abort_escape import PendingBurns, escape_check
 from flyby_mission.estimate_age import (
     CHASER_ESTIMATE,
     KIND,
@@ -73,11 +74,10 @@ from flyby_msgs_py import event_payloads, events, params
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_msgs_py.wiring import ESTIMATOR
-from flyby_planner.flyby.avoidance import avoidance_burn
 from flyby_planner.flyby.config import PlannerConfig
 from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
-from flyby_planner.flyby.keepout import any_attitude_region, has_spin_axis, swept_region
-from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
+from flyby_planner.flyby.keepout import has_spin_axis
+from flyby_sim.dynamics.orbital import cw_coast
 
 # Phases in which a faulty watched node (its ERROR event) aborts the mission (after FLYBY nothing is left to command).
 ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
@@ -360,6 +360,7 @@ class SupervisorCore:
         self.targets = StampedBuffer()  # (t, q_hill_from_body, omega_body) of the target estimates
         self.spinning_target = None  # the latest of them with a spin axis (keepout.has_spin_axis): _escape_burn
         self.chaser = None  # (t, r_hill, v_hill) of the latest chaser estimate
+        self.pending_burns = PendingBurns()  # guidance's commanded burns: the abort's coast goes through them
         self.decision_at = None  # the chaser estimate the capture decision waits to be made at
         self.t_clock = 0.0
         self.fault_table = FaultTable.load()
@@ -403,6 +404,9 @@ class SupervisorCore:
         if event.name == events.CAM_FIRED:  # the independent monitor has the thrusters: the mission is over
             self.cam_fired = True
             return self._apply(self.machine.abort(event.t, f'CAM fired by {event.source}'))
+        if event.name == events.MANEUVER_COMMANDED:
+            burn = event_payloads.decode(event)
+            self.pending_burns.add(burn.t_burn_s, burn.dv_hill_mps)
         if event.name in (events.FAULT_DETECTED, events.FAULT_RECOVERED):
             found = event_payloads.decode(event)  # a gap of a sensor's samples explains its estimates' (estimate_age)
             self.estimate_age.on_detection(found.kind, found.component, event.name == events.FAULT_DETECTED)
@@ -496,38 +500,29 @@ class SupervisorCore:
         return self._apply(self.machine.decide(self.decision_at[0], decision))
 
     def _escape_burn(self, t):
-        """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast is unsafe.
-
-        The keep-out region is swept about the spin axis of the latest target estimate that has one; a filter just
-        restarted from a measurement (its omega zero, target_filter's reset after its run of outliers) has none, so
-        an estimate before it is taken, and with none at all the region that holds the body at every attitude
-        (keepout.any_attitude_region). Never raising here: the abort must be published (a raise fences the core off,
-        and the mission would idle in the phase it aborted from, fd_s8 run 59)."""
+        """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast, through guidance's
+        burns still to fly, is unsafe (flyby_mission.abort_escape). The region is swept about the spin axis of the
+        latest target estimate that has one, else it holds the body at every attitude. Never raising here: the
+        abort must be published (a raise fences the core off, and the mission would idle in the phase it aborted
+        from, fd_s8 run 59)."""
         if self.chaser is None or self.targets.latest is None:
             return []
-        p = self.params
-        t_c, r, v = self.chaser
-        t_burn = max(t, t_c) + p.command_lead_s
-        state = cw_coast(r, v, t_burn - t_c, self.n)
-        if np.linalg.norm(state[:3]) < p.restriction_sphere_radius_m + p.sphere_margin_m:
+        verdict = escape_check(self.params, t, self.chaser, self.pending_burns, self.spinning_target,
+                               self.targets.latest[0])
+        basis = verdict.basis
+        if verdict.inside_sphere:
             return [self._event(t, 'WARN', events.NO_AVOIDANCE_BURN, 'inside the restriction sphere: coasting, never '
-                                                                       'thrusting', {})]
-        if self.spinning_target is not None:
-            t_t, q_hb, omega_body = self.spinning_target
-            region = swept_region(p.boxes, p.target_inertia_kg_m2, [q_eci_from_body(t_t, self.n, q_hb)], [omega_body])
-            basis = '' if t_t == self.targets.latest[0] else f' (region about the spin axis of t = {t_t:.2f} s)'
-        else:
-            region = any_attitude_region(p.boxes)
-            basis = ' (no target estimate with a spin axis: the region of every attitude)'
-        dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, p.planner, p.avoidance_delta_v_mps)
-        if dv is None:
+                                                                       f'thrusting{basis}', {})]
+        if verdict.dv_hill is None:
             return [self._event(t, 'OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
-                                                                    f'{before:.2f} m){basis}', {'clearance_m': before})]
-        return [AvoidanceBurn(t_burn, dv),
+                                                                    f'{verdict.before_m:.2f} m){basis}',
+                                {'clearance_m': verdict.before_m})]
+        dv = verdict.dv_hill
+        return [AvoidanceBurn(verdict.t_burn, dv),
                 self._event(t, 'WARN', events.AVOIDANCE_BURN,
-                            f'coast would come {before:.2f} m from the keep-out region; burn of '
-                            f'{np.linalg.norm(dv):.3f} m/s at t = {t_burn:.2f} s keeps {after:.2f} m{basis}',
-                            {'dv_hill_mps': [float(x) for x in dv]})]
+                            f'coast would come {verdict.before_m:.2f} m from the keep-out region; burn of '
+                            f'{np.linalg.norm(dv):.3f} m/s at t = {verdict.t_burn:.2f} s keeps {verdict.after_m:.2f} '
+                            f'm{basis}', {'dv_hill_mps': [float(x) for x in dv]})]
 
     # -- outputs --------------------------------------------------------------------------------
     def _apply(self, transitions):

@@ -205,6 +205,17 @@ class FaultResponse(_Payload):
     severity: int | None = None
 
 
+@payload(events.MANEUVER_COMMANDED)
+class ManeuverCommanded(_Payload):
+    """Guidance sent a burn (guidance/maneuver): its kind (injection, adjust), start t_burn [s] and dv_hill [m/s]. The
+    plant flies what it was sent, whatever follows (only the CAM cancels): the supervisor's abort coasts through it
+    (flyby_mission.abort_escape)."""
+
+    kind: str
+    t_burn_s: float
+    dv_hill_mps: Vector
+
+
 @payload(events.THRUSTERS_ISOLATED)
 class ThrustersIsolated(_Payload):
     """The supervisor closes these thrusters' valves (the plant gives them no thrust and allocates without them)."""
@@ -332,7 +343,7 @@ class MessageRejected(_Payload):
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
                                       AttitudeSynchronized, DockingStarted, GraspDamped, FaultInjected,
                                       FaultEnded, FaultDetected, FaultRecovered, FaultResponse,
-                                      ThrustersIsolated, WheelsReallocated, DampingComplete,
+                                      ManeuverCommanded, ThrustersIsolated, WheelsReallocated, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
                                       TransportComEstimate, TransportPlanned, TransportTerminal, TransportComplete,
                                       MessageRejected)}

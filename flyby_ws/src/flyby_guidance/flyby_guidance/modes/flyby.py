@@ -112,8 +112,8 @@ class FlybyAdjusting(GuidanceMode):
             out.append(mv)
             out.append(self._event(t, 'OK', events.MANEUVER_COMMANDED,
                                    f'{mv.kind} burn of {np.linalg.norm(mv.dv_hill) * 1e3:.2f} mm/s at t = {mv.t:.2f} s',
-                                   {'kind': mv.kind, 't_burn_s': mv.t, 'dv_hill_mps': [float(x) for x in mv.dv_hill],
-                                    **mv.values}))
+                                   event_payloads.encode(event_payloads.ManeuverCommanded(mv.kind, mv.t, mv.dv_hill),
+                                                         mv.values)))
         return out + [e._replace(source=self.source) for e in emitted]
 
     def _unusable(self, omega_body, covariance):
