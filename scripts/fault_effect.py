@@ -7,8 +7,9 @@
 names is flown again from its scenario.yaml with ``faults: []`` (flyby_mission.campaign.fault_effect), on a Dask
 LocalCluster of K single-threaded workers (default: one per core); its summary goes to runs/<i>/twin_summary.json,
 one row per undetected fault to fault_effect.csv, and per fault type the undetected faults and those whose run's
-outcome differs from its twin's are printed. Rerun to resume. Exit code 0 when no undetected fault changed an outcome,
-1 when one did or a twin raised, 2 for a misused option (one line naming it).
+outcome differs from its twin's are printed and written to report.md (its section replaced on a rerun). Rerun to
+resume. Exit code 0 when no undetected fault changed an outcome, 1 when one did or a twin raised, 2 for a misused
+option (one line naming it).
 """
 
 import json
@@ -26,6 +27,7 @@ from flyby_mission.campaign.fault_effect import (
     effect_rows,
     runs_to_twin,
     twin_scenario,
+    with_effect_section,
     write_effect,
 )
 from flyby_mission.campaign.runner import QUIET_CLUSTER, fly
@@ -72,6 +74,9 @@ def main(argv=None):
             fly_twins(out, todo, args.workers)
         rows = effect_rows(out, summaries)
         write_effect(out, rows)
+        report = out / 'report.md'
+        if report.is_file():
+            report.write_text(with_effect_section(report.read_text(), rows))
     except (OSError, ValueError, KeyError) as err:
         return cli.fail(err, args.debug)
     changed = 0

@@ -16,6 +16,7 @@ from flyby_mission.campaign.fault_effect import (
     effect_rows,
     runs_to_twin,
     twin_scenario,
+    with_effect_section,
     write_effect,
 )
 from flyby_mission.campaign.fault_report import fault_lines, fault_statistics
@@ -84,6 +85,9 @@ def test_fault_effect_twins_only_undetected_runs_and_compares_outcomes(tmp_path)
     with (tmp_path / EFFECT_CSV).open() as f:
         assert [r['run'] for r in csv.DictReader(f)] == ['1', '2']
     assert summaries[0]['outcome'] == 'ABORTED'
+    report = with_effect_section('# report\n\nbody\n', rows)
+    assert '| topic_loss | 1 | 1 | 1 (ABORTED against CAPTURE) |' in report
+    assert with_effect_section(report, rows) == report  # the section replaced, not repeated
 
 
 def test_fault_effect_script_refuses_a_directory_without_a_campaign(tmp_path):

@@ -81,3 +81,25 @@ def effect_by_kind(rows):
         if r['changed']:
             k['changed'].append((r['run'], r['outcome'], r['twin_outcome']))
     return dict(sorted(out.items()))
+
+
+EFFECT_HEADING = '## Undetected faults against their twins'
+
+
+def effect_lines(rows):
+    """report.md's section of fault_effect's rows: per fault type the undetected faults and the runs whose outcome
+    their fault changed."""
+    lines = ['', EFFECT_HEADING, '', 'Each run with an undetected fault flown again without its faults '
+             '(scripts/fault_effect.py): a fault that changed the outcome went undetected.', '',
+             '| fault injected | undetected | outcome changed | runs (with the fault against without) |',
+             '|---|---|---|---|']
+    for kind, k in effect_by_kind(rows).items():
+        runs = ', '.join(f'{run} ({o} against {t})' for run, o, t in k['changed']) or '-'
+        lines.append(f'| {kind} | {k["undetected"]} | {len(k["changed"])} | {runs} |')
+    return lines
+
+
+def with_effect_section(report_text, rows):
+    """report.md's text with its undetected faults' section (``effect_lines``) in place of any earlier one."""
+    head = report_text.split('\n' + EFFECT_HEADING)[0].rstrip('\n')
+    return head + '\n' + '\n'.join(effect_lines(rows)) + '\n'
