@@ -123,7 +123,7 @@ class ChaserAttitudeFilterConfig:
         gyro_bias_walk_rad_s_sqrt_s: bias random walk [rad/s/sqrt(s)] (``gyro_bias_walk_rad_s_sqrt_s``).
         gate_probability: chi2(3) probability of the innovation gate (0.9999: d2 < 21.1).
         max_consecutive_outliers: N, the run of consecutive star-tracker outliers whose agreement restarts the
-            attitude from its last sample (filter_interface's restart rule); N >= 4 (MIN_RUN_SAMPLES).
+            attitude from its last sample (filter_interface's restart rule); N >= MIN_RUN_SAMPLES.
         initial_attitude_sigma_rad: attitude sigma per axis at initialization [rad]; None (default) = the
             star tracker's.
         norm_tolerance: star-tracker samples with |norm - 1| above this are rejected as 'non_unit'.

@@ -25,8 +25,9 @@ earlier rule, a restart at the 20th consecutive rejection, restarted a converged
 at zero rate (docs/faults.md, 'Not built yet'; docs/estimation.md for the runs before and after this rule).
 
 - The run: the consecutive gate rejections since the last sample inside the gate (or the last
-  (re)initialization); its last N = ``max_consecutive_outliers`` (default 20, 2 s at 10 Hz; N >= 4) are kept,
-  each as its error from the filter's prediction at its stamp, in each of the filter's frames.
+  (re)initialization); its last N = ``max_consecutive_outliers`` (default 20: 2 s at 10 Hz, 10 s for a 2 Hz star
+  tracker; N >= MIN_RUN_SAMPLES) are kept, each as its error from the filter's prediction at its stamp, in each of
+  the filter's frames.
 - Agreement: with N kept, the run agrees when, in one frame, the errors fit a quadratic in time per axis (least
   squares: an offset, a drift and its change) with residuals whose chi-square in units of the measurement's
   sigma is at most the chi2(3 (N - 3)) quantile at the gate's probability (N = 20 and 0.9999: 97.3 for 51
@@ -38,7 +39,7 @@ at zero rate (docs/faults.md, 'Not built yet'; docs/estimation.md for the runs b
   about 6800.
 - Restart: the sample that completes an agreeing run restarts the filter from itself, as each filter's
   restart does (its module doc); a run that does not agree keeps its last N, each new rejection testing again.
-  So a lost filter restarts at its N-th consecutive rejection (2 s at 10 Hz), or, failing the test by chance
+  So a lost filter restarts at its N-th consecutive rejection (N sensor periods), or, failing the test by chance
   (1 - gate probability per test), a sample or so later; inside a run, a change of the filter's prediction
   that is not smooth (a known burn's start, a measured thrust error, the navigation filter) may delay it to
   the N-th rejection after that change.
@@ -83,7 +84,7 @@ REJECTION_KINDS = ('non_finite', 'non_unit', 'stale', 'outlier')
 STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
 UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
 _IDENTITY = {}  # n -> the n x n identity and its first three columns (_identity)
-MIN_RUN_SAMPLES = 4  # a quadratic per axis (3 coefficients) leaves the run 3 (N - 3) >= 3 degrees of freedom
+MIN_RUN_SAMPLES = 10  # fewer and random outliers agree by chance (5-sigma ones: 42 % of tests at 4, 0.2 % at 8)
 ATTITUDE_FRAMES = ('body', 'inertial')  # the frames of an attitude's error (attitude_errors)
 
 __all__ = ['ATTITUDE_FRAMES', 'MIN_RUN_SAMPLES', 'EstimationFilter', 'FilterBase', 'REJECTION_KINDS', 'RejectedRun',

@@ -514,11 +514,11 @@ def test_config_from_scenario_keys_and_validation():
                                 gyro_bias_walk_rad_s_sqrt_s=5e-7)
     scenario = types.SimpleNamespace(sensors=types.SimpleNamespace(chaser_imu=imu), mean_motion_rad_s=N_RAD_S,
                                      estimation=types.SimpleNamespace(gate_probability=0.999))
-    c = ChaserAttitudeFilterParams.from_scenario(scenario).config(max_consecutive_outliers=5)
+    c = ChaserAttitudeFilterParams.from_scenario(scenario).config(max_consecutive_outliers=10)
     assert c == ChaserAttitudeFilterConfig(mean_motion_rad_s=N_RAD_S, rate_hz=20.0, star_tracker_rate_hz=4.0,
                                            star_tracker_sigma_rad=math.radians(0.02), gyro_noise_sigma_rad_s=2e-5,
                                            gyro_bias_sigma_rad_s=3e-4, gyro_bias_walk_rad_s_sqrt_s=5e-7,
-                                           gate_probability=0.999, max_consecutive_outliers=5)
+                                           gate_probability=0.999, max_consecutive_outliers=10)
     assert c.attitude_sigma0_rad == c.star_tracker_sigma_rad
     for field, value in (('star_tracker_sigma_rad', 0.0), ('rate_hz', -1.0), ('gate_probability', 1.0),
                          ('max_consecutive_outliers', 0), ('gyro_interpolation', 'cubic'),

@@ -330,8 +330,9 @@ def test_rejections_are_counted_and_the_filter_continues():
 
 
 def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement():
-    """max_consecutive_outliers = N: N - 1 outliers rejected, the Nth resets (same test as the target filter's)."""
-    n_outliers = 5
+    """max_consecutive_outliers = N: a jump's rejected samples agree, and the Nth restarts the filter
+    (filter_interface.RejectedRun)."""
+    n_outliers = 10  # filter_interface.MIN_RUN_SAMPLES
     nav = RelativeNavFilter(RelativeNavParams.from_scenario(scenario(1)).config(max_consecutive_outliers=n_outliers))
     nav.initialize(0.0, (50.0, 0.0, 0.0), covariance=np.diag([1e-4] * 3 + [1e-8] * 3))
     jumped = np.array([52.0, 0.0, 0.0])  # 2 m away: an unmodelled event

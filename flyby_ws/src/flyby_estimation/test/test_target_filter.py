@@ -277,8 +277,9 @@ def test_outlier_of_30_deg_is_rejected_and_counted(paper):
 
 
 def test_the_nth_consecutive_outlier_restarts_the_filter_from_that_measurement(paper):
-    """max_consecutive_outliers = N: N - 1 outliers rejected, the Nth resets (same test as the navigation filter's)."""
-    n_outliers = 5
+    """max_consecutive_outliers = N: a jump's rejected samples agree, and the Nth restarts the filter
+    (filter_interface.RejectedRun)."""
+    n_outliers = 10  # filter_interface.MIN_RUN_SAMPLES
     config = TargetFilterParams.from_scenario(paper.scenario).config(max_consecutive_outliers=n_outliers)
     f = TargetAttitudeFilter(config)
     for t, q in paper.window60:

@@ -123,6 +123,8 @@ class GuidanceCore:
         blocks = (None if attitude_covariance_hill is None or rate_covariance_body is None else
                   (attitude_covariance_hill, rate_covariance_body))
         self.targets.add(t, (np.asarray(q_hill_from_body, dtype=float), np.asarray(omega_body, dtype=float), blocks))
+        if self.t_idle_s is not None:  # the chaser estimates waiting for it would be stepped into burns
+            return []
         return self.flyby.step_waiting(self.phase)
 
     def on_event(self, event):

@@ -74,3 +74,21 @@ def test_the_rigid_chaser_holds_its_attitude_on_the_wheels_alone_once_propulsion
         assert not np.any(cmd.thruster_torque_body_n_m) and cmd.force_body_n == (0.0, 0.0, 0.0)
     assert any(np.any(cmd.wheel_torque_n_m != 0.0) for cmd in commands[True])
     assert [cmd.t for cmd in commands[True]] == [cmd.t for cmd in commands[False]]  # one command every estimate
+
+
+def test_a_chaser_estimate_waiting_for_its_target_estimate_is_not_stepped_once_propulsion_is_idle():
+    """The transfer burn's estimate (65.1 s) waiting for the target estimate of its stamp (a re-aim), then the
+    supervisor's node_error: that target estimate steps nothing, where without the error it commands the burn."""
+    r, v = np.array((50.0, 0.0, 0.0)), np.zeros(3)
+    q, omega = np.array((0.0, 0.0, 0.0, 1.0)), np.array((0.0, 0.0, 0.0873))
+    stepped = {}
+    for idle in (False, True):
+        core = _flying('paper_flyby.yaml')
+        assert core.flyby.params.refine_target  # paper_flyby's default
+        core.flyby.guidance.wants_refined_target = lambda t: True  # every estimate re-aims: it waits
+        assert core.on_chaser_estimate(65.1, r, v) == [] and len(core.flyby.waiting) == 1
+        if idle:
+            core.on_event(_node_error(wiring.SUPERVISOR))
+        stepped[idle] = core.on_target_estimate(65.1, q, omega)
+    assert any(isinstance(o, Maneuver) for o in stepped[False])
+    assert stepped[True] == []

@@ -26,8 +26,10 @@ The rule, per stream, mirrors the sensors' staleness (flyby_estimation.health):
   ``sensor_outliers`` on the stream's sensor (the estimator found that gap and the fault table answered it: the
   estimates stop with its accepted samples); not while the watchdog finds the estimator lost, and after that from the
   stream's first estimate again (a silent estimator is the watchdog's ``node_lost``, never also stale here; a respawned
-  one publishes once its filters start). An estimator silent for less than the watchdog's bound is seen here, as its
-  streams' staleness.
+  one publishes once its filters start). A crashed estimator's heartbeat stops with its estimates, so the time held
+  back to it stops too: it is the watchdog's alone; one whose core raised (fenced off, its node still reporting
+  progress) is seen here, as its streams' staleness. A finding is stamped at that time, the graph's as the headless
+  driver's.
 
 No ROS here.
 """
@@ -69,8 +71,8 @@ class EstimateAgeParams:
 
 
 class Finding(NamedTuple):
-    """A stream found stale (``detected``) or fresh again, judged at the supervisor's clock t [s], with the rule's
-    figures [s]."""
+    """A stream found stale (``detected``) or fresh again at t [s], the receiver's time (the supervisor's clock held
+    back to the estimator's progress), with the rule's figures [s]."""
 
     t: float
     component: str
@@ -133,9 +135,10 @@ class EstimateAgeMonitor:
     def judge(self, t_clock, judged, estimator_lost):
         """Every stream judged at the supervisor's clock t_clock [s] (judged as ``on_estimate``); a lost estimator's
         streams wait for their first estimate again."""
-        if estimator_lost:
+        if estimator_lost:  # a respawned estimator never clears its predecessor's detections
             for stream in self.streams.values():
                 stream.restart()
+            self.explained.clear()
             return []
         return [f for stream in self.streams.values() for f in self._judge(stream, t_clock)] if judged else []
 
@@ -151,8 +154,8 @@ class EstimateAgeMonitor:
         stream.stale = stale
         values = dict(silent_s=silent_s, age_s=age_s, bound_s=stream.bound_s)
         if not stale:
-            return [Finding(t_clock, stream.component, False, f'{stream.component}: {KIND} cleared', values)]
+            return [Finding(now, stream.component, False, f'{stream.component}: {KIND} cleared', values)]
         why = (f'no estimate for {silent_s:.2f} s' if silent_s > stream.bound_s else
                f'an estimate arrived {age_s:.2f} s after its stamp')
-        return [Finding(t_clock, stream.component, True, f'{stream.component}: {why} (bound {stream.bound_s:.2f} s)',
+        return [Finding(now, stream.component, True, f'{stream.component}: {why} (bound {stream.bound_s:.2f} s)',
                         values)]

@@ -176,6 +176,20 @@ def test_a_lost_estimator_is_the_watchdogs_alone_and_its_streams_wait_for_their_
                      (events.FAULT_RECOVERED, 'node_lost', 'flyby_estimator')]
 
 
+def test_a_respawned_estimator_is_judged_again_though_its_predecessor_never_cleared_its_detection():
+    """The old estimator held sensor_outliers on the target attitude when it crashed; its respawn never sends the
+    fault_recovered: once the watchdog had the estimator lost, the target stream is judged again."""
+    monitor = EstimateAgeMonitor(SIXDOF.estimates)
+    monitor.on_progress(10.0)
+    monitor.on_detection('sensor_outliers', 'target_attitude', True)
+    assert monitor.judge(10.0, judged=True, estimator_lost=True) == []
+    monitor.on_progress(40.0)
+    monitor.on_estimate('target_estimate', 40.0, 40.0, judged=True)
+    monitor.on_progress(41.0)
+    (found,) = monitor.judge(41.0, judged=True, estimator_lost=False)
+    assert (found.component, found.detected, found.t) == ('target_estimate', True, 41.0)
+
+
 def test_nothing_is_judged_before_the_first_estimate_nor_after_the_fly_by():
     core = _supervisor(c.PHASE_ESTIMATION)
     assert _found(_fly(core, 30.0, {}, _arrivals(_stamps(20.0, 30.0)))) == []  # the target's: none yet
