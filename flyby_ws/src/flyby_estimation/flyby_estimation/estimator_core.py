@@ -283,12 +283,11 @@ class EstimatorCore:
         result = self.nav.update(t, r_hill)
         self.health.on_sample('relative_position', t, result.kind in GATED, result.nis,
                               transient=self._thrust_transient(t))
-        if not result.accepted:
-            return self._reject(t, 'relative_position', result.kind, result.reason)
-        if self.attitude is not None:
-            return []  # given with the attitude at the IMU's stamps
-        s = self.nav.state()
-        return [ChaserEstimate(s.t, s.r_hill, s.v_hill, s.covariance)]
+        out = [] if result.accepted else self._reject(t, 'relative_position', result.kind, result.reason)
+        if self.attitude is not None or not (result.accepted or result.kind == 'outlier'):
+            return out  # the rigid body's is given with the attitude at the IMU's stamps
+        s = self.nav.state()  # at an outlier its prediction: the consumers get an estimate at every sample
+        return out + [ChaserEstimate(s.t, s.r_hill, s.v_hill, s.covariance)]
 
     def on_imu(self, t, q_hill_from_body, omega_body_meas, specific_force_body=None):
         """An IMU sample at t (rigid-body chaser): star-tracker attitude q_hill_from_body or None, gyro rate, and

@@ -65,6 +65,31 @@ def _step_and_estimate(plant, estimator, accelerometer=True):
     return out
 
 
+def test_point_mass_estimator_gives_a_chaser_estimate_at_every_position_its_prediction_at_an_outlier():
+    """The point-mass chaser's estimate comes with each relative position: its update, or at an outlier (2 m off) the
+    prediction to its stamp, so its consumers judge its age by its sensor's period (flyby_mission.estimate_age)."""
+    scenario = load_scenario(SCENARIOS / 'paper_flyby.yaml')
+    plant = Plant(PlantConfig.from_scenario(scenario))
+    estimator = EstimatorCore(EstimatorParams.from_scenario(scenario))
+    stamps, estimates, outliers, measured = [], [], [], {}
+    while plant.t < 20.0:
+        plant.step()
+        for m in plant.measurements():
+            if m.kind != 'relative_position':
+                continue
+            t = wire_time(m.t)
+            value = np.asarray(m.value) + ((2.0, 0.0, 0.0) if 15.0 <= t < 15.35 else 0.0)
+            out = estimator.on_position(t, value)
+            stamps.append(t)
+            measured[t] = value
+            estimates += [o for o in out if isinstance(o, ChaserEstimate)]
+            outliers += [t for o in out if getattr(o, 'name', '') == 'measurement_rejected']
+    assert len(outliers) == 4
+    np.testing.assert_array_equal([e.t for e in estimates], stamps)
+    for e in (e for e in estimates if e.t in outliers):  # the prediction, not the measurement 2 m off
+        assert np.linalg.norm(e.r_hill + (2.0, 0.0, 0.0) - measured[e.t]) < 0.1
+
+
 def test_a_commanded_force_is_a_known_input_of_the_navigation_filter():
     """guidance/wrench's force (an optimal approach's tracking) held from its stamp for one IMU period: the filter
     adds it as a constant acceleration turned into hill by the attitude estimate of the command's own estimate (one

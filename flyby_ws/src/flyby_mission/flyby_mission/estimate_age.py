@@ -3,8 +3,9 @@ where the estimates are consumed.
 
 Guidance, the planner and the supervisor act on the last estimate they got, and a topic fault (flyby_msgs_py.
 link_faults) may lose or delay an estimate stream on its way without the estimator knowing. The estimator publishes
-the target's estimate at each target attitude sample its filter accepts and the chaser's at each relative position it
-accepts (point-mass chaser) or at each IMU sample (rigid body): one period of that sensor, 0.1 s at paper_flyby's 10 Hz.
+the target's estimate at each target attitude sample its filter accepts and the chaser's at each relative position
+(point-mass chaser: its update, or its prediction at an outlier) or at each IMU sample (rigid body): one period of
+that sensor, 0.1 s at paper_flyby's 10 Hz.
 The rule, per stream, mirrors the sensors' staleness (flyby_estimation.health):
 
 * **Time**: the receiver's, the supervisor's clock held back to the estimator's own progress (its heartbeat, the last
