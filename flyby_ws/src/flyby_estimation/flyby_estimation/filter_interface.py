@@ -18,11 +18,8 @@ squared above the chi-square gate; the filter has then been propagated to the st
 
 The restart rule (``RejectedRun``): a filter restarts only when the samples its gate rejects agree with each
 other, as those of a filter truly lost do (the target mis-tracked, a real jump of what is measured, a burn the
-filter did not know of), and random outliers, each off in its own direction, never do. The fault injection's
-``sensor_outliers`` (flyby_sim.plant.faults) turns or moves each sample by ``value`` (default 20) times the
-sensor's sigma about a direction drawn anew for each sample; a 10 s burst at 10 Hz is 100 such samples, and the
-earlier rule, a restart at the 20th consecutive rejection, restarted a converged target filter on a bad sample
-at zero rate (docs/faults.md, 'Not built yet'; docs/estimation.md for the runs before and after this rule).
+filter did not know of), and random outliers, each off in its own direction, never do: a burst of outliers is no
+reason to restart a converged filter (docs/estimation.md: the rule's runs).
 
 - The run: the consecutive gate rejections since the last sample inside the gate (or the last
   (re)initialization); its last N = ``max_consecutive_outliers`` (default 20: 2 s at 10 Hz, 10 s for a 2 Hz star

@@ -3,10 +3,9 @@ it comes too close (seed 000 section 4.2's passive safety; flyby_planner.flyby.a
 
 The coast starts from the latest chaser estimate and goes through the burns guidance commanded and the plant has
 still to fly: a burn is sent up to ``command_lead_s`` ahead of its start, and the plant flies what it was sent,
-whether the mission aborted since or guidance's core raised (only the CAM cancels queued burns). Judging the coast
-without them called a coast "passively safe" that the queued injection then turned into a 0.27 m pass (paper_flyby,
-guidance raising at 509 s: docs/runtime.md). So the avoidance burn comes after the last of them, from the state they
-leave. No ROS here.
+whether the mission aborted since or guidance's core raised (only the CAM cancels queued burns): a coast judged
+without them is not the one flown (docs/runtime.md). So the avoidance burn comes after the last of them, from the
+state they leave. No ROS here.
 """
 
 import dataclasses
@@ -20,12 +19,12 @@ from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
 
 @dataclasses.dataclass(frozen=True)
 class EscapeVerdict:
-    """The abort's check: the burn's start t_burn [s] and dv_hill [m/s] (None: the coast is safe, or inside the
-    sphere where nothing fires), the least clearance to the region before and after it [m], and how the region was
-    swept (``basis``, for the event's message)."""
+    """The abort's check: the burn's start and its impulse (None: the coast is safe, or inside the sphere where
+    nothing fires), the least clearance to the region before and after it, and how the region was swept (``basis``,
+    for the event's message)."""
 
-    t_burn: float
-    dv_hill: np.ndarray | None
+    t_burn_s: float
+    dv_hill_mps: np.ndarray | None
     before_m: float
     after_m: float
     basis: str
@@ -33,32 +32,32 @@ class EscapeVerdict:
 
 
 class PendingBurns:
-    """Guidance's commanded burns (its ``maneuver_commanded`` events: start t_burn [s], dv_hill [m/s]) that the chaser
+    """Guidance's commanded burns (its ``maneuver_commanded`` events: start t_burn_s, dv_hill_mps) that the chaser
     estimate does not yet hold."""
 
     def __init__(self):
         self.burns = []
 
-    def add(self, t_burn, dv_hill):
-        self.burns.append((float(t_burn), np.asarray(dv_hill, dtype=float)))
+    def add(self, t_burn_s, dv_hill_mps):
+        self.burns.append((float(t_burn_s), np.asarray(dv_hill_mps, dtype=float)))
 
-    def after(self, t):
-        """The burns starting after t [s] (the latest estimate's stamp), in start order; the older ones dropped."""
-        self.burns = sorted((b for b in self.burns if b[0] > t), key=lambda b: b[0])
+    def after(self, t_s):
+        """The burns starting after t_s (the latest estimate's stamp), in start order; the older ones dropped."""
+        self.burns = sorted((b for b in self.burns if b[0] > t_s), key=lambda b: b[0])
         return list(self.burns)
 
 
-def coast_through(r_hill, v_hill, t_from, t_to, burns, n):
-    """The CW state [r_hill, v_hill] at t_to [s] from (r_hill, v_hill) at t_from, the impulses ``burns`` ((t_burn,
-    dv_hill), in order) in (t_from, t_to] added at their starts."""
+def coast_through(r_hill, v_hill, t_from_s, t_to_s, burns, n_rad_s):
+    """The CW state [r_hill, v_hill] at t_to_s from (r_hill, v_hill) at t_from_s, the impulses ``burns`` ((t_burn_s,
+    dv_hill_mps), in order) in (t_from_s, t_to_s] added at their starts."""
     state = np.concatenate((np.asarray(r_hill, dtype=float), np.asarray(v_hill, dtype=float)))
-    t = t_from
-    for t_burn, dv_hill in burns:
-        if t_from < t_burn <= t_to:
-            state = cw_coast(state[:3], state[3:], t_burn - t, n)
-            state[3:] += dv_hill
-            t = t_burn
-    return cw_coast(state[:3], state[3:], t_to - t, n)
+    t_s = t_from_s
+    for t_burn_s, dv_hill_mps in burns:
+        if t_from_s < t_burn_s <= t_to_s:
+            state = cw_coast(state[:3], state[3:], t_burn_s - t_s, n_rad_s)
+            state[3:] += dv_hill_mps
+            t_s = t_burn_s
+    return cw_coast(state[:3], state[3:], t_to_s - t_s, n_rad_s)
 
 
 def escape_check(p, t, chaser, pending, spinning_target, t_latest_target):
@@ -68,11 +67,11 @@ def escape_check(p, t, chaser, pending, spinning_target, t_latest_target):
     attitude: a filter just restarted has no spin axis); t_latest_target [s]: the latest target estimate's stamp."""
     t_c, r, v = chaser
     burns = pending.after(t_c)
-    t_burn = max(max(t, t_c) + p.command_lead_s, burns[-1][0] if burns else -np.inf)
-    state = coast_through(r, v, t_c, t_burn, burns, p.n_rad_s)
+    t_burn_s = max(max(t, t_c) + p.command_lead_s, burns[-1][0] if burns else -np.inf)
+    state = coast_through(r, v, t_c, t_burn_s, burns, p.n_rad_s)
     queued = f'; through guidance\'s burns still to fly ({len(burns)})' if burns else ''
     if np.linalg.norm(state[:3]) < p.restriction_sphere_radius_m + p.sphere_margin_m:
-        return EscapeVerdict(t_burn, None, np.nan, np.nan, queued, True)
+        return EscapeVerdict(t_burn_s, None, np.nan, np.nan, queued, True)
     if spinning_target is not None:
         t_t, q_hb, omega_body = spinning_target
         region = swept_region(p.boxes, p.target_inertia_kg_m2, [q_eci_from_body(t_t, p.n_rad_s, q_hb)], [omega_body])
@@ -80,5 +79,5 @@ def escape_check(p, t, chaser, pending, spinning_target, t_latest_target):
     else:
         region = any_attitude_region(p.boxes)
         basis = ' (no target estimate with a spin axis: the region of every attitude)'
-    dv, before, after = avoidance_burn(state[:3], state[3:], t_burn, region, p.planner, p.avoidance_delta_v_mps)
-    return EscapeVerdict(t_burn, dv, before, after, basis + queued, False)
+    dv, before, after = avoidance_burn(state[:3], state[3:], t_burn_s, region, p.planner, p.avoidance_delta_v_mps)
+    return EscapeVerdict(t_burn_s, dv, before, after, basis + queued, False)

@@ -41,13 +41,13 @@ from typing import NamedTuple
 from flyby_estimation import health
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import params
-from flyby_msgs_py.link_faults import SENSOR_OF_TOPIC
+from flyby_msgs_py.link_faults import COMPONENT_OF_TOPIC
 
 STALE_PERIODS = health.STALE_PERIODS + 1 + (health.OUTLIER_BURST - 1)  # 8 (module doc)
 MONITOR = 'estimate_age'
 KIND = 'estimate_stale'
-TARGET_ESTIMATE = SENSOR_OF_TOPIC[c.EST_TARGET_ODOM]  # the components, as the summary matches them to topic faults
-CHASER_ESTIMATE = SENSOR_OF_TOPIC[c.EST_CHASER_ODOM]
+TARGET_ESTIMATE = COMPONENT_OF_TOPIC[c.EST_TARGET_ODOM]  # the components, as the summary matches them to topic faults
+CHASER_ESTIMATE = COMPONENT_OF_TOPIC[c.EST_CHASER_ODOM]
 # The estimator's detections on a stream's sensor that stop its estimates (module doc).
 EXPLAINING_KINDS = ('sensor_stale', 'sensor_outliers')
 

@@ -5,7 +5,7 @@ Events are dicts with t, level, name, message, values (text), hardware_id."""
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events as ev
 from flyby_msgs_py.event_payloads import decode_values
-from flyby_msgs_py.link_faults import SENSOR_OF_TOPIC
+from flyby_msgs_py.link_faults import COMPONENT_OF_TOPIC
 from flyby_msgs_py.wiring import SUPERVISOR
 
 
@@ -94,7 +94,7 @@ def _explains(fault, detection):
     if actuator == 'node':  # the watchdog names the node
         return component == index
     if actuator == 'topic':  # a link fault: the monitors name the sensor the topic carries
-        return component == SENSOR_OF_TOPIC.get(index)
+        return component == COMPONENT_OF_TOPIC.get(index)
     if fault['kind'] == 'gyro_bias_jump':
         return component in ('imu', 'star_tracker')
     return component == target or (target == 'imu' and component == 'star_tracker')

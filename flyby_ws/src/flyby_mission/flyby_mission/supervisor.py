@@ -513,15 +513,15 @@ class SupervisorCore:
         if verdict.inside_sphere:
             return [self._event(t, 'WARN', events.NO_AVOIDANCE_BURN, 'inside the restriction sphere: coasting, never '
                                                                        f'thrusting{basis}', {})]
-        if verdict.dv_hill is None:
+        if verdict.dv_hill_mps is None:
             return [self._event(t, 'OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
                                                                     f'{verdict.before_m:.2f} m){basis}',
                                 {'clearance_m': verdict.before_m})]
-        dv = verdict.dv_hill
-        return [AvoidanceBurn(verdict.t_burn, dv),
+        dv = verdict.dv_hill_mps
+        return [AvoidanceBurn(verdict.t_burn_s, dv),
                 self._event(t, 'WARN', events.AVOIDANCE_BURN,
                             f'coast would come {verdict.before_m:.2f} m from the keep-out region; burn of '
-                            f'{np.linalg.norm(dv):.3f} m/s at t = {verdict.t_burn:.2f} s keeps {verdict.after_m:.2f} '
+                            f'{np.linalg.norm(dv):.3f} m/s at t = {verdict.t_burn_s:.2f} s keeps {verdict.after_m:.2f} '
                             f'm{basis}', {'dv_hill_mps': [float(x) for x in dv]})]
 
     # -- outputs --------------------------------------------------------------------------------

@@ -40,9 +40,9 @@ TOPICS = (c.SENSOR_RELATIVE_POSITION, c.SENSOR_TARGET_ATTITUDE, c.SENSOR_CHASER_
 # The component a detection of a topic's loss or delay names (its staleness): the sensor a sensor topic carries (the
 # estimator's monitors, flyby_estimation.health), the estimate an estimate topic carries (the supervisor's estimate-age
 # monitor, flyby_mission.estimate_age). The summary counts such a detection as the topic fault's (run_events).
-SENSOR_OF_TOPIC = {c.SENSOR_RELATIVE_POSITION: 'relative_position', c.SENSOR_TARGET_ATTITUDE: 'target_attitude',
-                   c.SENSOR_CHASER_WHEELS: 'tachometers', c.EST_TARGET_ODOM: 'target_estimate',
-                   c.EST_CHASER_ODOM: 'chaser_estimate'}
+COMPONENT_OF_TOPIC = {c.SENSOR_RELATIVE_POSITION: 'relative_position', c.SENSOR_TARGET_ATTITUDE: 'target_attitude',
+                      c.SENSOR_CHASER_WHEELS: 'tachometers', c.EST_TARGET_ODOM: 'target_estimate',
+                      c.EST_CHASER_ODOM: 'chaser_estimate'}
 STAMP_TOLERANCE_S = 1e-9  # stamps are whole nanoseconds
 TARGET_PREFIX = 'topic '
 

@@ -70,7 +70,7 @@ def _vector(values, key):
 def _burns(mission_events):
     """Executed burns (the simulator's burn_started), labelled with the kind guidance commanded."""
     commanded = [(float(e['values']['t_burn_s']), e['values'].get('kind', 'burn'))
-                 for e in mission_events if e['name'] == events.MANEUVER_COMMANDED and 't_burn_s' in e['values']]
+                 for e in mission_events if e['name'] == events.MANEUVER_COMMANDED]
     burns = []
     for e in mission_events:
         if e['name'] != events.BURN_STARTED or e['hardware_id'] != 'flyby_sim':
