@@ -40,7 +40,8 @@ from flyby_guidance.modes.interface import AttitudeCommandStamped, ChaserEstimat
 from flyby_guidance.modes.transport import TransportMode
 from flyby_guidance.params import GuidanceParams
 from flyby_msgs_py import contract as c
-from flyby_msgs_py import events, wiring
+from flyby_msgs_py import event_payloads, events, wiring
+from flyby_msgs_py.core_guard import failed_node
 from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 
@@ -59,7 +60,7 @@ def without_thrust(outputs):
 
 def supervisor_lost(event):
     """Whether a mission/events Event is the supervisor's core's node_error (module doc)."""
-    return event.name == events.NODE_ERROR and event.values.get('node') == wiring.SUPERVISOR
+    return failed_node(event.name, event.values) == wiring.SUPERVISOR
 
 
 def chaser_of(params, source, targets):
@@ -143,8 +144,8 @@ class GuidanceCore:
         attitude = '; the wheels alone hold the attitude' if isinstance(self.chaser, RigidBodyChaser) else ''
         return [Event(error.t, 'ERROR', events.PROPULSION_IDLED,
                       f'the supervisor\'s core raised ({error.message}): no burn or thrust commanded from now on'
-                      f'{attitude}', {'t_error_s': error.t, 'exception': error.values.get('exception', '')},
-                      self.name)]
+                      f'{attitude}', event_payloads.encode(event_payloads.PropulsionIdled(
+                          error.t, event_payloads.decode(error).exception)), self.name)]
 
     def on_chaser_estimate(self, t, r_hill, v_hill, q_hill_from_body=None, omega_body=None):
         """A chaser estimate (estimation/chaser/odom), with the rigid-body chaser's attitude and body rate."""

@@ -4,6 +4,7 @@ Events are dicts with t, level, name, message, values (text), hardware_id."""
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import events as ev
+from flyby_msgs_py.core_guard import failed_node
 from flyby_msgs_py.event_payloads import decode_values
 from flyby_msgs_py.link_faults import COMPONENT_OF_TOPIC
 from flyby_msgs_py.wiring import SUPERVISOR
@@ -20,7 +21,7 @@ def no_safe_plan_reason(events):
 
 def supervisor_error(events):
     """The supervisor's core's node_error (flyby_msgs_py.core_guard: the mission lost its judge), or None."""
-    return next((e for e in events if e['name'] == ev.NODE_ERROR and e['values'].get('node') == SUPERVISOR), None)
+    return next((e for e in events if failed_node(e['name'], e['values']) == SUPERVISOR), None)
 
 
 def chosen_method(events):

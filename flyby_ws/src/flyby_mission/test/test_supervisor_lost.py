@@ -98,5 +98,5 @@ def test_a_collision_after_the_supervisors_loss_is_still_a_collision():
     # An interruption or the launcher's own error stays; another node's node_error is the supervisor's to answer.
     assert _judged_end_reason('interrupted', supervisor_error) == 'interrupted'
     assert _judged_end_reason('error: wall-clock timeout', supervisor_error) == 'error: wall-clock timeout'
-    planner_error = [dict(supervisor_error[0], values={'node': wiring.PLANNER})]
+    planner_error = [dict(supervisor_error[0], values=dict(supervisor_error[0]['values'], node=wiring.PLANNER))]
     assert _judged_end_reason('phase ABORTED', planner_error) == 'phase ABORTED'

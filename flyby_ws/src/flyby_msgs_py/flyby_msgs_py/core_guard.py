@@ -10,8 +10,14 @@ the independent CAM monitor stays armed, and the run's outcome is ERROR unless t
 (flyby_mission.summary; docs/runtime.md). No ROS here: the headless driver uses the same guard.
 """
 
-from flyby_msgs_py import events
+from flyby_msgs_py import event_payloads, events
 from flyby_msgs_py.wire import Event
+
+
+def failed_node(name, values):
+    """The node whose core raised, of a mission/events event's name and values (an Event's or a bag's dict), or
+    None for any other event."""
+    return event_payloads.decode_values(name, values).node if name == events.NODE_ERROR else None
 
 
 class CoreGuard:
@@ -26,5 +32,5 @@ class CoreGuard:
         timer whose input the core was handling) ran; the core is fenced off from now on."""
         kind = type(err).__name__
         self.failed = Event(t, 'ERROR', events.NODE_ERROR, f'{self.node}: {kind}: {err}',
-                            {'node': self.node, 'exception': kind, 'callback': callback}, self.node)
+                            event_payloads.encode(event_payloads.NodeError(self.node, kind, callback)), self.node)
         return self.failed

@@ -205,6 +205,24 @@ class FaultResponse(_Payload):
     severity: int | None = None
 
 
+@payload(events.NODE_ERROR)
+class NodeError(_Payload):
+    """A node's core raised (flyby_msgs_py.core_guard): the node, the exception's type and the input (topic, service
+    or timer) it was handling."""
+
+    node: str
+    exception: str
+    callback: str
+
+
+@payload(events.PROPULSION_IDLED)
+class PropulsionIdled(_Payload):
+    """Guidance commands no burn and no thrust from the supervisor's node_error on (its stamp [s], its exception)."""
+
+    t_error_s: float
+    exception: str
+
+
 @payload(events.MANEUVER_COMMANDED)
 class ManeuverCommanded(_Payload):
     """Guidance sent a burn (guidance/maneuver): its kind (injection, adjust), start t_burn [s] and dv_hill [m/s]. The
@@ -343,7 +361,8 @@ class MessageRejected(_Payload):
 PAYLOADS = {cls.NAME: cls for cls in (PhaseChanged, PlanSelected, PlanRefused, TargetRefined, StationReached,
                                       AttitudeSynchronized, DockingStarted, GraspDamped, FaultInjected,
                                       FaultEnded, FaultDetected, FaultRecovered, FaultResponse,
-                                      ManeuverCommanded, ThrustersIsolated, WheelsReallocated, DampingComplete,
+                                      NodeError, PropulsionIdled, ManeuverCommanded, ThrustersIsolated,
+                                      WheelsReallocated, DampingComplete,
                                       ExcitationScheduled, MassPropertiesEstimated, MassPropertiesEstimate,
                                       TransportComEstimate, TransportPlanned, TransportTerminal, TransportComplete,
                                       MessageRejected)}

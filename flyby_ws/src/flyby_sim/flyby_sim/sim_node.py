@@ -54,6 +54,7 @@ from std_msgs.msg import Header, String
 
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, event_payloads, events, qos, wiring
+from flyby_msgs_py.core_guard import failed_node
 from flyby_msgs_py.markers import chaser_markers, marker_array, target_box_markers
 from flyby_msgs_py.node_base import AdmissionGate
 from flyby_msgs_py.runtime import PROGRESS_PERIOD_NS, PROGRESS_TOPIC, READY_TOPIC, TICK_TOPIC, main_for, publish_event
@@ -519,10 +520,10 @@ class SimNode(Node):
                 ch.plant.isolate_thrusters(event_payloads.decode_values(e['name'], e['values']).thrusters)
                 self.publish_plant_events()
                 continue
-            node = e['values'].get('node')
-            if e['name'] == events.NODE_ERROR and node == SUPERVISOR:
+            node = failed_node(e['name'], e['values'])
+            if node == SUPERVISOR:
                 ch.supervisor_failed = True
-            if e['name'] == events.NODE_ERROR and node in COMMAND_CHAIN and not ch.chain_failed:
+            if node in COMMAND_CHAIN and not ch.chain_failed:
                 ch.attitude_quiet = ch.chain_failed = True
                 ch.announced_ns.clear()
                 self.emit('WARN', events.NODE_LOST, f'{node} failed ({e["message"]}); no longer waiting for attitude '
