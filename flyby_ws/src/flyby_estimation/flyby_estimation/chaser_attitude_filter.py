@@ -84,10 +84,10 @@ from scipy.linalg import solve_discrete_are
 
 from flyby_estimation.filter_interface import (
     ATTITUDE_FRAMES,
-    MIN_RUN_SAMPLES,
     FilterBase,
     attitude_errors,
     attitude_innovation,
+    check_run_length,
     fold_attitude_error,
     kalman_update_first_three,
     new_counts,
@@ -154,9 +154,7 @@ class ChaserAttitudeFilterConfig:
             require_positive('initial_attitude_sigma_rad', self.initial_attitude_sigma_rad)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability}')
-        if not (isinstance(self.max_consecutive_outliers, int) and self.max_consecutive_outliers >= MIN_RUN_SAMPLES):
-            raise ValueError(f'max_consecutive_outliers must be an integer >= {MIN_RUN_SAMPLES}, got '
-                             f'{self.max_consecutive_outliers!r}')
+        check_run_length(self.max_consecutive_outliers)
         if self.gyro_interpolation not in GYRO_INTERPOLATIONS:
             raise ValueError(f'gyro_interpolation must be one of {GYRO_INTERPOLATIONS}, '
                              f'got {self.gyro_interpolation!r}')

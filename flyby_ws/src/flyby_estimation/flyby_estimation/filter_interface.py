@@ -82,11 +82,21 @@ STATE_CHANGING_KINDS = ('initialized', 'accepted', 'reset')
 UPDATE_KINDS = STATE_CHANGING_KINDS + REJECTION_KINDS
 _IDENTITY = {}  # n -> the n x n identity and its first three columns (_identity)
 MIN_RUN_SAMPLES = 10  # fewer and random outliers agree by chance (5-sigma ones: 42 % of tests at 4, 0.2 % at 8)
+
+
+def check_run_length(length):
+    """``max_consecutive_outliers`` as an int, or ValueError naming it: an integer >= MIN_RUN_SAMPLES (the rejected
+    run's agreement, module doc)."""
+    if isinstance(length, bool) or not isinstance(length, (int, np.integer)) or length < MIN_RUN_SAMPLES:
+        raise ValueError(f'max_consecutive_outliers must be an integer >= {MIN_RUN_SAMPLES} (the agreement of the '
+                         f'rejected run needs a quadratic fit with a residual), got {length!r}')
+    return int(length)
 ATTITUDE_FRAMES = ('body', 'inertial')  # the frames of an attitude's error (attitude_errors)
 
-__all__ = ['ATTITUDE_FRAMES', 'MIN_RUN_SAMPLES', 'EstimationFilter', 'FilterBase', 'REJECTION_KINDS', 'RejectedRun',
-           'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult', 'attitude_errors', 'attitude_innovation',
-           'fold_attitude_error', 'new_counts', 'kalman_update_first_three', 'quadratic_fit_chi2']
+__all__ = ['ATTITUDE_FRAMES', 'MIN_RUN_SAMPLES', 'check_run_length', 'EstimationFilter', 'FilterBase',
+           'REJECTION_KINDS', 'RejectedRun', 'STATE_CHANGING_KINDS', 'UPDATE_KINDS', 'UpdateResult',
+           'attitude_errors', 'attitude_innovation', 'fold_attitude_error', 'new_counts', 'kalman_update_first_three',
+           'quadratic_fit_chi2']
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -198,10 +208,7 @@ class RejectedRun:
     """
 
     def __init__(self, length, sigma, probability, frames, rotation):
-        if isinstance(length, bool) or not isinstance(length, (int, np.integer)) or length < MIN_RUN_SAMPLES:
-            raise ValueError(f'max_consecutive_outliers must be an integer >= {MIN_RUN_SAMPLES} (the agreement of '
-                             f'the rejected run needs a quadratic fit with a residual), got {length!r}')
-        self.length = int(length)
+        self.length = check_run_length(length)
         self._sigma = float(sigma)
         self._frames = tuple(frames)
         self._rotation = rotation

@@ -73,7 +73,7 @@ from typing import NamedTuple
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from flyby_estimation.filter_interface import MIN_RUN_SAMPLES, FilterBase, UpdateResult, kalman_update_first_three
+from flyby_estimation.filter_interface import FilterBase, UpdateResult, check_run_length, kalman_update_first_three
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix, relative_accel_components, rk4_step
 from flyby_sim.dynamics.propulsion import (
@@ -101,7 +101,7 @@ class RelativeNavConfig:
     The fields up to gate_probability are the scenario's (``params.RelativeNavParams.config``: their defaults are
     the scenario schema's); the rest are the filter's own, with defaults.
     max_consecutive_outliers: N, the run of consecutive outliers whose agreement restarts the filter from its
-    last measurement (module doc, filter_interface's restart rule); N >= 4 (MIN_RUN_SAMPLES).
+    last measurement (module doc, filter_interface's restart rule); N >= MIN_RUN_SAMPLES.
     """
 
     mean_motion_rad_s: float  # n of the target orbit
@@ -124,10 +124,7 @@ class RelativeNavConfig:
         require_positive('max_rk4_step_s', self.max_rk4_step_s)
         if not (0.0 < self.gate_probability < 1.0):
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability!r}')
-        if isinstance(self.max_consecutive_outliers, bool) or not isinstance(
-                self.max_consecutive_outliers, (int, np.integer)) or self.max_consecutive_outliers < MIN_RUN_SAMPLES:
-            raise ValueError(f'max_consecutive_outliers must be an integer >= {MIN_RUN_SAMPLES}, got '
-                             f'{self.max_consecutive_outliers!r}')
+        check_run_length(self.max_consecutive_outliers)
         if self.dynamics not in DYNAMICS:
             raise ValueError(f'dynamics must be one of {DYNAMICS}, got {self.dynamics!r}')
         if self.dynamics == 'nonlinear':

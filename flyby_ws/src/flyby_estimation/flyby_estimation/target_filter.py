@@ -49,10 +49,10 @@ from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
 from flyby_estimation.batch import check_filter, fit_attitude_motion
 from flyby_estimation.filter_interface import (
     ATTITUDE_FRAMES,
-    MIN_RUN_SAMPLES,
     FilterBase,
     UpdateResult,
     attitude_errors,
+    check_run_length,
     kalman_update_first_three,
 )
 from flyby_estimation.motion_category import classify_motion
@@ -101,7 +101,7 @@ class TargetFilterConfig:
         norm_tolerance: measurements with |norm - 1| above this are rejected as 'non_unit'.
         max_consecutive_outliers: N, the run of consecutive outliers whose agreement restarts the filter from
             its last measurement (filter_interface's restart rule: a wrong initial measurement or a real jump
-            would otherwise lock it out, random outliers never restart it); N >= 4 (MIN_RUN_SAMPLES).
+            would otherwise lock it out, random outliers never restart it); N >= MIN_RUN_SAMPLES.
         max_step_angle_rad: substep limit, as a rotation angle (attitude_error_dynamics.ErrorStateDynamics.propagate).
         excursion_window_s: window of estimated hill attitudes kept for classify_motion.
     """
@@ -126,10 +126,10 @@ class TargetFilterConfig:
         require_positive('torque_psd', self.torque_psd, allow_zero=True)
         if not 0.0 < self.gate_probability < 1.0:
             raise ValueError(f'gate_probability must be in (0, 1), got {self.gate_probability}')
-        for name, least in (('max_consecutive_outliers', MIN_RUN_SAMPLES), ('check_window_max_samples', 1)):
-            value = getattr(self, name)
-            if not (isinstance(value, int) and value >= least):
-                raise ValueError(f'{name} must be an integer >= {least}, got {value!r}')
+        check_run_length(self.max_consecutive_outliers)
+        if not (isinstance(self.check_window_max_samples, int) and self.check_window_max_samples >= 1):
+            raise ValueError('check_window_max_samples must be an integer >= 1, got '
+                             f'{self.check_window_max_samples!r}')
 
 
 @params.record
