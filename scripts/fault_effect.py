@@ -4,7 +4,7 @@
     .venv/bin/python scripts/fault_effect.py --out runs/faults_single [--workers K]
 
 --out is a fault campaign's directory (scripts/run_campaign.py). Each run with an injected fault that no detection
-names is flown again from its scenario.yaml with ``faults: []`` (flyby_mission.campaign.fault_effect), on a Dask
+names is flown again from its scenario.yaml without its faults (flyby_mission.campaign.fault_effect), on a Dask
 LocalCluster of K single-threaded workers (default: one per core); its summary goes to runs/<i>/twin_summary.json,
 one row per undetected fault to fault_effect.csv, and per fault type the undetected faults and those whose run's
 outcome differs from its twin's are printed and written to report.md (its section replaced on a rerun). Rerun to

@@ -20,6 +20,7 @@ from flyby_mission.campaign.fault_effect import (
     write_effect,
 )
 from flyby_mission.campaign.fault_report import fault_lines, fault_statistics
+from flyby_sim.scenario import load_scenario, scenario_from_dict
 
 REPO = Path(__file__).resolve().parents[4]
 
@@ -71,7 +72,7 @@ def test_fault_effect_twins_only_undetected_runs_and_compares_outcomes(tmp_path)
     summaries = _campaign(tmp_path)
     todo = runs_to_twin(tmp_path)
     assert sorted(todo) == [1, 2]
-    assert twin_scenario(tmp_path, 1)['faults'] == []
+    assert 'faults' not in twin_scenario(tmp_path, 1)
     assert effect_rows(tmp_path, todo) == []  # no twin flown yet
     for run, outcome in ((1, 'CAPTURE'), (2, 'CAPTURE')):
         (tmp_path / 'runs' / str(run) / TWIN_SUMMARY).write_text(json.dumps({'outcome': outcome,
@@ -107,3 +108,15 @@ def test_fault_effect_script_reports_a_changed_outcome_from_flown_twins(tmp_path
     assert out.returncode == 1, out.stderr
     assert 'topic_loss: 1 undetected, outcome changed in 1: 1 (ABORTED against CAPTURE)' in out.stdout
     assert 'thruster_misaligned: 1 undetected, outcome changed in 0: none' in out.stdout
+
+
+def test_a_twin_of_a_drawn_fault_scenario_loads_without_its_faults(tmp_path):
+    """The twin of a real scenario with a fault is a valid scenario (a faults list, when given, must not be empty)."""
+    scenario = load_scenario(REPO / 'scenarios' / 'paper_flyby_6dof.yaml').to_dict()
+    scenario['faults'] = [{'type': 'thruster_off', 'index': 3, 'start_phase': 'TERMINAL_APPROACH', 'delay_s': 5.0}]
+    run_dir = tmp_path / 'runs' / '0'
+    run_dir.mkdir(parents=True)
+    (run_dir / 'scenario.yaml').write_text(yaml.safe_dump(scenario))
+    assert scenario_from_dict(scenario, name='faulted').faults
+    twin = scenario_from_dict(twin_scenario(tmp_path, 0), name='twin')
+    assert not twin.faults and twin.seed == scenario['seed']

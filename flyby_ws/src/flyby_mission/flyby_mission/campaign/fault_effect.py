@@ -42,9 +42,10 @@ def runs_to_twin(out_dir):
 
 
 def twin_scenario(out_dir, run):
-    """The run's scenario dict (runs/<i>/scenario.yaml) with its faults removed."""
+    """The run's scenario dict (runs/<i>/scenario.yaml) without its faults (the key left out: a scenario's faults
+    list, when given, is not empty)."""
     scenario = yaml.safe_load((Path(out_dir) / 'runs' / str(run) / 'scenario.yaml').read_text())
-    scenario['faults'] = []
+    scenario.pop('faults', None)
     return scenario
 
 
