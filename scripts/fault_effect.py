@@ -23,6 +23,7 @@ import distributed
 from flyby_mission import cli
 from flyby_mission.campaign.fault_effect import (
     TWIN_SUMMARY,
+    changed_text,
     effect_by_kind,
     effect_rows,
     runs_to_twin,
@@ -84,7 +85,7 @@ def main(argv=None):
         return cli.fail(err, args.debug)
     changed = 0
     for kind, k in effect_by_kind(rows).items():
-        runs = ', '.join(f'{run} ({o} against {t})' for run, o, t in k['changed']) or 'none'
+        runs = ', '.join(changed_text(*c) for c in k['changed']) or 'none'
         print(f'{kind}: {k["undetected"]} undetected, outcome changed in {len(k["changed"])}: {runs}')
         changed += len(k['changed'])
     errors = sum(1 for r in rows if r['twin_outcome'] == c.OUTCOME_ERROR)

@@ -80,14 +80,14 @@ def test_fault_effect_twins_only_undetected_runs_and_compares_outcomes(tmp_path)
     rows = effect_rows(tmp_path, todo)
     assert [(r['run'], r['changed']) for r in rows] == [(1, True), (2, False)]
     by_kind = effect_by_kind(rows)
-    assert by_kind['topic_loss'] == {'undetected': 1, 'changed': [(1, 'ABORTED', 'CAPTURE')]}
+    assert by_kind['topic_loss'] == {'undetected': 1, 'changed': [(1, 'ABORTED', 'CAPTURE', 'sensor_stale on c')]}
     assert by_kind['thruster_misaligned'] == {'undetected': 1, 'changed': []}
     write_effect(tmp_path, rows)
     with (tmp_path / EFFECT_CSV).open() as f:
         assert [r['run'] for r in csv.DictReader(f)] == ['1', '2']
     assert summaries[0]['outcome'] == 'ABORTED'
     report = with_effect_section('# report\n\nbody\n', rows)
-    assert '| topic_loss | 1 | 1 | 1 (ABORTED against CAPTURE) |' in report
+    assert '| topic_loss | 1 | 1 | 1 (ABORTED against CAPTURE; seen as sensor_stale on c) |' in report
     assert with_effect_section(report, rows) == report  # the section replaced, not repeated
 
 
@@ -106,7 +106,8 @@ def test_fault_effect_script_reports_a_changed_outcome_from_flown_twins(tmp_path
     out = subprocess.run([sys.executable, str(REPO / 'scripts' / 'fault_effect.py'), '--out', str(tmp_path)],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 1, out.stderr
-    assert 'topic_loss: 1 undetected, outcome changed in 1: 1 (ABORTED against CAPTURE)' in out.stdout
+    assert 'topic_loss: 1 undetected, outcome changed in 1: 1 (ABORTED against CAPTURE; seen as sensor_stale on c)' \
+        in out.stdout
     assert 'thruster_misaligned: 1 undetected, outcome changed in 0: none' in out.stdout
 
 

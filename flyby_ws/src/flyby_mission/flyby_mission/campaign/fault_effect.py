@@ -15,8 +15,8 @@ import yaml
 
 TWIN_SUMMARY = 'twin_summary.json'
 EFFECT_CSV = 'fault_effect.csv'
-EFFECT_COLUMNS = ('run', 'fault', 'kind', 'target', 'outcome', 'twin_outcome', 'changed', 'min_clearance_m',
-                  'twin_min_clearance_m')
+EFFECT_COLUMNS = ('run', 'fault', 'kind', 'target', 'seen_as', 'outcome', 'twin_outcome', 'changed',
+                  'min_clearance_m', 'twin_min_clearance_m')
 
 
 def _read_json(path):
@@ -29,6 +29,13 @@ def undetected_faults(summary):
     detections = summary.get('faults_detected') or []
     named = {d.get('fault') for d in detections if d.get('isolated', True)}
     return [f for f in injected if f['fault'] not in named]
+
+
+def seen_as(summary, fault):
+    """The first detection the summary counts toward ``fault`` but not isolated to it (its kind on its component:
+    the fault's effect seen, its cause not named), or ''."""
+    seen = [d for d in summary.get('faults_detected') or [] if d.get('fault') == fault['fault']]
+    return f'{seen[0]["kind"]} on {seen[0]["component"]}' if seen else ''
 
 
 def runs_to_twin(out_dir):
@@ -58,7 +65,7 @@ def effect_rows(out_dir, summaries):
             continue
         for f in undetected_faults(summary):
             rows.append(dict(run=run, fault=f['fault'], kind=f['kind'], target=f.get('target'),
-                             outcome=summary['outcome'], twin_outcome=twin['outcome'],
+                             seen_as=seen_as(summary, f), outcome=summary['outcome'], twin_outcome=twin['outcome'],
                              changed=summary['outcome'] != twin['outcome'],
                              min_clearance_m=summary.get('min_clearance_m'),
                              twin_min_clearance_m=twin.get('min_clearance_m')))
@@ -74,13 +81,13 @@ def write_effect(out_dir, rows):
 
 
 def effect_by_kind(rows):
-    """{kind: {'undetected': n, 'changed': [(run, outcome, twin outcome), ...]}} of fault_effect's rows."""
+    """{kind: {'undetected': n, 'changed': [(run, outcome, twin outcome, seen_as), ...]}} of fault_effect's rows."""
     out = {}
     for r in rows:
         k = out.setdefault(r['kind'], {'undetected': 0, 'changed': []})
         k['undetected'] += 1
         if r['changed']:
-            k['changed'].append((r['run'], r['outcome'], r['twin_outcome']))
+            k['changed'].append((r['run'], r['outcome'], r['twin_outcome'], r['seen_as']))
     return dict(sorted(out.items()))
 
 
@@ -90,14 +97,21 @@ EFFECT_HEADING = '## Undetected faults against their twins'
 def effect_lines(rows):
     """report.md's section of fault_effect's rows: per fault type the undetected faults and the runs whose outcome
     their fault changed."""
-    lines = ['', EFFECT_HEADING, '', 'Each run with an undetected fault flown again without its faults '
-             '(scripts/fault_effect.py): a fault that changed the outcome went undetected.', '',
-             '| fault injected | undetected | outcome changed | runs (with the fault against without) |',
+    lines = ['', EFFECT_HEADING, '', 'Each run whose fault no isolated detection names, flown again without its '
+             'faults (scripts/fault_effect.py): where the outcomes differ, the fault changed the outcome without being '
+             'named.', '',
+             '| fault injected | undetected | outcome changed | runs (with the fault against without; a detection of '
+             'its effect not isolated to it) |',
              '|---|---|---|---|']
     for kind, k in effect_by_kind(rows).items():
-        runs = ', '.join(f'{run} ({o} against {t})' for run, o, t in k['changed']) or '-'
+        runs = ', '.join(changed_text(*c) for c in k['changed']) or '-'
         lines.append(f'| {kind} | {k["undetected"]} | {len(k["changed"])} | {runs} |')
     return lines
+
+
+def changed_text(run, outcome, twin_outcome, seen):
+    """One changed run as the report says it: its outcome against its twin's, and how its fault was seen."""
+    return f'{run} ({outcome} against {twin_outcome}' + (f'; seen as {seen})' if seen else ')')
 
 
 def with_effect_section(report_text, rows):
