@@ -25,7 +25,7 @@ import collections
 import numpy as np
 
 from flyby_guidance.attitude_guidance import AttitudeGuidance
-from flyby_guidance.modes.interface import AttitudeCommandStamped, GuidanceMode
+from flyby_guidance.modes.interface import GuidanceMode
 from flyby_guidance.modes.synchronized import SynchronizedHold
 from flyby_guidance.modes.tracking import TrackingApproach
 from flyby_guidance.tracking import ReferenceTrajectory
@@ -71,7 +71,6 @@ class RigidBodyChaser(GuidanceMode):
         self.sphere_radius_m = params.restriction_sphere_radius_m + RESTRICTION_SPHERE_MARGIN_M
         self.mass_kg = params.mass_kg  # less the fuel of the forces commanded
         self.inertia_kg_m2 = params.inertia_kg_m2
-        self.n = params.mean_motion_rad_s
         self.layout = params.thruster_layout
         self.force_carried_hill = np.zeros(3)  # below the thrusters' minimum impulse bit so far [N]
         self.wheels_clipped = False  # from the arm's lock on (``account_wheels``)
@@ -108,17 +107,10 @@ class RigidBodyChaser(GuidanceMode):
 
     def idle_command(self, estimate):
         """The command of an estimate before the grasp once propulsion is idle (the supervisor's core raised,
-        ``guidance_core``): the pointing law holds body +x on the target with the wheels alone (its command inside the
-        restriction sphere, where the thruster torque is exactly zero), no force. Still one command every estimate:
-        the simulator holds time for it."""
+        ``guidance_core``): the pointing law holds body +x on the target with the wheels alone, no force
+        (``TrackingApproach.wheels_only``). Still one command every estimate: the simulator holds time for it."""
         self._before_command(estimate.t)
-        t = estimate.t
-        period_s = self.attitude.config.control_period_s
-        cmd = self.attitude.command(t, np.asarray(estimate.q_hill_from_body, dtype=float),
-                                    np.asarray(estimate.omega_body, dtype=float), self.h_wheels_n_m_s,
-                                    estimate.r_hill, estimate.v_hill, self.n, True)
-        self.wheel_commands.append((t + period_s, cmd.wheel_torque_n_m))
-        return [AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, np.zeros(3))]
+        return self.tracking.wheels_only(estimate)
 
     def _before_command(self, t):
         """The accounts before the command of the estimate of t [s]: the wheels' momentum, and the wheels whose

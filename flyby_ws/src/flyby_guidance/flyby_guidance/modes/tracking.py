@@ -62,21 +62,36 @@ class TrackingApproach(GuidanceMode):
         return (self.next_reference or self.reference).t_end
 
     def command(self, estimate, phase):
-        t, r_hill, v_hill, q_hill_from_body, omega_body = estimate
+        t, r_hill, v_hill, q_hill_from_body, _ = estimate
         chaser = self.chaser
         period_s = chaser.attitude.config.control_period_s
         a_thrust_hill, emitted = self._acceleration(t, t + period_s, r_hill, v_hill, phase)
         inside = float(np.linalg.norm(r_hill)) < chaser.sphere_radius_m
+        cmd = self._attitude_command(estimate, inside, a_thrust_hill)
+        force_body = (0.0, 0.0, 0.0) if a_thrust_hill is None else chaser.tracking_force(
+            a_thrust_hill, q_hill_from_body, cmd.thruster_torque_body_n_m)
+        return [AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m,
+                                       force_body)] + emitted
+
+    def wheels_only(self, estimate):
+        """The pointing with the wheels alone (the attitude law's command inside the restriction sphere, where the
+        thruster torque is exactly zero), no force: the command once propulsion is idle (guidance_core)."""
+        period_s = self.chaser.attitude.config.control_period_s
+        cmd = self._attitude_command(estimate, True, None)
+        return [AttitudeCommandStamped(estimate.t + period_s, period_s, cmd.wheel_torque_n_m, np.zeros(3))]
+
+    def _attitude_command(self, estimate, inside, a_thrust_hill):
+        """The attitude law's command of an estimate (inside: the restriction sphere's rule; a_thrust_hill: the
+        tracked thrust acceleration or None), its wheel torques booked from the next control period."""
+        t, r_hill, v_hill, q_hill_from_body, omega_body = estimate
+        chaser = self.chaser
         cmd = chaser.attitude.command(t, np.asarray(q_hill_from_body, dtype=float),
                                       np.asarray(omega_body, dtype=float), chaser.h_wheels_n_m_s, r_hill, v_hill,
                                       self.n, inside,
                                       None if a_thrust_hill is None else cw_accel(r_hill, v_hill, self.n,
                                                                                   a_thrust_hill))
-        chaser.wheel_commands.append((t + period_s, cmd.wheel_torque_n_m))
-        force_body = (0.0, 0.0, 0.0) if a_thrust_hill is None else chaser.tracking_force(
-            a_thrust_hill, q_hill_from_body, cmd.thruster_torque_body_n_m)
-        return [AttitudeCommandStamped(t + period_s, period_s, cmd.wheel_torque_n_m, cmd.thruster_torque_body_n_m,
-                                       force_body)] + emitted
+        chaser.wheel_commands.append((t + chaser.attitude.config.control_period_s, cmd.wheel_torque_n_m))
+        return cmd
 
     def _acceleration(self, t, t_apply, r_hill, v_hill, phase):
         """(thrust acceleration [m/s^2, hill] of the tracking law held from t_apply, or None where nothing is
