@@ -30,10 +30,13 @@ Each monitor has a stated rule:
   specified errors at 3 sigma and ``THRUST_RELATIVE`` of the expected thrust (the attitude estimate a burn is
   turned by: the plant's burn is fixed in the body at its start and turns with it, so the filter's burn, fixed in
   hill, is turned by the attitude estimate's change since), an allowance for the burns' timing, plus
-  ``thrust_book.BIT_THRUSTERS`` minimum impulse bits over a control period where a wrench is commanded:
-  ``thrust_excess`` where the residual exceeds the expected thrust (a thruster stuck on, a leak), else
-  ``thrust_deficit`` (a thruster off or weak), with the thrusters whose force lies within ``ISOLATION_DEG`` of the
-  residual (or against it, for a deficit) as the candidates.
+  ``thrust_book.BIT_THRUSTERS`` minimum impulse bits over a control period where a wrench is commanded. Which
+  thruster and which kind, by a hypothesis per thruster (``thrust_isolation``: a leak, present whether or not it is
+  commanded, against off or weak, present only where it is, each fitted to the window's residual series from the
+  commands as the plant allocates them): ``thrust_excess`` (a thruster stuck on) or ``thrust_deficit`` (off or
+  weak) naming the thrusters whose hypothesis explains it. Where none does alone, by direction: ``thrust_excess``
+  where the residual exceeds the expected thrust, else ``thrust_deficit``, with the thrusters whose force lies
+  within ``ISOLATION_DEG`` of the residual (or against it, for a deficit) as the candidates.
 
   The burns' timing: a burn's edge off the filter's (the plant starts a command that reaches it late on its
   arrival) moves its impulse into the neighbouring interval, which changes the window's mean only where it crosses
@@ -82,6 +85,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from flyby_estimation.thrust_book import ThrustBook
+from flyby_estimation.thrust_isolation import Allocator, isolate
 from flyby_msgs_py.stamped import put_bounded, stamp_key
 from flyby_sim.dynamics.rotation import quat_conjugate, quat_rotate
 
@@ -247,13 +251,16 @@ class _Latch:
 
 class _Interval(NamedTuple):
     """One IMU interval as the thrust monitor judges it: the residual specific force [m/s^2, chaser_body], its
-    allowance for the thrusters' errors and the minimum impulse bit [m/s^2], the thrust expected [m/s^2] and its
-    burns' edges (``ThrustBook.on_interval``)."""
+    allowance for the thrusters' errors and the minimum impulse bit [m/s^2], the thrust expected [m/s^2], its
+    burns' edges (``ThrustBook.on_interval``), and for the isolation the residual before the allocation's shortfall
+    is taken out and what the thrusters were commanded (``thrust_isolation.Commanded``, None where unknown)."""
 
     residual: np.ndarray
     slack: float
     expected: float
     edges: tuple
+    raw: np.ndarray
+    commanded: object
 
 
 def _edge_allowance(before, window):
@@ -277,12 +284,14 @@ def _edge_allowance(before, window):
 class ThrustMonitor:
     """The thrusters' force against the accelerometer (module doc)."""
 
-    def __init__(self, accel_sigma_mps2, relative_error, force_directions_body):
+    def __init__(self, accel_sigma_mps2, relative_error, force_directions_body, layout=None):
         """The accelerometer's 1-sigma [m/s^2]; the thrusters' errors' relative 3 sigma; their force directions
-        (M, 3), chaser_body."""
+        (M, 3), chaser_body; layout: the ``ThrusterLayout`` the isolation allocates the commands on (None: thrusters
+        named by direction alone)."""
         self.accel_sigma_mps2 = accel_sigma_mps2
         self.relative_error = relative_error
         self.force_directions_body = np.asarray(force_directions_body, dtype=float)
+        self.allocator = None if layout is None else Allocator(layout)
         self.window = collections.deque(maxlen=THRUST_WINDOW + 1)  # the window's _Intervals and the one before it
         self.latch = _Latch('thrusters', CLEAR_WINDOWS * THRUST_WINDOW)
         self.outlier_latch = _Latch('thrusters', CLEAR_WINDOWS * THRUST_WINDOW, 'imu')  # the accelerometer's
@@ -290,22 +299,24 @@ class ThrustMonitor:
         self.status = MonitorStatus('thrusters', LEVEL_OK, 'waiting for a window', {})
 
     def on_interval(self, residual_body_mps2, expected_thrust_mps2, commanded_body_mps2=(0.0, 0.0, 0.0),
-                    granularity_mps2=0.0, edges=()):
+                    granularity_mps2=0.0, edges=(), commanded=None):
         """One interval's mean residual specific force [m/s^2, chaser_body], its expected total thrust acceleration
         (every firing thruster's, couples included) [m/s^2], the force commands' acceleration [m/s^2,
-        chaser_body], the minimum impulse bit's granularity [m/s^2] and its burns' edges (``ThrustBook``). A force
-        command's shortfall along itself, down to nothing, is the allocation's (a thrust below the minimum impulse
-        bit, a wrench beyond the thrusters: the plant reports it undelivered), not a fault: it is taken out of the
-        residual."""
-        residual = np.asarray(residual_body_mps2, dtype=float)
-        commanded = np.asarray(commanded_body_mps2, dtype=float)
-        size = float(np.linalg.norm(commanded))
+        chaser_body], the minimum impulse bit's granularity [m/s^2], its burns' edges and what it commanded of the
+        thrusters (``ThrustBook``; None: unknown). A force command's shortfall along itself, down to nothing, is the
+        allocation's (a thrust below the minimum impulse bit, a wrench beyond the thrusters: the plant reports it
+        undelivered), not a fault: it is taken out of the residual the rule judges (the isolation allocates the
+        command itself)."""
+        raw = np.asarray(residual_body_mps2, dtype=float)
+        residual = raw
+        force = np.asarray(commanded_body_mps2, dtype=float)
+        size = float(np.linalg.norm(force))
         if size > 0.0:
-            along = float(residual @ commanded) / size
+            along = float(residual @ force) / size
             if -size <= along <= 0.0:
-                residual = residual - along * commanded / size
+                residual = residual - along * force / size
         slack = (self.relative_error + THRUST_RELATIVE) * float(expected_thrust_mps2) + float(granularity_mps2)
-        self.window.append(_Interval(residual, slack, float(expected_thrust_mps2), tuple(edges)))
+        self.window.append(_Interval(residual, slack, float(expected_thrust_mps2), tuple(edges), raw, commanded))
         self.fresh = True
 
     def _outliers(self, before, window):
@@ -365,11 +376,11 @@ class ThrustMonitor:
                       outliers=len(outliers))
 
         def describe():
-            kind, candidates = self._isolate(residual, expected)
+            kind, candidates, how = self._isolate(residual, expected, kept)
             return (kind, f'thrusters {candidates}' if candidates else 'thrusters',
                     f'{kind}: residual {size:.3g} m/s^2 above {bound:.3g} along '
-                    f'{np.round(residual / size, 3).tolist()} (chaser_body); candidates {candidates}',
-                    dict(values, candidates=candidates))
+                    f'{np.round(residual / size, 3).tolist()} (chaser_body); candidates {candidates} {how[0]}',
+                    dict(values, candidates=candidates, **how[1]))
 
         out += self.latch.update(t, size > bound, describe)
         active = [latch.kind for latch in (self.latch, self.outlier_latch) if latch.active]
@@ -377,15 +388,38 @@ class ThrustMonitor:
         self.status = MonitorStatus('thrusters', level, ', '.join(active) or 'nominal', values)
         return out, self.status
 
-    def _isolate(self, residual, expected):
-        """(kind, candidate thrusters): a residual beyond the thrust expected of the firing (none where nothing is
-        expected) is thrust no command asked for, along the thrusters that give it; else a shortfall."""
+    def _isolate(self, residual, expected, kept):
+        """(kind, candidate thrusters, (how named, its figures)): the hypothesis per thruster that explains the kept
+        intervals' residual series (``thrust_isolation``); where none does, by direction: a residual beyond the
+        thrust expected of the firing (none where nothing is expected) is thrust no command asked for, along the
+        thrusters that give it; else a shortfall, against them."""
+        found = self._hypotheses(kept)
+        if found is not None:
+            return found.kind, found.candidates, (
+                f'by hypothesis (chi-square {found.chi2:.3g}, {found.dof} dof)',
+                dict(isolation='hypothesis', chi2=round(found.chi2, 3), dof=found.dof))
         directions = self.force_directions_body
         unit = residual / np.linalg.norm(residual)
         kind = 'thrust_excess' if np.linalg.norm(residual) > expected else 'thrust_deficit'
         sign = 1.0 if kind == 'thrust_excess' else -1.0
         cosines = directions @ (sign * unit)
-        return kind, [int(i) for i in np.flatnonzero(cosines > math.cos(math.radians(ISOLATION_DEG)))]
+        return kind, [int(i) for i in np.flatnonzero(cosines > math.cos(math.radians(ISOLATION_DEG)))], (
+            'by direction', dict(isolation='direction'))
+
+    def _hypotheses(self, kept):
+        """``thrust_isolation.isolate`` over the kept intervals, each residual against what the allocation delivers
+        and with its variance (the accelerometer's, the specified errors of every commanded thruster at 1 sigma, a
+        third of THRUST_RELATIVE of the thrust expected); None where the commands are unknown or no hypothesis
+        names one kind."""
+        if self.allocator is None or any(iv.commanded is None for iv in kept):
+            return None
+        firings = [self.allocator.firing(iv.commanded) for iv in kept]
+        residuals = [iv.raw + f.undelivered for iv, f in zip(kept, firings, strict=True)]
+        variances = [self.accel_sigma_mps2**2 + (self.relative_error / 3.0)**2 * float(f.mean @ f.mean)
+                     + (THRUST_RELATIVE / 3.0 * iv.expected)**2 for iv, f in zip(kept, firings, strict=True)]
+        mass = float(np.mean([iv.commanded.mass_kg for iv in kept]))
+        return isolate(residuals, firings, variances, self.force_directions_body,
+                       self.allocator.layout.max_thrust_n / mass)
 
 
 class WheelMonitor:
@@ -495,7 +529,7 @@ class HealthMonitor:
             self.sensors['tachometers'] = SensorMonitor('tachometers', params.imu_rate_hz, innovations=False)
             layout = params.thruster_layout
             relative = 3.0 * math.hypot(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
-            self.thrust = ThrustMonitor(params.accel_sigma_mps2, relative, layout.force_directions_body)
+            self.thrust = ThrustMonitor(params.accel_sigma_mps2, relative, layout.force_directions_body, layout)
             levers = np.linalg.norm(np.cross(layout.positions_body_m, layout.force_directions_body), axis=1)
             self.book = ThrustBook(max(float(levers.min()), 1e-3), params.min_impulse_bit_ns * params.imu_rate_hz)
             self.wheels = WheelMonitor(params.wheels, params.tachometer_sigma_rad_s, params.gyro_sigma_rad_s)

@@ -218,12 +218,15 @@ def _book_with_burn(start_s, end_s):
 
     class Burn:
         seq = 0
+        direction_hill = np.array([1.0, 0.0, 0.0])
+        thrust_n, mass_start_kg = 10.0, 100.0
 
         @staticmethod
         def accel_hill(_t):
             return np.array([0.1, 0.0, 0.0])
 
     Burn.start_s, Burn.end_s = start_s, end_s
+    Burn.dv_hill = np.array([0.1 * (end_s - start_s), 0.0, 0.0])
     book = ThrustBook(lever_min_m=0.2, bit_force_n=0.0)
     book.on_maneuver(0)
     book.on_burns([Burn])
@@ -238,15 +241,18 @@ def test_the_book_expects_a_command_one_interval_late_and_a_burn_over_its_overla
     q = np.array([0.0, 0.0, 0.0, 1.0])
     assert book.on_interval(1.0, 1.1, np.array([0.005, 0.0, 0.0]), q, 100.0) is None
     book.on_command(1.1, np.array([0.0, 0.001, 0.0]), np.array([0.0, 1.0, 0.0]), np.zeros(3))
-    residual, expected, _, _, edges = book.on_interval(1.1, 1.2, np.array([0.01, 0.001, 0.0]), q, 100.0)
+    residual, expected, _, _, edges, _ = book.on_interval(1.1, 1.2, np.array([0.01, 0.001, 0.0]), q, 100.0)
     np.testing.assert_allclose(residual, 0.0, atol=1e-12)  # [1.0, 1.1]: the burn's half interval, 0.005 m/s
     assert expected == pytest.approx(0.005 / 0.1)
     assert edges == ((0, pytest.approx(0.1), True, False),)  # its start
-    residual, expected, commanded, _, edges = book.on_interval(1.2, 1.3, np.zeros(3), q, 100.0)
+    residual, expected, commanded, _, edges, what = book.on_interval(1.2, 1.3, np.zeros(3), q, 100.0)
     np.testing.assert_allclose(residual, 0.0, atol=1e-12)  # [1.1, 1.2]: the burn and the command that came late
     assert expected == pytest.approx(0.1 + 1.0 / 100.0)
     np.testing.assert_allclose(commanded, [0.0, 0.01, 0.0], atol=1e-12)
     assert edges == ()
+    # what the isolation allocates: the command held over the interval, the burn over its overlap
+    assert (what.force_body_n, what.torque_body_n_m) == ((0.0, 1.0, 0.0), (0.0, 0.0, 0.0))
+    assert [(b.seq, b.overlap_s) for b in what.burns] == [(0, pytest.approx(0.1))]
     residual, *_ = book.on_interval(1.3, 1.4, np.zeros(3), q, 100.0)
     np.testing.assert_allclose(residual, [-0.1, 0.0, 0.0], atol=1e-12)  # [1.2, 1.3]: the burn missing
 
