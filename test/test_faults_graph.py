@@ -3,7 +3,8 @@ paper_flyby_6dof's terminal approach is detected, its thrusters closed and the a
 coasting into the target with the planner and guidance out of the graph is turned away by the independent
 monitor's CAM alone; a wheel failed in the approach is named from its tachometer and reallocated, the approach going
 on; a planner
-killed and respawned by the launcher is found silent by the watchdog, answered continue, and seen back."""
+killed and respawned by the launcher is found silent by the watchdog, answered continue, and seen back; an estimator
+killed in ESTIMATION holds standby until its successor has converged and observed anew."""
 
 import pytest
 
@@ -89,5 +90,29 @@ def test_a_planner_killed_and_respawned_by_the_launcher_is_lost_answered_and_see
     events = read_bag(tmp_path / 'run' / 'bag', topics=['/mission/events'])['/mission/events']
     back = [e for e in events if e['name'] == 'fault_recovered' and e['values'].get('component') == 'flyby_planner']
     assert back and back[0]['t'] >= detected['t_s'], 'the respawned planner never reported'
+    # The successor, fed the events' history, does not plan again from the PLANNING long past.
+    assert len([e for e in events if e['name'] == 'plan_selected']) == 1
+    checked = analyze_bag(tmp_path / 'run')
+    assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]
+
+
+def _estimator_crash(data):
+    data['faults'] = [{'type': 'node_crash', 'node': 'estimator', 'start_phase': 'ESTIMATION', 'delay_s': 20.0,
+                       'duration_s': 20.0}]
+    data['simulation']['duration_s'] = 150.0
+
+
+def test_an_estimator_killed_in_estimation_holds_standby_until_its_successor_has_converged(tmp_path):
+    scenario = write_scenario(tmp_path, base='paper_flyby', name='held', edit=_estimator_crash)
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--in-process')
+    summary = read_summary(tmp_path / 'run')
+    assert [r['response'] for r in summary['fault_responses']] == ['hold'], done.stdout[-2000:]
+    assert summary['phase_sequence'][:5] == ['ESTIMATION', 'HOLD', 'ESTIMATION', 'PLANNING', 'TERMINAL_APPROACH']
+    events = read_bag(tmp_path / 'run' / 'bag', topics=['/mission/events'])['/mission/events']
+    respawned = next(e['t'] for e in events if e['name'] == 'fault_ended')
+    converged = [e['t'] for e in events if e['name'] == 'target_converged']
+    planned = [e['t'] for e in events if e['name'] == 'plan_selected']
+    assert len(converged) == 2 and converged[1] > respawned  # the successor's own convergence
+    assert len(planned) == 1 and planned[0] >= respawned + 60.0  # min_observation_s of the successor's estimates
     checked = analyze_bag(tmp_path / 'run')
     assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]

@@ -24,9 +24,9 @@ class EstimateProbe(Node):
         super().__init__('estimate_probe', context=context)
         self.scenario = scenario
         self.truth = truth_prediction(scenario, 3000.0)
-        self.pub_target, self.pub_chaser, self.pub_events = (
+        self.pub_target, self.pub_chaser, self.pub_events, self.pub_phase = (
             self.create_publisher(c.message_class(c.TOPIC_TYPES[t]), t, qos.qos_for(t))
-            for t in (c.EST_TARGET_ODOM, c.EST_CHASER_ODOM, c.MISSION_EVENTS))
+            for t in (c.EST_TARGET_ODOM, c.EST_CHASER_ODOM, c.MISSION_EVENTS, c.MISSION_PHASE))
         self.received = {t: collect(self, t) for t in (
             c.PLANNER_GRASP, c.PLANNER_FLYBY_TARGET, c.PLANNER_FLYBY_INITIAL, c.PLANNER_PATH, c.MARKERS,
             c.MISSION_EVENTS)}
@@ -55,7 +55,8 @@ class EstimateProbe(Node):
         spin_until(executor, predicate, tick=tick)
 
     def enter_planning(self, t):
-        """What the supervisor publishes when it turns the mission to PLANNING at t."""
+        """What the supervisor publishes when it turns the mission to PLANNING at t: the phase and its event."""
+        self.pub_phase.publish(convert.string(c.PHASE_PLANNING))
         self.pub_events.publish(convert.event(t, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING: test',
                                               {'from': c.PHASE_ESTIMATION, 'to': c.PHASE_PLANNING},
                                               source='flyby_supervisor'))
@@ -71,7 +72,7 @@ def _start(ros_context, executor, scenario_path):
     executor.add_node(planner)
     executor.add_node(probe)
     spin_until(executor, lambda: all(p.get_subscription_count() > 0 for p in
-                                     (probe.pub_target, probe.pub_chaser, probe.pub_events)))
+                                     (probe.pub_target, probe.pub_chaser, probe.pub_events, probe.pub_phase)))
     return planner, probe
 
 

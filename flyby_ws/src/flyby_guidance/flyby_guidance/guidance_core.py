@@ -103,15 +103,22 @@ class GuidanceCore:
         return self.flyby.on_flyby_target(t_f, x_ft, v_ft)
 
     def on_path(self, t_plan):
-        """The planner publishes the path last: a new plan is complete."""
-        return self.flyby.on_path(t_plan)
+        """The planner publishes the path last: a new plan is complete (none is taken in HOLD: ``on_phase``)."""
+        return [] if self.phase == c.PHASE_HOLD else self.flyby.on_path(t_plan)
 
     def on_trajectory(self, t_s, r_hill, v_hill, a_hill):
-        """planner/trajectory: a new optimal approach to fly (``modes.tracking``)."""
+        """planner/trajectory: a new optimal approach to fly (``modes.tracking``; none is taken in HOLD)."""
+        if self.phase == c.PHASE_HOLD:
+            return []
         return self.chaser.on_trajectory(t_s, r_hill, v_hill, a_hill, self.phase)
 
     def on_phase(self, phase):
+        """The supervisor's phase; HOLD drops the plan of the standby it interrupted (a plan the planner made
+        before it heard the hold is never flown: the next is made after it)."""
         self.phase = phase
+        if phase == c.PHASE_HOLD:
+            self.flyby.drop_plan()
+            self.chaser.drop_plan()
         self.chaser.on_phase(phase)
         return []
 

@@ -445,6 +445,7 @@ CORE_INPUTS = {
     (wiring.PLANNER, c.EST_TARGET_ODOM): lambda g, m: g.planner.on_target_estimate(*m.value[0], *m.value[1]),
     (wiring.PLANNER, c.EST_CHASER_ODOM): lambda g, m: g.planner.on_chaser_estimate(*m.value[0]),
     (wiring.PLANNER, c.MISSION_EVENTS): lambda g, m: g.planner.on_event(m.value),
+    (wiring.PLANNER, c.MISSION_PHASE): lambda g, m: g.planner.on_phase(m.value),
     (wiring.GUIDANCE, c.EST_TARGET_ODOM): lambda g, m: g.guidance.on_target_estimate(*m.value[0], *m.value[1]),
     (wiring.GUIDANCE, c.EST_CHASER_ODOM): lambda g, m: g.guidance.on_chaser_estimate(*m.value[0], *m.value[1]),
     (wiring.GUIDANCE, c.PLANNER_FLYBY_TARGET): lambda g, m: g.guidance.on_flyby_target(m.t, *m.value),

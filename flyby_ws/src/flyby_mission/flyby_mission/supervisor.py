@@ -1,10 +1,16 @@
-"""The mission phase machine of DESIGN §4 and the capture decision (seed 000 §2.2, §4.1; seed 003 §3.1).
+"""The mission phase machine of DESIGN §4 (seed 000 §2.2, §4.1; seed 003 §3.1); the capture decision it applies is
+flyby_mission.capture_decision's.
 
 Pure Python, no ROS: the supervisor node feeds it what it observes (estimate stamps, events, the plan,
 node progress, the clock) and publishes the transitions it returns. Every transition is caused by an
 observable condition and carries its reason:
 
     ESTIMATION        -> PLANNING           target estimate converged and min_observation_s of data
+    ESTIMATION | PLANNING -> HOLD           the fault table answers a detection ``hold`` (docs/faults.md): nothing is
+                                            planned or flown until every held fault has recovered
+    HOLD              -> ESTIMATION         the held faults' ``fault_recovered``: the way to PLANNING as above (a lost
+                                            estimator's successor must converge and observe min_observation_s anew)
+    HOLD              -> ABORTED            the held faults not all recovered within hold_limit_s
     PLANNING          -> TERMINAL_APPROACH  the planner selected a plan
     PLANNING          -> COMPLETE           the planner refused: no safe plan (outcome NO_SAFE_PLAN, DESIGN
                                             §10; the chaser never left its safe state, nothing is fired)
@@ -57,8 +63,8 @@ import math
 import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
-from flyby_estimation.target_motion import prediction_from_estimate
 from flyby_mission.abort_escape import PendingBurns, escape_check
+from flyby_mission.capture_decision import decide_capture
 from flyby_mission.estimate_age import (
     CHASER_ESTIMATE,
     KIND,
@@ -75,13 +81,12 @@ from flyby_msgs_py.stamped import StampedBuffer
 from flyby_msgs_py.wire import Event
 from flyby_msgs_py.wiring import ESTIMATOR
 from flyby_planner.flyby.config import PlannerConfig
-from flyby_planner.flyby.grasp_search import capture_target_body, grasp_from_attitude
+from flyby_planner.flyby.grasp_search import capture_target_body
 from flyby_planner.flyby.keepout import has_spin_axis
-from flyby_sim.dynamics.orbital import cw_coast
 
 # Phases in which a faulty watched node (its ERROR event) aborts the mission (after FLYBY nothing is left to command).
-ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST,
-                 c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
+ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD, c.PHASE_TERMINAL_APPROACH,
+                 c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
 # Guidance's events that move the synchronized approach from one stage to the next (seed 001 section 2).
 _SYNC_STEPS = {events.STATION_REACHED: (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
                events.ATTITUDE_SYNCHRONIZED: (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
@@ -97,6 +102,8 @@ _POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, events.CAPTURED): c.PHASE_GRASP,
 _TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, events.MASS_PROPERTIES_ESTIMATED): c.PHASE_TRANSPORT,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_COMPLETE): c.PHASE_COMPLETE,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_REFUSED): c.PHASE_COMPLETE}
+# The phases a fault table's hold holds (fault_table.HOLD_GROUPS): nothing has been flown yet.
+HOLD_FROM = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD)
 # Nodes whose ERROR events abort the mission, watched from the start: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # Nodes whose heartbeat (their progress) the watchdog judges, the watched ones from the start, the others once they
@@ -105,7 +112,7 @@ WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 HEARTBEAT_NODES = WATCHED_NODES + ('flyby_planner', 'flyby_cam_monitor')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
 NO_SAFE_PLAN_PREFIX = 'no safe plan: '
-_LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN'}
+_LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN', c.PHASE_HOLD: 'WARN'}
 
 
 def _has_post_capture(scenario):
@@ -146,6 +153,7 @@ class SupervisorParams:
     capture_hold_s: float = params.key('supervisor.capture_hold_s')
     escape_observation_s: float = params.derived(_escape_observation_s)
     watchdog_s: float = params.key('supervisor.watchdog_s')
+    hold_limit_s: float = params.key('supervisor.hold_limit_s')
     avoidance_delta_v_mps: float = params.key('supervisor.avoidance_delta_v_mps')
     offset_m: float = params.key('planner.offset_m')
     x_grasp_body_m: np.ndarray = params.key('target.grasp_point_body_m', np.array)
@@ -169,38 +177,6 @@ class Transition:
     values: dict
 
 
-@dataclasses.dataclass(frozen=True)
-class CaptureDecision:
-    capture: bool
-    reason: str
-    values: dict
-
-
-def capture_decision(r_hill, v_hill, x_g, x_ft, v_ft, tolerances):
-    """Capture if the manipulator can absorb the estimated error (seed 000 section 4.1).
-
-    The chaser, estimated at (r, v) at the grasp time, must be within position_tolerance_m and
-    velocity_tolerance_mps of the fly-by target point (X_Ft, V_Ft: where it should be, moving as the
-    grasp point's offset does, eq 20-21) and the grasp point x_g within reach_m (``tolerances``: SupervisorParams).
-    Otherwise escape.
-    """
-    e_pos = float(np.linalg.norm(np.asarray(r_hill) - x_ft))
-    e_vel = float(np.linalg.norm(np.asarray(v_hill) - v_ft))
-    reach = float(np.linalg.norm(np.asarray(x_g) - r_hill))
-    values = {'position_error_m': e_pos, 'velocity_error_mps': e_vel, 'grasp_distance_m': reach}
-    problems = []
-    if e_pos > tolerances.position_tolerance_m:
-        problems.append(f'position error {e_pos:.3f} m > {tolerances.position_tolerance_m:g} m')
-    if e_vel > tolerances.velocity_tolerance_mps:
-        problems.append(f'velocity error {e_vel * 1e3:.1f} mm/s > {tolerances.velocity_tolerance_mps * 1e3:g} mm/s')
-    if reach > tolerances.reach_m:
-        problems.append(f'grasp point {reach:.3f} m away > reach {tolerances.reach_m:g} m')
-    if problems:
-        return CaptureDecision(False, 'escape: ' + '; '.join(problems), values)
-    return CaptureDecision(True, f'capture: position error {e_pos * 100:.1f} cm, velocity error '
-                                 f'{e_vel * 1e3:.2f} mm/s, grasp point {reach:.2f} m away', values)
-
-
 class PhaseMachine:
     """The phase logic (module doc). Each input method returns the list of transitions it caused."""
 
@@ -218,6 +194,7 @@ class PhaseMachine:
         self.method = None  # the plan's method (DESIGN §10)
         self.t_entered = 0.0
         self.decision = None
+        self.held = {}  # (kind, component) -> the time its hold began: the faults a HOLD waits on
 
     # -- helpers --------------------------------------------------------------------------------
     def _go(self, t, phase, reason, values=None):
@@ -326,7 +303,11 @@ class PhaseMachine:
                         {'t_grasp_s': self.t_grasp, **decision.values})
 
     def clock(self, t):
-        """Timers: the holds before COMPLETE."""
+        """Timers: the fault hold's limit, the holds before COMPLETE."""
+        if self.phase == c.PHASE_HOLD and t - self.t_entered >= self.params.hold_limit_s:
+            faults = ', '.join(f'{kind} on {component}' for kind, component in self.held)
+            return self._go(t, c.PHASE_ABORTED, f'hold: {faults} not recovered within {self.params.hold_limit_s:g} s',
+                            {'hold_s': t - self.t_entered})
         if self.phase == c.PHASE_CAPTURE and not self.params.post_capture and \
                 t - self.t_entered >= self.params.capture_hold_s:
             return self._go(t, c.PHASE_COMPLETE, f'attached for {t - self.t_entered:.1f} s')
@@ -338,6 +319,26 @@ class PhaseMachine:
         if not self.active:
             return []
         return self._go(t, c.PHASE_ABORTED, why)
+
+    def hold(self, t, fault, why):
+        """The fault table's ``hold`` of ``fault`` (kind, component) at t [s]: standby held until it recovers. A
+        lost estimator's successor starts a new filter: its own convergence and observation are waited for."""
+        if self.phase not in HOLD_FROM:
+            return []
+        self.held.setdefault(fault, t)
+        if fault == ('node_lost', ESTIMATOR):
+            self.converged, self.t_first_estimate = False, None
+        if self.phase == c.PHASE_HOLD:
+            return []
+        return self._go(t, c.PHASE_HOLD, f'hold: {why}', {'kind': fault[0], 'component': fault[1]})
+
+    def recovered(self, t, fault):
+        """A fault_recovered of ``fault`` (kind, component) at t [s]: the hold ends with the last held fault."""
+        t_held = self.held.pop(fault, None)
+        if t_held is None or self.held or self.phase != c.PHASE_HOLD:
+            return []
+        return self._go(t, c.PHASE_ESTIMATION, f'{fault[0]} on {fault[1]} recovered after {t - t_held:.1f} s: the '
+                                               f'hold ends', {'hold_s': t - self.t_entered}) + self._maybe_plan(t)
 
 
 class SupervisorCore:
@@ -412,15 +413,20 @@ class SupervisorCore:
             self.estimate_age.on_detection(found.kind, found.component, event.name == events.FAULT_DETECTED)
         if event.name == events.FAULT_DETECTED:
             return self._respond(event)
+        if event.name == events.FAULT_RECOVERED:
+            found = event_payloads.decode(event)
+            return self._apply(self.machine.recovered(event.t, (found.kind, found.component)))
         values = dict(event.values, reason=event.message)
         return self._apply(self.machine.event(event.t, event.level, event.name, event.source, values))
 
     def _respond(self, event):
         """The fault table's answer to a fault_detected (fault_response): its events and the abort it may cause."""
-        answers, abort = respond(self.fault_table, event, self.phase, self.cam_fired)
-        out = [self._event(event.t, *a) for a in answers]
-        if abort is not None and self.machine.active:
-            out += self._apply(self.machine.abort(event.t, abort))
+        reply = respond(self.fault_table, event, self.phase, self.cam_fired)
+        out = [self._event(event.t, *a) for a in reply.events]
+        if reply.abort is not None and self.machine.active:
+            out += self._apply(self.machine.abort(event.t, reply.abort))
+        if reply.hold is not None:
+            out += self._apply(self.machine.hold(event.t, reply.hold, event.message))
         return out
 
     def on_progress(self, node, t):
@@ -470,7 +476,8 @@ class SupervisorCore:
         answer) or recovery (fault_recovered, OK)."""
         if not detected:
             payload = event_payloads.FaultRecovered(monitor, kind, component, t)
-            return [self._event(t, 'OK', events.FAULT_RECOVERED, message, event_payloads.encode(payload))]
+            return [self._event(t, 'OK', events.FAULT_RECOVERED, message, event_payloads.encode(payload))] + \
+                self._apply(self.machine.recovered(t, (kind, component)))
         payload = event_payloads.FaultDetected(monitor, kind, component, t, None)
         event = self._event(t, 'ERROR', events.FAULT_DETECTED, message, event_payloads.encode(payload, values))
         return [event] + self._respond(event)
@@ -534,7 +541,8 @@ class SupervisorCore:
                                    event_payloads.encode(event_payloads.PhaseChanged(tr.phase_from, tr.phase_to),
                                                          tr.values)))
             if tr.phase_to == c.PHASE_ABORTED and tr.phase_from in (
-                    c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST):
+                    c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD, c.PHASE_TERMINAL_APPROACH,
+                    c.PHASE_TRAJECTORY_ADJUST):
                 out += self._escape_burn(tr.t)
         return out
 
@@ -548,18 +556,3 @@ class AvoidanceBurn:
 
     t: float
     dv_hill: np.ndarray
-
-
-def decide_capture(chaser, target, t_grasp, dynamics, n, x_grasp_body, x_target_body, tolerances):
-    """The capture decision at the grasp time t_grasp from a chaser estimate (t, r_hill, v_hill) and a
-    target estimate (t, q_hill_from_body, omega_body), both carried to t_g: the chaser along CW (eq 22),
-    the target by its torque-free motion (eq 4); the target point is the body point x_target_body
-    (flyby_planner.flyby.grasp_search.capture_target_body: eq 20-21 for a fly-by) in hill by eq 8-9."""
-    t_c, r, v = chaser
-    state = cw_coast(r, v, t_grasp - t_c, n)
-    t_t, q_hb, omega_body = target
-    t_at = max(t_grasp, t_t)  # an estimate newer than t_g (none older was kept): its own time
-    s = prediction_from_estimate(dynamics, n, t_t, q_hb, omega_body, t_at).state(t_at)
-    x_g, _ = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_grasp_body, n)
-    x_ft, v_ft = grasp_from_attitude(s.q_hill_from_body, s.omega_body, x_target_body, n)
-    return capture_decision(state[:3], state[3:], x_g, x_ft, v_ft, tolerances)

@@ -119,7 +119,7 @@ def test_a_delayed_stream_is_stale_once_and_clears_twenty_estimates_after_they_c
     published = _fly(core, 60.0, late, _arrivals(stamps))
     found = _found(published)
     assert [(name, comp, response) for name, _, comp, response in found] == [
-        (events.FAULT_DETECTED, 'target_estimate', None), (events.FAULT_RESPONSE, 'target_estimate', 'continue'),
+        (events.FAULT_DETECTED, 'target_estimate', None), (events.FAULT_RESPONSE, 'target_estimate', 'hold'),
         (events.FAULT_RECOVERED, 'target_estimate', None)]
     assert found[0][1] == 20.75  # silent beyond 0.8 s after 19.9, before the first late one (20.0 at 21.0) came
     # The link keeps the order: 30.0 ... 30.8 wait behind 29.9 (released at 30.9), 30.0 the last late one (0.9 s):
@@ -203,8 +203,8 @@ def test_the_table_answers_the_new_detections_by_phase_group():
     answers = {(kind, component): [table.response(kind, component, phase).response for phase in (
         c.PHASE_ESTIMATION, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY, c.PHASE_GRASP)] for kind, component in (
         ('estimate_stale', 'target_estimate'), ('estimate_stale', 'chaser_estimate'), ('sensor_stale', 'tachometers'))}
-    assert answers == {('estimate_stale', 'target_estimate'): ['continue'] * 4,
-                       ('estimate_stale', 'chaser_estimate'): ['continue', 'abort', 'continue', 'continue'],
+    assert answers == {('estimate_stale', 'target_estimate'): ['hold'] + ['continue'] * 3,
+                       ('estimate_stale', 'chaser_estimate'): ['hold', 'abort', 'continue', 'continue'],
                        ('sensor_stale', 'tachometers'): ['continue'] * 4}
     assert table.response('estimate_stale', 'chaser_estimate', c.PHASE_DOCKING).severity == 2
 

@@ -14,9 +14,9 @@ from flyby_sim.scenario import scenario_from_dict
 REPO = Path(__file__).resolve().parents[4]
 
 
-def _fly(node, until_s, duration_s=20.0):
+def _fly(node, until_s, duration_s=20.0, phase='TERMINAL_APPROACH'):
     d = yaml.safe_load((REPO / 'scenarios' / 'paper_flyby.yaml').read_text())
-    d['faults'] = [{'type': 'node_crash', 'node': node, 'start_phase': 'TERMINAL_APPROACH', 'delay_s': 10.0,
+    d['faults'] = [{'type': 'node_crash', 'node': node, 'start_phase': phase, 'delay_s': 10.0,
                     'duration_s': duration_s}]
     graph = HeadlessGraph(scenario_from_dict(d, name=f'{node} crash'))
     graph.start()
@@ -36,6 +36,18 @@ def test_a_planner_down_in_the_approach_is_lost_answered_continue_and_seen_back_
     assert back and t_crash + 20.0 <= back[0]['t'] < t_crash + 21.0
     assert graph.phase != c.PHASE_ABORTED
     assert graph.planner is not None and graph.guards['flyby_planner'].failed is None
+    # Fed the events' history, the successor does not plan again from the PLANNING long past.
+    assert len([e for e in graph.events if e['name'] == 'plan_selected']) == 1
+
+
+def test_guidance_or_the_cam_monitor_down_in_estimation_hold_standby_until_they_are_back():
+    for node, component in (('guidance', 'flyby_guidance'), ('cam_monitor', 'flyby_cam_monitor')):
+        graph = _fly(node, 100.0, phase='ESTIMATION')
+        assert [(r['response'], r['component']) for r in fault_responses(graph.events)] == [('hold', component)]
+        back = next(e['t'] for e in graph.events if e['name'] == 'fault_recovered')
+        assert graph.phases[:4] == [c.PHASE_ESTIMATION, c.PHASE_HOLD, c.PHASE_ESTIMATION, c.PHASE_PLANNING]
+        planning = [e['t'] for e in graph.events if e['name'] == 'phase_changed' and 'PLANNING' in e['message']]
+        assert planning[0] >= back
 
 
 def test_guidance_down_in_the_approach_aborts_and_a_crash_shorter_than_the_watchdog_goes_unseen():

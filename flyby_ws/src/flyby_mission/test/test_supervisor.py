@@ -9,14 +9,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_mission.capture_decision import capture_decision, decide_capture
 from flyby_mission.supervisor import (
     AvoidanceBurn,
     PhaseMachine,
     SupervisorCore,
     SupervisorParams,
     Transition,
-    capture_decision,
-    decide_capture,
 )
 from flyby_msgs_py import contract as c
 from flyby_msgs_py.wire import Event, wire_event

@@ -33,7 +33,7 @@ def _fly(scenario, until_s):
     return graph
 
 
-def test_a_relative_position_lost_in_estimation_is_found_stale_and_answered():
+def test_a_relative_position_lost_in_estimation_is_found_stale_and_held_until_it_is_back():
     loss = {'type': 'topic_loss', 'topic': POSITION, 'start_phase': 'ESTIMATION', 'delay_s': 10.0,
             'duration_s': 5.0}
     graph = _fly(_scenario(loss), 20.0)
@@ -41,9 +41,10 @@ def test_a_relative_position_lost_in_estimation_is_found_stale_and_answered():
     assert (detected['kind'], detected['component'], detected['fault'], detected['isolated']) == \
         ('sensor_stale', 'relative_position', 0, True)
     assert detected['delay_s'] == pytest.approx(0.6)  # 5 periods of 10 Hz, judged at the next input after them
-    assert [(r['response'], r['phase']) for r in fault_responses(graph.events)] == [('continue', 'ESTIMATION')]
+    assert [(r['response'], r['phase']) for r in fault_responses(graph.events)] == [('hold', 'ESTIMATION')]
     back = [e for e in graph.events if e['name'] == 'fault_recovered']
     assert back and 15.0 <= back[0]['t'] < 15.5
+    assert graph.phases == [c.PHASE_ESTIMATION, c.PHASE_HOLD, c.PHASE_ESTIMATION]  # held until it was back
     # Both receivers lost the window's 49 samples (the first one of it passed before its event: link_faults' doc).
     admitted = {node: graph.admissions[node].admitted[POSITION] for node in (wiring.ESTIMATOR, wiring.CAM)}
     assert admitted[wiring.ESTIMATOR] == admitted[wiring.CAM] == 200 - 49

@@ -91,6 +91,8 @@ TOPIC_TYPES = {
 
 PHASE_ESTIMATION = 'ESTIMATION'
 PHASE_PLANNING = 'PLANNING'
+# Standby held on a fault until it recovers (the fault table's ``hold``, docs/faults.md): nothing is planned or flown.
+PHASE_HOLD = 'HOLD'
 PHASE_TERMINAL_APPROACH = 'TERMINAL_APPROACH'
 PHASE_TRAJECTORY_ADJUST = 'TRAJECTORY_ADJUST'
 PHASE_FLYBY = 'FLYBY'

@@ -49,7 +49,7 @@ SUBSCRIPTIONS = {
     c.GUIDANCE_MANEUVER: ((SIM, always), (ESTIMATOR, always)),
     c.GUIDANCE_WHEELS: ((SIM, rigid), (ESTIMATOR, rigid)),
     c.GUIDANCE_WRENCH: ((SIM, rigid), (ESTIMATOR, rigid)),
-    c.MISSION_PHASE: ((GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
+    c.MISSION_PHASE: ((PLANNER, always), (GUIDANCE, always), (ESTIMATOR, always), (CAM, always), (SIM, always)),
     c.SAFETY_CAM: ((SIM, always), (ESTIMATOR, always)),  # the estimator's monitors: thrust no chain commanded
     # The simulator reads a command-chain node's or the supervisor's node_error (it holds time for their commands or
     # decisions no more), the phase_changed stamps (the faults that start with a phase) and thrusters_isolated; guidance

@@ -65,6 +65,10 @@ def _array(vector):
     return np.array(vector, dtype=float)
 
 
+# The reason of the request the supervisor's PLANNING makes (``on_event``).
+PLANNING_REQUEST = 'phase PLANNING'
+
+
 class PlannerCore:
     """The planner's rules (module doc)."""
 
@@ -83,13 +87,22 @@ class PlannerCore:
         self.rigid = params.chaser_model == 'rigid_body'
         self.methods = {m.name: m for m in (FlybyMethod(), OptimalMethod(params, len(self.leaders)), SyncMethod())}
         self.method_flown = None  # the name of the method of the plan being flown: a re-plan keeps it
+        self.phase = None  # mission/phase as last heard: the PLANNING request is served only in PLANNING
 
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
-        """The supervisor's stamped transition to PLANNING plans at that time; guidance's re-aim is published."""
-        if event.name == events.PHASE_CHANGED and event_payloads.decode(event).to_phase == c.PHASE_PLANNING:
-            self.request = (event.t, 'phase PLANNING')
+        """The supervisor's stamped transition to PLANNING plans at that time; its request lapses when the phase moves
+        on (a respawned planner, fed the events' history, must not plan again from a PLANNING long past); HOLD forgets
+        the method too (the plan after the hold is a new one). Guidance's re-aim is published."""
+        to_phase = event_payloads.decode(event).to_phase if event.name == events.PHASE_CHANGED else None
+        if to_phase == c.PHASE_PLANNING:
+            self.request = (event.t, PLANNING_REQUEST)
             return self.try_plan()
+        if to_phase is not None and self.request is not None and self.request[1] == PLANNING_REQUEST:
+            self.request = self.waiting_for = None
+        if to_phase == c.PHASE_HOLD:
+            self.method_flown = None
+            return []
         refined = event_payloads.decode(event) if event.name == events.TARGET_REFINED else None
         if refined is not None and refined.x_g_hill_m is not None:
             v = refined
@@ -101,6 +114,12 @@ class PlannerCore:
             if out is not None:
                 return out
         return []
+
+    def on_phase(self, phase):
+        """mission/phase (latched): a respawned planner is fed the events' history and live estimates in any order,
+        and must not plan from a PLANNING long past before it has heard the phase moved on."""
+        self.phase = phase
+        return self.try_plan()
 
     def on_replan(self):
         """Plan again at the next target estimate."""
@@ -146,6 +165,8 @@ class PlannerCore:
         if self.request is None:
             return []
         t_request, why = self.request
+        if why == PLANNING_REQUEST and self.phase != c.PHASE_PLANNING:
+            return []
         waiting, t_leaders = self._leaders_decided(t_request)
         if waiting:
             if self.waiting_for == waiting:

@@ -73,7 +73,8 @@ class PlannerNode(CoreNode):
             c.MARKERS, c.MISSION_EVENTS)}
         # The target estimate's covariance: the re-aim check starts from it.
         self.subscribe_inputs(scenario, {**self.estimate_inputs(quat_rotate, target_covariance=True),
-                                         c.MISSION_EVENTS: self.on_events_message})
+                                         c.MISSION_EVENTS: self.on_events_message,
+                                         c.MISSION_PHASE: self.on_phase_message})
         self.create_service(Trigger, c.PLANNER_REPLAN_SERVICE,
                             self.guard(self.on_replan, c.PLANNER_REPLAN_SERVICE, service=True))
         # Another chaser's topics, by their absolute names, behind an admission of their own (its stamps).

@@ -47,6 +47,7 @@ def _plan(scenario, r_chaser=(50.0, 0.0, 0.0)):
     """PlannerCore's outputs planning at T_PLAN from the true target state and a chaser at rest."""
     truth = truth_prediction(scenario, T_PLAN + 1.0).state(T_PLAN)
     core = PlannerCore(PlannerParams.from_scenario(scenario))
+    core.on_phase(c.PHASE_PLANNING)  # mission/phase: its request is served in PLANNING
     core.on_chaser_estimate(T_PLAN, np.array(r_chaser), np.zeros(3))
     core.on_target_estimate(T_PLAN, truth.q_hill_from_body, truth.omega_body)
     return core, core.on_event(wire_event(Event(T_PLAN, 'OK', 'phase_changed', 'ESTIMATION -> PLANNING',

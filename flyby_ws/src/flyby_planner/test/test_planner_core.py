@@ -32,6 +32,7 @@ def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_ch
     sc = load_scenario(SCENARIOS / 'paper_flyby.yaml')
     n = sc.mean_motion_rad_s
     core = PlannerCore(PlannerParams.from_scenario(sc))
+    core.on_phase(c.PHASE_PLANNING)  # mission/phase: its request is served in PLANNING
     q0, w0 = sc.q_hill_from_body0, sc.omega_body0_rad_s
     r_c, v_c = np.array((50.0, 0.1, -0.2)), np.array((0.001, 0.0, -0.002))
     assert core.on_chaser_estimate(59.9, r_c, v_c) == []
@@ -59,6 +60,7 @@ def test_plan_at_the_first_target_estimate_after_the_request_from_the_coasted_ch
 
 def test_a_re_aimed_grasp_is_published_again():
     core = PlannerCore(PlannerParams.from_scenario(load_scenario(SCENARIOS / 'paper_flyby.yaml')))
+    core.on_phase(c.PHASE_PLANNING)  # mission/phase: its request is served in PLANNING
     refined = wire_event(Event(733.0, 'OK', 'target_refined', 'grasp re-solved', {
         't_grasp_s': 813.004, 'shift_m': 0.002, 'x_g_hill_m': np.array((0.3, 2.0, 0.1)),
         'v_g_hill_mps': np.array((0.0, 0.01, 0.13)), 'x_ft_hill_m': np.array((0.45, 3.0, 0.15)),
@@ -86,6 +88,7 @@ def test_a_plan_in_the_extended_window_publishes_the_grasp_of_its_own_motion():
     sc = scenario_from_dict(d, name='envelope run 323 (test)')
     truth = truth_prediction(sc, 3000.0)
     core = PlannerCore(PlannerParams.from_scenario(sc))
+    core.on_phase(c.PHASE_PLANNING)  # mission/phase: its request is served in PLANNING
     s60 = truth.state(60.0)
     r_c = np.array(sc.chaser.initial_position_hill_m)
     core.on_chaser_estimate(60.0, r_c, np.zeros(3))
@@ -116,6 +119,7 @@ def test_the_plan_starts_from_the_published_covariance_of_its_estimate():
     for blocks, expected in (((attitude_hill, rate_body), covariance_from_published(q0, attitude_hill, rate_body)),
                              ((), None)):
         core = PlannerCore(PlannerParams.from_scenario(sc))
+        core.on_phase(c.PHASE_PLANNING)  # mission/phase: its request is served in PLANNING
         core.methods['flyby'] = _RecordingFlyby()
         core.on_chaser_estimate(60.05, np.array((50.0, 0.1, -0.2)), np.zeros(3))
         core.on_event(_planning_event(59.95))

@@ -31,6 +31,7 @@ def _core(view, r_chaser, times):
     """A planner of the view fed the true target state and the chaser at rest (V-bar) at the times."""
     truth = truth_prediction(view, max(times) + 1.0)
     core = PlannerCore(PlannerParams.from_scenario(view))
+    core.on_phase(c.PHASE_PLANNING)  # mission/phase: its request is served in PLANNING
     for t in times:
         core.on_chaser_estimate(t, np.array(r_chaser), np.zeros(3))
         s = truth.state(t)

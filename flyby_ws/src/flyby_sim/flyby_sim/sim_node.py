@@ -17,7 +17,9 @@ continuous commands (``guidance/wheels``, ``guidance/wrench``, zero-order hold).
 chaser estimate, and the estimator gives one at every IMU sample, one control period (the IMU's sample
 period) after its stamp: so every IMU sample of stamp t announces a command of stamp t + period, and the
 simulator does not step past that stamp before the command is in (on both topics), until the mission
-phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph.
+phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph; a
+successor of the one that left (a respawn: the supervisor may hold the mission in standby for it, docs/faults.md) is
+waited for again from the first attitude command it sends.
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command). With a
 post_capture section the attitude control comes back when the arm locks (the plant's combined body,
@@ -108,6 +110,7 @@ class _Chaser:
         self.commanded_ns = {c.GUIDANCE_WHEELS: -1, c.GUIDANCE_WRENCH: -1}
         self.attitude_quiet = False
         self.chain_failed = False  # a command-chain node's core failed: never waited for again
+        self.chain_left_ns = None  # a command-chain node left the graph at this stamp: waited for again (module doc)
         self.supervisor_failed = False  # the supervisor's core failed: no capture decision waited for again
         self.locked = False  # the plant's combined body after a grasp: commanded again (module doc)
         self.command_wait = _Wait()
@@ -290,6 +293,7 @@ class SimNode(Node):
             gone = [name for name in ch.chain if name not in present]
             if gone:
                 ch.attitude_quiet = True
+                ch.chain_left_ns = convert.sec_to_ns(self.plant.t)
                 announced.clear()
                 self.emit('WARN', events.NODE_LOST, f'{", ".join(gone)} left the graph; no longer waiting for '
                           'attitude commands', {'nodes': ','.join(gone)}, ch)
@@ -558,10 +562,21 @@ class SimNode(Node):
             self.emit('ERROR', events.COMMAND_REJECTED, f'guidance/wrench: {err}', {'t_stamp': repr(t_stamp)}, ch)
         self.publish_plant_events()
 
-    @staticmethod
-    def _command_stamp(ch, topic, t):
+    def _command_stamp(self, ch, topic, t):
         ch.commanded_ns[topic] = max(ch.commanded_ns[topic], convert.sec_to_ns(t))
+        if ch.chain_left_ns is not None and min(ch.commanded_ns.values()) > ch.chain_left_ns:
+            self._wait_again(ch)
         return t
+
+    def _wait_again(self, ch):
+        """The chain commands again after a node of it left (its successor's first commands are in): waited for from
+        the next IMU sample on, as the phase and the lock would have it (on_phase, advance) and no core failed."""
+        ch.chain_left_ns = None
+        ch.attitude_quiet = ch.chain_failed or (
+            ch.phase in ATTITUDE_QUIET_PHASES and not (ch.locked and ch.phase == c.PHASE_CAPTURE))
+        if not ch.attitude_quiet:
+            self.emit('OK', events.COMMANDS_WAITED_AGAIN, 'the command chain commands again: waiting for its attitude '
+                      'commands', {}, ch)
 
     def on_maneuver(self, ch, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)

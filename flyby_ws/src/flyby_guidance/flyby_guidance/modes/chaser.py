@@ -123,6 +123,9 @@ class RigidBodyChaser(GuidanceMode):
             for law in (self.attitude, self.sync_hold.sync_attitude):
                 law.take_wheels_out([i for wheels in due for i in wheels])
 
+    def drop_plan(self):
+        self.tracking.drop_plan()
+
     def on_phase(self, phase):
         """SYNC_APPROACH: stage 1's link tracked with planner.sync's bound and gain, the hold armed at its end."""
         if phase == c.PHASE_SYNC_APPROACH:

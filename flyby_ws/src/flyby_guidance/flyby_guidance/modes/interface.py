@@ -49,5 +49,9 @@ class GuidanceMode:
         """The outputs an event of mission/events releases (none by default)."""
         return []
 
+    def drop_plan(self):
+        """Forget the plan (the supervisor's HOLD: a plan of the standby it interrupted is never flown, the next
+        one is made after it); nothing by default."""
+
     def _event(self, t, level, name, message, values):
         return Event(t, level, name, message, values, self.source)

@@ -52,6 +52,10 @@ class TrackingApproach(GuidanceMode):
                             f'tracking the optimal approach from t = {ref.t_start:.2f} s to {ref.t_end:.2f} s',
                             {'t_start_s': ref.t_start, 't_end_s': ref.t_end})]
 
+    def drop_plan(self):
+        self.reference = self.next_reference = None
+        self.replan_asked = self.tracking_ended = False
+
     def track_sync_link(self, sync_config):
         """Stage 1 of the synchronized approach: the link tracked without the plume rule, planner.sync's bound and
         gain."""

@@ -448,6 +448,9 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
         'capture_hold_s': Field(FLOAT, 10.0, '>= 0', 'Time attached to the target before COMPLETE.'),
         'watchdog_s': Field(FLOAT, 5.0, '> 0',
                             'A node silent this long (sim time) is lost: the fault table answers (docs/faults.md).'),
+        'hold_limit_s': Field(FLOAT, 600.0, '> 0',
+                              'A hold (the fault table\'s answer in ESTIMATION or PLANNING: docs/faults.md) whose '
+                              'faults have not all recovered this long after it began aborts.'),
         'abort_observation_s': Field(FLOAT, 60.0, '>= 0',
                                      'The run goes on this long after ABORTED, to record the escape.'),
         'avoidance_delta_v_mps': Field(FLOAT, 0.05, '> 0',

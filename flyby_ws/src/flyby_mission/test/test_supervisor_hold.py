@@ -1,0 +1,148 @@
+"""The fault table's ``hold`` (docs/faults.md): standby held on a detection until it recovers, the way to PLANNING
+again after it, its limit, and what the planner and guidance do in HOLD."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from flyby_guidance.guidance_core import GuidanceCore
+from flyby_guidance.params import GuidanceParams
+from flyby_mission.supervisor import SupervisorCore, SupervisorParams, Transition
+from flyby_msgs_py import contract as c
+from flyby_msgs_py import event_payloads, events
+from flyby_msgs_py.wire import Event, wire_event
+from flyby_planner.params import PlannerParams
+from flyby_planner.planner_core import PlannerCore
+from flyby_sim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[4] / 'scenarios'
+SCENARIO = load_scenario(SCENARIOS / 'paper_flyby_6dof.yaml')
+PARAMS = dataclasses.replace(SupervisorParams.from_scenario(SCENARIO), min_observation_s=60.0, hold_limit_s=300.0)
+
+
+def _found(t, kind, component, detected=True, source='flyby_estimator'):
+    """A health monitor's fault_detected (or fault_recovered) as mission/events carries it."""
+    payload = (event_payloads.FaultDetected if detected else event_payloads.FaultRecovered)(
+        f'sensor/{component}', kind, component, t)
+    name = events.FAULT_DETECTED if detected else events.FAULT_RECOVERED
+    return wire_event(Event(t, 'ERROR' if detected else 'OK', name, kind, event_payloads.encode(payload), source))
+
+
+def _converged(t):
+    return wire_event(Event(t, 'OK', events.TARGET_CONVERGED, 'converged', {}, 'flyby_estimator'))
+
+
+def _estimates(core, t0, t1):
+    """Target estimates (and the estimator's progress) every 0.1 s from t0 to t1: the transitions they cause."""
+    out = []
+    for t in np.arange(t0, t1 + 1e-9, 0.1):
+        core.on_progress('flyby_estimator', t)
+        core.on_progress('flyby_guidance', t)
+        out += core.on_target_estimate(t, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.1))
+        out += core.on_clock(t)
+    return [o for o in out if isinstance(o, Transition)]
+
+
+def test_a_hold_waits_in_standby_until_its_fault_recovers_then_plans():
+    core = SupervisorCore(PARAMS)
+    _estimates(core, 0.1, 10.0)
+    core.on_event(_converged(10.0))
+    out = core.on_event(_found(20.0, 'sensor_stale', 'relative_position'))
+    response = [o for o in out if getattr(o, 'name', '') == events.FAULT_RESPONSE]
+    assert response[0].values['response'] == 'hold' and core.phase == c.PHASE_HOLD
+    assert [o for o in out if isinstance(o, Transition)][0].reason.startswith('hold: ')
+    assert _estimates(core, 20.1, 80.0) == []  # converged and observed, but held: no PLANNING
+    out = core.on_event(_found(80.0, 'sensor_stale', 'relative_position', detected=False))
+    moves = [(o.phase_from, o.phase_to) for o in out if isinstance(o, Transition)]
+    assert moves == [(c.PHASE_HOLD, c.PHASE_ESTIMATION), (c.PHASE_ESTIMATION, c.PHASE_PLANNING)]
+
+
+def test_the_hold_ends_with_its_last_fault_and_a_fault_it_does_not_hold_changes_nothing():
+    core = SupervisorCore(PARAMS)
+    _estimates(core, 0.1, 1.0)
+    core.on_event(_found(2.0, 'sensor_stale', 'relative_position'))
+    core.on_event(_found(3.0, 'sensor_stale', 'target_attitude'))
+    core.on_event(_found(4.0, 'sensor_stale', 'star_tracker'))  # continue in standby: not held
+    out = core.on_event(_found(5.0, 'sensor_stale', 'relative_position', detected=False))
+    assert not [o for o in out if isinstance(o, Transition)] and core.phase == c.PHASE_HOLD  # one still out
+    out = core.on_event(_found(6.0, 'sensor_stale', 'target_attitude', detected=False))
+    assert [o.phase_to for o in out if isinstance(o, Transition)] == [c.PHASE_ESTIMATION]
+
+
+def test_a_hold_not_recovered_within_its_limit_aborts_naming_the_fault():
+    core = SupervisorCore(PARAMS)
+    _estimates(core, 0.1, 1.0)
+    core.on_event(_found(2.0, 'sensor_inconsistent', 'star_tracker'))
+    assert _estimates(core, 1.1, 301.9) == []
+    [aborted] = _estimates(core, 302.0, 302.0)
+    assert aborted.phase_to == c.PHASE_ABORTED
+    assert aborted.reason == 'hold: sensor_inconsistent on star_tracker not recovered within 300 s'
+
+
+def test_a_plan_made_before_the_hold_was_heard_is_not_taken():
+    core = SupervisorCore(PARAMS)
+    _estimates(core, 0.1, 60.0)
+    core.on_event(_converged(10.0))
+    assert _estimates(core, 60.1, 60.1)[0].phase_to == c.PHASE_PLANNING
+    core.on_event(_found(60.15, 'sensor_stale', 'imu'))
+    assert core.phase == c.PHASE_HOLD
+    plan = event_payloads.PlanSelected(t_i_s=500.0, t_grasp_s=800.0, offset_m=1.0)
+    out = core.on_event(wire_event(Event(60.2, 'OK', events.PLAN_SELECTED, 'plan', event_payloads.encode(plan),
+                                         'flyby_planner')))
+    assert out == [] and core.phase == c.PHASE_HOLD
+
+
+def test_a_lost_estimators_successor_must_converge_and_observe_anew():
+    core = SupervisorCore(PARAMS)
+    _estimates(core, 0.1, 30.0)
+    core.on_event(_converged(10.0))
+    core.on_clock(36.0)  # the estimator silent since 30.0: node_lost, held
+    assert core.phase == c.PHASE_HOLD
+    moves = _estimates(core, 60.0, 70.0)  # it reports again: the hold ends, its new filter not yet converged
+    assert [m.phase_to for m in moves] == [c.PHASE_ESTIMATION]
+    assert _estimates(core, 70.1, 130.0) == []  # no convergence from the successor
+    [planning] = [o for o in core.on_event(_converged(130.0)) if isinstance(o, Transition)]
+    assert planning.phase_to == c.PHASE_PLANNING and '70.0 s of attitude data' in planning.reason  # its own
+
+
+def _phase_event(t, phase_from, phase_to):
+    return wire_event(Event(t, 'OK', events.PHASE_CHANGED, f'{phase_from} -> {phase_to}',
+                            event_payloads.encode(event_payloads.PhaseChanged(phase_from, phase_to)),
+                            'flyby_supervisor'))
+
+
+def test_the_planner_forgets_its_request_in_hold_and_a_planning_long_past():
+    """A respawned planner is fed the events' history: a PLANNING followed by the phase it moved on to is no request
+    (before, a planner respawned in the approach planned again and guidance flew the new plan)."""
+    planner = PlannerCore(PlannerParams.from_scenario(SCENARIO))
+    planner.on_chaser_estimate(95.0, (40.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    planner.on_target_estimate(95.0, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.1))
+    # The history's PLANNING before the latched phase: no plan from it while the phase is not heard to be PLANNING.
+    assert planner.on_event(_phase_event(60.1, c.PHASE_ESTIMATION, c.PHASE_PLANNING)) == []
+    assert planner.on_phase(c.PHASE_TERMINAL_APPROACH) == []
+    assert planner.request is not None
+    planner.on_event(_phase_event(60.1, c.PHASE_PLANNING, c.PHASE_HOLD))
+    assert planner.request is None
+    planner.on_event(_phase_event(90.0, c.PHASE_ESTIMATION, c.PHASE_PLANNING))
+    planner.on_event(_phase_event(90.0, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH))
+    assert planner.request is None
+    assert planner.on_chaser_estimate(95.1, (40.0, 0.0, 0.0), (0.0, 0.0, 0.0)) == []
+
+
+def test_guidance_drops_the_plan_in_hold_and_takes_none_while_held():
+    guidance = GuidanceCore(GuidanceParams.from_scenario(SCENARIO))
+    guidance.on_phase(c.PHASE_PLANNING)
+    guidance.on_flyby_initial(500.0, (5.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    guidance.on_flyby_target(800.0, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert guidance.on_path(60.1)  # guidance_started
+    assert guidance.flyby.guidance.next_burn_time is not None
+    guidance.on_phase(c.PHASE_HOLD)
+    assert guidance.flyby.guidance.next_burn_time is None
+    guidance.on_flyby_initial(500.0, (5.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    guidance.on_flyby_target(800.0, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert guidance.on_path(61.0) == [] and guidance.flyby.guidance.next_burn_time is None
+    guidance.on_phase(c.PHASE_ESTIMATION)  # the hold over: nothing of the dropped plan is flown
+    out = [o for t in np.arange(490.0, 510.0, 0.1) for o in guidance.on_chaser_estimate(
+        t, (40.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))]
+    assert not [o for o in out if getattr(o, 'name', '') == events.MANEUVER_COMMANDED]
