@@ -419,7 +419,7 @@ class ThrustMonitor:
                      + (THRUST_RELATIVE / 3.0 * iv.expected)**2 for iv, f in zip(kept, firings, strict=True)]
         mass = float(np.mean([iv.commanded.mass_kg for iv in kept]))
         return isolate(residuals, firings, variances, self.force_directions_body,
-                       self.allocator.layout.max_thrust_n / mass)
+                       self.allocator.layout.max_thrust_n / mass, self.relative_error / 3.0)
 
 
 class WheelMonitor:

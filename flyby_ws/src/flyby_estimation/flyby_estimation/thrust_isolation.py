@@ -22,8 +22,10 @@ nominal geometry, not the plant's truth), two hypotheses predict the residual r_
 Each from an onset: nothing in the intervals before one interval j, a share t in [0, 1] of the prediction in it (the
 fault began inside it), all of it after; x (or s) fitted by least squares to the intervals after j, t to j's, j
 scanned over the window. Each interval is weighted by its variance per axis: the accelerometer's, the thrusters'
-specified errors on every commanded thruster (1 sigma, independent) and a third of ``THRUST_RELATIVE`` of the
-thrust expected (the attitude estimate a burn is turned by). The fit's chi-square over the K intervals, 3K - 2
+specified errors on every commanded thruster and on the hypothesis's own predicted thrust (1 sigma, independent: a
+leaking thruster's misalignment shows across its direction; campaign faults_single run 34's 1 N leak, about 2 deg
+off its nominal direction, failed its test by 0.3 mm/s^2 across it without) and a third of ``THRUST_RELATIVE`` of
+the thrust expected (the attitude estimate a burn is turned by). The fit's chi-square over the K intervals, 3K - 2
 degrees of freedom, must lie within its ``1 - FALSE_REJECTION`` quantile (a hypothesis that explains the series
 leaves noise). The hypotheses that pass within ``MARGIN`` of the best chi-square (a likelihood ratio of e^4.5, about
 90) are the candidates: parallel thrusters commanded alike predict the same and are named together. Where they are
@@ -141,14 +143,15 @@ class Allocator:
         return self._burns[key]
 
 
-def isolate(residuals, firings, variances, directions, max_accel):
+def isolate(residuals, firings, variances, directions, max_accel, relative):
     """The ``Isolation`` of a window (module doc), or None where no hypothesis names one kind.
 
     residuals (K, 3): each interval's residual against the thrusts the allocation delivers [m/s^2, chaser_body];
     firings: their ``Firing``; variances (K,): each interval's variance per axis [m^2/s^4]; directions (M, 3): the
-    thrusters' force directions; max_accel (M,): each thruster's largest thrust acceleration [m/s^2]."""
+    thrusters' force directions; max_accel (M,): each thruster's largest thrust acceleration [m/s^2]; relative: a
+    thruster's specified error, 1 sigma of its thrust (the hypothesis's own thrust errs by it too)."""
     residuals = np.asarray(residuals, dtype=float)
-    weights = 1.0 / np.asarray(variances, dtype=float)
+    variances = np.asarray(variances, dtype=float)
     along = residuals @ np.asarray(directions, dtype=float).T  # (K, M): each residual along each thruster
     squares = np.sum(residuals**2, axis=1)
     dof = 3 * len(residuals) - 2
@@ -157,9 +160,8 @@ def isolate(residuals, firings, variances, directions, max_accel):
     for i in range(len(directions)):
         parts = [[(share, float(a[i])) for share, a in f.parts] for f in firings]
         mean = np.array([f.mean[i] for f in firings])
-        fits.append(('thrust_excess', i, _best_onset(_Leak(parts, float(max_accel[i])), along[:, i], squares,
-                                                     weights)))
-        fits.append(('thrust_deficit', i, _best_onset(_Deficit(mean), along[:, i], squares, weights)))
+        for kind, model in (('thrust_excess', _Leak(parts, float(max_accel[i]))), ('thrust_deficit', _Deficit(mean))):
+            fits.append((kind, i, _best_onset(model, along[:, i], squares, variances, relative)))
     passing = [f for f in fits if f[2] <= bound]
     if not passing:
         return None
@@ -171,18 +173,25 @@ def isolate(residuals, firings, variances, directions, max_accel):
     return Isolation(kinds.pop(), sorted(i for _, i, _ in tied), float(best), dof)
 
 
-def _best_onset(model, along, squares, weights):
+def _best_onset(model, along, squares, variances, relative):
     """The least chi-square of a hypothesis over its onset j: nothing before j, a share t of its prediction in j,
-    all of it after; its amplitude fitted to the intervals after j (all of it allowed where none is)."""
+    all of it after; its amplitude fitted to the intervals after j (all of it allowed where none is). Each
+    interval's variance grows by the predicted thrust's own specified error (a leaking thruster's misalignment
+    shows across its direction)."""
     best = math.inf
+    k = np.arange(len(along))
     for j in range(len(along)):
         after = slice(j + 1, None)
-        amplitude, cost_after = model.fit(after, along[after], squares[after], weights[after])
-        h = model.predict(j, amplitude)
-        t = min(max(along[j] * h / (h * h), 0.0), 1.0) if h != 0.0 else 0.0
-        cost_onset = weights[j] * (squares[j] - 2.0 * t * h * along[j] + (t * h)**2)
-        best = min(best, float(np.sum(weights[:j] * squares[:j])) + cost_onset + cost_after)
+        h = model.predictions(model.fit(after, along[after], squares[after], 1.0 / variances[after]))
+        t = min(max(along[j] * h[j] / (h[j] * h[j]), 0.0), 1.0) if h[j] != 0.0 else 0.0
+        h = np.where(k < j, 0.0, np.where(k == j, t * h, h))
+        best = min(best, _cost(h, along, squares, 1.0 / (variances + (relative * h)**2)))
     return best
+
+
+def _cost(h, along, squares, weights):
+    """The chi-square of predictions h along a thruster's direction."""
+    return float(np.sum(weights * (squares - 2.0 * h * along + h * h)))
 
 
 class _Deficit:
@@ -191,17 +200,15 @@ class _Deficit:
     def __init__(self, mean):
         self.mean = mean
 
-    def predict(self, k, s):
-        """The residual along its direction in interval k for the share s it lacks."""
-        return -s * float(self.mean[k])
+    def predictions(self, s):
+        """The residual along its direction in each interval for the share s it lacks."""
+        return -s * self.mean
 
-    def fit(self, after, along, squares, weights):
-        """(s, chi-square) over the intervals ``after``: least squares, clipped to [0, 1] (1 where none is)."""
+    def fit(self, after, along, _squares, weights):
+        """s over the intervals ``after``: least squares, clipped to [0, 1] (1 where none is)."""
         c = self.mean[after]
         normal = float(np.sum(weights * c * c))
-        s = 1.0 if normal == 0.0 else min(max(-float(np.sum(weights * c * along)) / normal, 0.0), 1.0)
-        h = -s * c
-        return s, float(np.sum(weights * (squares - 2.0 * h * along + h * h)))
+        return 1.0 if normal == 0.0 else min(max(-float(np.sum(weights * c * along)) / normal, 0.0), 1.0)
 
 
 class _Leak:
@@ -211,16 +218,17 @@ class _Leak:
     def __init__(self, parts, largest):
         self.parts, self.largest = parts, largest
 
-    def predict(self, k, x):
-        """The residual along its direction in interval k for a leak of x [m/s^2]."""
-        return sum(share * max(0.0, x - a) for share, a in self.parts[k])
+    def predictions(self, x):
+        """The residual along its direction in each interval for a leak of x [m/s^2]."""
+        return np.array([sum(share * max(0.0, x - a) for share, a in p) for p in self.parts])
 
     def fit(self, after, along, squares, weights):
-        """(x, chi-square) over the intervals ``after``: e_k(x) is piecewise linear, so the chi-square is piecewise
-        quadratic in x between the commanded thrusts; its least is at a piece's stationary point or an end."""
+        """x over the intervals ``after`` (the largest where none is): e_k(x) is piecewise linear, so the
+        chi-square is piecewise quadratic in x between the commanded thrusts; its least is at a piece's stationary
+        point or an end."""
         parts = self.parts[after]
         if not parts:
-            return self.largest, 0.0
+            return self.largest
         ends = sorted({0.0, self.largest} | {a for p in parts for _, a in p if 0.0 < a < self.largest})
         best_x, best = 0.0, math.inf
         for lo, hi in zip(ends[:-1], ends[1:], strict=True):
@@ -229,8 +237,7 @@ class _Leak:
             offset = np.array([sum(s * a for s, a in p if a <= lo) for p in parts])
             normal = float(np.sum(weights * slope * slope))
             x = lo if normal == 0.0 else min(max(float(np.sum(weights * slope * (offset + along))) / normal, lo), hi)
-            h = slope * x - offset
-            cost = float(np.sum(weights * (squares - 2.0 * h * along + h * h)))
+            cost = _cost(slope * x - offset, along, squares, weights)
             if cost < best:
                 best_x, best = x, cost
-        return best_x, best
+        return best_x
