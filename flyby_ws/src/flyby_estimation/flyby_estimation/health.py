@@ -34,7 +34,8 @@ Each monitor has a stated rule:
   thruster and which kind, by a hypothesis per thruster (``thrust_isolation``: a leak, present whether or not it is
   commanded, against off or weak, present only where it is, each fitted to the window's residual series from the
   commands as the plant allocates them): ``thrust_excess`` (a thruster stuck on) or ``thrust_deficit`` (off or
-  weak) naming the thrusters whose hypothesis explains it. Where none does alone, by direction: ``thrust_excess``
+  weak) naming the thrusters whose hypothesis explains it (at the first thrust detection: its answer may close
+  thrusters the hypotheses' allocation does not know of). Where none does alone, by direction: ``thrust_excess``
   where the residual exceeds the expected thrust, else ``thrust_deficit``, with the thrusters whose force lies
   within ``ISOLATION_DEG`` of the residual (or against it, for a deficit) as the candidates.
 
@@ -291,6 +292,8 @@ class ThrustMonitor:
         self.accel_sigma_mps2 = accel_sigma_mps2
         self.relative_error = relative_error
         self.force_directions_body = np.asarray(force_directions_body, dtype=float)
+        # The hypotheses allocate over every thruster: after a thrust fault is detected the supervisor may close
+        # thrusters (``thrusters_isolated``, which the estimator does not hear), so from then on, by direction.
         self.allocator = None if layout is None else Allocator(layout)
         self.window = collections.deque(maxlen=THRUST_WINDOW + 1)  # the window's _Intervals and the one before it
         self.latch = _Latch('thrusters', CLEAR_WINDOWS * THRUST_WINDOW)
@@ -390,10 +393,12 @@ class ThrustMonitor:
 
     def _isolate(self, residual, expected, kept):
         """(kind, candidate thrusters, (how named, its figures)): the hypothesis per thruster that explains the kept
-        intervals' residual series (``thrust_isolation``); where none does, by direction: a residual beyond the
+        intervals' residual series (``thrust_isolation``; at the run's first thrust detection only, __init__); where
+        none does, by direction: a residual beyond the
         thrust expected of the firing (none where nothing is expected) is thrust no command asked for, along the
         thrusters that give it; else a shortfall, against them."""
         found = self._hypotheses(kept)
+        self.allocator = None  # the first detection only (__init__)
         if found is not None:
             return found.kind, found.candidates, (
                 f'by hypothesis (chi-square {found.chi2:.3g}, {found.dof} dof)',

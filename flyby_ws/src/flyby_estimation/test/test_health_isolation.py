@@ -168,3 +168,14 @@ def test_a_leak_from_its_onset_is_named_at_the_stuck_rule_s_detection(seed):
     assert [(f.kind, f.values['candidates'], f.values['isolation']) for f in found] == [
         ('thrust_excess', [6, 7], 'hypothesis')]
     assert found[0].t <= DT * (12 + health.LEAK_INTERVALS + 1) + 1e-9
+
+
+def test_after_a_thrust_detection_the_next_is_named_by_direction():
+    """The hypotheses allocate over every thruster; a detection's answer may close thrusters (``thrusters_isolated``,
+    which the estimator does not hear), after which the plant allocates over the others: the run's later thrust
+    detections are named by direction (faults_single run 103: thruster 3 stuck on, [2, 3] closed, a later burn's
+    shortfall on them fitted thrusters 0 and 1's leak, two healthy thrusters more closed)."""
+    commands = [COUPLE] * 6 + [IDLE] * 40 + [COUPLE] * 6 + [IDLE] * 10
+    found = [f for f in _fly(_monitor(), commands, _off(9), 0) if f.detected]
+    assert [(f.kind, f.values['candidates'], f.values['isolation']) for f in found] == [
+        ('thrust_deficit', [9], 'hypothesis'), ('thrust_deficit', [8, 9], 'direction')]
