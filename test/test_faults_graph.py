@@ -4,11 +4,14 @@ coasting into the target with the planner and guidance out of the graph is turne
 monitor's CAM alone; a wheel failed in the approach is named from its tachometer and reallocated, the approach going
 on; a planner
 killed and respawned by the launcher is found silent by the watchdog, answered continue, and seen back; an estimator
-killed in ESTIMATION holds standby until its successor has converged and observed anew."""
+killed in ESTIMATION holds standby until its successor has converged and observed anew; a relative position lost in
+the approach retreats and plans again, as headless."""
 
 import pytest
 
+from flyby_mission.headless import run_headless
 from flyby_msgs_py.bag import read_bag
+from flyby_sim.scenario import load_scenario
 from flyby_testing import analyze_bag, read_summary, run_mission, write_scenario
 
 pytestmark = pytest.mark.slow
@@ -114,5 +117,25 @@ def test_an_estimator_killed_in_estimation_holds_standby_until_its_successor_has
     planned = [e['t'] for e in events if e['name'] == 'plan_selected']
     assert len(converged) == 2 and converged[1] > respawned  # the successor's own convergence
     assert len(planned) == 1 and planned[0] >= respawned + 60.0  # min_observation_s of the successor's estimates
+    checked = analyze_bag(tmp_path / 'run')
+    assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]
+
+
+def _position_lost_in_the_approach(data):
+    data['faults'] = [{'type': 'topic_loss', 'topic': 'sensors/chaser/relative_position',
+                       'start_phase': 'TERMINAL_APPROACH', 'delay_s': 10.0, 'duration_s': 10.0}]
+    data['simulation']['duration_s'] = 150.0
+
+
+def test_a_relative_position_lost_in_the_approach_retreats_and_plans_again_as_headless(tmp_path):
+    scenario = write_scenario(tmp_path, base='paper_flyby', name='retreat', edit=_position_lost_in_the_approach)
+    done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--in-process')
+    summary = read_summary(tmp_path / 'run')
+    headless = run_headless(load_scenario(scenario)).summary
+    assert [r['response'] for r in summary['fault_responses']] == ['retreat'], done.stdout[-2000:]
+    assert summary['phase_sequence'] == headless['phase_sequence'] == [
+        'ESTIMATION', 'PLANNING', 'TERMINAL_APPROACH', 'RETREAT', 'ESTIMATION', 'PLANNING', 'TERMINAL_APPROACH']
+    events = read_bag(tmp_path / 'run' / 'bag', topics=['/mission/events'])['/mission/events']
+    assert len([e for e in events if e['name'] == 'plan_selected']) == 2
     checked = analyze_bag(tmp_path / 'run')
     assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]

@@ -103,20 +103,21 @@ class GuidanceCore:
         return self.flyby.on_flyby_target(t_f, x_ft, v_ft)
 
     def on_path(self, t_plan):
-        """The planner publishes the path last: a new plan is complete (none is taken in HOLD: ``on_phase``)."""
-        return [] if self.phase == c.PHASE_HOLD else self.flyby.on_path(t_plan)
+        """The planner publishes the path last: a new plan is complete (none is taken in HOLD or RETREAT:
+        ``on_phase``)."""
+        return [] if self.phase in c.WAITING_PHASES else self.flyby.on_path(t_plan)
 
     def on_trajectory(self, t_s, r_hill, v_hill, a_hill):
-        """planner/trajectory: a new optimal approach to fly (``modes.tracking``; none is taken in HOLD)."""
-        if self.phase == c.PHASE_HOLD:
+        """planner/trajectory: a new optimal approach to fly (``modes.tracking``; none taken in HOLD or RETREAT)."""
+        if self.phase in c.WAITING_PHASES:
             return []
         return self.chaser.on_trajectory(t_s, r_hill, v_hill, a_hill, self.phase)
 
     def on_phase(self, phase):
-        """The supervisor's phase; HOLD drops the plan of the standby it interrupted (a plan the planner made
-        before it heard the hold is never flown: the next is made after it)."""
+        """The supervisor's phase; HOLD and RETREAT drop the plan of the standby or approach they interrupted (a plan
+        the planner made before it heard them is never flown: the next is made after the fault's recovery)."""
         self.phase = phase
-        if phase == c.PHASE_HOLD:
+        if phase in c.WAITING_PHASES:
             self.flyby.drop_plan()
             self.chaser.drop_plan()
         self.chaser.on_phase(phase)

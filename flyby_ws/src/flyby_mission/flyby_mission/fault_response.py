@@ -5,12 +5,13 @@
 on), the ``thrusters_isolated`` event where the response closes the candidate thrusters (the simulator closes their
 valves), the ``wheels_reallocated`` event where it takes the named wheels out of the attitude control (guidance
 commands them nothing and gives their axes' torque to the wheels left and the thrusters' couples: docs/faults.md),
-whether to abort, and the fault a ``hold`` waits on (the phase machine holds standby until that fault's
-``fault_recovered``). The machine's other rule (an ERROR event of a watched node aborts) does not apply to a
-detection: the table answers it. It does apply to guidance's refusal of a reallocation (an ERROR ``command_rejected``
-once the wheels left span fewer than three axes, or for an index that is no wheel: guidance knows the wheels'
-geometry, the supervisor does not), which aborts after this module's ``reallocate``.
+whether to abort, and the fault a ``hold`` or ``retreat`` waits on (the phase machine holds standby, or gives the
+approach up, until that fault's ``fault_recovered``). The machine's other rule (an ERROR event of a watched node
+aborts) does not apply to a detection: the table answers it. It does apply to guidance's refusal of a reallocation (an
+ERROR ``command_rejected`` once the wheels left span fewer than three axes, or for an index that is no wheel: guidance
+knows the wheels' geometry, the supervisor does not), which aborts after this module's ``reallocate``.
 """
+
 import typing
 
 from flyby_mission.fault_table import Answer, FaultTable
@@ -23,6 +24,7 @@ class Reply(typing.NamedTuple):
     events: list  # (level, name, message, values) to publish
     abort: str | None  # the abort's reason, or None
     hold: tuple | None  # (kind, component) of the fault a hold waits on, or None
+    retreat: tuple | None  # (kind, component) of the fault a retreat waits on, or None
 
 
 def respond(table: FaultTable, event, phase, cam_fired=False):
@@ -53,5 +55,7 @@ def respond(table: FaultTable, event, phase, cam_fired=False):
                     f'torque to the wheels left and the thrusters: {detected.kind}',
                     event_payloads.encode(event_payloads.WheelsReallocated(tuple(candidates)))))
     abort = answer.response in ('abort', 'isolate_abort')
+    fault = (detected.kind, detected.component)
     return Reply(out, f'{detected.kind} on {detected.component}: the fault table answers {answer.response}'
-                 if abort else None, (detected.kind, detected.component) if answer.response == 'hold' else None)
+                 if abort else None, fault if answer.response == 'hold' else None,
+                 fault if answer.response == 'retreat' else None)

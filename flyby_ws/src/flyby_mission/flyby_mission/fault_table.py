@@ -13,14 +13,16 @@ import yaml
 from flyby_msgs_py import contract as c
 
 TABLE_PATH = Path(__file__).with_name('fault_table.yaml')
-RESPONSES = ('continue', 'hold', 'abort', 'isolate', 'isolate_abort', 'reallocate')
+RESPONSES = ('continue', 'hold', 'retreat', 'abort', 'isolate', 'isolate_abort', 'reallocate')
 # The responses that act on one component's candidates: isolate closes thrusters' valves, reallocate takes wheels out
 # of the attitude control; on another component's row they would act on nothing (or on the wrong indices).
 RESPONSE_COMPONENT = {'isolate': 'thrusters', 'isolate_abort': 'thrusters', 'reallocate': 'wheels'}
-# A hold waits in standby, where nothing has been flown yet; in the other groups the chaser is on its way.
-HOLD_GROUPS = ('standby',)
+# The groups each response that waits for a recovery may answer in: a hold in standby, where nothing has been flown;
+# a retreat in the approach, which it gives up (in the fly-by the passive arc needs nothing; after the capture the
+# chaser holds the target).
+WAITING_GROUPS = {'hold': ('standby',), 'retreat': ('approach',)}
 PHASE_GROUPS = {
-    'standby': (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD),
+    'standby': (c.PHASE_ESTIMATION, c.PHASE_PLANNING) + c.WAITING_PHASES,
     'approach': (c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES,
     'flyby': (c.PHASE_FLYBY,),
     'after_capture': (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED) + c.POST_CAPTURE_PHASES,
@@ -42,7 +44,7 @@ class Answer:
 def fmeca_rows(markdown):
     """The FMECA's rows (dicts of COLUMNS) from the markdown between BEGIN and END; ValueError naming the row for a
     malformed one (a cell count, a severity, a response unknown, on a component it cannot act on
-    (RESPONSE_COMPONENT) or a hold outside HOLD_GROUPS)."""
+    (RESPONSE_COMPONENT) or a hold or retreat outside its WAITING_GROUPS)."""
     if BEGIN not in markdown or END not in markdown:
         raise ValueError(f'the FMECA table must lie between {BEGIN} and {END}')
     lines = [x.strip() for x in markdown.split(BEGIN, 1)[1].split(END, 1)[0].strip().splitlines()]
@@ -60,9 +62,10 @@ def fmeca_rows(markdown):
             if row[group] not in RESPONSES:
                 raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): {group} response '
                                  f'{row[group]!r} is not one of {", ".join(RESPONSES)}')
-            if row[group] == 'hold' and group not in HOLD_GROUPS:
-                raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): {group} response hold: a hold '
-                                 f'waits in {", ".join(HOLD_GROUPS)} only, before anything is flown')
+            allowed = WAITING_GROUPS.get(row[group])
+            if allowed is not None and group not in allowed:
+                raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): {group} response '
+                                 f'{row[group]}: answers in {", ".join(allowed)} only')
             needs = RESPONSE_COMPONENT.get(row[group])
             if needs is not None and row['component'] != needs:
                 raise ValueError(f'FMECA row {n} ({row["kind"]} {row["component"]}): {group} response '

@@ -8,9 +8,11 @@ observable condition and carries its reason:
     ESTIMATION        -> PLANNING           target estimate converged and min_observation_s of data
     ESTIMATION | PLANNING -> HOLD           the fault table answers a detection ``hold`` (docs/faults.md): nothing is
                                             planned or flown until every held fault has recovered
-    HOLD              -> ESTIMATION         the held faults' ``fault_recovered``: the way to PLANNING as above (a lost
+    (approach)        -> RETREAT            the fault table answers ``retreat``: the approach given up, the chaser
+                                            safed as by an abort (the avoidance burn), up to max_retreats times
+    HOLD | RETREAT    -> ESTIMATION         the held faults' ``fault_recovered``: the way to PLANNING as above (a lost
                                             estimator's successor must converge and observe min_observation_s anew)
-    HOLD              -> ABORTED            the held faults not all recovered within hold_limit_s
+    HOLD | RETREAT    -> ABORTED            the held faults not all recovered within hold_limit_s
     PLANNING          -> TERMINAL_APPROACH  the planner selected a plan
     PLANNING          -> COMPLETE           the planner refused: no safe plan (outcome NO_SAFE_PLAN, DESIGN
                                             §10; the chaser never left its safe state, nothing is fired)
@@ -74,7 +76,7 @@ from flyby_mission.estimate_age import (
     EstimateAgeParams,
 )
 from flyby_mission.fault_response import respond
-from flyby_mission.fault_table import FaultTable
+from flyby_mission.fault_table import PHASE_GROUPS, FaultTable
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events, params
 from flyby_msgs_py.stamped import StampedBuffer
@@ -85,8 +87,8 @@ from flyby_planner.flyby.grasp_search import capture_target_body
 from flyby_planner.flyby.keepout import has_spin_axis
 
 # Phases in which a faulty watched node (its ERROR event) aborts the mission (after FLYBY nothing is left to command).
-ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD, c.PHASE_TERMINAL_APPROACH,
-                 c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
+ACTIVE_PHASES = (c.PHASE_ESTIMATION, c.PHASE_PLANNING) + c.WAITING_PHASES + (
+    c.PHASE_TERMINAL_APPROACH, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY, c.PHASE_OPTIMAL_APPROACH) + c.SYNC_PHASES
 # Guidance's events that move the synchronized approach from one stage to the next (seed 001 section 2).
 _SYNC_STEPS = {events.STATION_REACHED: (c.PHASE_SYNC_APPROACH, c.PHASE_ATTITUDE_SYNC),
                events.ATTITUDE_SYNCHRONIZED: (c.PHASE_ATTITUDE_SYNC, c.PHASE_ORBITING),
@@ -102,8 +104,9 @@ _POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, events.CAPTURED): c.PHASE_GRASP,
 _TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, events.MASS_PROPERTIES_ESTIMATED): c.PHASE_TRANSPORT,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_COMPLETE): c.PHASE_COMPLETE,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_REFUSED): c.PHASE_COMPLETE}
-# The phases a fault table's hold holds (fault_table.HOLD_GROUPS): nothing has been flown yet.
-HOLD_FROM = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD)
+# The phases the fault table's hold and retreat answer in (fault_table.WAITING_GROUPS).
+HOLD_FROM = PHASE_GROUPS['standby']
+RETREAT_FROM = PHASE_GROUPS['approach']
 # Nodes whose ERROR events abort the mission, watched from the start: they estimate and command.
 WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 # Nodes whose heartbeat (their progress) the watchdog judges, the watched ones from the start, the others once they
@@ -112,7 +115,7 @@ WATCHED_NODES = ('flyby_estimator', 'flyby_guidance')
 HEARTBEAT_NODES = WATCHED_NODES + ('flyby_planner', 'flyby_cam_monitor')
 # The reason of a refused plan on the phase_changed event (summary.json end_reason for NO_SAFE_PLAN).
 NO_SAFE_PLAN_PREFIX = 'no safe plan: '
-_LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN', c.PHASE_HOLD: 'WARN'}
+_LEVEL_OF = {c.PHASE_ABORTED: 'ERROR', c.PHASE_ESCAPE: 'WARN', c.PHASE_HOLD: 'WARN', c.PHASE_RETREAT: 'WARN'}
 
 
 def _has_post_capture(scenario):
@@ -154,6 +157,7 @@ class SupervisorParams:
     escape_observation_s: float = params.derived(_escape_observation_s)
     watchdog_s: float = params.key('supervisor.watchdog_s')
     hold_limit_s: float = params.key('supervisor.hold_limit_s')
+    max_retreats: int = params.key('supervisor.max_retreats')
     avoidance_delta_v_mps: float = params.key('supervisor.avoidance_delta_v_mps')
     offset_m: float = params.key('planner.offset_m')
     x_grasp_body_m: np.ndarray = params.key('target.grasp_point_body_m', np.array)
@@ -194,7 +198,8 @@ class PhaseMachine:
         self.method = None  # the plan's method (DESIGN §10)
         self.t_entered = 0.0
         self.decision = None
-        self.held = {}  # (kind, component) -> the time its hold began: the faults a HOLD waits on
+        self.held = {}  # (kind, component) -> the time its wait began: the faults a HOLD or RETREAT waits on
+        self.retreats = 0  # retreats flown
 
     # -- helpers --------------------------------------------------------------------------------
     def _go(self, t, phase, reason, values=None):
@@ -303,11 +308,11 @@ class PhaseMachine:
                         {'t_grasp_s': self.t_grasp, **decision.values})
 
     def clock(self, t):
-        """Timers: the fault hold's limit, the holds before COMPLETE."""
-        if self.phase == c.PHASE_HOLD and t - self.t_entered >= self.params.hold_limit_s:
+        """Timers: the limit of a wait for a fault's recovery, the holds before COMPLETE."""
+        if self.phase in c.WAITING_PHASES and t - self.t_entered >= self.params.hold_limit_s:
             faults = ', '.join(f'{kind} on {component}' for kind, component in self.held)
-            return self._go(t, c.PHASE_ABORTED, f'hold: {faults} not recovered within {self.params.hold_limit_s:g} s',
-                            {'hold_s': t - self.t_entered})
+            return self._go(t, c.PHASE_ABORTED, f'{self.phase.lower()}: {faults} not recovered within '
+                                                f'{self.params.hold_limit_s:g} s', {'hold_s': t - self.t_entered})
         if self.phase == c.PHASE_CAPTURE and not self.params.post_capture and \
                 t - self.t_entered >= self.params.capture_hold_s:
             return self._go(t, c.PHASE_COMPLETE, f'attached for {t - self.t_entered:.1f} s')
@@ -325,20 +330,41 @@ class PhaseMachine:
         lost estimator's successor starts a new filter: its own convergence and observation are waited for."""
         if self.phase not in HOLD_FROM:
             return []
-        self.held.setdefault(fault, t)
-        if fault == ('node_lost', ESTIMATOR):
-            self.converged, self.t_first_estimate = False, None
-        if self.phase == c.PHASE_HOLD:
+        self._wait_for(t, fault)
+        if self.phase in c.WAITING_PHASES:
             return []
         return self._go(t, c.PHASE_HOLD, f'hold: {why}', {'kind': fault[0], 'component': fault[1]})
 
+    def retreat(self, t, fault, why):
+        """The fault table's ``retreat`` of ``fault`` at t [s]: the approach given up (the chaser safed as by an
+        abort, SupervisorCore._apply) and planned again once the fault has recovered; beyond max_retreats, an
+        abort."""
+        if self.phase not in RETREAT_FROM:
+            return []
+        if self.retreats >= self.params.max_retreats:
+            return self._go(t, c.PHASE_ABORTED, f'{why}: the fault table answers retreat, {self.retreats} of '
+                                                f'supervisor.max_retreats {self.params.max_retreats} flown')
+        self.retreats += 1
+        self._wait_for(t, fault)
+        self.t_i = self.t_grasp = self.offset_m = self.method = None  # the next plan's
+        return self._go(t, c.PHASE_RETREAT, f'retreat: {why}', {'kind': fault[0], 'component': fault[1]})
+
+    def _wait_for(self, t, fault):
+        """Wait for ``fault`` to recover; a lost estimator's successor starts a new filter: its own convergence
+        and observation are waited for."""
+        self.held.setdefault(fault, t)
+        if fault == ('node_lost', ESTIMATOR):
+            self.converged, self.t_first_estimate = False, None
+
     def recovered(self, t, fault):
-        """A fault_recovered of ``fault`` (kind, component) at t [s]: the hold ends with the last held fault."""
+        """A fault_recovered of ``fault`` (kind, component) at t [s]: a hold or a retreat ends with the last fault it
+        waits on."""
         t_held = self.held.pop(fault, None)
-        if t_held is None or self.held or self.phase != c.PHASE_HOLD:
+        if t_held is None or self.held or self.phase not in c.WAITING_PHASES:
             return []
         return self._go(t, c.PHASE_ESTIMATION, f'{fault[0]} on {fault[1]} recovered after {t - t_held:.1f} s: the '
-                                               f'hold ends', {'hold_s': t - self.t_entered}) + self._maybe_plan(t)
+                                               f'{self.phase.lower()} ends', {'hold_s': t - self.t_entered}) + \
+            self._maybe_plan(t)
 
 
 class SupervisorCore:
@@ -427,6 +453,9 @@ class SupervisorCore:
             out += self._apply(self.machine.abort(event.t, reply.abort))
         if reply.hold is not None:
             out += self._apply(self.machine.hold(event.t, reply.hold, event.message))
+        if reply.retreat is not None:
+            out += self._apply(self.machine.retreat(event.t, reply.retreat, event.message))
+            self.decision_at = None  # a decision the given-up approach waited for is not the next one's
         return out
 
     def on_progress(self, node, t):
@@ -540,7 +569,7 @@ class SupervisorCore:
                                    f'{tr.phase_from} -> {tr.phase_to}: {tr.reason}',
                                    event_payloads.encode(event_payloads.PhaseChanged(tr.phase_from, tr.phase_to),
                                                          tr.values)))
-            if tr.phase_to == c.PHASE_ABORTED and tr.phase_from in (
+            if tr.phase_to in (c.PHASE_ABORTED, c.PHASE_RETREAT) and tr.phase_from in (
                     c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD, c.PHASE_TERMINAL_APPROACH,
                     c.PHASE_TRAJECTORY_ADJUST):
                 out += self._escape_burn(tr.t)

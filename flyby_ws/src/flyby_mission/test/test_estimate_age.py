@@ -95,15 +95,17 @@ def test_nominal_streams_raise_nothing_even_with_the_clock_two_seconds_ahead_of_
     assert core.phase == c.PHASE_TERMINAL_APPROACH
 
 
-def test_a_lost_chaser_estimate_in_the_approach_is_stale_and_aborts_and_a_target_one_goes_on():
+def test_a_lost_chaser_estimate_in_the_approach_is_stale_and_retreats_and_a_target_one_goes_on():
     stamps = _stamps(0.1, 60.0)
     lost = [t for t in stamps if not 20.0 < t < 30.0]
     core = _supervisor(c.PHASE_TERMINAL_APPROACH)
     published = _fly(core, 60.0, _arrivals(stamps), _arrivals(lost))
     # Silent beyond 0.8 s after its last estimate (20.0), judged at the clock's next step.
     assert _found(published)[:2] == [(events.FAULT_DETECTED, 20.85, 'chaser_estimate', None),
-                                     (events.FAULT_RESPONSE, 20.85, 'chaser_estimate', 'abort')]
-    assert core.phase == c.PHASE_ABORTED
+                                     (events.FAULT_RESPONSE, 20.85, 'chaser_estimate', 'retreat')]
+    moves = [event_payloads.decode(wire_event(e)) for e in published if e.name == events.PHASE_CHANGED]
+    assert [(m.from_phase, m.to_phase) for m in moves] == [(c.PHASE_TERMINAL_APPROACH, c.PHASE_RETREAT),
+                                                           (c.PHASE_RETREAT, c.PHASE_ESTIMATION)]  # back at 30 s
     core = _supervisor(c.PHASE_TERMINAL_APPROACH)
     published = _fly(core, 60.0, _arrivals(lost), _arrivals(stamps))
     assert _found(published) == [(events.FAULT_DETECTED, 20.85, 'target_estimate', None),
@@ -204,7 +206,7 @@ def test_the_table_answers_the_new_detections_by_phase_group():
         c.PHASE_ESTIMATION, c.PHASE_TRAJECTORY_ADJUST, c.PHASE_FLYBY, c.PHASE_GRASP)] for kind, component in (
         ('estimate_stale', 'target_estimate'), ('estimate_stale', 'chaser_estimate'), ('sensor_stale', 'tachometers'))}
     assert answers == {('estimate_stale', 'target_estimate'): ['hold'] + ['continue'] * 3,
-                       ('estimate_stale', 'chaser_estimate'): ['hold', 'abort', 'continue', 'continue'],
+                       ('estimate_stale', 'chaser_estimate'): ['hold', 'retreat', 'continue', 'continue'],
                        ('sensor_stale', 'tachometers'): ['continue'] * 4}
     assert table.response('estimate_stale', 'chaser_estimate', c.PHASE_DOCKING).severity == 2
 
@@ -230,8 +232,8 @@ def test_the_summary_counts_a_detection_as_the_topic_fault_that_caused_it(topic,
 
 
 def test_an_abort_on_a_stale_chaser_estimate_is_one_transition():
-    """In TRAJECTORY_ADJUST the chaser's estimates stop after 19.9 s: one abort, the table's; the target's estimates,
-    never sent, wait for their first."""
+    """In TRAJECTORY_ADJUST the chaser's estimates stop after 19.9 s: one retreat, the table's; the target's
+    estimates, never sent, wait for their first."""
     core = _supervisor(c.PHASE_TRAJECTORY_ADJUST)
     out = []
     for k in range(1, round(30.0 / STEP_S) + 1):
@@ -241,6 +243,6 @@ def test_an_abort_on_a_stale_chaser_estimate_is_one_transition():
         out += core.on_clock(t)
         if k % 2 == 0 and t < 20.0:
             out += core.on_chaser_estimate(round(t, 9), FAR, np.zeros(3))
-    aborted = [o for o in out if isinstance(o, Transition)]
-    assert [(o.phase_to, o.reason) for o in aborted] == [
-        (c.PHASE_ABORTED, 'estimate_stale on chaser_estimate: the fault table answers abort')]
+    moves = [o for o in out if isinstance(o, Transition)]
+    assert [(o.phase_to, o.reason) for o in moves] == [
+        (c.PHASE_RETREAT, 'retreat: chaser_estimate: no estimate for 0.85 s (bound 0.80 s)')]

@@ -41,7 +41,9 @@ def test_a_malformed_fmeca_row_is_refused_naming_it():
     ('| wheels | 2 | reallocate | reallocate |', '| wheels | 2 | reallocate | isolate_abort |',
      r"FMECA row 3 \(wheel_torque_deficit wheels\): approach response 'isolate_abort' acts on thrusters only"),
     ('| watchdog | 2 | hold | continue |', '| watchdog | 2 | hold | hold |',
-     r"FMECA row 7 \(node_lost flyby_planner\): approach response hold: a hold waits in standby only"),
+     r"FMECA row 7 \(node_lost flyby_planner\): approach response hold: answers in standby only"),
+    ('| watchdog | 2 | hold | continue |', '| watchdog | 2 | retreat | continue |',
+     r"FMECA row 7 \(node_lost flyby_planner\): standby response retreat: answers in approach only"),
 ])
 def test_a_response_on_a_component_it_cannot_act_on_is_refused_naming_the_row(old, new, refusal):
     text = (REPO / 'docs' / 'faults.md').read_text()
@@ -76,10 +78,12 @@ def test_the_script_refuses_a_misplaced_response_in_one_line(tmp_path):
     ('thrust_excess', 'thrusters [4, 5]', c.PHASE_TRAJECTORY_ADJUST, 'isolate_abort'),
     ('thrust_excess', 'thrusters [4, 5]', c.PHASE_FLYBY, 'isolate'),
     ('thrust_deficit', 'thrusters [0, 1]', c.PHASE_FLYBY, 'continue'),
-    ('sensor_stale', 'relative_position', c.PHASE_TERMINAL_APPROACH, 'abort'),
+    ('sensor_stale', 'relative_position', c.PHASE_TERMINAL_APPROACH, 'retreat'),
+    ('sensor_stale', 'relative_position', c.PHASE_RETREAT, 'hold'),
+    ('thrust_deficit', 'thrusters [0, 1]', c.PHASE_OPTIMAL_APPROACH, 'abort'),
     ('sensor_stale', 'relative_position', c.PHASE_ESTIMATION, 'hold'),
     ('node_lost', 'flyby_estimator', c.PHASE_HOLD, 'hold'),
-    ('node_lost', 'flyby_estimator', c.PHASE_TERMINAL_APPROACH, 'abort'),
+    ('node_lost', 'flyby_estimator', c.PHASE_TERMINAL_APPROACH, 'retreat'),
     ('sensor_outliers', 'target_attitude', c.PHASE_DOCKING, 'continue'),
     ('sensor_inconsistent', 'star_tracker', c.PHASE_MASS_ESTIMATION, 'continue'),
     ('sensor_stale', 'lidar', c.PHASE_FLYBY, 'abort'),  # not in the table

@@ -50,9 +50,21 @@ def test_guidance_or_the_cam_monitor_down_in_estimation_hold_standby_until_they_
         assert planning[0] >= back
 
 
-def test_guidance_down_in_the_approach_aborts_and_a_crash_shorter_than_the_watchdog_goes_unseen():
+def test_guidance_down_in_the_approach_retreats_and_a_crash_shorter_than_the_watchdog_goes_unseen():
     graph = _fly('guidance', 100.0)
-    assert [r['response'] for r in fault_responses(graph.events)] == ['abort']
-    assert c.PHASE_ABORTED in graph.phases
+    assert [r['response'] for r in fault_responses(graph.events)] == ['retreat']
+    assert graph.phases[2:5] == [c.PHASE_TERMINAL_APPROACH, c.PHASE_RETREAT, c.PHASE_ESTIMATION]
     graph = _fly('guidance', 100.0, duration_s=3.0)
     assert fault_detections(graph.events) == [] and c.PHASE_ABORTED not in graph.phases
+
+
+def test_an_estimator_down_in_the_approach_retreats_and_its_successor_plans_again():
+    graph = _fly('estimator', 200.0)
+    assert [r['response'] for r in fault_responses(graph.events)] == ['retreat']
+    assert graph.phases == [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_RETREAT,
+                            c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH]
+    safed = [e['name'] for e in graph.events if e['name'] in ('avoidance_burn', 'no_avoidance_burn')]
+    assert len(safed) == 1  # the retreat's safing, as an abort's
+    respawned = next(e['t'] for e in graph.events if e['name'] == 'fault_ended')
+    planned = [e['t'] for e in graph.events if e['name'] == 'plan_selected']
+    assert len(planned) == 2 and planned[1] >= respawned + 60.0  # the successor's own observation

@@ -101,8 +101,8 @@ def test_escape_then_complete_after_the_observation():
 
 
 def test_the_watchdog_detects_a_silent_node_answers_it_from_the_table_and_sees_it_back():
-    """A watched node silent for watchdog_s in an active phase: node_lost, the table's abort; the planner, once it
-    has reported, answered continue in the approach; a node that never reported (left out of the graph) is not lost;
+    """A watched node silent for watchdog_s in an active phase: node_lost, the table's retreat; the planner, once
+    it has reported, then answered as in standby (hold); a node that never reported (left out of the graph) is not lost;
     each back: fault_recovered."""
     core = SupervisorCore(CONFIG)
     core.machine.phase = c.PHASE_TERMINAL_APPROACH
@@ -114,9 +114,9 @@ def test_the_watchdog_detects_a_silent_node_answers_it_from_the_table_and_sees_i
     assert ('fault_detected', 'flyby_guidance') in names and ('fault_detected', 'flyby_planner') in names
     assert ('fault_detected', 'flyby_cam_monitor') not in names
     responses = {o.values['component']: o.values['response'] for o in out if getattr(o, 'name', '') == 'fault_response'}
-    assert responses == {'flyby_guidance': 'abort', 'flyby_planner': 'continue'}
-    aborted = [o for o in out if isinstance(o, Transition) and o.phase_to == c.PHASE_ABORTED]
-    assert aborted and aborted[0].reason == 'node_lost on flyby_guidance: the fault table answers abort'
+    assert responses == {'flyby_guidance': 'retreat', 'flyby_planner': 'hold'}  # the planner's once retreating
+    retreat = [o for o in out if isinstance(o, Transition) and o.phase_to == c.PHASE_RETREAT]
+    assert retreat and retreat[0].reason == 'retreat: watchdog: flyby_guidance silent for 5.5 s'
     assert core.on_clock(106.0) == []  # detected once
     core.on_progress('flyby_guidance', 106.1)
     back = core.on_clock(106.2)

@@ -1,5 +1,5 @@
-"""The fault table's ``hold`` (docs/faults.md): standby held on a detection until it recovers, the way to PLANNING
-again after it, its limit, and what the planner and guidance do in HOLD."""
+"""The fault table's ``hold`` and ``retreat`` (docs/faults.md): standby held, or the approach given up, on a detection
+until it recovers, the way to PLANNING again after it, their limits, and what the planner and guidance do meanwhile."""
 
 import dataclasses
 from pathlib import Path
@@ -8,6 +8,7 @@ import numpy as np
 
 from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.params import GuidanceParams
+from flyby_mission.summary import outcome_of
 from flyby_mission.supervisor import SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import event_payloads, events
@@ -146,3 +147,61 @@ def test_guidance_drops_the_plan_in_hold_and_takes_none_while_held():
     out = [o for t in np.arange(490.0, 510.0, 0.1) for o in guidance.on_chaser_estimate(
         t, (40.0, 0.0, 0.0), (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))]
     assert not [o for o in out if getattr(o, 'name', '') == events.MANEUVER_COMMANDED]
+
+
+def _in_approach(max_retreats=1):
+    core = SupervisorCore(dataclasses.replace(PARAMS, max_retreats=max_retreats))
+    _estimates(core, 0.1, 60.0)
+    core.on_event(_converged(10.0))
+    _estimates(core, 60.1, 60.1)
+    plan = event_payloads.PlanSelected(t_i_s=500.0, t_grasp_s=800.0, offset_m=1.0)
+    core.on_event(wire_event(Event(60.1, 'OK', events.PLAN_SELECTED, 'plan', event_payloads.encode(plan),
+                                   'flyby_planner')))
+    core.on_chaser_estimate(60.1, (40.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert core.phase == c.PHASE_TERMINAL_APPROACH
+    return core
+
+
+def test_a_retreat_gives_the_approach_up_safely_and_plans_again_once_the_fault_has_recovered():
+    core = _in_approach()
+    out = core.on_event(_found(100.0, 'sensor_stale', 'relative_position'))
+    assert core.phase == c.PHASE_RETREAT
+    names = [o.name for o in out if isinstance(o, Event)]
+    assert events.NO_AVOIDANCE_BURN in names or events.AVOIDANCE_BURN in names  # safed as by an abort
+    assert core.machine.t_grasp is None  # the next plan's
+    out = core.on_event(_found(130.0, 'sensor_stale', 'relative_position', detected=False))
+    moves = [(o.phase_from, o.phase_to) for o in out if isinstance(o, Transition)]
+    assert moves == [(c.PHASE_RETREAT, c.PHASE_ESTIMATION), (c.PHASE_ESTIMATION, c.PHASE_PLANNING)]
+
+
+def test_retreats_beyond_the_limit_abort_and_a_retreat_waits_no_longer_than_the_hold_limit():
+    core = _in_approach(max_retreats=0)
+    core.on_event(_found(100.0, 'sensor_stale', 'imu'))
+    assert core.phase == c.PHASE_ABORTED
+    assert core.machine.decision is None
+    core = _in_approach()
+    core.on_event(_found(100.0, 'sensor_stale', 'imu'))
+    core.on_event(_found(101.0, 'sensor_stale', 'target_attitude'))  # held as in standby while retreating
+    core.on_event(_found(150.0, 'sensor_stale', 'imu', detected=False))
+    assert core.phase == c.PHASE_RETREAT
+    [aborted] = _estimates(core, 400.0, 400.0)
+    assert aborted.phase_to == c.PHASE_ABORTED and aborted.reason.startswith('retreat: sensor_stale on target_attitude')
+
+
+def test_guidance_drops_the_approach_in_retreat():
+    guidance = GuidanceCore(GuidanceParams.from_scenario(SCENARIO))
+    guidance.on_phase(c.PHASE_TERMINAL_APPROACH)
+    guidance.on_flyby_initial(500.0, (5.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    guidance.on_flyby_target(800.0, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    guidance.on_path(60.1)
+    guidance.on_phase(c.PHASE_RETREAT)
+    assert guidance.flyby.guidance.next_burn_time is None
+    assert guidance.on_path(61.0) == []
+
+
+def test_a_refused_plan_after_a_retreat_is_aborted_not_no_safe_plan():
+    before = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_COMPLETE]
+    after = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_RETREAT, c.PHASE_ESTIMATION,
+             c.PHASE_PLANNING, c.PHASE_COMPLETE]
+    assert outcome_of('phase COMPLETE', before, refused=True) == c.OUTCOME_NO_SAFE_PLAN
+    assert outcome_of('phase COMPLETE', after, refused=True) == c.OUTCOME_ABORTED

@@ -93,6 +93,11 @@ PHASE_ESTIMATION = 'ESTIMATION'
 PHASE_PLANNING = 'PLANNING'
 # Standby held on a fault until it recovers (the fault table's ``hold``, docs/faults.md): nothing is planned or flown.
 PHASE_HOLD = 'HOLD'
+# The approach given up on a fault that may recover (the fault table's ``retreat``): the chaser coasts away, safed as
+# by an abort, and the mission plans again once the fault has recovered.
+PHASE_RETREAT = 'RETREAT'
+# The phases the supervisor waits in for a fault's recovery: guidance drops its plan, none is planned or taken.
+WAITING_PHASES = (PHASE_HOLD, PHASE_RETREAT)
 PHASE_TERMINAL_APPROACH = 'TERMINAL_APPROACH'
 PHASE_TRAJECTORY_ADJUST = 'TRAJECTORY_ADJUST'
 PHASE_FLYBY = 'FLYBY'

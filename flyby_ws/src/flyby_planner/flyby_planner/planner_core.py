@@ -92,15 +92,16 @@ class PlannerCore:
     # -- inputs ---------------------------------------------------------------------------------
     def on_event(self, event):
         """The supervisor's stamped transition to PLANNING plans at that time; its request lapses when the phase moves
-        on (a respawned planner, fed the events' history, must not plan again from a PLANNING long past); HOLD forgets
-        the method too (the plan after the hold is a new one). Guidance's re-aim is published."""
+        on (a respawned planner, fed the events' history, must not plan again from a PLANNING long past); HOLD and
+        RETREAT forget the method too (the plan after the fault's recovery is a new one). Guidance's re-aim is
+        published."""
         to_phase = event_payloads.decode(event).to_phase if event.name == events.PHASE_CHANGED else None
         if to_phase == c.PHASE_PLANNING:
             self.request = (event.t, PLANNING_REQUEST)
             return self.try_plan()
         if to_phase is not None and self.request is not None and self.request[1] == PLANNING_REQUEST:
             self.request = self.waiting_for = None
-        if to_phase == c.PHASE_HOLD:
+        if to_phase in c.WAITING_PHASES:
             self.method_flown = None
             return []
         refined = event_payloads.decode(event) if event.name == events.TARGET_REFINED else None

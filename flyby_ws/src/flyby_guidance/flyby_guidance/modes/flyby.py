@@ -9,8 +9,8 @@ that target estimate, so the aim is the same at any pace of the run. Only an est
 converged re-aims (its published covariance within the ``estimation.convergence_*`` bounds, and a spin axis): one
 that is not (the target filter restarted after a run of outliers, its rate zero and its covariance the initial one)
 keeps the aim, which the last converged estimate checked, and says so (fd_s8 run 59: it raised, guidance and the
-supervisor died, the mission idled to its time limit). In the phases HOLD, CAPTURE, ESCAPE, COMPLETE and
-ABORTED nothing is commanded; HOLD drops the plan (``drop_plan``).
+supervisor died, the mission idled to its time limit). In the phases CAPTURE, ESCAPE, COMPLETE and
+ABORTED nothing is commanded, nor in HOLD and RETREAT, which drop the plan (``drop_plan``).
 """
 
 import collections
@@ -27,7 +27,7 @@ from flyby_planner.flyby.grasp_search import REFINE_HORIZON_S, flyby_target_poin
 from flyby_planner.flyby.keepout import has_spin_axis
 from flyby_planner.flyby.passive_safety import check_passage
 
-QUIET_PHASES = (c.PHASE_HOLD, c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
+QUIET_PHASES = c.WAITING_PHASES + (c.PHASE_CAPTURE, c.PHASE_ESCAPE, c.PHASE_COMPLETE, c.PHASE_ABORTED)
 # A re-aimed arc is flown if the chaser envelope keeps off the target's predicted geometry less its
 # uncertainty [m]: the planner's clearance_margin_m is a planning margin, this is the floor (a re-aimed arc a few
 # centimetres less clear than the plan is no reason to give up a capture).

@@ -40,7 +40,7 @@ class SynchronizedHold(GuidanceMode):
         if self.sync.stage is None:
             return None
         t, r_hill, v_hill, q_hill_from_body, omega_body = estimate
-        if phase in (c.PHASE_ESCAPE, c.PHASE_ABORTED):  # no capture: leave the final point
+        if phase in (c.PHASE_ESCAPE, c.PHASE_ABORTED, c.PHASE_RETREAT):  # no capture: leave the final point
             self.sync.abort(t)
         target = self.targets.last_at_or_before(t - STAMP_TOLERANCE_S)  # module doc: the one before t
         if target is None:

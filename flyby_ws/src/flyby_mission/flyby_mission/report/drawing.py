@@ -20,7 +20,7 @@ PHASE_COLORS = {
     c.PHASE_TRAJECTORY_ADJUST: '#d9f2d0', c.PHASE_FLYBY: '#f9d5e5', c.PHASE_CAPTURE: '#b9f0e4',
     c.PHASE_ESCAPE: '#ffd9b3', c.PHASE_COMPLETE: '#e5e5ff', c.PHASE_ABORTED: '#ffb3b3',
     c.PHASE_SYNC_APPROACH: '#cfe3ff', c.PHASE_ATTITUDE_SYNC: '#fde2c4', c.PHASE_ORBITING: '#d9f2d0',
-    c.PHASE_DOCKING: '#f9d5e5',
+    c.PHASE_DOCKING: '#f9d5e5', c.PHASE_HOLD: '#fff3b0', c.PHASE_RETREAT: '#ffc9a3',
 }
 
 

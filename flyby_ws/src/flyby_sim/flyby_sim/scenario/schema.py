@@ -449,8 +449,11 @@ SCHEMA = _with_unit_bounds(Section(desc='A flyby scenario', fields={
         'watchdog_s': Field(FLOAT, 5.0, '> 0',
                             'A node silent this long (sim time) is lost: the fault table answers (docs/faults.md).'),
         'hold_limit_s': Field(FLOAT, 600.0, '> 0',
-                              'A hold (the fault table\'s answer in ESTIMATION or PLANNING: docs/faults.md) whose '
-                              'faults have not all recovered this long after it began aborts.'),
+                              'A hold or a retreat (the fault table\'s answers that wait for a fault\'s recovery: '
+                              'docs/faults.md) whose faults have not all recovered this long after it began aborts.'),
+        'max_retreats': Field(INT, 1, '[0, 10]', why='each retry flies an approach again: ten already span hours',
+                              desc='Approaches given up by a retreat and flown again at most; the fault table\'s '
+                                   'retreat beyond them aborts.'),
         'abort_observation_s': Field(FLOAT, 60.0, '>= 0',
                                      'The run goes on this long after ABORTED, to record the escape.'),
         'avoidance_delta_v_mps': Field(FLOAT, 0.05, '> 0',
