@@ -74,14 +74,18 @@ def test_a_wheel_failed_in_the_approach_is_named_from_its_tachometer_within_two_
     assert after.any() and not wheels.effort[after, 2].any() and wheels.effort[~after, 2].any()
 
 
-def _planner_crash(data):
-    data['faults'] = [{'type': 'node_crash', 'node': 'planner', 'start_phase': 'TERMINAL_APPROACH', 'delay_s': 10.0,
-                       'duration_s': 20.0}]
-    data['simulation']['duration_s'] = 120.0
+def _crash(node, start_phase, delay_s, run_s):
+    """The scenario edit of a node_crash of ``node`` delay_s into start_phase for 20 s, in a run of run_s."""
+    def edit(data):
+        data['faults'] = [{'type': 'node_crash', 'node': node, 'start_phase': start_phase, 'delay_s': delay_s,
+                           'duration_s': 20.0}]
+        data['simulation']['duration_s'] = run_s
+    return edit
 
 
 def test_a_planner_killed_and_respawned_by_the_launcher_is_lost_answered_and_seen_back(tmp_path):
-    scenario = write_scenario(tmp_path, base='paper_flyby', name='crash', edit=_planner_crash)
+    scenario = write_scenario(tmp_path, base='paper_flyby', name='crash',
+                              edit=_crash('planner', 'TERMINAL_APPROACH', 10.0, 120.0))
     done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--in-process')
     summary = read_summary(tmp_path / 'run')
     [detected] = summary['faults_detected']
@@ -99,14 +103,9 @@ def test_a_planner_killed_and_respawned_by_the_launcher_is_lost_answered_and_see
     assert checked.returncode == 0, checked.stdout[-2000:] + checked.stderr[-2000:]
 
 
-def _estimator_crash(data):
-    data['faults'] = [{'type': 'node_crash', 'node': 'estimator', 'start_phase': 'ESTIMATION', 'delay_s': 20.0,
-                       'duration_s': 20.0}]
-    data['simulation']['duration_s'] = 150.0
-
-
 def test_an_estimator_killed_in_estimation_holds_standby_until_its_successor_has_converged(tmp_path):
-    scenario = write_scenario(tmp_path, base='paper_flyby', name='held', edit=_estimator_crash)
+    scenario = write_scenario(tmp_path, base='paper_flyby', name='held', edit=_crash('estimator', 'ESTIMATION', 20.0,
+                                                                                      150.0))
     done = run_mission('--scenario', scenario, '--out', tmp_path / 'run', '--in-process')
     summary = read_summary(tmp_path / 'run')
     assert [r['response'] for r in summary['fault_responses']] == ['hold'], done.stdout[-2000:]
