@@ -10,7 +10,8 @@ import pytest
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
-from flyby_mission.supervisor import AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
+from flyby_mission.abort_escape import AvoidanceBurn
+from flyby_mission.supervisor import SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, events, qos
 from flyby_msgs_py.bag import bag_topics, read_bag

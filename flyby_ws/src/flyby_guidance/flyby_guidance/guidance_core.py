@@ -94,6 +94,7 @@ class GuidanceCore:
         self.chaser = chaser_of(params, name, self.targets)
         self.capture = capture_of(params, name, self.chaser)
         self.t_idle_s = None  # the stamp of the supervisor's node_error once heard: propulsion idle (module doc)
+        self.t_wait_end_s = None  # the stamp the supervisor's last HOLD or RETREAT ended: a plan older is given up
 
     # -- the plan -------------------------------------------------------------------------------
     def on_flyby_initial(self, t_i, x_fi, v_fi):
@@ -103,9 +104,12 @@ class GuidanceCore:
         return self.flyby.on_flyby_target(t_f, x_ft, v_ft)
 
     def on_path(self, t_plan):
-        """The planner publishes the path last: a new plan is complete (none is taken in HOLD or RETREAT:
-        ``on_phase``)."""
-        return [] if self.phase in c.WAITING_PHASES else self.flyby.on_path(t_plan)
+        """The planner publishes the path last: a new plan is complete. None is taken in HOLD or RETREAT, nor one
+        stamped before the last of them ended (``_on_wait``; a respawned guidance is fed the latched plan of an
+        approach given up before the events that tell it so)."""
+        if self.phase in c.WAITING_PHASES or (self.t_wait_end_s is not None and t_plan < self.t_wait_end_s):
+            return []
+        return self.flyby.on_path(t_plan)
 
     def on_trajectory(self, t_s, r_hill, v_hill, a_hill):
         """planner/trajectory: a new optimal approach to fly (``modes.tracking``; none taken in HOLD or RETREAT)."""
@@ -142,7 +146,19 @@ class GuidanceCore:
         final mass-property estimate and refined combined CoM (``modes.damping``, ``modes.transport``)."""
         if supervisor_lost(event):
             return self._idle_propulsion(event)
+        if event.name == events.PHASE_CHANGED:
+            self._on_wait(event)
         return self.chaser.on_event(event, self.phase) + self.capture.on_event(event, self.phase)
+
+    def _on_wait(self, event):
+        """A phase_changed into HOLD or RETREAT drops the plan (as mission/phase does: the two topics come in either
+        order); one out of them stamps the end of the wait."""
+        change = event_payloads.decode(event)
+        if change.to_phase in c.WAITING_PHASES:
+            self.flyby.drop_plan()
+            self.chaser.drop_plan()
+        elif change.from_phase in c.WAITING_PHASES:
+            self.t_wait_end_s = event.t
 
     def _idle_propulsion(self, error):
         """Propulsion idle from now on (module doc), once: its ERROR propulsion_idled event, stamped at the error."""

@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 
+from flyby_msgs_py import events
 from flyby_planner.flyby.avoidance import avoidance_burn
 from flyby_planner.flyby.keepout import any_attitude_region, swept_region
 from flyby_sim.dynamics.orbital import cw_coast, q_eci_from_body
@@ -81,3 +82,36 @@ def escape_check(p, t, chaser, pending, spinning_target, t_latest_target):
         basis = ' (no target estimate with a spin axis: the region of every attitude)'
     dv, before, after = avoidance_burn(state[:3], state[3:], t_burn_s, region, p.planner, p.avoidance_delta_v_mps)
     return EscapeVerdict(t_burn_s, dv, before, after, basis + queued, False)
+
+
+@dataclasses.dataclass(frozen=True)
+class AvoidanceBurn:
+    """The collision-avoidance impulse of an abort: start time t [s], dv_hill [m/s] (guidance/maneuver)."""
+
+    t: float
+    dv_hill: np.ndarray
+
+
+def escape_outputs(p, t, chaser, pending, spinning_target, t_latest_target):
+    """After an abort or a retreat at t [s]: [AvoidanceBurn] where the coast through the burns still to fly is unsafe
+    (escape_check), and the verdict as an event's (level, name, message, values). Nothing without a chaser estimate
+    or a target estimate (t_latest_target None). The region is swept about the spin axis of the latest target
+    estimate that has one, else it holds the body at every attitude. Never raising: the abort must be published (a
+    raise fences the supervisor's core off, and the mission would idle in the phase it aborted from, fd_s8 run 59)."""
+    if chaser is None or t_latest_target is None:
+        return []
+    verdict = escape_check(p, t, chaser, pending, spinning_target, t_latest_target)
+    basis = verdict.basis
+    if verdict.inside_sphere:
+        return [('WARN', events.NO_AVOIDANCE_BURN, f'inside the restriction sphere: coasting, never thrusting{basis}',
+                 {})]
+    if verdict.dv_hill_mps is None:
+        return [('OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
+                                                 f'{verdict.before_m:.2f} m){basis}',
+                 {'clearance_m': verdict.before_m})]
+    dv = verdict.dv_hill_mps
+    return [AvoidanceBurn(verdict.t_burn_s, dv),
+            ('WARN', events.AVOIDANCE_BURN, f'coast would come {verdict.before_m:.2f} m from the keep-out region; burn '
+                                            f'of {np.linalg.norm(dv):.3f} m/s at t = {verdict.t_burn_s:.2f} s keeps '
+                                            f'{verdict.after_m:.2f} m{basis}',
+             {'dv_hill_mps': [float(x) for x in dv]})]

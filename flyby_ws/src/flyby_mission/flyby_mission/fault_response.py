@@ -30,8 +30,8 @@ class Reply(typing.NamedTuple):
 def respond(table: FaultTable, event, phase, cam_fired=False):
     """The Reply to the wire event ``fault_detected`` in ``phase``. After the independent monitor's CAM (cam_fired)
     the answer is ``continue``: its burn is thrust the flight software did not command, and closing the thrusters
-    that give it would undo it. An ``isolate`` with no
-    candidate thruster to close, or a ``reallocate`` naming no wheel, is an ``abort``."""
+    that give it would undo it. An ``isolate`` with no candidate thruster to close, or a ``reallocate`` naming no
+    wheel, is an ``abort``."""
     detected = event_payloads.decode(event)
     answer = table.response(detected.kind, detected.component, phase)
     candidates = [int(i) for i in detected.candidates or ()]

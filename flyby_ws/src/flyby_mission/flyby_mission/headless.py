@@ -37,13 +37,13 @@ from flyby_guidance.guidance_core import GuidanceCore
 from flyby_guidance.modes.flyby import flyby_target_of_plan
 from flyby_guidance.modes.interface import AttitudeCommandStamped
 from flyby_guidance.params import GuidanceParams
+from flyby_mission.abort_escape import AvoidanceBurn
 from flyby_mission.cam_monitor import CamBurn, CamMonitor, CamParams
 from flyby_mission.run_truth import ChaserTruth, TargetTruth, ThrustTruth, WheelTruth, chaser_truth_from_odometry
 from flyby_mission.summary import summarize
 from flyby_mission.supervisor import (
     HEARTBEAT_NODES,
     WATCHED_NODES,
-    AvoidanceBurn,
     SupervisorCore,
     SupervisorParams,
     Transition,

@@ -63,7 +63,7 @@ def outcome_of(end_reason, phases, collided=False, refused=False, held=False):
         return c.OUTCOME_INTERRUPTED
     if end_reason is None or end_reason.startswith('error'):
         return c.OUTCOME_ERROR
-    if c.PHASE_ABORTED in phases or (refused and c.PHASE_RETREAT in phases):  # retreated, no safe plan again
+    if c.PHASE_ABORTED in phases:
         return c.OUTCOME_ABORTED
     if refused and c.PHASE_TERMINAL_APPROACH not in phases:
         return c.OUTCOME_NO_SAFE_PLAN

@@ -65,7 +65,7 @@ import math
 import numpy as np
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
-from flyby_mission.abort_escape import PendingBurns, escape_check
+from flyby_mission.abort_escape import AvoidanceBurn, PendingBurns, escape_outputs
 from flyby_mission.capture_decision import decide_capture
 from flyby_mission.estimate_age import (
     CHASER_ESTIMATE,
@@ -104,6 +104,10 @@ _POST_CAPTURE_STEPS = {(c.PHASE_CAPTURE, events.CAPTURED): c.PHASE_GRASP,
 _TRANSPORT_STEPS = {(c.PHASE_MASS_ESTIMATION, events.MASS_PROPERTIES_ESTIMATED): c.PHASE_TRANSPORT,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_COMPLETE): c.PHASE_COMPLETE,
                     (c.PHASE_TRANSPORT, events.TRANSPORT_REFUSED): c.PHASE_COMPLETE}
+# The phases whose abort or retreat gets the avoidance check (abort_escape): the chaser coasts from its own thrust (in
+# the synchronized approach's later stages guidance flies the retreat itself; the fly-by's passive arc needs none).
+SAFED_FROM = (c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD, c.PHASE_TERMINAL_APPROACH,
+              c.PHASE_TRAJECTORY_ADJUST, c.PHASE_OPTIMAL_APPROACH, c.PHASE_SYNC_APPROACH)
 # The phases the fault table's hold and retreat answer in (fault_table.WAITING_GROUPS).
 HOLD_FROM = PHASE_GROUPS['standby']
 RETREAT_FROM = PHASE_GROUPS['approach']
@@ -198,7 +202,7 @@ class PhaseMachine:
         self.method = None  # the plan's method (DESIGN §10)
         self.t_entered = 0.0
         self.decision = None
-        self.held = {}  # (kind, component) -> the time its wait began: the faults a HOLD or RETREAT waits on
+        self.held = {}  # (kind, component) -> (the time its wait began, its detector): what HOLD or RETREAT waits on
         self.retreats = 0  # retreats flown
 
     # -- helpers --------------------------------------------------------------------------------
@@ -216,6 +220,10 @@ class PhaseMachine:
     def target_estimate(self, t):
         if self.t_first_estimate is None:
             self.t_first_estimate = t
+        return self._maybe_plan(t)
+
+    def maybe_plan(self, t):
+        """ESTIMATION -> PLANNING where its conditions hold at t."""
         return self._maybe_plan(t)
 
     def _maybe_plan(self, t):
@@ -266,6 +274,8 @@ class PhaseMachine:
             return self._go(t, c.PHASE_TERMINAL_APPROACH, f'plan selected: grasp at t = {self.t_grasp:.2f} s, '
                                                           f'injection at {self.t_i:.2f} s',
                             {'t_grasp_s': self.t_grasp, 't_i_s': self.t_i})
+        if name == events.PLAN_REFUSED and self.phase == c.PHASE_PLANNING and self.retreats:  # an approach flown
+            return self._go(t, c.PHASE_ABORTED, f'no safe plan after the retreat: {values.get("reason", source)}')
         if name == events.PLAN_REFUSED and self.phase == c.PHASE_PLANNING:
             return self._go(t, c.PHASE_COMPLETE, NO_SAFE_PLAN_PREFIX + values.get('reason', 'the planner refused'),
                             {'no_safe_plan': True})
@@ -325,17 +335,17 @@ class PhaseMachine:
             return []
         return self._go(t, c.PHASE_ABORTED, why)
 
-    def hold(self, t, fault, why):
-        """The fault table's ``hold`` of ``fault`` (kind, component) at t [s]: standby held until it recovers. A
-        lost estimator's successor starts a new filter: its own convergence and observation are waited for."""
+    def hold(self, t, fault, why, source):
+        """The fault table's ``hold`` of ``fault`` (kind, component), detected by ``source``, at t [s]: standby held
+        until it recovers (``_wait_for``)."""
         if self.phase not in HOLD_FROM:
             return []
-        self._wait_for(t, fault)
+        self._wait_for(t, fault, source)
         if self.phase in c.WAITING_PHASES:
             return []
         return self._go(t, c.PHASE_HOLD, f'hold: {why}', {'kind': fault[0], 'component': fault[1]})
 
-    def retreat(self, t, fault, why):
+    def retreat(self, t, fault, why, source):
         """The fault table's ``retreat`` of ``fault`` at t [s]: the approach given up (the chaser safed as by an
         abort, SupervisorCore._apply) and planned again once the fault has recovered; beyond max_retreats, an
         abort."""
@@ -345,26 +355,27 @@ class PhaseMachine:
             return self._go(t, c.PHASE_ABORTED, f'{why}: the fault table answers retreat, {self.retreats} of '
                                                 f'supervisor.max_retreats {self.params.max_retreats} flown')
         self.retreats += 1
-        self._wait_for(t, fault)
+        self._wait_for(t, fault, source)
         self.t_i = self.t_grasp = self.offset_m = self.method = None  # the next plan's
         return self._go(t, c.PHASE_RETREAT, f'retreat: {why}', {'kind': fault[0], 'component': fault[1]})
 
-    def _wait_for(self, t, fault):
-        """Wait for ``fault`` to recover; a lost estimator's successor starts a new filter: its own convergence
-        and observation are waited for."""
-        self.held.setdefault(fault, t)
+    def _wait_for(self, t, fault, source):
+        """Wait for ``fault``, detected by ``source``, to recover. A lost estimator's successor starts a new filter
+        (its own convergence and observation are waited for) and new monitors, which never clear their
+        predecessor's detections: those are forgotten (the successor detects again what persists)."""
         if fault == ('node_lost', ESTIMATOR):
             self.converged, self.t_first_estimate = False, None
+            self.held = {f: held for f, held in self.held.items() if held[1] != ESTIMATOR}
+        self.held.setdefault(fault, (t, source))
 
     def recovered(self, t, fault):
         """A fault_recovered of ``fault`` (kind, component) at t [s]: a hold or a retreat ends with the last fault it
         waits on."""
-        t_held = self.held.pop(fault, None)
-        if t_held is None or self.held or self.phase not in c.WAITING_PHASES:
+        held = self.held.pop(fault, None)
+        if held is None or self.held or self.phase not in c.WAITING_PHASES:
             return []
-        return self._go(t, c.PHASE_ESTIMATION, f'{fault[0]} on {fault[1]} recovered after {t - t_held:.1f} s: the '
-                                               f'{self.phase.lower()} ends', {'hold_s': t - self.t_entered}) + \
-            self._maybe_plan(t)
+        return self._go(t, c.PHASE_ESTIMATION, f'{fault[0]} on {fault[1]} recovered after {t - held[0]:.1f} s: the '
+                                               f'{self.phase.lower()} ends', {'hold_s': t - self.t_entered})
 
 
 class SupervisorCore:
@@ -395,6 +406,7 @@ class SupervisorCore:
         self.heartbeats = dict.fromkeys(self.machine.watched_nodes, 0.0)  # node -> the sim time it last reported
         self.lost = set()  # the nodes the watchdog has found silent
         self.estimate_age = EstimateAgeMonitor(params.estimates)
+        self.active_faults = {}  # (kind, component) -> its fault_detected, until its fault_recovered
 
     @property
     def phase(self):
@@ -441,20 +453,24 @@ class SupervisorCore:
             return self._respond(event)
         if event.name == events.FAULT_RECOVERED:
             found = event_payloads.decode(event)
-            return self._apply(self.machine.recovered(event.t, (found.kind, found.component)))
+            return self._recovered(event.t, (found.kind, found.component))
         values = dict(event.values, reason=event.message)
         return self._apply(self.machine.event(event.t, event.level, event.name, event.source, values))
 
     def _respond(self, event):
         """The fault table's answer to a fault_detected (fault_response): its events and the abort it may cause."""
+        found = event_payloads.decode(event)
+        if (found.kind, found.component) == ('node_lost', ESTIMATOR):  # its successor detects again what persists
+            self.active_faults = {f: e for f, e in self.active_faults.items() if e.source != ESTIMATOR}
+        self.active_faults[found.kind, found.component] = event
         reply = respond(self.fault_table, event, self.phase, self.cam_fired)
         out = [self._event(event.t, *a) for a in reply.events]
         if reply.abort is not None and self.machine.active:
             out += self._apply(self.machine.abort(event.t, reply.abort))
         if reply.hold is not None:
-            out += self._apply(self.machine.hold(event.t, reply.hold, event.message))
+            out += self._apply(self.machine.hold(event.t, reply.hold, event.message, event.source))
         if reply.retreat is not None:
-            out += self._apply(self.machine.retreat(event.t, reply.retreat, event.message))
+            out += self._apply(self.machine.retreat(event.t, reply.retreat, event.message, event.source))
             self.decision_at = None  # a decision the given-up approach waited for is not the next one's
         return out
 
@@ -506,10 +522,25 @@ class SupervisorCore:
         if not detected:
             payload = event_payloads.FaultRecovered(monitor, kind, component, t)
             return [self._event(t, 'OK', events.FAULT_RECOVERED, message, event_payloads.encode(payload))] + \
-                self._apply(self.machine.recovered(t, (kind, component)))
+                self._recovered(t, (kind, component))
         payload = event_payloads.FaultDetected(monitor, kind, component, t, None)
         event = self._event(t, 'ERROR', events.FAULT_DETECTED, message, event_payloads.encode(payload, values))
         return [event] + self._respond(event)
+
+    def _recovered(self, t, fault):
+        """A fault's recovery at t [s]. Where it ends a hold or a retreat, the faults still active are answered again
+        as in standby before anything is planned (one answered continue in the approach, the CAM monitor's loss
+        say, is held there), then ESTIMATION -> PLANNING where its conditions hold."""
+        self.active_faults.pop(fault, None)
+        ended = self.machine.recovered(t, fault)
+        if not ended:
+            return []
+        out = self._apply(ended)
+        for (kind, component), event in list(self.active_faults.items()):
+            if self.phase == c.PHASE_ESTIMATION and \
+                    self.fault_table.response(kind, component, self.phase).response in ('hold', 'abort'):
+                out += self._respond(event._replace(t=t))
+        return out + self._apply(self.machine.maybe_plan(t))
 
     def abort(self, why):
         """(aborted, outputs) for an abort request at the current clock."""
@@ -536,29 +567,11 @@ class SupervisorCore:
         return self._apply(self.machine.decide(self.decision_at[0], decision))
 
     def _escape_burn(self, t):
-        """After an abort outside the sphere, before the fly-by: one avoidance burn if the coast, through guidance's
-        burns still to fly, is unsafe (flyby_mission.abort_escape). The region is swept about the spin axis of the
-        latest target estimate that has one, else it holds the body at every attitude. Never raising here: the
-        abort must be published (a raise fences the core off, and the mission would idle in the phase it aborted
-        from, fd_s8 run 59)."""
-        if self.chaser is None or self.targets.latest is None:
-            return []
-        verdict = escape_check(self.params, t, self.chaser, self.pending_burns, self.spinning_target,
-                               self.targets.latest[0])
-        basis = verdict.basis
-        if verdict.inside_sphere:
-            return [self._event(t, 'WARN', events.NO_AVOIDANCE_BURN, 'inside the restriction sphere: coasting, never '
-                                                                       f'thrusting{basis}', {})]
-        if verdict.dv_hill_mps is None:
-            return [self._event(t, 'OK', events.NO_AVOIDANCE_BURN, f'the coast is passively safe (least clearance '
-                                                                    f'{verdict.before_m:.2f} m){basis}',
-                                {'clearance_m': verdict.before_m})]
-        dv = verdict.dv_hill_mps
-        return [AvoidanceBurn(verdict.t_burn_s, dv),
-                self._event(t, 'WARN', events.AVOIDANCE_BURN,
-                            f'coast would come {verdict.before_m:.2f} m from the keep-out region; burn of '
-                            f'{np.linalg.norm(dv):.3f} m/s at t = {verdict.t_burn_s:.2f} s keeps {verdict.after_m:.2f} '
-                            f'm{basis}', {'dv_hill_mps': [float(x) for x in dv]})]
+        """After an abort or a retreat outside the sphere: the avoidance check of the coast through guidance's burns
+        still to fly, and its burn where the coast is unsafe (flyby_mission.abort_escape.escape_outputs)."""
+        latest = self.targets.latest
+        return [o if isinstance(o, AvoidanceBurn) else self._event(t, *o) for o in escape_outputs(
+            self.params, t, self.chaser, self.pending_burns, self.spinning_target, latest and latest[0])]
 
     # -- outputs --------------------------------------------------------------------------------
     def _apply(self, transitions):
@@ -569,19 +582,9 @@ class SupervisorCore:
                                    f'{tr.phase_from} -> {tr.phase_to}: {tr.reason}',
                                    event_payloads.encode(event_payloads.PhaseChanged(tr.phase_from, tr.phase_to),
                                                          tr.values)))
-            if tr.phase_to in (c.PHASE_ABORTED, c.PHASE_RETREAT) and tr.phase_from in (
-                    c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_HOLD, c.PHASE_TERMINAL_APPROACH,
-                    c.PHASE_TRAJECTORY_ADJUST):
+            if tr.phase_to in (c.PHASE_ABORTED, c.PHASE_RETREAT) and tr.phase_from in SAFED_FROM:
                 out += self._escape_burn(tr.t)
         return out
 
     def _event(self, t, level, name, message, values):
         return Event(t, level, name, message, values, self.name)
-
-
-@dataclasses.dataclass(frozen=True)
-class AvoidanceBurn:
-    """The collision-avoidance impulse of an abort: start time t [s], dv_hill [m/s] (guidance/maneuver)."""
-
-    t: float
-    dv_hill: np.ndarray

@@ -12,7 +12,8 @@ reason, and after an abort outside the restriction sphere at most one collision-
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from flyby_mission.supervisor import WATCHED_NODES, AvoidanceBurn, SupervisorCore, SupervisorParams, Transition
+from flyby_mission.abort_escape import AvoidanceBurn
+from flyby_mission.supervisor import WATCHED_NODES, SupervisorCore, SupervisorParams, Transition
 from flyby_msgs_py import contract as c
 from flyby_msgs_py import convert, qos
 from flyby_msgs_py.node_base import CoreNode

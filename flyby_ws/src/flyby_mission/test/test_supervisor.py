@@ -9,9 +9,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from flyby_estimation.attitude_error_dynamics import ErrorStateDynamics
+from flyby_mission.abort_escape import AvoidanceBurn
 from flyby_mission.capture_decision import capture_decision, decide_capture
 from flyby_mission.supervisor import (
-    AvoidanceBurn,
     PhaseMachine,
     SupervisorCore,
     SupervisorParams,

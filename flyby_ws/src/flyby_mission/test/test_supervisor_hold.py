@@ -199,9 +199,62 @@ def test_guidance_drops_the_approach_in_retreat():
     assert guidance.on_path(61.0) == []
 
 
-def test_a_refused_plan_after_a_retreat_is_aborted_not_no_safe_plan():
-    before = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_COMPLETE]
+def test_a_refused_plan_after_a_retreat_aborts_with_its_safing_and_a_first_one_is_no_safe_plan():
+    refusal = wire_event(Event(130.0, 'ERROR', events.PLAN_REFUSED, 'too close', event_payloads.encode(
+        event_payloads.PlanRefused()), 'flyby_planner'))
+    core = _in_approach()
+    core.on_event(_found(100.0, 'sensor_stale', 'relative_position'))
+    core.on_event(_found(120.0, 'sensor_stale', 'relative_position', detected=False))
+    assert core.phase == c.PHASE_PLANNING
+    out = core.on_event(refusal)
+    assert core.phase == c.PHASE_ABORTED
+    assert [o.reason for o in out if isinstance(o, Transition)] == ['no safe plan after the retreat: too close']
+    assert any(getattr(o, 'name', '') in (events.NO_AVOIDANCE_BURN, events.AVOIDANCE_BURN) for o in out)
+    first = SupervisorCore(PARAMS)
+    first.machine.phase = c.PHASE_PLANNING
+    first.on_event(refusal)
+    assert first.phase == c.PHASE_COMPLETE
     after = [c.PHASE_ESTIMATION, c.PHASE_PLANNING, c.PHASE_TERMINAL_APPROACH, c.PHASE_RETREAT, c.PHASE_ESTIMATION,
-             c.PHASE_PLANNING, c.PHASE_COMPLETE]
-    assert outcome_of('phase COMPLETE', before, refused=True) == c.OUTCOME_NO_SAFE_PLAN
-    assert outcome_of('phase COMPLETE', after, refused=True) == c.OUTCOME_ABORTED
+             c.PHASE_PLANNING, c.PHASE_ABORTED]
+    assert outcome_of('phase ABORTED', after, refused=True) == c.OUTCOME_ABORTED
+
+
+def test_the_faults_still_active_when_a_retreat_ends_are_answered_again_as_in_standby():
+    """The CAM monitor lost in the approach goes on there (continue); once the retreat ends it is held for."""
+    core = _in_approach()
+    core.on_event(_found(90.0, 'node_lost', 'flyby_cam_monitor', source='flyby_supervisor_watchdog'))
+    assert core.phase == c.PHASE_TERMINAL_APPROACH
+    core.on_event(_found(100.0, 'sensor_stale', 'relative_position'))
+    out = core.on_event(_found(120.0, 'sensor_stale', 'relative_position', detected=False))
+    assert [o.phase_to for o in out if isinstance(o, Transition)] == [c.PHASE_ESTIMATION, c.PHASE_HOLD]
+    assert core.machine.held == {('node_lost', 'flyby_cam_monitor'): (120.0, 'flyby_supervisor_watchdog')}
+
+
+def test_an_estimators_loss_forgets_the_detections_of_its_monitors():
+    """Its successor's monitors never clear their predecessor's detections: a retreat on one would wait to its limit."""
+    core = _in_approach()
+    core.on_event(_found(100.0, 'sensor_stale', 'relative_position'))
+    core.on_event(_found(105.0, 'node_lost', 'flyby_estimator', source='a_watchdog'))
+    assert set(core.machine.held) == {('node_lost', 'flyby_estimator')}
+    out = core.on_event(_found(125.0, 'node_lost', 'flyby_estimator', detected=False, source='a_watchdog'))
+    assert [o.phase_to for o in out if isinstance(o, Transition)] == [c.PHASE_ESTIMATION]
+
+
+def test_the_planner_forgets_an_optimal_plan_given_up():
+    planner = PlannerCore(PlannerParams.from_scenario(SCENARIO))
+    optimal = planner.methods['optimal']
+    optimal.flown, optimal.aim_checked_t, planner.method_flown = object(), 60.0, 'optimal'
+    planner.on_event(_phase_event(80.0, c.PHASE_OPTIMAL_APPROACH, c.PHASE_RETREAT))
+    assert (optimal.flown, optimal.aim_checked_t, planner.method_flown, planner.request) == (None, None, None, None)
+
+
+def test_guidance_takes_no_plan_stamped_before_the_wait_ended_from_the_latched_topics():
+    """A guidance respawned after a retreat is fed the latched plan of the approach given up, then the events."""
+    guidance = GuidanceCore(GuidanceParams.from_scenario(SCENARIO))
+    guidance.on_phase(c.PHASE_ESTIMATION)
+    guidance.on_event(_phase_event(80.0, c.PHASE_TERMINAL_APPROACH, c.PHASE_RETREAT))
+    guidance.on_event(_phase_event(110.0, c.PHASE_RETREAT, c.PHASE_ESTIMATION))
+    guidance.on_flyby_initial(500.0, (5.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    guidance.on_flyby_target(800.0, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert guidance.on_path(60.1) == [] and guidance.flyby.guidance.next_burn_time is None
+    assert guidance.on_path(110.2)  # a plan made after the retreat: flown

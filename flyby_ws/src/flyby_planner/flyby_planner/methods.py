@@ -70,6 +70,9 @@ class CaptureMethod(Protocol):
     def on_event(self, core, event):
         """The outputs of a mission event that concerns the plan flown, or None."""
 
+    def forget(self):
+        """Drop the plan flown (the supervisor's HOLD or RETREAT gave it up): the next plan is a first one."""
+
 
 def may_plan_optimal(params):
     """Whether PlannerParams' planner.method may fly the optimization-based approach (its program is compiled at
@@ -99,6 +102,9 @@ class FlybyMethod:
     """The fly-by: plan_capture from the estimates; nothing to follow up (guidance re-aims it)."""
 
     name = 'flyby'
+
+    def forget(self):
+        """Nothing kept: guidance re-aims the fly-by."""
 
     def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
         """The fly-by at the plan time t: the candidates' events, and the selected plan or the Refusal."""
@@ -158,6 +164,9 @@ class OptimalMethod:
             prepare_approach(self.settings, obstacles=obstacles)  # compiled now, not at the plan
         self.flown = None  # the TrajectoryPublished being flown
         self.aim_checked_t = None  # the time of the last re-aim check (the plan's first) [s]
+
+    def forget(self):
+        self.flown = self.aim_checked_t = None
 
     def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
         """The approach at the plan time t (a re-plan: to the same grasp, from the estimate moved as the flown
@@ -258,6 +267,9 @@ class SyncMethod:
     def __init__(self):
         self.flown = None  # the TrajectoryPublished being flown
         self.arrival = None  # the ArrivalChoice being flown
+
+    def forget(self):
+        self.flown = self.arrival = None
 
     def plan(self, core, t, q_hill_from_body, omega_body, why, covariance_body, reason):
         """Stage 1 at the plan time t; a re-solve starts from the estimate moved as the flown trajectory over its

@@ -93,8 +93,8 @@ class PlannerCore:
     def on_event(self, event):
         """The supervisor's stamped transition to PLANNING plans at that time; its request lapses when the phase moves
         on (a respawned planner, fed the events' history, must not plan again from a PLANNING long past); HOLD and
-        RETREAT forget the method too (the plan after the fault's recovery is a new one). Guidance's re-aim is
-        published."""
+        RETREAT forget every request and every method's plan (the plan after the fault's recovery is a first one,
+        not a re-plan of the one given up). Guidance's re-aim is published."""
         to_phase = event_payloads.decode(event).to_phase if event.name == events.PHASE_CHANGED else None
         if to_phase == c.PHASE_PLANNING:
             self.request = (event.t, PLANNING_REQUEST)
@@ -102,7 +102,9 @@ class PlannerCore:
         if to_phase is not None and self.request is not None and self.request[1] == PLANNING_REQUEST:
             self.request = self.waiting_for = None
         if to_phase in c.WAITING_PHASES:
-            self.method_flown = None
+            self.request = self.waiting_for = self.method_flown = None
+            for method in self.methods.values():
+                method.forget()
             return []
         refined = event_payloads.decode(event) if event.name == events.TARGET_REFINED else None
         if refined is not None and refined.x_g_hill_m is not None:

@@ -575,8 +575,7 @@ class SimNode(Node):
         ch.attitude_quiet = ch.chain_failed or (
             ch.phase in ATTITUDE_QUIET_PHASES and not (ch.locked and ch.phase == c.PHASE_CAPTURE))
         if not ch.attitude_quiet:
-            self.emit('OK', events.COMMANDS_WAITED_AGAIN, 'the command chain commands again: waiting for its attitude '
-                      'commands', {}, ch)
+            self.emit('OK', events.COMMANDS_WAITED_AGAIN, 'the command chain commands again: waited for', {}, ch)
 
     def on_maneuver(self, ch, msg):
         t_stamp, dv_hill = convert.vector3_stamped_to_numpy(msg)

@@ -124,10 +124,14 @@ class RigidBodyChaser(GuidanceMode):
                 law.take_wheels_out([i for wheels in due for i in wheels])
 
     def drop_plan(self):
+        """The tracked trajectory dropped (HOLD, RETREAT); a synchronized approach flies its own retreat meanwhile."""
         self.tracking.drop_plan()
 
     def on_phase(self, phase):
-        """SYNC_APPROACH: stage 1's link tracked with planner.sync's bound and gain, the hold armed at its end."""
+        """SYNC_APPROACH: stage 1's link tracked with planner.sync's bound and gain, the hold armed at its end;
+        PLANNING after an approach given up: the synchronized guidance renewed."""
+        if phase == c.PHASE_PLANNING and self.sync_hold.sync.stage is not None:
+            self.sync_hold.renew()
         if phase == c.PHASE_SYNC_APPROACH:
             self.tracking.track_sync_link(self.sync_hold.sync.config)
             self.sync_hold.sync.arm(self.tracking.t_end())

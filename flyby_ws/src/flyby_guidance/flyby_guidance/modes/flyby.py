@@ -83,6 +83,7 @@ class FlybyAdjusting(GuidanceMode):
                             f'at {target.t_i:.2f} s, fly-by target at {target.t_f:.2f} s', {'t_plan_s': t_plan})]
 
     def drop_plan(self):
+        """No burn of the plan given up (its mass account kept: a burn may have been flown)."""
         self.guidance.stop('the supervisor holds')
         self.flyby_initial = self.flyby_target = self.plan_stamp = None
         self.waiting.clear()

@@ -36,6 +36,11 @@ class SynchronizedHold(GuidanceMode):
         self.sync_attitude = AttitudeGuidance(dataclasses.replace(SYNC_ATTITUDE, control_period_s=(
             chaser.attitude.config.control_period_s)), chaser.inertia_kg_m2, chaser.attitude.wheels)
 
+    def renew(self):
+        """A fresh synchronized guidance for the next approach: one given up (RETREAT) ended in its retreat or
+        drift, from which it is never armed again."""
+        self.sync = SyncGuidance(self.sync.config)
+
     def command(self, estimate, phase):
         if self.sync.stage is None:
             return None

@@ -53,6 +53,7 @@ class TrackingApproach(GuidanceMode):
                             {'t_start_s': ref.t_start, 't_end_s': ref.t_end})]
 
     def drop_plan(self):
+        """No trajectory tracked: the pointing goes on."""
         self.reference = self.next_reference = None
         self.replan_asked = self.tracking_ended = False
 

@@ -21,7 +21,7 @@ from flyby_msgs_py import events
 DPI = 100
 FAULT_EVENTS = frozenset((events.FAULT_INJECTED, events.FAULT_DETECTED, events.FAULT_RESPONSE, events.CAM_FIRED))
 RESPONSE_COLORS = {'continue': 'tab:green', 'abort': 'tab:red', 'isolate': 'tab:orange',
-                   'isolate_abort': 'tab:purple', 'reallocate': 'tab:blue'}
+                   'isolate_abort': 'tab:purple', 'reallocate': 'tab:blue', 'hold': 'tab:olive', 'retreat': 'tab:brown'}
 
 
 def has_faults(mission_events):
