@@ -122,8 +122,7 @@ class GuidanceCore:
         the planner made before it heard them is never flown: the next is made after the fault's recovery)."""
         self.phase = phase
         if phase in c.WAITING_PHASES:
-            self.flyby.drop_plan()
-            self.chaser.drop_plan()
+            self._drop_plan()
         self.chaser.on_phase(phase)
         return []
 
@@ -150,13 +149,17 @@ class GuidanceCore:
             self._on_wait(event)
         return self.chaser.on_event(event, self.phase) + self.capture.on_event(event, self.phase)
 
+    def _drop_plan(self):
+        """The fly-by's and the tracked approach's plans dropped (HOLD, RETREAT)."""
+        self.flyby.drop_plan()
+        self.chaser.drop_plan()
+
     def _on_wait(self, event):
         """A phase_changed into HOLD or RETREAT drops the plan (as mission/phase does: the two topics come in either
         order); one out of them stamps the end of the wait."""
         change = event_payloads.decode(event)
         if change.to_phase in c.WAITING_PHASES:
-            self.flyby.drop_plan()
-            self.chaser.drop_plan()
+            self._drop_plan()
         elif change.from_phase in c.WAITING_PHASES:
             self.t_wait_end_s = event.t
 

@@ -220,13 +220,10 @@ class PhaseMachine:
     def target_estimate(self, t):
         if self.t_first_estimate is None:
             self.t_first_estimate = t
-        return self._maybe_plan(t)
+        return self.maybe_plan(t)
 
     def maybe_plan(self, t):
-        """ESTIMATION -> PLANNING where its conditions hold at t."""
-        return self._maybe_plan(t)
-
-    def _maybe_plan(self, t):
+        """ESTIMATION -> PLANNING where its conditions hold at t (converged, min_observation_s observed)."""
         if self.phase != c.PHASE_ESTIMATION or not self.converged or self.t_first_estimate is None:
             return []
         observed = t - self.t_first_estimate
@@ -239,7 +236,7 @@ class PhaseMachine:
         """An event from /mission/events (not our own)."""
         if name == events.TARGET_CONVERGED:
             self.converged = True
-            return self._maybe_plan(t)
+            return self.maybe_plan(t)
         if name == events.TARGET_DIVERGED:
             self.converged = False
             return []

@@ -17,9 +17,8 @@ continuous commands (``guidance/wheels``, ``guidance/wrench``, zero-order hold).
 chaser estimate, and the estimator gives one at every IMU sample, one control period (the IMU's sample
 period) after its stamp: so every IMU sample of stamp t announces a command of stamp t + period, and the
 simulator does not step past that stamp before the command is in (on both topics), until the mission
-phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph; a
-successor of the one that left (a respawn: the supervisor may hold the mission in standby for it, docs/faults.md) is
-waited for again from the first attitude command it sends.
+phase stops the attitude control (CAPTURE, COMPLETE) or the guidance or estimator node leaves the graph (its
+respawned successor, which the supervisor may hold standby for, is waited for again from its first commands).
 That is what makes the truth the same at any pace (DESIGN §5, §10). It waits for commands only when both are in
 ``keep_up_with`` (a graph without them, e.g. the simulator and recorder alone, has nobody to command). With a
 post_capture section the attitude control comes back when the arm locks (the plant's combined body,
@@ -121,6 +120,10 @@ class _Chaser:
         self.decision_stamp = None  # the first chaser measurement's stamp at or after it [s]
         self.target_stamp = -math.inf  # the last target attitude measurement's [s]
         self.decision_wait = _Wait()
+
+    def quiet_phase(self):
+        """The phase stops guidance's attitude control (CAPTURE but once the arm has locked, COMPLETE)."""
+        return self.phase in ATTITUDE_QUIET_PHASES and not (self.locked and self.phase == c.PHASE_CAPTURE)
 
     def topic(self, topic):
         """The chaser's name of a contract topic: relative for the single chaser, under /<name>/ otherwise."""
@@ -502,7 +505,7 @@ class SimNode(Node):
         """CAPTURE: the manipulator has grasped; the chaser moves with the target from now on."""
         phase = convert.string_to_str(msg)
         ch.phase = phase
-        if phase in ATTITUDE_QUIET_PHASES and not (ch.locked and phase == c.PHASE_CAPTURE):
+        if ch.quiet_phase():
             ch.attitude_quiet = True
         if phase == c.PHASE_CAPTURE:
             ch.plant.capture()
@@ -572,8 +575,7 @@ class SimNode(Node):
         """The chain commands again after a node of it left (its successor's first commands are in): waited for from
         the next IMU sample on, as the phase and the lock would have it (on_phase, advance) and no core failed."""
         ch.chain_left_ns = None
-        ch.attitude_quiet = ch.chain_failed or (
-            ch.phase in ATTITUDE_QUIET_PHASES and not (ch.locked and ch.phase == c.PHASE_CAPTURE))
+        ch.attitude_quiet = ch.chain_failed or ch.quiet_phase()
         if not ch.attitude_quiet:
             self.emit('OK', events.COMMANDS_WAITED_AGAIN, 'the command chain commands again: waited for', {}, ch)
 
