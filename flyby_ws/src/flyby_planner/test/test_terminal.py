@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
+from scipy.optimize import milp
 from scipy.spatial.transform import Rotation
 
 from flyby_planner.transport import terminal
@@ -178,6 +179,20 @@ def test_every_firing_is_at_least_the_bit_and_within_its_slots_thrust(x0, q_hill
     assert float(fired.min()) >= terminal.BIT_MARGIN * BIT_N_S * (1.0 - 1e-6)
     slot_s = min(terminal.MAX_PULSE_S, 0.5 * solution.horizon_s / terminal.SLOTS / len(problem.max_thrust_n))
     assert np.all(solution.impulses_n_s <= problem.max_thrust_n * slot_s * (1.0 + 1e-6))
+
+
+def test_the_program_is_bounded_by_its_nodes_not_by_wall_time(monkeypatch):
+    """Every solve hands HiGHS a node limit and no time limit: a wall-clock limit makes what a loaded machine returns
+    differ from an idle one's (a feasible point at the limit, or none), and a replayed run fly other firings."""
+    seen = []
+
+    def recording_milp(*args, **kwargs):
+        seen.append(dict(kwargs.get('options') or {}))
+        return milp(*args, **kwargs)
+
+    monkeypatch.setattr(terminal, 'milp', recording_milp)
+    terminal.solve(_problem(FIRING_STATES[0][0], FIRING_STATES[0][1]), terminal.HORIZONS_S)
+    assert seen and all(o == {'node_limit': terminal.MILP_NODE_LIMIT} for o in seen)
 
 
 def test_a_state_at_rest_at_the_rest_point_fires_nothing():

@@ -17,8 +17,9 @@ CW's to first order (seed 000 eq 22). With u_kj >= 0 the impulse of thruster j a
          |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity
          |sum_j tau_j u_kj|_inf <= couple_max                     a slot's couple the wheels stop within a small turn
 
-scipy.optimize.milp (HiGHS). The horizon T is searched over HORIZONS_S up to the time left: the shortest feasible
-one is kept, and a state that stays within the margins over it fires nothing. A side force the thrusters cannot
+scipy.optimize.milp (HiGHS), bounded by its branch-and-bound nodes, not by wall time: a run replayed, on any machine
+and load, fires the same. The horizon T is searched over HORIZONS_S up to the time left: the shortest feasible one
+is kept, and a state that stays within the margins over it fires nothing. A side force the thrusters cannot
 give at the attitude held (the direction limit) makes every horizon infeasible: ``solve`` then returns None and
 guidance turns the body (docs/transport.md).
 """
@@ -39,7 +40,8 @@ HOLD_TIMES = (1,)  # the momentum within its margin also this many hold_s after 
 MAX_PULSE_S = 30.0  # a thruster's firing in a slot at most this long at full thrust [s]
 BIT_MARGIN = 1.05  # a firing's impulse at least this many minimum impulse bits: the plant fires it whole
 TURN_RAD = 0.02  # a slot's couple is one the wheels stop within this turn of the body [rad]
-MILP_TIME_LIMIT_S = 2.0
+MILP_NODE_LIMIT = 1000  # branch-and-bound nodes per solve: a bound on the solver's work, not its wall time, so
+#                         the answer does not depend on the machine's load
 LATER_SLOT_COST = 0.05  # each later slot's impulse costs this much more: what can be fired now is, and a pair of
 #                         opposed firings that nets less than a bit lies in one slot, which the next solve keeps
 CORRECTION_WEIGHT = 10.0  # a mid-course correction's miss of its delta-v against its impulse (``impulses_for``)
@@ -181,7 +183,7 @@ def solve(problem, horizons_s):
     for horizon_s in horizons_s:
         cost, rows, bounds, integrality, slots, effect, free = _program(problem, horizon_s)
         result = milp(cost, constraints=rows, bounds=bounds, integrality=integrality,
-                      options={'time_limit': MILP_TIME_LIMIT_S})
+                      options={'node_limit': MILP_NODE_LIMIT})
         if result.x is None or result.status not in (0, 1):
             continue
         size = j_count * SLOTS
