@@ -70,6 +70,10 @@ default the star tracker's) and the bias starts at 0 with sigma_b0 per axis. A r
 a smooth error in the body or the inertial frame; a reference off by a fixed rotation, as after a gyro
 glitch, is off by a constant in the inertial frame) restarts the attitude from the run's last sample (kind
 'reset'); the bias estimate is kept, its variance raised to at least sigma_b0^2. Random outliers do not.
+A gap in the gyro longer than the health monitor's staleness (``health.STALE_PERIODS`` sample periods) leaves the
+body's turn over it unmeasured, which neither the interpolant nor Farrenkopf's noise stands for (a 30 s IMU
+dropout while the chaser's control turns it): the next star-tracker sample sets the attitude again, as the first
+one did (kind 'initialized'), the bias and its covariance kept.
 
 Outcomes are those of ``filter_interface`` (``UpdateResult``): star-tracker samples are counted in
 ``counts`` ('initialized', 'accepted', 'reset', 'non_finite', 'non_unit', 'stale', 'outlier'); gyro
@@ -92,6 +96,7 @@ from flyby_estimation.filter_interface import (
     kalman_update_first_three,
     new_counts,
 )
+from flyby_estimation.health import STALE_PERIODS
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import q_eci_from_body, q_hill_from_body
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_multiply, quat_normalize, quat_to_matrix
@@ -348,6 +353,7 @@ class ChaserAttitudeFilter(FilterBase):
         self._p = None  # 6x6 covariance of [dtheta_body, dbias_body]
         self._bias = np.zeros(3)  # estimated gyro bias [rad/s], body axes
         self._gyro = None  # (t, omega_meas as 3 floats) of the latest accepted gyro sample
+        self._gyro_gap_s = None  # a gap in the gyro beyond staleness [s] since the last star-tracker sample, or None
         self._qd_cache = {}  # Qd per step length (the IMU's stamps give a handful of distinct steps)
         self.gyro_counts = new_counts()
 
@@ -457,6 +463,9 @@ class ChaserAttitudeFilter(FilterBase):
         t = float(t)
         w = tuple(w.tolist())
         if self.initialized and t > self._t:
+            gap_s = t - self._gyro[0]
+            if gap_s > STALE_PERIODS / self.config.rate_hz:
+                self._gyro_gap_s = gap_s
             w_a, w_b = self._step_rates(t, w)
             self._q, self._p = self._step(self._q, self._p, w_a, w_b, t - self._t)
             self._t = t
@@ -489,6 +498,11 @@ class ChaserAttitudeFilter(FilterBase):
                 raise RuntimeError(f'star-tracker attitude at t = {t} s: no gyro sample to propagate the '
                                    f'attitude from {self._t} s')
             self.propagate_to(t)
+        if self._gyro_gap_s is not None:
+            gap_s, self._gyro_gap_s = self._gyro_gap_s, None
+            self._initialize(t, q_eci_meas, self._p[3:, 3:])
+            return self._outcome('initialized', t, reason=f'star-tracker attitude at t = {t} s after a gyro gap of '
+                                                           f'{gap_s:.3g} s: attitude set from it, bias kept')
         nu = attitude_innovation(self._q, q_eci_meas)  # the measured body-frame attitude error
         # d2 = nu' S^-1 nu, S = H P H' + R; K = P H' S^-1; dx = K nu (x = 0 after every reset);
         # P = (I - K H) P (I - K H)' + K R K' (Joseph form)
