@@ -463,9 +463,8 @@ class ChaserAttitudeFilter(FilterBase):
         t = float(t)
         w = tuple(w.tolist())
         if self.initialized and t > self._t:
-            gap_s = t - self._gyro[0]
-            if gap_s > STALE_PERIODS / self.config.rate_hz:
-                self._gyro_gap_s = gap_s
+            if self._gyro is not None and t - self._gyro[0] > STALE_PERIODS / self.config.rate_hz:
+                self._gyro_gap_s = t - self._gyro[0]
             w_a, w_b = self._step_rates(t, w)
             self._q, self._p = self._step(self._q, self._p, w_a, w_b, t - self._t)
             self._t = t

@@ -459,6 +459,9 @@ def test_a_gyro_gap_beyond_staleness_sets_the_attitude_again_from_the_star_track
     assert np.all(np.abs(error) < 4.0 * e.attitude_sigma_rad)
     _, after_short, _ = _through_a_gap(run, range(300, 303))
     assert all(r.kind == 'accepted' for r in after_short)
+    first_star = ChaserAttitudeFilter(CONFIG)  # a star-tracker sample before any gyro sample: no gap to measure
+    assert first_star.on_star_tracker(0.0, run.star[0]).kind == 'initialized'
+    assert first_star.on_gyro(0.1, run.omega_meas[1]).kind == 'accepted'
 
 
 def test_a_wrong_first_star_tracker_sample_does_not_lock_the_filter_out():

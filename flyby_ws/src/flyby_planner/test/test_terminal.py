@@ -191,7 +191,7 @@ def test_the_program_is_bounded_by_its_nodes_not_by_wall_time(monkeypatch):
         return milp(*args, **kwargs)
 
     monkeypatch.setattr(terminal, 'milp', recording_milp)
-    terminal.solve(_problem(FIRING_STATES[0][0], FIRING_STATES[0][1]), terminal.HORIZONS_S)
+    terminal.solve(_problem(*FIRING_STATES[0]), terminal.HORIZONS_S)
     assert seen and all(o == {'node_limit': terminal.MILP_NODE_LIMIT} for o in seen)
 
 
