@@ -19,7 +19,7 @@ from flyby_guidance.transport.control import (
     transport_pulse_n_m_s,
 )
 from flyby_guidance.transport.push import REPLAN_FRACTION
-from flyby_guidance.transport.terminal import AIM_FRACTION
+from flyby_guidance.transport.terminal import AIM_FRACTION, FALLBACK_EXCESS
 from flyby_msgs_py.events import (
     TRANSPORT_CORRECTION,
     TRANSPORT_TERMINAL,
@@ -279,7 +279,8 @@ def test_after_the_turn_a_turning_body_is_damped():
 
 def _far_off(duration_s):
     """300 m ahead of the rest point along V-bar at rest, the body's axes along hill's, at the first estimate after
-    the arrival of a run of duration_s: (control, t0, its events); no terminal horizon feasible there."""
+    the arrival of a run of duration_s: (control, t0, its events); every terminal horizon's best end lies beyond
+    FALLBACK_EXCESS margins there."""
     _, control, t0, _ = arrived(duration_s=duration_s)
     r_com = control.rest + np.array([300.0, 0.0, 0.0])
     q = np.array([0.0, 0.0, 0.0, 1.0])
@@ -287,7 +288,7 @@ def _far_off(duration_s):
     rho_p = AIM_FRACTION * control.config.planner.max_momentum_error_n_s
     problem = control._terminal_problem(state, np.zeros(3), rho_p)
     horizons = [h for h in HORIZONS_S if h <= control.deadline - control.config.hold_s - problem.t0]
-    assert horizons and solve(problem, horizons) is None
+    assert horizons and sum(solve(problem, horizons).excess) > FALLBACK_EXCESS
     return control, t0, estimate(control, t0, r_com, q_hill=q)[3]
 
 
@@ -323,6 +324,35 @@ def test_on_a_body_the_wheels_do_not_steer_no_horizon_means_a_new_transfer():
         kinds[steer] = [e[1] for e in control._terminal(state, np.zeros(3))]
         assert (control.t_terminal is None) == (not steer)
     assert kinds == {True: [TRANSPORT_TURN], False: [TRANSPORT_CORRECTION]}
+
+
+def test_near_the_margins_with_no_firing_that_helps_a_body_the_wheels_do_not_steer_waits(monkeypatch):
+    """The program's best end a fraction of a margin beyond them with nothing fired (the residual outside the cone of
+    pure forces now): where the wheels steer the body they turn the push axis; where they do not, nothing is fired,
+    turned or planned again (a new transfer or a firing of CW's impulse left a heavy body newtons-seconds off), and
+    the next check solves the program again."""
+    kinds = {}
+    for steer in (True, False):
+        _, control, t0, q_eci = arrived(duration_s=2800.0)
+        control.wheels_steer = steer
+        estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))  # the terminal from here
+        t = t0 + 1.0
+        q_hill = held(control, t, q_eci)
+        state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
+                               np.zeros(3))
+
+        def nothing_helps(problem, horizons):
+            slots = planner_terminal.slot_times(problem.t0, horizons[0])
+            none_fired = np.zeros((len(slots), len(problem.max_thrust_n)))
+            return planner_terminal.TerminalSolution(horizons[0], slots, none_fired, problem.x0,
+                                                     problem.h_wheels_body_n_m_s, (0.5, 0.5))
+
+        monkeypatch.setattr(planner_terminal, 'solve', nothing_helps)
+        kinds[steer] = [e[1] for e in control._terminal(state, np.zeros(3))]
+        if not steer:
+            assert control.turning is None and control.pulses == [] and control.t_terminal is not None
+            assert control.t_check == pytest.approx(t + control.config.replan_interval_s)
+    assert kinds == {True: [TRANSPORT_TURN], False: []}
 
 
 def test_far_off_the_rest_point_with_no_horizon_and_no_time_for_a_transfer_the_push_axis_turns():

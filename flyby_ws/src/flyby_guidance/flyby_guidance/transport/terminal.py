@@ -1,11 +1,12 @@
 """The terminal part of guidance in TRANSPORT (``control.TransportControl``'s methods on its state): after the
 transfer's last burn the wheels hold the body's attitude fixed in inertial space, and at every check the terminal
 program (``flyby_planner.transport.terminal``) chooses, from the estimate, the impulses that bring the body to rest
-at the goal's rest point with the wheels' momentum within their share; its firings are flown at their times and the
-program solved again after the last. Where no horizon is feasible at the attitude held (the side force it needs lies
-outside the direction-limited thrusters' cone) the push axis is turned onto it first (on a body the wheels do not
-steer, a new transfer is flown), or the impulse fired where the push axis lies along it already. The judgement: the
-three conditions and the wheels' share, from the estimate with its 3-sigma, held for ``hold_s``."""
+at the goal's rest point with the wheels' momentum within their share, or nearest it; its firings are flown at their
+times and the program solved again after the last. Where its best end lies far beyond the margins at the attitude
+held (the side force it needs lies outside the direction-limited thrusters' cone) a new transfer is flown (off the
+rest point, or on a body the wheels do not steer) or the push axis turned onto it; nearer, a body the wheels steer
+turns, one they do not waits for a check whose program helps. The judgement: the three conditions and the wheels'
+share, from the estimate with its 3-sigma, held for ``hold_s``."""
 
 import math
 
@@ -32,6 +33,7 @@ POSITION_AIM_FRACTION = 0.25  # ... and of the position bound (a rest point drif
 WHEEL_AIM_FRACTION = 0.8  # ... and of the wheels' share (their momentum is measured, not estimated)
 TERMINAL_ROUNDS = 3  # the settle bound: this many rounds of navigation and firing after the arrival
 MIN_TURN_RAD = math.radians(1.0)  # a push axis this near CW's first impulse is not turned: the impulse is fired
+FALLBACK_EXCESS = 10.0  # the program's best end this many margins beyond them: a turn or a new transfer first
 TURN_PROBE_N_M = 0.01  # the couple at which a turn's side force per couple is found (within any thrusters' reach)
 
 
@@ -69,7 +71,7 @@ class TransportTerminal:
 
     def _terminal(self, state, h_wheels):
         """At a check with nothing firing: the terminal program from the estimate (module doc); its firings
-        scheduled, or the push axis turned where no horizon is feasible."""
+        scheduled, or, far beyond the margins at the attitude held, a new transfer or the push axis turned."""
         cfg = self.config
         self.t_check = state.t + cfg.replan_interval_s
         sigma_v = self._velocity_sigma_mps(state.t)
@@ -84,27 +86,33 @@ class TransportTerminal:
         if not horizons:
             return []  # no time left for a firing to settle before the judgement
         solution = terminal.solve(problem, horizons)
-        if solution is None:
-            # Off the rest point beyond the margin, or on a body the wheels do not steer (its thrusters' turn is a
-            # slew whose side force the planner's transfer takes into account): a new transfer.
+        planned = [] if solution is None else [k for k in range(len(solution.slot_times_s))
+                                                if np.any(solution.impulses_n_s[k])]
+        excess = math.inf if solution is None else sum(solution.excess)
+        if excess > FALLBACK_EXCESS or (not planned and excess > 0.0 and self.wheels_steer):
+            # Far beyond the margins at the attitude held, or beyond them on a body the wheels turn and no firing
+            # brings it nearer: off the rest point beyond the margin, or on a body the wheels do not steer (its
+            # thrusters' turn is a slew whose side force the planner's transfer takes into account), a new transfer;
+            # else the push axis turned. Nearer, a body the wheels do not steer waits: its residual and the cone
+            # of its pure forces turn in hill at different rates, so a later check finds a firing that helps.
             if not self.wheels_steer or float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
                 again = self._transfer_again(state)
                 if again is not None:
                     return again
             return self._turn(state) or self._nearest_firing(state, problem)
-        firing = [k for k in range(len(solution.slot_times_s)) if np.any(solution.impulses_n_s[k])]
-        if not firing:
+        if not planned:
             return []
         # The whole plan flown, then a new solve after its last firing: a plan of a few bits is a sequence (a start
         # and a stop, a pair that nets less than a bit), and solved again after each part it would be another one.
-        self._fire([pulse for k in firing
+        self._fire([pulse for k in planned
                     for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])])
         impulse = float(solution.impulses_n_s.sum())
         predicted_n_s = self.body.mass_kg * float(np.linalg.norm(solution.predicted[3:]))
         predicted_m = float(np.linalg.norm(solution.predicted[:3]))
+        beyond = f', {sum(solution.excess):.2g} margins beyond' if sum(solution.excess) > 0.0 else ''
         return [('OK', events.TRANSPORT_TERMINAL,
-                 f'terminal firings of {impulse:.3g} N s in {len(firing)} slots over {solution.horizon_s:.0f} s: '
-                 f'predicted {predicted_m:.3g} m, {predicted_n_s:.3g} N s at its end',
+                 f'terminal firings of {impulse:.3g} N s in {len(planned)} slots over {solution.horizon_s:.0f} s: '
+                 f'predicted {predicted_m:.3g} m, {predicted_n_s:.3g} N s at its end{beyond}',
                  {'impulse_n_s': impulse, 'horizon_s': solution.horizon_s,
                   'predicted_momentum_n_s': predicted_n_s, 'predicted_position_m': predicted_m})]
 

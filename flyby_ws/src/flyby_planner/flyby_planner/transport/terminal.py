@@ -8,20 +8,29 @@ and its couple about the combined CoM, (p_j - c) x d_j per unit impulse, goes to
 deviation from the goal's rest point (``rest_point``), an equilibrium of the relative dynamics, so its motion is
 CW's to first order (seed 000 eq 22). With u_kj >= 0 the impulse of thruster j at slot k (time t_k) [N s]:
 
-    min  sum u_kj + w |m v_T|_1                                      (fuel, and the end momentum centred)
+    min  sum u_kj + w |m v_T|_1 + W_s sum s_stage + W_m sum s_margin   (fuel, the end centred, the slacks)
     s.t. bit z_kj <= u_kj <= u_max z_kj,  z_kj in {0, 1}          the minimum impulse bit and the slot's thrust
          x_T = Phi(T) x_0 + sum_kj Phi(T - t_k)[:, 3:] d_kj u_kj / m
-         |a_i . r_T| <= rho_r,  |a_i . m v_T| <= rho_p          conditions 2 and 3 within their margins, a_i the
-         |a_i . m v_T+k hold| <= rho_p                           13 directions of ``BALL_DIRECTIONS``; the momentum
+         |a_i . r_T| <= rho_r + s_r,  |a_i . m v_T| <= rho_p + s_p  conditions 2 and 3 within their margins, a_i the
+         |a_i . m v_T+k hold| <= rho_p + s_p                      13 directions of ``BALL_DIRECTIONS``; the momentum
                                                                  also k = HOLD_TIMES holds later (CW from the end)
+         the same + e . u <= the stage + s_r', s_p'              with the firings' execution error, within a stage:
+                                                                 rho_p or STAGE_FRACTION of the unfired end momentum
          |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity
          |sum_j tau_j u_kj|_inf <= couple_max                     a slot's couple the wheels stop within a small turn
 
+The conditions are soft: each slack s >= 0 costs its tier's weight per margin, so the program always has a plan,
+the one whose end comes nearest (the stage with the error first, STAGE_WEIGHT, then the margins without it,
+EXCESS_WEIGHT), and says how far beyond it ends (``TerminalSolution.excess``); a state it cannot bring nearer fires
+nothing. A plan need not end within the margins with its error: the next plan, from the estimate that has seen it,
+takes the error out (its own error a share of that); one that ends, error included, beyond a stage is the last
+resort, and says by how much.
 scipy.optimize.milp (HiGHS), bounded by its branch-and-bound nodes, not by wall time: a run replayed, on any machine
-and load, fires the same. The horizon T is searched over HORIZONS_S up to the time left: the shortest feasible one
-is kept, and a state that stays within the margins over it fires nothing. A side force the thrusters cannot
-give at the attitude held (the direction limit) makes every horizon infeasible: ``solve`` then returns None and
-guidance turns the body (docs/transport.md).
+and load, fires the same. The horizon T is searched over HORIZONS_S up to the time left: the shortest whose end lies
+within both is kept, else the nearest; a state that stays within the margins over it fires nothing. Slots are the
+start and a grid fixed in time (``slot_times``). A side force the thrusters cannot give at the attitude held (the
+direction limit) leaves every horizon's end beyond the margins: guidance then turns the body or waits
+(docs/transport.md).
 """
 
 import math
@@ -33,8 +42,8 @@ from scipy.optimize import Bounds, LinearConstraint, linprog, milp
 from flyby_sim.dynamics.orbital import cw_transition_matrix, hill_axes_in_eci
 from flyby_sim.dynamics.rotation import quat_to_matrix
 
-HORIZONS_S = (60.0, 120.0, 240.0, 480.0, 960.0, 1920.0)  # the terminal horizons tried, shortest first [s]
-SLOTS = 4  # firing times per horizon: its start and every quarter
+HORIZONS_S = (60.0, 120.0, 240.0, 480.0, 960.0, 1920.0, 2880.0)  # the terminal horizons tried, shortest first [s]
+SLOTS = 4  # firing times per horizon: its start, then multiples of a quarter of it
 HOLD_TIMES = (1,)  # the momentum within its margin also this many hold_s after the end: the rest the program leaves
 #                   lasts through the judgement's hold
 MAX_PULSE_S = 30.0  # a thruster's firing in a slot at most this long at full thrust [s]
@@ -47,7 +56,11 @@ LATER_SLOT_COST = 0.05  # each later slot's impulse costs this much more: what c
 CORRECTION_WEIGHT = 10.0  # a mid-course correction's miss of its delta-v against its impulse (``impulses_for``)
 STAGE_FRACTION = 0.25  # a state whose momentum would end beyond the margin by itself is brought within this share
 #                        of it, the firings' execution error included: the deviation shrinks each plan, however far
-#                        off it starts, and no plan fires more than its error allows
+#                        off it starts, and no plan fires more than its error allows (the stage's slack)
+EXCESS_WEIGHT = 100.0  # a margin's worth of excess costs this many margins of momentum in impulse ...
+STAGE_WEIGHT = 1000.0  # ... and beyond a stage with the error, this many
+SLACKS = ('stage position', 'stage momentum', 'position', 'momentum')  # the program's slack variables, last
+EXCESS_TOLERANCE = 1e-6  # an excess below this (in margins) is none
 MOMENTUM_WEIGHT = 2.0  # w: a newton second of end momentum costs twice one of impulse, so the program takes out what
 #                        the bit allows rather than ride the margin's edge
 
@@ -98,6 +111,8 @@ class TerminalSolution(NamedTuple):
     impulses_n_s: np.ndarray  # (K, J)
     predicted: np.ndarray  # (6,) the deviation from the rest point at t0 + horizon_s
     h_wheels_body_n_m_s: np.ndarray  # (3,) the wheels' momentum then
+    excess: tuple = (0.0, 0.0)  # how far the end lies beyond a stage with the error, and beyond the margins
+#                                  without it, in units of each margin (0: within)
 
 
 def couple_limit(inertia_body_kg_m2, wheel_max_torque_n_m):
@@ -117,21 +132,31 @@ def _directions_hill(problem, t):
     return problem.directions_body @ _c_hill_from_body(problem, t).T
 
 
+def slot_times(t0, horizon_s):
+    """The firing times of a horizon [s]: now, then a grid of spacing horizon_s / SLOTS fixed in time (its
+    multiples), so the solves of successive checks offer the same later times."""
+    spacing = horizon_s / SLOTS
+    first = math.floor(t0 / spacing + 1e-9) + 1
+    grid = [k * spacing for k in range(first, first + SLOTS) if k * spacing < t0 + horizon_s - 1e-9]
+    return np.array([t0] + grid)
+
+
 def _program(problem, horizon_s):
     """The MILP of one horizon (module doc): (c, constraints, bounds, integrality, slot times, the end's effect per
     impulse, the end without firings)."""
     m = problem.mass_kg
     j_count = len(problem.max_thrust_n)
-    slots = problem.t0 + horizon_s * np.arange(SLOTS) / SLOTS
+    slots = slot_times(problem.t0, horizon_s)
+    k_count = len(slots)
     t_end = problem.t0 + horizon_s
     free = cw_transition_matrix(problem.n, horizon_s) @ problem.x0
     to_end = [cw_transition_matrix(problem.n, t_end - t_k) for t_k in slots]  # each slot's transition to the end
     # State at the end per unit impulse of each (slot, thruster): (6, K J).
     effect = np.hstack([g[:, 3:] @ _directions_hill(problem, t_k).T / m for g, t_k in zip(to_end, slots, strict=True)])
     couples = problem.couples_body_m.T  # (3, J)
-    size = SLOTS * j_count
+    size = k_count * j_count
     # The thrusters of a slot fire one after another (``firing_periods``) within half the slot.
-    u_max = np.tile(problem.max_thrust_n * min(MAX_PULSE_S, 0.5 * horizon_s / SLOTS / j_count), SLOTS)
+    u_max = np.tile(problem.max_thrust_n * min(MAX_PULSE_S, 0.5 * horizon_s / SLOTS / j_count), k_count)
     bit = BIT_MARGIN * problem.min_impulse_bit_n_s
     eye = np.eye(size)
     # The momentum at the end and hold_s later (CW from the end): a body off its rest point gains momentum, 3 n^2
@@ -141,58 +166,99 @@ def _program(problem, horizon_s):
     a_v = np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in held]) * m
     r_free = BALL_DIRECTIONS @ free[:3]
     p_free = np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in held]) * m
-    rho_p = max(problem.rho_momentum_n_s,
-                STAGE_FRACTION * max(float(np.linalg.norm(h @ free)) * m for h in held) * BALL_SLAB_FACTOR)
     # Each impulse's execution error moves the end by at most its size times the transition's gain, in any
     # direction: a margin taken from every slab (``impulse_error`` at the slabs' sigmas).
     e_r = problem.impulse_error / m * np.repeat([np.linalg.norm(g[:3, 3:], 2) for g in to_end], j_count)
     e_v = problem.impulse_error * np.repeat([max(np.linalg.norm((h @ g)[:, 3:], 2) for h in held) for g in to_end],
                                             j_count)
-    h_total = np.tile(couples, SLOTS)
-    per_slot = np.kron(np.eye(SLOTS), couples)
+    h_total = np.tile(couples, k_count)
+    per_slot = np.kron(np.eye(k_count), couples)
+    # A far state's plan need only bring it, error included, within STAGE_FRACTION of the momentum it would end
+    # with unfired (a stage); the next plan goes on from there.
+    rho_p = problem.rho_momentum_n_s
+    rho_stage = max(rho_p, STAGE_FRACTION * max(float(np.linalg.norm(h @ free)) * m for h in held) * BALL_SLAB_FACTOR)
+    rho_r = problem.rho_position_m
 
-    def on_u(a, n_z=size, n_s=3):  # a row block on u alone: z and s free of it
-        return np.hstack((a, np.zeros((a.shape[0], n_z + n_s))))
+    def on_u(a, col=None):  # a row block on u, and -1 on the slack SLACKS[col]
+        slack = np.zeros((a.shape[0], len(SLACKS)))
+        if col is not None:
+            slack[:, col] = -1.0
+        return np.hstack((a, np.zeros((a.shape[0], size + 3)), slack))
 
     p_end = effect[3:] * m  # (3, size): the end momentum per impulse, hill
+    zeros = np.zeros((size, 3 + len(SLACKS)))
     rows = [
-        LinearConstraint(np.hstack((eye, -np.diag(u_max), np.zeros((size, 3)))), -np.inf, 0.0),  # u <= u_max z
-        LinearConstraint(np.hstack((eye, -bit * eye, np.zeros((size, 3)))), 0.0, np.inf),  # u >= bit z
-        LinearConstraint(on_u(a_r + e_r), -np.inf, problem.rho_position_m - r_free),
-        LinearConstraint(on_u(e_r - a_r), -np.inf, problem.rho_position_m + r_free),
-        LinearConstraint(on_u(a_v + e_v), -np.inf, rho_p - p_free),
-        LinearConstraint(on_u(e_v - a_v), -np.inf, rho_p + p_free),
+        LinearConstraint(np.hstack((eye, -np.diag(u_max), zeros)), -np.inf, 0.0),  # u <= u_max z
+        LinearConstraint(np.hstack((eye, -bit * eye, zeros)), 0.0, np.inf),  # u >= bit z
         LinearConstraint(on_u(h_total), -problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s,
                          problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s),
         LinearConstraint(on_u(per_slot), -problem.couple_max_n_m_s, problem.couple_max_n_m_s),
         # s >= |p_end| per hill axis: the end momentum's 1-norm, which the cost weighs (centring within the ball)
-        LinearConstraint(np.hstack((p_end, np.zeros((3, size)), -np.eye(3))), -np.inf, -free[3:] * m),
-        LinearConstraint(np.hstack((-p_end, np.zeros((3, size)), -np.eye(3))), -np.inf, free[3:] * m),
+        LinearConstraint(np.hstack((p_end, np.zeros((3, size)), -np.eye(3), np.zeros((3, len(SLACKS))))), -np.inf,
+                         -free[3:] * m),
+        LinearConstraint(np.hstack((-p_end, np.zeros((3, size)), -np.eye(3), np.zeros((3, len(SLACKS))))), -np.inf,
+                         free[3:] * m),
     ]
-    slot_cost = np.repeat(1.0 + LATER_SLOT_COST * np.arange(SLOTS), j_count)
-    cost = np.concatenate((slot_cost, np.zeros(size), np.full(3, MOMENTUM_WEIGHT)))
-    bounds = Bounds(np.zeros(2 * size + 3), np.concatenate((u_max, np.ones(size), np.full(3, np.inf))))
-    integrality = np.concatenate((np.zeros(size), np.ones(size), np.zeros(3)))
+    # Conditions 2 and 3 at the end, each beyond its margin by its slack at most: the stage with the firings'
+    # execution error, and the margins themselves without it.
+    for col, (a_x, e_x, rho, x_free) in enumerate(((a_r, e_r, rho_r, r_free), (a_v, e_v, rho_stage, p_free),
+                                                   (a_r, 0.0 * e_r, rho_r, r_free), (a_v, 0.0 * e_v, rho_p, p_free))):
+        rows += [LinearConstraint(on_u(a_x + e_x, col), -np.inf, rho - x_free),
+                 LinearConstraint(on_u(e_x - a_x, col), -np.inf, rho + x_free)]
+    slot_cost = np.repeat(1.0 + LATER_SLOT_COST * np.arange(k_count), j_count)
+    # Each slack in units of its margin, weighed as its tier's margins of momentum: the program fires what brings
+    # the end nearest its margins before it saves fuel, and keeps its error within a stage before that.
+    per_margin = np.array((1.0 / rho_r, 1.0 / rho_p) * 2) * rho_p
+    slack_cost = per_margin * np.repeat((STAGE_WEIGHT, EXCESS_WEIGHT), 2)
+    cost = np.concatenate((slot_cost, np.zeros(size), np.full(3, MOMENTUM_WEIGHT), slack_cost))
+    n_var = 2 * size + 3 + len(SLACKS)
+    bounds = Bounds(np.zeros(n_var), np.concatenate((u_max, np.ones(size), np.full(3 + len(SLACKS), np.inf))))
+    integrality = np.concatenate((np.zeros(size), np.ones(size), np.zeros(3 + len(SLACKS))))
     return cost, rows, bounds, integrality, slots, effect, free
 
 
 def solve(problem, horizons_s):
-    """The first of the horizons [s] (HORIZONS_S up to the time left) whose program is feasible, and its firings;
-    None where none is (module doc)."""
+    """The firings over the first of the horizons [s] (HORIZONS_S up to the time left) whose end lies within the
+    margins, and within a stage with the firings' error; where none does, over the horizon whose end comes nearest
+    (the least excess beyond the stage, then beyond the margins, each in units of the margins; the shorter on a tie).
+    A horizon whose linear relaxation (a bound on its excess) comes no nearer than the best so far is not solved.
+    None only where HiGHS returns no point."""
     j_count = len(problem.max_thrust_n)
+    best = None
     for horizon_s in horizons_s:
         cost, rows, bounds, integrality, slots, effect, free = _program(problem, horizon_s)
+        if best is not None:
+            relaxed = milp(cost, constraints=rows, bounds=bounds, options={'presolve': False})
+            if relaxed.x is None or not _nearer(_excess(problem, relaxed.x), best.excess):
+                continue
         result = milp(cost, constraints=rows, bounds=bounds, integrality=integrality,
-                      options={'node_limit': MILP_NODE_LIMIT})
+                      options={'node_limit': MILP_NODE_LIMIT, 'presolve': False})
         if result.x is None or result.status not in (0, 1):
             continue
-        size = j_count * SLOTS
+        size = j_count * len(slots)
         u = np.where(result.x[size:2 * size] > 0.5, result.x[:size], 0.0)
-        predicted = free + effect @ u
-        impulses = u.reshape(SLOTS, j_count)
+        impulses = u.reshape(len(slots), j_count)
         h_end = problem.h_wheels_body_n_m_s + problem.couples_body_m.T @ impulses.sum(axis=0)
-        return TerminalSolution(horizon_s, slots, impulses, predicted, h_end)
-    return None
+        excess = _excess(problem, result.x)
+        if best is None or _nearer(excess, best.excess):
+            best = TerminalSolution(horizon_s, slots, impulses, free + effect @ u, h_end, excess)
+        if max(excess) <= EXCESS_TOLERANCE:
+            break
+    return best
+
+
+def _excess(problem, x):
+    """(beyond the stage, beyond the margins) of a point of the program, each in units of the margins (its last
+    variables, the SLACKS)."""
+    s = x[-len(SLACKS):] / np.array((problem.rho_position_m, problem.rho_momentum_n_s) * 2)
+    return float(s[0] + s[1]), float(s[2] + s[3])
+
+
+def _nearer(excess, than):
+    """True where an excess (beyond the stage, beyond the margins) is nearer than another: the stage's first."""
+    if abs(excess[0] - than[0]) > EXCESS_TOLERANCE:
+        return excess[0] < than[0]
+    return excess[1] < than[1] - EXCESS_TOLERANCE
 
 
 def firing_periods(impulses_n_s, max_thrust_n, min_impulse_bit_n_s, period_s):
