@@ -23,7 +23,7 @@ from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
 )
-from flyby_guidance.transport.push import STEER_MAX_RAD, STEER_SETTLE_S, push_response
+from flyby_guidance.transport.push import REPLAN_FRACTION, STEER_MAX_RAD, STEER_SETTLE_S, push_response
 from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
 from flyby_msgs_py.events import (
     TRANSPORT_COMPLETE,
@@ -308,6 +308,25 @@ def test_too_little_time_for_the_stated_settle_bound_is_refused():
         assert events[-1][1] == (TRANSPORT_REFUSED if refused else TRANSPORT_PLANNED)
         if refused:
             assert events[-1][3]['reason'].startswith(f'too little time: the conditions need {bound:.0f} s after')
+
+
+def test_a_transfer_time_too_short_for_the_slews_and_pushes_arrives_later_where_the_run_allows():
+    """matsunaga_orbit_advance's 1 km asked in 60 s (its slews alone take longer): in a run long enough the plan
+    arrives REPLAN_FRACTION of the transfer time later, as often as needed, and says so (transport_planned, WARN, the
+    planner's reason); the settle time counts from that arrival. In a run too short for any later arrival and its
+    settle bound, the refusal names the asked arrival's reason."""
+    _, body, control = control_for(transfer_time_s=60.0)
+    events = until_planned(body, control)
+    level, _, message, values = events[-1]
+    asked = 85.0 + 60.0
+    assert events[-1][1] == TRANSPORT_PLANNED and level == 'WARN' and 'later than asked: too little time' in message
+    steps = (values['t_arrival_s'] - asked) / (REPLAN_FRACTION * 60.0)
+    assert steps >= 1.0 and steps == pytest.approx(round(steps), abs=1e-6)
+    assert control.t_arrival == values['t_arrival_s']
+    _, body, control = control_for(transfer_time_s=60.0, duration_s=asked + control.settle_bound + 60.0)
+    events = until_planned(body, control)
+    assert events[-1][1] == TRANSPORT_REFUSED and events[-1][3]['reason'].startswith('too little time')
+    assert 'the conditions need' not in events[-1][3]['reason']
 
 
 def test_the_settle_bound_is_rounds_of_a_coast_that_learns_the_velocity_a_firing_and_a_check_then_the_hold():

@@ -10,7 +10,7 @@ from flyby_guidance.transport.attitude import TRACK_BANDWIDTH_RAD_S
 from flyby_msgs_py import events
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import terminal
-from flyby_planner.transport.model import TransportRefused, TransportState, propagate
+from flyby_planner.transport.model import TOO_LITTLE_TIME, TransportRefused, TransportState, propagate
 from flyby_planner.transport.plan import plan_transport
 from flyby_planner.transport.slew import resolve_slew
 from flyby_planner.transport.thrusters import nearest_wrench, torque_wrench
@@ -27,7 +27,8 @@ from flyby_sim.dynamics.rotation import (
 PUSH_FORCE_MARGIN = 1.3  # a closed-loop push asks at most this much more force than planned: a bad estimate stays mild
 ARRIVAL_SIGMAS = 3.0  # the arrival push stops short of rest by this many sigma of its expected error along the push
 CORRECTION_FRACTION = 0.25  # a miss at the last push beyond this share of the second condition is corrected
-REPLAN_FRACTION = 0.5  # a transfer again after the arrival takes this share of the first's time
+REPLAN_FRACTION = 0.5  # a transfer again after the arrival takes this share of the first's time, and an arrival
+#                        the transfer time leaves too little time for is tried this share of it later
 SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
 STEER_MAX_RAD = 0.05  # a push steers its axis toward the force wanted by at most this much at a time [rad] ...
 STEER_SETTLE_S = 4.0 / TRACK_BANDWIDTH_RAD_S  # ... and not over its last this long: the attitude settles first [s]
@@ -61,31 +62,55 @@ class TransportPush:
     """The plan and push rules of ``TransportControl`` (the state they read and set is its)."""
 
     def _plan(self, state, t_arrival):
-        """The transport's plan from the estimated state to the goal arriving at t_arrival (``transport_planned``; a
-        refusal ends the transport, the body held where it is)."""
+        """The transport's plan from the estimated state to the goal arriving at t_arrival, or later where that
+        leaves too little time for its slews and pushes (``_plan_arriving``; ``transport_planned``, WARN where
+        later); a refusal ends the transport, the body held where it is."""
         cfg = self.config
         first = state.t + 2.0 * cfg.planner.period_s  # the first period a command of this estimate can still reach
         start = TransportState(first, *state[1:])
         try:
-            self._check_reachable(t_arrival)
-            plan = self._plan_with_faster_slews(start, t_arrival)
+            plan, asked = self._plan_arriving(start, t_arrival)
         except TransportRefused as err:
             self.done = True
             return [('ERROR', events.TRANSPORT_REFUSED, f'no transport plan meets the conditions: {err.reason}',
                      {'reason': err.reason})]
         self._fly_plan(plan, start, state)
+        self.t_arrival = plan.t_arrival_s
         c = plan.conditions
         message = (f'transport to {np.round(self.goal, 2).tolist()} m in {len(plan.burns)} burns, '
                    f'{plan.fuel_kg * 1e3:.1f} g, arrival at t = {plan.t_arrival_s:.1f} s; predicted '
                    f'{c["position_error_m"]:.3g} m, {c["momentum_error_n_s"]:.3g} N s, '
                    f'{c["angular_momentum_kg_m2_s"]:.3g} kg m^2/s; the conditions within {self.settle_bound:.0f} s '
                    f'after the arrival')
-        return [('OK', events.TRANSPORT_PLANNED, message,
+        if asked is not None:
+            message += f' ({plan.t_arrival_s - t_arrival:.0f} s later than asked: {asked})'
+        return [('OK' if asked is None else 'WARN', events.TRANSPORT_PLANNED, message,
                  {'t_arrival_s': plan.t_arrival_s, 'burns': len(plan.burns), 'fuel_kg': plan.fuel_kg,
                   'predicted_position_error_m': c['position_error_m'],
                   'predicted_momentum_error_n_s': c['momentum_error_n_s'],
                   'predicted_angular_momentum_kg_m2_s': c['angular_momentum_kg_m2_s'],
                   'settle_bound_s': self.settle_bound})]
+
+    def _plan_arriving(self, start, t_arrival):
+        """(the plan arriving at t_arrival, None); where the transfer time leaves too little time for its slews and
+        pushes (a long detumbling, a slow push), the first of the arrivals REPLAN_FRACTION of it later, and so on,
+        whose settle bound still fits the run: (that plan, why the arrival asked was refused). The run's duration,
+        not the transfer time, bounds what is refused (TransportRefused, the asked arrival's reason)."""
+        self._check_reachable(t_arrival)
+        try:
+            return self._plan_with_faster_slews(start, t_arrival), None
+        except TransportRefused as asked:
+            if not asked.reason.startswith(TOO_LITTLE_TIME):
+                raise
+            t_later = t_arrival + REPLAN_FRACTION * self.config.transfer_time_s
+            while t_later + self.settle_bound <= self.deadline:
+                try:
+                    return self._plan_with_faster_slews(start, t_later), asked.reason
+                except TransportRefused as err:
+                    if not err.reason.startswith(TOO_LITTLE_TIME):
+                        raise
+                t_later += REPLAN_FRACTION * self.config.transfer_time_s
+            raise
 
     def _fly_plan(self, plan, start, state):
         """Fly a plan made from the TransportState start (the estimate state's, two periods on)."""
@@ -139,7 +164,7 @@ class TransportPush:
             raise TransportRefused(f'the goal {np.round(self.goal, 2).tolist()} m is no rest point: the nearest on the '
                                    f'reference orbit is {off_m:.3g} m away (a body at rest there drifts)')
         if t_arrival + self.settle_bound > self.deadline:
-            raise TransportRefused(f'too little time: the conditions need {self.settle_bound:.0f} s after the '
+            raise TransportRefused(f'{TOO_LITTLE_TIME}: the conditions need {self.settle_bound:.0f} s after the '
                                    f'arrival at t = {t_arrival:.0f} s, and they are judged at the latest at t = '
                                    f'{self.deadline:.0f} s (the run ends at {self.config.duration_s:.0f} s)')
 
@@ -151,7 +176,7 @@ class TransportPush:
             try:
                 return plan_transport(self.body, start, self.goal, t_arrival, planner)
             except TransportRefused as err:
-                if not err.reason.startswith('too little time'):
+                if not err.reason.startswith(TOO_LITTLE_TIME):
                     raise
                 planner = dataclasses.replace(planner, slew_rate_rad_s=2.0 * planner.slew_rate_rad_s)
         return plan_transport(self.body, start, self.goal, t_arrival, planner)

@@ -86,6 +86,9 @@ class TransportConfig:
     max_step_angle_rad: float = 0.02  # and the rotation per step
 
 
+TOO_LITTLE_TIME = 'too little time'  # how a refusal for time begins: a later arrival may not be refused
+
+
 class TransportRefused(Exception):
     """No plan: ``reason`` names the bound that refused it."""
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport.model import (
+    TOO_LITTLE_TIME,
     Burn,
     TransportModel,
     TransportPlan,
@@ -126,14 +127,14 @@ def _first_push(model, config, state, goal, k0, k_arr, force_max_n):
         push_s = sum(model.mass_kg * float(np.linalg.norm(x)) / (config.push_force_fraction * force_max_n)
                      for x in dv)
         if t1 + push_s + half_turn_s > t_arr:
-            reason = (f'too little time: pushes of {push_s:.1f} s at {config.push_force_fraction} of the largest '
+            reason = (f'{TOO_LITTLE_TIME}: pushes of {push_s:.1f} s at {config.push_force_fraction} of the largest '
                       f'pure force ({force_max_n:.3g} N) and two half-turn slews do not fit in {t_arr - k0 * p:.1f} s')
             continue
         cost = sum(float(np.linalg.norm(x)) for x in dv)
         if best is None or cost < best[0]:
             best = (cost, dv, float(t1))
     if best is None:
-        raise TransportRefused(reason or f'too little time: {t_arr - k0 * p:.1f} s does not hold two half-turn slews '
+        raise TransportRefused(reason or f'{TOO_LITTLE_TIME}: {t_arr - k0 * p:.1f} s does not hold two half-turn slews '
                                          f'of {half_turn_s:.0f} s at {config.slew_rate_rad_s} rad/s')
     return list(best[1]), best[2]
 
@@ -160,7 +161,7 @@ def _schedule(model, config, b_body, q0_eci, omega0, k0, k_arr, dv, t_mid1, push
                           burn_factor[1])
     if slew_b.k_start < k_push1 + k_len[0]:
         need_s = (k_len[0] + k_len[1] + slew_a.k_end - slew_a.k_start + slew_b.k_end - slew_b.k_start) * p
-        raise TransportRefused(f'too little time: the slews and pushes need {need_s:.1f} s after the state, the '
+        raise TransportRefused(f'{TOO_LITTLE_TIME}: the slews and pushes need {need_s:.1f} s after the state, the '
                                f'arrival leaves {(k_arr - k0) * p:.1f} s')
     return _Schedule((slew_a, slew_b), ((k_push1, k_len[0]), (k_push2, k_len[1])), t_mid)
 
