@@ -308,19 +308,25 @@ def test_far_off_the_rest_point_with_no_horizon_a_new_transfer_arrives_after_hal
     assert np.any(torque) and control.t_terminal is None
 
 
+def _at_the_rest_point_moving_along_the_push_axis(steer):
+    """An arrived control in a run of 2800 s, the wheels steering the body or not, in its terminal phase, and the
+    state a second on: at the rest point, 2 mm/s along the push axis held inertially: (control, state)."""
+    _, control, t0, q_eci = arrived(duration_s=2800.0)
+    control.wheels_steer = steer
+    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))  # the terminal from here
+    t = t0 + 1.0
+    q_hill = held(control, t, q_eci)
+    return control, TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]),
+                                   q_hill, np.zeros(3))
+
+
 def test_on_a_body_the_wheels_do_not_steer_no_horizon_means_a_new_transfer():
     """At the rest point, 2 mm/s along the push axis (no horizon: the thrusters push no -x), with time for a
     transfer: where the wheels steer the body they turn the push axis; where they do not (a heavy body, its turn a
     slew by the thrusters' couples, whose side force the planner's transfer takes into account) a new transfer."""
     kinds = {}
     for steer in (True, False):
-        _, control, t0, q_eci = arrived(duration_s=2800.0)
-        control.wheels_steer = steer
-        estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))  # the terminal from here
-        t = t0 + 1.0
-        q_hill = held(control, t, q_eci)
-        state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
-                               np.zeros(3))
+        control, state = _at_the_rest_point_moving_along_the_push_axis(steer)
         kinds[steer] = [e[1] for e in control._terminal(state, np.zeros(3))]
         assert (control.t_terminal is None) == (not steer)
     assert kinds == {True: [TRANSPORT_TURN], False: [TRANSPORT_CORRECTION]}
@@ -333,13 +339,7 @@ def test_near_the_margins_with_no_firing_that_helps_a_body_the_wheels_do_not_ste
     the next check solves the program again."""
     kinds = {}
     for steer in (True, False):
-        _, control, t0, q_eci = arrived(duration_s=2800.0)
-        control.wheels_steer = steer
-        estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))  # the terminal from here
-        t = t0 + 1.0
-        q_hill = held(control, t, q_eci)
-        state = TransportState(t, control.rest.copy(), quat_to_matrix(q_hill) @ np.array([2e-3, 0.0, 0.0]), q_hill,
-                               np.zeros(3))
+        control, state = _at_the_rest_point_moving_along_the_push_axis(steer)
 
         def nothing_helps(problem, horizons):
             slots = planner_terminal.slot_times(problem.t0, horizons[0])
@@ -351,7 +351,7 @@ def test_near_the_margins_with_no_firing_that_helps_a_body_the_wheels_do_not_ste
         kinds[steer] = [e[1] for e in control._terminal(state, np.zeros(3))]
         if not steer:
             assert control.turning is None and control.pulses == [] and control.t_terminal is not None
-            assert control.t_check == pytest.approx(t + control.config.replan_interval_s)
+            assert control.t_check == pytest.approx(state.t + control.config.replan_interval_s)
     assert kinds == {True: [TRANSPORT_TURN], False: []}
 
 
