@@ -97,20 +97,16 @@ class TransportPush:
         whose settle bound still fits the run: (that plan, why the arrival asked was refused). The run's duration,
         not the transfer time, bounds what is refused (TransportRefused, the asked arrival's reason)."""
         self._check_reachable(t_arrival)
-        try:
-            return self._plan_with_faster_slews(start, t_arrival), None
-        except TransportRefused as asked:
-            if not asked.reason.startswith(TOO_LITTLE_TIME):
-                raise
-            t_later = t_arrival + REPLAN_FRACTION * self.config.transfer_time_s
-            while t_later + self.settle_bound <= self.deadline:
-                try:
-                    return self._plan_with_faster_slews(start, t_later), asked.reason
-                except TransportRefused as err:
-                    if not err.reason.startswith(TOO_LITTLE_TIME):
-                        raise
-                t_later += REPLAN_FRACTION * self.config.transfer_time_s
-            raise
+        asked, t_try = None, t_arrival
+        while asked is None or t_try + self.settle_bound <= self.deadline:
+            try:
+                return self._plan_with_faster_slews(start, t_try), asked and asked.reason
+            except TransportRefused as err:
+                if not err.reason.startswith(TOO_LITTLE_TIME):
+                    raise
+                asked = asked or err
+            t_try += REPLAN_FRACTION * self.config.transfer_time_s
+        raise asked
 
     def _fly_plan(self, plan, start, state):
         """Fly a plan made from the TransportState start (the estimate state's, two periods on)."""

@@ -111,8 +111,8 @@ class TerminalSolution(NamedTuple):
     impulses_n_s: np.ndarray  # (K, J)
     predicted: np.ndarray  # (6,) the deviation from the rest point at t0 + horizon_s
     h_wheels_body_n_m_s: np.ndarray  # (3,) the wheels' momentum then
-    excess: tuple = (0.0, 0.0)  # how far the end lies beyond a stage with the error, and beyond the margins
-#                                  without it, in units of each margin (0: within)
+    excess: tuple  # how far the end lies beyond a stage with the error, and beyond the margins without it, in
+#                    units of each margin (0: within)
 
 
 def couple_limit(inertia_body_kg_m2, wheel_max_torque_n_m):
@@ -202,13 +202,14 @@ def _program(problem, horizon_s):
     # Conditions 2 and 3 at the end, each beyond its margin by its slack at most: the stage with the firings'
     # execution error, and the margins themselves without it.
     for col, (a_x, e_x, rho, x_free) in enumerate(((a_r, e_r, rho_r, r_free), (a_v, e_v, rho_stage, p_free),
-                                                   (a_r, 0.0 * e_r, rho_r, r_free), (a_v, 0.0 * e_v, rho_p, p_free))):
+                                                   (a_r, np.zeros_like(e_r), rho_r, r_free),
+                                                   (a_v, np.zeros_like(e_v), rho_p, p_free))):
         rows += [LinearConstraint(on_u(a_x + e_x, col), -np.inf, rho - x_free),
                  LinearConstraint(on_u(e_x - a_x, col), -np.inf, rho + x_free)]
     slot_cost = np.repeat(1.0 + LATER_SLOT_COST * np.arange(k_count), j_count)
     # Each slack in units of its margin, weighed as its tier's margins of momentum: the program fires what brings
     # the end nearest its margins before it saves fuel, and keeps its error within a stage before that.
-    per_margin = np.array((1.0 / rho_r, 1.0 / rho_p) * 2) * rho_p
+    per_margin = rho_p / _slack_units(problem)
     slack_cost = per_margin * np.repeat((STAGE_WEIGHT, EXCESS_WEIGHT), 2)
     cost = np.concatenate((slot_cost, np.zeros(size), np.full(3, MOMENTUM_WEIGHT), slack_cost))
     n_var = 2 * size + 3 + len(SLACKS)
@@ -250,8 +251,14 @@ def solve(problem, horizons_s):
 def _excess(problem, x):
     """(beyond the stage, beyond the margins) of a point of the program, each in units of the margins (its last
     variables, the SLACKS)."""
-    s = x[-len(SLACKS):] / np.array((problem.rho_position_m, problem.rho_momentum_n_s) * 2)
+    s = x[-len(SLACKS):] / _slack_units(problem)
     return float(s[0] + s[1]), float(s[2] + s[3])
+
+
+def _slack_units(problem):
+    """The margin each slack of SLACKS is counted in: the position's, the momentum's, for the stage and the
+    margins alike."""
+    return np.array((problem.rho_position_m, problem.rho_momentum_n_s) * 2)
 
 
 def _nearer(excess, than):
