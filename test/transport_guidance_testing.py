@@ -26,11 +26,11 @@ ESTIMATE = decode_values(MASS_PROPERTIES_ESTIMATED, {
     'principal_axes_q': '[0.0, -0.7071067811865476, 0.0, 0.7071067811865476]'})
 
 
-def control_for(planner=None, **changes):
-    """matsunaga_orbit_advance's transport guidance (wheels of 0.1 N m and 1 N m s), its config's keys replaced by
-    changes and its TransportConfig's by planner (a dict)."""
+def control_for(planner=None, estimate=ESTIMATE, **changes):
+    """matsunaga_orbit_advance's transport guidance (wheels of 0.1 N m and 1 N m s) on the final estimate given, its
+    config's keys replaced by changes and its TransportConfig's by planner (a dict)."""
     sc = load_scenario(SCENARIO)
-    body = transport_body(ESTIMATE, sc.chaser.mass_kg, sc.chaser_inertia, sc.thruster_layout,
+    body = transport_body(estimate, sc.chaser.mass_kg, sc.chaser_inertia, sc.thruster_layout,
                           sc.post_capture.transport.plume_cone_deg)
     config = TransportGuidanceConfig.from_scenario(sc)
     if planner:
@@ -51,10 +51,10 @@ def until_planned(body, control):
     return events
 
 
-def planned(**changes):
+def planned(estimate=ESTIMATE, **changes):
     """The control of test_transport_detumbles_then_plans_and_flies_the_pushes_on_the_estimate once planned, at rest
     with the chaser's axes along hill's (the estimate it planned from)."""
-    _, body, control = control_for(**changes)
+    _, body, control = control_for(estimate=estimate, **changes)
     until_planned(body, control)
     return body, control
 

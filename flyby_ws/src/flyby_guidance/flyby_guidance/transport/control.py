@@ -181,7 +181,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.t_start = t_event
         self.t_arrival = t_event + self.config.transfer_time_s
         self.body = body
-        self.b_body = push_axis(body)[0]
+        self.b_body, self.push_force_max_n = push_axis(body)
         self.pulse_n_m_s = transport_pulse_n_m_s(body, self.config.planner.max_angular_momentum_kg_m2_s)
         inertia_max = float(np.max(np.linalg.eigvalsh(body.inertia_body_kg_m2)))
         # The wheels steer the body (track the plan's attitude) where they spin it up to the slews' rate within

@@ -3,6 +3,7 @@ estimate to the goal, its pushes and slews' spin-downs flown closed loop on the 
 from the estimate before it starts, and the mid-course correction between the first push and the next slew."""
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -30,6 +31,7 @@ CORRECTION_FRACTION = 0.25  # a miss at the last push beyond this share of the s
 REPLAN_FRACTION = 0.5  # a transfer again after the arrival takes this share of the first's time, and an arrival
 #                        the transfer time leaves too little time for is tried this share of it later
 SLEW_RATE_DOUBLINGS = 3  # a plan short of time for the configured slew rate doubles it at most this often
+RESOLVE_ROUNDS = 3  # a slew solved again aims at the push through its own side forces: this many fixed-point rounds
 STEER_MAX_RAD = 0.05  # a push steers its axis toward the force wanted by at most this much at a time [rad] ...
 STEER_SETTLE_S = 4.0 / TRACK_BANDWIDTH_RAD_S  # ... and not over its last this long: the attitude settles first [s]
 _PUSH_NODES = np.polynomial.legendre.leggauss(8)  # the push's response integrated by Gauss-Legendre on its rest
@@ -180,29 +182,56 @@ class TransportPush:
     def _resolve(self, state, start, stop):
         """The slew about to start solved again from the estimate (``slew.resolve_slew``), to aim the push axis
         where the push after it must go from the trajectory the body is really on: the first impulse of eq 28-29 at
-        that push, or at the last push the velocity it must null (the state coasted by CW to the push's middle)."""
+        that push, or at the last push the velocity it must null, the last push sized to it (``_sized_push``): the
+        estimate propagated to the push's middle through the slew's own burns (``_through_slew``), whose side forces
+        (a couple about a CoM metres off the tug comes with a force, and the body turns between the spin-up and the
+        spin-down) the push, within the direction-limited thrusters' cone, could not take out across its axis."""
         burns = list(self.plan.burns)
         i = next(k for k, b in enumerate(burns) if b is stop)
         push = burns[i + 1]
-        t_aim = push.t_start_s + 0.5 * push.duration_s
-        r, v = np.split(cw_transition_matrix(self.n, t_aim - state.t) @ np.concatenate((state.r_hill, state.v_hill)),
-                        2)
-        if push is [b for b in burns if b.purpose == 'push'][-1]:
-            u_hill = -v
-        else:
-            u_hill, _ = terminal_impulses(r, v, self.goal, np.zeros(3), self.plan.t_arrival_s - t_aim, self.n)
+        last = push is [b for b in burns if b.purpose == 'push'][-1]
+        slew, aimed = (start, stop), None
         try:
-            new_start, new_stop = resolve_slew(self.body, self.config.planner, state, start, stop, u_hill, t_aim,
-                                               self.plan.t_arrival_s)
+            for _ in range(RESOLVE_ROUNDS):
+                t_aim = push.t_start_s + 0.5 * push.duration_s
+                r, v = self._through_slew(state, slew, t_aim)
+                if last:
+                    u_hill = -v
+                    push = self._sized_push(push, self.body.mass_kg * float(np.linalg.norm(v)))
+                else:
+                    u_hill, _ = terminal_impulses(r, v, self.goal, np.zeros(3), self.plan.t_arrival_s - t_aim, self.n)
+                slew = resolve_slew(self.body, self.config.planner, state, start, stop, u_hill,
+                                    push.t_start_s + 0.5 * push.duration_s, self.plan.t_arrival_s)
+                aimed = (*slew, push)
         except TransportRefused as err:
-            self.resolved.add(start.t_start_s)
-            return [('WARN', events.TRANSPORT_SLEW_KEPT, f'the slew at {start.t_start_s:.1f} s flown as planned: '
-                                                        f'{err.reason}', {'reason': err.reason})]
-        burns[i - 1], burns[i] = new_start, new_stop
+            if aimed is None:
+                self.resolved.add(start.t_start_s)
+                return [('WARN', events.TRANSPORT_SLEW_KEPT, f'the slew at {start.t_start_s:.1f} s flown as planned: '
+                                                            f'{err.reason}', {'reason': err.reason})]
+        burns[i - 1: i + 2] = aimed
         self.plan = self.plan._replace(burns=tuple(burns))
-        self.resolved.add(new_start.t_start_s)
+        if last:
+            self.plan = self.plan._replace(t_arrival_s=aimed[2].t_start_s + aimed[2].duration_s)
+        self.resolved.add(aimed[0].t_start_s)
         self._set_reference(state)
         return []
+
+    def _sized_push(self, push, impulse_n_s):
+        """The last push from its start over the whole control periods that give impulse_n_s [N s] at the planner's
+        share of the largest pure force (``push_force_fraction``, as the plan sizes a push): the closed-loop push
+        asks at most PUSH_FORCE_MARGIN of the planned force, and the velocity at the arrival is what the estimate and
+        the slews made it, not what the plan had (its end, the arrival, moves by the periods added or taken)."""
+        p = self.config.planner.period_s
+        force_n = self.config.planner.push_force_fraction * self.push_force_max_n
+        periods = max(1, math.ceil(impulse_n_s / force_n / p - 1e-9))
+        force = impulse_n_s / (periods * p) * self.b_body
+        return push._replace(duration_s=periods * p, force_body_n=force,
+                             torque_body_n_m=np.cross(self.body.com_body_m, force))
+
+    def _through_slew(self, state, slew, t_aim):
+        """(r_hill, v_hill) at t_aim of the estimate propagated by the planner's model through the slew's burns."""
+        end = propagate(self.body, state, slew, t_aim, self.config.planner)
+        return end.r_hill, end.v_hill
 
     def _closed_loop_stop(self, t, state, burn, force, torque, h_wheels):
         """A slew's spin-down flown on the estimate: the torque about the combined CoM that takes out the estimated

@@ -452,7 +452,8 @@ def allocate_force_with_minimum_impulse(layout, force_body_n, floor_n):
                    LinearConstraint(np.hstack((eye, -floor_n * eye)), 0.0, np.inf)]  # f_i >= floor z_i
     result = milp(np.concatenate((np.ones(n), np.zeros(n))), constraints=constraints,
                   integrality=np.concatenate((np.zeros(n), np.ones(n))),
-                  bounds=Bounds(np.zeros(2 * n), np.concatenate((f_max, np.ones(n)))))
+                  bounds=Bounds(np.zeros(2 * n), np.concatenate((f_max, np.ones(n)))),
+                  options={'presolve': False})  # HiGHS prints on stdout where it repairs a presolved point
     if result.status != 0:
         return None
     on = result.x[n:] > 0.5
