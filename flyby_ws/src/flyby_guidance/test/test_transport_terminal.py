@@ -381,3 +381,30 @@ def test_a_couples_pulse_moves_the_body_by_less_than_a_quarter_of_the_first_cond
     assert pulse == pytest.approx(max(PULSE_BOUND_FRACTION * 0.1, 2.0 * 0.01 * np.max(arms))) and pulse < 0.05
     arms = np.linalg.norm(fine.positions_body_m - near.com_body_m, axis=1)
     assert transport_pulse_n_m_s(near, 0.1) == pytest.approx(PULSE_BITS * 0.005 * np.mean(arms))
+
+
+def test_a_plans_later_firings_are_kept_while_the_estimate_follows_it_and_solved_again_where_it_does_not():
+    """While a terminal plan's later firings wait, each check predicts where they leave the estimate
+    (``terminal.kept_excess``): as the plan said, the plan is kept (nothing new); 3 mm/s off it, its firings to come
+    are dropped and the program solved again from the estimate."""
+    body, control, t0, q_eci = arrived()
+    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))  # at rest at the rest point: nothing
+    assert not control.pulses
+    j = int(np.argmax(body.layout.force_directions_body[:, 0]))  # a +x thruster
+    impulses = np.zeros((1, body.layout.count))
+    impulses[0, j] = 2.0 * body.layout.min_impulse_bit_n_s
+    t_slot, t_end = t0 + 400.0, t0 + 500.0
+    state = TransportState(t0, control.rest.copy(), np.zeros(3), held(control, t0, q_eci), np.zeros(3))
+    problem = control._terminal_problem(state, np.zeros(3), control._momentum_margin(
+        control._velocity_sigma_mps(t0)))
+    excess = planner_terminal.kept_excess(problem, np.array([t_slot]), impulses, t_end)
+    control._fire(control._pulses_of(impulses[0], t_slot), (np.array([t_slot]), impulses, t_end, excess))
+    pulses = list(control.pulses)
+    t = t0 + 20.0
+    control.t_check = t
+    events = estimate(control, t, control.rest, q_hill=held(control, t, q_eci))[3]
+    assert not events and control.pulses == pulses and control.kept is not None  # on the plan: kept
+    t += control.config.replan_interval_s
+    events = estimate(control, t, control.rest, v_com=(0.0, 3e-3, 0.0), q_hill=held(control, t, q_eci))[3]
+    assert [e[1] for e in events] == [TRANSPORT_TERMINAL] and control.pulses != pulses
+    assert control.pulses[0][0] == pytest.approx(t + 2.0 * P)  # solved again from this estimate

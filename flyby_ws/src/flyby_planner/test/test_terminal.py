@@ -176,6 +176,33 @@ def test_the_predicted_end_is_the_firings_propagated_and_within_the_margins(x0, 
     assert np.all(np.abs(couples) <= problem.couple_max_n_m_s + tol)
 
 
+def test_kept_excess_of_a_plan_is_the_programs_excess_and_grows_off_it():
+    """kept_excess of a solution's own firings from its own state is the program's excess beyond the margins (0
+    within them, and a plan beyond them its own); from a state 2 mm/s off, its firings end beyond; the slots already
+    past left out, the rest from a later state on the plan's trajectory as the whole from the first."""
+    for x0 in ((0.3, -0.2, 0.1, -4e-4, 1e-4, 0.0), (0.0, 0.0, 0.0, 1e-3, 0.0, 0.0)):
+        problem = _problem(x0)
+        solution = terminal.solve(problem, terminal.HORIZONS_S)
+        t_end = problem.t0 + solution.horizon_s
+        kept = terminal.kept_excess(problem, solution.slot_times_s, solution.impulses_n_s, t_end)
+        assert kept == pytest.approx(solution.excess[1], abs=1e-6)
+    problem = _problem(FIRING_STATES[3][0])  # a longer horizon, its firings in more than one slot
+    solution = terminal.solve(problem, terminal.HORIZONS_S)
+    assert np.count_nonzero(solution.impulses_n_s.sum(axis=1)) > 1
+    t_end = problem.t0 + solution.horizon_s
+    off = problem._replace(x0=problem.x0 + np.array([0.0, 0.0, 0.0, 0.0, 2e-3, 0.0]))
+    assert terminal.kept_excess(off, solution.slot_times_s, solution.impulses_n_s, t_end) > 1.0
+    # Later, on the plan's trajectory (the first slot fired), the rest ends where the whole did.
+    later = 0.5 * (solution.slot_times_s[0] + solution.slot_times_s[1])
+    x = _cw_flow(solution.slot_times_s[0] - problem.t0) @ problem.x0
+    x[3:] += _hill_from_eci(solution.slot_times_s[0]) @ Rotation.from_quat(problem.q_eci_from_body).as_matrix() @ (
+        problem.directions_body.T @ solution.impulses_n_s[0]) / problem.mass_kg
+    x = _cw_flow(later - solution.slot_times_s[0]) @ x
+    on_plan = problem._replace(t0=later, x0=x)
+    rest = terminal.kept_excess(on_plan, solution.slot_times_s[1:], solution.impulses_n_s[1:], t_end)
+    assert rest == pytest.approx(solution.excess[1], abs=1e-6)
+
+
 @pytest.mark.parametrize('x0, q_hill', FIRING_STATES)
 def test_every_firing_is_at_least_the_bit_and_within_its_slots_thrust(x0, q_hill):
     problem = _problem(x0, q_hill)

@@ -152,6 +152,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.turning = None
         self.t_terminal = None
         self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the firings on the grid
+        self.kept = None  # the terminal plan flown: (slot times, impulses, end time, excess; ``_monitor``)
         self.t_fired = -np.inf  # the end of the last terminal firing [s]
         self.t_held = None  # the conditions have held since [s]
         self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t
@@ -263,8 +264,11 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             self._enter_terminal(state)
         at_rest = not any(a.t_start_s - period <= t_mid < b.t_start_s + b.duration_s + period
                           for a, b in self._slews())
-        if at_rest and t >= self.t_check - 1e-9 and not self.pulses_pending(t):
-            events += self._check(state, h_wheels)
+        if at_rest and t >= self.t_check - 1e-9:
+            if not self.pulses_pending(t):
+                events += self._check(state, h_wheels)
+            elif self.t_terminal is not None and self.monitoring(t):
+                events += self._monitor(state, h_wheels)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:
                 events += self._resolve(state, start, stop)

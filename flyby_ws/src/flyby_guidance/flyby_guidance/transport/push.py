@@ -140,7 +140,7 @@ class TransportPush:
         except TransportRefused:
             return None
         self._fly_plan(plan, start, state)
-        self.t_terminal = self.hold = self.turning = None
+        self.t_terminal = self.hold = self.turning = self.kept = None
         self.pulses = []
         miss_m = float(np.linalg.norm(state.r_hill - self.rest))
         return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off the goal\'s rest point and out of the '

@@ -77,10 +77,7 @@ class TransportTerminal:
         sigma_v = self._velocity_sigma_mps(state.t)
         if sigma_v is None:
             return []  # the navigation's first estimate in TRANSPORT is still to come
-        # The program aims within AIM_FRACTION of the bound, or within what the navigation knows where that is more:
-        # a firing finer than the estimate's error would chase its noise.
-        rho_p = max(AIM_FRACTION * cfg.planner.max_momentum_error_n_s, NAV_SIGMAS * self.body.mass_kg * sigma_v)
-        problem = self._terminal_problem(state, h_wheels, rho_p)
+        problem = self._terminal_problem(state, h_wheels, self._momentum_margin(sigma_v))
         horizon_max_s = self.deadline - cfg.hold_s - problem.t0
         horizons = [h for h in terminal.HORIZONS_S if h <= horizon_max_s + 1e-9]
         if not horizons:
@@ -105,7 +102,9 @@ class TransportTerminal:
         # The whole plan flown, then a new solve after its last firing: a plan of a few bits is a sequence (a start
         # and a stop, a pair that nets less than a bit), and solved again after each part it would be another one.
         self._fire([pulse for k in planned
-                    for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])])
+                    for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])],
+                   (solution.slot_times_s[planned], solution.impulses_n_s[planned], problem.t0 + solution.horizon_s,
+                    solution.excess[1]))
         impulse = float(solution.impulses_n_s.sum())
         predicted_n_s = self.body.mass_kg * float(np.linalg.norm(solution.predicted[3:]))
         predicted_m = float(np.linalg.norm(solution.predicted[:3]))
@@ -116,11 +115,44 @@ class TransportTerminal:
                  {'impulse_n_s': impulse, 'horizon_s': solution.horizon_s,
                   'predicted_momentum_n_s': predicted_n_s, 'predicted_position_m': predicted_m})]
 
-    def _fire(self, pulses):
-        """Fly the terminal firings (``_pulses_of``'s periods); the next check a replan interval after the last."""
-        self.pulses = pulses
+    def _fire(self, pulses, kept=None):
+        """Fly the terminal firings (``_pulses_of``'s periods). A program's plan (kept: its slot times, impulses, end
+        and excess beyond the margins) is checked at the checks while its later firings wait (``_monitor``); other
+        firings, the next solve a replan interval after the last."""
+        self.pulses, self.kept = pulses, kept
         self.t_fired = pulses[-1][1]
-        self.t_check = self.t_fired + self.config.replan_interval_s
+        if kept is None:
+            self.t_check = self.t_fired + self.config.replan_interval_s
+
+    def _momentum_margin(self, sigma_v):
+        """rho_p [N s]: the program aims within AIM_FRACTION of the third condition's bound, or within what the
+        navigation knows (NAV_SIGMAS m sigma_v) where that is more: a firing finer than the estimate's error would
+        chase its noise."""
+        return max(AIM_FRACTION * self.config.planner.max_momentum_error_n_s,
+                   NAV_SIGMAS * self.body.mass_kg * sigma_v)
+
+    def _monitor(self, state, h_wheels):
+        """A check while a plan's later firings wait (none firing within two periods): the plan kept where, from the
+        estimate, its firings to come still end as near the margins as it said (``terminal.kept_excess``); else those
+        dropped and the program solved again now. A plan of an hour flown blind had met its end beyond the margins
+        with no time left to take that out; solved again at every check, a plan moves its later firings later."""
+        self.t_check = state.t + self.config.replan_interval_s
+        sigma_v = self._velocity_sigma_mps(state.t)
+        if sigma_v is None:
+            return []
+        times, impulses, t_end, excess = self.kept
+        problem = self._terminal_problem(state, h_wheels, self._momentum_margin(sigma_v))
+        later = times >= problem.t0 - 1e-9
+        if terminal.kept_excess(problem, times[later], impulses[later], t_end) <= excess + terminal.EXCESS_TOLERANCE:
+            return []
+        self.pulses = [pulse for pulse in self.pulses if pulse[0] < state.t]
+        self.kept = None
+        return self._terminal(state, h_wheels)
+
+    def monitoring(self, t):
+        """True where a kept plan's later firings wait and none fires within the next two control periods."""
+        p = self.config.planner.period_s
+        return self.kept is not None and not any(a <= t + 2.0 * p and b > t for a, b, _, _ in self.pulses)
 
     def _pulses_of(self, impulses_n_s, t_first):
         """[(t_start, t_end, force_body_n, torque_body_n_m)] of the control periods from t_first [s] that fire the
