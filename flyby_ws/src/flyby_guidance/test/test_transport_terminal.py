@@ -109,6 +109,22 @@ def test_where_no_horizon_is_feasible_and_the_push_axis_lies_along_the_transfer_
     assert control.t_check == pytest.approx(control.pulses[-1][1] + control.config.replan_interval_s)
 
 
+def test_a_nearest_firing_that_ends_no_nearer_than_none_is_not_fired(monkeypatch):
+    """The same fallback at rest at the rest point, CW's first impulse made 5 mm/s along the push axis: fired, it
+    would end the shortest horizon further beyond the margins than no firing (near the judgement, a transfer's first
+    impulse to a rest point the body is already near), so nothing is fired."""
+    body, control, t0, q_eci = arrived()
+    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))
+    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0
+    q_hill = held(control, t, q_eci)
+    monkeypatch.setattr(planner_terminal, 'solve', lambda problem, horizons: None)
+    monkeypatch.setattr(type(control), '_transfer_impulse',
+                        lambda self, state: quat_to_matrix(q_hill) @ (5e-3 * control.b_body))
+    control.pulses = []
+    events = control._terminal(TransportState(t, control.rest.copy(), np.zeros(3), q_hill, np.zeros(3)), np.zeros(3))
+    assert events == [] and not control.pulses
+
+
 def _same_attitude(q_a, q_b):
     """True where two quaternions are one attitude (q and -q)."""
     return abs(float(np.dot(q_a, q_b))) == pytest.approx(1.0, abs=1e-12)

@@ -34,6 +34,8 @@ WHEEL_AIM_FRACTION = 0.8  # ... and of the wheels' share (their momentum is meas
 TERMINAL_ROUNDS = 3  # the settle bound: this many rounds of navigation and firing after the arrival
 MIN_TURN_RAD = math.radians(1.0)  # a push axis this near CW's first impulse is not turned: the impulse is fired
 FALLBACK_EXCESS = 10.0  # the program's best end this many margins beyond them: a turn or a new transfer first
+KEPT_EXCESS = 0.5  # a plan flown is solved again once its firings to come end this many margins further beyond
+#                    them than it said: the estimate's noise near a margin's edge does not move its firings later
 TURN_PROBE_N_M = 0.01  # the couple at which a turn's side force per couple is found (within any thrusters' reach)
 
 
@@ -133,9 +135,10 @@ class TransportTerminal:
 
     def _monitor(self, state, h_wheels):
         """A check while a plan's later firings wait (none firing within two periods): the plan kept where, from the
-        estimate, its firings to come still end as near the margins as it said (``terminal.kept_excess``); else those
-        dropped and the program solved again now. A plan of an hour flown blind had met its end beyond the margins
-        with no time left to take that out; solved again at every check, a plan moves its later firings later."""
+        estimate, its firings to come still end within KEPT_EXCESS margins of where it said
+        (``terminal.kept_excess``); else those dropped and the program solved again now. A plan of an hour flown
+        blind had met its end beyond the margins with no time left to take that out; solved again at every check, a
+        plan moves its later firings later."""
         self.t_check = state.t + self.config.replan_interval_s
         sigma_v = self._velocity_sigma_mps(state.t)
         if sigma_v is None:
@@ -143,7 +146,7 @@ class TransportTerminal:
         times, impulses, t_end, excess = self.kept
         problem = self._terminal_problem(state, h_wheels, self._momentum_margin(sigma_v))
         later = times >= problem.t0 - 1e-9
-        if terminal.kept_excess(problem, times[later], impulses[later], t_end) <= excess + terminal.EXCESS_TOLERANCE:
+        if terminal.kept_excess(problem, times[later], impulses[later], t_end) <= excess + KEPT_EXCESS:
             return []
         self.pulses = [pulse for pulse in self.pulses if pulse[0] < state.t]
         self.kept = None
@@ -195,14 +198,19 @@ class TransportTerminal:
     def _nearest_firing(self, state, problem):
         """Where no horizon is feasible and no turn is made (the push axis lies along CW's first impulse already, or
         the turn the thrusters' side force affords would end after the judgement): that impulse as near as the
-        thrusters give it at the attitude held (``terminal.impulses_for``), fired now; none where they give none."""
+        thrusters give it at the attitude held (``terminal.impulses_for``), fired now; none where they give none, or
+        where it would end the shortest horizon no nearer the margins than no firing (``terminal.kept_excess``: near
+        the judgement, a transfer's first impulse to a rest point the body is already near is momentum it cannot
+        take out again)."""
         impulses, dv_given = terminal.impulses_for(self._transfer_impulse(state), problem)
         pulses = self._pulses_of(impulses, problem.t0)
-        if not pulses:
+        horizon_s = terminal.HORIZONS_S[0]
+        t_end = problem.t0 + horizon_s
+        if not pulses or terminal.kept_excess(problem, [problem.t0], [impulses], t_end) >= terminal.kept_excess(
+                problem, [], [], t_end):
             return []
         self._fire(pulses)
         impulse = float(impulses.sum())
-        horizon_s = terminal.HORIZONS_S[0]
         predicted = cw_transition_matrix(self.n, horizon_s) @ (problem.x0 + np.concatenate((np.zeros(3), dv_given)))
         momentum_n_s = self.body.mass_kg * float(np.linalg.norm(predicted[3:]))
         position_m = float(np.linalg.norm(predicted[:3]))
