@@ -439,6 +439,7 @@ def test_a_slew_solved_again_aims_the_last_push_through_its_own_side_forces():
     body, control = planned(estimate=heavy)
     slews = control._slews()
     start, stop = slews[-1]
+    burns_before = control.plan.burns
     t = start.t_start_s - 1.5 * P
     before = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < t], t,
                        control.config.planner)
@@ -459,8 +460,22 @@ def test_a_slew_solved_again_aims_the_last_push_through_its_own_side_forces():
     bound = control.config.planner.max_momentum_error_n_s
     assert across_n_s(after.v_hill, axis_hill) < 0.1 * bound
     assert across_n_s(after.v_hill, -coasted / np.linalg.norm(coasted)) > bound  # aimed without them
-    # The last push sized to the impulse it must give, at the planner's share of the largest pure force at most.
+    # The last push gives at least the impulse it must (its planned one, or lengthened to it), never shortened.
+    planned_push = [b for b in burns_before if b.purpose == 'push'][-1]
     impulse_n_s = float(np.linalg.norm(sized.force_body_n)) * sized.duration_s
-    assert impulse_n_s == pytest.approx(body.mass_kg * float(np.linalg.norm(after.v_hill)), rel=1e-3)
-    assert float(np.linalg.norm(sized.force_body_n)) <= control.config.planner.push_force_fraction * push_axis(body)[1]
+    need_n_s = body.mass_kg * float(np.linalg.norm(after.v_hill))
+    assert sized.t_start_s == planned_push.t_start_s and sized.duration_s >= planned_push.duration_s
+    assert impulse_n_s >= need_n_s * (1.0 - 1e-3)
     assert control.plan.t_arrival_s == pytest.approx(sized.t_start_s + sized.duration_s)
+    # 5 cm/s more to null than planned: lengthened to it at the planner's share of the largest pure force.
+    _, again = planned(estimate=heavy)
+    faster = before._replace(v_hill=before.v_hill + 0.05 * before.v_hill / np.linalg.norm(before.v_hill))
+    assert again._resolve(faster, *again._slews()[-1]) == []
+    longer = [b for b in again.plan.burns if b.purpose == 'push'][-1]
+    through = propagate(body, faster, again._slews()[-1], longer.t_start_s + 0.5 * longer.duration_s,
+                        again.config.planner)
+    assert longer.duration_s > planned_push.duration_s
+    assert float(np.linalg.norm(longer.force_body_n)) * longer.duration_s == pytest.approx(
+        body.mass_kg * float(np.linalg.norm(through.v_hill)), rel=1e-3)
+    assert float(np.linalg.norm(longer.force_body_n)) <= max(
+        float(np.linalg.norm(planned_push.force_body_n)), again.config.planner.push_force_fraction * push_axis(body)[1])
