@@ -267,7 +267,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         if at_rest and t >= self.t_check - 1e-9:
             if not self.pulses_pending(t):
                 events += self._check(state, h_wheels)
-            elif self.t_terminal is not None and self.monitoring(t):
+            elif self.monitoring(t):
                 events += self._monitor(state, h_wheels)
         for start, stop in self._slews():
             if start.t_start_s <= t_mid < start.t_start_s + period and start.t_start_s not in self.resolved:

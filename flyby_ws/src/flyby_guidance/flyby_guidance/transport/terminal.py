@@ -202,7 +202,7 @@ class TransportTerminal:
         where it would end the shortest horizon no nearer the margins than no firing (``terminal.kept_excess``: near
         the judgement, a transfer's first impulse to a rest point the body is already near is momentum it cannot
         take out again)."""
-        impulses, dv_given = terminal.impulses_for(self._transfer_impulse(state), problem)
+        impulses, _ = terminal.impulses_for(self._transfer_impulse(state), problem)
         pulses = self._pulses_of(impulses, problem.t0)
         horizon_s = terminal.HORIZONS_S[0]
         t_end = problem.t0 + horizon_s
@@ -211,7 +211,7 @@ class TransportTerminal:
             return []
         self._fire(pulses)
         impulse = float(impulses.sum())
-        predicted = cw_transition_matrix(self.n, horizon_s) @ (problem.x0 + np.concatenate((np.zeros(3), dv_given)))
+        predicted = terminal.firings_end(problem, [problem.t0], [impulses], t_end)
         momentum_n_s = self.body.mass_kg * float(np.linalg.norm(predicted[3:]))
         position_m = float(np.linalg.norm(predicted[:3]))
         return [('OK', events.TRANSPORT_TERMINAL, f'no terminal horizon feasible, the push axis along the transfer: '

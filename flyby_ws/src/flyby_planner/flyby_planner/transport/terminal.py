@@ -248,19 +248,26 @@ def solve(problem, horizons_s):
     return best
 
 
-def kept_excess(problem, slot_times_s, impulses_n_s, t_end_s):
-    """How far beyond the margins, without the firings' error, in units of each (position's and momentum's, summed
-    as the program's slacks: the largest slab's), a plan's firings still to come (at slot_times_s >= problem.t0,
-    impulses (K, J) [N s]) leave the state problem.x0 at t_end_s, CW (seed 000 eq 22): a plan flown is kept while
-    this stays as its own, and solved again from the estimate where it grows (guidance's check while it flies)."""
+def firings_end(problem, slot_times_s, impulses_n_s, t_end_s):
+    """The deviation from the rest point (6,) at t_end_s of the state problem.x0 at problem.t0 under firings at
+    slot_times_s (>= problem.t0, impulses (K, J) [N s]) at the attitude held, CW (seed 000 eq 22)."""
     m = problem.mass_kg
     end = cw_transition_matrix(problem.n, t_end_s - problem.t0) @ problem.x0
     for t_k, u_k in zip(slot_times_s, impulses_n_s, strict=True):
         dv_hill = _directions_hill(problem, t_k).T @ np.asarray(u_k, dtype=float) / m
         end = end + cw_transition_matrix(problem.n, t_end_s - t_k)[:, 3:] @ dv_hill
+    return end
+
+
+def kept_excess(problem, slot_times_s, impulses_n_s, t_end_s):
+    """How far beyond the margins, without the firings' error, in units of each (position's and momentum's, summed
+    as the program's slacks: the largest slab's), a plan's firings still to come leave the state problem.x0 at
+    t_end_s (``firings_end``): a plan flown is kept while this stays as its own, and solved again from the estimate
+    where it grows (guidance's check while it flies)."""
+    end = firings_end(problem, slot_times_s, impulses_n_s, t_end_s)
     held = [end] + [cw_transition_matrix(problem.n, k * problem.hold_s) @ end for k in HOLD_TIMES]
     position = float(np.max(np.abs(BALL_DIRECTIONS @ end[:3])))
-    momentum = m * max(float(np.max(np.abs(BALL_DIRECTIONS @ x[3:]))) for x in held)
+    momentum = problem.mass_kg * max(float(np.max(np.abs(BALL_DIRECTIONS @ x[3:]))) for x in held)
     return (max(0.0, position - problem.rho_position_m) / problem.rho_position_m
             + max(0.0, momentum - problem.rho_momentum_n_s) / problem.rho_momentum_n_s)
 
