@@ -158,14 +158,15 @@ class TransportNavigation:
         self.coast_s = 0.0  # the coast the last refinement took [s]
         self.filter = RelativeNavFilter(params.nav.config(initial_velocity_sigma_mps=self.VELOCITY_SIGMA_MPS,
                                                           gate_probability=self.GATE_PROBABILITY))
-        # The gate: the accelerometer's noise, or the noise of the rotation term omega_dot x p with omega_dot from
-        # two gyro samples where that is larger (a CoM metres from the chaser's; docs/transport.md).
-        self.accel_sigma_mps2 = max(params.accel_noise_sigma_mps2, float(np.linalg.norm(self.com_body_m)) * np.sqrt(
-            2.0) * params.gyro_noise_sigma_rad_s * params.imu_rate_hz)
+        # The noise of a_cm: the accelerometer's and that of the rotation term omega_dot x p with omega_dot from two
+        # gyro samples (a CoM metres from the chaser's; docs/transport.md), independent, so in quadrature.
+        self.accel_sigma_mps2 = float(np.hypot(params.accel_noise_sigma_mps2, float(np.linalg.norm(
+            self.com_body_m)) * np.sqrt(2.0) * params.gyro_noise_sigma_rad_s * params.imu_rate_hz))
         self.n = params.nav.mean_motion_rad_s
         self.positions = StampedBuffer(8)  # relative positions of the chaser's CoM waiting for their IMU sample
         self.commands = StampedBuffer(8)  # guidance's force commands [N, chaser_body] by the start of their period
         self.last = None  # (t, omega_body) of the previous IMU sample
+        self.firing_samples = 0  # the samples of the firing under way, each commanded (0: none)
         # A commanded firing's delta-v is known to its thrusters' execution errors (``command_error``).
         self.command_error = command_error(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
 
@@ -199,17 +200,13 @@ class TransportNavigation:
             command = self.commands.last_at_or_before(last[0] + STAMP_TOLERANCE_S)
             commanded = command is not None and abs(command[0] - last[0]) <= STAMP_TOLERANCE_S
             quiet = not (commanded and command[1][1])
-            if float(np.linalg.norm(a_cm)) > self.ACCEL_GATE_SIGMA * self.accel_sigma_mps2:  # a thrust (class doc)
-                quiet = False
-                dv_hill = c_hill @ a_cm * dt
-                dv_cross = skew(dv_hill)
-                cov = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
-                       + dv_cross @ estimate.attitude_covariance_hill @ dv_cross.T)
-                f.add_thrust_error(last[0], t, dv_hill, cov)  # nothing modelled: the whole measured delta-v
-            elif commanded and np.any(command[1][0]):
-                dv_hill = c_hill @ command[1][0] * (dt / self.mass_kg)  # the commanded delta-v, unseen
-                f.add_thrust_error(last[0], t, dv_hill, (self.command_error * float(np.linalg.norm(
-                    dv_hill))) ** 2 * np.eye(3))
+            seen = float(np.linalg.norm(a_cm)) > self.ACCEL_GATE_SIGMA * self.accel_sigma_mps2  # a thrust (class doc)
+            dv_command = c_hill @ command[1][0] * (dt / self.mass_kg) if commanded and np.any(command[1][0]) else None
+            self.firing_samples = 0 if dv_command is None else self.firing_samples + 1
+            if seen or dv_command is not None:
+                quiet = quiet and not seen
+                f.add_thrust_error(last[0], t, *self._thrust_delta_v(
+                    c_hill @ a_cm * dt if seen else None, dv_command, dt, estimate.attitude_covariance_hill))
         if not quiet:
             self.coast = None
         r_point, v_point = body_point_state(c_hill, self.last[1], p, self.n)  # the chaser's CoM from the combined
@@ -238,6 +235,33 @@ class TransportNavigation:
             f.propagate_to(t)
         s = f.state()
         return (s.r_hill + r_point, s.v_hill + v_point, s.covariance), refined
+
+    def _thrust_delta_v(self, dv_measured, dv_command, dt, attitude_covariance_hill):
+        """(delta-v [m/s, hill], its 3x3 covariance) of a sample's thrust: the accelerometer's (dv_measured, None where
+        it sees none) and the command's (dv_command, None where none was given) fused at their inverse covariances,
+        the least-variance estimate of the two (the command's on a heavy body, whose small firings the accelerometer
+        barely sees; the accelerometer's on a light one); either alone where the other is none, and the
+        accelerometer's alone where the two differ beyond ACCEL_GATE_SIGMA of their joint covariance (a thrust the
+        command does not explain). A thruster's execution error is the same over a firing, not white as the
+        accelerometer's noise: the k-th sample of a firing (``firing_samples``) carries 2k - 1 times one sample's
+        variance, so k samples carry k^2 (the error of their sum), and a long firing is the accelerometer's."""
+        if dv_measured is not None:
+            dv_cross = skew(dv_measured)
+            cov_measured = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
+                            + dv_cross @ attitude_covariance_hill @ dv_cross.T)
+        if dv_command is not None:
+            cov_command = (2 * max(self.firing_samples, 1) - 1) * (self.command_error * float(np.linalg.norm(
+                dv_command))) ** 2 * np.eye(3)
+            if dv_measured is None:
+                return dv_command, cov_command
+        else:
+            return dv_measured, cov_measured
+        miss = dv_measured - dv_command
+        if miss @ np.linalg.solve(cov_measured + cov_command, miss) > self.ACCEL_GATE_SIGMA**2:
+            return dv_measured, cov_measured
+        info_measured, info_command = np.linalg.inv(cov_measured), np.linalg.inv(cov_command)
+        cov = np.linalg.inv(info_measured + info_command)
+        return cov @ (info_measured @ dv_measured + info_command @ dv_command), cov
 
     def refine(self, t):
         """At a stamp of COM_PERIOD_S's grid: the combined CoM from the chaser's [m, chaser_body], its 1-sigma per

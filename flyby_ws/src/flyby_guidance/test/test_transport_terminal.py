@@ -414,7 +414,9 @@ def test_a_plans_later_firings_are_kept_while_the_estimate_follows_it_and_solved
     problem = control._terminal_problem(state, np.zeros(3), control._momentum_margin(
         control._velocity_sigma_mps(t0)))
     excess = planner_terminal.kept_excess(problem, np.array([t_slot]), impulses, t_end)
-    control._fire(control._pulses_of(impulses[0], t_slot), (np.array([t_slot]), impulses, t_end, excess))
+    plan = planner_terminal.TerminalSolution(t_end - t_slot, np.array([t_slot]), impulses, np.zeros(6), np.zeros(3),
+                                             (0.0, excess))
+    control._fire(control._pulses_of(impulses[0], t_slot), plan)
     pulses = list(control.pulses)
     t = t0 + 20.0
     control.t_check = t
@@ -424,3 +426,22 @@ def test_a_plans_later_firings_are_kept_while_the_estimate_follows_it_and_solved
     events = estimate(control, t, control.rest, v_com=(0.0, 3e-3, 0.0), q_hill=held(control, t, q_eci))[3]
     assert [e[1] for e in events] == [TRANSPORT_TERMINAL] and control.pulses != pulses
     assert control.pulses[0][0] == pytest.approx(t + 2.0 * P)  # solved again from this estimate
+
+
+def test_a_plans_slots_fire_one_after_another_and_a_later_slot_within_an_earlier_ones_firing_waits_for_its_end():
+    """A plan's first slot (at the check) whose firing reaches past the grid's next time: the next slot's firing starts
+    at its end, one command a period, every impulse delivered (before, the periods both claimed fired the first's)."""
+    body, control, t0, _ = arrived()
+    layout = body.layout
+    impulses = np.zeros((2, layout.count))
+    impulses[0, 0] = 3.0 * layout.max_thrust_n[0] * P  # three periods at full thrust
+    impulses[1, 1] = 2.0 * layout.min_impulse_bit_n_s
+    t_first = round(t0 / P) * P
+    plan = planner_terminal.TerminalSolution(100.0, np.array([t_first, t_first + P]), impulses, np.zeros(6),
+                                             np.zeros(3), (0.0, 0.0))
+    pulses = control._pulses_of_plan(plan)
+    starts = [a for a, _, _, _ in pulses]
+    assert starts == sorted(starts) and all(b <= c + 1e-9 for (_, b, _, _), c in zip(pulses, starts[1:]))
+    delivered = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in pulses)  # one thruster a period
+    assert delivered == pytest.approx(impulses.sum(), rel=1e-6)
+    assert starts[3] == pytest.approx(t_first + 3.0 * P)

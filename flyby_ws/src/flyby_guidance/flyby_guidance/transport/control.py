@@ -152,7 +152,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.turning = None
         self.t_terminal = None
         self.pulses = []  # (t_start, t_end, force_body_n, torque_body_n_m) of the firings on the grid
-        self.kept = None  # the terminal plan flown: (slot times, impulses, end time, excess; ``_monitor``)
+        self.kept = None  # the terminal plan flown, its TerminalSolution (``_monitor``)
         self.t_fired = -np.inf  # the end of the last terminal firing [s]
         self.t_held = None  # the conditions have held since [s]
         self.issued = None  # (t, force, torque) of the last command: it acts from t + period, after the estimate at t

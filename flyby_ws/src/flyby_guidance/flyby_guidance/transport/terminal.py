@@ -103,10 +103,7 @@ class TransportTerminal:
             return []
         # The whole plan flown, then a new solve after its last firing: a plan of a few bits is a sequence (a start
         # and a stop, a pair that nets less than a bit), and solved again after each part it would be another one.
-        self._fire([pulse for k in planned
-                    for pulse in self._pulses_of(solution.impulses_n_s[k], solution.slot_times_s[k])],
-                   (solution.slot_times_s[planned], solution.impulses_n_s[planned], problem.t0 + solution.horizon_s,
-                    solution.excess[1]))
+        self._fire(self._pulses_of_plan(solution), solution)
         impulse = float(solution.impulses_n_s.sum())
         predicted_n_s = self.body.mass_kg * float(np.linalg.norm(solution.predicted[3:]))
         predicted_m = float(np.linalg.norm(solution.predicted[:3]))
@@ -118,9 +115,9 @@ class TransportTerminal:
                   'predicted_momentum_n_s': predicted_n_s, 'predicted_position_m': predicted_m})]
 
     def _fire(self, pulses, kept=None):
-        """Fly the terminal firings (``_pulses_of``'s periods). A program's plan (kept: its slot times, impulses, end
-        and excess beyond the margins) is checked at the checks while its later firings wait (``_monitor``); other
-        firings, the next solve a replan interval after the last."""
+        """Fly the terminal firings (``_pulses_of``'s periods). A program's plan (kept, its TerminalSolution) is
+        checked at the checks while its later firings wait (``_monitor``); other firings, the next solve a replan
+        interval after the last."""
         self.pulses, self.kept = pulses, kept
         self.t_fired = pulses[-1][1]
         if kept is None:
@@ -143,10 +140,12 @@ class TransportTerminal:
         sigma_v = self._velocity_sigma_mps(state.t)
         if sigma_v is None:
             return []
-        times, impulses, t_end, excess = self.kept
+        kept = self.kept
         problem = self._terminal_problem(state, h_wheels, self._momentum_margin(sigma_v))
-        later = times >= problem.t0 - 1e-9
-        if terminal.kept_excess(problem, times[later], impulses[later], t_end) <= excess + KEPT_EXCESS:
+        later = kept.slot_times_s >= problem.t0 - 1e-9
+        t_end = kept.slot_times_s[0] + kept.horizon_s
+        if terminal.kept_excess(problem, kept.slot_times_s[later], kept.impulses_n_s[later],
+                                t_end) <= kept.excess[1] + KEPT_EXCESS:
             return []
         self.pulses = [pulse for pulse in self.pulses if pulse[0] < state.t]
         self.kept = None
@@ -156,6 +155,16 @@ class TransportTerminal:
         """True where a kept plan's later firings wait and none fires within the next two control periods."""
         p = self.config.planner.period_s
         return self.kept is not None and not any(a <= t + 2.0 * p and b > t for a, b, _, _ in self.pulses)
+
+    def _pulses_of_plan(self, solution):
+        """``_pulses_of`` of each slot of a TerminalSolution that fires, each slot's from its time or from the end of
+        the slot's before where that is later (the first slot, at a check, may lie within a firing of the grid's next
+        time, and a period has one command: the later slot's firings were lost)."""
+        pulses = []
+        for t_slot, impulses in zip(solution.slot_times_s, solution.impulses_n_s, strict=True):
+            if np.any(impulses):
+                pulses += self._pulses_of(impulses, max(t_slot, pulses[-1][1] if pulses else -math.inf))
+        return pulses
 
     def _pulses_of(self, impulses_n_s, t_first):
         """[(t_start, t_end, force_body_n, torque_body_n_m)] of the control periods from t_first [s] that fire the
