@@ -441,7 +441,8 @@ def test_a_plans_slots_fire_one_after_another_and_a_later_slot_within_an_earlier
                                              np.zeros(3), (0.0, 0.0))
     pulses = control._pulses_of_plan(plan)
     starts = [a for a, _, _, _ in pulses]
-    assert starts == sorted(starts) and all(b <= c + 1e-9 for (_, b, _, _), c in zip(pulses, starts[1:]))
+    ends = [b for _, b, _, _ in pulses]
+    assert starts == sorted(starts) and all(b <= c + 1e-9 for b, c in zip(ends[:-1], starts[1:], strict=True))
     delivered = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in pulses)  # one thruster a period
     assert delivered == pytest.approx(impulses.sum(), rel=1e-6)
     assert starts[3] == pytest.approx(t_first + 3.0 * P)
