@@ -1,6 +1,7 @@
 """Guidance in TRANSPORT after the arrival (flyby_guidance.transport.terminal): the terminal program's firings, a
 turning body damped first, a turn or a new transfer where the program has no horizon, the couple's pulse."""
 
+import math
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ from transport_guidance_testing import (
     arrived,
     estimate,
     held,
+    planned,
 )
 
 from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING, WHEEL_SPINUP_S
@@ -446,3 +448,17 @@ def test_a_plans_slots_fire_one_after_another_and_a_later_slot_within_an_earlier
     delivered = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in pulses)  # one thruster a period
     assert delivered == pytest.approx(impulses.sum(), rel=1e-6)
     assert starts[3] == pytest.approx(t_first + 3.0 * P)
+
+
+def test_the_navigations_sigma_from_before_a_burn_is_not_taken_after_it():
+    """A sigma reported before the plan's last burn says nothing of the estimate after it (the accelerometer's noise
+    over the burn): none until the next report after the burn, which is taken."""
+    _, control = planned()
+    last = max(control.plan.burns, key=lambda b: b.t_start_s)
+    t_after = last.t_start_s + last.duration_s + 10.0
+    control.refine_com(last.t_start_s - 5.0, control.body.com_body_m.tolist(), [1e-4] * 3, 0.01, 1e-5)
+    control._take_com(t_after)
+    assert control._velocity_sigma_mps(t_after) is None
+    control.refine_com(t_after, control.body.com_body_m.tolist(), [1e-4] * 3, 0.01, 1e-5)
+    control._take_com(t_after)
+    assert control._velocity_sigma_mps(t_after) == pytest.approx(math.hypot(1e-5, control.n * 1e-4))

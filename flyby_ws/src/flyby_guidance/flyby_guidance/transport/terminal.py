@@ -63,13 +63,28 @@ class TransportTerminal:
     def _velocity_sigma_mps(self, t):
         """The navigation's velocity 1-sigma at t [m/s]: the last estimate's, with the combined CoM's (an error dc is
         n x C dc of velocity, the body turning in hill at n) and the command error of every terminal firing since (a
-        known input to the navigation); None before the first."""
-        if self.nav_sigma is None:
+        known input to the navigation); None before the first, and before the first after a burn or a thrusters'
+        turn (``_burned_since``)."""
+        if self.nav_sigma is None or self._burned_since(self.nav_sigma[0], t):
             return None
         t_sigma, _, sigma_v, sigma_c = self.nav_sigma
         fired_n_s = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in self.pulses
                         if t_sigma - 1e-9 <= a < t)
         return math.hypot(math.hypot(sigma_v, self.n * sigma_c), self.command_error * fired_n_s / self.body.mass_kg)
+
+    def _burned_since(self, t_from, t_to):
+        """True where a burn of the plan, or a turn by the thrusters' couples, fired between t_from and t_to [s]: the
+        navigation's sigma from before it says nothing of after it (the accelerometer's noise over the burn, the side
+        forces of the couples; transport_envelope draw 17's estimate was 15-47 of that sigma off after a transfer
+        flown again and after a turn)."""
+        p = self.config.planner.period_s
+        if self.plan is not None and any(b.t_start_s < t_to and b.t_start_s + b.duration_s + p > t_from
+                                         for b in self.plan.burns):
+            return True
+        if self.turning is None or self.wheels_steer:
+            return False
+        t0, _, _, angle, rate = self.turning
+        return t0 < t_to and t0 + angle / rate + WHEEL_SPINUP_S > t_from
 
     def _terminal(self, state, h_wheels):
         """At a check with nothing firing: the terminal program from the estimate (module doc); its firings
