@@ -199,12 +199,11 @@ class TransportNavigation:
             f.propagate_to(t)
             command = self.commands.last_at_or_before(last[0] + STAMP_TOLERANCE_S)
             commanded = command is not None and abs(command[0] - last[0]) <= STAMP_TOLERANCE_S
-            quiet = not (commanded and command[1][1])
             seen = float(np.linalg.norm(a_cm)) > self.ACCEL_GATE_SIGMA * self.accel_sigma_mps2  # a thrust (class doc)
+            quiet = not (commanded and command[1][1]) and not seen
             dv_command = c_hill @ command[1][0] * (dt / self.mass_kg) if commanded and np.any(command[1][0]) else None
             self.firing_samples = 0 if dv_command is None else self.firing_samples + 1
             if seen or dv_command is not None:
-                quiet = quiet and not seen
                 f.add_thrust_error(last[0], t, *self._thrust_delta_v(
                     c_hill @ a_cm * dt if seen else None, dv_command, dt, estimate.attitude_covariance_hill))
         if not quiet:
@@ -245,16 +244,14 @@ class TransportNavigation:
         command does not explain). A thruster's execution error is the same over a firing, not white as the
         accelerometer's noise: the k-th sample of a firing (``firing_samples``) carries 2k - 1 times one sample's
         variance, so k samples carry k^2 (the error of their sum), and a long firing is the accelerometer's."""
-        if dv_measured is not None:
-            dv_cross = skew(dv_measured)
-            cov_measured = ((self.accel_sigma_mps2 * dt) ** 2 * np.eye(3)
-                            + dv_cross @ attitude_covariance_hill @ dv_cross.T)
         if dv_command is not None:
-            cov_command = (2 * max(self.firing_samples, 1) - 1) * (self.command_error * float(np.linalg.norm(
+            cov_command = (2 * self.firing_samples - 1) * (self.command_error * float(np.linalg.norm(
                 dv_command))) ** 2 * np.eye(3)
             if dv_measured is None:
                 return dv_command, cov_command
-        else:
+        dv_cross = skew(dv_measured)
+        cov_measured = (self.accel_sigma_mps2 * dt) ** 2 * np.eye(3) + dv_cross @ attitude_covariance_hill @ dv_cross.T
+        if dv_command is None:
             return dv_measured, cov_measured
         miss = dv_measured - dv_command
         if miss @ np.linalg.solve(cov_measured + cov_command, miss) > self.ACCEL_GATE_SIGMA**2:

@@ -83,8 +83,7 @@ class TransportTerminal:
             return True
         if self.turning is None or self.wheels_steer:
             return False
-        t0, _, _, angle, rate = self.turning
-        return t0 < t_to and t0 + angle / rate + WHEEL_SPINUP_S > t_from
+        return self.turning[0] < t_to and self._turn_end_s() > t_from
 
     def _terminal(self, state, h_wheels):
         """At a check with nothing firing: the terminal program from the estimate (module doc); its firings
@@ -293,12 +292,17 @@ class TransportTerminal:
         side_n_s_per_rad_s = 2.0 * size * float(np.linalg.norm(wrench[0])) / TURN_PROBE_N_M
         return terminal.STAGE_FRACTION * corrected_n_s / side_n_s_per_rad_s if side_n_s_per_rad_s > 0.0 else math.inf
 
-    def _turn_under_way(self, t):
-        """True from a turn's start until its check: its angle at its rate and the wheels' spin-down after it."""
+    def _turn_end_s(self):
+        """The end [s] of the turn under way or last made: its angle at its rate and the wheels' spin-down after it
+        (its check); None without one."""
         if self.turning is None:
-            return False
+            return None
         t0, _, _, angle, rate = self.turning
-        return t < t0 + angle / rate + WHEEL_SPINUP_S - 1e-9
+        return t0 + angle / rate + WHEEL_SPINUP_S
+
+    def _turn_under_way(self, t):
+        """True from a turn's start until its check (``_turn_end_s``)."""
+        return self.turning is not None and t < self._turn_end_s() - 1e-9
 
     def _held(self, t):
         """The attitude the wheels hold at t (q_eci_from_body): the hold, or where it is along a turn."""
