@@ -24,7 +24,13 @@ from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
 )
 from flyby_guidance.transport.push import REPLAN_FRACTION, STEER_MAX_RAD, STEER_SETTLE_S, push_response
-from flyby_guidance.transport.terminal import AIM_FRACTION, NAV_SIGMAS, TERMINAL_ROUNDS, settle_bound_s
+from flyby_guidance.transport.terminal import (
+    AIM_FRACTION,
+    NAV_SIGMAS,
+    TERMINAL_ROUNDS,
+    navigation_coast_s,
+    settle_bound_s,
+)
 from flyby_msgs_py.event_payloads import decode_values
 from flyby_msgs_py.events import (
     MASS_PROPERTIES_ESTIMATED,
@@ -338,13 +344,12 @@ def test_the_settle_bound_is_rounds_of_a_coast_that_learns_the_velocity_a_firing
     AIM_FRACTION of the third condition at NAV_SIGMAS, at least the combined CoM's period, then the shortest horizon
     and a replan interval; then the hold."""
     mass, bound, hold, replan = 50.2, 0.01, 60.0, 20.0
-    total = settle_bound_s(mass, bound, 0.01, 10.0, hold, 0.0, replan)
+    total = settle_bound_s(navigation_coast_s(mass, bound, 0.01, 10.0, 0.0), hold, replan)
     coast_s = (total - hold) / TERMINAL_ROUNDS - HORIZONS_S[0] - replan
     times = np.arange(0.0, coast_s, 0.1)
     sigma_v = 0.01 / math.sqrt(float(np.sum((times - times.mean()) ** 2)))
     assert NAV_SIGMAS * mass * sigma_v == pytest.approx(AIM_FRACTION * bound, rel=0.01)
-    assert settle_bound_s(mass, bound, 0.01, 10.0, hold, 1000.0, replan) == pytest.approx(
-        TERMINAL_ROUNDS * (1000.0 + HORIZONS_S[0] + replan) + hold)
+    assert navigation_coast_s(mass, bound, 0.01, 10.0, 1000.0) == 1000.0
 
 
 def test_seed000_eq22_push_response_against_integrated_cw():

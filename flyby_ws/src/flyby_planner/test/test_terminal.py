@@ -240,6 +240,35 @@ def test_a_state_at_rest_at_the_rest_point_fires_nothing():
         np.testing.assert_allclose(solution.predicted, _cw_flow(solution.horizon_s) @ x0, atol=1e-12)
 
 
+@pytest.mark.parametrize('x0', ((0.0, 0.0, 0.2, 0.0, 0.0, 0.0), (0.0, 0.3, 0.0, 0.0, 0.0, 0.0)))
+def test_a_body_off_its_rest_point_is_brought_to_it_where_the_judgements_window_asks(x0):
+    """At rest 0.2 m radially or 0.3 m cross-track off the rest point, the momentum stays within its margin over the
+    shortest horizon and the hold (CW's drift, 3 n^2 m and n^2 m per metre, is a few millinewton seconds a minute on
+    the TugRobot's 50 kg), but not over a judgement's window of 1000 s: with the window the program transfers the
+    body to within a fifth of the offset across V-bar and keeps the momentum within its margin over the window (CW
+    from the predicted end, integrated independently: within the margins' ball at the program's WINDOW_TIMES, within
+    twice it between them), without it fires for the hold alone."""
+    window_s = 1000.0
+
+    def window_momentum_n_s(solution, mass, count):
+        return max(mass * float(np.linalg.norm((_cw_flow(t) @ solution.predicted)[3:]))
+                   for t in np.linspace(0.0, window_s, count))
+
+    x0 = np.asarray(x0)
+    unwindowed = terminal.solve(_problem(x0), terminal.HORIZONS_S)
+    problem = _problem(x0)._replace(window_s=window_s)
+    solution = terminal.solve(problem, terminal.HORIZONS_S)
+    assert unwindowed.horizon_s == terminal.HORIZONS_S[0] and solution.horizon_s > terminal.HORIZONS_S[0]
+    assert solution.excess == (0.0, 0.0) and solution.window_excess == pytest.approx(0.0, abs=1e-6)
+    assert window_momentum_n_s(unwindowed, problem.mass_kg, 41) > 3.0 * problem.rho_momentum_n_s
+    rho_ball = problem.rho_momentum_n_s / terminal.BALL_SLAB_FACTOR
+    assert window_momentum_n_s(solution, problem.mass_kg, terminal.WINDOW_TIMES + 1) <= rho_ball * (1.0 + 1e-6)
+    assert window_momentum_n_s(solution, problem.mass_kg, 41) <= 2.0 * rho_ball
+    # Cross-track and radial, whose offsets drift (along V-bar is a rest point too).
+    assert float(np.linalg.norm(solution.predicted[1:3])) < 0.2 * float(np.linalg.norm(x0[1:3]))
+    np.testing.assert_allclose(solution.predicted, _propagated(problem, solution), atol=1e-9)
+
+
 def test_a_force_outside_the_thrusters_cone_reaches_no_margin_over_the_shortest_horizon():
     """The body's +x along hill x and no thruster pushing along -x: 1 mm/s along +x needs a force against the push
     axis, which the side thrusters give over 60 s only through CW's coupling: the program's best end lies beyond the

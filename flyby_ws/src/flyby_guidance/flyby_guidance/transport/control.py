@@ -30,7 +30,7 @@ import numpy as np
 from flyby_estimation.transport_navigation import COM_PERIOD_S, command_error
 from flyby_guidance.transport.attitude import DETUMBLED_S, WHEEL_SPINUP_S, TransportAttitude
 from flyby_guidance.transport.push import TransportPush
-from flyby_guidance.transport.terminal import TransportTerminal, settle_bound_s
+from flyby_guidance.transport.terminal import TransportTerminal, navigation_coast_s, settle_bound_s
 from flyby_msgs_py import events, params
 from flyby_msgs_py.wire import STAMP_TOLERANCE_S
 from flyby_planner.transport.model import (
@@ -195,8 +195,9 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
                                 if self.wheels_steer else self.config.planner.slew_rate_rad_s)
         cfg = self.config
         self.command_error = command_error(cfg.thrust_magnitude_sigma, np.radians(cfg.thrust_misalignment_sigma_deg))
-        self.settle_bound = settle_bound_s(body.mass_kg, cfg.planner.max_momentum_error_n_s, cfg.position_sigma_m,
-                                           cfg.position_rate_hz, cfg.hold_s, COM_PERIOD_S, cfg.replan_interval_s)
+        self.coast_s = navigation_coast_s(body.mass_kg, cfg.planner.max_momentum_error_n_s, cfg.position_sigma_m,
+                                          cfg.position_rate_hz, COM_PERIOD_S)
+        self.settle_bound = settle_bound_s(self.coast_s, cfg.hold_s, cfg.replan_interval_s)
 
     def command(self, t, r_chaser_hill, v_chaser_hill, q_hill_from_body, omega_body, h_wheels_body_n_m_s):
         """(force [N], torque about the chaser's CoM [N m], wheel motor torque [N m], chaser_body; events) for the

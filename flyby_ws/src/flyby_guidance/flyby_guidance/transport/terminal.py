@@ -39,15 +39,18 @@ KEPT_EXCESS = 0.5  # a plan flown is solved again once its firings to come end t
 TURN_PROBE_N_M = 0.01  # the couple at which a turn's side force per couple is found (within any thrusters' reach)
 
 
-def settle_bound_s(mass_kg, bound_n_s, position_sigma_m, position_rate_hz, hold_s, com_period_s,
-                   replan_interval_s):
-    """The time after the arrival the conditions need, stated before the flight [s]: TERMINAL_ROUNDS rounds, each a
-    coast over which the navigation learns the velocity within AIM_FRACTION of the third condition at NAV_SIGMAS (a
-    constant velocity from positions of 1-sigma s at f Hz over T: sigma_v = s sqrt(12 / (f T^3))), at least one
-    period of the combined CoM's estimate, then the shortest horizon's firings and a check; and the hold."""
+def navigation_coast_s(mass_kg, bound_n_s, position_sigma_m, position_rate_hz, com_period_s):
+    """The coast [s] over which the navigation learns the velocity within AIM_FRACTION of the third condition at
+    NAV_SIGMAS (a constant velocity from positions of 1-sigma s at f Hz over T: sigma_v = s sqrt(12 / (f T^3))), at
+    least one period of the combined CoM's estimate."""
     sigma_v = AIM_FRACTION * bound_n_s / (NAV_SIGMAS * mass_kg)
-    coast_s = (12.0 * position_sigma_m**2 / (position_rate_hz * sigma_v**2)) ** (1.0 / 3.0)
-    return TERMINAL_ROUNDS * (max(coast_s, com_period_s) + terminal.HORIZONS_S[0] + replan_interval_s) + hold_s
+    return max((12.0 * position_sigma_m**2 / (position_rate_hz * sigma_v**2)) ** (1.0 / 3.0), com_period_s)
+
+
+def settle_bound_s(coast_s, hold_s, replan_interval_s):
+    """The time after the arrival the conditions need, stated before the flight [s]: TERMINAL_ROUNDS rounds, each the
+    navigation's coast (``navigation_coast_s``), then the shortest horizon's firings and a check; and the hold."""
+    return TERMINAL_ROUNDS * (coast_s + terminal.HORIZONS_S[0] + replan_interval_s) + hold_s
 
 
 class TransportTerminal:
@@ -207,7 +210,8 @@ class TransportTerminal:
             self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,
             rho_r, rho_p * terminal.BALL_SLAB_FACTOR, cfg.hold_s,
             cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
-            terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m), NAV_SIGMAS * self.command_error)
+            terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m), NAV_SIGMAS * self.command_error,
+            self.coast_s + cfg.hold_s)
 
     def _transfer_impulse(self, state):
         """The first impulse [m/s, hill] of CW's transfer to the rest point over the longest horizon left (seed 000

@@ -46,6 +46,8 @@ HORIZONS_S = (60.0, 120.0, 240.0, 480.0, 960.0, 1920.0, 2880.0)  # the terminal 
 SLOTS = 4  # firing times per horizon: its start, then multiples of a quarter of it
 HOLD_TIMES = (1,)  # the momentum within its margin also this many hold_s after the end: the rest the program leaves
 #                   lasts through the judgement's hold
+WINDOW_TIMES = 4  # the momentum over the judgement's window after the end, at this many times evenly within it ...
+WINDOW_WEIGHT = 10.0  # ... a margin beyond it costing this many margins of momentum in impulse (not an excess)
 MAX_PULSE_S = 30.0  # a thruster's firing in a slot at most this long at full thrust [s]
 BIT_MARGIN = 1.05  # a firing's impulse at least this many minimum impulse bits: the plant fires it whole
 TURN_RAD = 0.02  # a slot's couple is one the wheels stop within this turn of the body [rad]
@@ -59,7 +61,8 @@ STAGE_FRACTION = 0.25  # a state whose momentum would end beyond the margin by i
 #                        off it starts, and no plan fires more than its error allows (the stage's slack)
 EXCESS_WEIGHT = 100.0  # a margin's worth of excess costs this many margins of momentum in impulse ...
 STAGE_WEIGHT = 1000.0  # ... and beyond a stage with the error, this many
-SLACKS = ('stage position', 'stage momentum', 'position', 'momentum')  # the program's slack variables, last
+SLACKS = ('stage position', 'stage momentum', 'position', 'momentum', 'window momentum')  # the program's slack
+#                                                                                      variables, last
 EXCESS_TOLERANCE = 1e-6  # an excess below this (in margins) is none
 MOMENTUM_WEIGHT = 2.0  # w: a newton second of end momentum costs twice one of impulse, so the program takes out what
 #                        the bit allows rather than ride the margin's edge
@@ -101,6 +104,7 @@ class TerminalProblem(NamedTuple):
     rho_wheels_n_m_s: float  # the wheels' momentum per body axis
     couple_max_n_m_s: float  # a slot's couple per body axis
     impulse_error: float  # a firing's execution error at the margins' sigmas, per unit impulse (magnitude, direction)
+    window_s: float = 0.0  # the judgement's window after the end: the navigation's coast and the hold [s]
 
 
 class TerminalSolution(NamedTuple):
@@ -113,6 +117,7 @@ class TerminalSolution(NamedTuple):
     h_wheels_body_n_m_s: np.ndarray  # (3,) the wheels' momentum then
     excess: tuple  # how far the end lies beyond a stage with the error, and beyond the margins without it, in
 #                    units of each margin (0: within)
+    window_excess: float = 0.0  # how far beyond the momentum's margin the window after the end goes, in margins
 
 
 def couple_limit(inertia_body_kg_m2, wheel_max_torque_n_m):
@@ -206,16 +211,35 @@ def _program(problem, horizon_s):
                                                    (a_v, np.zeros_like(e_v), rho_p, p_free))):
         rows += [LinearConstraint(on_u(a_x + e_x, col), -np.inf, rho - x_free),
                  LinearConstraint(on_u(e_x - a_x, col), -np.inf, rho + x_free)]
+    rows += _window_rows(problem, effect, free, on_u)
     slot_cost = np.repeat(1.0 + LATER_SLOT_COST * np.arange(k_count), j_count)
     # Each slack in units of its margin, weighed as its tier's margins of momentum: the program fires what brings
     # the end nearest its margins before it saves fuel, and keeps its error within a stage before that.
     per_margin = rho_p / _slack_units(problem)
-    slack_cost = per_margin * np.repeat((STAGE_WEIGHT, EXCESS_WEIGHT), 2)
+    slack_cost = per_margin * np.append(np.repeat((STAGE_WEIGHT, EXCESS_WEIGHT), 2), WINDOW_WEIGHT)
     cost = np.concatenate((slot_cost, np.zeros(size), np.full(3, MOMENTUM_WEIGHT), slack_cost))
     n_var = 2 * size + 3 + len(SLACKS)
     bounds = Bounds(np.zeros(n_var), np.concatenate((u_max, np.ones(size), np.full(3 + len(SLACKS), np.inf))))
     integrality = np.concatenate((np.zeros(size), np.ones(size), np.zeros(3 + len(SLACKS))))
     return cost, rows, bounds, integrality, slots, effect, free
+
+
+def _window_rows(problem, effect, free, on_u):
+    """The momentum within its margin, beyond it by the window's slack, at WINDOW_TIMES times over the judgement's
+    window after the end (CW from the end): the judgement needs the navigation's coast and the hold after the last
+    firing, and a body off its rest point gains momentum all the while (n^2 m per metre cross-track, 3 n^2 m
+    radially: 0.14 m cross-track on 1254 kg is 0.012 N s a minute). Soft and not an excess: where the thrusters
+    cannot bring the body to its rest point at the attitude held, the plan that comes nearest it."""
+    if problem.window_s <= 0.0:
+        return []
+    m = problem.mass_kg
+    flows = [cw_transition_matrix(problem.n, problem.window_s * (k + 1) / WINDOW_TIMES)[3:]
+             for k in range(WINDOW_TIMES)]
+    a_w = np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in flows]) * m
+    p_w = np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in flows]) * m
+    col = SLACKS.index('window momentum')
+    rho = problem.rho_momentum_n_s
+    return [LinearConstraint(on_u(a_w, col), -np.inf, rho - p_w), LinearConstraint(on_u(-a_w, col), -np.inf, rho + p_w)]
 
 
 def solve(problem, horizons_s):
@@ -230,7 +254,7 @@ def solve(problem, horizons_s):
         cost, rows, bounds, integrality, slots, effect, free = _program(problem, horizon_s)
         if best is not None:
             relaxed = milp(cost, constraints=rows, bounds=bounds, options={'presolve': False})
-            if relaxed.x is None or not _nearer(_excess(problem, relaxed.x), best.excess):
+            if relaxed.x is None or not _nearer(_excess(problem, relaxed.x), best.excess + (best.window_excess,)):
                 continue
         result = milp(cost, constraints=rows, bounds=bounds, integrality=integrality,
                       options={'node_limit': MILP_NODE_LIMIT, 'presolve': False})
@@ -241,8 +265,8 @@ def solve(problem, horizons_s):
         impulses = u.reshape(len(slots), j_count)
         h_end = problem.h_wheels_body_n_m_s + problem.couples_body_m.T @ impulses.sum(axis=0)
         excess = _excess(problem, result.x)
-        if best is None or _nearer(excess, best.excess):
-            best = TerminalSolution(horizon_s, slots, impulses, free + effect @ u, h_end, excess)
+        if best is None or _nearer(excess, best.excess + (best.window_excess,)):
+            best = TerminalSolution(horizon_s, slots, impulses, free + effect @ u, h_end, excess[:2], excess[2])
         if max(excess) <= EXCESS_TOLERANCE:
             break
     return best
@@ -273,23 +297,25 @@ def kept_excess(problem, slot_times_s, impulses_n_s, t_end_s):
 
 
 def _excess(problem, x):
-    """(beyond the stage, beyond the margins) of a point of the program, each in units of the margins (its last
-    variables, the SLACKS)."""
+    """(beyond the stage, beyond the margins, beyond the window's margin) of a point of the program, each in units of
+    the margins (its last variables, the SLACKS)."""
     s = x[-len(SLACKS):] / _slack_units(problem)
-    return float(s[0] + s[1]), float(s[2] + s[3])
+    return float(s[0] + s[1]), float(s[2] + s[3]), float(s[4])
 
 
 def _slack_units(problem):
     """The margin each slack of SLACKS is counted in: the position's, the momentum's, for the stage and the
     margins alike."""
-    return np.array((problem.rho_position_m, problem.rho_momentum_n_s) * 2)
+    return np.array((problem.rho_position_m, problem.rho_momentum_n_s) * 2 + (problem.rho_momentum_n_s,))
 
 
 def _nearer(excess, than):
-    """True where an excess (beyond the stage, beyond the margins) is nearer than another: the stage's first."""
-    if abs(excess[0] - than[0]) > EXCESS_TOLERANCE:
-        return excess[0] < than[0]
-    return excess[1] < than[1] - EXCESS_TOLERANCE
+    """True where an excess (``_excess``) is nearer than another: the stage's first, then the margins', then the
+    window's."""
+    for mine, theirs in zip(excess, than, strict=True):
+        if abs(mine - theirs) > EXCESS_TOLERANCE:
+            return mine < theirs
+    return False
 
 
 def firing_periods(impulses_n_s, max_thrust_n, min_impulse_bit_n_s, period_s):
