@@ -20,18 +20,18 @@ CW's to first order (seed 000 eq 22). With u_kj >= 0 the impulse of thruster j a
          |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity
          |sum_j tau_j u_kj|_inf <= couple_max                     a slot's couple the wheels stop within a small turn
 
-The conditions are soft: each slack s >= 0 costs its tier's weight per margin, so the program always has a plan,
-the one whose end comes nearest (the stage with the error first, STAGE_WEIGHT, then the margins without it,
-EXCESS_WEIGHT; then the window's, WINDOW_WEIGHT), and says how far beyond it ends (``TerminalSolution.excess``
-and ``window_excess``); a state it cannot bring nearer fires nothing. A plan need not end within the margins with its error: the next plan, from the estimate that has seen it,
-takes the error out (its own error a share of that); one that ends, error included, beyond a stage is the last
-resort, and says by how much.
-scipy.optimize.milp (HiGHS), bounded by its branch-and-bound nodes, not by wall time: a run replayed, on any machine
-and load, fires the same. The horizon T is searched over HORIZONS_S up to the time left: the shortest whose end lies
-within both and within the window is kept, else the nearest (the stage, the margins, then the window); a state that stays within the margins over it fires nothing. Slots are the
-start and a grid fixed in time (``slot_times``). A side force the thrusters cannot give at the attitude held (the
-direction limit) leaves every horizon's end beyond the margins: guidance then turns the body or waits
-(docs/transport.md).
+The conditions are soft: each slack s >= 0 costs its tier's weight per margin, so the program always has a plan, the one
+whose end comes nearest (the stage with the error first, STAGE_WEIGHT, then the margins without it, EXCESS_WEIGHT; then
+the window's, WINDOW_WEIGHT), and says how far beyond it ends (``TerminalSolution.excess`` and ``window_excess``); a
+state it cannot bring nearer fires nothing. A plan need not end within the margins with its error: the next plan, from
+the estimate that has seen it, takes the error out (its own error a share of that); one that ends, error included,
+beyond a stage is the last resort, and says by how much.
+scipy.optimize.milp (HiGHS), bounded by its branch-and-bound nodes, not by wall time: a run replayed, on any machine and
+load, fires the same. The horizon T is searched over HORIZONS_S up to the time left: the shortest whose end lies within
+both and within the window is kept, else the nearest (the stage, the margins, then the window); a state that stays
+within the margins over it fires nothing. Slots are the start and a grid fixed in time (``slot_times``). A side force
+the thrusters cannot give at the attitude held (the direction limit) leaves every horizon's end beyond the margins:
+guidance then turns the body or waits (docs/transport.md).
 """
 
 import math
