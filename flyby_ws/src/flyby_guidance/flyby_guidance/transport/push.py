@@ -125,16 +125,11 @@ class TransportPush:
                     self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
         self.t_check = state.t + cfg.replan_interval_s
 
-    def _transfer_again(self, state, excess, rho_momentum_n_s):
+    def _transfer_again(self, state):
         """Where the terminal program finds no horizon and the body is off its rest point by more than its position
         margin (an arrival far off, a drift while the push axis turned): a new transfer by the planner, whose slews
         turn the push axis for each push, arriving REPLAN_FRACTION of the transfer time later if the settle bound
-        still fits before the judgement's latest time (``transport_correction``); else None. None too where the
-        command error of its slews' impulse (their couples' side forces, flown open loop: the pushes are closed on the
-        accelerometer) is, in margins of momentum (rho_momentum_n_s), no less than the terminal program's best end
-        without it (excess, in margins): on a heavy pair the couples come with newtons-seconds of side force, and a
-        transfer flown for a body 0.2 m off its rest point left it 0.8 m and 0.1 N s off, then ran away
-        (transport_envelope draw 13)."""
+        still fits before the judgement's latest time (``transport_correction``); else None."""
         cfg = self.config
         t_arrival = state.t + REPLAN_FRACTION * cfg.transfer_time_s
         if t_arrival + self.settle_bound > self.deadline:
@@ -143,9 +138,6 @@ class TransportPush:
         try:
             plan = self._plan_with_faster_slews(start, t_arrival)
         except TransportRefused:
-            return None
-        side_n_s = sum(float(np.linalg.norm(b.force_body_n)) * b.duration_s for b in plan.burns if b.purpose != 'push')
-        if self.command_error * side_n_s >= excess * rho_momentum_n_s:
             return None
         self._fly_plan(plan, start, state)
         self.t_terminal = self.hold = self.turning = self.kept = None

@@ -112,7 +112,7 @@ class TransportTerminal:
             # else the push axis turned. Nearer, a body the wheels do not steer waits: its residual and the cone
             # of its pure forces turn in hill at different rates, so a later check finds a firing that helps.
             if not self.wheels_steer or float(np.max(np.abs(problem.x0[:3]))) > problem.rho_position_m:
-                again = self._transfer_again(state, excess, problem.rho_momentum_n_s)
+                again = self._transfer_again(state)
                 if again is not None:
                     return again
             return self._turn(state) or self._nearest_firing(state, problem)
