@@ -245,8 +245,9 @@ def _window_rows(problem, effect, free, on_u):
 
 def solve(problem, horizons_s):
     """The firings over the first of the horizons [s] (HORIZONS_S up to the time left) whose end lies within the
-    margins, and within a stage with the firings' error; where none does, over the horizon whose end comes nearest
-    (the least excess beyond the stage, then beyond the margins, each in units of the margins; the shorter on a tie).
+    margins, within a stage with the firings' error and within the window's margin; where none does, over the horizon
+    whose end comes nearest (the least excess beyond the stage, then beyond the margins, then beyond the window's,
+    each in units of the margins; the shorter on a tie).
     A horizon whose linear relaxation (a bound on its excess) comes no nearer than the best so far is not solved.
     None only where HiGHS returns no point."""
     j_count = len(problem.max_thrust_n)
