@@ -169,9 +169,8 @@ def _program(problem, horizon_s):
     # per metre radially, so a heavy body must end nearer it.
     held = [np.eye(6)[3:]] + [cw_transition_matrix(problem.n, k * problem.hold_s)[3:] for k in HOLD_TIMES]
     a_r = BALL_DIRECTIONS @ effect[:3]
-    a_v = np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in held]) * m
     r_free = BALL_DIRECTIONS @ free[:3]
-    p_free = np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in held]) * m
+    a_v, p_free = _momentum_slabs(held, effect, free, m)
     # Each impulse's execution error moves the end by at most its size times the transition's gain, in any
     # direction: a margin taken from every slab (``impulse_error`` at the slabs' sigmas).
     e_r = problem.impulse_error / m * np.repeat([np.linalg.norm(g[:3, 3:], 2) for g in to_end], j_count)
@@ -225,6 +224,13 @@ def _program(problem, horizon_s):
     return cost, rows, bounds, integrality, slots, effect, free
 
 
+def _momentum_slabs(flows, effect, free, mass_kg):
+    """(A (13 F, K J), p (13 F,)): the momentum along BALL_DIRECTIONS after each of the F flows ((3, 6) rows of a CW
+    transition from the end) is A u + p, for impulses u (the end's effect per impulse) and the state unfired."""
+    return (np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in flows]) * mass_kg,
+            np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in flows]) * mass_kg)
+
+
 def _window_rows(problem, effect, free, on_u):
     """The momentum within its margin, beyond it by the window's slack, at WINDOW_TIMES times over the judgement's
     window after the end (CW from the end): the judgement needs the navigation's coast and the hold after the last
@@ -233,11 +239,9 @@ def _window_rows(problem, effect, free, on_u):
     cannot bring the body to its rest point at the attitude held, the plan that comes nearest it."""
     if problem.window_s <= 0.0:
         return []
-    m = problem.mass_kg
     flows = [cw_transition_matrix(problem.n, problem.window_s * (k + 1) / WINDOW_TIMES)[3:]
              for k in range(WINDOW_TIMES)]
-    a_w = np.vstack([BALL_DIRECTIONS @ (h @ effect) for h in flows]) * m
-    p_w = np.concatenate([BALL_DIRECTIONS @ (h @ free) for h in flows]) * m
+    a_w, p_w = _momentum_slabs(flows, effect, free, problem.mass_kg)
     col = SLACKS.index('window momentum')
     rho = problem.rho_momentum_n_s
     return [LinearConstraint(on_u(a_w, col), -np.inf, rho - p_w), LinearConstraint(on_u(-a_w, col), -np.inf, rho + p_w)]
@@ -251,12 +255,12 @@ def solve(problem, horizons_s):
     A horizon whose linear relaxation (a bound on its excess) comes no nearer than the best so far is not solved.
     None only where HiGHS returns no point."""
     j_count = len(problem.max_thrust_n)
-    best = None
+    best = nearest = None  # the best solution and its excess (``_excess``)
     for horizon_s in horizons_s:
         cost, rows, bounds, integrality, slots, effect, free = _program(problem, horizon_s)
         if best is not None:
             relaxed = milp(cost, constraints=rows, bounds=bounds, options={'presolve': False})
-            if relaxed.x is None or not _nearer(_excess(problem, relaxed.x), best.excess + (best.window_excess,)):
+            if relaxed.x is None or not _nearer(_excess(problem, relaxed.x), nearest):
                 continue
         result = milp(cost, constraints=rows, bounds=bounds, integrality=integrality,
                       options={'node_limit': MILP_NODE_LIMIT, 'presolve': False})
@@ -267,8 +271,9 @@ def solve(problem, horizons_s):
         impulses = u.reshape(len(slots), j_count)
         h_end = problem.h_wheels_body_n_m_s + problem.couples_body_m.T @ impulses.sum(axis=0)
         excess = _excess(problem, result.x)
-        if best is None or _nearer(excess, best.excess + (best.window_excess,)):
+        if best is None or _nearer(excess, nearest):
             best = TerminalSolution(horizon_s, slots, impulses, free + effect @ u, h_end, excess[:2], excess[2])
+            nearest = excess
         if max(excess) <= EXCESS_TOLERANCE:
             break
     return best
