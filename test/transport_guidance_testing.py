@@ -84,7 +84,7 @@ def arrived(nav_position_sigma_m=0.01, **changes):
     body, control = planned(**changes)
     last_burn_end = max(b.t_start_s + b.duration_s for b in control.plan.burns)
     t0 = P * math.ceil(max(control.plan.t_arrival_s, last_burn_end) / P + 1.0)
-    control.refine_com(t0, control.body.com_body_m.tolist(), [1e-4] * 3, nav_position_sigma_m, 1e-5)
+    control.refine_com(t0, control.body.com_body_m.tolist(), nav_position_sigma_m, 1e-5)
     return body, control, t0, q_eci_from_body(t0, control.n, np.array([0.0, 0.0, 0.0, 1.0]))
 
 

@@ -37,7 +37,7 @@ CoM (no position sensor), and the filter's run from guidance's ``excitation_sche
 (``transport_navigation.TransportNavigation``: relative position and accelerometer), whose chaser position and
 velocity the chaser estimates carry from the next IMU sample on; at every stamp of
 ``transport_navigation.on_com_grid`` after it, before that stamp's chaser estimate, the combined CoM it navigates with
-(``transport_com_estimate``: refined over the coasts with nothing firing, ``transport_navigation.ComCoast``), which
+(``transport_com_estimate``: estimated with the translation, ``combined_com_filter.CombinedComFilter``), which
 guidance waits for.
 
 The estimator node and the headless driver (flyby_mission.headless) both run ``EstimatorCore``, built from its
@@ -345,13 +345,14 @@ class EstimatorCore:
                 r_hill, v_hill, covariance = navigated
             if refined is not None:  # before the estimate: guidance waits for it at this stamp
                 com, sigma, coast_s = refined
-                coast = f' ({coast_s:.0f} s of coast)' if coast_s else ''
-                nav_sigma = np.sqrt(np.diag(covariance)) if navigated is not None else None
+                coast = f' ({coast_s:.0f} s after a firing)' if coast_s else ''
+                known = navigated is not None
                 payload = event_payloads.TransportComEstimate(
-                    com, sigma, coast_s, position_sigma_m=None if nav_sigma is None else float(np.max(nav_sigma[:3])),
-                    velocity_sigma_mps=None if nav_sigma is None else float(np.max(nav_sigma[3:6])))
-                nav = '' if nav_sigma is None else (f'; navigation 1-sigma {payload.position_sigma_m:.3g} m, '
-                                                    f'{payload.velocity_sigma_mps:.3g} m/s')
+                    com, sigma, coast_s,
+                    position_sigma_m=float(np.sqrt(np.max(np.diag(covariance)[:3]))) if known else None,
+                    velocity_sigma_mps=self.transport_nav.velocity_sigma_mps() if known else None)
+                nav = '' if not known else (f'; navigation 1-sigma {payload.position_sigma_m:.3g} m, '
+                                            f'{payload.velocity_sigma_mps:.3g} m/s')
                 out.append(self._event(t, 'OK', events.TRANSPORT_COM_ESTIMATE,
                                        f'combined CoM {np.round(com, 4).tolist()} m from the chaser\'s, +- '
                                        f'{np.round(sigma * 1e3, 2).tolist()} mm{coast}{nav}',

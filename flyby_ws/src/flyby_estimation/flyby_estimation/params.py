@@ -160,6 +160,7 @@ class TransportNavigationParams:
     accel_noise_sigma_mps2: float = params.key('sensors.chaser_imu.accel_noise_sigma_mps2')
     thrust_magnitude_sigma: float = params.key('chaser.thrusters.magnitude_error_sigma')
     thrust_misalignment_sigma_rad: float = params.key('chaser.thrusters.direction_error_sigma_deg', math.radians)
+    thruster_layout: object = params.key('thruster_layout')
 
 
 def _is_rigid_body(scenario):

@@ -182,7 +182,7 @@ class ScheduledBurn:
         return self.direction_hill * (self.thrust_n / (self.mass_start_kg - self.mass_flow_kg_s * (t - self.start_s)))
 
 
-def _white_accel_q(q, dt):
+def white_accel_q(q, dt):
     """Discrete process noise of white acceleration with density q over dt (double-integrator form)."""
     q11, q12, q22 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
     return np.array(((q11, 0.0, 0.0, q12, 0.0, 0.0),  # [[q11 I, q12 I], [q12 I, q22 I]] in one call
@@ -478,7 +478,7 @@ class RelativeNavFilter(FilterBase):
             if len(self._transitions) >= _MAX_TRANSITIONS:
                 self._transitions.clear()
             phi_q = (cw_transition_matrix(self._n, dt),  # seed 000 eq 22
-                     _white_accel_q(self.config.accel_psd_m2_s3, dt))
+                     white_accel_q(self.config.accel_psd_m2_s3, dt))
             self._transitions[dt] = phi_q
         return phi_q
 

@@ -108,7 +108,7 @@ class Allocator:
     def firing(self, commanded):
         """The interval's ``Firing``."""
         m, dt = commanded.mass_kg, commanded.dt_s
-        wrench, undelivered = self._wrench(commanded.force_body_n, commanded.torque_body_n_m, dt)
+        wrench, undelivered = self.wrench(commanded.force_body_n, commanded.torque_body_n_m, dt)
         limit = self.layout.max_thrust_n
         parts, left = [], 1.0
         for burn in commanded.burns:  # the burn's share first, each thruster at most its maximum (the plant's)
@@ -121,7 +121,7 @@ class Allocator:
         mean = sum(share * a for share, a in parts)
         return Firing(tuple(parts), mean, undelivered / m)
 
-    def _wrench(self, force, torque, hold_s):
+    def wrench(self, force, torque, hold_s):
         """Thrusts [N] of a wrench held over hold_s (``allocate_wrench``, a thruster whose impulse would be below the
         minimum impulse bit left off, as ``fire`` does) and its force [N] not delivered."""
         key = (tuple(force), tuple(torque), hold_s)

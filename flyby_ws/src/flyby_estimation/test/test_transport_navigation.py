@@ -8,8 +8,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from flyby_estimation.combined_com_filter import CombinedComFilter
 from flyby_estimation.params import TransportNavigationParams
-from flyby_estimation.transport_navigation import ComCoast, TransportNavigation, command_error
+from flyby_estimation.transport_navigation import TransportNavigation, command_error
 from flyby_sim.dynamics.orbital import nonlinear_relative_accel_components, rk4_step_floats
 from flyby_sim.dynamics.rotation import quat_from_rotation_vector, quat_to_matrix
 from flyby_sim.scenario import load_scenario
@@ -106,10 +107,12 @@ def test_a_firing_both_see_is_their_least_variance_fusion_and_one_the_command_do
     assert abs(jump(dv_mps=1e-3, command_mps=1e-4) - 1e-3) < 3.0 * sigma_dv
 
 
-def _coast(duration_s, seed=5, p_true=(-2.9, 0.01, 0.02), prior_error_m=(0.005, -0.003, 0.004)):
-    """A ComCoast over a body held at rest inertially (it turns in hill at n about the orbit normal) on the scenario's
-    nonlinear relative motion near V-bar 100 m ahead, 10 Hz positions of the chaser's CoM with 1 cm of noise; the
-    prior of p off by prior_error_m with a 5 mm sigma. Returns (p_estimate, its covariance, v_estimate, v_truth, p)."""
+def _coast(duration_s, seed=5, p_true=(-2.9, 0.01, 0.02), prior_error_m=(0.005, -0.003, 0.004), firings=()):
+    """A CombinedComFilter over a body held at rest inertially (it turns in hill at n about the orbit normal) on the
+    scenario's nonlinear relative motion near V-bar 100 m ahead, 10 Hz positions of the chaser's CoM with 1 cm of
+    noise; the prior of p off by prior_error_m with a 5 mm sigma; at each of firings (t [s], dv [m/s, hill], its
+    1-sigma [m/s]) a known input, the truth off it by a draw of that sigma. Returns (p_estimate, its covariance,
+    v_estimate, its covariance, v_truth, p)."""
     rng = np.random.default_rng(seed)
     n, radius_m = SCENARIO.mean_motion_rad_s, SCENARIO.orbit_radius_m
     p_true = np.asarray(p_true)
@@ -122,35 +125,117 @@ def _coast(duration_s, seed=5, p_true=(-2.9, 0.01, 0.02), prior_error_m=(0.005, 
     def c_hill_from_body(t):  # d/dt C = -Omega^H x C with the body at rest inertially, Omega^H = [0, -n, 0]
         return quat_to_matrix(quat_from_rotation_vector(np.array([0.0, n * t, 0.0]))) @ c0
 
-    coast = ComCoast(0.0, np.array(x) + np.array([0.02, -0.01, 0.01, 1e-4, 0.0, -1e-4]),
-                     p_true + np.asarray(prior_error_m), (0.005 ** 2) * np.eye(3), n, radius_m, 'nonlinear', 0.01)
+    nav = CombinedComFilter(PARAMS.nav.config(initial_velocity_sigma_mps=0.05, gate_probability=0.9999),
+                            p_true + np.asarray(prior_error_m), (0.005 ** 2) * np.eye(3))
+    pending = sorted(firings, key=lambda f: f[0])
     for k in range(int(round(duration_s / 0.1)) + 1):
         t = 0.1 * k
         if k:
             x = rk4_step_floats(rhs, t - 0.1, x, 0.1)
+            nav.propagate_to(t)
+        while pending and pending[0][0] <= t + 1e-9:
+            _, dv, sigma = pending.pop(0)
+            x[3:] = (np.array(x[3:]) + np.asarray(dv) + sigma * rng.standard_normal(3)).tolist()
+            nav.add_thrust(t, t, dv, sigma**2 * np.eye(3))
         c = c_hill_from_body(t)
-        coast.add(t, np.array(x[:3]) + c @ p_true + 0.01 * rng.standard_normal(3), c)
-    p, p_cov, _, v, _ = coast.solve()
-    return p, p_cov, v, np.array(x[3:]), p_true
+        y = np.array(x[:3]) + c @ p_true + 0.01 * rng.standard_normal(3)
+        if k:
+            nav.update(t, y, c)
+        else:
+            nav.initialize(t, y, c)
+    _, v, covariance = nav.state()
+    return nav.p, nav.p_covariance_m2, v, covariance[3:, 3:], np.array(x[3:]), p_true
 
 
-def test_a_coast_turning_at_the_orbit_rate_fixes_the_combined_com():
+def test_a_body_turning_at_the_orbit_rate_fixes_the_combined_com():
     """Over half an orbit the circle C p traces in hill is no CW coast: the 1 cm positions fix the combined CoM to a
     fraction of a millimetre (paper_flyby_transport's mass-property estimate leaves 3-9 mm, each mm 0.0017 N s of
     velocity error on its 1600 kg), and the CoM's velocity with it; over 100 s the prior stays."""
-    p, p_cov, v, v_truth, p_true = _coast(3000.0)
+    p, p_cov, v, _, v_truth, p_true = _coast(3000.0)
     sigma = np.sqrt(np.diag(p_cov))
     assert np.all(sigma < 5e-4)
     assert np.all(np.abs(p - p_true) < 3.0 * sigma)
     assert 1600.0 * np.linalg.norm(v - v_truth) < 0.002
-    p, p_cov, _, _, p_true = _coast(100.0)
+    p, p_cov, _, _, _, p_true = _coast(100.0)
     assert np.all(np.sqrt(np.diag(p_cov)) > 0.8 * 0.005)
     assert np.linalg.norm(p - p_true) > 0.5 * np.linalg.norm((0.005, -0.003, 0.004))
 
 
-def test_the_combined_com_is_given_on_its_grid_and_refined_after_a_long_enough_quiet_coast():
+def test_across_firings_the_filter_keeps_what_it_knows_of_the_combined_com():
+    """Firings every 200 s (terminal firings of a few bits on a heavy body: 20 um/s, known to 3 %) do not reset what
+    the positions told of p: over half an orbit it is fixed as without them (a coast of 200 s alone leaves the prior's
+    5 mm), and the velocity's sigma covers its error."""
+    firings = [(200.0 * k, (2e-5 * (-1) ** k, 1e-5, 0.0), 0.03 * 2.2e-5) for k in range(1, 15)]
+    p, p_cov, v, v_cov, v_truth, p_true = _coast(3000.0, firings=firings)
+    sigma = np.sqrt(np.diag(p_cov))
+    assert np.all(sigma < 1e-3)
+    assert np.all(np.abs(p - p_true) < 3.0 * sigma)
+    assert (v - v_truth) @ np.linalg.solve(v_cov, v - v_truth) < 16.3  # chi2(3) at 0.999
+
+
+def _filter():
+    return CombinedComFilter(PARAMS.nav.config(initial_velocity_sigma_mps=0.05, gate_probability=0.9999),
+                             -COM, COM_SIGMA_M**2 * np.eye(3))
+
+
+def test_a_consider_update_moves_the_state_and_leaves_the_combined_com_and_what_is_known_of_it():
+    """estimate_p False (Schmidt): the position moves to the measurement as far as its covariance says, p and its
+    covariance stay, and the cross-covariance keeps p's uncertainty in the state's."""
+    nav = _filter()
+    nav.initialize(0.0, np.array([100.0, 0.0, 0.0]) - COM, np.eye(3))
+    p_before, p_cov_before = nav.p.copy(), nav.p_covariance_m2
+    assert nav.update(0.1, np.array([100.02, 0.0, 0.0]) - COM, np.eye(3), estimate_p=False).kind == 'accepted'
+    assert np.array_equal(nav.p, p_before) and np.allclose(nav.p_covariance_m2, p_cov_before, rtol=0, atol=1e-18)
+    r, _, covariance = nav.state()
+    assert 100.0 < r[0] < 100.02 and np.all(np.diag(covariance)[:3] > COM_SIGMA_M**2)
+    nav.update(0.2, np.array([100.02, 0.0, 0.0]) - COM, np.eye(3))
+    assert not np.array_equal(nav.p, p_before)  # estimated again
+
+
+def test_an_outlier_is_rejected_and_a_lost_filter_restarts_from_the_position_keeping_the_combined_com():
+    """One position 1 m off is an outlier (the state stays); a run of them that agree (the body truly elsewhere) restarts
+    the position from the measurement, with p and its covariance kept."""
+    nav = _filter()
+    y = np.array([100.0, 0.0, 0.0]) - COM
+    nav.initialize(0.0, y, np.eye(3))
+    for k in range(1, 50):
+        nav.update(0.1 * k, y, np.eye(3))
+    r_before = nav.state()[0]
+    assert nav.update(5.0, y + np.array([1.0, 0.0, 0.0]), np.eye(3)).kind == 'outlier'
+    assert np.allclose(nav.state()[0], r_before, atol=1e-6)
+    p_before, p_cov_before = nav.p.copy(), nav.p_covariance_m2
+    kinds = []
+    while 'reset' not in kinds and len(kinds) < 30:
+        kinds.append(nav.update(5.0 + 0.1 * (len(kinds) + 1), y + np.array([1.0, 0.0, 0.0]), np.eye(3)).kind)
+    assert kinds[-1] == 'reset' and set(kinds[:-1]) == {'outlier'}
+    assert np.array_equal(nav.p, p_before) and np.allclose(nav.p_covariance_m2, p_cov_before, rtol=0, atol=1e-18)
+    assert abs(nav.state()[0][0] - (r_before[0] + 1.0)) < 0.03
+
+
+def test_a_slewing_body_does_not_teach_the_combined_com():
+    """A body turning at 0.02 rad/s (a slew, HELD_RATE_ORBITS times the orbit's rate and more) leaves the combined CoM
+    as it was given; held, it is learnt."""
+    n = SCENARIO.mean_motion_rad_s
+    given = {}
+    for rate in (0.02, 0.0):
+        nav = TransportNavigation(PARAMS, 100.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
+        rng = np.random.default_rng(3)
+        for k in range(1, 1501):
+            t = round(100.0 + 0.1 * k, 6)
+            q = quat_from_rotation_vector(np.array([0.0, 0.0, rate * (t - 100.0)]))
+            estimate = SimpleNamespace(q_hill_from_body=q, omega_body=np.array([0.0, 0.0, rate]),
+                                       attitude_covariance_hill=1e-8 * np.eye(3))
+            nav.on_position(t, np.array([1000.0, 0.0, 0.0]) - quat_to_matrix(q) @ (COM + 0.003)
+                            + 0.01 * rng.standard_normal(3))
+            nav.on_imu(t, estimate, None)
+        given[rate] = nav.filter.p.copy()
+    assert np.array_equal(given[0.02], -COM)
+    assert not np.array_equal(given[0.0], -COM)
+
+
+def test_the_combined_com_is_given_on_its_grid_with_the_time_since_the_last_firing():
     """Guidance waits at every stamp of COM_PERIOD_S's grid after the final estimate for the combined CoM, so every one
-    has it; it is refined (its coast given) only from COM_COAST_MIN_S of coast on, and a firing starts a new coast."""
+    has it, with the time since the last firing; a couple (no force) is a firing: its thrusters' errors push."""
     n = SCENARIO.mean_motion_rad_s
     nav = TransportNavigation(PARAMS, 100.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
     estimate = SimpleNamespace(q_hill_from_body=np.array([0.0, 0.0, 0.0, 1.0]), omega_body=np.array([0.0, -n, 0.0]),
@@ -159,17 +244,15 @@ def test_the_combined_com_is_given_on_its_grid_and_refined_after_a_long_enough_q
     given = {}
     for k in range(1, 6001):
         t = round(100.0 + 0.1 * k, 6)
-        if abs(t - 420.0) < 1e-6:  # a couple: no force, but its thrusters' errors push
+        if abs(t - 420.0) < 1e-6:
             nav.on_command(t - 0.1, np.zeros(3), np.array([0.0, 0.0, 0.5]))
         nav.on_position(t, np.array([1000.0, 0.0, 0.0]) - COM + 0.01 * rng.standard_normal(3))
         _, refined = nav.on_imu(t, estimate, np.zeros(3))
         if refined is not None:
             given[t] = refined[2]
     assert sorted(given) == [150.0 + 50.0 * j for j in range(12)]
-    coasts = [given[t] for t in sorted(given)]
-    assert coasts[:3] == [0.0] * 3 and 199.0 < coasts[4] < 300.0  # 300 s: 199.9 s of coast; 350 s: refined
-    assert coasts[6] == coasts[5] and coasts[7] == coasts[5]  # after the couple at 420 s, no coast of 200 s ...
-    assert abs(coasts[10] - 230.0) < 1e-6  # ... until 650 s: a coast from the sample that ends the firing's interval
+    assert [given[t] for t in (150.0, 400.0)] == pytest.approx([50.0, 300.0])
+    assert [given[t] for t in (450.0, 700.0)] == pytest.approx([30.0, 280.0])  # from the sample ending its interval
 
 
 def test_command_error_is_the_thrusters_magnitude_and_direction_errors_at_least_the_floor():

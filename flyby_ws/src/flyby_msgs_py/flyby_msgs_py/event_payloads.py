@@ -290,8 +290,9 @@ class MassPropertiesEstimate(MassPropertiesEstimated):
 
 @payload(events.TRANSPORT_COM_ESTIMATE)
 class TransportComEstimate(_Payload):
-    """The combined body's CoM [m] from the chaser's (chaser_body) and its 1-sigma [m], after coast_s [s]; the
-    navigation's 1-sigma of the CoM's position [m] and velocity [m/s] then, its largest axis."""
+    """The combined body's CoM [m] from the chaser's (chaser_body) and its 1-sigma [m], coast_s [s] after the last
+    firing; the navigation's 1-sigma of the CoM's position [m], its largest axis, and of its velocity [m/s], its
+    largest direction (``TransportNavigation.velocity_sigma_mps``: with what it does not know of the CoM)."""
 
     com_body_m: Vector
     com_sigma_m: Vector

@@ -35,8 +35,7 @@ class TransportMode(DampingMode):
             return self._commands(phase)
         if event.name == events.TRANSPORT_COM_ESTIMATE and self.transport.t_start is not None:
             refined = event_payloads.decode(event)
-            self.transport.refine_com(event.t, refined.com_body_m, refined.com_sigma_m,
-                                      refined.position_sigma_m,
+            self.transport.refine_com(event.t, refined.com_body_m, refined.position_sigma_m,
                                       refined.velocity_sigma_mps)
             return self._commands(phase)
         return []

@@ -159,23 +159,22 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.done = False
         self.t_com = None  # the stamp of the last refined combined CoM taken (``refine_com``) [s] ...
         self.com_pending = collections.deque()  # ... and (t, com_body_m, nav sigmas) of those for later estimates
-        self.nav_sigma = None  # (t, position [m], velocity [m/s], combined CoM [m]) 1-sigma of the last taken
+        self.nav_sigma = None  # (t, position [m], velocity [m/s]) 1-sigma of the last taken
 
-    def refine_com(self, t_event, com_body_m, com_sigma_m, position_sigma_m=None, velocity_sigma_mps=None):
-        """The estimator's combined CoM [m], refined over the coasts, and its navigation's 1-sigma, stamped t_event
-        (``transport_com_estimate``): the body's CoM for the estimates from t_event on (the topics race: it may come
-        before the estimates stamped earlier)."""
+    def refine_com(self, t_event, com_body_m, position_sigma_m=None, velocity_sigma_mps=None):
+        """The estimator's combined CoM [m], refined over the coasts, and its navigation's 1-sigma (the velocity's
+        with the combined CoM's error), stamped t_event (``transport_com_estimate``): the body's CoM for the estimates
+        from t_event on (the topics race: it may come before the estimates stamped earlier)."""
         self.t_com = t_event
-        self.com_pending.append((t_event, np.asarray(com_body_m, dtype=float), float(np.max(com_sigma_m)),
-                                 position_sigma_m, velocity_sigma_mps))
+        self.com_pending.append((t_event, np.asarray(com_body_m, dtype=float), position_sigma_m, velocity_sigma_mps))
 
     def _take_com(self, t):
         """The refined combined CoM and the navigation's sigmas for the estimate stamped t (``refine_com``)."""
         while self.com_pending and self.com_pending[0][0] <= t + STAMP_TOLERANCE_S:
-            t_event, com, com_sigma, position_sigma, velocity_sigma = self.com_pending.popleft()
+            t_event, com, position_sigma, velocity_sigma = self.com_pending.popleft()
             self.body = dataclasses.replace(self.body, com_body_m=com)
             if position_sigma is not None and velocity_sigma is not None:
-                self.nav_sigma = (t_event, position_sigma, velocity_sigma, com_sigma)
+                self.nav_sigma = (t_event, position_sigma, velocity_sigma)
 
     def start(self, t_event, body):
         """TRANSPORT from the final estimate stamped t_event [s], for the TransportBody of that estimate."""

@@ -64,16 +64,16 @@ class TransportTerminal:
         self.t_check = state.t if self.t_check is None else max(self.t_check, state.t)  # a scheduled check is kept
 
     def _velocity_sigma_mps(self, t):
-        """The navigation's velocity 1-sigma at t [m/s]: the last estimate's, with the combined CoM's (an error dc is
-        n x C dc of velocity, the body turning in hill at n) and the command error of every terminal firing since (a
-        known input to the navigation); None before the first, and before the first after a burn or a thrusters'
-        turn (``_burned_since``)."""
+        """The navigation's velocity 1-sigma at t [m/s]: the last estimate's (with the combined CoM's error's,
+        ``TransportNavigation.velocity_sigma_mps``) and the command error of every terminal firing since (a known
+        input to the navigation); None before the first, and before the first after a burn or a thrusters' turn
+        (``_burned_since``)."""
         if self.nav_sigma is None or self._burned_since(self.nav_sigma[0], t):
             return None
-        t_sigma, _, sigma_v, sigma_c = self.nav_sigma
+        t_sigma, _, sigma_v = self.nav_sigma
         fired_n_s = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in self.pulses
                         if t_sigma - 1e-9 <= a < t)
-        return math.hypot(math.hypot(sigma_v, self.n * sigma_c), self.command_error * fired_n_s / self.body.mass_kg)
+        return math.hypot(sigma_v, self.command_error * fired_n_s / self.body.mass_kg)
 
     def _burned_since(self, t_from, t_to):
         """True where a burn of the plan, or a turn by the thrusters' couples, fired between t_from and t_to [s]: the
