@@ -193,8 +193,8 @@ def test_a_consider_update_moves_the_state_and_leaves_the_combined_com_and_what_
 
 
 def test_an_outlier_is_rejected_and_a_lost_filter_restarts_from_the_position_keeping_the_combined_com():
-    """One position 1 m off is an outlier (the state stays); a run of them that agree (the body truly elsewhere) restarts
-    the position from the measurement, with p and its covariance kept."""
+    """One position 1 m off is an outlier (the state stays); a run of them that agree (the body truly elsewhere)
+    restarts the position from the measurement, with p and its covariance kept."""
     nav = _filter()
     y = np.array([100.0, 0.0, 0.0]) - COM
     nav.initialize(0.0, y, np.eye(3))
@@ -215,7 +215,6 @@ def test_an_outlier_is_rejected_and_a_lost_filter_restarts_from_the_position_kee
 def test_a_slewing_body_does_not_teach_the_combined_com():
     """A body turning at 0.02 rad/s (a slew, HELD_RATE_ORBITS times the orbit's rate and more) leaves the combined CoM
     as it was given; held, it is learnt."""
-    n = SCENARIO.mean_motion_rad_s
     given = {}
     for rate in (0.02, 0.0):
         nav = TransportNavigation(PARAMS, 100.0, COM, COM_SIGMA_M**2 * np.eye(3), NAV_MASS_KG)
