@@ -162,9 +162,10 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         self.nav_sigma = None  # (t, position [m], velocity [m/s]) 1-sigma of the last taken
 
     def refine_com(self, t_event, com_body_m, position_sigma_m=None, velocity_sigma_mps=None):
-        """The estimator's combined CoM [m], refined over the coasts, and its navigation's 1-sigma (the velocity's
-        with the combined CoM's error), stamped t_event (``transport_com_estimate``): the body's CoM for the estimates
-        from t_event on (the topics race: it may come before the estimates stamped earlier)."""
+        """The estimator's combined CoM [m], estimated with the translation, and its navigation's 1-sigma (the
+        velocity's with what it does not know of the combined CoM), stamped t_event (``transport_com_estimate``): the
+        body's CoM for the estimates from t_event on (the topics race: it may come before the estimates stamped
+        earlier)."""
         self.t_com = t_event
         self.com_pending.append((t_event, np.asarray(com_body_m, dtype=float), position_sigma_m, velocity_sigma_mps))
 
