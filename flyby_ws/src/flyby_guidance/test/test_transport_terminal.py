@@ -125,33 +125,6 @@ def test_a_nearest_firing_that_ends_no_nearer_than_none_is_not_fired(monkeypatch
     assert events == [] and not control.pulses
 
 
-def test_where_no_fallback_is_left_the_programs_own_plan_is_flown(monkeypatch):
-    """The program's best end far beyond the margins (FALLBACK_EXCESS) on a body the wheels do not steer, with no new
-    transfer, no turn and no nearer firing along the transfer left (near the judgement): its own plan, which ends no
-    farther than firing nothing, is flown rather than nothing."""
-    body, control, t0, q_eci = arrived()
-    control.wheels_steer = False
-    estimate(control, t0, control.rest, q_hill=held(control, t0, q_eci))
-    t = control.deadline - control.config.hold_s - 2.0 * P - 100.0
-    q_hill = held(control, t, q_eci)
-    impulses = np.zeros((1, body.layout.count))
-    impulses[0, int(np.argmax(body.layout.force_directions_body[:, 0]))] = 2.0 * body.layout.min_impulse_bit_n_s
-
-    def far_plan(problem, horizons):
-        return planner_terminal.TerminalSolution(horizons[0], np.array([problem.t0]), impulses, np.zeros(6),
-                                                 np.zeros(3), (FALLBACK_EXCESS, 1.0))
-
-    monkeypatch.setattr(planner_terminal, 'solve', far_plan)
-    monkeypatch.setattr(control, '_transfer_again', lambda state: None)
-    monkeypatch.setattr(control, '_turn', lambda state: [])
-    monkeypatch.setattr(control, '_nearest_firing', lambda state, problem: [])
-    control.pulses = []
-    events = control._terminal(TransportState(t, control.rest.copy(), np.zeros(3), q_hill, np.zeros(3)), np.zeros(3))
-    assert [e[1] for e in events] == [TRANSPORT_TERMINAL] and control.kept is not None
-    delivered = sum(float(np.linalg.norm(force)) * (b - a) for a, b, force, _ in control.pulses)
-    assert delivered == pytest.approx(impulses.sum())
-
-
 def _same_attitude(q_a, q_b):
     """True where two quaternions are one attitude (q and -q)."""
     return abs(float(np.dot(q_a, q_b))) == pytest.approx(1.0, abs=1e-12)

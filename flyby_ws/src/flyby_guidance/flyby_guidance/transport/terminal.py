@@ -4,9 +4,8 @@ program (``flyby_planner.transport.terminal``) chooses, from the estimate, the i
 at the goal's rest point with the wheels' momentum within their share, or nearest it; its firings are flown at their
 times and the program solved again after the last. Where its best end lies far beyond the margins at the attitude
 held (the side force it needs lies outside the direction-limited thrusters' cone) a new transfer is flown (off the
-rest point, or on a body the wheels do not steer) or the push axis turned onto it (where neither can be, the
-program's own plan, which ends no farther than firing nothing); nearer, a body the wheels steer turns, one they do
-not waits for a check whose program helps. The judgement: the three conditions and the wheels'
+rest point, or on a body the wheels do not steer) or the push axis turned onto it; nearer, a body the wheels steer
+turns, one they do not waits for a check whose program helps. The judgement: the three conditions and the wheels'
 share, from the estimate with its 3-sigma, held for ``hold_s``."""
 
 import math
@@ -116,11 +115,7 @@ class TransportTerminal:
                 again = self._transfer_again(state)
                 if again is not None:
                     return again
-            fallback = self._turn(state) or self._nearest_firing(state, problem)
-            if fallback or not planned:
-                return fallback
-            # Neither a turn nor a firing along the transfer: the program's own plan, which ends no farther from the
-            # margins than firing nothing (firing nothing, a body off its rest point drifts on).
+            return self._turn(state) or self._nearest_firing(state, problem)
         if not planned:
             return []
         # The whole plan flown, then a new solve after its last firing: a plan of a few bits is a sequence (a start
