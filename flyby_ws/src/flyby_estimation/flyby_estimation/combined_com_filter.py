@@ -22,7 +22,8 @@ import math
 import numpy as np
 
 from flyby_estimation.filter_interface import FilterBase
-from flyby_estimation.relative_nav import white_accel_q
+from flyby_estimation.relative_nav import MAX_TRANSITIONS, white_accel_q
+from flyby_msgs_py.stamped import put_bounded
 from flyby_sim.dynamics.orbital import cw_transition_matrix, relative_accel_components, rk4_step_floats
 
 _I3 = np.eye(3)
@@ -44,10 +45,11 @@ class CombinedComFilter(FilterBase):
         self.p = np.asarray(p_prior_m, dtype=float).copy()
         self.covariance = np.zeros((9, 9))
         self.covariance[6:, 6:] = np.asarray(p_covariance_m2, dtype=float)
-        self._transitions = {}  # dt [s] -> (Phi, Q), 9x9
+        self._transitions = {}  # dt [s] -> (Phi, Q), 9x9, the last MAX_TRANSITIONS
 
     def initialize(self, t, y_chaser_hill, c_hill_from_body):
-        """The first measurement: the combined CoM at y - C p, its velocity at the prior's sigma."""
+        """The first measurement: the combined CoM at y - C p, its velocity at the prior's sigma, p and its covariance
+        kept."""
         c = np.asarray(c_hill_from_body, dtype=float)
         self._t = float(t)
         self._x_ref = [*(np.asarray(y_chaser_hill, dtype=float) - c @ self.p).tolist(), 0.0, 0.0, 0.0]
@@ -90,7 +92,8 @@ class CombinedComFilter(FilterBase):
             phi, q = np.eye(9), np.zeros((9, 9))
             phi[:6, :6] = cw_transition_matrix(self.n, dt)  # seed 000 eq 22
             q[:6, :6] = white_accel_q(self.config.accel_psd_m2_s3, dt)
-            cached = self._transitions[key] = (phi, q)
+            cached = (phi, q)
+            put_bounded(self._transitions, key, cached, MAX_TRANSITIONS)
         return cached
 
     def add_thrust(self, t_start, t_end, dv_hill, covariance):
@@ -140,11 +143,9 @@ class CombinedComFilter(FilterBase):
         floor = self.config.initial_velocity_sigma_mps**2
         p_v = p_v + np.diag(np.maximum(floor - np.diag(p_v), 0.0))
         velocity = self._x_ref[3:]
-        p_pp = self.covariance[6:, 6:].copy()
         self.initialize(self._t, y, c)
         self._x_ref[3:] = velocity
         self.covariance[3:6, 3:6] = p_v
-        self.covariance[6:, 6:] = p_pp
 
     def velocity_sigma_mps(self):
         """The combined CoM's velocity 1-sigma [m/s], its largest direction."""

@@ -88,7 +88,7 @@ from flyby_sim.dynamics.propulsion import (
 
 DYNAMICS = ('cw', 'nonlinear')
 _I3 = np.eye(3)
-_MAX_TRANSITIONS = 64  # cached (Phi, Q) pairs, one per time step seen
+MAX_TRANSITIONS = 64  # cached (Phi, Q) pairs, one per time step seen
 
 __all__ = ['DYNAMICS', 'ManeuverRejected', 'NavState', 'RelativeNavConfig',
            'RelativeNavFilter', 'ScheduledBurn']
@@ -475,7 +475,7 @@ class RelativeNavFilter(FilterBase):
         """(Phi(dt), Q(dt)) of the time update, kept for the later calls with the same dt (read only)."""
         phi_q = self._transitions.get(dt)
         if phi_q is None:
-            if len(self._transitions) >= _MAX_TRANSITIONS:
+            if len(self._transitions) >= MAX_TRANSITIONS:
                 self._transitions.clear()
             phi_q = (cw_transition_matrix(self._n, dt),  # seed 000 eq 22
                      white_accel_q(self.config.accel_psd_m2_s3, dt))

@@ -20,7 +20,7 @@ from flyby_sim.dynamics.rotation import quat_to_matrix, skew
 COM_PERIOD_S = 50.0
 # The combined CoM is learnt only while the body turns no faster than this many times the orbit's rate (held): in a
 # slew the couples' execution errors and the accelerometer's rotation term leave velocity errors the filter's
-# covariance does not cover, which the fast-turning C p would take as the CoM (transport_envelope draw 35: 7 mm).
+# covariance does not cover, which the fast-turning C p would take as the CoM (docs/transport.md).
 HELD_RATE_ORBITS = 2.0
 
 
@@ -95,11 +95,6 @@ class TransportNavigation:
         self.firing_samples = 0  # the samples of the firing under way, each commanded (0: none)
         # A commanded firing's delta-v is known to its thrusters' execution errors (``command_error``).
         self.command_error = command_error(params.thrust_magnitude_sigma, params.thrust_misalignment_sigma_rad)
-
-    @property
-    def com_covariance_m2(self):
-        """The combined CoM's covariance [m^2, chaser_body], the filter's now."""
-        return self.filter.p_covariance_m2
 
     def on_position(self, t, r_chaser_hill):
         self.positions.add(t, np.asarray(r_chaser_hill, dtype=float))
