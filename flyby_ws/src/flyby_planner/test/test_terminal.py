@@ -26,6 +26,7 @@ N = mean_motion_rad_s(RADIUS_M)
 BIT_N_S = 0.01
 MOMENTUM_BOUND_N_S = 0.01  # seed 004 §3.2's third condition in scenarios/matsunaga_orbit_advance.yaml
 IMPULSE_ERROR = 0.09  # 3 sigma of the least command error guidance assumes (transport_navigation.command_error)
+WHEEL_ROOM_N_M_S = 0.9  # 1 - WHEEL_ROOM of the TugRobot scenario's wheels (1 N m s)
 
 
 def _tugrobot():
@@ -40,14 +41,15 @@ def _tugrobot():
     return props.mass_kg, props.inertia_body_kg_m2, directions, couples
 
 
-def _problem(x0, q_hill_from_body=(0.0, 0.0, 0.0, 1.0), t0=1500.0, h0=(0.0, 0.0, 0.0)):
+def _problem(x0, q_hill_from_body=(0.0, 0.0, 0.0, 1.0), t0=1500.0, h0=(0.0, 0.0, 0.0), wheels=(0.4, WHEEL_ROOM_N_M_S)):
     """The program of the TugRobot's body at t0 with the margins guidance gives it on
-    matsunaga_orbit_advance's bounds (2.5 m, half the momentum bound, 0.4 N m s of wheel momentum)."""
+    matsunaga_orbit_advance's bounds (2.5 m, half the momentum bound, 0.4 N m s of wheel momentum at the end, its
+    wheels' room: ``wheels``)."""
     mass, inertia, directions, couples = _tugrobot()
     q_eci = q_eci_from_body(t0, N, np.asarray(q_hill_from_body, dtype=float))
     return terminal.TerminalProblem(
         mass, directions, couples, np.full(len(directions), 10.0), BIT_N_S, N, t0, np.asarray(x0, dtype=float),
-        q_eci, np.asarray(h0, dtype=float), 2.5, 0.5 * MOMENTUM_BOUND_N_S * terminal.BALL_SLAB_FACTOR, 60.0, 0.4,
+        q_eci, np.asarray(h0, dtype=float), 2.5, 0.5 * MOMENTUM_BOUND_N_S * terminal.BALL_SLAB_FACTOR, 60.0, *wheels,
         terminal.couple_limit(inertia, 0.1), IMPULSE_ERROR)
 
 
@@ -423,3 +425,44 @@ def test_impulses_for_keeps_the_couple_within_its_limit(q_hill):
     assert float(np.max(np.abs(problem.couples_body_m.T @ impulses))) == pytest.approx(problem.couple_max_n_m_s,
                                                                                           rel=1e-6)
     assert np.linalg.norm(given - dv_hill) > 0.5 * np.linalg.norm(dv_hill)
+
+
+def _wheels_after_slots(problem, solution):
+    """(K, 3) the wheels' momentum after each slot of a plan [N m s]."""
+    return problem.h_wheels_body_n_m_s + np.cumsum(solution.impulses_n_s @ problem.couples_body_m, axis=0)
+
+
+SMALL_WHEELS = (0.02, 0.03)  # wheels of a twentieth of the TugRobot's: share at the end, room [N m s]
+
+
+# States whose plan, with the wheels bounded at the end only, takes them beyond their room between its slots.
+WHEEL_FILLING = (((0.07, -0.1, 0.43, 1.75e-3, -1.1e-4, -6.9e-4), (-0.022, -0.007, -0.005)),
+                 ((0.76, -0.76, -1.23, 4.7e-4, -1.03e-3, 6.7e-4), (-0.003, -0.008, -0.023)),
+                 ((0.25, -0.32, -0.12, 1.87e-3, -9.7e-4, -3.0e-4), (-0.019, 0.01, 0.004)))
+
+
+@pytest.mark.parametrize('x0, h0', (*((x0, (0.0, 0.0, 0.025)) for x0, _ in FIRING_STATES), *WHEEL_FILLING))
+def test_the_wheels_stay_within_their_room_after_every_slot(x0, h0):
+    """Between the slots the wheels hold what each slot's couples gave them: within their room after every slot,
+    not only within their share at the end (saturated, they would no longer hold the attitude the program fires at)."""
+    problem = _problem(x0, h0=h0, wheels=SMALL_WHEELS)
+    solution = terminal.solve(problem, terminal.HORIZONS_S)
+    assert solution is not None
+    room = np.maximum(SMALL_WHEELS[1], np.abs(problem.h_wheels_body_n_m_s))
+    assert np.all(np.abs(_wheels_after_slots(problem, solution)) <= room + 1e-6)
+
+
+@pytest.mark.parametrize('q_hill', CORRECTION_ATTITUDES)
+def test_impulses_for_leaves_the_wheels_within_their_room(q_hill):
+    """A correction along body +y gives couples about z (the +y pair's are both -0.2 m): with the wheels near their
+    room about z on that side it is cut to what they take, and with them as far on the other side it is not."""
+    dv_body = np.array([0.0, 2e-3, 0.0])
+    full = None
+    for h_z in (0.899, -0.899):
+        problem = _problem(np.zeros(6), q_hill, t0=2300.0, h0=(0.0, 0.0, h_z))
+        impulses, given = terminal.impulses_for(_c_hill_from_body(problem) @ dv_body, problem)
+        h_after = problem.h_wheels_body_n_m_s + problem.couples_body_m.T @ impulses
+        assert np.all(np.abs(h_after) <= np.maximum(WHEEL_ROOM_N_M_S, np.abs(problem.h_wheels_body_n_m_s)) + 1e-9)
+        if full is None:
+            full = float(np.linalg.norm(given))
+    assert float(np.linalg.norm(given)) < 0.5 * full

@@ -314,7 +314,7 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         pushes = [b for b in self.plan.burns if b.purpose == 'push']
         remaining = [b for b in self.plan.burns if b.t_start_s + b.duration_s > state.t + 1.5 * p]
         if state.t >= pushes[0].t_start_s + pushes[0].duration_s + p and remaining and remaining[0] is not pushes[-1]:
-            return self._correct(state, pushes, remaining[0])
+            return self._correct(state, pushes, remaining[0], h_wheels)
         return []
 
     def _complete(self, t, state, h_wheels):

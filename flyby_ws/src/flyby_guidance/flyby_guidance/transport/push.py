@@ -363,7 +363,7 @@ class TransportPush:
         stops = [b for b in self.plan.burns if b.purpose == 'slew_stop']
         return list(zip(starts, stops, strict=True))
 
-    def _correct(self, state, pushes, next_burn):
+    def _correct(self, state, pushes, next_burn, h_wheels):
         """The mid-course correction, keeping the last push (it nulls the velocity at the arrival, closed loop): the
         estimate's deviation from the plan's coast after the first push (its state at the push's end coasted by CW,
         seed 000 eq 22) carried to the last push's middle; beyond CORRECTION_FRACTION of the second condition there,
@@ -376,7 +376,7 @@ class TransportPush:
         miss_m = float(np.linalg.norm(miss))
         if miss_m <= CORRECTION_FRACTION * self.config.planner.max_position_error_m:
             return []
-        problem = self._terminal_problem(state, np.zeros(3), 0.0)
+        problem = self._terminal_problem(state, h_wheels, 0.0)
         impulses, dv_given = terminal.impulses_for(-np.linalg.solve(phi[:3, 3:], miss), problem)
         pulses = self._pulses_of(impulses, problem.t0)
         if not pulses or pulses[-1][1] > next_burn.t_start_s - 1e-9:

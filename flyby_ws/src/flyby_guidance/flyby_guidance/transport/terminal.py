@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from flyby_guidance.transport.attitude import WHEEL_SPINUP_S
+from flyby_guidance.transport.attitude import WHEEL_ROOM, WHEEL_SPINUP_S
 from flyby_msgs_py import events
 from flyby_planner.transfer import terminal_impulses
 from flyby_planner.transport import terminal
@@ -210,6 +210,7 @@ class TransportTerminal:
             self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,
             rho_r, rho_p * terminal.BALL_SLAB_FACTOR, cfg.hold_s,
             cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
+            (1.0 - WHEEL_ROOM) * self.wheel_capacity_n_m_s,
             terminal.couple_limit(body.inertia_body_kg_m2, self.wheel_max_torque_n_m), NAV_SIGMAS * self.command_error,
             self.coast_s + cfg.hold_s)
 

@@ -17,7 +17,10 @@ CW's to first order (seed 000 eq 22). With u_kj >= 0 the impulse of thruster j a
          |a_i . m v_T+t_w| <= rho_p + s_w                         and over the judgement's window (``_window_rows``)
          the same + e . u <= the stage + s_r', s_p'              with the firings' execution error, within a stage:
                                                                  rho_p or STAGE_FRACTION of the unfired end momentum
-         |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity
+         |h_0 + sum_kj tau_j u_kj|_inf <= rho_h                   the wheels' share of their capacity at the end
+         |h_0 + sum_{k' <= k, j} tau_j u_k'j|_inf <= h_room          and within their room after every slot: saturated,
+                                                                 they would no longer hold the attitude the program
+                                                                 fires at
          |sum_j tau_j u_kj|_inf <= couple_max                     a slot's couple the wheels stop within a small turn
 
 The conditions are soft: each slack s >= 0 costs its tier's weight per margin, so the program always has a plan, the one
@@ -102,7 +105,8 @@ class TerminalProblem(NamedTuple):
     rho_position_m: float  # the margins of the terminal ball: position
     rho_momentum_n_s: float  # linear momentum, at the end and hold_s after it
     hold_s: float  # the end state must keep its momentum this long [s]
-    rho_wheels_n_m_s: float  # the wheels' momentum per body axis
+    rho_wheels_n_m_s: float  # the wheels' momentum per body axis at the end
+    wheel_room_n_m_s: float  # the wheels' momentum per body axis at any time: within it they hold the attitude
     couple_max_n_m_s: float  # a slot's couple per body axis
     impulse_error: float  # a firing's execution error at the margins' sigmas, per unit impulse (magnitude, direction)
     window_s: float = 0.0  # the judgement's window after the end: the navigation's coast and the hold [s]
@@ -126,6 +130,12 @@ def couple_limit(inertia_body_kg_m2, wheel_max_torque_n_m):
     wheels' torque (h^2 / (2 I tau) = TURN_RAD, the least principal moment)."""
     inertia_min = float(np.min(np.linalg.eigvalsh(np.asarray(inertia_body_kg_m2, dtype=float))))
     return math.sqrt(2.0 * inertia_min * wheel_max_torque_n_m * TURN_RAD)
+
+
+def _wheel_room(problem):
+    """(3,) the wheels' momentum per body axis a firing may leave them [N m s]: their room, or what they hold
+    already where that is more (a firing need not bring it within at once, only not add to it)."""
+    return np.maximum(problem.wheel_room_n_m_s, np.abs(problem.h_wheels_body_n_m_s))
 
 
 def _c_hill_from_body(problem, t):
@@ -178,6 +188,9 @@ def _program(problem, horizon_s):
                                             j_count)
     h_total = np.tile(couples, k_count)
     per_slot = np.kron(np.eye(k_count), couples)
+    after_slot = np.kron(np.tril(np.ones((k_count, k_count))), couples)  # the wheels' gain by each slot's end
+    room = np.tile(_wheel_room(problem), k_count)
+    h0 = np.tile(problem.h_wheels_body_n_m_s, k_count)
     # A far state's plan need only bring it, error included, within STAGE_FRACTION of the momentum it would end
     # with unfired (a stage); the next plan goes on from there.
     rho_p = problem.rho_momentum_n_s
@@ -198,6 +211,7 @@ def _program(problem, horizon_s):
         LinearConstraint(on_u(h_total), -problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s,
                          problem.rho_wheels_n_m_s - problem.h_wheels_body_n_m_s),
         LinearConstraint(on_u(per_slot), -problem.couple_max_n_m_s, problem.couple_max_n_m_s),
+        LinearConstraint(on_u(after_slot), -room - h0, room - h0),
         # s >= |p_end| per hill axis: the end momentum's 1-norm, which the cost weighs (centring within the ball)
         LinearConstraint(np.hstack((p_end, np.zeros((3, size)), -np.eye(3), np.zeros((3, len(SLACKS))))), -np.inf,
                          -free[3:] * m),
@@ -346,9 +360,10 @@ def impulses_for(dv_hill_mps, problem):
     """(impulses [N s] (J,), the delta-v they give [m/s, hill]): the thrusters' impulses now at the attitude held
     that come nearest a wanted delta-v (a mid-course correction), an LP (scipy.optimize.linprog, HiGHS):
 
-        min  sum u + W |D u / m - dv|_1   s.t.  0 <= u <= u_max,  |C u|_inf <= couple_max
+        min  sum u + W |D u / m - dv|_1   s.t.  0 <= u <= u_max,  |C u|_inf <= couple_max,  |h_0 + C u|_inf <= h_room
 
-    with D the thrusters' directions and the miss in the held body's axes, C their couples about the combined CoM;
+    with D the thrusters' directions and the miss in the held body's axes, C their couples about the combined CoM
+    (the wheels take them up, within their room);
     where the direction limit leaves part of dv out of reach, the part within it. Impulses below the minimum impulse
     bit are left out."""
     m = problem.mass_kg
@@ -364,7 +379,8 @@ def impulses_for(dv_hill_mps, problem):
     a_eq = np.hstack((d, -np.eye(3), np.eye(3)))
     couples = problem.couples_body_m.T
     a_ub = np.vstack((np.hstack((couples, np.zeros((3, 6)))), np.hstack((-couples, np.zeros((3, 6))))))
-    b_ub = np.full(6, problem.couple_max_n_m_s)
+    room, h0 = _wheel_room(problem), problem.h_wheels_body_n_m_s
+    b_ub = np.minimum(np.full(6, problem.couple_max_n_m_s), np.concatenate((room - h0, room + h0)))
     u_max = problem.max_thrust_n * MAX_PULSE_S
     bounds = [(0.0, float(u)) for u in u_max] + [(0.0, None)] * 6
     result = linprog(cost, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=dv, bounds=bounds, method='highs')
