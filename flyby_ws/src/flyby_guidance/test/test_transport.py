@@ -19,7 +19,7 @@ from transport_guidance_testing import (
 )
 
 from flyby_guidance.transport import push as push_module
-from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S
+from flyby_guidance.transport.attitude import DETUMBLED_S, TRACK_BANDWIDTH_RAD_S, WHEEL_ROOM
 from flyby_guidance.transport.control import (
     NAV_SETTLE_S,
 )
@@ -151,11 +151,11 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     q_push = nominal.q_hill_from_body
     on_plan = TransportState(t, x[:3], x[3:], q_push, np.zeros(3))
     next_burn = next(b for b in control.plan.burns if b.t_start_s > t)
-    assert control._correct(on_plan, pushes, next_burn) == []
+    assert control._correct(on_plan, pushes, next_burn, np.zeros(3)) == []
     # 5 mm/s short along the push axis: the correction is along it, the pair gives it.
     axis = quat_to_matrix(q_push)[:, 0]
     short = on_plan._replace(v_hill=x[3:] - 5e-3 * axis)
-    events = control._correct(short, pushes, next_burn)
+    events = control._correct(short, pushes, next_burn, np.zeros(3))
     assert events[0][1] == TRANSPORT_CORRECTION
     dv = control.pulses[0][2] * (control.pulses[0][1] - control.pulses[0][0]) / body.mass_kg
     phi = cw_transition_matrix(control.n, pushes[-1].t_start_s + 0.5 * pushes[-1].duration_s - t)
@@ -164,31 +164,42 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     # 5 mm/s too fast: the correction brakes, along -x of the body: not now (the last push takes the velocity out).
     control.pulses = []
     fast = on_plan._replace(v_hill=x[3:] + 5e-3 * axis)
-    assert control._correct(fast, pushes, next_burn) == [] and not control.pulses
+    assert control._correct(fast, pushes, next_burn, np.zeros(3)) == [] and not control.pulses
+
+
+def _coast_commands(control, body, tilt_rad):
+    """The impulse [N m s] the thrusters' couples give about the combined CoM, and the wheels' torques, over 5 s of a
+    coast after the first push, the body tilted tilt_rad about z off the plan's attitude."""
+    pushes = [b for b in control.plan.burns if b.purpose == 'push']
+    t = pushes[0].t_start_s + pushes[0].duration_s + 5.0  # coasting to the next slew
+    on_plan = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < t], t,
+                        control.config.planner)
+    tilted = quat_multiply(on_plan.q_hill_from_body, quat_from_rotation_vector((0.0, 0.0, tilt_rad)))
+    r_point, v_point = body_point_state(quat_to_matrix(tilted), on_plan.omega_body, -body.com_body_m, control.n)
+    impulse, wheels = np.zeros(3), []
+    for k in range(50):
+        force, torque, u, _ = control.command(t + 0.1 * k, on_plan.r_hill + r_point, on_plan.v_hill + v_point,
+                                              tilted, on_plan.omega_body, np.zeros(3))
+        impulse += 0.1 * (torque - np.cross(body.com_body_m, force))  # about the combined CoM
+        wheels.append(u)
+    return impulse, wheels, on_plan
 
 
 def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_attitude():
     """Where the wheels cannot turn the body (paper_flyby_transport's 0.1 N m on 3000 kg m^2) the thrusters' couples
-    take the attitude error from the plan's model (the open-loop slews had ended 12 deg off there, and the arrival push
-    left 90 N s across), in pulses; where they can, the wheels do and the thrusters fire nothing at a coast."""
-    fired = {}
-    for steer in (True, False):
+    take an attitude error from the plan's model the wheels could not take out within their room (the open-loop
+    slews had ended 12 deg off there, and the arrival push left 90 N s across), in pulses; where they can, the wheels
+    do and the thrusters fire nothing at a coast: a body steered by the wheels at any error, one they do not steer
+    at an error whose correction at the tracking's bandwidth fits in their room (``_wheels_hold``)."""
+    body, control = planned()
+    # The tilt whose correction at the tracking's bandwidth asks the wheels' room about z.
+    room_rad = (1.0 - WHEEL_ROOM) * control.wheel_capacity_n_m_s / (TRACK_BANDWIDTH_RAD_S
+                                                                   * float(body.inertia_body_kg_m2[2, 2]))
+    for steer, tilt_rad in ((True, 1.5 * room_rad), (False, 0.5 * room_rad), (False, 1.5 * room_rad)):
         body, control = planned()
         control.wheels_steer = steer
-        pushes = [b for b in control.plan.burns if b.purpose == 'push']
-        t = pushes[0].t_start_s + pushes[0].duration_s + 5.0  # coasting to the next slew
-        on_plan = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < t], t,
-                            control.config.planner)
-        tilted = quat_multiply(on_plan.q_hill_from_body, quat_from_rotation_vector((0.0, 0.0, 0.1)))
-        r_point, v_point = body_point_state(quat_to_matrix(tilted), on_plan.omega_body, -body.com_body_m, control.n)
-        impulse, wheels = np.zeros(3), []
-        for k in range(50):
-            force, torque, u, _ = control.command(t + 0.1 * k, on_plan.r_hill + r_point, on_plan.v_hill + v_point,
-                                                  tilted, on_plan.omega_body, np.zeros(3))
-            impulse += 0.1 * (torque - np.cross(body.com_body_m, force))  # about the combined CoM
-            wheels.append(u)
-        fired[steer] = impulse
-        if steer:
+        impulse, wheels, on_plan = _coast_commands(control, body, tilt_rad)
+        if steer or tilt_rad < room_rad:
             assert not np.any(impulse) and all(float(u[2]) > 0.0 for u in wheels)  # the body feels -u
         else:
             assert impulse[2] < 0.0 and abs(impulse[2]) > 10.0 * np.linalg.norm(impulse[:2])

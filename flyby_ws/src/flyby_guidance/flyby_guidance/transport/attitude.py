@@ -33,14 +33,20 @@ class TransportAttitude:
         return np.clip(self._attitude_torque(state), -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
 
     def _attitude_torque(self, state):
-        """The torque [N m] (body axes) against the estimated attitude's error from the reference: the plan's model
-        advanced to the estimate's stamp (``transport.model.attitude_at``), or after the last burn the attitude held
-        and its turns (``terminal``); PD on the attitude
-        error (its rotation vector, body axes) and the rate error, scaled by the estimated inertia
+        """The torque [N m] (body axes) against the estimated attitude's error from the reference
+        (``_reference_error``): PD on the attitude error and the rate error, scaled by the estimated inertia
         (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
+        error, w_ref = self._reference_error(state)
+        return self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
+                                               * TRACK_BANDWIDTH_RAD_S * (state.omega_body - w_ref))
+
+    def _reference_error(self, state):
+        """(the estimated attitude's error from the reference, its rotation vector [rad], body axes; the reference's
+        rate [rad/s], body axes): the plan's model advanced to the estimate's stamp (``transport.model.attitude_at``),
+        or after the last burn the attitude held and its turns (``terminal``)."""
+        w_ref = np.zeros(3)
         if self.hold is not None:  # after the last burn: the attitude held, or its turn
             q_ref = self._held(state.t)
-            w_ref = np.zeros(3)
             if self.turning is not None:
                 t0, _, axis, angle, rate = self.turning
                 if rate * (state.t - t0) < angle:
@@ -52,9 +58,18 @@ class TransportAttitude:
                                            self.plan.burns)
                 self.reference = (state.t, q_ref, w_ref)
         q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
-        error = rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est))
-        return self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
-                                               * TRACK_BANDWIDTH_RAD_S * (state.omega_body - w_ref))
+        return rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est)), w_ref
+
+    def _wheels_hold(self, state, h_wheels):
+        """True where the wheels can hold the body on its reference at rest: its own angular momentum and theirs,
+        and the momentum taking out its attitude error at the tracking's bandwidth asks, within 1 - WHEEL_ROOM of
+        their capacity on every body axis (else the thrusters' couples do: a firing's couple the wheels cannot take
+        turns the body, and the couple that turns it back undoes the firing's force)."""
+        error, _ = self._reference_error(state)
+        inertia = self.body.inertia_body_kg_m2
+        asked = np.abs(inertia @ state.omega_body + np.asarray(h_wheels, dtype=float)) + np.abs(
+            inertia @ (TRACK_BANDWIDTH_RAD_S * error))
+        return float(np.max(asked)) <= (1.0 - WHEEL_ROOM) * self.wheel_capacity_n_m_s
 
     def _set_reference(self, state):
         """The plan's model restarts from the estimate (a new plan, a slew solved again)."""

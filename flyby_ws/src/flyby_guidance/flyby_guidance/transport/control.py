@@ -279,6 +279,8 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             wheels = self._track(state)
             if not self.wheels_steer and self._turn_under_way(t):  # a terminal turn of a body the wheels cannot steer
                 hold = -self._attitude_torque(state)
+        elif at_rest and not self._burning(t_mid) and self._wheels_hold(state, h_wheels):
+            wheels = self._track(state)  # a coast at rest the wheels can hold: they do, as after the last burn
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
             wheels = self._hold(omega) if at_rest else np.zeros(3)
             hold = -self._attitude_torque(state) if t_mid < last_burn_end else np.zeros(3)
@@ -303,6 +305,11 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         if any(hold):
             return (*self._couple(hold, self.pulse_n_m_s), wheels, events)
         return np.zeros(3), np.zeros(3), wheels, events
+
+    def _burning(self, t_mid):
+        """True where a burn of the plan is under way at t_mid, or starts or ended within a control period."""
+        p = self.config.planner.period_s
+        return any(b.t_start_s - p <= t_mid < b.t_start_s + b.duration_s + p for b in self.plan.burns)
 
     def _check(self, state, h_wheels):
         """Between the first push and the next slew, the mid-course correction (``_correct``); after the last burn,

@@ -369,13 +369,15 @@ class TransportPush:
         seed 000 eq 22) carried to the last push's middle; beyond CORRECTION_FRACTION of the second condition there,
         the one impulse now that takes it out (Phi_rv dv = -miss), as near as the thrusters give it at the attitude
         held (``terminal.impulses_for``: the part the direction limit leaves out waits for a later check), fired one
-        thruster a period where it ends before the next burn."""
+        thruster a period where it ends before the next burn; none on a body the wheels do not hold at the time
+        (``_wheels_hold``)."""
         first, last = pushes[0], pushes[-1]
         phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - state.t)
         miss = (phi @ np.concatenate((state.r_hill, state.v_hill)))[:3] - self._aim(first, last)
         miss_m = float(np.linalg.norm(miss))
-        if miss_m <= CORRECTION_FRACTION * self.config.planner.max_position_error_m:
-            return []
+        if miss_m <= CORRECTION_FRACTION * self.config.planner.max_position_error_m or not (
+                self.wheels_steer or self._wheels_hold(state, h_wheels)):
+            return []  # within reach, or not at an attitude the wheels hold (the thrusters' hold would undo it)
         problem = self._terminal_problem(state, h_wheels, 0.0)
         impulses, dv_given = terminal.impulses_for(-np.linalg.solve(phi[:3, 3:], miss), problem)
         pulses = self._pulses_of(impulses, problem.t0)
