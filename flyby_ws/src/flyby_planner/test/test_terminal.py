@@ -466,3 +466,17 @@ def test_impulses_for_leaves_the_wheels_within_their_room(q_hill):
         if full is None:
             full = float(np.linalg.norm(given))
     assert float(np.linalg.norm(given)) < 0.5 * full
+
+
+def test_wheels_beyond_their_share_that_no_couple_brings_back_leave_a_plan_taking_them_no_further():
+    """Thrusters whose couples all turn one way (each couple's sign made positive) cannot bring wheels holding 0.6
+    N m s about x back within the 0.4 of their share: the program still plans (the end within its margins), and its
+    plan takes the wheels no further on any axis."""
+    x0, q_hill = FIRING_STATES[0]
+    problem = _problem(x0, q_hill, h0=(0.6, 0.0, 0.0))
+    problem = problem._replace(couples_body_m=np.abs(problem.couples_body_m))
+    solution = terminal.solve(problem, terminal.HORIZONS_S)
+    assert solution is not None and np.any(solution.impulses_n_s)
+    assert max(solution.excess) <= terminal.EXCESS_TOLERANCE
+    bound = np.maximum(problem.rho_wheels_n_m_s, np.abs(problem.h_wheels_body_n_m_s))
+    assert np.all(np.abs(solution.h_wheels_body_n_m_s) <= bound + 1e-9)

@@ -224,12 +224,12 @@ class TransportTerminal:
         return dv_hill
 
     def _nearest_firing(self, state, problem):
-        """Where no horizon is feasible and no turn is made (the push axis lies along CW's first impulse already, or
-        the turn the thrusters' side force affords would end after the judgement): that impulse as near as the
-        thrusters give it at the attitude held (``terminal.impulses_for``), fired now; none where they give none, or
-        where it would end the shortest horizon no nearer the margins than no firing (``terminal.kept_excess``: near
-        the judgement, a transfer's first impulse to a rest point the body is already near is momentum it cannot
-        take out again)."""
+        """Where the program's best end lies far beyond the margins and no turn is made (the push axis lies along
+        CW's first impulse already, or the turn the thrusters' side force affords would end after the judgement):
+        that impulse as near as the thrusters give it at the attitude held (``terminal.impulses_for``), fired now;
+        none where they give none, or where it would end the shortest horizon no nearer the margins than no firing
+        (``terminal.kept_excess``: near the judgement, a transfer's first impulse to a rest point the body is already
+        near is momentum it cannot take out again)."""
         impulses, _ = terminal.impulses_for(self._transfer_impulse(state), problem)
         pulses = self._pulses_of(impulses, problem.t0)
         horizon_s = terminal.HORIZONS_S[0]
@@ -242,9 +242,10 @@ class TransportTerminal:
         predicted = terminal.firings_end(problem, [problem.t0], [impulses], t_end)
         momentum_n_s = self.body.mass_kg * float(np.linalg.norm(predicted[3:]))
         position_m = float(np.linalg.norm(predicted[:3]))
-        return [('OK', events.TRANSPORT_TERMINAL, f'no terminal horizon feasible, the push axis along the transfer: '
-                                                  f'firings of {impulse:.3g} N s toward the rest point: predicted '
-                                                  f'{position_m:.3g} m, {momentum_n_s:.3g} N s {horizon_s:.0f} s on',
+        return [('OK', events.TRANSPORT_TERMINAL, f'the terminal program far beyond its margins, the push axis along '
+                                                  f'the transfer: firings of {impulse:.3g} N s toward the rest point: '
+                                                  f'predicted {position_m:.3g} m, {momentum_n_s:.3g} N s '
+                                                  f'{horizon_s:.0f} s on',
                  {'impulse_n_s': impulse, 'horizon_s': horizon_s, 'predicted_momentum_n_s': momentum_n_s,
                   'predicted_position_m': position_m})]
 

@@ -105,7 +105,7 @@ class TerminalProblem(NamedTuple):
     rho_position_m: float  # the margins of the terminal ball: position
     rho_momentum_n_s: float  # linear momentum, at the end and hold_s after it
     hold_s: float  # the end state must keep its momentum this long [s]
-    rho_wheels_n_m_s: float  # the wheels' momentum per body axis at the end
+    rho_wheels_n_m_s: float  # the wheels' momentum per body axis at the end (or (3,), per axis)
     wheel_room_n_m_s: float  # the wheels' momentum per body axis at any time: within it they hold the attitude
     couple_max_n_m_s: float  # a slot's couple per body axis
     impulse_error: float  # a firing's execution error at the margins' sigmas, per unit impulse (magnitude, direction)
@@ -267,7 +267,8 @@ def solve(problem, horizons_s):
     whose end comes nearest (the least excess beyond the stage, then beyond the margins, then beyond the window's,
     each in units of the margins; the shorter on a tie).
     A horizon whose linear relaxation (a bound on its excess) comes no nearer than the best so far is not solved.
-    None only where HiGHS returns no point."""
+    Where the wheels hold more than their share and no plan brings them within it, the plans that take them no
+    further on any axis. None only where HiGHS returns no point."""
     j_count = len(problem.max_thrust_n)
     best = nearest = None  # the best solution and its excess (``_excess``)
     for horizon_s in horizons_s:
@@ -290,6 +291,10 @@ def solve(problem, horizons_s):
             nearest = excess
         if max(excess) <= EXCESS_TOLERANCE:
             break
+    held = np.abs(problem.h_wheels_body_n_m_s)
+    if best is None and np.any(held > problem.rho_wheels_n_m_s):
+        # Wheels beyond their share that no plan brings back within it: the plan that takes them no further.
+        return solve(problem._replace(rho_wheels_n_m_s=np.maximum(problem.rho_wheels_n_m_s, held)), horizons_s)
     return best
 
 
