@@ -74,6 +74,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from flyby_estimation.filter_interface import FilterBase, UpdateResult, check_run_length, kalman_update_first_three
+from flyby_msgs_py.stamped import put_bounded
 from flyby_sim.dynamics.checks import require_positive
 from flyby_sim.dynamics.orbital import cw_coast, cw_transition_matrix, relative_accel_components, rk4_step
 from flyby_sim.dynamics.propulsion import (
@@ -475,11 +476,9 @@ class RelativeNavFilter(FilterBase):
         """(Phi(dt), Q(dt)) of the time update, kept for the later calls with the same dt (read only)."""
         phi_q = self._transitions.get(dt)
         if phi_q is None:
-            if len(self._transitions) >= MAX_TRANSITIONS:
-                self._transitions.clear()
             phi_q = (cw_transition_matrix(self._n, dt),  # seed 000 eq 22
                      white_accel_q(self.config.accel_psd_m2_s3, dt))
-            self._transitions[dt] = phi_q
+            put_bounded(self._transitions, dt, phi_q, MAX_TRANSITIONS)
         return phi_q
 
     def _accel_fn(self, linear):

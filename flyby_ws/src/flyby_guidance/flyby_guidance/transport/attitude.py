@@ -27,16 +27,17 @@ class TransportAttitude:
         """The wheels against the rate (the damping law's wheel gain), within their torque."""
         return np.clip(self.gains.wheel_gain_n_m_s * omega, -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
 
-    def _track(self, state):
+    def _track(self, state, reference_error=None):
         """The wheels' torque [N m] (body axes; the body feels its opposite) that holds the estimated attitude on the
         reference (``_attitude_torque``), within the wheels' torque."""
-        return np.clip(self._attitude_torque(state), -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
+        return np.clip(self._attitude_torque(state, reference_error), -self.wheel_max_torque_n_m,
+                       self.wheel_max_torque_n_m)
 
-    def _attitude_torque(self, state):
+    def _attitude_torque(self, state, reference_error=None):
         """The torque [N m] (body axes) against the estimated attitude's error from the reference
-        (``_reference_error``): PD on the attitude error and the rate error, scaled by the estimated inertia
-        (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
-        error, w_ref = self._reference_error(state)
+        (``_reference_error``, or the one given for this estimate): PD on the attitude error and the rate error,
+        scaled by the estimated inertia (TRACK_BANDWIDTH_RAD_S, TRACK_DAMPING)."""
+        error, w_ref = self._reference_error(state) if reference_error is None else reference_error
         return self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S ** 2 * error + 2.0 * TRACK_DAMPING
                                                * TRACK_BANDWIDTH_RAD_S * (state.omega_body - w_ref))
 
@@ -60,16 +61,21 @@ class TransportAttitude:
         q_est = q_eci_from_body(state.t, self.n, state.q_hill_from_body)
         return rotation_vector_from_quat(quat_multiply(quat_conjugate(q_ref), q_est)), w_ref
 
-    def _wheels_hold(self, state, h_wheels):
-        """True where the wheels can hold the body on its reference at rest: its own angular momentum and theirs,
-        and the momentum taking out its attitude error at the tracking's bandwidth asks, within 1 - WHEEL_ROOM of
-        their capacity on every body axis (else the thrusters' couples do: a firing's couple the wheels cannot take
-        turns the body, and the couple that turns it back undoes the firing's force)."""
-        error, _ = self._reference_error(state)
-        inertia = self.body.inertia_body_kg_m2
-        asked = np.abs(inertia @ state.omega_body + np.asarray(h_wheels, dtype=float)) + np.abs(
-            inertia @ (TRACK_BANDWIDTH_RAD_S * error))
+    def _wheels_hold(self, state, h_wheels, reference_error=None):
+        """True where the wheels can hold the body on its reference at rest: its own angular momentum and theirs
+        (``_held_momentum``), and the momentum taking out its attitude error (``_reference_error``, or the one given
+        for this estimate) at the tracking's bandwidth asks, within 1 - WHEEL_ROOM of their capacity on every body
+        axis (else the thrusters' couples do: a firing's couple the wheels cannot take turns the body, and the couple
+        that turns it back undoes the firing's force)."""
+        error, _ = self._reference_error(state) if reference_error is None else reference_error
+        asked = np.abs(self._held_momentum(state, h_wheels)) + np.abs(
+            self.body.inertia_body_kg_m2 @ (TRACK_BANDWIDTH_RAD_S * error))
         return float(np.max(asked)) <= (1.0 - WHEEL_ROOM) * self.wheel_capacity_n_m_s
+
+    def _held_momentum(self, state, h_wheels):
+        """The body's own angular momentum and the wheels' together [N m s], body axes: what the wheels hold once
+        they hold the body still."""
+        return self.body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
 
     def _set_reference(self, state):
         """The plan's model restarts from the estimate (a new plan, a slew solved again)."""
@@ -99,7 +105,7 @@ class TransportAttitude:
     def _overfull(self, state, h_wheels):
         """True where the wheels could not hold the body still: its own angular momentum and theirs together beyond
         1 - WHEEL_ROOM of their capacity on a body axis (a firing's couple the wheels take up is not)."""
-        held = self.body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
+        held = self._held_momentum(state, h_wheels)
         return float(np.max(np.abs(held))) > (1.0 - WHEEL_ROOM) * self.wheel_capacity_n_m_s
 
     def _damp(self, omega, h_wheels):

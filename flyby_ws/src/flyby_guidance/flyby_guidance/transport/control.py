@@ -279,8 +279,9 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
             wheels = self._track(state)
             if not self.wheels_steer and self._turn_under_way(t):  # a terminal turn of a body the wheels cannot steer
                 hold = -self._attitude_torque(state)
-        elif at_rest and not self._burning(t_mid) and self._wheels_hold(state, h_wheels):
-            wheels = self._track(state)  # a coast at rest the wheels can hold: they do, as after the last burn
+        elif at_rest and not self._burning(t_mid) and self._wheels_hold(state, h_wheels,
+                                                                         reference := self._reference_error(state)):
+            wheels = self._track(state, reference)  # a coast at rest the wheels hold: they do, as after the last burn
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
             wheels = self._hold(omega) if at_rest else np.zeros(3)
             hold = -self._attitude_torque(state) if t_mid < last_burn_end else np.zeros(3)

@@ -201,13 +201,12 @@ class TransportTerminal:
         x0 = cw_transition_matrix(self.n, t0 - state.t) @ np.concatenate((state.r_hill - self.rest, state.v_hill))
         layout = body.layout
         couples = np.cross(layout.positions_body_m - body.com_body_m, layout.force_directions_body)
-        # What the wheels will hold once they hold the body still: its own momentum and theirs.
-        h_held = body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
         position_sigma_m = 0.0 if self.nav_sigma is None else self.nav_sigma[1]
         rho_r = max(POSITION_AIM_FRACTION * cfg.planner.max_position_error_m, NAV_SIGMAS * position_sigma_m)
         return terminal.TerminalProblem(
             body.mass_kg, layout.force_directions_body, couples, layout.max_thrust_n, layout.min_impulse_bit_n_s,
-            self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body), h_held,
+            self.n, t0, x0, q_eci_from_body(state.t, self.n, state.q_hill_from_body),
+            self._held_momentum(state, h_wheels),
             rho_r, rho_p * terminal.BALL_SLAB_FACTOR, cfg.hold_s,
             cfg.wheel_momentum_share * self.wheel_capacity_n_m_s * WHEEL_AIM_FRACTION,
             (1.0 - WHEEL_ROOM) * self.wheel_capacity_n_m_s,
