@@ -349,6 +349,19 @@ def test_a_transfer_time_too_short_for_the_slews_and_pushes_arrives_later_where_
     assert 'the conditions need' not in events[-1][3]['reason']
 
 
+def test_a_run_too_short_for_a_whole_step_later_arrives_at_the_latest_arrival_that_fits():
+    """The transfer time too short, and the run ending a second before the first later step whose plan flies: the
+    plan arrives at the latest arrival whose settle bound fits (the deadline less the bound), not refused."""
+    _, body, control = control_for(transfer_time_s=60.0)
+    t_step = until_planned(body, control)[-1][3]['t_arrival_s']
+    margin = 2.0 * control.config.replan_interval_s
+    _, body, control = control_for(transfer_time_s=60.0, duration_s=t_step - 1.0 + control.settle_bound + margin)
+    level, kind, message, values = until_planned(body, control)[-1]
+    assert kind == TRANSPORT_PLANNED and level == 'WARN' and 'later than asked: too little time' in message
+    assert values['t_arrival_s'] == pytest.approx(control.deadline - control.settle_bound)
+    assert values['t_arrival_s'] == pytest.approx(t_step - 1.0)
+
+
 def test_the_settle_bound_is_rounds_of_a_coast_that_learns_the_velocity_a_firing_and_a_check_then_the_hold():
     """Each of TERMINAL_ROUNDS rounds is the coast over which a constant velocity fitted to positions of 1 cm at
     10 Hz (least squares over the samples, whose slope has the variance s^2 / sum (t - t_mean)^2) is known within

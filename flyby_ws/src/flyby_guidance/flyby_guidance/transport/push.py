@@ -95,20 +95,30 @@ class TransportPush:
 
     def _plan_arriving(self, start, t_arrival):
         """(the plan arriving at t_arrival, None); where the transfer time leaves too little time for its slews and
-        pushes (a long detumbling, a slow push), the first of the arrivals REPLAN_FRACTION of it later, and so on,
-        whose settle bound still fits the run: (that plan, why the arrival asked was refused). The run's duration,
+        pushes (a long detumbling, a slow push), the first of the later arrivals (``_arrivals``) that gives them
+        time: (that plan, why the arrival asked was refused). The run's duration,
         not the transfer time, bounds what is refused (TransportRefused, the asked arrival's reason)."""
         self._check_reachable(t_arrival)
-        asked, t_try = None, t_arrival
-        while asked is None or t_try + self.settle_bound <= self.deadline:
+        asked = None
+        for t_try in self._arrivals(t_arrival):
             try:
                 return self._plan_with_faster_slews(start, t_try), asked and asked.reason
             except TransportRefused as err:
                 if not err.reason.startswith(TOO_LITTLE_TIME):
                     raise
                 asked = asked or err
-            t_try += REPLAN_FRACTION * self.config.transfer_time_s
         raise asked
+
+    def _arrivals(self, t_arrival):
+        """The arrivals a plan is tried for: the one asked, then each REPLAN_FRACTION of the transfer time later
+        whose settle bound fits the run, and last the latest that fits (a plan a few seconds short of time is not
+        refused for want of a whole step)."""
+        t_latest = self.deadline - self.settle_bound
+        t_try = t_arrival
+        while t_try < t_latest - 1e-9:
+            yield t_try
+            t_try += REPLAN_FRACTION * self.config.transfer_time_s
+        yield t_latest
 
     def _fly_plan(self, plan, start, state):
         """Fly a plan made from the TransportState start (the estimate state's, two periods on)."""
