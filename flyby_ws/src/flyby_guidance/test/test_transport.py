@@ -141,7 +141,7 @@ def test_the_wheels_hold_the_plans_attitude():
 def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     """After the first push, the estimate's deviation from the plan's coast carried to the last push by CW: within a
     quarter of the second condition nothing; beyond it one impulse now that takes the miss out, where the thrusters
-    give it."""
+    give it; where what they give takes out less than that quarter, a new transfer to the same arrival."""
     body, control = planned()
     p = control.config.planner.period_s
     pushes = [b for b in control.plan.burns if b.purpose == 'push']
@@ -161,15 +161,23 @@ def test_a_mid_course_miss_gets_one_impulse_keeping_the_last_push():
     phi = cw_transition_matrix(control.n, pushes[-1].t_start_s + 0.5 * pushes[-1].duration_s - t)
     corrected = np.concatenate((short.r_hill, short.v_hill + quat_to_matrix(q_push) @ dv)) - x
     assert np.linalg.norm((phi @ corrected)[:3]) < 0.05
-    # 5 mm/s too fast: the correction brakes, along -x of the body: not now (the last push takes the velocity out).
+    # 5 mm/s too fast, and 0.5 mm/s across as well: the correction would brake, along -x of the body, out of the
+    # thrusters' reach at the attitude held; what they reach (the part across) takes out far less than a quarter of
+    # the second condition: no firing (each check would fire one, each with its error), a new transfer to the same
+    # arrival, its slews turning the push axis.
     control.pulses = []
-    fast = on_plan._replace(v_hill=x[3:] + 5e-3 * axis)
-    assert control._correct(fast, pushes, next_burn, np.zeros(3)) == [] and not control.pulses
+    t_arrival = control.plan.t_arrival_s
+    fast = on_plan._replace(v_hill=x[3:] + 5e-3 * axis + 5e-4 * quat_to_matrix(q_push)[:, 1])
+    events = control._correct(fast, pushes, next_burn, np.zeros(3))
+    assert events[0][1] == TRANSPORT_CORRECTION and 'out of the thrusters\' reach' in events[0][2]
+    assert not control.pulses and control.plan.t_arrival_s == pytest.approx(t_arrival)
+    assert control.plan_start.t > t and min(b.t_start_s for b in control.plan.burns) > t
 
 
-def _coast_commands(control, body, tilt_rad):
+def _coast_commands(control, body, tilt_rad, h_wheels=(0.0, 0.0, 0.0)):
     """The impulse [N m s] the thrusters' couples give about the combined CoM, and the wheels' torques, over 5 s of a
-    coast after the first push, the body tilted tilt_rad about z off the plan's attitude."""
+    coast after the first push, the body tilted tilt_rad about z off the plan's attitude, its wheels holding
+    h_wheels [N m s]."""
     pushes = [b for b in control.plan.burns if b.purpose == 'push']
     t = pushes[0].t_start_s + pushes[0].duration_s + 5.0  # coasting to the next slew
     on_plan = propagate(body, control.plan_start, [b for b in control.plan.burns if b.t_start_s < t], t,
@@ -179,7 +187,7 @@ def _coast_commands(control, body, tilt_rad):
     impulse, wheels = np.zeros(3), []
     for k in range(50):
         force, torque, u, _ = control.command(t + 0.1 * k, on_plan.r_hill + r_point, on_plan.v_hill + v_point,
-                                              tilted, on_plan.omega_body, np.zeros(3))
+                                              tilted, on_plan.omega_body, np.asarray(h_wheels, dtype=float))
         impulse += 0.1 * (torque - np.cross(body.com_body_m, force))  # about the combined CoM
         wheels.append(u)
     return impulse, wheels, on_plan
@@ -204,6 +212,24 @@ def test_on_a_body_the_wheels_do_not_steer_the_thrusters_couples_hold_the_plans_
         else:
             assert impulse[2] < 0.0 and abs(impulse[2]) > 10.0 * np.linalg.norm(impulse[:2])
             np.testing.assert_allclose(wheels, [control._hold(on_plan.omega_body)] * len(wheels))  # rate only
+
+
+def test_a_coast_the_thrusters_hold_empties_wheels_beyond_their_share():
+    """A body the wheels do not steer, at the plan's attitude, its wheels holding 0.95 of their capacity (a push's
+    misalignment torque filled them): they cannot hold it, so the thrusters' couples do, and the wheels are spun down
+    at the damping law's dump rate, the couples taking what they give up, so that the wheels hold it again and a
+    mid-course correction can fire; wheels within their share are not spun down."""
+    for share, dumped in ((0.95, True), (0.3, False)):
+        body, control = planned()
+        control.wheels_steer = False
+        h_z = share * control.wheel_capacity_n_m_s
+        impulse, wheels, _ = _coast_commands(control, body, 0.0, (0.0, 0.0, h_z))
+        if dumped:
+            spin_down = control.gains.dump_rate_per_s * h_z
+            assert all(float(u[2]) == pytest.approx(-spin_down, rel=0.01) for u in wheels)
+            assert impulse[2] == pytest.approx(-5.0 * spin_down, rel=0.25)
+        else:
+            assert not np.any(impulse) and all(abs(float(u[2])) < 1e-3 * h_z for u in wheels)
 
 
 def test_the_detumbling_judges_the_bodys_own_angular_momentum_not_the_wheels():

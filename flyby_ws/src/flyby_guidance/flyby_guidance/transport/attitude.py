@@ -77,6 +77,21 @@ class TransportAttitude:
         they hold the body still."""
         return self.body.inertia_body_kg_m2 @ state.omega_body + np.asarray(h_wheels, dtype=float)
 
+    def _beyond_share(self, state, h_wheels):
+        """True where the body's own angular momentum and the wheels' (``_held_momentum``) exceed the wheels' share
+        of their capacity (``wheel_momentum_share``) on a body axis."""
+        share = self.config.wheel_momentum_share * self.wheel_capacity_n_m_s
+        return float(np.max(np.abs(self._held_momentum(state, h_wheels)))) > share
+
+    def _dumped(self, wheels, couple, h_wheels):
+        """(wheel torque [N m], thrusters' couple [N m]) with the wheels also spun down at the damping law's dump rate
+        and the thrusters' couple taking the momentum they give up (``damping.damping_command``'s dump term), within
+        the wheels' torque: a coast held by the thrusters' couples empties the wheels a push filled, so that they
+        hold the body again and a mid-course correction can fire (``_wheels_hold``)."""
+        spun = np.clip(wheels - self.gains.dump_rate_per_s * np.asarray(h_wheels, dtype=float),
+                       -self.wheel_max_torque_n_m, self.wheel_max_torque_n_m)
+        return spun, couple + (spun - wheels)
+
     def _set_reference(self, state):
         """The plan's model restarts from the estimate (a new plan, a slew solved again)."""
         self.reference = (state.t, q_eci_from_body(state.t, self.n, state.q_hill_from_body),

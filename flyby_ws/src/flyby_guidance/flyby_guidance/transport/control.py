@@ -285,6 +285,8 @@ class TransportControl(TransportAttitude, TransportPush, TransportTerminal):
         else:  # the thrusters' couples hold the plan's attitude to its last burn, the wheels only damp the rate at rest
             wheels = self._hold(omega) if at_rest else np.zeros(3)
             hold = -self._attitude_torque(state) if t_mid < last_burn_end else np.zeros(3)
+            if at_rest and not self._burning(t_mid) and self._beyond_share(state, h_wheels):
+                wheels, hold = self._dumped(wheels, hold, h_wheels)
         for t_a, t_b, force, torque in self.pulses:
             if t_a <= t_mid < t_b:
                 return force, torque, wheels, events

@@ -135,13 +135,17 @@ class TransportPush:
                     self.body, start, [b for b in plan.burns if b.t_start_s < end], end, cfg.planner)
         self.t_check = state.t + cfg.replan_interval_s
 
-    def _transfer_again(self, state):
-        """Where the terminal program finds no horizon and the body is off its rest point by more than its position
-        margin (an arrival far off, a drift while the push axis turned): a new transfer by the planner, whose slews
-        turn the push axis for each push, arriving REPLAN_FRACTION of the transfer time later if the settle bound
-        still fits before the judgement's latest time (``transport_correction``); else None."""
+    def _transfer_again(self, state, t_arrival=None, miss_m=None):
+        """A new transfer by the planner, whose slews turn the push axis for each push, arriving at t_arrival (the
+        plan's own, a mid-course miss out of the thrusters' reach at the attitude held), or where the terminal program
+        finds no horizon and the body is off its rest point by more than its position margin (an arrival far off, a
+        drift while the push axis turned) REPLAN_FRACTION of the transfer time later if the settle bound still fits
+        before the judgement's latest time (``transport_correction``); else None."""
         cfg = self.config
-        t_arrival = state.t + REPLAN_FRACTION * cfg.transfer_time_s
+        mid_course = t_arrival is not None
+        if not mid_course:
+            t_arrival = state.t + REPLAN_FRACTION * cfg.transfer_time_s
+            miss_m = float(np.linalg.norm(state.r_hill - self.rest))
         if t_arrival + self.settle_bound > self.deadline:
             return None
         start = TransportState(state.t + 2.0 * cfg.planner.period_s, *state[1:])
@@ -152,10 +156,10 @@ class TransportPush:
         self._fly_plan(plan, start, state)
         self.t_terminal = self.hold = self.turning = self.kept = None
         self.pulses = []
-        miss_m = float(np.linalg.norm(state.r_hill - self.rest))
-        return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off the goal\'s rest point and out of the '
-                                                   f'terminal program\'s reach: a new transfer in '
-                                                   f'{len(plan.burns)} burns arriving at t = {t_arrival:.1f} s',
+        where = ('at the last push and out of the thrusters\' reach at the attitude held' if mid_course else
+                 'off the goal\'s rest point and out of the terminal program\'s reach')
+        return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m {where}: a new transfer in {len(plan.burns)} '
+                                                   f'burns arriving at t = {t_arrival:.1f} s',
                  {'miss_m': miss_m, 'impulse_n_s': plan.fuel_kg * self.body.layout.exhaust_velocity_mps})]
 
     def _check_reachable(self, t_arrival):
@@ -379,8 +383,10 @@ class TransportPush:
         seed 000 eq 22) carried to the last push's middle; beyond CORRECTION_FRACTION of the second condition there,
         the one impulse now that takes it out (Phi_rv dv = -miss), as near as the thrusters give it at the attitude
         held (``terminal.impulses_for``: the part the direction limit leaves out waits for a later check), fired one
-        thruster a period where it ends before the next burn; none on a body the wheels do not hold at the time
-        (``_wheels_hold``)."""
+        thruster a period where it ends before the next burn; where what the thrusters reach takes out less than a
+        miss worth correcting (the direction limit), a new transfer to the same arrival, its slews turning the push
+        axis (``_transfer_again``; each check firing a little, each with its error, moved nothing); none on a body
+        the wheels do not hold at the time (``_wheels_hold``)."""
         first, last = pushes[0], pushes[-1]
         phi = cw_transition_matrix(self.n, last.t_start_s + 0.5 * last.duration_s - state.t)
         miss = (phi @ np.concatenate((state.r_hill, state.v_hill)))[:3] - self._aim(first, last)
@@ -390,11 +396,13 @@ class TransportPush:
             return []  # within reach, or not at an attitude the wheels hold (the thrusters' hold would undo it)
         problem = self._terminal_problem(state, h_wheels, 0.0)
         impulses, dv_given = terminal.impulses_for(-np.linalg.solve(phi[:3, 3:], miss), problem)
+        left_m = float(np.linalg.norm(miss + phi[:3, 3:] @ dv_given))
         pulses = self._pulses_of(impulses, problem.t0)
+        if miss_m - left_m < CORRECTION_FRACTION * self.config.planner.max_position_error_m:
+            return self._transfer_again(state, self.t_arrival, miss_m) or []
         if not pulses or pulses[-1][1] > next_burn.t_start_s - 1e-9:
             return []
         self.pulses = pulses
-        left_m = float(np.linalg.norm(miss + phi[:3, 3:] @ dv_given))
         impulse = float(impulses.sum())
         return [('OK', events.TRANSPORT_CORRECTION, f'{miss_m:.3g} m off at the last push: a correction of '
                                                    f'{impulse:.3g} N s leaves {left_m:.3g} m',
